@@ -1,0 +1,203 @@
+"""FMI interface of SpurDifferential.fmu: the variable list and its mapping onto the physics.
+
+Kept free of pythonfmu so the build step and the tests can read it. Names are Modelica-style
+(``carrier.w``, ``left.tau``, ``sunA.z``); units are SI with engineering display units.
+"""
+from __future__ import annotations
+
+import math
+
+from .fmi_vars import Var
+from .geometry import Gear, GearTable
+from .params import DifferentialParams
+from .rigid import RigidDifferential
+
+MESH_MODELS = ("rigid",)
+
+_T = GearTable()
+
+
+def _gear_vars(name: str, label: str, g: Gear) -> list[Var]:
+    return [
+        Var(f"{name}.z", "parameter", f"Number of teeth of {label}", None, None, g.z, kind="Integer"),
+        Var(f"{name}.x", "parameter", f"Profile-shift coefficient of {label}", "1", None, g.x),
+        Var(f"{name}.b", "parameter", f"Face width of {label}", "m", "mm", g.b),
+        Var(f"{name}.da", "parameter", f"Tip diameter of {label} (0: untrimmed m (z + 2 ha + 2 x))", "m", "mm", g.da),
+    ]
+
+
+def _mesh_vars(mesh: str, label: str) -> list[Var]:
+    return [
+        Var(f"mesh{mesh}.alpha_w", "calculatedParameter", f"Operating pressure angle of mesh {label}", "rad", "deg"),
+        Var(f"mesh{mesh}.a", "calculatedParameter", f"Operating centre distance of mesh {label}", "m", "mm"),
+        Var(f"mesh{mesh}.rw1", "calculatedParameter", f"Operating pitch radius of the first gear of mesh {label}", "m", "mm"),
+        Var(f"mesh{mesh}.rw2", "calculatedParameter", f"Operating pitch radius of the second gear of mesh {label}", "m", "mm"),
+        Var(f"mesh{mesh}.epsilon_alpha", "calculatedParameter", f"Transverse contact ratio of mesh {label}", "1"),
+    ]
+
+
+DIFFERENTIAL_VARIABLES: list[Var] = [
+    # --- inputs
+    Var("carrier.w_ref", "input", "Carrier speed target (carrierDrive = speed); reached linearly over each step",
+        "rad/s", "rpm", 0.0),
+    Var("carrier.tau", "input", "External torque driving the carrier (carrierDrive = torque)", "N.m", "N.mm", 0.0),
+    Var("left.tau", "input", "External torque on the left half-shaft flange (sun A), Modelica sign: a load is negative",
+        "N.m", "N.mm", 0.0),
+    Var("right.tau", "input", "External torque on the right half-shaft flange (sun B), Modelica sign: a load is negative",
+        "N.m", "N.mm", 0.0),
+    # --- outputs (values at the end of the last step; no direct feedthrough)
+    Var("carrier.w", "output", "Carrier speed", "rad/s", "rpm"),
+    Var("carrier.phi", "output", "Carrier angle", "rad", "deg"),
+    Var("left.w", "output", "Left flange (sun A) speed", "rad/s", "rpm"),
+    Var("left.phi", "output", "Left flange (sun A) angle", "rad", "deg"),
+    Var("right.w", "output", "Right flange (sun B) speed", "rad/s", "rpm"),
+    Var("right.phi", "output", "Right flange (sun B) angle", "rad", "deg"),
+    Var("carrier.tauDrive", "output", "Torque the carrier drive delivers", "N.m", "N.mm"),
+    Var("left.tauMesh", "output", "Torque the meshes deliver to sun A", "N.m", "N.mm"),
+    Var("right.tauMesh", "output", "Torque the meshes deliver to sun B", "N.m", "N.mm"),
+    Var("mesh.F_A1", "output", "Normal tooth force of mesh sun A / planet 1, per planet pair", "N"),
+    Var("mesh.F_B2", "output", "Normal tooth force of mesh sun B / planet 2, per planet pair", "N"),
+    Var("mesh.F_12", "output", "Normal tooth force of mesh planet 1 / planet 2, per planet pair", "N"),
+    Var("lockingTorque", "output",
+        "Pin-bushing friction torque on the differential motion, as a sun-torque difference (positive speeds sun A up)",
+        "N.m", "N.mm"),
+    Var("lockingCapacity", "output", "Largest torque difference the friction can hold now (K |T_A + T_B|)", "N.m", "N.mm"),
+    Var("powerLoss", "output", "Friction power, mean over the last step (>= 0)", "W"),
+    Var("energyLoss", "output", "Friction energy dissipated since the start", "J"),
+    Var("workIn", "output", "Work done on the differential by the carrier drive and the flange torques since the start", "J"),
+    Var("kineticEnergy", "output", "Kinetic energy of all parts", "J"),
+    Var("stuck", "output", "1 while the differential is locked by friction (no relative motion), else 0", "1"),
+    Var("modeSwitches", "output", "Number of stick/slip mode switches since the start", None, None, 0, kind="Integer"),
+    Var("internalSteps", "output", "Number of internal integration steps since the start", None, None, 0, kind="Integer"),
+    Var("nStates", "calculatedParameter", "Number of continuous states of the selected fidelity", None, None, 0,
+        kind="Integer"),
+    # --- structural parameters
+    Var("meshModel", "parameter", "Mesh fidelity: " + " | ".join(MESH_MODELS), None, None, "rigid", kind="String"),
+    Var("carrierDrive", "parameter", "How the carrier is driven: speed (carrier.w_ref) | torque (carrier.tau)",
+        None, None, "speed", kind="String"),
+    # --- gear table
+    Var("gearing.m", "parameter", "Module of all gears", "m", "mm", _T.m),
+    Var("gearing.alpha", "parameter", "Pressure angle of the basic rack", "rad", "deg", _T.alpha),
+    Var("gearing.ha", "parameter", "Addendum coefficient of the basic rack", "1", None, _T.ha),
+    Var("gearing.hf", "parameter", "Dedendum coefficient of the basic rack", "1", None, _T.hf),
+    *_gear_vars("sunA", "sun A (left)", _T.sunA),
+    *_gear_vars("planet1", "planet 1 (meshes sun A and planet 2)", _T.planet1),
+    *_gear_vars("sunB", "sun B (right)", _T.sunB),
+    *_gear_vars("planet2", "planet 2 (meshes sun B and planet 1)", _T.planet2),
+    Var("nPairs", "parameter", "Number of planet pairs (3: the paper's figures)", None, None, _T.nPairs, kind="Integer"),
+    # --- friction, mass
+    Var("mu_pin", "parameter", "Sliding friction coefficient of the planet pin bushings", "1", None, 0.26),
+    Var("r_collar", "parameter", "Thrust-collar radius r_d of the pinion shaft", "m", "mm", 0.012),
+    Var("density", "parameter", "Density of the gear steel", "kg/m3", None, 7850.0),
+    Var("J_carrier", "parameter", "Carrier inertia without planets (0: estimate from geometry)", "kg.m2", None, 0.0),
+    Var("J_sunA", "parameter", "Sun A inertia incl. rigidly attached parts (0: from geometry)", "kg.m2", None, 0.0),
+    Var("J_sunB", "parameter", "Sun B inertia incl. rigidly attached parts (0: from geometry)", "kg.m2", None, 0.0),
+    Var("J_planet1", "parameter", "Inertia of one planet 1 about its axis (0: from geometry)", "kg.m2", None, 0.0),
+    Var("J_planet2", "parameter", "Inertia of one planet 2 about its axis (0: from geometry)", "kg.m2", None, 0.0),
+    Var("carrier.w_start", "parameter", "Initial carrier speed (carrierDrive = torque)", "rad/s", "rpm", 0.0),
+    Var("differential.w_start", "parameter", "Initial speed of sun A relative to the carrier", "rad/s", "rpm", 0.0),
+    # --- calculated parameters
+    *_mesh_vars("A1", "sun A / planet 1"),
+    *_mesh_vars("B2", "sun B / planet 2"),
+    *_mesh_vars("12", "planet 1 / planet 2"),
+    Var("sunA.rw", "calculatedParameter", "Operating pitch radius of sun A (mesh A1), r_a", "m", "mm"),
+    Var("planet1.rw", "calculatedParameter", "Operating pitch radius of planet 1 in mesh A1, r_1", "m", "mm"),
+    Var("sunB.rw", "calculatedParameter", "Operating pitch radius of sun B (mesh B2), r_b", "m", "mm"),
+    Var("planet2.rw", "calculatedParameter", "Operating pitch radius of planet 2 in mesh B2, r_2", "m", "mm"),
+    Var("lockingCoefficient", "calculatedParameter", "Locking coefficient K = (mu r_d / n)(1/(r_a+r_1) + 1/(r_b+r_2))", "1"),
+    Var("inertia.carrier", "calculatedParameter", "Inertia of the carrier mode (everything turning together)", "kg.m2"),
+    Var("inertia.differential", "calculatedParameter", "Inertia of the differential mode (sun A relative to carrier)",
+        "kg.m2"),
+    Var("geometry.warnings", "calculatedParameter", "Number of design-check warnings for this gear set (logged)",
+        None, None, 0, kind="Integer"),
+]
+
+
+def gear_table(values: dict) -> GearTable:
+    def gear(name: str) -> Gear:
+        return Gear(z=int(values[f"{name}.z"]), x=float(values[f"{name}.x"]), b=float(values[f"{name}.b"]),
+                    da=float(values[f"{name}.da"]))
+
+    return GearTable(m=float(values["gearing.m"]), alpha=float(values["gearing.alpha"]),
+                     ha=float(values["gearing.ha"]), hf=float(values["gearing.hf"]),
+                     sunA=gear("sunA"), planet1=gear("planet1"), sunB=gear("sunB"), planet2=gear("planet2"),
+                     nPairs=int(values["nPairs"]))
+
+
+def differential_params(values: dict) -> DifferentialParams:
+    return DifferentialParams(
+        table=gear_table(values), mu_pin=float(values["mu_pin"]), r_collar=float(values["r_collar"]),
+        density=float(values["density"]), carrierDrive=str(values["carrierDrive"]),
+        J_carrier=float(values["J_carrier"]), J_sunA=float(values["J_sunA"]), J_sunB=float(values["J_sunB"]),
+        J_planet1=float(values["J_planet1"]), J_planet2=float(values["J_planet2"]))
+
+
+def build_differential(values: dict):
+    """Build and initialize the model selected by ``meshModel`` from FMI variable values."""
+    from .errors import ParameterError
+
+    mesh_model = str(values["meshModel"])
+    if mesh_model not in MESH_MODELS:
+        raise ParameterError("meshModel", mesh_model, " | ".join(MESH_MODELS))
+    model = RigidDifferential(differential_params(values))
+    push_differential(model, values)
+    model.w_start_carrier = float(values["carrier.w_start"])
+    wc0 = model.w_ref if model.params.carrierDrive == "speed" else model.w_start_carrier
+    model.w_start_left = wc0 + float(values["differential.w_start"])
+    model.initialize(0.0)
+    _set_calculated(model, values)
+    return model
+
+
+def _set_calculated(model, values: dict) -> None:
+    geo = model.geometry
+    for key, me in (("A1", geo.meshA1), ("B2", geo.meshB2), ("12", geo.mesh12)):
+        values[f"mesh{key}.alpha_w"] = me.alpha_w
+        values[f"mesh{key}.a"] = me.a
+        values[f"mesh{key}.rw1"] = me.rw1
+        values[f"mesh{key}.rw2"] = me.rw2
+        values[f"mesh{key}.epsilon_alpha"] = me.epsilon_alpha
+    values["sunA.rw"], values["planet1.rw"] = geo.r_a, geo.r_1
+    values["sunB.rw"], values["planet2.rw"] = geo.r_b, geo.r_2
+    values["lockingCoefficient"] = model.K
+    values["inertia.carrier"] = model.Mcc
+    values["inertia.differential"] = model.Mdd
+    values["geometry.warnings"] = len(geo.warnings)
+    values["nStates"] = int(getattr(model, "n_states", 2))
+
+
+def push_differential(model, values: dict) -> None:
+    model.w_ref = values["carrier.w_ref"]
+    model.tau_c = values["carrier.tau"]
+    model.tau_L = values["left.tau"]
+    model.tau_R = values["right.tau"]
+
+
+def pull_differential(model, values: dict) -> None:
+    values["carrier.w"] = model.wc
+    values["carrier.phi"] = model.phic
+    values["left.w"] = model.w_L
+    values["left.phi"] = model.phi_L
+    values["right.w"] = model.w_R
+    values["right.phi"] = model.phi_R
+    values["carrier.tauDrive"] = model.tau_drive
+    tl, tr = model.tau_mesh_L, model.tau_mesh_R
+    values["left.tauMesh"] = tl
+    values["right.tauMesh"] = tr
+    f = model.mesh_forces
+    values["mesh.F_A1"] = f.F_A1
+    values["mesh.F_B2"] = f.F_B2
+    values["mesh.F_12"] = f.F_12
+    values["lockingTorque"] = model.locking_torque
+    values["lockingCapacity"] = model.locking_capacity
+    values["powerLoss"] = model.power_loss
+    values["energyLoss"] = model.energy_loss
+    values["workIn"] = model.work_in
+    values["kineticEnergy"] = model.kinetic_energy
+    values["stuck"] = 1.0 if model.stuck else 0.0
+    values["modeSwitches"] = int(model.n_mode_switches)
+    values["internalSteps"] = int(getattr(model, "n_internal_steps", model.n_steps))
+
+
+def is_finite(x: float) -> bool:
+    return not (math.isnan(x) or math.isinf(x))

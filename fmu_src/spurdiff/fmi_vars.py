@@ -1,0 +1,28 @@
+"""Declaration of an FMU's variables, readable without pythonfmu (used by the build step)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+
+@dataclass(frozen=True)
+class Var:
+    """One FMI variable of an FMU built on this adapter."""
+
+    name: str
+    causality: str                 # parameter | calculatedParameter | input | output | local
+    description: str
+    unit: str | None = None        # SI unit string as in UnitDefinitions (e.g. "N.m", "rad/s", "1")
+    display_unit: str | None = None
+    start: Any = 0.0
+    kind: str = "Real"             # Real | Integer | Boolean | String
+    variability: str | None = None  # default from causality
+    depends: tuple[str, ...] = ()  # outputs: inputs with direct feedthrough (none: values are
+    #                                those at the end of the last step)
+
+    @property
+    def fmi_variability(self) -> str:
+        if self.variability:
+            return self.variability
+        return {"parameter": "fixed", "calculatedParameter": "fixed"}.get(
+            self.causality, "continuous" if self.kind == "Real" else "discrete")

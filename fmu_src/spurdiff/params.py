@@ -1,0 +1,50 @@
+"""Parameters of the differential model, with the paper's values as defaults (SI units)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from .errors import ParameterError, require_finite, require_nonnegative, require_positive
+from .geometry import DifferentialGeometry, GearTable, derive
+
+CARRIER_DRIVES = ("speed", "torque")
+
+
+@dataclass
+class DifferentialParams:
+    """Parameters shared by every fidelity level of the differential.
+
+    Inertias set to 0 are computed from the geometry and ``density`` (see :mod:`spurdiff.inertia`).
+    """
+
+    table: GearTable = field(default_factory=GearTable)
+    mu_pin: float = 0.26          # pin-bushing sliding friction coefficient (paper)
+    r_collar: float = 0.012       # thrust-collar radius r_d of the pinion shaft, m (paper)
+    density: float = 7850.0       # steel, kg/m^3 (paper: 7.85e-6 kg/mm^3)
+    carrierDrive: str = "speed"   # "speed": carrier.w_ref imposed; "torque": carrier.tau drives it
+    J_carrier: float = 0.0        # kg m^2, carrier (with everything rigidly on it), 0 = estimate
+    J_sunA: float = 0.0           # kg m^2, 0 = from geometry
+    J_sunB: float = 0.0
+    J_planet1: float = 0.0        # kg m^2, one planet about its own axis, 0 = from geometry
+    J_planet2: float = 0.0
+    m_planet1: float = 0.0        # kg, one planet, 0 = from geometry (orbit inertia on the carrier)
+    m_planet2: float = 0.0
+
+    def validate(self) -> DifferentialGeometry:
+        """Check every parameter; return the derived geometry. Raises ParameterError."""
+        geo = derive(self.table)
+        geo.raise_on_error()
+        mu = require_nonnegative("mu_pin", self.mu_pin)
+        if mu > 1.0:
+            raise ParameterError("mu_pin", self.mu_pin, "between 0 and 1")
+        require_nonnegative("r_collar", self.r_collar)
+        require_positive("density", self.density)
+        if self.carrierDrive not in CARRIER_DRIVES:
+            raise ParameterError("carrierDrive", self.carrierDrive, " or ".join(CARRIER_DRIVES))
+        for name in ("J_carrier", "J_sunA", "J_sunB", "J_planet1", "J_planet2", "m_planet1", "m_planet2"):
+            require_nonnegative(name, getattr(self, name))
+        return geo
+
+
+def degrees(rad: float) -> float:
+    return math.degrees(rad)

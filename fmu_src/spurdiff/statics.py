@@ -1,0 +1,80 @@
+"""Kinematics and statics of the differential (the paper's theory, corrected as in the notes).
+
+Kinematics (external meshes, planets of a pair with equal tooth counts, equal suns):
+planet 1 spins relative to the carrier at ``w_1 = -(z_a/z_1) (w_A - w_c)``, planet 2 at
+``w_2 = -(z_1/z_2) w_1`` and sun B follows ``w_B - w_c = -(z_a/z_b) (w_A - w_c)``; with equal suns
+``w_A + w_B = 2 w_c``.
+
+Statics with ``n`` planet pairs and the input torque ``T0`` on the carrier:
+
+* ideal split ``T_A = T_B = T0 / 2``;
+* locking coefficient ``K = (mu r_d / n) (1/(r_a + r_1) + 1/(r_b + r_2))`` and the torque difference
+  the pin-bushing friction can hold, ``dT = K T0`` (the paper writes 6 for ``n``; its figures
+  follow from 3 pairs, see docs/paper-reproduction.md);
+* normal mesh forces per planet from a free-body balance of each planet:
+  ``F_A1 = T_A / (n r_a cos(alpha_wA))``, ``F_B2 = T_B / (n r_b cos(alpha_wB))`` and, from the moment
+  balance of planet 1 about its pin, ``F_12 r_0 cos(alpha_w0) = F_A1 r_1 cos(alpha_wA)``.
+  With exact operating radii all three are equal (each planet has one base circle); the paper's
+  rounded radii (52.16 / 18.84 / 55.84 mm) give its 6,898 / 6,896 / 6,899 N.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from .geometry import DifferentialGeometry
+
+
+def locking_coefficient(mu: float, r_d: float, n_pairs: int, r_a: float, r_1: float, r_b: float, r_2: float) -> float:
+    """K = (mu r_d / n) (1/(r_a + r_1) + 1/(r_b + r_2)), dimensionless."""
+    return mu * r_d / n_pairs * (1.0 / (r_a + r_1) + 1.0 / (r_b + r_2))
+
+
+def torque_bias_ratio(K: float) -> float:
+    """Largest ratio of the two sun torques the locking friction allows: (1 + K) / (1 - K)."""
+    return (1.0 + K) / (1.0 - K)
+
+
+@dataclass(frozen=True)
+class MeshForces:
+    """Normal tooth forces per planet pair (N)."""
+
+    F_A1: float
+    F_B2: float
+    F_12: float
+
+
+def mesh_forces(T_A: float, T_B: float, n_pairs: int,
+                r_a: float, alpha_wA: float, r_1: float,
+                r_b: float, alpha_wB: float,
+                r_0: float, alpha_w0: float) -> MeshForces:
+    """Normal mesh forces from the sun torques (N m), free-body balance of the planets."""
+    F_A1 = T_A / (n_pairs * r_a * math.cos(alpha_wA))
+    F_B2 = T_B / (n_pairs * r_b * math.cos(alpha_wB))
+    F_12 = F_A1 * r_1 * math.cos(alpha_wA) / (r_0 * math.cos(alpha_w0))
+    return MeshForces(F_A1, F_B2, F_12)
+
+
+def mesh_forces_for(geo: DifferentialGeometry, T_A: float, T_B: float) -> MeshForces:
+    """:func:`mesh_forces` with the operating radii and angles of a derived geometry."""
+    return mesh_forces(T_A, T_B, geo.table.nPairs,
+                       geo.r_a, geo.meshA1.alpha_w, geo.r_1,
+                       geo.r_b, geo.meshB2.alpha_w,
+                       geo.mesh12.rw1, geo.mesh12.alpha_w)
+
+
+@dataclass(frozen=True)
+class Kinematics:
+    """Speed ratios of the differential relative to the carrier (dimensionless)."""
+
+    planet1_per_sunA: float   # w_1 / (w_A - w_c)
+    planet2_per_sunA: float   # w_2 / (w_A - w_c)
+    sunB_per_sunA: float      # (w_B - w_c) / (w_A - w_c)
+
+
+def kinematics(geo: DifferentialGeometry) -> Kinematics:
+    t = geo.table
+    p1 = -t.sunA.z / t.planet1.z
+    p2 = -t.planet1.z / t.planet2.z * p1
+    b = -t.planet2.z / t.sunB.z * p2
+    return Kinematics(p1, p2, b)
