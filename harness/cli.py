@@ -1,0 +1,140 @@
+"""The `spurdiff` command line: a thin layer over the harness library functions."""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+RESULTS = ROOT / "results"
+
+
+def _fail(msg: str, code: int = 2) -> int:
+    print(f"spurdiff: {msg}", file=sys.stderr)
+    return code
+
+
+def cmd_build(args) -> int:
+    from harness.build import main as build_main
+    return build_main(args.rest)
+
+
+def cmd_info(args) -> int:
+    from harness.info import info_text
+    print(info_text())
+    return 0
+
+
+def cmd_scenes(args) -> int:
+    from harness.scene import describe_all
+    for name, desc in describe_all():
+        print(f"{name:22s} {desc}")
+    return 0
+
+
+class Progress:
+    """A one-line progress bar on stderr for runs longer than a few seconds."""
+
+    def __init__(self, label: str, delay: float = 2.0):
+        self.label, self.delay, self.t0, self.shown = label, delay, time.perf_counter(), False
+
+    def __call__(self, frac: float) -> None:
+        el = time.perf_counter() - self.t0
+        if el < self.delay and frac < 1.0:
+            return
+        if frac >= 1.0 and not self.shown:
+            return
+        self.shown = True
+        n = int(30 * frac)
+        eta = el / frac - el if frac > 0 else 0.0
+        sys.stderr.write(f"\r{self.label} [{'#' * n}{'.' * (30 - n)}] {100 * frac:5.1f} %  {el:6.1f} s  eta {eta:5.1f} s")
+        if frac >= 1.0:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
+def cmd_run(args) -> int:
+    from harness.build import build
+    from harness.plots import plot_result
+    from harness.report import evaluate_checks, format_checks, format_couplings, format_table, write_csv
+    from harness.runner import prepare_scene, fmu_files_for
+
+    scene = prepare_scene(args.scene, mesh=args.mesh, step=args.step, duration=args.duration,
+                          algorithm=args.algorithm, sets=args.set)
+    files = fmu_files_for(scene, build_missing=True)
+    result = __import__("harness.master", fromlist=["run_scene"]).run_scene(scene, files, Progress(scene.name))
+    out_dir = Path(args.out) if args.out else RESULTS / scene.name
+    csv_path = write_csv(result, out_dir / f"{scene.name}.csv")
+    print(f"scene {scene.name}: {scene.description}")
+    fid = ", ".join(f"{k} = {v}" for k, v in scene.effects.items()) or "defaults"
+    print(f"fidelity: {fid}; step {scene.step:g} s, {scene.algorithm}; simulated {result.time[-1] if len(result.time) else 0:g} s "
+          f"in {result.wall_time:.3f} s wall ({(result.time[-1] / result.wall_time) if result.wall_time > 0 and len(result.time) else 0:.1f}x real time)")
+    table = format_table(result)
+    if table:
+        print()
+        print(table)
+    extra = getattr(result, "summary", None)
+    if extra:
+        print()
+        print(extra)
+    cp = format_couplings(result)
+    if cp:
+        print()
+        print(cp)
+    outcomes = evaluate_checks(result) if result.ok else []
+    if outcomes:
+        print()
+        print(format_checks(outcomes))
+    print()
+    print(f"results: {csv_path}")
+    if not args.no_plots and len(result.time) > 1:
+        for p in plot_result(result, out_dir):
+            print(f"plot: {p}")
+    if result.failure is not None:
+        return _fail(f"run stopped: {result.failure} (results so far kept in {csv_path})", 1)
+    if any(not o.passed for o in outcomes):
+        return _fail("some physical checks failed", 1)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="spurdiff", description="Spur-gear planetary differential FMUs and co-simulation harness")
+    sub = ap.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("build", help="build the FMUs into build/fmus (same as python build_fmu.py)", add_help=False)
+    p.add_argument("rest", nargs=argparse.REMAINDER)
+    p.set_defaults(func=cmd_build)
+    p = sub.add_parser("info", help="derived geometry, design checks and the paper's theory table beside ours")
+    p.set_defaults(func=cmd_info)
+    p = sub.add_parser("scenes", help="list the scenes")
+    p.set_defaults(func=cmd_scenes)
+    p = sub.add_parser("run", help="run a scene: results table, checks, CSV and plots")
+    p.add_argument("scene", help="scene name (see `spurdiff scenes`) or path to a .toml file")
+    p.add_argument("--mesh", help="differential mesh model (overrides the scene's effects.meshModel)")
+    p.add_argument("--step", type=float, help="communication step, s")
+    p.add_argument("--duration", type=float, help="simulated time, s")
+    p.add_argument("--algorithm", choices=["gauss-seidel", "jacobi"])
+    p.add_argument("--set", action="append", default=[], metavar="INST.PARAM=VALUE",
+                   help="override a parameter, e.g. --set diff.mu_pin=0.1")
+    p.add_argument("--out", help="output directory (default results/<scene>)")
+    p.add_argument("--no-plots", action="store_true")
+    p.set_defaults(func=cmd_run)
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    from harness.scene import SceneError
+    from harness.master import RunFailure
+    from spurdiff.errors import ParameterError
+
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (SceneError, ParameterError, RunFailure) as e:
+        return _fail(str(e))
+    except KeyboardInterrupt:
+        return _fail("interrupted", 130)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

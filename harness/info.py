@@ -1,0 +1,81 @@
+"""`spurdiff info`: derived geometry, design findings and the paper's theory table beside ours."""
+from __future__ import annotations
+
+import math
+
+from spurdiff.geometry import MM, GearTable, derive
+from spurdiff.inertia import mass_properties
+from spurdiff.params import DifferentialParams
+from spurdiff.statics import locking_coefficient, mesh_forces, mesh_forces_for
+
+from harness.report import render
+
+# The paper's printed theory values (N mm, N) and its printed (rounded) pitch radii (mm)
+PAPER_T0 = 2_100_000.0  # N mm
+PAPER_DELTA_T = 60_201.0
+PAPER_FORCES = (6898.0, 6896.0, 6899.0)
+PAPER_RADII_MM = {"r_a": 52.16, "r_1": 18.84, "r_b": 55.84, "r_2": 20.16}
+PAPER_TABLE = {  # mesh: (centre distance mm, r_w1, r_w2)
+    "A1": (71.0, 52.16, 18.84),
+    "B2": (76.0, 55.84, 20.16),
+}
+
+
+def _pct(ours: float, ref: float) -> str:
+    return f"{100.0 * (ours - ref) / ref:+.3f} %"
+
+
+def info_text(table: GearTable | None = None, params: DifferentialParams | None = None) -> str:
+    p = params or DifferentialParams(table=table or GearTable())
+    geo = derive(p.table)
+    t = geo.table
+    out = [f"spurdiff: spur-gear planetary differential, m = {t.m / MM:g} mm, alpha = {math.degrees(t.alpha):g} deg, "
+           f"nPairs = {t.nPairs}", ""]
+    rows = []
+    for name, g in geo.gears.items():
+        rows.append([name, str(g.z), f"{g.x:+.4f}", f"{g.b / MM:.1f}", f"{2 * g.r / MM:.3f}", f"{2 * g.rb / MM:.3f}",
+                     f"{2 * g.ra / MM:.3f}", f"{2 * g.rf / MM:.3f}", f"{g.sa / MM:.3f}"])
+    out += ["Gears", render(["gear", "z", "x", "b mm", "d mm", "d_b mm", "d_a mm", "d_f mm", "s_a mm"], rows), ""]
+    rows = []
+    for me in geo.meshes:
+        paper = PAPER_TABLE.get(me.name)
+        rows.append([me.name, f"{math.degrees(me.alpha_w):.4f}", f"{me.a / MM:.4f}", f"{me.rw1 / MM:.4f}",
+                     f"{me.rw2 / MM:.4f}", f"{me.epsilon_alpha:.3f}", f"{me.epsilon_usable:.3f}",
+                     f"{paper[0]:g} / {paper[1]:g} / {paper[2]:g}" if paper else "-"])
+    out += ["Meshes (operating values)",
+            render(["mesh", "alpha_w deg", "a mm", "r_w1 mm", "r_w2 mm", "eps_alpha", "eps usable",
+                    "paper a / r_w1 / r_w2 mm"], rows), ""]
+    out.append(f"Kinematics: r_a/r_1 = {geo.r_a / geo.r_1:.5f}, r_b/r_2 = {geo.r_b / geo.r_2:.5f}, "
+               f"r_a/r_b = {geo.r_a / geo.r_b:.4f}, r_1/r_2 = {geo.r_1 / geo.r_2:.4f} "
+               f"(the paper prints r_a/r_b = r_2/r_1, a typo); w_A + w_B = 2 w_c")
+    out.append("")
+    out.append("Design checks")
+    out += [f"  {f}" for f in geo.findings] or ["  no findings"]
+    out.append("")
+
+    # Statics at the paper's T0
+    T0 = PAPER_T0 * 1e-3  # N m
+    K = locking_coefficient(p.mu_pin, p.r_collar, t.nPairs, geo.r_a, geo.r_1, geo.r_b, geo.r_2)
+    f_exact = mesh_forces_for(geo, T0 / 2, T0 / 2)
+    pr = {k: v * MM for k, v in PAPER_RADII_MM.items()}
+    f_rounded = mesh_forces(T0 / 2, T0 / 2, t.nPairs, pr["r_a"], geo.meshA1.alpha_w, pr["r_1"],
+                            pr["r_b"], geo.meshB2.alpha_w, geo.mesh12.rw1, geo.mesh12.alpha_w)
+    K_paper = PAPER_DELTA_T / PAPER_T0
+    rows = [
+        ["locking coefficient K", "1", f"{K:.6f}", f"{K_paper:.6f}", _pct(K, K_paper)],
+        ["delta T = K T0", "N mm", f"{K * PAPER_T0:,.0f}", f"{PAPER_DELTA_T:,.0f}", _pct(K * PAPER_T0, PAPER_DELTA_T)],
+        ["torque bias ratio (1+K)/(1-K)", "1", f"{(1 + K) / (1 - K):.4f}", "-", "-"],
+    ]
+    for label, ours, rounded, paper in zip(("F_A1 sun A / planet 1", "F_B2 sun B / planet 2", "F_12 planet 1 / planet 2"),
+                                           (f_exact.F_A1, f_exact.F_B2, f_exact.F_12),
+                                           (f_rounded.F_A1, f_rounded.F_B2, f_rounded.F_12), PAPER_FORCES):
+        rows.append([label + " (exact radii)", "N", f"{ours:,.1f}", f"{paper:,.0f}", _pct(ours, paper)])
+        rows.append([label + " (paper's rounded radii)", "N", f"{rounded:,.1f}", f"{paper:,.0f}", _pct(rounded, paper)])
+    out += [f"Statics at T0 = {PAPER_T0:,.0f} N mm, mu = {p.mu_pin:g}, r_d = {p.r_collar / MM:g} mm, "
+            f"n = {t.nPairs} pairs (the paper writes 6; its numbers follow from 3)",
+            render(["quantity", "unit", "ours", "paper", "ours vs paper"], rows), ""]
+    mp = mass_properties(p, geo)
+    out.append(f"Mass properties (steel {p.density:g} kg/m^3): J_sunA = {mp.J_sunA:.4e}, J_sunB = {mp.J_sunB:.4e}, "
+               f"J_planet1 = {mp.J_planet1:.3e}, J_planet2 = {mp.J_planet2:.3e}, J_carrier (estimate) = "
+               f"{mp.J_carrier:.4e} kg m^2; planet masses {mp.m_planet1:.3f} / {mp.m_planet2:.3f} kg")
+    return "\n".join(out)

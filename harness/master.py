@@ -1,0 +1,366 @@
+"""Fixed-step co-simulation master on fmpy's FMU2Slave API.
+
+The master talks to the FMUs only through FMI: it instantiates every FMU instance of a scene,
+sets parameters, initializes, then at each communication step sets inputs (profiles and
+connections) and calls doStep, in Gauss-Seidel order (each FMU sees the outputs its predecessors
+produced in the same step) or Jacobi (every FMU sees the outputs of the previous step).
+
+Every FMI status is handled: a call that fails (fmpy raises for any status above warning) ends the
+run cleanly with a :class:`RunFailure` naming the FMU instance, the time and the messages the FMU
+logged; the results recorded so far are kept in the :class:`Result`.
+
+Power over each declared coupling (a torque and the speeds on both sides) is integrated, so the
+energy residual of the coupling (the work one side gives minus the work the other receives) shows
+when the communication step is too coarse.
+"""
+from __future__ import annotations
+
+import shutil
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+from ctypes import byref
+
+from harness.scene import Scene, SceneError
+
+
+class RunFailure(RuntimeError):
+    """An FMU refused a call; the run stopped at ``time``."""
+
+    def __init__(self, instance: str, time_: float, reason: str):
+        self.instance, self.time, self.reason = instance, time_, reason
+        super().__init__(f"{instance} failed at t = {time_:.6g} s: {reason}")
+
+
+@dataclass
+class Result:
+    """Recorded trajectories (``time`` plus one array per recorded variable) and run facts."""
+
+    scene: Scene
+    names: list[str]
+    data: np.ndarray                     # shape (n_samples, 1 + len(names)), column 0 is time
+    wall_time: float
+    steps: int
+    failure: RunFailure | None = None
+    coupling_energy: dict[str, dict[str, float]] = field(default_factory=dict)
+    messages: list[str] = field(default_factory=list)
+    chosen: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def time(self) -> np.ndarray:
+        return self.data[:, 0]
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name == "time":
+            return self.time
+        return self.data[:, 1 + self.names.index(name)]
+
+    @property
+    def ok(self) -> bool:
+        return self.failure is None
+
+
+class FmuCache:
+    """Extracts each FMU file once per process and keeps its model description."""
+
+    def __init__(self):
+        self._dirs: dict[Path, tuple[str, Any]] = {}
+        self._tmp = Path(tempfile.mkdtemp(prefix="spurdiff_fmus_"))
+
+    def get(self, path: Path):
+        path = Path(path).resolve()
+        key = (path, path.stat().st_mtime_ns)
+        if key not in self._dirs:
+            target = self._tmp / f"{path.stem}_{len(self._dirs)}"
+            d = extract(str(path), unzipdir=str(target))
+            self._dirs[key] = (d, read_model_description(d))
+        return self._dirs[key]
+
+    def cleanup(self) -> None:
+        shutil.rmtree(self._tmp, ignore_errors=True)
+
+
+_CACHE: FmuCache | None = None
+
+
+def fmu_cache() -> FmuCache:
+    global _CACHE
+    if _CACHE is None:
+        _CACHE = FmuCache()
+    return _CACHE
+
+
+class Instance:
+    """One FMU instance: the fmpy slave, its variables and the messages it logged."""
+
+    def __init__(self, name: str, fmu_file: Path):
+        from fmpy.fmi2 import (calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                               fmi2CallbackFunctions, free)
+
+        unzip, md = fmu_cache().get(fmu_file)
+        self.name, self.md = name, md
+        self.vars = {v.name: v for v in md.modelVariables}
+        self.messages: list[tuple[int, str]] = []
+        self.slave = FMU2Slave(guid=md.guid, unzipDirectory=unzip,
+                               modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
+        callbacks = fmi2CallbackFunctions()
+        callbacks.logger = _make_logger(self.messages)
+        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        try:  # fmpy's proxy formats the printf-style message (pythonfmu escapes '%' as '%%')
+            from fmpy.logging import addLoggerProxy
+            addLoggerProxy(byref(callbacks))
+        except Exception:
+            pass
+        self._callbacks = callbacks  # keep the C callbacks alive as long as the instance
+        self.slave.instantiate(loggingOn=True, callbacks=callbacks)
+
+    def var(self, name: str):
+        try:
+            return self.vars[name]
+        except KeyError:
+            raise SceneError(f"{self.name}: FMU has no variable {name!r}") from None
+
+    def set_value(self, name: str, value) -> None:
+        v = self.var(name)
+        vr = [v.valueReference]
+        if v.type == "Real":
+            self.slave.setReal(vr, [float(value)])
+        elif v.type in ("Integer", "Enumeration"):
+            if isinstance(value, float) and not value.is_integer():
+                raise SceneError(f"{self.name}.{name} = {value!r}: allowed an integer")
+            self.slave.setInteger(vr, [int(value)])
+        elif v.type == "Boolean":
+            self.slave.setBoolean(vr, [bool(value)])
+        elif v.type == "String":
+            self.slave.setString(vr, [str(value)])
+
+    def errors(self) -> list[str]:
+        return [m for s, m in self.messages if s >= 3]  # fmi2Error, fmi2Fatal
+
+    def last_messages(self, n: int = 3) -> str:
+        errs = [m for s, m in self.messages if s >= 2] or [m for _, m in self.messages]
+        return "; ".join(errs[-n:]) if errs else "no message logged"
+
+
+def _make_logger(sink: list):
+    """A C callback collecting (status, message) into ``sink``."""
+    from fmpy.fmi2 import fmi2CallbackLoggerTYPE
+
+    def logger(componentEnvironment, instanceName, status, category, message):
+        text = message.decode("utf-8", "replace") if isinstance(message, bytes) else str(message)
+        sink.append((int(status), text))
+    return fmi2CallbackLoggerTYPE(logger)
+
+
+class Master:
+    """Runs one scene. ``fmu_files`` maps FMU names (e.g. 'SpurDifferential') to .fmu paths."""
+
+    def __init__(self, scene: Scene, fmu_files: dict[str, Path], progress: Callable[[float], None] | None = None):
+        self.scene = scene
+        self.fmu_files = fmu_files
+        self.progress = progress
+        self.instances: dict[str, Instance] = {}
+
+    # ------------------------------------------------------------------ setup
+    def _instantiate(self) -> None:
+        for spec in self.scene.instances:
+            if spec.fmu not in self.fmu_files:
+                raise SceneError(f"{spec.name}: unknown FMU {spec.fmu!r}; allowed: {', '.join(sorted(self.fmu_files))}")
+            self.instances[spec.name] = Instance(spec.name, self.fmu_files[spec.fmu])
+
+    def _initialize(self) -> None:
+        sc = self.scene
+        for spec in sc.instances:
+            inst = self.instances[spec.name]
+            inst.slave.setupExperiment(startTime=0.0, stopTime=sc.duration)
+            inst.slave.enterInitializationMode()
+            params = dict(spec.parameters)
+            if spec.fmu == "SpurDifferential":
+                params = {**sc.effects, **params}
+            for name, value in params.items():
+                v = inst.var(name)
+                if v.causality not in ("parameter", "input"):
+                    raise SceneError(f"{spec.name}.{name} is a {v.causality}, not a parameter")
+                inst.set_value(name, value)
+        # inputs at t = 0: profiles, then connections from start values
+        self._apply_profiles(0.0)
+        for spec in sc.instances:
+            inst = self.instances[spec.name]
+            self._apply_connections(spec.name, initial=True)
+            inst.slave.exitInitializationMode()
+            errs = inst.errors()
+            if errs:
+                raise RunFailure(spec.name, 0.0, errs[-1])
+
+    # ------------------------------------------------------------------ wiring
+    def _compile(self) -> None:
+        sc = self.scene
+        self._profiles: dict[str, list[tuple[int, Callable]]] = {n: [] for n in self.instances}
+        for ref, prof in sc.inputs.items():
+            inst, var = ref.split(".", 1)
+            v = self.instances[inst].var(var)
+            if v.causality != "input":
+                raise SceneError(f"inputs: {ref!r} is a {v.causality}, not an input (parameters go in [fmus.<instance>.parameters])")
+            self._profiles[inst].append((v.valueReference, prof))
+        # connections grouped by destination instance: (dest vrs, [(src inst, src vr)])
+        self._links: dict[str, tuple[list[int], list[tuple[str, int]]]] = {n: ([], []) for n in self.instances}
+        for to, frm in sc.connections.items():
+            ti, tv = to.split(".", 1)
+            fi, fv = frm.split(".", 1)
+            tvar, fvar = self.instances[ti].var(tv), self.instances[fi].var(fv)
+            if tvar.causality != "input":
+                raise SceneError(f"connections: {to!r} is a {tvar.causality}, not an input")
+            if fvar.causality != "output":
+                raise SceneError(f"connections: {frm!r} is a {fvar.causality}, not an output")
+            if tvar.unit != fvar.unit:
+                raise SceneError(f"connections: {frm!r} [{fvar.unit}] -> {to!r} [{tvar.unit}]: units differ")
+            self._links[ti][0].append(tvar.valueReference)
+            self._links[ti][1].append((fi, fvar.valueReference))
+        # outputs each instance must publish (connections, recording, couplings)
+        needed: dict[str, set[int]] = {n: set() for n in self.instances}
+        for fi, vr in (s for _, srcs in self._links.values() for s in srcs):
+            needed[fi].add(vr)
+        self._record: list[tuple[str, int]] = []
+        for ref in sc.record:
+            i, v = ref.split(".", 1)
+            vr = self.instances[i].var(v).valueReference
+            self._record.append((i, vr))
+            needed[i].add(vr)
+        self._couplings = []
+        for c in sc.couplings:
+            refs = []
+            for k in ("torque", "w_from", "w_to"):
+                i, v = c[k].split(".", 1)
+                vr = self.instances[i].var(v).valueReference
+                needed[i].add(vr)
+                refs.append((i, vr))
+            self._couplings.append((c["name"], refs, float(c.get("sign", 1.0))))
+        self._out_vrs = {n: sorted(vrs) for n, vrs in needed.items()}
+        self._values: dict[str, dict[int, float]] = {n: {} for n in self.instances}
+
+    def _apply_profiles(self, t: float) -> None:
+        for name, profs in getattr(self, "_profiles", {}).items():
+            if profs:
+                self.instances[name].slave.setReal([vr for vr, _ in profs], [p(t) for _, p in profs])
+
+    def _apply_connections(self, name: str, initial: bool = False) -> None:
+        links = getattr(self, "_links", {}).get(name)
+        if not links or not links[0]:
+            return
+        vals = []
+        for src, vr in links[1]:
+            d = self._values[src]
+            if vr not in d:
+                d[vr] = self.instances[src].slave.getReal([vr])[0]
+            vals.append(d[vr])
+        self.instances[name].slave.setReal(links[0], vals)
+
+    def _read_outputs(self, name: str) -> None:
+        vrs = self._out_vrs[name]
+        if vrs:
+            vals = self.instances[name].slave.getReal(vrs)
+            self._values[name].update(zip(vrs, vals))
+
+    # ------------------------------------------------------------------ run
+    def run(self) -> Result:
+        sc = self.scene
+        t_wall = time.perf_counter()
+        failure = None
+        rows: list[list[float]] = []
+        steps = 0
+        energy = {}
+        try:
+            self._instantiate()
+            self._compile()
+            self._initialize()
+            for name in self.instances:
+                self._read_outputs(name)
+            n_steps = int(round(sc.duration / sc.step))
+            rec_every = max(1, int(round(sc.output_interval / sc.step)))
+            rows.append(self._sample(0.0))
+            energy = {c[0]: {"work_from": 0.0, "work_to": 0.0} for c in self._couplings}
+            prev_power = self._coupling_power()
+            order = [s.name for s in sc.instances]
+            jacobi = sc.algorithm == "jacobi"
+            h = sc.step
+            t = 0.0
+            for k in range(n_steps):
+                t = k * h
+                self._apply_profiles(t)
+                if jacobi:
+                    for name in order:
+                        self._apply_connections(name)
+                    for name in order:
+                        self._step(name, t, h)
+                    for name in order:
+                        self._read_outputs(name)
+                else:
+                    for name in order:
+                        self._apply_connections(name)
+                        self._step(name, t, h)
+                        self._read_outputs(name)
+                steps += 1
+                power = self._coupling_power()
+                for cname, (p_from, p_to) in power.items():
+                    e = energy[cname]
+                    e["work_from"] += 0.5 * (p_from + prev_power[cname][0]) * h
+                    e["work_to"] += 0.5 * (p_to + prev_power[cname][1]) * h
+                prev_power = power
+                if (k + 1) % rec_every == 0 or k + 1 == n_steps:
+                    rows.append(self._sample((k + 1) * h))
+                if self.progress is not None and k % 200 == 0:
+                    self.progress((k + 1) / n_steps)
+        except RunFailure as e:
+            failure = e
+        finally:
+            self._free()
+        if self.progress is not None:
+            self.progress(1.0)
+        data = np.array(rows, dtype=float) if rows else np.zeros((0, 1 + len(sc.record)))
+        msgs = [f"{n}: {m}" for n, inst in self.instances.items() for s, m in inst.messages if s >= 1]
+        return Result(sc, list(sc.record), data, time.perf_counter() - t_wall, steps, failure, energy, msgs)
+
+    def _step(self, name: str, t: float, h: float) -> None:
+        inst = self.instances[name]
+        try:
+            inst.slave.doStep(currentCommunicationPoint=t, communicationStepSize=h)
+        except Exception as e:  # fmpy raises FMICallException for status > warning
+            raise RunFailure(name, t, inst.last_messages() or str(e)) from None
+
+    def _sample(self, t: float) -> list[float]:
+        row = [t]
+        for inst, vr in self._record:
+            row.append(self._values[inst][vr])
+        return row
+
+    def _coupling_power(self) -> dict[str, tuple[float, float]]:
+        out = {}
+        for cname, refs, sign in self._couplings:
+            (ti, tv), (fi, fv), (oi, ov) = refs
+            tau = sign * self._values[ti][tv]
+            out[cname] = (tau * self._values[fi][fv], tau * self._values[oi][ov])
+        return out
+
+    def _free(self) -> None:
+        for inst in self.instances.values():
+            try:
+                inst.slave.terminate()
+            except Exception:
+                pass
+            try:
+                inst.slave.freeInstance()
+            except Exception:
+                pass
+
+
+def run_scene(scene: Scene, fmu_files: dict[str, Path], progress=None) -> Result:
+    """Run a scene once; the result carries a failure instead of raising for FMU errors."""
+    return Master(scene, fmu_files, progress).run()
+

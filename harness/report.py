@@ -1,0 +1,133 @@
+"""Results of a run: statistics, the scene's checks, the results table and the CSV file."""
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from harness.master import Result
+
+
+def window_mask(t: np.ndarray, window) -> np.ndarray:
+    if not window:
+        return np.ones_like(t, dtype=bool)
+    lo, hi = float(window[0]), float(window[1])
+    return (t >= lo - 1e-12) & (t <= hi + 1e-12)
+
+
+def stat(result: Result, name: str, kind: str, window=None) -> float:
+    """mean | max | min | final | absmax | span of a recorded variable over a time window.
+
+    The mean is the time average (trapezoidal rule), so it does not depend on the sampling."""
+    t = result.time
+    y = result[name]
+    m = window_mask(t, window)
+    t, y = t[m], y[m]
+    if len(y) == 0:
+        return float("nan")
+    if kind == "mean":
+        return float(np.trapezoid(y, t) / (t[-1] - t[0])) if len(y) > 1 and t[-1] > t[0] else float(y[0])
+    if kind == "max":
+        return float(np.max(y))
+    if kind == "min":
+        return float(np.min(y))
+    if kind == "final":
+        return float(y[-1])
+    if kind == "absmax":
+        return float(np.max(np.abs(y)))
+    if kind == "span":
+        return float(np.max(y) - np.min(y))
+    raise ValueError(kind)
+
+
+@dataclass
+class CheckOutcome:
+    name: str
+    passed: bool
+    value: float
+    expectation: str
+
+
+def evaluate_checks(result: Result) -> list[CheckOutcome]:
+    out = []
+    for c in result.scene.checks:
+        v = stat(result, c["var"], c["stat"], c.get("window"))
+        ok = np.isfinite(v)
+        parts = []
+        if "expect" in c or "expect_var" in c:
+            target = float(c["expect"]) if "expect" in c else stat(result, c["expect_var"], c["stat"], c.get("window"))
+            tol = float(c.get("atol", 0.0)) + float(c.get("rtol", 0.0)) * abs(target)
+            ok = ok and abs(v - target) <= tol
+            parts.append(f"{target:.6g} +- {tol:.3g}")
+        if "below" in c:
+            ok = ok and v < float(c["below"])
+            parts.append(f"< {c['below']}")
+        if "above" in c:
+            ok = ok and v > float(c["above"])
+            parts.append(f"> {c['above']}")
+        out.append(CheckOutcome(c.get("name", c["var"]), bool(ok), v, ", ".join(parts)))
+    return out
+
+
+def _pct(ours: float, ref: float) -> str:
+    if ref == 0 or not np.isfinite(ours):
+        return "-"
+    return f"{100.0 * (ours - ref) / abs(ref):+.2f} %"
+
+
+def format_table(result: Result) -> str:
+    """The scene's results table: our mean/max/min beside the paper (ADAMS) and the theory."""
+    rows = result.scene.table
+    if not rows:
+        return ""
+    head = ["quantity", "unit", "ours mean", "ours max", "ours min", "ADAMS mean", "theory",
+            "ours vs theory", "ADAMS vs theory"]
+    lines = []
+    for r in rows:
+        s = float(r.get("scale", 1.0))
+        mean = stat(result, r["var"], "mean") * s
+        mx = stat(result, r["var"], "max") * s
+        mn = stat(result, r["var"], "min") * s
+        paper = r.get("paper")
+        theory = r.get("theory")
+        lines.append([r["label"], r.get("unit", ""), f"{mean:,.0f}", f"{mx:,.0f}", f"{mn:,.0f}",
+                      f"{paper:,.0f}" if paper is not None else "-",
+                      f"{theory:,.0f}" if theory is not None else "-",
+                      _pct(mean, theory) if theory is not None else "-",
+                      _pct(paper, theory) if (paper is not None and theory is not None) else "-"])
+    return render(head, lines)
+
+
+def render(head: list[str], lines: list[list[str]]) -> str:
+    widths = [max(len(str(x)) for x in col) for col in zip(head, *lines)]
+    def fmt(row):
+        return "  ".join(str(x).rjust(w) if i > 1 else str(x).ljust(w) for i, (x, w) in enumerate(zip(row, widths)))
+    sep = "  ".join("-" * w for w in widths)
+    return "\n".join([fmt(head), sep] + [fmt(r) for r in lines])
+
+
+def format_checks(outcomes: list[CheckOutcome]) -> str:
+    return "\n".join(f"{'PASS' if o.passed else 'FAIL'}  {o.name}: {o.value:.6g} (expected {o.expectation})"
+                     for o in outcomes)
+
+
+def format_couplings(result: Result) -> str:
+    lines = []
+    for name, e in result.coupling_energy.items():
+        wf, wt = e["work_from"], e["work_to"]
+        ref = max(abs(wf), abs(wt), 1e-12)
+        lines.append(f"coupling {name}: work given {wf:.6g} J, received {wt:.6g} J, "
+                     f"residual {wf - wt:+.3g} J ({100 * (wf - wt) / ref:+.3f} %)")
+    return "\n".join(lines)
+
+
+def write_csv(result: Result, path: Path) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["time"] + result.names)
+        for row in result.data:
+            w.writerow([repr(float(x)) for x in row])
+    return path

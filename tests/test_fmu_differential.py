@@ -1,0 +1,150 @@
+"""SpurDifferential.fmu through FMI (fmpy): validation, t = 0 outputs, instances, reset, state, errors."""
+import math
+
+import pytest
+from fmpy.validation import validate_fmu
+
+from harness.master import Instance
+
+LOADS = {"carrier.w_ref": 1.389, "left.tau": -1050.0, "right.tau": -1050.0}
+
+
+def start(fmu, name="diff", params=None, inputs=LOADS):
+    inst = Instance(name, fmu)
+    s = inst.slave
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    for k, v in {**(params or {}), **inputs}.items():
+        inst.set_value(k, v)
+    s.exitInitializationMode()
+    return inst
+
+
+def get(inst, *names):
+    return inst.slave.getReal([inst.var(n).valueReference for n in names])
+
+
+def steps(inst, n, h=1e-3, t0=0.0):
+    for k in range(n):
+        inst.slave.doStep(t0 + k * h, h)
+    return t0 + n * h
+
+
+def free(inst):
+    inst.slave.terminate()
+    inst.slave.freeInstance()
+
+
+def test_fmpy_validate_finds_no_problem(differential_fmu):
+    assert validate_fmu(str(differential_fmu)) == []
+
+
+def test_model_description_has_units_display_units_and_descriptions(differential_fmu):
+    from fmpy import read_model_description
+    md = read_model_description(str(differential_fmu))
+    reals = [v for v in md.modelVariables if v.type == "Real"]
+    assert reals and all(v.unit for v in reals)
+    assert all(v.description for v in md.modelVariables)
+    by = {v.name: v for v in md.modelVariables}
+    assert by["left.tau"].unit == "N.m" and by["left.tau"].displayUnit == "N.mm"
+    assert by["carrier.w"].displayUnit == "rpm" and by["meshA1.alpha_w"].displayUnit == "deg"
+    units = {u.name: u for u in md.unitDefinitions}
+    assert units["N.m"].displayUnits[0].factor == 1000.0
+    assert {u.variable.name for u in md.initialUnknowns} >= {"carrier.tauDrive", "lockingCoefficient"}
+
+
+def test_outputs_correct_at_time_zero(differential_fmu):
+    inst = start(differential_fmu)
+    tau, fa1, K, alpha = get(inst, "carrier.tauDrive", "mesh.F_A1", "lockingCoefficient", "meshA1.alpha_w")
+    assert tau == pytest.approx(2100.0, rel=1e-12)
+    assert fa1 == pytest.approx(6897.45, rel=1e-5)
+    assert K == pytest.approx(0.028332, rel=2e-5)
+    assert math.degrees(alpha) == pytest.approx(13.3987, abs=1e-4)
+    free(inst)
+
+
+def test_two_instances_are_independent(differential_fmu):
+    a = start(differential_fmu, "a")
+    b = start(differential_fmu, "b", inputs={**LOADS, "left.tau": -1110.201, "right.tau": -989.799})
+    steps(a, 50)
+    steps(b, 50)
+    wa = get(a, "left.w", "right.w")
+    wb = get(b, "left.w", "right.w")
+    assert wa == [1.389, 1.389]
+    assert wb[0] < 1.389 < wb[1]
+    free(a)
+    free(b)
+
+
+def test_reset_gives_the_same_run(differential_fmu):
+    loads = {**LOADS, "left.tau": -1110.201, "right.tau": -989.799}
+    inst = start(differential_fmu, inputs=loads)
+    steps(inst, 30)
+    first = get(inst, "left.w", "energyLoss")
+    inst.slave.reset()
+    inst.slave.setupExperiment(startTime=0.0)
+    inst.slave.enterInitializationMode()
+    for k, v in loads.items():
+        inst.set_value(k, v)
+    inst.slave.exitInitializationMode()
+    assert get(inst, "energyLoss") == [0.0]
+    steps(inst, 30)
+    assert get(inst, "left.w", "energyLoss") == first
+    free(inst)
+
+
+@pytest.mark.parametrize("serialize", [False, True])
+def test_state_restore_reproduces_the_continuation(differential_fmu, serialize):
+    inst = start(differential_fmu, inputs={**LOADS, "left.tau": -1110.201, "right.tau": -989.799})
+    t = steps(inst, 20)
+    state = inst.slave.getFMUstate()
+    if serialize:
+        blob = inst.slave.serializeFMUstate(state)
+        inst.slave.freeFMUstate(state)
+        state = inst.slave.deSerializeFMUstate(blob)
+    steps(inst, 40, t0=t)
+    ref = get(inst, "left.w", "right.phi", "energyLoss", "carrier.tauDrive")
+    inst.slave.setFMUstate(state)
+    steps(inst, 40, t0=t)
+    assert get(inst, "left.w", "right.phi", "energyLoss", "carrier.tauDrive") == ref
+    free(inst)
+
+
+def test_invalid_parameter_is_logged_and_steps_refused(differential_fmu):
+    from fmpy.fmi1 import FMICallException
+    inst = start(differential_fmu, params={"mu_pin": -0.5})
+    errs = inst.errors()
+    assert errs and "mu_pin" in errs[0] and ">= 0" in errs[0]
+    with pytest.raises(FMICallException) as e:
+        inst.slave.doStep(0.0, 1e-3)
+    assert "status 2" in str(e.value) or "discard" in str(e.value).lower()
+    free(inst)
+
+
+def test_six_pairs_rejected_with_the_reason(differential_fmu):
+    inst = start(differential_fmu, params={"nPairs": 6})
+    assert any("nPairs" in m and "overlap" in m for m in inst.errors())
+    free(inst)
+
+
+def test_nan_input_discards_step_and_keeps_last_state(differential_fmu):
+    from fmpy.fmi1 import FMICallException
+    inst = start(differential_fmu)
+    t = steps(inst, 5)
+    inst.set_value("left.tau", float("nan"))
+    with pytest.raises(FMICallException):
+        inst.slave.doStep(t, 1e-3)
+    assert any("left.tau" in m for m in inst.errors())
+    inst.set_value("left.tau", -1050.0)
+    steps(inst, 5, t0=t)  # recovers: the state was not corrupted
+    assert get(inst, "left.w") == [1.389]
+    free(inst)
+
+
+def test_step_before_initialization_is_refused(differential_fmu):
+    from fmpy.fmi1 import FMICallException
+    inst = Instance("early", differential_fmu)
+    inst.slave.setupExperiment(startTime=0.0)
+    with pytest.raises(FMICallException):
+        inst.slave.doStep(0.0, 1e-3)
+    inst.slave.freeInstance()

@@ -1,0 +1,154 @@
+"""Rigid differential: kinematics, power balance, exact stick-slip, state, bad input."""
+import math
+
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from spurdiff.errors import ParameterError
+from spurdiff.params import DifferentialParams
+from spurdiff.rigid import RigidDifferential, StepError
+
+W0 = 1.389
+
+
+def model(tau_L=-1050.0, tau_R=-1050.0, drive="speed", w_ref=W0, tau_c=0.0, **kw):
+    m = RigidDifferential(DifferentialParams(carrierDrive=drive, **kw))
+    m.w_ref, m.tau_L, m.tau_R, m.tau_c = w_ref, tau_L, tau_R, tau_c
+    m.w_start_carrier = W0
+    m.initialize()
+    return m
+
+
+def run(m, t_end=0.3, h=1e-3):
+    n = int(round(t_end / h))
+    for k in range(n):
+        m.do_step(k * h, h)
+    return m
+
+
+def balance(m, ke0):
+    """work in - (kinetic energy change + friction loss): zero up to rounding."""
+    return m.work_in - (m.kinetic_energy - ke0) - m.energy_loss
+
+
+def test_straight_line_matches_theory():
+    m = run(model())
+    assert m.w_L == m.w_R == W0
+    assert m.tau_drive == pytest.approx(2100.0, rel=1e-12)
+    assert m.tau_mesh_L == pytest.approx(1050.0, rel=1e-12)
+    assert m.tau_mesh_R == pytest.approx(1050.0, rel=1e-12)
+    assert m.mesh_forces.F_A1 == pytest.approx(6897.45, rel=1e-5)
+    assert m.stuck
+
+
+def test_stick_below_capacity_holds_exactly():
+    # difference 50 N m < K T0 = 59.5 N m: no relative motion at all, the friction holds it
+    m = run(model(tau_L=-1075.0, tau_R=-1025.0))
+    assert m.wd == 0.0 and m.w_L == m.w_R == W0
+    assert m.locking_torque == pytest.approx(50.0, rel=1e-9)
+    assert abs(m.locking_torque) <= m.locking_capacity
+    assert m.energy_loss == 0.0
+    assert m.n_mode_switches == 0
+
+
+def test_slip_above_capacity_with_loss_equal_friction_times_speed():
+    m = model(tau_L=-1110.201, tau_R=-989.799)  # the paper's cornering loads: twice the capacity
+    ke0 = m.kinetic_energy
+    loss_prev, wd_prev = 0.0, 0.0
+    h = 1e-3
+    for k in range(100):
+        m.do_step(k * h, h)
+        # constant accelerations within the step: loss = |Q_f| * mean |w_d| * h
+        assert m.energy_loss - loss_prev == pytest.approx(abs(m.Qf) * 0.5 * abs(m.wd + wd_prev) * h, rel=1e-9)
+        loss_prev, wd_prev = m.energy_loss, m.wd
+    assert m.wd < 0.0  # sun A (more load) slows, sun B speeds up
+    assert m.w_L + m.w_R == pytest.approx(2 * m.wc, rel=1e-12)
+    assert abs(m.locking_torque) == pytest.approx(m.locking_capacity, rel=1e-9)
+    assert m.ad < 0.0
+    assert balance(m, ke0) == pytest.approx(0.0, abs=1e-9 * m.work_in + 1e-12)
+
+
+def test_friction_opposes_relative_motion_at_full_capacity():
+    m = run(model(tau_L=-1110.201, tau_R=-989.799), 0.05)
+    # sun A slows relative to the carrier; the friction pushes it forward with K |T_A + T_B|
+    assert m.wd < 0.0 and m.locking_torque > 0.0
+    assert m.locking_torque == pytest.approx(m.K * abs(m.tau_mesh_L + m.tau_mesh_R), rel=1e-9)
+
+
+def test_re_stick_after_reversal_without_chattering():
+    m = model(tau_L=-1110.201, tau_R=-989.799)
+    run(m, 0.02)
+    assert m.wd < 0
+    # reverse the imbalance moderately: relative motion decelerates, stops exactly, then sticks
+    m.tau_L, m.tau_R = -1040.0, -1060.0
+    h = 1e-3
+    for k in range(20, 400):
+        m.do_step(k * h, h)
+    assert m.wd == 0.0 and m.stuck
+    assert m.n_mode_switches <= 2  # break-away and the re-stick, nothing else
+
+
+def test_torque_drive_power_balance_and_kinematics():
+    m = model(drive="torque", tau_c=300.0, tau_L=-100.0, tau_R=-180.0)
+    ke0 = m.kinetic_energy
+    run(m, 0.5)
+    assert m.w_L + m.w_R == pytest.approx(2 * m.wc, rel=1e-12)
+    assert m.wc > W0  # net positive torque accelerates
+    assert balance(m, ke0) == pytest.approx(0.0, abs=1e-9 * abs(m.work_in))
+    assert m.energy_loss > 0.0
+
+
+def test_state_roundtrip_reproduces_continuation():
+    a = model(tau_L=-1110.201, tau_R=-989.799)
+    run(a, 0.05)
+    s = a.get_state()
+    b = model(tau_L=-1110.201, tau_R=-989.799)
+    b.set_state(dict(s))
+    for k in range(50, 120):
+        a.do_step(k * 1e-3, 1e-3)
+        b.do_step(k * 1e-3, 1e-3)
+    assert (a.wc, a.wd, a.phic, a.phid, a.energy_loss) == (b.wc, b.wd, b.phic, b.phid, b.energy_loss)
+
+
+@pytest.mark.parametrize("attr,name", [("tau_L", "left.tau"), ("tau_R", "right.tau"), ("w_ref", "carrier.w_ref")])
+def test_nan_input_is_refused_and_state_kept(attr, name):
+    m = run(model(), 0.01)
+    before = m.get_state()
+    setattr(m, attr, float("nan"))
+    with pytest.raises(ParameterError, match=name.replace(".", r"\.")):
+        m.do_step(0.01, 1e-3)
+    assert m.get_state()["wc"] == before["wc"]
+
+
+@pytest.mark.parametrize("kw,name", [({"mu_pin": -0.1}, "mu_pin"), ({"J_sunA": -1.0}, "J_sunA"),
+                                     ({"drive": "pedal"}, "carrierDrive"), ({"density": 0.0}, "density")])
+def test_bad_parameters_name_the_parameter(kw, name):
+    with pytest.raises(ParameterError, match=name):
+        model(**kw)
+
+
+def test_zero_step_is_refused():
+    m = model()
+    with pytest.raises(ParameterError, match="communicationStepSize"):
+        m.do_step(0.0, 0.0)
+
+
+def test_step_before_initialize():
+    with pytest.raises(StepError):
+        RigidDifferential().do_step(0.0, 1e-3)
+
+
+@settings(max_examples=40, deadline=None)
+@given(tl=st.floats(-3000, 3000), tr=st.floats(-3000, 3000), tc=st.floats(-3000, 3000),
+       h=st.sampled_from([1e-5, 1e-4, 1e-3, 1e-2]), mu=st.floats(0.0, 0.5))
+def test_passive_and_kinematic_for_any_loads(tl, tr, tc, h, mu):
+    m = model(drive="torque", tau_c=tc, tau_L=tl, tau_R=tr, mu_pin=mu)
+    ke0 = m.kinetic_energy
+    for k in range(30):
+        m.do_step(k * h, h)
+    assert all(math.isfinite(v) for v in (m.wc, m.wd, m.tau_mesh_L, m.tau_mesh_R, m.energy_loss))
+    assert m.w_L + m.w_R == pytest.approx(2 * m.wc, rel=1e-9, abs=1e-9)
+    assert m.energy_loss >= 0.0
+    assert abs(m.locking_torque) <= m.locking_capacity * (1 + 1e-9) + 1e-9
+    scale = max(abs(m.work_in), m.kinetic_energy, ke0, 1e-9)
+    assert abs(balance(m, ke0)) <= 1e-8 * scale
