@@ -120,6 +120,13 @@ def test_derived_geometry_is_consistent_for_drawn_tables(zs, zp, xa, x1, xb, x2,
                   planet1=GearTable().planet1.__class__(z=zp, x=x1, b=0.022),
                   sunB=GearTable().sunB.__class__(z=zs, x=xb, b=0.022),
                   planet2=GearTable().planet2.__class__(z=zp, x=x2, b=0.040), nPairs=n)
+    alpha = t.alpha
+    sums = {"A1": (xa + x1, zs + zp), "B2": (xb + x2, zs + zp), "12": (x1 + x2, 2 * zp)}
+    if any(2 * math.tan(alpha) * xs / zsum + inv(alpha) <= 0.0 for xs, zsum in sums.values()):
+        # no operating pressure angle exists: a clear error naming the shifts, not a crash
+        with pytest.raises(ParameterError, match=r"\.x \+ "):
+            derive(t)
+        return
     geo = derive(t)
     for me in geo.meshes:
         z1, z2 = t.gears()[me.gear1].z, t.gears()[me.gear2].z
