@@ -15,3 +15,13 @@ def fmu_files():
 @pytest.fixture(scope="session")
 def differential_fmu(fmu_files):
     return fmu_files["SpurDifferential"]
+
+
+# CI runs the property tests with a fixed seed (reproducible); locally they explore at random.
+import os  # noqa: E402
+
+from hypothesis import settings  # noqa: E402
+
+settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True)
+settings.register_profile("dev", deadline=None)
+settings.load_profile("ci" if os.environ.get("CI") else "dev")
