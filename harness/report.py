@@ -92,12 +92,17 @@ def format_table(result: Result) -> str:
         mn = stat(result, r["var"], "min") * s
         paper = r.get("paper")
         theory = r.get("theory")
-        lines.append([r["label"], r.get("unit", ""), f"{mean:,.0f}", f"{mx:,.0f}", f"{mn:,.0f}",
-                      f"{paper:,.0f}" if paper is not None else "-",
-                      f"{theory:,.0f}" if theory is not None else "-",
+        lines.append([r["label"], r.get("unit", ""), num(mean), num(mx), num(mn),
+                      num(paper) if paper is not None else "-",
+                      num(theory) if theory is not None else "-",
                       _pct(mean, theory) if theory is not None else "-",
                       _pct(paper, theory) if (paper is not None and theory is not None) else "-"])
     return render(head, lines)
+
+
+def num(x: float) -> str:
+    """Thousands separators for large values, four significant digits for small ones."""
+    return f"{x:,.0f}" if abs(x) >= 1000 else f"{x:.4g}"
 
 
 def render(head: list[str], lines: list[list[str]]) -> str:

@@ -54,3 +54,10 @@ def test_kinematics_symmetric(geo):
 def test_torque_bias_ratio():
     assert torque_bias_ratio(0.0) == 1.0
     assert torque_bias_ratio(0.028332) == pytest.approx(1.05832, rel=1e-5)
+
+
+def test_planet_mesh_force_lies_between_the_sun_mesh_forces_when_friction_holds_a_difference(geo):
+    f = mesh_forces_for(geo, 1075.0, 1025.0)
+    assert f.F_B2 < f.F_12 < f.F_A1
+    # the two planets' moment balances add up: F_A1 - F_B2 is shared by the two pin frictions
+    assert (f.F_A1 - f.F_12) + (f.F_12 - f.F_B2) == pytest.approx(f.F_A1 - f.F_B2)

@@ -55,12 +55,27 @@ def mesh_forces(T_A: float, T_B: float, n_pairs: int,
     return MeshForces(F_A1, F_B2, F_12)
 
 
+def pin_friction_share(geo: DifferentialGeometry) -> float:
+    """Share of planet 1's pins in the locking friction, from the terms of K:
+    ``(1/(r_a + r_1)) / (1/(r_a + r_1) + 1/(r_b + r_2))``."""
+    s1, s2 = 1.0 / (geo.r_a + geo.r_1), 1.0 / (geo.r_b + geo.r_2)
+    return s1 / (s1 + s2)
+
+
 def mesh_forces_for(geo: DifferentialGeometry, T_A: float, T_B: float) -> MeshForces:
-    """:func:`mesh_forces` with the operating radii and angles of a derived geometry."""
-    return mesh_forces(T_A, T_B, geo.table.nPairs,
-                       geo.r_a, geo.meshA1.alpha_w, geo.r_1,
-                       geo.r_b, geo.meshB2.alpha_w,
-                       geo.mesh12.rw1, geo.mesh12.alpha_w)
+    """Mesh forces for sun torques T_A, T_B with the operating radii of a derived geometry.
+
+    When T_A != T_B the difference is held by the pin friction of both planets; planet 1's
+    moment balance ``(F_A1 - F_12) r_b1 = M_f1`` with its share of the friction moment gives
+    ``F_12 = F_A1 - share_1 (F_A1 - F_B2)`` (planet inertia neglected)."""
+    f = mesh_forces(T_A, T_B, geo.table.nPairs,
+                    geo.r_a, geo.meshA1.alpha_w, geo.r_1,
+                    geo.r_b, geo.meshB2.alpha_w,
+                    geo.mesh12.rw1, geo.mesh12.alpha_w)
+    if T_A == T_B:
+        return f
+    F_12 = f.F_A1 - pin_friction_share(geo) * (f.F_A1 - f.F_B2)
+    return MeshForces(f.F_A1, f.F_B2, F_12)
 
 
 @dataclass(frozen=True)
