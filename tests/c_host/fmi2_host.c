@@ -63,6 +63,7 @@ int main(int argc, char **argv) {
     printf("status %d tauDrive %.6f\n", s, y);
     fmi2Terminate(c);
     fmi2FreeInstance(c);
+    printf("freed\n");
     fflush(stdout);
     return s;
 }
