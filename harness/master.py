@@ -90,9 +90,12 @@ _CACHE: FmuCache | None = None
 
 
 def fmu_cache() -> FmuCache:
+    """The process-wide cache of extracted FMUs (removed at interpreter exit)."""
     global _CACHE
     if _CACHE is None:
+        import atexit
         _CACHE = FmuCache()
+        atexit.register(_CACHE.cleanup)
     return _CACHE
 
 

@@ -5,8 +5,6 @@ Kept free of pythonfmu so the build step and the tests can read it. Names are Mo
 """
 from __future__ import annotations
 
-import math
-
 from .fmi_vars import Var
 from .geometry import Gear, GearTable
 from .params import DifferentialParams
@@ -198,6 +196,3 @@ def pull_differential(model, values: dict) -> None:
     values["modeSwitches"] = int(model.n_mode_switches)
     values["internalSteps"] = int(getattr(model, "n_internal_steps", model.n_steps))
 
-
-def is_finite(x: float) -> bool:
-    return not (math.isnan(x) or math.isinf(x))

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import math
 
-from .errors import ParameterError, require_finite, require_positive
+from .errors import require_finite, require_positive
 from .geometry import DifferentialGeometry
 from .inertia import MassProperties, mass_properties
 from .params import DifferentialParams
@@ -105,7 +105,7 @@ class RigidDifferential:
         self.n_steps = 0
         self.slip_dir = 0.0 if wd0 == 0.0 else math.copysign(1.0, wd0)
         ac = 0.0 if self.speed_drive else None
-        self.ac, self.ad, self.Qf, self.slip_dir = self._accelerations(ac, self.slip_dir)
+        self.ac, self.ad, self.Qf, self.slip_dir = self._accelerations(ac)
         self._ready = True
 
     def _check_inputs(self) -> None:
@@ -145,8 +145,8 @@ class RigidDifferential:
         ac, ad = self._solve_slip(ac_given, s, 0.0)  # T0 changes sign with the friction: capacity 0
         return ac, ad, 0.0
 
-    def _accelerations(self, ac_given: float | None, slip_dir: float) -> tuple[float, float, float, float]:
-        """(ac, ad, Q_f, slip_dir) for the current state; slip_dir 0 means the stuck mode is tried."""
+    def _accelerations(self, ac_given: float | None) -> tuple[float, float, float, float]:
+        """(ac, ad, Q_f, slip direction) in the current state (direction 0: stuck)."""
         if self.wd != 0.0:
             s = math.copysign(1.0, self.wd)
             ac, ad, Qf = self._slip_accelerations(ac_given, s)
@@ -176,7 +176,7 @@ class RigidDifferential:
         remaining = h
         loss0 = self.energy_loss
         for _ in range(16):
-            ac, ad, Qf, s = self._accelerations(ac_given, 0.0 if self.wd == 0.0 else None)
+            ac, ad, Qf, s = self._accelerations(ac_given)
             dt = remaining
             crossing = False
             if self.wd != 0.0 and ad * self.wd < 0.0:
@@ -201,8 +201,7 @@ class RigidDifferential:
         self.loss_last_step = self.energy_loss - loss0
         self.n_steps += 1
         # accelerations at the end of the step, for the outputs
-        self.ac, self.ad, self.Qf, self.slip_dir = self._accelerations(0.0 if self.speed_drive else None,
-                                                                       self.slip_dir)
+        self.ac, self.ad, self.Qf, self.slip_dir = self._accelerations(0.0 if self.speed_drive else None)
         self._last_h = h
 
     def _advance(self, dt: float, ac: float, ad: float, Qf: float) -> None:
@@ -293,10 +292,3 @@ class RigidDifferential:
         self.w_ref, self.tau_c, self.tau_L, self.tau_R = state["w_ref"], state["tau_c"], state["tau_L"], state["tau_R"]
         self._last_h = state["last_h"]
 
-
-def check_start(params: DifferentialParams) -> None:
-    """Raise ParameterError if the parameters cannot build a model."""
-    params.validate()
-
-
-__all__ = ["RigidDifferential", "StepError", "ParameterError", "check_start"]
