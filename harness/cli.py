@@ -69,7 +69,8 @@ def cmd_run(args) -> int:
     print(f"scene {scene.name}: {scene.description}")
     fid = ", ".join(f"{k} = {v}" for k, v in scene.effects.items()) or "defaults"
     print(f"fidelity: {fid}; step {scene.step:g} s, {scene.algorithm}; simulated {result.time[-1] if len(result.time) else 0:g} s "
-          f"in {result.wall_time:.3f} s wall ({(result.time[-1] / result.wall_time) if result.wall_time > 0 and len(result.time) else 0:.1f}x real time)")
+          f"in {result.wall_time:.3f} s wall ({(result.time[-1] / result.wall_time) if result.wall_time > 0 and len(result.time) else 0:.1f}x real time; "
+          f"setup {result.setup_time:.2f} s)")
     table = format_table(result)
     if table:
         print()

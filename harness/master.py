@@ -45,12 +45,13 @@ class Result:
     scene: Scene
     names: list[str]
     data: np.ndarray                     # shape (n_samples, 1 + len(names)), column 0 is time
-    wall_time: float
+    wall_time: float                     # s spent stepping (after initialization)
     steps: int
     failure: RunFailure | None = None
     coupling_energy: dict[str, dict[str, float]] = field(default_factory=dict)
     messages: list[str] = field(default_factory=list)
     chosen: dict[str, Any] = field(default_factory=dict)
+    setup_time: float = 0.0              # s to load, instantiate and initialize the FMUs
 
     @property
     def time(self) -> np.ndarray:
@@ -275,6 +276,7 @@ class Master:
     def run(self) -> Result:
         sc = self.scene
         t_wall = time.perf_counter()
+        t_setup = 0.0
         failure = None
         rows: list[list[float]] = []
         steps = 0
@@ -285,6 +287,8 @@ class Master:
             self._initialize()
             for name in self.instances:
                 self._read_outputs(name)
+            t_setup = time.perf_counter() - t_wall
+            t_wall = time.perf_counter()
             n_steps = int(round(sc.duration / sc.step))
             rec_every = max(1, int(round(sc.output_interval / sc.step)))
             rows.append(self._sample(0.0))
@@ -328,7 +332,8 @@ class Master:
             self.progress(1.0)
         data = np.array(rows, dtype=float) if rows else np.zeros((0, 1 + len(sc.record)))
         msgs = [f"{n}: {m}" for n, inst in self.instances.items() for s, m in inst.messages if s >= 1]
-        return Result(sc, list(sc.record), data, time.perf_counter() - t_wall, steps, failure, energy, msgs)
+        wall = time.perf_counter() - t_wall
+        return Result(sc, list(sc.record), data, wall, steps, failure, energy, msgs, setup_time=t_setup)
 
     def _step(self, name: str, t: float, h: float) -> None:
         inst = self.instances[name]
