@@ -28,6 +28,11 @@ class ParameterError(ValueError):
         super().__init__(msg)
 
 
+class StepError(RuntimeError):
+    """A communication step a model could not complete; the model state is left as it was at the
+    start of the step (so an FMU can return fmi2Discard with the last successful time)."""
+
+
 def require_finite(name: str, value: float) -> float:
     """Return ``value`` as float, or raise ParameterError if it is NaN or infinite."""
     v = float(value)

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import math
 
-from .errors import require_finite, require_positive
+from .errors import StepError, require_finite, require_positive
 from .geometry import DifferentialGeometry
 from .inertia import MassProperties, mass_properties
 from .params import DifferentialParams
@@ -44,10 +44,6 @@ _STATE_KEYS = (
     "t", "wc", "wd", "phic", "phid", "ac", "ad", "Qf", "slip_dir",
     "work_in", "energy_loss", "loss_last_step", "n_mode_switches", "n_steps",
 )
-
-
-class StepError(RuntimeError):
-    """A communication step the model could not complete (the state is left unchanged)."""
 
 
 class RigidDifferential:
