@@ -1,24 +1,25 @@
 """SpurDifferential.fmu: the spur-gear planetary differential as an FMI 2.0 co-simulation FMU.
 
-A thin adapter over :mod:`spurdiff` (physics) and :mod:`spurdiff.fmi_adapter` (FMI plumbing).
+A thin adapter: the interface and its mapping onto the physics live in
+:mod:`spurdiff.differential_fmu`, the FMI plumbing in :mod:`spurdiff.fmi_adapter`.
 Causality: torques in, speeds and angles out (couple it to compliant half-shafts).
 """
-
-from spurdiff.differential_fmu import DIFFERENTIAL_VARIABLES, build_differential, pull_differential, push_differential
+from spurdiff import differential_fmu as interface
 from spurdiff.fmi_adapter import ModelFmu
 
+
 class SpurDifferential(ModelFmu):
-    """Spur-gear planetary inter-wheel differential (Lin/ADAMS-style paper model)."""
+    """Spur-gear planetary inter-wheel differential."""
 
     description = ("Spur-gear planetary inter-wheel differential: two suns on the half-shafts, pairs of "
                    "meshing planets on a driven carrier, pin-bushing friction locking")
-    VARIABLES = DIFFERENTIAL_VARIABLES
+    VARIABLES = interface.VARIABLES
 
     def build_model(self, values):
-        return build_differential(values)
+        return interface.build_model(values)
 
     def push_inputs(self, model, values):
-        push_differential(model, values)
+        interface.push_inputs(model, values)
 
     def pull_outputs(self, model, values):
-        pull_differential(model, values)
+        interface.pull_outputs(model, values)

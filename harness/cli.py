@@ -15,11 +15,6 @@ def _fail(msg: str, code: int = 2) -> int:
     return code
 
 
-def cmd_build(args) -> int:
-    from harness.build import main as build_main
-    return build_main(args.rest)
-
-
 def cmd_info(args) -> int:
     from harness.info import info_text
     print(info_text())
@@ -102,9 +97,7 @@ def cmd_run(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="spurdiff", description="Spur-gear planetary differential FMUs and co-simulation harness")
     sub = ap.add_subparsers(dest="command", required=True)
-    p = sub.add_parser("build", help="build the FMUs into build/fmus (same as python build_fmu.py)", add_help=False)
-    p.add_argument("rest", nargs=argparse.REMAINDER)
-    p.set_defaults(func=cmd_build)
+    sub.add_parser("build", help="build the FMUs into build/fmus (same as python build_fmu.py); --force, --dest")
     p = sub.add_parser("info", help="derived geometry, design checks and the paper's theory table beside ours")
     p.set_defaults(func=cmd_info)
     p = sub.add_parser("scenes", help="list the scenes")
@@ -128,6 +121,10 @@ def main(argv: list[str] | None = None) -> int:
     from harness.master import RunFailure
     from spurdiff.errors import ParameterError
 
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv[:1] == ["build"]:  # delegate its options to the build module's own parser
+        from harness.build import main as build_main
+        return build_main(argv[1:])
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)

@@ -34,7 +34,7 @@ def _mesh_vars(mesh: str, label: str) -> list[Var]:
     ]
 
 
-DIFFERENTIAL_VARIABLES: list[Var] = [
+VARIABLES: list[Var] = [
     # --- inputs
     Var("carrier.w_ref", "input", "Carrier speed target (carrierDrive = speed); reached linearly over each step",
         "rad/s", "rpm", 0.0),
@@ -130,7 +130,7 @@ def differential_params(values: dict) -> DifferentialParams:
         J_planet1=float(values["J_planet1"]), J_planet2=float(values["J_planet2"]))
 
 
-def build_differential(values: dict):
+def build_model(values: dict):
     """Build and initialize the model selected by ``meshModel`` from FMI variable values."""
     from .errors import ParameterError
 
@@ -138,7 +138,7 @@ def build_differential(values: dict):
     if mesh_model not in MESH_MODELS:
         raise ParameterError("meshModel", mesh_model, " | ".join(MESH_MODELS))
     model = RigidDifferential(differential_params(values))
-    push_differential(model, values)
+    push_inputs(model, values)
     model.w_start_carrier = float(values["carrier.w_start"])
     wc0 = model.w_ref if model.params.carrierDrive == "speed" else model.w_start_carrier
     model.w_start_left = wc0 + float(values["differential.w_start"])
@@ -164,14 +164,14 @@ def _set_calculated(model, values: dict) -> None:
     values["nStates"] = int(getattr(model, "n_states", 2))
 
 
-def push_differential(model, values: dict) -> None:
+def push_inputs(model, values: dict) -> None:
     model.w_ref = values["carrier.w_ref"]
     model.tau_c = values["carrier.tau"]
     model.tau_L = values["left.tau"]
     model.tau_R = values["right.tau"]
 
 
-def pull_differential(model, values: dict) -> None:
+def pull_outputs(model, values: dict) -> None:
     values["carrier.w"] = model.wc
     values["carrier.phi"] = model.phic
     values["left.w"] = model.w_L

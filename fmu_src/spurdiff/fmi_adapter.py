@@ -41,14 +41,20 @@ def _is_bad_number(v: Any) -> bool:
 
 
 class ModelFmu(Fmi2Slave):
-    """Base class of the project's FMUs. Subclasses define:
+    """Base class of the project's FMUs. A subclass delegates to an interface module of this
+    package (e.g. :mod:`spurdiff.differential_fmu`) that defines, without any FMI dependency:
 
     * ``VARIABLES``: the list of :class:`Var`;
     * ``build_model(values) -> model``: construct and ``initialize`` the physics model from the
-      parameter and input values (raise ParameterError for invalid ones);
+      parameter and input values (raise ParameterError for invalid ones), and set the calculated
+      parameters in ``values``;
     * ``push_inputs(model, values)``: copy input values into the model before a step;
     * ``pull_outputs(model, values)``: copy model outputs into ``values``.
     Model objects provide ``do_step(t, h)``, ``get_state()``, ``set_state(state)``.
+    The subclass sets ``VARIABLES`` and overrides the three hooks with one-line calls into that
+    module (a module object stored as a class attribute crashes pythonfmu's second
+    instantiation). The harness's direct (FMI-free) runner uses the same module, so both run
+    the same code.
     """
 
     VARIABLES: Sequence[Var] = ()
@@ -164,14 +170,14 @@ class ModelFmu(Fmi2Slave):
                 self.model = self.build_model(self.values)
             self.model.set_state(state["model"])
 
-    # ------------------------------------------------------------------ subclass hooks
-    def build_model(self, values: dict):  # pragma: no cover - abstract
+    # ------------------------------------------------------------------ interface hooks
+    def build_model(self, values: dict):  # pragma: no cover - overridden
         raise NotImplementedError
 
-    def push_inputs(self, model, values: dict) -> None:  # pragma: no cover - abstract
+    def push_inputs(self, model, values: dict) -> None:  # pragma: no cover - overridden
         raise NotImplementedError
 
-    def pull_outputs(self, model, values: dict) -> None:  # pragma: no cover - abstract
+    def pull_outputs(self, model, values: dict) -> None:  # pragma: no cover - overridden
         raise NotImplementedError
 
 
