@@ -63,3 +63,21 @@ def test_info_prints_theory_beside_paper(capsys):
     out = capsys.readouterr().out
     for s in ("59,497", "60,201", "0.028332", "13.3987", "undercut"):
         assert s in out
+
+
+def test_direct_physics_run_equals_fmi_run(fmu_files):
+    """The FMI layer adds cost, not differences: same scene, bit-identical trajectories."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from harness.direct import run_direct
+    from harness.master import run_scene
+    from harness.runner import prepare_scene
+
+    for algorithm in ("gauss-seidel", "jacobi"):
+        s = replace(prepare_scene("paper-cornering", algorithm=algorithm), duration=0.05)
+        a, b = run_direct(s), run_scene(s, fmu_files)
+        assert a.ok and b.ok
+        assert a.data.shape == b.data.shape
+        assert np.array_equal(a.data, b.data)

@@ -1,0 +1,122 @@
+"""Run a scene with the physics called directly in Python, without FMI.
+
+Same scene, same coupling loop (Gauss-Seidel or Jacobi, same step, same recording) and the same
+interface modules the FMUs use (``spurdiff.<name>_fmu``: VARIABLES, build_model, push_inputs,
+pull_outputs), so the only difference from :mod:`harness.master` is the FMI layer (pythonfmu's C
+wrapper, fmpy's ctypes calls, value references). Used by the benchmark to measure what FMI
+costs; scene runs for users go through the FMUs.
+"""
+from __future__ import annotations
+
+import importlib
+import time
+
+import numpy as np
+
+from harness.master import Result, RunFailure
+from harness.scene import Scene, SceneError
+
+# FMU name -> interface module (the FMU scripts in fmu_src/ delegate to these)
+INTERFACES = {
+    "SpurDifferential": "spurdiff.differential_fmu",
+}
+
+
+class DirectInstance:
+    def __init__(self, name: str, fmu: str, parameters: dict):
+        if fmu not in INTERFACES:
+            raise SceneError(f"{name}: no direct interface for FMU {fmu!r}; allowed: {', '.join(INTERFACES)}")
+        self.name = name
+        self.iface = importlib.import_module(INTERFACES[fmu])
+        self.vars = {v.name: v for v in self.iface.VARIABLES}
+        self.values = {v.name: v.start for v in self.iface.VARIABLES}
+        for k, val in parameters.items():
+            if k not in self.vars:
+                raise SceneError(f"{name}: FMU has no variable {k!r}")
+            self.values[k] = val
+        self.model = None
+
+    def initialize(self) -> None:
+        self.model = self.iface.build_model(self.values)
+        self.iface.pull_outputs(self.model, self.values)
+
+    def step(self, t: float, h: float) -> None:
+        self.iface.push_inputs(self.model, self.values)
+        self.model.do_step(t, h)
+        self.iface.pull_outputs(self.model, self.values)
+
+
+def run_direct(scene: Scene) -> Result:
+    """Run ``scene`` with direct physics calls; returns a :class:`Result` like the master's."""
+    t0 = time.perf_counter()
+    insts = {}
+    for spec in scene.instances:
+        params = dict(spec.parameters)
+        if spec.fmu == "SpurDifferential":
+            params = {**scene.effects, **params}
+        insts[spec.name] = DirectInstance(spec.name, spec.fmu, params)
+    profiles = [(ref.split(".", 1), prof) for ref, prof in scene.inputs.items()]
+    links = [(to.split(".", 1), frm.split(".", 1)) for to, frm in scene.connections.items()]
+    by_dest: dict[str, list] = {n: [] for n in insts}
+    for (ti, tv), (fi, fv) in links:
+        by_dest[ti].append((tv, fi, fv))
+    record = [(insts[r.split(".", 1)[0]].values, r.split(".", 1)[1]) for r in scene.record]
+    order = [s.name for s in scene.instances]
+
+    def apply_profiles(t):
+        for (i, v), prof in profiles:
+            insts[i].values[v] = prof(t)
+
+    def apply_links(name):
+        vals = insts[name].values
+        for tv, src, fv in by_dest[name]:
+            vals[tv] = insts[src].values[fv]
+
+    failure = None
+    rows = []
+    steps = 0
+    try:
+        apply_profiles(0.0)
+        for name in order:
+            apply_links(name)
+            try:
+                insts[name].initialize()
+            except Exception as e:
+                raise RunFailure(name, 0.0, str(e)) from None
+        setup = time.perf_counter() - t0
+        t_loop = time.perf_counter()
+        rows.append([0.0] + [d[k] for d, k in record])
+        h = scene.step
+        n = int(round(scene.duration / h))
+        every = max(1, int(round(scene.output_interval / h)))
+        jacobi = scene.algorithm == "jacobi"
+        for k in range(n):
+            t = k * h
+            apply_profiles(t)
+            try:
+                if jacobi:  # every instance sees the outputs of the previous step
+                    pending = [(insts[name].values, tv, insts[src].values[fv])
+                               for name in order for tv, src, fv in by_dest[name]]
+                    for vals, tv, x in pending:
+                        vals[tv] = x
+                    for name in order:
+                        insts[name].step(t, h)
+                else:
+                    for name in order:
+                        apply_links(name)
+                        insts[name].step(t, h)
+            except RunFailure:
+                raise
+            except Exception as e:
+                raise RunFailure(name, t, str(e)) from None
+            steps += 1
+            if (k + 1) % every == 0 or k + 1 == n:
+                rows.append([(k + 1) * h] + [d[kk] for d, kk in record])
+        wall = time.perf_counter() - t_loop
+    except RunFailure as e:
+        failure = e
+        setup = time.perf_counter() - t0
+        wall = 0.0
+    data = np.array(rows, dtype=float) if rows else np.zeros((0, 1 + len(scene.record)))
+    return Result(scene, list(scene.record), data, wall, steps, failure, setup_time=setup)
+
