@@ -98,6 +98,7 @@ def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="spurdiff", description="Spur-gear planetary differential FMUs and co-simulation harness")
     sub = ap.add_subparsers(dest="command", required=True)
     sub.add_parser("build", help="build the FMUs into build/fmus (same as python build_fmu.py); --force, --dest")
+    sub.add_parser("bench", help="measured cost ratios: FMI vs direct, each fidelity vs rigid, real-time factors")
     p = sub.add_parser("info", help="derived geometry, design checks and the paper's theory table beside ours")
     p.set_defaults(func=cmd_info)
     p = sub.add_parser("scenes", help="list the scenes")
@@ -122,9 +123,13 @@ def main(argv: list[str] | None = None) -> int:
     from spurdiff.errors import ParameterError
 
     argv = list(sys.argv[1:] if argv is None else argv)
-    if argv[:1] == ["build"]:  # delegate its options to the build module's own parser
-        from harness.build import main as build_main
-        return build_main(argv[1:])
+    delegated = {"build": "harness.build", "bench": "harness.bench"}
+    if argv[:1] and argv[0] in delegated:  # these parse their own options
+        import importlib
+        try:
+            return importlib.import_module(delegated[argv[0]]).main(argv[1:])
+        except (SceneError, ParameterError, RunFailure) as e:
+            return _fail(str(e))
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
