@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from harness.master import Result
+from harness.scene import refs_of
 
 
 def window_mask(t: np.ndarray, window) -> np.ndarray:
@@ -17,12 +18,29 @@ def window_mask(t: np.ndarray, window) -> np.ndarray:
     return (t >= lo - 1e-12) & (t <= hi + 1e-12)
 
 
+_FUNCS = {"abs": np.abs, "sqrt": np.sqrt, "maximum": np.maximum, "minimum": np.minimum, "sign": np.sign}
+
+
+def series(result: Result, quantity: str) -> np.ndarray:
+    """A recorded variable, or an expression over recorded variables in braces."""
+    if "{" not in quantity:
+        return result[quantity]
+    refs = refs_of(quantity)
+    code = quantity
+    env = dict(_FUNCS)
+    for i, r in enumerate(dict.fromkeys(refs)):
+        code = code.replace("{" + r + "}", f"_v{i}")
+        env[f"_v{i}"] = result[r]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.asarray(eval(compile(code, "<scene expression>", "eval"), {"__builtins__": {}}, env), dtype=float)
+
+
 def stat(result: Result, name: str, kind: str, window=None) -> float:
-    """mean | max | min | final | absmax | span of a recorded variable over a time window.
+    """mean | max | min | final | absmax | span of a recorded quantity over a time window.
 
     The mean is the time average (trapezoidal rule), so it does not depend on the sampling."""
     t = result.time
-    y = result[name]
+    y = series(result, name)
     m = window_mask(t, window)
     t, y = t[m], y[m]
     if len(y) == 0:
@@ -87,11 +105,14 @@ def format_table(result: Result) -> str:
     lines = []
     for r in rows:
         s = float(r.get("scale", 1.0))
-        mean = stat(result, r["var"], "mean") * s
-        mx = stat(result, r["var"], "max") * s
-        mn = stat(result, r["var"], "min") * s
+        w = r.get("window")
+        mean = stat(result, r["var"], "mean", w) * s
+        mx = stat(result, r["var"], "max", w) * s
+        mn = stat(result, r["var"], "min", w) * s
         paper = r.get("paper")
         theory = r.get("theory")
+        if isinstance(theory, str):
+            theory = stat(result, theory, "mean", w) * s
         lines.append([r["label"], r.get("unit", ""), num(mean), num(mx), num(mn),
                       num(paper) if paper is not None else "-",
                       num(theory) if theory is not None else "-",

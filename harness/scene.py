@@ -17,12 +17,17 @@ Top-level keys::
     connections                   {"to_inst.var" = "from_inst.var"}
     couplings                     [[couplings]]: power bonds to monitor (name, torque, w_from, w_to)
     record                        list of "inst.var" to record (default: every connected/profiled var)
-    table                         [[table]] rows of the results table (label, var, scale, unit, paper, theory)
+    table                         [[table]] rows of the results table (label, var, scale, unit, paper, theory, window)
     checks                        [[checks]] physical checks (name, stat, var, window, expect/rtol/atol/below/above)
+
+A quantity (``var``, ``expect_var``, a string ``theory``) is a recorded variable ``"inst.var"`` or an
+expression over them in braces, e.g. ``"{wheelR.wheel.w} / {wheelL.wheel.w}"`` (numpy arithmetic,
+``abs``, ``sqrt``, ``maximum``, ``minimum``; evaluated sample by sample).
 """
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,7 +38,7 @@ SCENE_DIR = Path(__file__).resolve().parent / "scenes"
 TOP_KEYS = {"name", "description", "duration", "step", "output_interval", "algorithm", "order", "effects",
             "fmus", "inputs", "connections", "couplings", "record", "table", "checks", "fidelity"}
 FMU_KEYS = {"fmu", "parameters"}
-TABLE_KEYS = {"label", "var", "scale", "unit", "paper", "theory", "paper_max", "paper_min"}
+TABLE_KEYS = {"label", "var", "scale", "unit", "paper", "theory", "paper_max", "paper_min", "window"}
 CHECK_KEYS = {"name", "stat", "var", "window", "expect", "rtol", "atol", "below", "above", "expect_var"}
 COUPLING_KEYS = {"name", "torque", "w_from", "w_to", "sign"}
 STATS = {"mean", "max", "min", "final", "absmax", "span"}
@@ -42,6 +47,16 @@ ALGORITHMS = {"gauss-seidel", "jacobi"}
 
 class SceneError(ValueError):
     """A scene file that cannot be run (bad key, bad value, unknown FMU or variable)."""
+
+
+_REF = re.compile(r"\{([^{}]+)\}")
+
+
+def refs_of(quantity: str) -> list[str]:
+    """Variables a quantity needs: 'inst.var' itself, or every {inst.var} in an expression."""
+    if not isinstance(quantity, str):
+        return []
+    return _REF.findall(quantity) if "{" in quantity else [quantity]
 
 
 @dataclass
@@ -210,18 +225,23 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
     table = []
     for row in data.get("table", []):
         _unknown(f"{where}: table", row, TABLE_KEYS)
-        _split(f"{where}: table.var", row.get("var", ""), names)
+        for ref in refs_of(row.get("var", "")) + refs_of(row.get("theory")):
+            _split(f"{where}: table {row.get('label', '')!r}", ref, names)
         table.append(dict(row))
     checks = []
     for c in data.get("checks", []):
         _unknown(f"{where}: checks", c, CHECK_KEYS)
         if c.get("stat") not in STATS:
             raise SceneError(f"{where}: checks.stat = {c.get('stat')!r}; allowed: {', '.join(sorted(STATS))}")
-        _split(f"{where}: checks.var", c.get("var", ""), names)
+        for ref in refs_of(c.get("var", "")) + refs_of(c.get("expect_var")):
+            _split(f"{where}: checks {c.get('name', '')!r}", ref, names)
         checks.append(dict(c))
-    for r in [t["var"] for t in table] + [c["var"] for c in checks] + [c.get("expect_var") for c in checks if c.get("expect_var")]:
-        if r not in record:
-            record.append(r)
+    quantities = ([t["var"] for t in table] + [t.get("theory") for t in table] + [c["var"] for c in checks]
+                  + [c.get("expect_var") for c in checks])
+    for q in quantities:
+        for r in refs_of(q):
+            if r not in record:
+                record.append(r)
     effects = dict(data.get("effects", {}))
     fidelity = data.get("fidelity", {})
     if isinstance(fidelity, str):

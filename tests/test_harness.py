@@ -81,3 +81,16 @@ def test_direct_physics_run_equals_fmi_run(fmu_files):
         assert a.ok and b.ok
         assert a.data.shape == b.data.shape
         assert np.array_equal(a.data, b.data)
+
+
+def test_table_and_checks_accept_expressions(fmu_files):
+    from harness.master import run_scene
+    from harness.report import evaluate_checks, stat
+
+    scene = parse_scene({**BASE, "duration": 0.05, "inputs": {"diff.carrier.w_ref": 1.389, "diff.left.tau": -1110.201,
+                                                             "diff.right.tau": -989.799},
+                         "checks": [{"name": "kinematics", "stat": "absmax",
+                                     "var": "{diff.left.w} + {diff.right.w} - 2 * {diff.carrier.w}", "below": 1e-9}]})
+    r = run_scene(scene, fmu_files)
+    assert [o.passed for o in evaluate_checks(r)] == [True]
+    assert stat(r, "{diff.right.w} - {diff.left.w}", "final") > 0.0

@@ -1,0 +1,525 @@
+"""Planar vehicle body with axle-level lateral tyres, load transfer, and speed and steering control.
+
+The model ``Vehicle.fmu`` wraps. Rear-wheel drive: the differential drives the unsteered rear
+axle, whose two longitudinal tyre forces ``Fx_L``, ``Fx_R`` are inputs (from the WheelLoad
+FMUs); the front axle is steered and undriven.
+
+Frames and signs (ISO 8855): body x forward, y left, z up; yaw rate ``r`` and steering angle
+``delta`` positive to the left; ``pathRadius > 0`` is a left turn. States: body-frame velocities
+``v_x``, ``v_y``, yaw rate ``r``, heading ``psi``, position ``x``, ``y``; axle slip angles
+``alpha_f``, ``alpha_r``; the filtered accelerations that drive load transfer ``a_xs_f``,
+``a_y_f``; the controller integrators ``I_v`` (speed) and ``I_r`` (yaw rate). Equations::
+
+    m (dv_x/dt - v_y r) = F_xf cos(delta) - F_yf sin(delta) + Fx_L + Fx_R + F_aero + F_grade
+    m (dv_y/dt + v_x r) = F_xf sin(delta) + F_yf cos(delta) + F_yr
+    Iz dr/dt            = l_f (F_xf sin(delta) + F_yf cos(delta)) - l_r F_yr + (t_r/2)(Fx_R - Fx_L)
+    F_aero = -1/2 rho CdA v_x |v_x|,   F_grade = -m g sin(grade)
+
+Lateral tyres (single-track, one Magic Formula per axle, tyre.py): ``F_yf = mu Fz_f f(alpha_f)``,
+``F_yr = D_r f(alpha_r)`` with the rear friction circle ``D_r = sqrt((mu Fz_r)^2 - (Fx_L + Fx_R)^2)``
+(0 if negative). Slip angles by relaxation length ``sigma`` (no division by the speed, defined at
+standstill, as the longitudinal slip in tyre.py)::
+
+    sigma dalpha/dt + |v_wx| alpha = -v_wy
+
+with ``(v_wx, v_wy)`` the axle-centre velocity in the wheel frame: front ``v_wx = v_x cos delta +
+(v_y + l_f r) sin delta``, ``v_wy = -v_x sin delta + (v_y + l_f r) cos delta``; rear ``v_wx = v_x``,
+``v_wy = v_y - l_r r``. In steady state this is the single-track slip angle
+``alpha_f = delta - (v_y + l_f r)/v_x``, ``alpha_r = -(v_y - l_r r)/v_x``. ``|alpha| <= alpha_max``.
+Front rolling resistance ``F_xf = -f_rr Fz_f tanh(v_wx / v_rr)``.
+
+Loads (never negative; a lifted wheel carries 0)::
+
+    Fz_f = m g cos(grade) l_r / L - m a_xs_f h / L,   Fz_r = m g cos(grade) l_f / L + m a_xs_f h / L
+    Fz_RL,RR = Fz_r / 2 -+ s_r m a_y_f h / t_r      (clamped to [0, Fz_r])
+
+``a_xs = a_x + g sin(grade)`` is the longitudinal specific force (ground and aero forces over m,
+what shifts load); ``s_r`` is the rear share of the roll stiffness. ``a_xs_f``, ``a_y_f`` follow
+``a_xs``, ``a_y`` with a first-order lag ``tau_load`` (the body's pitch/roll response); the lag also
+breaks the algebraic loop load -> force -> acceleration -> load.
+
+Steering (``steering.mode = 0``): ``delta = atan(L / R) + K_r e + I_r``, ``dI_r/dt = K_ri e``,
+``e = (v_x / R - r) tanh(v_x / 1 m/s)`` (the factor keeps the feedback sign right when reversing
+and fades it at standstill), limited to ``+-delta_max`` with conditional-integration anti-windup;
+``R = 0`` or ``inf`` means straight. ``mode = 1``: ``delta`` = the steering-angle input (limited).
+Speed control: ``driveTorque = Kp (speedTarget - v_x) + I_v``, ``dI_v/dt = Ki (speedTarget - v_x)``,
+limited to ``[driveTorqueMin, driveTorqueMax]`` with conditional-integration anti-windup. It is the
+axle torque (at the differential carrier) the powertrain should deliver; this model only
+computes it.
+
+Integration: classical 4th-order Runge-Kutta in plain floats, sub-stepped so that each internal
+step is at most ``h_max`` and at most ``sigma / |v_x|`` (the fastest mode is the slip-angle
+relaxation, rate ``|v_x| / sigma``; the standstill tyre spring and the body modes are slower, about
+40 rad/s), which keeps every mode well inside the RK4 stability region for any communication step.
+Inputs are held over a step (zero-order hold).
+
+Sources: the single-track (bicycle) equations and slip angles of shared/docs/model-references.md,
+extended to a planar body with both axles' longitudinal forces; the friction circle (Kamm) for
+combined slip on the driven axle; parameter values and their sources in
+``spurdiff/data/passenger_car.toml``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .errors import ParameterError, require_finite, require_nonnegative, require_positive, require_range
+from .tyre import magic_formula as _mf
+from .tyre import slip_for_force_ratio, validate_shape
+from .wheel import StepError, read_data, section
+
+G = 9.80665  # standard gravity, m/s^2
+
+STEER_PATH = 0
+STEER_ANGLE = 1
+
+_N = 12  # number of continuous states
+_STATE_NAMES = ("vx", "vy", "r", "psi", "x", "y", "alpha_f", "alpha_r", "axs_f", "ay_f", "I_v", "I_r")
+_OUTPUT_KEYS = (
+    "rearLeft_vx", "rearRight_vx", "rearLeft_Fz", "rearRight_Fz", "frontAxle_Fz", "rearAxle_Fz",
+    "speed", "yawRate", "ax", "ay", "driveTorque", "steering_angle", "Fy_front", "Fy_rear",
+)
+_INPUT_KEYS = ("rearLeft_Fx", "rearRight_Fx", "speedTarget", "pathRadius", "steering_angle_cmd", "grade", "mu")
+
+
+@dataclass
+class BodyParams:
+    """Section ``[vehicle]``. m (kg), Iz (kg m^2), L wheelbase (m), l_f CG to front axle (m),
+    trackFront / trackRear (m), h_cg CG height (m), CdA (m^2), rho_air (kg/m^3), f_rr front rolling
+    resistance (1), v_rr its fade-in speed (m/s), rollStiffnessShareRear (1), tau_load (s),
+    vx_start (m/s), h_max largest internal step (s), R_wheel rear rolling radius (m; default: the
+    ``[wheel] R`` of the same data, used only to start the speed controller at the holding torque).
+    """
+
+    m: float = 1250.0
+    Iz: float = 1053.5
+    L: float = 2.776
+    l_f: float = 1.388
+    trackFront: float = 1.5958
+    trackRear: float = 1.6
+    h_cg: float = 0.40
+    CdA: float = 0.66
+    rho_air: float = 1.225
+    f_rr: float = 0.015
+    v_rr: float = 0.1
+    rollStiffnessShareRear: float = 0.5
+    tau_load: float = 0.05
+    vx_start: float = 0.0
+    h_max: float = 0.002
+    R_wheel: float = 0.3266
+
+    def validate(self) -> None:
+        for name in ("m", "Iz", "L", "trackFront", "trackRear", "v_rr", "tau_load", "R_wheel"):
+            require_positive(f"vehicle.{name}", getattr(self, name))
+        for name in ("h_cg", "CdA", "rho_air", "f_rr"):
+            require_nonnegative(f"vehicle.{name}", getattr(self, name))
+        lf = require_finite("vehicle.l_f", self.l_f)
+        if not 0.0 < lf < self.L:
+            raise ParameterError("vehicle.l_f", self.l_f, f"0 < l_f < L = {self.L:g} m")
+        require_range("vehicle.rollStiffnessShareRear", self.rollStiffnessShareRear, 0.0, 1.0)
+        require_finite("vehicle.vx_start", self.vx_start)
+        h = require_positive("vehicle.h_max", self.h_max)
+        if h > 0.1:
+            raise ParameterError("vehicle.h_max", self.h_max, "between 0 and 0.1 s")
+
+
+@dataclass
+class LateralTyreParams:
+    """Section ``[lateralTyre]``: axle Magic Formula B, C, E; relaxation length sigma (m);
+    alpha_max largest |slip angle| (rad)."""
+
+    B: float = 11.0
+    C: float = 1.37
+    E: float = 0.0
+    sigma: float = 0.10
+    alpha_max: float = 1.0
+
+    def validate(self) -> None:
+        validate_shape("lateralTyre", self.B, self.C, self.E)
+        require_positive("lateralTyre.sigma", self.sigma)
+        require_range("lateralTyre.alpha_max", self.alpha_max, 1e-6, 0.5 * math.pi)
+
+
+@dataclass
+class SteeringParams:
+    """Section ``[steering]``: mode (0 = path radius, 1 = steering-angle input); K_r (rad per
+    rad/s), K_ri (rad per rad): yaw-rate PI gains; delta_max (rad)."""
+
+    mode: int = STEER_PATH
+    K_r: float = 0.1
+    K_ri: float = 0.5
+    delta_max: float = 0.6
+
+    def validate(self) -> None:
+        if self.mode not in (STEER_PATH, STEER_ANGLE):
+            raise ParameterError("steering.mode", self.mode, "0 (path radius) or 1 (steering angle)")
+        require_nonnegative("steering.K_r", self.K_r)
+        require_nonnegative("steering.K_ri", self.K_ri)
+        require_range("steering.delta_max", self.delta_max, 1e-6, 1.2)
+
+
+@dataclass
+class SpeedControlParams:
+    """Section ``[speedControl]``: Kp (N m per m/s), Ki (N m per m), driveTorqueMax (N m, > 0),
+    driveTorqueMin (N m, <= 0: engine braking)."""
+
+    Kp: float = 400.0
+    Ki: float = 200.0
+    driveTorqueMax: float = 2000.0
+    driveTorqueMin: float = -600.0
+
+    def validate(self) -> None:
+        require_nonnegative("speedControl.Kp", self.Kp)
+        require_nonnegative("speedControl.Ki", self.Ki)
+        require_positive("speedControl.driveTorqueMax", self.driveTorqueMax)
+        tmin = require_finite("speedControl.driveTorqueMin", self.driveTorqueMin)
+        if not tmin <= 0.0:
+            raise ParameterError("speedControl.driveTorqueMin", self.driveTorqueMin, "<= 0")
+
+
+@dataclass
+class VehicleParams:
+    vehicle: BodyParams = field(default_factory=BodyParams)
+    lateralTyre: LateralTyreParams = field(default_factory=LateralTyreParams)
+    steering: SteeringParams = field(default_factory=SteeringParams)
+    speedControl: SpeedControlParams = field(default_factory=SpeedControlParams)
+
+    @classmethod
+    def from_data(cls, data: dict) -> "VehicleParams":
+        body = dict(data.get("vehicle", {}))
+        if "R_wheel" not in body and "R" in data.get("wheel", {}):
+            body["R_wheel"] = data["wheel"]["R"]
+        return cls(vehicle=section(BodyParams, {"vehicle": body}, "vehicle"),
+                   lateralTyre=section(LateralTyreParams, data, "lateralTyre"),
+                   steering=section(SteeringParams, data, "steering"),
+                   speedControl=section(SpeedControlParams, data, "speedControl"))
+
+    @classmethod
+    def defaults(cls, path: str | Path | None = None) -> "VehicleParams":
+        """Parameters from the passenger-car TOML data (or the TOML file at ``path``)."""
+        return cls.from_data(read_data(path))
+
+    def validate(self) -> None:
+        self.vehicle.validate()
+        self.lateralTyre.validate()
+        self.steering.validate()
+        self.speedControl.validate()
+        sc = self.speedControl
+        if sc.driveTorqueMin > sc.driveTorqueMax:
+            raise ParameterError("speedControl.driveTorqueMin", sc.driveTorqueMin, "<= driveTorqueMax")
+
+
+class Vehicle:
+    """Planar rear-wheel-drive vehicle; equations in the module docstring.
+
+    Inputs (attributes, SI): ``rearLeft_Fx``, ``rearRight_Fx`` (N, rear tyre forces on the body),
+    ``speedTarget`` (m/s), ``pathRadius`` (m, signed, 0 or inf = straight), ``steering_angle_cmd``
+    (rad, used when ``steering.mode = 1``), ``grade`` (rad, uphill positive), ``mu`` (road friction).
+
+    Outputs (attributes, end of the last step): ``rearLeft_vx``, ``rearRight_vx`` (m/s, wheel-centre
+    velocity along the wheel, ``v_x -+ r t_r / 2``), ``rearLeft_Fz``, ``rearRight_Fz`` (N, >= 0),
+    ``frontAxle_Fz``, ``rearAxle_Fz`` (N), ``speed`` (m/s, magnitude of the CG velocity), ``vx``,
+    ``vy`` (m/s), ``yawRate`` (rad/s), ``ax``, ``ay`` (m/s^2, CG acceleration in the body frame),
+    ``driveTorque`` (N m, at the axle), ``x``, ``y`` (m), ``psi`` (rad), ``steering_angle`` (rad),
+    ``Fy_front``, ``Fy_rear`` (N, axle side forces in their wheel frames).
+    """
+
+    n_states = _N
+
+    def __init__(self, params: VehicleParams | None = None):
+        self.params = params if params is not None else VehicleParams.defaults()
+        self.rearLeft_Fx = 0.0
+        self.rearRight_Fx = 0.0
+        self.speedTarget = 0.0
+        self.pathRadius = 0.0
+        self.steering_angle_cmd = 0.0
+        self.grade = 0.0
+        self.mu = 1.0
+        for k in _OUTPUT_KEYS:
+            setattr(self, k, 0.0)
+        self.s = [0.0] * _N
+        self._ready = False
+
+    # ------------------------------------------------------------------ setup
+    def initialize(self, t0: float = 0.0) -> None:
+        """Validate parameters and inputs; set a consistent initial state; compute outputs at t0.
+
+        Start: ``v_x = vx_start``, ``v_y = 0``, ``r = v_x / pathRadius`` (path steering) or 0;
+        slip angles at their steady values for these speeds; load-transfer filters equal to the
+        accelerations they produce (fixed point); speed integrator at the axle torque that holds
+        ``v_x`` against the resistances at t0 (aero, rolling of both axles, grade).
+        """
+        p = self.params
+        p.validate()
+        self._load_inputs()
+        b = p.vehicle
+        vx = float(b.vx_start)
+        r = vx * self._kappa if p.steering.mode == STEER_PATH else 0.0
+        s = [vx, 0.0, r, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+        if r != 0.0 and vx > 0.0:
+            s[1], s[11] = self._steady_turn_start(vx, r)
+        # steady slip angles for the start velocities and steering
+        delta = self._delta(vx, r, s[11])
+        cd, sd = math.cos(delta), math.sin(delta)
+        vfy = s[1] + b.l_f * r
+        vwx_f, vwy_f = vx * cd + vfy * sd, -vx * sd + vfy * cd
+        amax = p.lateralTyre.alpha_max
+        s[6] = _clamp(-vwy_f / abs(vwx_f), amax) if vwx_f != 0.0 else 0.0
+        vwy_r = s[1] - (b.L - b.l_f) * r
+        s[7] = _clamp(-vwy_r / abs(vx), amax) if vx != 0.0 else 0.0
+        # load-transfer filters at their fixed point
+        for _ in range(100):
+            self._rates(s)
+            axs, ay = self._axs, self._ay
+            change = abs(axs - s[8]) + abs(ay - s[9])
+            s[8], s[9] = axs, ay
+            if change <= 1e-12 * (1.0 + abs(axs) + abs(ay)):
+                break
+        # speed integrator: the axle torque that holds v_x now
+        self._rates(s)
+        F_other = b.m * self._ax - self._Fxr          # body-x forces other than the rear drive
+        Fxr_hold = -F_other - b.m * s[1] * s[2]        # rear drive force giving dv_x/dt = 0
+        rr_rear = b.f_rr * self._Fz_r * math.tanh(vx / b.v_rr)
+        sc = p.speedControl
+        s[10] = min(max(b.R_wheel * (Fxr_hold + rr_rear), sc.driveTorqueMin), sc.driveTorqueMax)
+        self.s = s
+        self.t = float(require_finite("t0", t0))
+        self.n_steps = 0
+        self.n_substeps = 0
+        self._update_outputs()
+        self._ready = True
+
+    def _steady_turn_start(self, vx: float, r: float) -> tuple[float, float]:
+        """Side velocity and steering integrator of the steady turn at (vx > 0, r), from the axle
+        side forces ``m a_y l_r / L`` (front) and ``m a_y l_f / L`` (rear) with ``a_y = v_x r`` and the
+        static loads; (0, 0) if that turn is beyond 95 % of the grip."""
+        p = self.params
+        b, lt = p.vehicle, p.lateralTyre
+        lr = b.L - b.l_f
+        mu = self._mu
+        Wn = b.m * G * self._cos_g
+        if mu <= 0.0 or Wn <= 0.0:
+            return 0.0, 0.0
+        ay = vx * r
+        ratio_f = b.m * ay * lr / b.L / (mu * Wn * lr / b.L)
+        ratio_r = b.m * ay * b.l_f / b.L / (mu * Wn * b.l_f / b.L)
+        top = 0.95 * (1.0 if lt.C > 1.0 else math.sin(0.5 * math.pi * lt.C))
+        if abs(ratio_f) >= top or abs(ratio_r) >= top:
+            return 0.0, 0.0
+        alpha_r = slip_for_force_ratio(ratio_r, lt.B, lt.C, lt.E)
+        alpha_f = slip_for_force_ratio(ratio_f, lt.B, lt.C, lt.E)
+        vy = lr * r - vx * alpha_r
+        delta = math.atan((vy + b.l_f * r) / vx) + math.atan(alpha_f)
+        return vy, delta - self._delta_ff
+
+    def _load_inputs(self) -> None:
+        """Validate the inputs (all before changing anything) and cache what the rate function
+        needs, constant over a step."""
+        FxL = require_finite("rearLeft.Fx", self.rearLeft_Fx)
+        FxR = require_finite("rearRight.Fx", self.rearRight_Fx)
+        vref = require_finite("speedTarget", self.speedTarget)
+        R = float(self.pathRadius)
+        if R != R:
+            raise ParameterError("pathRadius", self.pathRadius, "a number (0 or +-inf: straight)")
+        dcmd = require_finite("steeringAngle", self.steering_angle_cmd)
+        gr = require_range("grade", self.grade, -0.25 * math.pi, 0.25 * math.pi)
+        mu = require_nonnegative("mu", self.mu)
+        self._FxL, self._FxR, self._vref, self._dcmd, self._mu = FxL, FxR, vref, dcmd, mu
+        self._kappa = 0.0 if (R == 0.0 or math.isinf(R)) else 1.0 / R
+        self._sin_g, self._cos_g = math.sin(gr), math.cos(gr)
+        self._delta_ff = math.atan(self.params.vehicle.L * self._kappa)
+
+    # ------------------------------------------------------------------ model
+    def _delta(self, vx: float, r: float, I_r: float) -> float:
+        """Steering angle (rad) for the current mode; also sets ``self._e_r`` and ``self._dIr``."""
+        st = self.params.steering
+        dmax = st.delta_max
+        if st.mode == STEER_ANGLE:
+            self._dIr = 0.0
+            return _clamp(self._dcmd, dmax)
+        e = (vx * self._kappa - r) * math.tanh(vx)
+        raw = self._delta_ff + st.K_r * e + I_r
+        if (raw >= dmax and e > 0.0) or (raw <= -dmax and e < 0.0):
+            self._dIr = 0.0
+        else:
+            self._dIr = st.K_ri * e
+        return _clamp(raw, dmax)
+
+    def _rates(self, s) -> list[float]:
+        """Time derivatives of the state list ``s``; stores forces and accelerations as attributes."""
+        p = self.params
+        b = p.vehicle
+        lt = p.lateralTyre
+        vx, vy, r, psi = s[0], s[1], s[2], s[3]
+        af, ar, axf, ayf, Iv, Ir = s[6], s[7], s[8], s[9], s[10], s[11]
+        m, L, lf = b.m, b.L, b.l_f
+        lr = L - lf
+        mu = self._mu
+        delta = self._delta(vx, r, Ir)
+        # axle loads, never negative
+        Wn = m * G * self._cos_g
+        shift = m * axf * b.h_cg / L
+        Fz_f = Wn * lr / L - shift
+        Fz_f = 0.0 if Fz_f < 0.0 else (Wn if Fz_f > Wn else Fz_f)
+        Fz_r = Wn - Fz_f
+        # tyre forces
+        cd, sd = math.cos(delta), math.sin(delta)
+        vfy = vy + lf * r
+        vwx_f = vx * cd + vfy * sd
+        vwy_f = -vx * sd + vfy * cd
+        Fyf = mu * Fz_f * _mf(af, lt.B, lt.C, lt.E)
+        Fxf = -b.f_rr * Fz_f * math.tanh(vwx_f / b.v_rr)
+        FxL, FxR = self._FxL, self._FxR
+        Fxr = FxL + FxR
+        D2 = (mu * Fz_r) ** 2 - Fxr * Fxr
+        Fyr = (math.sqrt(D2) if D2 > 0.0 else 0.0) * _mf(ar, lt.B, lt.C, lt.E)
+        F_aero = -0.5 * b.rho_air * b.CdA * vx * abs(vx)
+        F_grade = -m * G * self._sin_g
+        Fyf_b = Fxf * sd + Fyf * cd
+        FX = Fxf * cd - Fyf * sd + Fxr + F_aero + F_grade
+        FY = Fyf_b + Fyr
+        MZ = lf * Fyf_b - lr * Fyr + 0.5 * b.trackRear * (FxR - FxL)
+        ax = FX / m
+        ay = FY / m
+        axs = ax + G * self._sin_g
+        # speed controller
+        sc = p.speedControl
+        e = self._vref - vx
+        u = sc.Kp * e + Iv
+        dIv = 0.0 if ((u >= sc.driveTorqueMax and e > 0.0) or (u <= sc.driveTorqueMin and e < 0.0)) else sc.Ki * e
+        cpsi, spsi = math.cos(psi), math.sin(psi)
+        inv_sig = 1.0 / lt.sigma
+        inv_tau = 1.0 / b.tau_load
+        # keep what the outputs need
+        self._delta_now, self._Fz_f, self._Fz_r = delta, Fz_f, Fz_r
+        self._ax, self._ay, self._axs, self._Fxr = ax, ay, axs, Fxr
+        self._Fyf, self._Fyr, self._u = Fyf, Fyr, u
+        return [
+            ax + vy * r,
+            ay - vx * r,
+            MZ / b.Iz,
+            r,
+            vx * cpsi - vy * spsi,
+            vx * spsi + vy * cpsi,
+            (-vwy_f - abs(vwx_f) * af) * inv_sig,
+            (-(vy - lr * r) - abs(vx) * ar) * inv_sig,
+            (axs - axf) * inv_tau,
+            (ay - ayf) * inv_tau,
+            dIv,
+            self._dIr,
+        ]
+
+    # ------------------------------------------------------------------ stepping
+    def do_step(self, t: float, h: float) -> None:
+        """Advance from t to t + h with the inputs held (RK4 sub-steps). Raises ParameterError for
+        bad inputs (state unchanged)."""
+        if not self._ready:
+            raise StepError("do_step called before initialize")
+        h = require_positive("communicationStepSize", h)
+        self._load_inputs()
+        p = self.params
+        h_lim = p.vehicle.h_max
+        vx = abs(self.s[0])
+        if vx * h_lim > p.lateralTyre.sigma:
+            h_lim = p.lateralTyre.sigma / vx
+        n = max(1, math.ceil(h / h_lim - 1e-9))
+        hs = h / n
+        amax = p.lateralTyre.alpha_max
+        s = self.s
+        rates = self._rates
+        for _ in range(n):
+            k1 = rates(s)
+            k2 = rates([x + 0.5 * hs * d for x, d in zip(s, k1)])
+            k3 = rates([x + 0.5 * hs * d for x, d in zip(s, k2)])
+            k4 = rates([x + hs * d for x, d in zip(s, k3)])
+            s = [x + hs / 6.0 * (d1 + 2.0 * (d2 + d3) + d4) for x, d1, d2, d3, d4 in zip(s, k1, k2, k3, k4)]
+            s[6] = _clamp(s[6], amax)
+            s[7] = _clamp(s[7], amax)
+        self.s = s
+        self.n_substeps += n
+        self.t = t + h
+        self.n_steps += 1
+        self._update_outputs()
+
+    def _update_outputs(self) -> None:
+        p = self.params
+        b = p.vehicle
+        s = self.s
+        self._rates(s)
+        vx, vy, r = s[0], s[1], s[2]
+        half_t = 0.5 * b.trackRear
+        self.rearLeft_vx = vx - r * half_t
+        self.rearRight_vx = vx + r * half_t
+        Fz_r = self._Fz_r
+        dFz = p.vehicle.rollStiffnessShareRear * b.m * s[9] * b.h_cg / b.trackRear
+        half = 0.5 * Fz_r
+        dFz = half if dFz > half else (-half if dFz < -half else dFz)
+        self.rearLeft_Fz = half - dFz
+        self.rearRight_Fz = half + dFz
+        self.frontAxle_Fz = self._Fz_f
+        self.rearAxle_Fz = Fz_r
+        self.speed = math.hypot(vx, vy)
+        self.yawRate = r
+        self.ax, self.ay = self._ax, self._ay
+        sc = p.speedControl
+        u = self._u
+        self.driveTorque = min(max(u, sc.driveTorqueMin), sc.driveTorqueMax)
+        self.steering_angle = self._delta_now
+        self.Fy_front, self.Fy_rear = self._Fyf, self._Fyr
+
+    # ------------------------------------------------------------------ convenience
+    @property
+    def vx(self) -> float:
+        return self.s[0]
+
+    @property
+    def vy(self) -> float:
+        return self.s[1]
+
+    @property
+    def x(self) -> float:
+        return self.s[4]
+
+    @property
+    def y(self) -> float:
+        return self.s[5]
+
+    @property
+    def psi(self) -> float:
+        return self.s[3]
+
+    @property
+    def kinetic_energy(self) -> float:
+        """Translational + yaw kinetic energy of the body, J."""
+        b = self.params.vehicle
+        vx, vy, r = self.s[0], self.s[1], self.s[2]
+        return 0.5 * b.m * (vx * vx + vy * vy) + 0.5 * b.Iz * r * r
+
+    # ------------------------------------------------------------------ state
+    def get_state(self) -> dict[str, float]:
+        """The full internal state (floats and ints; JSON-serialisable)."""
+        st = {name: v for name, v in zip(_STATE_NAMES, self.s)}
+        st.update(t=self.t, n_steps=self.n_steps, n_substeps=self.n_substeps)
+        for k in _INPUT_KEYS + _OUTPUT_KEYS:
+            st[k] = getattr(self, k)
+        return st
+
+    def set_state(self, state: dict[str, float]) -> None:
+        """Restore a state from :meth:`get_state`; the continuation is then bit-identical."""
+        self.s = [state[name] for name in _STATE_NAMES]
+        self.t, self.n_steps, self.n_substeps = state["t"], state["n_steps"], state["n_substeps"]
+        for k in _INPUT_KEYS + _OUTPUT_KEYS:
+            setattr(self, k, state[k])
+        self._load_inputs()
+        self._ready = True
+
+
+def _clamp(x: float, lim: float) -> float:
+    return lim if x > lim else (-lim if x < -lim else x)
+
+
+__all__ = [
+    "Vehicle", "VehicleParams", "BodyParams", "LateralTyreParams", "SteeringParams", "SpeedControlParams",
+    "STEER_PATH", "STEER_ANGLE", "G",
+]
