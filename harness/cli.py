@@ -57,6 +57,14 @@ def cmd_run(args) -> int:
 
     scene = prepare_scene(args.scene, mesh=args.mesh, step=args.step, duration=args.duration,
                           algorithm=args.algorithm, sets=args.set)
+    if scene.fidelity.get("mode") == "auto":
+        if args.mesh or args.step:
+            print("fidelity auto: overridden by --mesh/--step")
+        else:
+            from harness.accuracy import apply_choice, choose
+            pick, reason = choose(scene)
+            scene = apply_choice(scene, pick)
+            print(reason)
     files = fmu_files_for(scene, build_missing=True)
     result = __import__("harness.master", fromlist=["run_scene"]).run_scene(scene, files, Progress(scene.name))
     out_dir = Path(args.out) if args.out else RESULTS / scene.name
@@ -99,6 +107,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = ap.add_subparsers(dest="command", required=True)
     sub.add_parser("build", help="build the FMUs into build/fmus (same as python build_fmu.py); --force, --dest")
     sub.add_parser("bench", help="measured cost ratios: FMI vs direct, each fidelity vs rigid, real-time factors")
+    sub.add_parser("accuracy", help="accuracy versus wall time over fidelities, steps and tolerances (docs/accuracy.md)")
     p = sub.add_parser("info", help="derived geometry, design checks and the paper's theory table beside ours")
     p.set_defaults(func=cmd_info)
     p = sub.add_parser("scenes", help="list the scenes")
@@ -123,7 +132,7 @@ def main(argv: list[str] | None = None) -> int:
     from spurdiff.errors import ParameterError
 
     argv = list(sys.argv[1:] if argv is None else argv)
-    delegated = {"build": "harness.build", "bench": "harness.bench"}
+    delegated = {"build": "harness.build", "bench": "harness.bench", "accuracy": "harness.accuracy"}
     if argv[:1] and argv[0] in delegated:  # these parse their own options
         import importlib
         try:
