@@ -8,8 +8,10 @@ does not embed Python can load it. A build is skipped when the FMU is newer than
 """
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import importlib.util
+import os
 import shutil
 import subprocess
 import sys
@@ -26,6 +28,8 @@ DEFAULT_DEST = ROOT / "build" / "fmus"
 # FMU name -> (script, default experiment)
 FMUS: dict[str, tuple[str, dict]] = {
     "SpurDifferential": ("SpurDifferential.py", {"startTime": 0.0, "stopTime": 0.3, "stepSize": 1e-3}),
+    "WheelLoad": ("WheelLoad.py", {"startTime": 0.0, "stopTime": 1.0, "stepSize": 1e-3}),
+    "Vehicle": ("Vehicle.py", {"startTime": 0.0, "stopTime": 10.0, "stepSize": 1e-3}),
 }
 
 
@@ -107,8 +111,8 @@ def build_one(name: str, dest: Path = DEFAULT_DEST, quiet: bool = False) -> Path
                                    canGetAndSetFMUstate=True, canSerializeFMUstate=True)
         out = fmu_path(name, dest)
         notes = []
-        with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(out.with_suffix(".fmu.tmp"), "w",
-                                                            zipfile.ZIP_DEFLATED) as zout:
+        part = tmp / f"{name}.fmu"
+        with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as zout:
             for item in zin.infolist():
                 data = zin.read(item.filename)
                 if item.filename == "modelDescription.xml":
@@ -119,8 +123,16 @@ def build_one(name: str, dest: Path = DEFAULT_DEST, quiet: bool = False) -> Path
                     notes.append(_patch_binary(so))
                     data = so.read_bytes()
                 zout.writestr(item, data)
-        out.with_suffix(".fmu.tmp").replace(out)
-    out.with_suffix(".sha256").write_text(source_digest(script) + "\n")
+        with zipfile.ZipFile(part) as z:
+            if not any(n.startswith("binaries/") for n in z.namelist()):
+                raise BuildError(f"{name}: the built archive has no binaries/ (pythonfmu build incomplete)")
+        staged = dest / f".{name}.{os.getpid()}.fmu"
+        shutil.copyfile(part, staged)
+        os.replace(staged, out)  # atomic: a reader sees the old or the new FMU, never half of one
+    stamp = out.with_suffix(".sha256")
+    staged = dest / f".{name}.{os.getpid()}.sha256"
+    staged.write_text(source_digest(script) + "\n")
+    os.replace(staged, stamp)
     if not quiet:
         print(f"built {out}" + (f" ({'; '.join(notes)})" if notes else ""))
     return out
@@ -130,15 +142,20 @@ def build(names: list[str] | None = None, dest: Path = DEFAULT_DEST, force: bool
           quiet: bool = False) -> list[Path]:
     """Build the named FMUs (default: all) unless they are up to date. Returns their paths."""
     paths = []
+    dest = Path(dest)
+    dest.mkdir(parents=True, exist_ok=True)
     for name in names or list(FMUS):
         if name not in FMUS:
             raise BuildError(f"unknown FMU {name!r}: allowed {', '.join(FMUS)}")
-        if not force and is_current(name, dest):
-            if not quiet:
-                print(f"up to date: {fmu_path(name, dest)}")
-            paths.append(fmu_path(name, dest))
-        else:
-            paths.append(build_one(name, dest, quiet=quiet))
+        # one build at a time per FMU across processes (parallel test runs, sweeps)
+        with open(dest / f".{name}.lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            if not force and is_current(name, dest):
+                if not quiet:
+                    print(f"up to date: {fmu_path(name, dest)}")
+                paths.append(fmu_path(name, dest))
+            else:
+                paths.append(build_one(name, dest, quiet=quiet))
     return paths
 
 

@@ -33,11 +33,16 @@ class Progress:
 
     def __init__(self, label: str, delay: float = 2.0):
         self.label, self.delay, self.t0, self.shown = label, delay, time.perf_counter(), False
+        self.enabled = sys.stderr.isatty()
+        self.last = 0.0
 
     def __call__(self, frac: float) -> None:
-        el = time.perf_counter() - self.t0
-        if el < self.delay and frac < 1.0:
+        if not self.enabled:
             return
+        el = time.perf_counter() - self.t0
+        if (el < self.delay or el - self.last < 0.2) and frac < 1.0:
+            return
+        self.last = el
         if frac >= 1.0 and not self.shown:
             return
         self.shown = True
@@ -107,6 +112,8 @@ def build_parser() -> argparse.ArgumentParser:
     sub = ap.add_subparsers(dest="command", required=True)
     sub.add_parser("build", help="build the FMUs into build/fmus (same as python build_fmu.py); --force, --dest")
     sub.add_parser("bench", help="measured cost ratios: FMI vs direct, each fidelity vs rigid, real-time factors")
+    sub.add_parser("check", help="FMI 2.0 compliance checks of any co-simulation FMU, JUnit report (docs/compliance.md)")
+    sub.add_parser("export-ssp", help="write a scene as an SSP file other masters run (docs/interoperability.md)")
     sub.add_parser("accuracy", help="accuracy versus wall time over fidelities, steps and tolerances (docs/accuracy.md)")
     p = sub.add_parser("info", help="derived geometry, design checks and the paper's theory table beside ours")
     p.set_defaults(func=cmd_info)
@@ -132,7 +139,8 @@ def main(argv: list[str] | None = None) -> int:
     from spurdiff.errors import ParameterError
 
     argv = list(sys.argv[1:] if argv is None else argv)
-    delegated = {"build": "harness.build", "bench": "harness.bench", "accuracy": "harness.accuracy"}
+    delegated = {"build": "harness.build", "bench": "harness.bench", "accuracy": "harness.accuracy",
+                 "check": "harness.check.runner", "export-ssp": "harness.ssp"}
     if argv[:1] and argv[0] in delegated:  # these parse their own options
         import importlib
         try:

@@ -19,6 +19,8 @@ from harness.scene import Scene, SceneError
 # FMU name -> interface module (the FMU scripts in fmu_src/ delegate to these)
 INTERFACES = {
     "SpurDifferential": "spurdiff.differential_fmu",
+    "WheelLoad": "spurdiff.wheel_fmu",
+    "Vehicle": "spurdiff.vehicle_fmu",
 }
 
 

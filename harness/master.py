@@ -25,7 +25,6 @@ from typing import Any, Callable
 import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
-from ctypes import byref
 
 from harness.scene import Scene, SceneError
 
@@ -117,11 +116,8 @@ class Instance:
         callbacks.logger = _make_logger(self.messages)
         callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        try:  # fmpy's proxy formats the printf-style message (pythonfmu escapes '%' as '%%')
-            from fmpy.logging import addLoggerProxy
-            addLoggerProxy(byref(callbacks))
-        except Exception:
-            pass
+        # no fmpy logger proxy: it keeps one logger per process, so messages would reach the last
+        # instance created; our own callback per instance reads the message text directly
         self._callbacks = callbacks  # keep the C callbacks alive as long as the instance
         self.slave.instantiate(loggingOn=True, callbacks=callbacks)
 
@@ -159,7 +155,7 @@ def _make_logger(sink: list):
 
     def logger(componentEnvironment, instanceName, status, category, message):
         text = message.decode("utf-8", "replace") if isinstance(message, bytes) else str(message)
-        sink.append((int(status), text))
+        sink.append((int(status), text.replace("%%", "%")))  # pythonfmu escapes '%' (printf format)
     return fmi2CallbackLoggerTYPE(logger)
 
 
@@ -225,29 +221,44 @@ class Master:
                 raise SceneError(f"connections: {frm!r} is a {fvar.causality}, not an output")
             if tvar.unit != fvar.unit:
                 raise SceneError(f"connections: {frm!r} [{fvar.unit}] -> {to!r} [{tvar.unit}]: units differ")
+            if tvar.type != "Real" or fvar.type != "Real":
+                raise SceneError(f"connections: {frm!r} -> {to!r}: only Real variables can be connected")
             self._links[ti][0].append(tvar.valueReference)
-            self._links[ti][1].append((fi, fvar.valueReference))
-        # outputs each instance must publish (connections, recording, couplings)
-        needed: dict[str, set[int]] = {n: set() for n in self.instances}
-        for fi, vr in (s for _, srcs in self._links.values() for s in srcs):
-            needed[fi].add(vr)
-        self._record: list[tuple[str, int]] = []
+            self._links[ti][1].append((fi, ("Real", fvar.valueReference)))
+        # outputs each instance must publish (connections, recording, couplings), keyed by
+        # (type, value reference): value references are unique per type only
+        needed: dict[str, set[tuple[str, int]]] = {n: set() for n in self.instances}
+        for fi, key in (s for _, srcs in self._links.values() for s in srcs):
+            needed[fi].add(key)
+        self._record: list[tuple[str, tuple[str, int]]] = []
         for ref in sc.record:
             i, v = ref.split(".", 1)
-            vr = self.instances[i].var(v).valueReference
-            self._record.append((i, vr))
-            needed[i].add(vr)
+            key = self._key(i, v)
+            self._record.append((i, key))
+            needed[i].add(key)
         self._couplings = []
         for c in sc.couplings:
             refs = []
             for k in ("torque", "w_from", "w_to"):
                 i, v = c[k].split(".", 1)
-                vr = self.instances[i].var(v).valueReference
-                needed[i].add(vr)
-                refs.append((i, vr))
+                key = self._key(i, v)
+                needed[i].add(key)
+                refs.append((i, key))
             self._couplings.append((c["name"], refs, float(c.get("sign", 1.0))))
-        self._out_vrs = {n: sorted(vrs) for n, vrs in needed.items()}
-        self._values: dict[str, dict[int, float]] = {n: {} for n in self.instances}
+        self._out_vrs = {}
+        for n, keys in needed.items():
+            by_type = {}
+            for t in ("Real", "Integer", "Boolean"):
+                vrs = sorted(vr for tt, vr in keys if tt == t)
+                by_type[t] = (vrs, [(t, vr) for vr in vrs])
+            self._out_vrs[n] = by_type
+        self._values: dict[str, dict[tuple[str, int], float]] = {n: {} for n in self.instances}
+
+    def _key(self, inst: str, var: str) -> tuple[str, int]:
+        v = self.instances[inst].var(var)
+        if v.type not in ("Real", "Integer", "Boolean", "Enumeration"):
+            raise SceneError(f"{inst}.{var} is a {v.type}: only numeric variables can be recorded")
+        return ("Integer" if v.type == "Enumeration" else v.type, v.valueReference)
 
     def _apply_profiles(self, t: float) -> None:
         for name, profs in getattr(self, "_profiles", {}).items():
@@ -259,18 +270,24 @@ class Master:
         if not links or not links[0]:
             return
         vals = []
-        for src, vr in links[1]:
+        for src, key in links[1]:
             d = self._values[src]
-            if vr not in d:
-                d[vr] = self.instances[src].slave.getReal([vr])[0]
-            vals.append(d[vr])
+            if key not in d:
+                d[key] = self.instances[src].slave.getReal([key[1]])[0]
+            vals.append(d[key])
         self.instances[name].slave.setReal(links[0], vals)
 
     def _read_outputs(self, name: str) -> None:
-        vrs = self._out_vrs[name]
+        by_type = self._out_vrs[name]
+        slave = self.instances[name].slave
+        d = self._values[name]
+        vrs, keys = by_type["Real"]
         if vrs:
-            vals = self.instances[name].slave.getReal(vrs)
-            self._values[name].update(zip(vrs, vals))
+            d.update(zip(keys, slave.getReal(vrs)))
+        for t, getter in (("Integer", slave.getInteger), ("Boolean", slave.getBoolean)):
+            vrs, keys = by_type[t]
+            if vrs:
+                d.update(zip(keys, (float(x) for x in getter(vrs))))
 
     # ------------------------------------------------------------------ run
     def run(self) -> Result:

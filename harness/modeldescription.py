@@ -36,6 +36,8 @@ UNITS: dict[str, tuple[dict[str, int], dict[str, tuple[float, float]]]] = {
     "kg.m2": ({"kg": 1, "m": 2}, {"kg.mm2": (1e6, 0.0)}),
     "kg/m3": ({"kg": 1, "m": -3}, {"kg/mm3": (1e-9, 0.0)}),
     "m2": ({"m": 2}, {}),
+    "N.m.s/m": ({"kg": 1, "m": 1, "s": -1}, {}),
+    "N.m/m": ({"kg": 1, "m": 1, "s": -2}, {}),
 }
 
 

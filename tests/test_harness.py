@@ -94,3 +94,13 @@ def test_table_and_checks_accept_expressions(fmu_files):
     r = run_scene(scene, fmu_files)
     assert [o.passed for o in evaluate_checks(r)] == [True]
     assert stat(r, "{diff.right.w} - {diff.left.w}", "final") > 0.0
+
+
+def test_integer_outputs_can_be_recorded(fmu_files):
+    from harness.master import run_scene
+    from harness.runner import prepare_scene
+
+    s = prepare_scene("paper-cornering", duration=0.02)
+    s.record += ["diff.modeSwitches", "diff.internalSteps"]
+    r = run_scene(s, fmu_files)
+    assert r.ok and r["diff.internalSteps"][-1] == 20 and r["diff.modeSwitches"][-1] >= 0

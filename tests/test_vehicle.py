@@ -243,7 +243,7 @@ def test_bad_parameters_are_named(group, field, value, name):
 @pytest.mark.parametrize("attr,value,name", [
     ("rearLeft_Fx", math.nan, "rearLeft.Fx"), ("rearRight_Fx", math.inf, "rearRight.Fx"),
     ("speedTarget", math.nan, "speedTarget"), ("pathRadius", math.nan, "pathRadius"),
-    ("grade", 2.0, "grade"), ("mu", -1.0, "mu"),
+    ("grade", 2.0, "grade"), ("mu", -1.0, "mu"), ("steering_angle_cmd", math.nan, "steeringAngleCommand"),
 ])
 def test_bad_inputs_are_named_and_leave_the_state_unchanged(attr, value, name):
     v = Vehicle(params(vehicle__vx_start=5.0))

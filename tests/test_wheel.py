@@ -121,6 +121,27 @@ def test_driven_wheel_reaches_the_steady_slip_of_the_magic_formula_inverse():
     assert m.wheel_w == pytest.approx(v * (1.0 + k_expected) / R, rel=1e-9)
 
 
+def test_first_step_takes_the_angle_reference_from_its_input():
+    """A Gauss-Seidel master that steps the differential first hands the wheel the flange angle at
+    the end of each step, w h ahead of the angle at initialization: the first step must not twist
+    the shaft by w h (a torque pulse c w h), later angle corrections must still act."""
+    v, w, h = 10.0, 31.0, 2e-4
+    jacobi = make(Fz=3000.0, vx=v, w_flange=w)        # angle input = angle at the step start
+    seidel = make(Fz=3000.0, vx=v, w_flange=w)        # angle input = angle at the step end
+    for k in range(20):
+        jacobi.flange_phi, seidel.flange_phi = w * k * h, w * (k + 1) * h
+        jacobi.do_step(k * h, h)
+        seidel.do_step(k * h, h)
+        assert seidel.shaft_tau == pytest.approx(jacobi.shaft_tau, rel=1e-9, abs=1e-9)   # not + c w h = 50 N m
+    # after the first step an angle step is followed: the shaft twists by it
+    jacobi.flange_phi, seidel.flange_phi = w * 20 * h, w * 21 * h + 1e-3
+    jacobi.do_step(20 * h, h)
+    seidel.do_step(20 * h, h)
+    c = seidel.params.halfShaft.c
+    assert seidel.shaft_tau - jacobi.shaft_tau == pytest.approx(c * 1e-3, rel=0.05)
+    assert abs(seidel.energy_residual) <= 1e-9 * max(1.0, abs(seidel.work_flange))
+
+
 @pytest.mark.parametrize("h", [1e-3, 1e-2])
 def test_power_balance_closes(h):
     """Shaft work in = work to the vehicle + dKE + dPE + dissipated, over a run with varying inputs

@@ -17,7 +17,8 @@ What pythonfmu 0.7 cannot do, and how the adapter copes:
   reports as fmi2Discard. ``exitInitializationMode`` itself cannot return an error status, so an
   invalid parameter set is reported by the logger there and every later doStep is refused.
 * The FMI state machine is tracked: doStep before initialization, or after a failed
-  initialization, is refused (fmi2Discard).
+  initialization, is refused (fmi2Discard); setting a fixed parameter after initialization is
+  refused by raising, which pythonfmu reports as fmi2Fatal (the only refusal a setter has).
 * get/set FMU state carries the whole model state (including integrator memory), not only the
   registered variables.
 """
@@ -87,8 +88,13 @@ class ModelFmu(Fmi2Slave):
 
     def _setter(self, name: str) -> Callable[[Any], None]:
         values = self.values
+        fixed = next(v for v in self.VARIABLES if v.name == name).fmi_variability == "fixed"
 
         def set_value(x):
+            if fixed and self.phase not in ("instantiated", "initializing"):
+                # FMI 2.0 forbids it; raising is the only refusal pythonfmu 0.7 offers (fmi2Fatal)
+                raise RuntimeError(f"{name} is a fixed parameter: it cannot be set after initialization "
+                                   f"(state '{self.phase}'); use fmi2Reset first")
             values[name] = x
         return set_value
 

@@ -64,10 +64,10 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import ParameterError, require_finite, require_nonnegative, require_positive, require_range
+from .datafile import read_data, section
+from .errors import ParameterError, StepError, require_finite, require_nonnegative, require_positive, require_range
 from .tyre import magic_formula as _mf
 from .tyre import slip_for_force_ratio, validate_shape
-from .wheel import StepError, read_data, section
 
 G = 9.80665  # standard gravity, m/s^2
 
@@ -322,7 +322,7 @@ class Vehicle:
         R = float(self.pathRadius)
         if R != R:
             raise ParameterError("pathRadius", self.pathRadius, "a number (0 or +-inf: straight)")
-        dcmd = require_finite("steeringAngle", self.steering_angle_cmd)
+        dcmd = require_finite("steeringAngleCommand", self.steering_angle_cmd)
         gr = require_range("grade", self.grade, -0.25 * math.pi, 0.25 * math.pi)
         mu = require_nonnegative("mu", self.mu)
         self._FxL, self._FxR, self._vref, self._dcmd, self._mu = FxL, FxR, vref, dcmd, mu

@@ -20,7 +20,12 @@ Inputs are held over a communication step (zero-order hold); the flange angle is
 the start of each step by the difference between the flange angle input and the angle this
 model extrapolated to at the end of the previous step, so the twist follows the differential's
 actual angle and does not drift; the correction's change of spring energy is booked as work done
-at the flange. Only the twist is a state (absolute angles grow without bound).
+at the flange. Only the twist is a state (absolute angles grow without bound). The angle
+reference is taken from the flange angle input of the first step (the twist then is
+``phi_rel_start``): a Gauss-Seidel master that steps the differential first hands this model the
+angle at the end of the first step, ``w h`` ahead of the angle at initialization, which would
+otherwise twist the shaft by ``w h`` at once (a torque pulse ``c w h``: 47 N m at 30 rad/s and
+h = 0.2 ms) instead of only shifting the wheel's angle.
 
 Integration: implicit midpoint rule, sub-stepped to ``h_max`` (default 1 ms). Why:
 
@@ -41,12 +46,11 @@ a small part of it is elastic (tread deflection) and comes back; over a run it i
 from __future__ import annotations
 
 import math
-import tomllib
-from dataclasses import dataclass, field, fields
-from importlib import resources
+from dataclasses import dataclass, field
 from pathlib import Path
 
-from .errors import ParameterError, require_finite, require_nonnegative, require_positive
+from .datafile import read_data, section
+from .errors import ParameterError, StepError, require_finite, require_nonnegative, require_positive
 from .tyre import TyreParams
 from .tyre import magic_formula as _mf
 
@@ -57,28 +61,6 @@ _STATE_KEYS = (
     "flange_phi", "flange_w", "Fz", "mu", "vx",
     "flange_tau", "Fx", "wheel_w", "slip", "shaft_tau", "shaft_power",
 )
-
-
-class StepError(RuntimeError):
-    """A communication step the model could not complete."""
-
-
-def read_data(path: str | Path | None = None) -> dict:
-    """The default-parameter TOML (``spurdiff/data/passenger_car.toml``) or ``path`` as a dict."""
-    if path is None:
-        return tomllib.loads(resources.files("spurdiff.data").joinpath("passenger_car.toml").read_text())
-    return tomllib.loads(Path(path).read_text())
-
-
-def section(cls, data: dict, name: str):
-    """Build dataclass ``cls`` from ``data[name]``; unknown keys raise ParameterError."""
-    values = dict(data.get(name, {}))
-    known = {f.name for f in fields(cls)}
-    for key in values:
-        if key not in known:
-            raise ParameterError(f"{name}.{key}", values[key], "one of " + ", ".join(sorted(known)),
-                                 "unknown parameter")
-    return cls(**values)
 
 
 @dataclass
@@ -221,7 +203,7 @@ class WheelLoad:
         phi_in, w_in, Fz, mu, v = self._inputs()
         p = self.params
         c = p.halfShaft.c
-        if p.followFlangeAngle:
+        if p.followFlangeAngle and self.n_steps > 0:
             dphi = phi_in - self.phi_ref
             if dphi != 0.0:
                 th0 = self.theta
@@ -343,4 +325,4 @@ class WheelLoad:
         self._ready = True
 
 
-__all__ = ["WheelLoad", "WheelLoadParams", "HalfShaftParams", "WheelParams", "StepError", "read_data", "section"]
+__all__ = ["WheelLoad", "WheelLoadParams", "HalfShaftParams", "WheelParams"]

@@ -1,0 +1,161 @@
+"""FMI interface of Vehicle.fmu: the variable list and its mapping onto :mod:`spurdiff.vehicle`.
+
+Kept free of pythonfmu so the build step, the direct runner and the tests can read it. A planar
+rear-wheel-drive car: the rear tyre forces come in from the two WheelLoad FMUs, the wheel-centre
+speeds and wheel loads go out to them, and ``driveTorque`` (the axle torque the speed controller
+asks for, at the differential carrier) goes to the differential's ``carrier.tau``.
+
+Parameter start values are read from the bundled data file ``spurdiff/data/passenger_car.toml``
+(sections ``[vehicle]``, ``[lateralTyre]``, ``[steering]``, ``[speedControl]``; ``vehicle.R_wheel``
+defaults to ``[wheel] R``); ``build_model`` reads that file again inside the FMU and overrides it
+with the FMI values.
+"""
+from __future__ import annotations
+
+from .datafile import read_data
+from .fmi_vars import Var
+from .vehicle import Vehicle, VehicleParams
+
+_DATA = read_data()                             # the bundled TOML data
+_D = VehicleParams.from_data(_DATA)
+ROAD_MU = float(_DATA.get("road", {}).get("mu", 1.0))   # start value of the mu input
+
+# parameter name -> (group attribute of VehicleParams, field)
+_PARAM_FIELDS: dict[str, tuple[str, str]] = {}
+
+
+def _p(group: str, field: str, description: str, unit: str | None, display: str | None = None,
+       kind: str = "Real") -> Var:
+    name = f"{group}.{field}"
+    _PARAM_FIELDS[name] = (group, field)
+    start = getattr(getattr(_D, group), field)
+    start = int(start) if kind == "Integer" else float(start)
+    return Var(name, "parameter", description, unit, display, start, kind=kind)
+
+
+VARIABLES: list[Var] = [
+    # --- inputs
+    Var("rearLeft.Fx", "input", "Longitudinal tyre force of the rear left wheel on the body (its WheelLoad Fx)",
+        "N", None, 0.0),
+    Var("rearRight.Fx", "input", "Longitudinal tyre force of the rear right wheel on the body (its WheelLoad Fx)",
+        "N", None, 0.0),
+    Var("speedTarget", "input", "Target of the speed controller (longitudinal speed v_x)", "m/s", "km/h", 0.0),
+    Var("pathRadius", "input", "Path radius the steering controller follows (steering.mode = 0); "
+        "positive: left turn; 0: straight", "m", None, 0.0),
+    Var("steeringAngleCommand", "input", "Road-wheel steering angle command (steering.mode = 1), positive left",
+        "rad", "deg", 0.0),
+    Var("grade", "input", "Road grade angle, uphill positive (|grade| <= pi/4)", "rad", "deg", 0.0),
+    Var("mu", "input", "Road friction coefficient for the lateral tyres (>= 0)", "1", None, ROAD_MU),
+    # --- outputs (values at the end of the last step; no direct feedthrough)
+    Var("rearLeft.vx", "output", "Velocity of the rear left wheel centre along the wheel (v_x - r t_r / 2)",
+        "m/s", "km/h"),
+    Var("rearRight.vx", "output", "Velocity of the rear right wheel centre along the wheel (v_x + r t_r / 2)",
+        "m/s", "km/h"),
+    Var("rearLeft.Fz", "output", "Normal load of the rear left wheel (>= 0)", "N"),
+    Var("rearRight.Fz", "output", "Normal load of the rear right wheel (>= 0)", "N"),
+    Var("frontAxle.Fz", "output", "Normal load of the front axle", "N"),
+    Var("rearAxle.Fz", "output", "Normal load of the rear axle", "N"),
+    Var("frontAxle.Fy", "output", "Side force of the front axle in its wheel frame", "N"),
+    Var("rearAxle.Fy", "output", "Side force of the rear axle", "N"),
+    Var("speed", "output", "Magnitude of the centre-of-gravity velocity", "m/s", "km/h"),
+    Var("vx", "output", "Longitudinal velocity of the body (body frame, also that of the rear axle centre)",
+        "m/s", "km/h"),
+    Var("vy", "output", "Lateral velocity of the centre of gravity (body frame, positive left)", "m/s", "km/h"),
+    Var("yawRate", "output", "Yaw rate, positive to the left", "rad/s", "deg/s"),
+    Var("ax", "output", "Longitudinal acceleration of the centre of gravity (body frame)", "m/s2"),
+    Var("ay", "output", "Lateral acceleration of the centre of gravity (body frame, positive left)", "m/s2"),
+    Var("driveTorque", "output", "Axle drive torque the speed controller demands, at the differential carrier",
+        "N.m", "N.mm"),
+    Var("x", "output", "Position of the centre of gravity, ground x", "m"),
+    Var("y", "output", "Position of the centre of gravity, ground y", "m"),
+    Var("psi", "output", "Heading (yaw angle)", "rad", "deg"),
+    Var("steeringAngle", "output", "Road-wheel steering angle applied (positive left)", "rad", "deg"),
+    Var("kineticEnergy", "output", "Translational and yaw kinetic energy of the body", "J", "kJ"),
+    Var("internalSteps", "output", "Number of internal (Runge-Kutta) sub-steps since the start",
+        None, None, 0, kind="Integer"),
+    # --- parameters (start values: spurdiff/data/passenger_car.toml)
+    _p("vehicle", "m", "Vehicle mass", "kg"),
+    _p("vehicle", "Iz", "Yaw moment of inertia", "kg.m2"),
+    _p("vehicle", "L", "Wheelbase", "m", "mm"),
+    _p("vehicle", "l_f", "Distance from the centre of gravity to the front axle (0 < l_f < L)", "m", "mm"),
+    _p("vehicle", "trackFront", "Front track width", "m", "mm"),
+    _p("vehicle", "trackRear", "Rear track width", "m", "mm"),
+    _p("vehicle", "h_cg", "Height of the centre of gravity", "m", "mm"),
+    _p("vehicle", "CdA", "Drag area Cd A", "m2"),
+    _p("vehicle", "rho_air", "Air density", "kg/m3"),
+    _p("vehicle", "f_rr", "Rolling-resistance coefficient of the undriven front tyres", "1"),
+    _p("vehicle", "v_rr", "Speed below which the front rolling resistance fades to zero (tanh)", "m/s", "km/h"),
+    _p("vehicle", "rollStiffnessShareRear", "Share of the total roll stiffness on the rear axle (0..1)", "1"),
+    _p("vehicle", "tau_load", "Time constant of the load transfer following the accelerations", "s", "ms"),
+    _p("vehicle", "vx_start", "Longitudinal speed at the start (with pathRadius: the steady turn at this speed)",
+       "m/s", "km/h"),
+    _p("vehicle", "h_max", "Largest internal step of the Runge-Kutta integrator", "s", "ms"),
+    _p("vehicle", "R_wheel", "Rear rolling radius (only to start the speed controller at the holding torque)",
+       "m", "mm"),
+    _p("lateralTyre", "B", "Axle lateral Magic Formula stiffness factor", "1"),
+    _p("lateralTyre", "C", "Axle lateral Magic Formula shape factor (0 < C <= 2)", "1"),
+    _p("lateralTyre", "E", "Axle lateral Magic Formula curvature factor (<= 1)", "1"),
+    _p("lateralTyre", "sigma", "Lateral relaxation length", "m", "mm"),
+    _p("lateralTyre", "alpha_max", "Largest |slip angle| state", "rad", "deg"),
+    _p("steering", "mode", "0: follow pathRadius (feed-forward + yaw-rate PI); 1: use steeringAngleCommand",
+       None, kind="Integer"),
+    _p("steering", "K_r", "Yaw-rate feedback, proportional gain (rad of steering per rad/s of yaw-rate error)", "s"),
+    _p("steering", "K_ri", "Yaw-rate feedback, integral gain (rad of steering per rad of integrated yaw error)", "1"),
+    _p("steering", "delta_max", "Largest road-wheel steering angle", "rad", "deg"),
+    _p("speedControl", "Kp", "Speed controller proportional gain (axle torque per speed error)", "N.m.s/m"),
+    _p("speedControl", "Ki", "Speed controller integral gain (axle torque per integrated speed error)", "N.m/m"),
+    _p("speedControl", "driveTorqueMax", "Largest axle drive torque (> 0)", "N.m", "N.mm"),
+    _p("speedControl", "driveTorqueMin", "Most negative axle torque, engine braking (<= 0)", "N.m", "N.mm"),
+]
+
+
+def vehicle_params(values: dict) -> VehicleParams:
+    """VehicleParams from the bundled data file, overridden by the FMI parameter values."""
+    p = VehicleParams.defaults()   # reads spurdiff/data/passenger_car.toml (inside the FMU too)
+    for name, (group, field) in _PARAM_FIELDS.items():
+        value = values[name]
+        value = int(value) if field == "mode" else float(value)
+        setattr(getattr(p, group), field, value)
+    return p
+
+
+def build_model(values: dict) -> Vehicle:
+    """Build and initialize the vehicle model from FMI variable values (ParameterError if invalid)."""
+    model = Vehicle(vehicle_params(values))
+    push_inputs(model, values)
+    model.initialize(0.0)
+    return model
+
+
+def push_inputs(model: Vehicle, values: dict) -> None:
+    model.rearLeft_Fx = values["rearLeft.Fx"]
+    model.rearRight_Fx = values["rearRight.Fx"]
+    model.speedTarget = values["speedTarget"]
+    model.pathRadius = values["pathRadius"]
+    model.steering_angle_cmd = values["steeringAngleCommand"]
+    model.grade = values["grade"]
+    model.mu = values["mu"]
+
+
+def pull_outputs(model: Vehicle, values: dict) -> None:
+    values["rearLeft.vx"] = model.rearLeft_vx
+    values["rearRight.vx"] = model.rearRight_vx
+    values["rearLeft.Fz"] = model.rearLeft_Fz
+    values["rearRight.Fz"] = model.rearRight_Fz
+    values["frontAxle.Fz"] = model.frontAxle_Fz
+    values["rearAxle.Fz"] = model.rearAxle_Fz
+    values["frontAxle.Fy"] = model.Fy_front
+    values["rearAxle.Fy"] = model.Fy_rear
+    values["speed"] = model.speed
+    values["vx"] = model.vx
+    values["vy"] = model.vy
+    values["yawRate"] = model.yawRate
+    values["ax"] = model.ax
+    values["ay"] = model.ay
+    values["driveTorque"] = model.driveTorque
+    values["x"] = model.x
+    values["y"] = model.y
+    values["psi"] = model.psi
+    values["steeringAngle"] = model.steering_angle
+    values["kineticEnergy"] = model.kinetic_energy
+    values["internalSteps"] = int(model.n_substeps)

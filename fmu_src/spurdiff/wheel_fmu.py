@@ -1,0 +1,158 @@
+"""FMI interface of WheelLoad.fmu: the variable list and its mapping onto :mod:`spurdiff.wheel`.
+
+Kept free of pythonfmu so the build step, the direct runner and the tests can read it. One
+instance per driven wheel: compliant half-shaft, wheel inertia and transient-slip longitudinal
+tyre. Causality: the differential's flange angle and speed in, the torque on that flange out
+(Modelica sign: connect ``flange.tau`` to the differential's ``left.tau`` / ``right.tau``); the
+vehicle's wheel-centre speed and wheel load in, the tyre force out.
+
+Parameter start values are read from the bundled data file ``spurdiff/data/passenger_car.toml``
+(sections ``[halfShaft]``, ``[wheel]``, ``[tyre]``, ``[wheelLoad]``), so the modelDescription.xml
+shows the sourced defaults. ``build_model`` reads that file again inside the FMU and overrides it
+with the FMI values. The data file's "NaN = automatic" start values become a Boolean switch plus a
+number in FMI (``wheel.w_startFromFlange`` / ``wheel.w_start``, ``tyre.k_startSteady`` /
+``tyre.k_start``), since FMI start values must be finite.
+"""
+from __future__ import annotations
+
+import math
+
+from .datafile import read_data
+from .fmi_vars import Var
+from .wheel import WheelLoad, WheelLoadParams
+
+_DATA = read_data()                            # the bundled TOML data
+_D = WheelLoadParams.from_data(_DATA)
+ROAD_MU = float(_DATA.get("road", {}).get("mu", 1.0))   # start value of the mu input
+
+
+def _num(x: float) -> float:
+    return 0.0 if math.isnan(x) else float(x)
+
+
+# parameter name -> (group attribute of WheelLoadParams or None, field)
+_PARAM_FIELDS: dict[str, tuple[str | None, str]] = {}
+
+
+def _p(group: str | None, field: str, description: str, unit: str | None, display: str | None = None,
+       kind: str = "Real") -> Var:
+    obj = getattr(_D, group) if group else _D
+    name = f"{group or 'wheelLoad'}.{field}"
+    _PARAM_FIELDS[name] = (group, field)
+    start = getattr(obj, field)
+    start = bool(start) if kind == "Boolean" else _num(start)
+    return Var(name, "parameter", description, unit, display, start, kind=kind)
+
+
+VARIABLES: list[Var] = [
+    # --- inputs
+    Var("flange.phi", "input", "Angle of the differential's sun flange driving this half-shaft (its left.phi / right.phi)",
+        "rad", "deg", 0.0),
+    Var("flange.w", "input", "Speed of the differential's sun flange driving this half-shaft (its left.w / right.w)",
+        "rad/s", "rpm", 0.0),
+    Var("Fz", "input", "Normal load on the wheel (negative is treated as 0: a lifted wheel)", "N", None, 0.0),
+    Var("mu", "input", "Road friction coefficient (>= 0)", "1", None, ROAD_MU),
+    Var("vx", "input", "Longitudinal velocity of the wheel centre along the wheel heading", "m/s", "km/h", 0.0),
+    # --- outputs (values at the end of the last step; no direct feedthrough)
+    Var("flange.tau", "output",
+        "Torque of the half-shaft on the differential's flange, Modelica sign (negative while driving): "
+        "connect to the differential's left.tau / right.tau", "N.m", "N.mm"),
+    Var("Fx", "output", "Longitudinal tyre force on the vehicle (positive forward)", "N"),
+    Var("wheel.w", "output", "Wheel spin speed", "rad/s", "rpm"),
+    Var("slip", "output", "Transient longitudinal slip ratio k (steady state: (R w - vx) / |vx|)", "1", "%"),
+    Var("shaft.tau", "output", "Half-shaft torque on the wheel, c theta + d (flange.w - wheel.w)", "N.m", "N.mm"),
+    Var("shaft.power", "output", "Power the differential's flange delivers into the half-shaft (shaft.tau * flange.w)",
+        "W", "kW"),
+    Var("shaft.phi_rel", "output", "Half-shaft twist theta = flange angle - wheel angle", "rad", "deg"),
+    Var("workFlange", "output", "Work done on this model at the flange since the start", "J", "kJ"),
+    Var("workRoad", "output", "Work delivered to the vehicle, integral of Fx vx, since the start", "J", "kJ"),
+    Var("lossDamping", "output", "Energy dissipated by the half-shaft damping since the start", "J", "kJ"),
+    Var("lossSlip", "output", "Energy dissipated by tyre slip, integral of Fx (R w - vx), since the start", "J", "kJ"),
+    Var("lossRolling", "output", "Energy dissipated by rolling resistance since the start", "J", "kJ"),
+    Var("energyLoss", "output", "Total energy dissipated since the start (damping + slip + rolling)", "J", "kJ"),
+    Var("kineticEnergy", "output", "Spin kinetic energy of the wheel", "J", "kJ"),
+    Var("potentialEnergy", "output", "Elastic energy of the half-shaft twist", "J", "kJ"),
+    Var("energyResidual", "output",
+        "Energy balance workFlange - workRoad - (change of kinetic + potential energy) - energyLoss (rounding level)",
+        "J"),
+    Var("internalSteps", "output", "Number of internal (implicit midpoint) sub-steps since the start",
+        None, None, 0, kind="Integer"),
+    # --- parameters (start values: spurdiff/data/passenger_car.toml)
+    _p("halfShaft", "c", "Torsional stiffness of the half-shaft", "N.m/rad"),
+    _p("halfShaft", "d", "Torsional damping of the half-shaft", "N.m.s/rad"),
+    _p("halfShaft", "phi_rel_start", "Half-shaft twist at the start", "rad", "deg"),
+    _p("wheel", "J", "Spin inertia of wheel and tyre", "kg.m2"),
+    _p("wheel", "R", "Rolling radius", "m", "mm"),
+    Var("wheel.w_startFromFlange", "parameter",
+        "true: the wheel starts at the flange speed (wheel.w_start ignored); false: at wheel.w_start",
+        None, None, bool(math.isnan(_D.wheel.w_start)), kind="Boolean"),
+    _p("wheel", "w_start", "Wheel speed at the start (used when wheel.w_startFromFlange = false)", "rad/s", "rpm"),
+    _p("tyre", "B", "Magic Formula stiffness factor", "1"),
+    _p("tyre", "C", "Magic Formula shape factor (0 < C <= 2)", "1"),
+    _p("tyre", "E", "Magic Formula curvature factor (<= 1)", "1"),
+    _p("tyre", "sigma", "Longitudinal relaxation length of the tyre", "m", "mm"),
+    _p("tyre", "f_rr", "Rolling-resistance coefficient", "1"),
+    _p("tyre", "w_eps", "Wheel speed below which rolling resistance fades to zero (tanh)", "rad/s", "rpm"),
+    _p("tyre", "k_max", "Largest |transient slip|", "1"),
+    Var("tyre.k_startSteady", "parameter",
+        "true: the slip starts at the steady value for the start speeds (tyre.k_start ignored); false: at tyre.k_start",
+        None, None, bool(math.isnan(_D.tyre.k_start)), kind="Boolean"),
+    _p("tyre", "k_start", "Slip at the start (used when tyre.k_startSteady = false)", "1"),
+    _p(None, "h_max", "Largest internal step of the implicit-midpoint integrator", "s", "ms"),
+    _p(None, "followFlangeAngle",
+       "true: the half-shaft twist follows the flange angle input (no drift); false: integrate flange.w only",
+       None, None, kind="Boolean"),
+]
+
+
+def wheel_params(values: dict) -> WheelLoadParams:
+    """WheelLoadParams from the bundled data file, overridden by the FMI parameter values."""
+    p = WheelLoadParams.defaults()   # reads spurdiff/data/passenger_car.toml (inside the FMU too)
+    for name, (group, field) in _PARAM_FIELDS.items():
+        value = values[name]
+        if field == "followFlangeAngle":
+            value = 1 if value else 0
+        else:
+            value = float(value)
+        setattr(getattr(p, group) if group else p, field, value)
+    if values["wheel.w_startFromFlange"]:
+        p.wheel.w_start = math.nan
+    if values["tyre.k_startSteady"]:
+        p.tyre.k_start = math.nan
+    return p
+
+
+def build_model(values: dict) -> WheelLoad:
+    """Build and initialize the wheel-load model from FMI variable values (ParameterError if invalid)."""
+    model = WheelLoad(wheel_params(values))
+    push_inputs(model, values)
+    model.initialize(0.0)
+    return model
+
+
+def push_inputs(model: WheelLoad, values: dict) -> None:
+    model.flange_phi = values["flange.phi"]
+    model.flange_w = values["flange.w"]
+    model.Fz = values["Fz"]
+    model.mu = values["mu"]
+    model.vx = values["vx"]
+
+
+def pull_outputs(model: WheelLoad, values: dict) -> None:
+    values["flange.tau"] = model.flange_tau
+    values["Fx"] = model.Fx
+    values["wheel.w"] = model.wheel_w
+    values["slip"] = model.slip
+    values["shaft.tau"] = model.shaft_tau
+    values["shaft.power"] = model.shaft_power
+    values["shaft.phi_rel"] = model.theta
+    values["workFlange"] = model.work_flange
+    values["workRoad"] = model.work_road
+    values["lossDamping"] = model.loss_damping
+    values["lossSlip"] = model.loss_slip
+    values["lossRolling"] = model.loss_rolling
+    values["energyLoss"] = model.energy_dissipated
+    values["kineticEnergy"] = model.kinetic_energy
+    values["potentialEnergy"] = model.potential_energy
+    values["energyResidual"] = model.energy_residual
+    values["internalSteps"] = int(model.n_substeps)

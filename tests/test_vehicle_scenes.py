@@ -1,0 +1,155 @@
+"""The vehicle scenes (car + differential + two wheels, through FMI), in shorter runs: the physics
+each scene is about, checked from the recorded trajectories."""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from harness.master import run_scene
+from harness.report import evaluate_checks, series, stat
+from harness.runner import prepare_scene
+
+SCENES = ["vehicle-cornering", "split-mu-launch", "tip-in-tip-out", "standstill-launch", "wheel-lift"]
+TBR = "(1 + {diff.lockingCoefficient}) / (1 - {diff.lockingCoefficient})"
+
+
+def run(fmu_files, name, duration, **kw):
+    scene = prepare_scene(name, duration=duration, **kw)
+    result = run_scene(scene, fmu_files)
+    assert result.ok, result.failure
+    assert np.all(np.isfinite(result.data)), "NaN or inf recorded"
+    return result
+
+
+def checks_within(result, t_end):
+    """The scene's own checks whose windows lie inside the shortened run (all must pass)."""
+    out = [o for c, o in zip(result.scene.checks, evaluate_checks(result))
+           if c["stat"] != "final" and (not c.get("window") or c["window"][1] <= t_end + 1e-9)]
+    assert out
+    return out
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_scene_is_well_formed(name):
+    scene = prepare_scene(name)
+    assert scene.description and scene.effects == {"meshModel": "rigid"}
+    assert {i.fmu for i in scene.instances} == {"Vehicle", "SpurDifferential", "WheelLoad"}
+    assert scene.instance("diff").parameters["carrierDrive"] == "torque"
+    assert scene.connections["diff.carrier.tau"] == "car.driveTorque"
+    bonds = {(c["torque"], c["w_from"], c["w_to"]) for c in scene.couplings}
+    assert bonds == {("wheelL.shaft.tau", "diff.left.w", "wheelL.wheel.w"),
+                     ("wheelR.shaft.tau", "diff.right.w", "wheelR.wheel.w")}
+    assert scene.checks and scene.table
+    text = scene.source.read_text()
+    assert "Communication step" in text          # the step is explained in the file
+
+
+def test_vehicle_cornering(fmu_files):
+    r = run(fmu_files, "vehicle-cornering", 1.6)
+    w = [1.0, 1.6]
+    # the car is in its steady turn from the start (consistent start values)
+    assert stat(r, "car.vx", "span", [0.0, 1.6]) < 0.01
+    assert stat(r, "car.yawRate", "mean", w) == pytest.approx(0.5, rel=5e-3)
+    # outer / inner wheel speed: the kinematic ratio (R + t/2) / (R - t/2) less a little tyre slip
+    ratio = stat(r, "{wheelR.wheel.w} / {wheelL.wheel.w}", "mean", w)
+    assert ratio == pytest.approx(20.8 / 19.2, rel=5e-3)
+    assert ratio < 20.8 / 19.2                   # the inner wheel slips more (more torque, less load)
+    # w_A + w_B = 2 w_c, and the carrier turns at the mean wheel speed
+    assert stat(r, "{diff.left.w} + {diff.right.w} - 2 * {diff.carrier.w}", "absmax") < 1e-9
+    assert stat(r, "diff.carrier.w", "mean", w) == pytest.approx(
+        stat(r, "({wheelL.wheel.w} + {wheelR.wheel.w}) / 2", "mean", w), rel=1e-4)
+    # the slower (inner) wheel gets the larger torque; the difference is K T0 (slipping at capacity)
+    assert stat(r, "{wheelL.shaft.tau} - {wheelR.shaft.tau}", "min", w) > 0.0
+    assert stat(r, "{wheelL.shaft.tau} - {wheelR.shaft.tau} - {diff.lockingCapacity}", "max", w) < 0.01
+    assert stat(r, "{wheelL.shaft.tau} / {wheelR.shaft.tau}", "mean", w) == pytest.approx(
+        stat(r, TBR, "mean", w), rel=1e-3)
+    assert stat(r, "diff.lockingTorque", "mean", w) == pytest.approx(
+        stat(r, "{diff.lockingCoefficient} * {car.driveTorque}", "mean", w), rel=1e-2)
+    # power balance of both half-shaft couplings over the whole run
+    for name, e in r.coupling_energy.items():
+        assert e["work_from"] > 1000.0, name
+        assert abs(e["work_from"] - e["work_to"]) <= 1e-4 * e["work_from"], name
+    assert all(o.passed for o in checks_within(r, 1.6)), [o for o in checks_within(r, 1.6) if not o.passed]
+
+
+def test_vehicle_cornering_step_above_the_stability_limit_diverges(fmu_files):
+    """The scene's step comment says 0.5 ms is beyond the Gauss-Seidel limit (0.49 ms): it is."""
+    scene = replace(prepare_scene("vehicle-cornering", step=5e-4, duration=0.6), output_interval=5e-3)
+    r = run_scene(scene, fmu_files)
+    assert r.ok
+    assert stat(r, "wheelL.shaft.tau", "absmax") > 1e3   # the steady value is 78 N m
+
+
+def test_split_mu_launch(fmu_files):
+    r = run(fmu_files, "split-mu-launch", 1.0)
+    # the grip side never gets more than (1+K)/(1-K) times the ice side (plus inertia, see the scene)
+    assert stat(r, "{wheelR.shaft.tau} - {wheelL.shaft.tau} * " + TBR, "max", [0.001, 1.0]) < 0.5
+    assert stat(r, "{wheelR.shaft.tau} / {wheelL.shaft.tau}", "mean", [0.5, 1.0]) == pytest.approx(
+        stat(r, TBR, "mean"), rel=5e-3)
+    # the ice wheel spins up relative to the other, the grippy one keeps rolling
+    dw = series(r, "{wheelL.wheel.w} - {wheelR.wheel.w}")
+    assert dw[0] == 0.0 and dw[-1] > 20.0
+    assert np.all(np.diff(dw[r.time > 0.4]) > 0.0)
+    assert stat(r, "wheelR.slip", "absmax") < 0.05
+    assert stat(r, "car.vx", "final") > 2.2
+    assert all(o.passed for o in checks_within(r, 1.0))
+
+
+def test_tip_in_tip_out(fmu_files):
+    r = run(fmu_files, "tip-in-tip-out", 2.6)
+    T = series(r, "car.driveTorque")
+    assert T.max() > 500.0 and T.min() < -300.0          # drive, then coast
+    for side in ("wheelL", "wheelR"):
+        tau = series(r, f"{side}.shaft.tau")
+        assert tau.max() > 300.0 and tau.min() < -100.0
+    # the inner (slower) sun is always pushed forward by the friction: in drive the inner wheel
+    # gets the larger drive torque, in coast the outer wheel the larger braking torque
+    after0 = [0.001, 2.6]
+    assert stat(r, "{wheelL.shaft.tau} - {wheelR.shaft.tau}", "min", after0) > 0.0
+    coast = r.time > 2.3
+    tL, tR = series(r, "wheelL.shaft.tau")[coast], series(r, "wheelR.shaft.tau")[coast]
+    assert np.all(tR < tL) and np.all(tL < 0.0)
+    assert stat(r, "abs({wheelL.shaft.tau} - {wheelR.shaft.tau}) - {diff.lockingCapacity}", "max", after0) < 0.25
+    assert stat(r, "diff.stuck", "max") == 0.0
+    assert all(o.passed for o in checks_within(r, 2.6))
+
+
+def test_standstill_launch(fmu_files):
+    r = run(fmu_files, "standstill-launch", 1.5)
+    rest = [0.0, 0.2]
+    for q in ("car.vx", "wheelL.wheel.w", "wheelR.wheel.w", "wheelL.slip", "wheelL.shaft.tau"):
+        assert stat(r, q, "absmax", rest) == 0.0, q    # rest stays rest: no creep, no NaN
+    assert stat(r, "maximum(abs({wheelL.slip}), abs({wheelR.slip}))", "absmax") < 0.18   # below the peak
+    assert stat(r, "car.vx", "min") >= 0.0
+    assert stat(r, "car.vx", "final") > 1.0 and stat(r, "car.x", "final") > 0.5          # moves off
+    assert stat(r, "diff.stuck", "min") == 1.0         # symmetric: the differential never slips
+    assert all(o.passed for o in checks_within(r, 1.5))
+
+
+def test_wheel_lift(fmu_files):
+    r = run(fmu_files, "wheel-lift", 1.8)
+    Fz = series(r, "car.rearLeft.Fz")
+    assert Fz.min() == 0.0 and Fz[0] > 1000.0          # the inner wheel unloads completely
+    assert stat(r, "minimum({car.rearLeft.Fz}, {car.rearRight.Fz})", "min") >= 0.0
+    lifted = Fz == 0.0
+    assert np.all(series(r, "wheelL.Fx")[lifted] == 0.0)
+    # the unloaded wheel spins up
+    dw = series(r, "{wheelL.wheel.w} - {wheelR.wheel.w}")
+    assert dw[0] < 0.0 and dw[-1] > 15.0
+    # torques bounded by the locking capacity (plus inertia, see the scene)
+    after0 = [0.001, 1.8]
+    assert stat(r, "abs({wheelL.shaft.tau} - {wheelR.shaft.tau}) - {diff.lockingCapacity}", "max", after0) < 0.5
+    assert stat(r, "{wheelR.shaft.tau} - {wheelL.shaft.tau} * " + TBR, "max", after0) < 0.5
+    assert all(o.passed for o in checks_within(r, 1.8))
+
+
+def test_direct_physics_run_equals_fmi_run_for_the_car(fmu_files):
+    """The new interface modules in harness.direct: same scene, bit-identical trajectories."""
+    from harness.direct import run_direct
+
+    scene = replace(prepare_scene("vehicle-cornering", duration=0.02), output_interval=2e-4)
+    a, b = run_direct(scene), run_scene(scene, fmu_files)
+    assert a.ok and b.ok
+    assert np.array_equal(a.data, b.data)
