@@ -115,6 +115,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub.add_parser("check", help="FMI 2.0 compliance checks of any co-simulation FMU, JUnit report (docs/compliance.md)")
     sub.add_parser("export-ssp", help="write a scene as an SSP file other masters run (docs/interoperability.md)")
     sub.add_parser("accuracy", help="accuracy versus wall time over fidelities, steps and tolerances (docs/accuracy.md)")
+    sub.add_parser("sweep", help="design sweep of a scene on a local or remote Dask cluster, resumable (docs/sweeps.md)")
     p = sub.add_parser("info", help="derived geometry, design checks and the paper's theory table beside ours")
     p.set_defaults(func=cmd_info)
     p = sub.add_parser("scenes", help="list the scenes")
@@ -140,7 +141,7 @@ def main(argv: list[str] | None = None) -> int:
 
     argv = list(sys.argv[1:] if argv is None else argv)
     delegated = {"build": "harness.build", "bench": "harness.bench", "accuracy": "harness.accuracy",
-                 "check": "harness.check.runner", "export-ssp": "harness.ssp"}
+                 "check": "harness.check.runner", "export-ssp": "harness.ssp", "sweep": "harness.sweep"}
     if argv[:1] and argv[0] in delegated:  # these parse their own options
         import importlib
         try:

@@ -15,7 +15,7 @@ from typing import Iterable, Sequence
 from spurdiff.fmi_vars import Var
 
 # unit -> (SI base-unit exponents, {display unit: (factor, offset)}); value_display = factor * value + offset
-UNITS: dict[str, tuple[dict[str, int], dict[str, tuple[float, float]]]] = {
+UNITS: dict[str, tuple[dict[str, int] | None, dict[str, tuple[float, float]]]] = {
     "1": ({}, {"%": (100.0, 0.0)}),
     "s": ({"s": 1}, {"ms": (1e3, 0.0)}),
     "m": ({"m": 1}, {"mm": (1e3, 0.0)}),
@@ -38,6 +38,10 @@ UNITS: dict[str, tuple[dict[str, int], dict[str, tuple[float, float]]]] = {
     "m2": ({"m": 2}, {}),
     "N.m.s/m": ({"kg": 1, "m": 1, "s": -1}, {}),
     "N.m/m": ({"kg": 1, "m": 1, "s": -2}, {}),
+    "Pa": ({"kg": 1, "m": -1, "s": -2}, {"MPa": (1e-6, 0.0)}),
+    # IMPACT stiffness for e = 1.5: the base unit has a fractional exponent (kg m^-0.5 s^-2), which
+    # FMI's integer BaseUnit cannot express, so it is declared without one
+    "N/m1.5": (None, {"N/mm1.5": (1e-3 ** 1.5, 0.0)}),
 }
 
 
@@ -56,7 +60,8 @@ def add_unit_definitions(root: ET.Element, used: Iterable[str]) -> None:
             raise KeyError(f"unit {name!r} has no definition in harness/modeldescription.py UNITS")
         base, displays = UNITS[name]
         u = ET.SubElement(ud, "Unit", name=name)
-        ET.SubElement(u, "BaseUnit", {k: str(v) for k, v in base.items()})
+        if base is not None:
+            ET.SubElement(u, "BaseUnit", {k: str(v) for k, v in base.items()})
         for dname, (factor, offset) in displays.items():
             attrs = {"name": dname, "factor": repr(factor)}
             if offset:

@@ -5,14 +5,19 @@ Kept free of pythonfmu so the build step and the tests can read it. Names are Mo
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 from .fmi_vars import Var
 from .geometry import Gear, GearTable
+from .mesh_dynamics import MeshDifferential, MeshParams
 from .params import DifferentialParams
 from .rigid import RigidDifferential
 
-MESH_MODELS = ("rigid",)
+MESH_MODELS = ("rigid", "compliant", "contact")
+EFFECTS = ("backlash", "meshStiffnessVariation", "pinFriction", "flankFriction")
 
 _T = GearTable()
+_M = MeshParams()
 
 
 def _gear_vars(name: str, label: str, g: Gear) -> list[Var]:
@@ -67,10 +72,32 @@ VARIABLES: list[Var] = [
     Var("stuck", "output", "1 while the differential is locked by friction (no relative motion), else 0", "1"),
     Var("modeSwitches", "output", "Number of stick/slip mode switches since the start", None, None, 0, kind="Integer"),
     Var("internalSteps", "output", "Number of internal integration steps since the start", None, None, 0, kind="Integer"),
+    Var("contactTransitions", "output",
+        "Number of tooth contact losses and re-engagements since the start (backlash, compliant/contact)",
+        None, None, 0, kind="Integer"),
+    Var("potentialEnergy", "output", "Elastic energy stored in the mesh springs (0 at rigid)", "J"),
     Var("nStates", "calculatedParameter", "Number of continuous states of the selected fidelity", None, None, 0,
         kind="Integer"),
-    # --- structural parameters
-    Var("meshModel", "parameter", "Mesh fidelity: " + " | ".join(MESH_MODELS), None, None, "rigid", kind="String"),
+    Var("activeEffects", "calculatedParameter",
+        "Effects in use, comma separated: the mesh model, then the enabled effects that act", None, None, "",
+        kind="String"),
+    # --- structural parameters (fidelity: only what is switched on allocates states and costs time)
+    Var("meshModel", "parameter",
+        "Mesh fidelity: rigid (kinematic, 2 states) | compliant (linear mesh springs, planets free) | "
+        "contact (ADAMS IMPACT law, planets free)", None, None, "rigid", kind="String"),
+    Var("backlash", "parameter", "Circumferential backlash per mesh: contact loss and impacts (compliant/contact)",
+        None, None, False, kind="Boolean"),
+    Var("meshStiffnessVariation", "parameter",
+        "Mesh stiffness varies with single/double tooth contact as the gears turn (compliant/contact)",
+        None, None, False, kind="Boolean"),
+    Var("pinFriction", "parameter", "Load-dependent pin-bushing friction (the locking friction), every level",
+        None, None, True, kind="Boolean"),
+    Var("flankFriction", "parameter", "Coulomb friction on the tooth flanks (compliant/contact)",
+        None, None, False, kind="Boolean"),
+    Var("tolerance", "parameter", "Relative accuracy of the internal integrator (compliant/contact)", "1", None,
+        _M.tolerance),
+    Var("maxInternalSteps", "parameter", "Internal steps allowed per communication step before doStep discards",
+        None, None, _M.maxInternalSteps, kind="Integer"),
     Var("carrierDrive", "parameter", "How the carrier is driven: speed (carrier.w_ref) | torque (carrier.tau)",
         None, None, "speed", kind="String"),
     # --- gear table
@@ -94,6 +121,29 @@ VARIABLES: list[Var] = [
     Var("J_planet2", "parameter", "Inertia of one planet 2 about its axis (0: from geometry)", "kg.m2", None, 0.0),
     Var("carrier.w_start", "parameter", "Initial carrier speed (carrierDrive = torque)", "rad/s", "rpm", 0.0),
     Var("differential.w_start", "parameter", "Initial speed of sun A relative to the carrier", "rad/s", "rpm", 0.0),
+    # --- mesh data (compliant / contact levels)
+    *[v for key, label in (("A1", "sun A / planet 1"), ("B2", "sun B / planet 2"), ("12", "planet 1 / planet 2"))
+      for v in (
+        Var(f"mesh{key}.backlash", "parameter", f"Circumferential backlash of mesh {label} at the operating pitch circle "
+            "(used with backlash = true)", "m", "mm", getattr(_M, f"backlash{key}")),
+        Var(f"mesh{key}.c", "parameter", f"Mean mesh stiffness of mesh {label} per planet pair "
+            "(0: ISO 6336-1 c_gamma_alpha times face width)", "N/m", "N/mm", getattr(_M, f"stiffness{key}")),
+        Var(f"mesh{key}.contactStiffness", "parameter", f"IMPACT stiffness K of mesh {label} (F = K delta^e; "
+            "unit for the default e = 1.5)", "N/m1.5", "N/mm1.5", getattr(_M, f"contactStiffness{key}")),
+    )],
+    Var("mesh.preload", "parameter", "Start with the meshes statically loaded (false: unloaded, the loads act from "
+        "t = 0, a start transient like the paper's ADAMS run)", None, None, _M.preload, kind="Boolean"),
+    Var("mesh.dampingRatio", "parameter", "Damping ratio of each compliant mesh mode", "1", None, _M.dampingRatio),
+    Var("mesh.E", "parameter", "Young's modulus of the gear steel (ISO 6336 stiffness)", "Pa", "MPa", _M.youngsModulus),
+    Var("mesh.contactExponent", "parameter", "IMPACT force exponent e", "1", None, _M.contactExponent),
+    Var("mesh.contactDamping", "parameter", "IMPACT maximum damping C", "N.s/m", "N.s/mm", _M.contactDamping),
+    Var("mesh.contactDepth", "parameter", "IMPACT penetration d_max at which the damping is full", "m", "mm",
+        _M.contactDepth),
+    Var("flank.muStatic", "parameter", "Static flank friction coefficient", "1", None, _M.muStatic),
+    Var("flank.muDynamic", "parameter", "Dynamic flank friction coefficient", "1", None, _M.muDynamic),
+    Var("flank.vStiction", "parameter", "Sliding speed of full static friction", "m/s", None, _M.vStiction),
+    Var("flank.vTransition", "parameter", "Sliding speed above which friction is dynamic", "m/s", None,
+        _M.vTransition),
     # --- calculated parameters
     *_mesh_vars("A1", "sun A / planet 1"),
     *_mesh_vars("B2", "sun B / planet 2"),
@@ -130,6 +180,39 @@ def differential_params(values: dict) -> DifferentialParams:
         J_planet1=float(values["J_planet1"]), J_planet2=float(values["J_planet2"]))
 
 
+# FMU parameter name -> MeshParams field
+MESH_FIELDS: dict[str, str] = {
+    "meshModel": "meshModel", "tolerance": "tolerance", "maxInternalSteps": "maxInternalSteps",
+    **{e: e for e in EFFECTS},
+    "mesh.preload": "preload", "mesh.dampingRatio": "dampingRatio", "mesh.E": "youngsModulus",
+    "mesh.contactExponent": "contactExponent", "mesh.contactDamping": "contactDamping",
+    "mesh.contactDepth": "contactDepth", "flank.muStatic": "muStatic", "flank.muDynamic": "muDynamic",
+    "flank.vStiction": "vStiction", "flank.vTransition": "vTransition",
+    **{f"mesh{k}.{a}": f"{b}{k}" for k in ("A1", "B2", "12")
+       for a, b in (("backlash", "backlash"), ("c", "stiffness"), ("contactStiffness", "contactStiffness"))},
+}
+_FMU_NAME = {field: name for name, field in MESH_FIELDS.items()}
+
+
+def mesh_params(values: dict) -> MeshParams:
+    """Mesh effects and data for the compliant and contact levels, validated; errors name the FMU
+    parameter (``mesh.contactExponent``, ``meshA1.backlash``)."""
+    from .errors import ParameterError
+
+    kw = {}
+    for name, field in MESH_FIELDS.items():
+        default = getattr(_M, field)
+        v = values[name]
+        kw[field] = (bool(v) if isinstance(default, bool) else int(v) if isinstance(default, int)
+                     else str(v) if isinstance(default, str) else float(v))
+    mp = MeshParams(**kw)
+    try:
+        mp.validate()
+    except ParameterError as e:
+        raise ParameterError(_FMU_NAME.get(e.name, e.name), e.value, e.allowed, e.hint) from None
+    return mp
+
+
 def build_model(values: dict):
     """Build and initialize the model selected by ``meshModel`` from FMI variable values."""
     from .errors import ParameterError
@@ -137,7 +220,13 @@ def build_model(values: dict):
     mesh_model = str(values["meshModel"])
     if mesh_model not in MESH_MODELS:
         raise ParameterError("meshModel", mesh_model, " | ".join(MESH_MODELS))
-    model = RigidDifferential(differential_params(values))
+    params = differential_params(values)
+    if mesh_model == "rigid":
+        if not bool(values["pinFriction"]):
+            params = replace(params, mu_pin=0.0)
+        model = RigidDifferential(params)
+    else:
+        model = MeshDifferential(params, mesh_params(values))
     push_inputs(model, values)
     model.w_start_carrier = float(values["carrier.w_start"])
     wc0 = model.w_ref if model.params.carrierDrive == "speed" else model.w_start_carrier
@@ -162,6 +251,15 @@ def _set_calculated(model, values: dict) -> None:
     values["inertia.differential"] = model.Mdd
     values["geometry.warnings"] = len(geo.warnings)
     values["nStates"] = int(getattr(model, "n_states", 2))
+    values["activeEffects"] = ",".join(active_effects(model))
+
+
+def active_effects(model) -> tuple[str, ...]:
+    """The effects that act in ``model``: the mesh law, then the enabled effects."""
+    eff = getattr(model, "active_effects", None)
+    if eff is not None:
+        return tuple(eff)
+    return ("rigid",) + (("pinFriction",) if model.K > 0.0 else ())
 
 
 def push_inputs(model, values: dict) -> None:
@@ -195,4 +293,6 @@ def pull_outputs(model, values: dict) -> None:
     values["stuck"] = 1.0 if model.stuck else 0.0
     values["modeSwitches"] = int(model.n_mode_switches)
     values["internalSteps"] = int(getattr(model, "n_internal_steps", model.n_steps))
+    values["contactTransitions"] = int(getattr(model, "n_contact_transitions", 0))
+    values["potentialEnergy"] = float(getattr(model, "potential_energy", 0.0))
 

@@ -1,0 +1,176 @@
+"""Measurements behind docs/mesh-dynamics.md: the paper's two cases at each mesh level, the
+tolerance sweep that chose the default tolerance, and the comparison with scipy's solve_ivp.
+
+Run ``PYTHONPATH=fmu_src python -m spurdiff.mesh_bench [--full] [--section paper|tolerance|ivp]``.
+Wall times are measured here and printed, never asserted (they depend on the machine).
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from .mesh_dynamics import MeshDifferential, MeshParams
+from .params import DifferentialParams
+from .rigid import RigidDifferential
+
+W0 = 1.389
+CASES = {"paper-straight": (-1050.0, -1050.0), "paper-cornering": (-1110.201, -989.799)}
+SCALE = np.array([1.0, 1e-5, 1e-5, 1e-5, 1.0, 1.0, 1.0, 1.0])  # state units for error norms
+
+
+def make(level: str, loads, **mesh):
+    if level == "rigid":
+        m = RigidDifferential(DifferentialParams())
+    else:
+        m = MeshDifferential(DifferentialParams(), MeshParams(meshModel=level, **mesh))
+    m.w_ref, m.w_start_carrier = W0, W0
+    m.tau_L, m.tau_R = loads
+    m.initialize()
+    return m
+
+
+def sample(m) -> list[float]:
+    f = m.mesh_forces
+    return [m.tau_drive, m.tau_mesh_L, m.tau_mesh_R, f.F_A1, f.F_B2, f.F_12, m.w_L, m.w_R]
+
+
+def simulate(m, t_end=0.3, h=1e-3):
+    """Step with the paper's 1 ms output step; returns (time averages, final sample, wall s)."""
+    n = int(round(t_end / h))
+    rows = [sample(m)]
+    t0 = time.perf_counter()
+    for k in range(n):
+        m.do_step(k * h, h)
+        rows.append(sample(m))
+    wall = time.perf_counter() - t0
+    rows = np.array(rows)
+    return np.trapezoid(rows, dx=h, axis=0) / t_end, rows[-1], wall
+
+
+def paper(full: bool) -> None:
+    levels = [("rigid", {}), ("compliant", {}), ("contact", {})]
+    extra = [("contact", dict(backlash=True, flankFriction=True, meshStiffnessVariation=True))]
+    print("## The paper's cases (means over 0.3 s, 1 ms output step; torques N m, forces N)\n")
+    print("| case | level | effects | carrier | sun A | sun B | F_A1 | F_B2 | F_12 | w_A(0.3 s) | w_B(0.3 s) "
+          "| wall s | x real time | internal steps |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for case, loads in CASES.items():
+        for level, mesh in levels + (extra if full or case == "paper-straight" else []):
+            m = make(level, loads, **mesh)
+            mean, last, wall = simulate(m)
+            eff = ", ".join(m.active_effects[1:]) if level != "rigid" else "-"
+            steps = getattr(m, "n_internal_steps", m.n_steps)
+            print(f"| {case} | {level} | {eff} | {mean[0]:.2f} | {mean[1]:.2f} | {mean[2]:.2f} | {mean[3]:.1f} | "
+                  f"{mean[4]:.1f} | {mean[5]:.1f} | {last[6]:.2f} | {last[7]:.2f} | {wall:.3f} | {0.3 / wall:.1f} | "
+                  f"{steps} |")
+    print()
+
+
+def tolerance() -> None:
+    print("## Tolerance sweep (start with unloaded meshes: a real transient; means over 0.1 s)\n")
+    print("| level | tolerance | max rel. error of the 6 means vs tolerance 1e-10 | |energy balance| J "
+          "| internal steps | wall s |")
+    print("|---|---|---|---|---|---|")
+    for level in ("compliant", "contact"):
+        ref, _, _ = simulate(make(level, CASES["paper-straight"], preload=False, tolerance=1e-10), 0.1)
+        for tol in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8):
+            m = make(level, CASES["paper-straight"], preload=False, tolerance=tol)
+            e0 = m.kinetic_energy + m.potential_energy
+            mean, _, wall = simulate(m, 0.1)
+            err = np.max(np.abs(mean[:6] - ref[:6]) / np.abs(ref[:6]))
+            bal = abs(m.work_in - (m.kinetic_energy + m.potential_energy - e0) - m.energy_loss)
+            print(f"| {level} | {tol:g} | {err:.2e} | {bal:.1e} | {m.n_internal_steps} | {wall:.3f} |")
+    print()
+
+
+def _trajectory(m, t_end=0.3, h=1e-3, events=None):
+    """States at the communication points of a do_step loop, and the wall time."""
+    n = int(round(t_end / h))
+    ys = [m.state_vector()]
+    t0 = time.perf_counter()
+    for k in range(n):
+        if events and k in events:
+            events[k](m)
+        m.do_step(k * h, h)
+        ys.append(m.state_vector())
+    return np.array(ys), time.perf_counter() - t0
+
+
+def ivp() -> None:
+    """The same ODE integrated by our do_step loop and by solve_ivp (analytic Jacobian), error of
+    the states at the 1 ms output points against a tolerance-1e-11 run of ours. Two cases without
+    friction-mode switches (pin friction off): the contact level from unloaded meshes (a ms
+    transient, then static) and the compliant level with backlash, preloaded, reversed at t = 0
+    (impacts, rattle, then static)."""
+    from scipy.integrate import solve_ivp
+
+    cases = {
+        "contact, unloaded start": (dict(meshModel="contact", preload=False, pinFriction=False), (-1050.0, -1050.0)),
+        "compliant + backlash, reversal": (dict(meshModel="compliant", backlash=True, pinFriction=False),
+                                           (1050.0, 1050.0)),
+    }
+    print("## Against scipy solve_ivp on the same ODE (0.3 s, 1 ms outputs)\n")
+    print("| case | integrator | tolerance | max scaled error at the outputs | wall s | RHS evaluations |")
+    print("|---|---|---|---|---|---|")
+    for name, (mesh, loads) in cases.items():
+        def fresh(tol=1e-6):
+            m = MeshDifferential(DifferentialParams(), MeshParams(tolerance=tol, maxInternalSteps=10 ** 7, **mesh))
+            m.w_ref, m.w_start_carrier = W0, W0
+            m.tau_L, m.tau_R = -1050.0, -1050.0
+            m.initialize()
+            m.tau_L, m.tau_R = loads   # applied from t = 0
+            return m
+
+        ref, _ = _trajectory(fresh(1e-11))
+        for tol in (1e-4, 1e-6, 1e-8):
+            ys, wall = _trajectory(fresh(tol))
+            err = np.max(np.abs(ys - ref) / SCALE)
+            print(f"| {name} | do_step loop (ROS34PW2) | {tol:g} | {err:.1e} | {wall:.3f} | - |")
+        for method in ("Radau", "BDF", "LSODA"):
+            for tol in (1e-4, 1e-6, 1e-8):
+                m = fresh()
+                m._ac = 0.0
+                y0 = m.state_vector()
+                atol = SCALE * tol
+                t0 = time.perf_counter()
+                sol = solve_ivp(m.rhs, (0.0, 0.3), y0, method=method, rtol=tol, atol=atol, jac=m.jac,
+                                t_eval=np.linspace(0.0, 0.3, 301))
+                w1 = time.perf_counter() - t0
+                err1 = np.max(np.abs(sol.y.T - ref) / SCALE) if sol.success else float("nan")
+                # as a co-simulation slave must: restart at every communication point
+                y = y0.copy()
+                ys = [y0]
+                nfev = 0
+                t0 = time.perf_counter()
+                for k in range(300):
+                    s = solve_ivp(m.rhs, (k * 1e-3, (k + 1) * 1e-3), y, method=method, rtol=tol, atol=atol,
+                                  jac=m.jac)
+                    y = s.y[:, -1]
+                    ys.append(y)
+                    nfev += s.nfev
+                w2 = time.perf_counter() - t0
+                err2 = np.max(np.abs(np.array(ys) - ref) / SCALE)
+                print(f"| {name} | solve_ivp {method}, one call | {tol:g} | {err1:.1e} | {w1:.3f} | {sol.nfev} |")
+                print(f"| {name} | solve_ivp {method}, restarted every 1 ms | {tol:g} | {err2:.1e} | {w2:.3f} "
+                      f"| {nfev} |")
+    print()
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--full", action="store_true", help="also cornering with all effects (slow: tens of s)")
+    ap.add_argument("--section", choices=("paper", "tolerance", "ivp"), action="append")
+    a = ap.parse_args(argv)
+    sections = a.section or ["paper", "tolerance", "ivp"]
+    if "paper" in sections:
+        paper(a.full)
+    if "tolerance" in sections:
+        tolerance()
+    if "ivp" in sections:
+        ivp()
+
+
+if __name__ == "__main__":
+    main()

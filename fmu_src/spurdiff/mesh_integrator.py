@@ -1,0 +1,167 @@
+"""Adaptive linearly implicit integrator for the stiff mesh dynamics: the Rosenbrock-W method
+ROS34PW2 of Rang and Angermann (2005).
+
+Method (Hairer and Wanner, Solving ODEs II, sec. IV.7), for ``y' = f(y)`` (our system is autonomous
+within a communication step), ``s = 4`` stages::
+
+    (I - gamma h J) k_i = h f(y + sum_j alpha_ij k_j) + h J sum_{j<i} gamma_ij k_j
+    y_1 = y + sum_i b_i k_i,      error estimate  sum_i (b_i - bhat_i) k_i
+
+implemented in the transformed variables ``u_i = sum_j Gamma_ij k_j`` so that only the matrix
+``W = I/(gamma h) - J`` is factored (once per step) and no product with ``J`` is needed::
+
+    W u_i = f(y + sum_j a_ij u_j) + sum_{j<i} (c_ij / h) u_j,    y_1 = y + sum_i m_i u_i
+
+with ``a = alpha Gamma^-1``, ``c = diag(1/gamma) - Gamma^-1``, ``m = b Gamma^-1``.
+
+Why ROS34PW2 (J. Rang, L. Angermann, BIT 45 (2005) 761-787; tableau as registered in PETSc's
+``TSROSWRA34PW2``):
+
+* L-stable and stiffly accurate: the mesh modes (several kHz, and the contact damping makes them
+  strongly overdamped, eigenvalues down to -1e6 1/s) are damped, not amplified, for any step;
+  a communication step of 1e-2 s is as stable as one of 1e-5 s.
+* a W-method: order 3 holds for any approximation of the Jacobian, so the analytic Jacobian of the
+  small system only has to be good for stability, not exact (friction laws, clipped forces).
+* linearly implicit: one LU of an 8x8 (10x10) matrix and four right-hand sides per step, no Newton
+  iteration that can fail to converge at contact onset.
+* embedded order 2 for step-size control, and a dense output of order 3 (PETSc ``binterpt``), used
+  for the Simpson quadrature of the dissipated power.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.linalg.lapack import dgetrf, dgetrs
+
+GAMMA = 4.3586652150845900e-01
+_ALPHA = np.array([
+    [0.0, 0.0, 0.0, 0.0],
+    [8.7173304301691801e-01, 0.0, 0.0, 0.0],
+    [8.4457060015369423e-01, -1.1299064236484185e-01, 0.0, 0.0],
+    [0.0, 0.0, 1.0, 0.0],
+])
+_GAMMA = np.array([
+    [GAMMA, 0.0, 0.0, 0.0],
+    [-8.7173304301691801e-01, GAMMA, 0.0, 0.0],
+    [-9.0338057013044082e-01, 5.4180672388095326e-02, GAMMA, 0.0],
+    [2.4212380706095346e-01, -1.2232505839045147e+00, 5.4526025533510214e-01, GAMMA],
+])
+_B = np.array([2.4212380706095346e-01, -1.2232505839045147e+00, 1.5452602553351020e+00, 4.3586652150845900e-01])
+_BHAT = np.array([3.7810903145819369e-01, -9.6042292212423178e-02, 5.0000000000000000e-01, 2.1793326075422950e-01])
+# dense output: y(t + theta h) = y + sum_i B_i(theta) k_i, B_i(theta) = sum_j BINTERP[i, j] theta^(j+1)
+_BINTERP = np.array([
+    [1.0564298455794094, -1.3864882699759573, 0.5721822314575016],
+    [2.296429974281067, -8.262611700275677, 4.742931142090097],
+    [-1.307599564525376, 7.250979895056055, -4.398120075195578],
+    [-1.045260255335102, 2.398120075195581, -0.9169932983520199],
+])
+ORDER = 3
+EMBEDDED_ORDER = 2
+
+_GINV = np.linalg.inv(_GAMMA)
+A_T = _ALPHA @ _GINV                                 # a_ij
+C_T = np.diag(1.0 / np.diag(_GAMMA)) - _GINV          # c_ij (strictly lower)
+M_T = _B @ _GINV                                      # m_i
+E_T = (_B - _BHAT) @ _GINV                            # error weights
+STAGES = 4
+
+
+def dense_weights(theta: float) -> np.ndarray:
+    """Weights d_i with y(t + theta h) = y + sum_i d_i u_i (transformed stages)."""
+    Bt = _BINTERP @ np.array([theta, theta ** 2, theta ** 3])
+    return Bt @ _GINV
+
+
+# numpy rows for the vectorised stage sums
+_AR = [np.ascontiguousarray(A_T[i, :i]) for i in range(STAGES)]
+_CR = [np.ascontiguousarray(C_T[i, :i]) for i in range(STAGES)]
+_MV = np.ascontiguousarray(M_T)
+_EV = np.ascontiguousarray(E_T)
+_DMV = np.ascontiguousarray(dense_weights(0.5))
+
+
+class RosenbrockW:
+    """One step of ROS34PW2 on a system given by ``evaluate(y, f_out, J_out)``.
+
+    All work arrays are allocated once. ``evaluate`` fills ``f_out`` (and ``J_out`` if not None)
+    and returns nothing; it must not keep references to ``y``.
+    """
+
+    def __init__(self, n: int, evaluate):
+        self.n = n
+        self.evaluate = evaluate
+        self.J = np.zeros((n, n))
+        self.W = np.zeros((n, n))
+        self.U = np.zeros((STAGES, n))
+        self.Ys = np.zeros(n)
+        self.F = np.zeros(n)
+        self.rhs = np.zeros(n)
+        self.y_new = np.zeros(n)
+        self.err = np.zeros(n)
+        self.y_mid = np.zeros(n)
+        self.eye = np.eye(n)
+
+    def step(self, y: np.ndarray, f0: np.ndarray, h: float) -> bool:
+        """Attempt a step of size h from y (with f0 = f(y), self.J = J(y) already filled).
+
+        Fills ``y_new`` and ``err`` (the raw error estimate vector). Returns False if the linear
+        system is singular or a stage is not finite.
+        """
+        U, F, rhs, Ys = self.U, self.F, self.rhs, self.Ys
+        W = self.W
+        np.multiply(self.eye, 1.0 / (GAMMA * h), out=W)
+        W -= self.J
+        lu, piv, info = dgetrf(W, overwrite_a=1)
+        if info != 0:
+            return False
+        x, info = dgetrs(lu, piv, f0)
+        if info != 0:
+            return False
+        U[0] = x
+        ih = 1.0 / h
+        for i in range(1, STAGES):
+            Ui = U[:i]
+            np.dot(_AR[i], Ui, out=Ys)
+            Ys += y
+            self.evaluate(Ys, F, None)
+            np.dot(_CR[i], Ui, out=rhs)
+            rhs *= ih
+            rhs += F
+            x, info = dgetrs(lu, piv, rhs)
+            if info != 0:
+                return False
+            U[i] = x
+        yn = self.y_new
+        np.dot(_MV, U, out=yn)
+        yn += y
+        np.dot(_EV, U, out=self.err)
+        return bool(np.isfinite(yn).all())
+
+    def midpoint(self, y: np.ndarray) -> np.ndarray:
+        """Dense output at the middle of the last step (order 3)."""
+        ym = self.y_mid
+        np.dot(_DMV, self.U, out=ym)
+        ym += y
+        return ym
+
+
+def error_norm(err: np.ndarray, y: np.ndarray, y_new: np.ndarray, atol: np.ndarray, rtol: float,
+               scratch: np.ndarray) -> float:
+    """RMS norm of err / (atol + rtol max(|y|, |y_new|)) (Hairer-Wanner)."""
+    np.abs(y, out=scratch)
+    scratch_max = np.maximum(scratch, np.abs(y_new), out=scratch)
+    scratch_max *= rtol
+    scratch_max += atol
+    q = err / scratch_max
+    return math.sqrt(float(q @ q) / q.size)
+
+
+def new_step_size(h: float, err: float, rejected: bool) -> float:
+    """Elementary controller h_new = h * clamp(0.9 err^(-1/3), 0.2, 5) (1 after a rejection)."""
+    if err <= 0.0:
+        fac = 5.0
+    else:
+        fac = 0.9 * err ** (-1.0 / (EMBEDDED_ORDER + 1))
+    fac = min(5.0 if not rejected else 1.0, max(0.2, fac))
+    return h * fac

@@ -1,0 +1,1 @@
+"""Example sweep files (``*.toml``) for ``spurdiff sweep``; see docs/sweeps.md."""

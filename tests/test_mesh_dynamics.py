@@ -1,0 +1,492 @@
+"""Mesh dynamics (compliant / contact levels): paper cases, consistency with the rigid level,
+convergence, energy, locking, backlash, mesh-phase effects, large steps, state, errors."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+from spurdiff.errors import ParameterError
+from spurdiff.mesh_dynamics import MeshDifferential, MeshParams, N_PER_MM15
+from spurdiff.mesh_laws import friction_coefficient, impact, elasto_backlash, iso6336_stiffness, step
+from spurdiff.params import DifferentialParams
+from spurdiff.rigid import RigidDifferential, StepError
+
+W0 = 1.389
+STRAIGHT = (-1050.0, -1050.0)
+CORNER = (-1110.201, -989.799)
+F_THEORY = 6897.45  # N, normal force per pair at T0 = 2100 N m (statics, exact radii)
+LEVELS = ("compliant", "contact")
+
+
+def model(level="contact", loads=STRAIGHT, drive="speed", tau_c=0.0, w_left=float("nan"), **mesh):
+    m = MeshDifferential(DifferentialParams(carrierDrive=drive), MeshParams(meshModel=level, **mesh))
+    m.w_ref, m.tau_c = W0, tau_c
+    m.tau_L, m.tau_R = loads
+    m.w_start_carrier = W0
+    m.w_start_left = w_left
+    m.initialize()
+    return m
+
+
+def outputs(m):
+    f = m.mesh_forces
+    return np.array([m.tau_drive, m.tau_mesh_L, m.tau_mesh_R, f.F_A1, f.F_B2, f.F_12, m.w_L, m.w_R])
+
+
+def run(m, t_end=0.3, h=1e-3, t0=0.0, events=None):
+    """Step to t_end; returns the sampled outputs (rows: t = t0, t0 + h, ...)."""
+    n = int(round((t_end - t0) / h))
+    rows = [outputs(m)]
+    for k in range(n):
+        if events and k in events:
+            events[k](m)
+        m.do_step(t0 + k * h, h)
+        rows.append(outputs(m))
+    return np.array(rows)
+
+
+def means(rows, h):
+    """Time averages (trapezoidal rule), as the harness computes them."""
+    return np.trapezoid(rows, dx=h, axis=0) / (h * (len(rows) - 1))
+
+
+def energy_balance(m, e0):
+    """work in - (change of kinetic + elastic energy) - loss (+ parametric work of the stiffness wave)."""
+    return m.work_in + m.parametric_work - (m.kinetic_energy + m.potential_energy - e0) - m.energy_loss
+
+
+# ------------------------------------------------------------------ the paper's two cases
+@pytest.mark.parametrize("level", LEVELS)
+def test_paper_straight_meets_targets_and_matches_rigid(level):
+    m = model(level)
+    rows = run(m)
+    mean = means(rows, 1e-3)
+    # targets: within ADAMS's errors vs theory (0.34 / 0.57 / 1.63 %), mesh forces within 2 %
+    assert abs(mean[0] / 2100.0 - 1.0) < 0.0034
+    assert abs(mean[1] / 1050.0 - 1.0) < 0.0057
+    assert abs(mean[2] / 1050.0 - 1.0) < 0.0163
+    for F in mean[3:6]:
+        assert abs(F / F_THEORY - 1.0) < 0.02
+    # both suns at the carrier speed
+    assert np.allclose(rows[:, 6:8], W0, rtol=1e-9)
+    # consistency with the rigid level in this quasi-static case
+    r = RigidDifferential(DifferentialParams())
+    r.w_ref, r.tau_L, r.tau_R = W0, *STRAIGHT
+    r.initialize()
+    rrows = []
+    for k in range(300):
+        r.do_step(k * 1e-3, 1e-3)
+        f = r.mesh_forces
+        rrows.append([r.tau_drive, r.tau_mesh_L, r.tau_mesh_R, f.F_A1, f.F_B2, f.F_12])
+    assert mean[:6] == pytest.approx(np.mean(rrows, axis=0), rel=1e-6)
+    assert m.stuck and m.n_mode_switches == 0
+
+
+@pytest.mark.parametrize("level", LEVELS)
+def test_paper_cornering_slips_like_the_rigid_level(level):
+    m = model(level, CORNER)
+    rows = run(m)
+    mean = means(rows, 1e-3)
+    r = RigidDifferential(DifferentialParams())
+    r.w_ref, r.tau_L, r.tau_R = W0, *CORNER
+    r.initialize()
+    rrows = [[r.tau_drive, r.tau_mesh_L, r.tau_mesh_R]]
+    for k in range(300):
+        r.do_step(k * 1e-3, 1e-3)
+        rrows.append([r.tau_drive, r.tau_mesh_L, r.tau_mesh_R])
+    rmean = means(np.array(rrows), 1e-3)
+    # the load difference is twice the locking capacity: the differential slips, sun A (more
+    # load) runs backwards, sun B races ahead, w_A + w_B = 2 w_c up to the mesh deflection rates
+    assert m.planet_modes == (1, -1) and not m.stuck
+    assert m.w_L < -1000.0 and m.w_R > 1000.0
+    assert m.w_L + m.w_R == pytest.approx(2 * W0, abs=1e-6)
+    assert m.w_L == pytest.approx(r.w_L, rel=0.01)
+    # the friction works at its (load-dependent) capacity
+    assert m.locking_torque == pytest.approx(m.locking_capacity, rel=1e-9)
+    assert m.locking_capacity == pytest.approx(m.K * (m.tau_mesh_L + m.tau_mesh_R), rel=0.02)
+    # mean torques agree with the rigid level's to 0.1 %
+    assert mean[:3] == pytest.approx(rmean, rel=1e-3)
+
+
+# ------------------------------------------------------------------ convergence
+def _transient_means(tol, h, t_end=0.1, level="contact"):
+    m = model(level, preload=False, tolerance=tol)  # start with unloaded meshes: a real transient
+    return means(run(m, t_end, h), h)[:6]
+
+
+def test_contact_means_converge_with_tolerance():
+    ref = _transient_means(1e-10, 1e-3)
+    errs = [np.max(np.abs(_transient_means(tol, 1e-3) - ref) / np.abs(ref)) for tol in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7)]
+    assert all(b < a for a, b in zip(errs, errs[1:])), errs
+    assert errs[-1] < 1e-8
+    # the start transient matters: the means are not those of the preloaded start
+    assert abs(ref[0] / 2100.0 - 1.0) > 1e-3
+
+
+def test_contact_means_converge_as_the_step_shrinks():
+    # the internal integration is adaptive; what changes with h is the sampling of the outputs,
+    # whose trapezoidal mean converges (first order here: the outputs jump at the unloaded start)
+    ref = _transient_means(1e-9, 1.25e-4)
+    errs = [np.max(np.abs(_transient_means(1e-9, h) - ref)) for h in (4e-3, 2e-3, 1e-3)]
+    orders = [math.log2(a / b) for a, b in zip(errs, errs[1:])]
+    assert all(0.8 < p < 1.5 for p in orders), (errs, orders)
+
+
+# ------------------------------------------------------------------ energy
+def test_compliant_level_conserves_energy_without_dissipation():
+    # dissipation off: no mesh damping, no pin or flank friction. A 10 % load step from the
+    # preloaded state leaves the mesh modes (several kHz) ringing undamped for 0.3 s.
+    m = model("compliant", dampingRatio=0.0, pinFriction=False, tolerance=1e-5)
+    assert m.active_effects == ("compliant",)
+    e0 = m.kinetic_energy + m.potential_energy
+    m.tau_L = m.tau_R = -1155.0
+    worst = 0.0
+    force = []
+    for k in range(300):
+        m.do_step(k * 1e-3, 1e-3)
+        worst = max(worst, abs(energy_balance(m, e0)))
+        force.append(m.mesh_forces.F_A1)
+    assert m.energy_loss == 0.0
+    assert np.ptp(force[-50:]) > 200.0      # N: still ringing at the end (step: 690 N per mesh)
+    assert worst < 1e-3                     # J: < 1 % of the step's work, 0.1 % of the stored 0.8 J
+
+
+def test_free_differential_conserves_energy_while_spinning_up():
+    # cornering loads, no friction, no damping: 95 kJ of work go into kinetic energy
+    m = model("compliant", CORNER, dampingRatio=0.0, pinFriction=False)
+    e0 = m.kinetic_energy + m.potential_energy
+    run(m)
+    assert m.work_in > 9e4
+    assert abs(energy_balance(m, e0)) < 1e-8 * m.work_in
+
+
+def test_loss_never_decreases_and_balances():
+    m = model("compliant", backlash=True, flankFriction=True)
+    e0 = m.kinetic_energy + m.potential_energy
+    losses = []
+
+    def reverse(mm):
+        mm.tau_L, mm.tau_R = 1050.0, 1000.0
+
+    for k in range(150):
+        if k == 30:
+            reverse(m)
+        m.do_step(k * 1e-3, 1e-3)
+        losses.append(m.energy_loss)
+        assert m.power_loss >= 0.0
+    assert np.all(np.diff(losses) >= 0.0)
+    assert losses[-1] > 1.0
+    assert abs(energy_balance(m, e0)) < 1e-4 * losses[-1]
+
+
+# ------------------------------------------------------------------ pin friction (locking)
+@pytest.mark.parametrize("level", LEVELS)
+def test_quasi_static_locking_reproduces_K(level):
+    m = model(level)
+    KT0 = m.K * 2100.0
+    assert m.locking_capacity == pytest.approx(KT0, rel=1e-12)
+    # ramp the load difference slowly: the differential breaks away (both planets slip) at K T0
+    dstep = 0.002 * KT0
+    for k in range(2000):
+        D = dstep * k
+        m.tau_L, m.tau_R = -1050.0 - D / 2, -1050.0 + D / 2
+        m.do_step(k * 1e-3, 1e-3)
+        if 0 not in m.planet_modes:
+            break
+    assert D == pytest.approx(KT0, abs=2 * dstep)
+
+
+@pytest.mark.parametrize("level", LEVELS)
+def test_stick_below_capacity_is_exact(level):
+    # difference 0.9 K T0, the meshes preloaded with it: the planets do not move at all (exact
+    # stuck mode, not creep), the friction holds the difference
+    D = 0.9 * model(level).K * 2100.0
+    loads = (-1050.0 - D / 2, -1050.0 + D / 2)
+    m = model(level, loads)
+    for k in range(300):
+        m.do_step(k * 1e-3, 1e-3)
+        assert m.y[6] == 0.0 and m.y[7] == 0.0
+    assert m.stuck and m.n_mode_switches == 0
+    assert m.w_L == W0 and m.w_R == W0
+    assert m.locking_torque == pytest.approx(D, rel=1e-9)
+    assert abs(m.locking_torque) <= m.locking_capacity
+    # the same difference applied as a step to the preloaded straight state: the weaker planet
+    # (smaller pin force) slips while the load redistributes, then both stick for good
+    m = model(level)
+    m.tau_L, m.tau_R = loads
+    run(m, 0.1)
+    n_sw = m.n_mode_switches
+    assert m.stuck and 0 < n_sw <= 20
+    for k in range(200):
+        m.do_step(0.1 + k * 1e-3, 1e-3)
+        assert m.y[6] == 0.0 and m.y[7] == 0.0
+    assert m.n_mode_switches == n_sw
+    assert m.locking_torque == pytest.approx(D, rel=1e-6)
+
+
+# ------------------------------------------------------------------ backlash
+@pytest.mark.parametrize("level", LEVELS)
+def test_backlash_torque_reversal(level):
+    m = model(level, backlash=True)
+    e0 = m.kinetic_energy + m.potential_energy
+    ct, fmax = [], 0.0
+
+    def reverse(mm):
+        mm.tau_L = mm.tau_R = 1050.0
+
+    rows = run(m, 0.3, 1e-3, events={50: reverse})
+    fmax = np.max(np.abs(rows[:, 3:6]))
+    assert np.all(np.isfinite(rows))
+    # every mesh lost its drive flank and engaged its coast flank (>= 2 transitions per mesh) ...
+    assert m.n_contact_transitions >= 6
+    # ... without chattering: a bounded number of impacts, then at rest on the coast flanks
+    assert m.n_contact_transitions <= 60
+    assert rows[-1, 3:5] == pytest.approx([-F_THEORY] * 2, rel=1e-5)
+    assert rows[-1, 0] == pytest.approx(-2100.0, rel=1e-6)
+    # the planet-planet force differs from the others by what the stuck pins hold
+    if m.stuck:
+        assert abs(rows[-1, 5] + F_THEORY) * m.rb1 <= max(m._out[9], m._out[10]) * (1 + 1e-6) + 1e-3
+    else:
+        assert rows[-1, 5] == pytest.approx(-F_THEORY, rel=1e-5)
+    # bounded impacts: peak below three times the static force
+    assert fmax < 3.0 * F_THEORY
+    assert abs(energy_balance(m, e0)) < 1e-4 * m.energy_loss
+    # no contact transition and no stick/slip switch in the last 0.15 s (no chattering)
+    n_ct, n_sw = m.n_contact_transitions, m.n_mode_switches
+    assert n_sw <= 150
+    run(m, 0.45, 1e-3, t0=0.3)
+    assert m.n_contact_transitions == n_ct and m.n_mode_switches == n_sw
+
+
+def test_contact_never_pulls_and_damping_is_zero_at_first_touch():
+    K = 3.9e5 * N_PER_MM15
+    F, dFp, dFv, Fc = impact(1e-12, 10.0, K, 1.5, 50e3, 1e-4)   # first touch at 10 m/s
+    assert Fc == pytest.approx(K * 1e-18) and F - Fc < 1e-9      # damping ~ STEP = 3e-16 C: none
+    assert dFv == pytest.approx(50e3 * 3e-16, rel=1e-6)
+    assert impact(5e-5, -10.0, K, 1.5, 50e3, 1e-4)[0] == 0.0       # fast separation: no pull
+    assert impact(-1e-6, 1.0, K, 1.5, 50e3, 1e-4) == (0.0, 0.0, 0.0, 0.0)
+    # ElastoBacklash: damping limited to the spring force at contact onset, never pulls
+    F, _, _, Fc = elasto_backlash(1e-6, 100.0, 3e8, 1e4)
+    assert F == pytest.approx(2 * Fc)
+    assert elasto_backlash(1e-6, -100.0, 3e8, 1e4)[0] == 0.0
+    assert step(0.05, 0.0, 0.0, 0.1, 1.0) == pytest.approx(0.5)
+
+
+# ------------------------------------------------------------------ mesh-phase effects
+def test_mesh_stiffness_wave_follows_the_contact_ratio():
+    # the differential turns slowly (1 rad/s relative, no friction, equal loads) for two mesh
+    # periods of mesh A1: its deflection alternates between single contact (stiffness k / eps) and
+    # double contact (2 k / eps); the switches ring briefly (damping ratio 0.2)
+    m = model("compliant", w_left=W0 + 1.0, pinFriction=False, meshStiffnessVariation=True, dampingRatio=0.2)
+    me = m.md[0]
+    period = me.pb / (m.rbA * 1.0)
+    h = 2e-4
+    n = int(round(2 * period / h))
+    dA = []
+    for k in range(n):
+        m.do_step(k * h, h)
+        dA.append(m.y[1])
+    dA = np.array(dA)
+    single = me.eps * F_THEORY / me.k
+    double = single / 2
+    near_single = np.abs(dA / single - 1) < 0.01
+    near_double = np.abs(dA / double - 1) < 0.01
+    assert near_single.mean() + near_double.mean() > 0.9     # settled on the two levels
+    frac_double = near_double.sum() / (near_single.sum() + near_double.sum())
+    assert frac_double == pytest.approx(me.eps - 1.0, abs=0.03)
+    # the wave keeps the mean stiffness: the factor averaged over one mesh period is 1
+    xs = np.linspace(0.0, 1.0, 100001)[:-1]
+    assert np.mean([m._stiffness_factor(me, x) for x in xs]) == pytest.approx(1.0, rel=1e-4)
+
+
+def test_flank_friction_loses_power_only_when_the_gears_roll():
+    # straight line: the contact sits at the pitch point, no sliding, no effect on the means
+    a, b = model("contact"), model("contact", flankFriction=True)
+    ma, mb = means(run(a, 0.05), 1e-3), means(run(b, 0.05), 1e-3)
+    assert mb[:3] == pytest.approx(ma[:3], rel=1e-9)
+    assert b.energy_loss < 1e-9
+    # cornering without pin friction: only the flanks dissipate; sliding friction brakes the slip
+    c = model("contact", CORNER, pinFriction=False)
+    d = model("contact", CORNER, pinFriction=False, flankFriction=True)
+    e0 = d.kinetic_energy + d.potential_energy
+    run(c, 0.03)
+    run(d, 0.03)
+    assert c.energy_loss < 1e-6 < 1.0 < d.energy_loss
+    assert c.w_L < d.w_L < -100.0
+    assert abs(energy_balance(d, e0)) < 1e-6 * d.energy_loss
+    mu, dmu = friction_coefficient(0.0, 0.05, 0.03, 1e-4, 1e-2)
+    assert mu == 0.0 and dmu > 0.0
+    assert friction_coefficient(-1e-4, 0.05, 0.03, 1e-4, 1e-2)[0] == pytest.approx(-0.05)
+    assert friction_coefficient(1.0, 0.05, 0.03, 1e-4, 1e-2)[0] == pytest.approx(0.03)
+
+
+def test_iso6336_stiffness_of_mesh_A1():
+    # planet 1 (pinion) z = 13, x = +0.3 with sun A z = 36, x = -1.0099, usable eps 1.575
+    _, cg = iso6336_stiffness(36, -1.0099, 13, 0.3, 1.575, 2.06e11)
+    assert cg == pytest.approx(15.4, rel=0.01)   # N/(mm um), model-references.md
+    m = model("compliant")
+    assert m.md[0].k == pytest.approx(cg * 1e9 * 0.022, rel=2e-3)
+
+
+# ------------------------------------------------------------------ numerics
+@pytest.mark.parametrize("level", LEVELS)
+def test_large_communication_steps_are_stable_and_accurate(level):
+    def reverse(mm):
+        mm.tau_L, mm.tau_R = 1050.0, 1040.0
+
+    results = []
+    for h in (1e-2, 1e-3):
+        m = model(level, backlash=True, preload=False)
+        rows = run(m, 0.3, h, events={int(round(0.1 / h)): reverse})
+        assert np.all(np.isfinite(rows))
+        results.append((rows[-1], m.energy_loss))
+    (ra, la), (rb, lb) = results
+    assert ra == pytest.approx(rb, rel=1e-4, abs=1e-6)
+    assert la == pytest.approx(lb, rel=1e-4)
+
+
+def test_tiny_communication_steps():
+    m = model("contact", CORNER)
+    rows = run(m, 2e-3, 1e-5)
+    ref = model("contact", CORNER)
+    run(ref, 2e-3, 1e-3)
+    assert rows[-1] == pytest.approx(outputs(ref), rel=1e-6)
+
+
+def test_rosenbrock_w_method_has_order_3_even_with_a_wrong_jacobian():
+    from spurdiff.mesh_integrator import RosenbrockW
+
+    def f(y, out, J):  # oscillator driving a stiff component (eigenvalue -1e4)
+        out[0], out[1], out[2] = -y[1], y[0], -1e4 * (y[2] - math.sin(y[0]))
+        if J is not None:
+            J[:] = 0.0
+            J[0, 1], J[1, 0], J[2, 2], J[2, 0] = -1.0, 1.0, -1e4, 1e4 * math.cos(y[0])
+
+    for wrong in (False, True):
+        errs = []
+        for n in (20, 40, 80, 160):
+            r = RosenbrockW(3, f)
+            y, h, f0 = np.array([1.0, 0.0, math.sin(1.0)]), 2.0 / n, np.zeros(3)
+            for _ in range(n):
+                f(y, f0, r.J)
+                if wrong:
+                    r.J[2, 0] = 0.0
+                    r.J[0, 1] *= 0.5
+                assert r.step(y, f0, h)
+                y = r.y_new.copy()
+            errs.append(np.max(np.abs(y[:2] - [math.cos(2.0), math.sin(2.0)])))
+        orders = [math.log2(a / b) for a, b in zip(errs, errs[1:])]
+        assert all(2.9 < p < 3.1 for p in orders), (wrong, orders)
+
+
+def test_rhs_is_the_integrated_ode():
+    # the same ODE integrated by scipy's Radau (analytic Jacobian) gives the same state
+    from scipy.integrate import solve_ivp
+
+    m = model("contact", preload=False, pinFriction=False, tolerance=1e-9)
+    y0 = m.state_vector()
+    sol = solve_ivp(m.rhs, (0.0, 0.02), y0, method="Radau", jac=m.jac, rtol=1e-10,
+                    atol=1e-10 * np.array([1, 1e-5, 1e-5, 1e-5, 1, 1, 1, 1]))
+    run(m, 0.02, 1e-3)
+    scale = np.array([1, 1e-5, 1e-5, 1e-5, 1, 1, 1, 1])
+    assert np.max(np.abs(m.state_vector() - sol.y[:, -1]) / scale) < 1e-6
+
+
+def test_analytic_jacobian_matches_finite_differences():
+    rng = np.random.default_rng(3)
+    for drive in ("speed", "torque"):
+        for mesh in (dict(meshModel="compliant"), dict(meshModel="contact", backlash=True)):
+            mesh = dict(mesh)
+            m = model(mesh.pop("meshModel"), CORNER, drive, 2000.0, **mesh)
+            for modes in ([0, 0], [1, -1], [0, 1]):
+                m.s = modes
+                y = m.state_vector()
+                y[4:8] += rng.normal(0.0, 0.5, 4)
+                y[1:4] *= 1.0 + rng.normal(0.0, 0.05, 3)
+                y[6] = 0.0 if modes[0] == 0 else y[6]
+                y[7] = 0.0 if modes[1] == 0 else y[7]
+                J = m.jac(0.0, y)
+                for j in range(len(y)):
+                    e = np.zeros(len(y))
+                    e[j] = 1e-7 * max(1e-4 if j in (1, 2, 3) else 1.0, abs(y[j]))
+                    col = (m.rhs(0.0, y + e) - m.rhs(0.0, y - e)) / (2 * e[j])
+                    assert J[:, j] == pytest.approx(col, rel=1e-5, abs=1e-6 * np.abs(J).max())
+
+
+# ------------------------------------------------------------------ interface, state, errors
+def test_interface_and_state_counts():
+    m = model("contact", drive="torque", tau_c=2100.0, backlash=True, flankFriction=True)
+    assert m.n_states == 10
+    assert m.active_effects == ("contact", "backlash", "pinFriction", "flankFriction")
+    assert model("compliant").n_states == 8
+    e0 = m.kinetic_energy + m.potential_energy
+    run(m, 0.05)
+    assert m.tau_drive == 2100.0 and m.wc == pytest.approx(W0, rel=1e-9)  # balanced torques
+    assert abs(energy_balance(m, e0)) < 1e-9 + 1e-6 * abs(m.work_in)
+    assert m.n_internal_steps >= 50 and m.potential_energy > 0.5
+
+
+def test_get_set_state_reproduces_the_continuation_exactly():
+    # a continuation with impacts, stick/slip switches and flank friction
+    m = model("contact", backlash=True, flankFriction=True, preload=False)
+
+    def reverse(mm):
+        mm.tau_L, mm.tau_R = 1000.0, 1040.0
+
+    run(m, 0.015, 1e-3)
+    snap = json.loads(json.dumps(m.get_state()))  # JSON round trip
+    counts = (m.n_contact_transitions, m.n_mode_switches)
+    first = run(m, 0.04, 1e-3, t0=0.015, events={5: reverse})
+    assert m.n_contact_transitions > counts[0] and m.n_mode_switches > counts[1]
+    end = m.get_state()
+    m.set_state(snap)
+    second = run(m, 0.04, 1e-3, t0=0.015, events={5: reverse})
+    assert np.array_equal(first, second)
+    assert m.get_state() == end
+    # also on a fresh instance
+    m2 = MeshDifferential(m.params, m.mesh)
+    m2.initialize()
+    m2.set_state(snap)
+    assert np.array_equal(run(m2, 0.04, 1e-3, t0=0.015, events={5: reverse}), first)
+    assert m2.get_state() == end
+
+
+def test_step_error_leaves_the_state_unchanged():
+    m = model("contact", backlash=True, maxInternalSteps=20)
+    run(m, 0.01)
+    m.tau_L = m.tau_R = 1050.0  # torque reversal: impacts need many internal steps
+    before = json.dumps(m.get_state())
+    out_before = outputs(m)
+    with pytest.raises(StepError):
+        m.do_step(0.01, 1e-3)
+    assert json.dumps(m.get_state()) == before
+    assert np.array_equal(outputs(m), out_before)
+
+
+@pytest.mark.parametrize("field,value", [
+    ("meshModel", "rigid"), ("tolerance", 0.0), ("tolerance", float("nan")), ("backlashA1", -1e-4),
+    ("stiffness12", -1.0), ("dampingRatio", 20.0), ("contactExponent", 0.5), ("contactDepth", 0.0),
+    ("contactStiffnessB2", 0.0), ("muStatic", 1.5), ("muDynamic", 0.06), ("vStiction", 0.0),
+    ("vTransition", 1e-5), ("maxInternalSteps", 2), ("pinFriction", "yes"), ("youngsModulus", 1.0),
+])
+def test_bad_parameters_name_the_field(field, value):
+    m = MeshDifferential(DifferentialParams(), MeshParams(**{field: value}))
+    with pytest.raises(ParameterError) as e:
+        m.initialize()
+    assert e.value.name == field
+
+
+def test_bad_inputs_and_steps():
+    m = model("contact")
+    m.tau_L = float("nan")
+    with pytest.raises(ParameterError) as e:
+        m.do_step(0.0, 1e-3)
+    assert e.value.name == "left.tau"
+    m.tau_L = -1050.0
+    with pytest.raises(ParameterError):
+        m.do_step(0.0, 0.0)
+    with pytest.raises(ParameterError):
+        MeshDifferential(DifferentialParams(mu_pin=-1.0), MeshParams()).initialize()
+    with pytest.raises(StepError):
+        MeshDifferential().do_step(0.0, 1e-3)
