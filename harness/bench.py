@@ -42,31 +42,58 @@ def fmi_overhead(scene_name: str, duration: float | None = None, repeats: int = 
     return {"scene": scene_name, "simulated_s": scene.duration, "fmi_s": f, "direct_s": d, "ratio": f / d}
 
 
-def fidelity_cost(scene_name: str = "paper-straight", levels=("rigid",), repeats: int = 3) -> list[dict]:
+# Fidelity settings whose cost `bench` compares (structural parameters of the differential).
+EFFECT_SETS: dict[str, dict] = {
+    "rigid": {"meshModel": "rigid"},
+    "compliant": {"meshModel": "compliant"},
+    "contact": {"meshModel": "contact"},
+    "contact + backlash": {"meshModel": "contact", "backlash": True},
+    "contact + meshStiffnessVariation": {"meshModel": "contact", "meshStiffnessVariation": True},
+    "contact + flankFriction": {"meshModel": "contact", "flankFriction": True},
+    "contact, all effects": {"meshModel": "contact", "backlash": True, "meshStiffnessVariation": True,
+                             "flankFriction": True},
+}
+
+
+def fidelity_cost(scene_name: str = "paper-straight", sets: dict[str, dict] | None = None, repeats: int = 3,
+                  extra: dict | None = None) -> list[dict]:
+    """Median stepping time of each fidelity setting on one scene, relative to the first.
+    ``extra``: parameters added to every setting (e.g. an unloaded start)."""
     rows = []
     base = None
-    for level in levels:
-        scene = prepare_scene(scene_name, mesh=level)
+    for label, effects in (sets or EFFECT_SETS).items():
+        scene = prepare_scene(scene_name)
+        scene = replace(scene, effects={**scene.effects, **effects, **(extra or {})})
         files = fmu_files_for(scene)
         run_scene(scene, files)
         wall, res = _median_wall(lambda: run_scene(scene, files), repeats)
         if base is None:
             base = wall
-        rows.append({"level": level, "wall_s": wall, "relative": wall / base,
+        rows.append({"level": label, "wall_s": wall, "relative": wall / base,
                      "realtime_factor": scene.duration / wall if wall > 0 else float("inf"), "ok": res.ok})
     return rows
 
 
 def realtime_factors(repeats: int = 3) -> list[dict]:
+    from harness.accuracy import apply_choice, choose
+    from harness.scene import SceneError
+
     rows = []
     for name in available():
         scene = load_scene(name)
+        declared_step = scene.step
+        if scene.fidelity.get("mode") == "auto":
+            try:
+                scene = apply_choice(scene, choose(scene)[0])
+            except SceneError:
+                continue   # no stored accuracy data yet
         files = fmu_files_for(scene)
         run_scene(scene, files)
         wall, res = _median_wall(lambda: run_scene(scene, files), repeats)
         rows.append({"scene": name, "simulated_s": scene.duration, "wall_s": wall,
                      "realtime_factor": scene.duration / wall if wall > 0 else float("inf"),
-                     "fidelity": ", ".join(f"{k}={v}" for k, v in scene.effects.items()), "ok": res.ok})
+                     "fidelity": ", ".join(f"{k}={v}" for k, v in scene.effects.items())
+                     + (f" (auto), step {scene.step:g} s" if scene.step != declared_step else ""), "ok": res.ok})
     return rows
 
 
@@ -75,7 +102,8 @@ def main(argv: list[str] | None = None) -> int:
 
     ap = argparse.ArgumentParser(prog="spurdiff bench", description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5)
-    ap.add_argument("--levels", nargs="*", default=None, help="mesh levels to compare (default: all available)")
+    ap.add_argument("--levels", nargs="*", default=None, choices=list(EFFECT_SETS), metavar="SETTING",
+                    help=f"fidelity settings to compare (default: all: {', '.join(EFFECT_SETS)})")
     ap.add_argument("--write", type=str, default=None, metavar="FILE.md",
                     help="also write the report as Markdown (e.g. docs/performance.md)")
     args = ap.parse_args(argv)
@@ -111,8 +139,7 @@ class _Tee:
 def _report(args) -> int:
     from harness.report import render
 
-    from spurdiff.differential_fmu import MESH_MODELS
-    levels = args.levels or list(MESH_MODELS)
+    sets = {k: v for k, v in EFFECT_SETS.items() if not args.levels or k in args.levels or k == "rigid"}
     t0 = time.perf_counter()
     print(f"spurdiff bench (medians of {args.repeats} interleaved runs, stepping time only)\n")
     o = fmi_overhead("vehicle-cornering" if "vehicle-cornering" in available() else "paper-cornering",
@@ -121,8 +148,9 @@ def _report(args) -> int:
     print(render(["scene", "simulated s", "FMI s", "direct s", "FMI / direct"],
                  [[o["scene"], f"{o['simulated_s']:g}", f"{o['fmi_s']:.4f}", f"{o['direct_s']:.4f}",
                    f"{o['ratio']:.2f}"]]))
-    print("\n2. Cost of each mesh level relative to rigid (paper-straight, 0.3 s)")
-    rows = fidelity_cost("paper-straight", levels, max(3, args.repeats // 2))
+    print("\n2. Cost of each effect relative to rigid (paper-straight from unloaded meshes, mesh.preload = false:"
+          "\n   the loads hit at t = 0, a transient with impacts and stick-slip; 0.3 s)")
+    rows = fidelity_cost("paper-straight", sets, max(3, args.repeats // 2), extra={"mesh.preload": False})
     print(render(["level", "wall s", "relative to rigid", "real-time factor"],
                  [[r["level"], f"{r['wall_s']:.4f}", f"{r['relative']:.1f}", f"{r['realtime_factor']:.1f}"]
                   for r in rows]))

@@ -154,9 +154,27 @@ def build(names: list[str] | None = None, dest: Path = DEFAULT_DEST, force: bool
                 if not quiet:
                     print(f"up to date: {fmu_path(name, dest)}")
                 paths.append(fmu_path(name, dest))
+            elif _pythonfmu_shadowed():
+                paths.append(_build_in_subprocess(name, dest))
             else:
                 paths.append(build_one(name, dest, quiet=quiet))
     return paths
+
+
+def _pythonfmu_shadowed() -> bool:
+    """True once this process has loaded a pythonfmu FMU: its embedded interpreter then imports
+    ``pythonfmu`` from the FMU's resources/, a copy without the builder's binaries."""
+    mod = sys.modules.get("pythonfmu")
+    return mod is not None and not (Path(mod.__file__).parent / "resources" / "binaries").is_dir()
+
+
+def _build_in_subprocess(name: str, dest: Path) -> Path:
+    code = "import sys; from pathlib import Path; from harness.build import build_one; build_one(sys.argv[1], Path(sys.argv[2]), quiet=True)"
+    r = subprocess.run([sys.executable, "-c", code, name, str(dest)], capture_output=True, text=True,
+                       cwd=str(Path(__file__).resolve().parent.parent))
+    if r.returncode != 0:
+        raise BuildError(f"{name}: build in a fresh process failed: {(r.stderr or r.stdout).strip().splitlines()[-1:]}")
+    return fmu_path(name, dest)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -15,6 +15,7 @@ when the communication step is too coarse.
 """
 from __future__ import annotations
 
+import math
 import shutil
 import tempfile
 import time
@@ -159,6 +160,35 @@ def _make_logger(sink: list):
     return fmi2CallbackLoggerTYPE(logger)
 
 
+class RealPort:
+    """fmi2GetReal / fmi2SetReal on a fixed list of value references, with the C arrays allocated
+    once: the stepping loop calls the FMU's C functions directly (fmpy's wrappers convert lists
+    to new arrays on every call). A status above warning raises :class:`RunFailure` with the
+    FMU's logged reason."""
+
+    def __init__(self, inst: Instance, vrs: list[int], write: bool):
+        from fmpy.fmi2 import fmi2Real, fmi2ValueReference
+
+        self.inst, self.n = inst, len(vrs)
+        self.vr = (fmi2ValueReference * self.n)(*vrs)
+        self.val = (fmi2Real * self.n)()
+        self.fn = inst.slave._functions["fmi2SetReal" if write else "fmi2GetReal"]
+        self.component = inst.slave.component
+        self.what = "fmi2SetReal" if write else "fmi2GetReal"
+
+    def _check(self, status: int, t: float) -> None:
+        if status > 1:
+            raise RunFailure(self.inst.name, t, f"{self.what} returned status {status}: {self.inst.last_messages()}")
+
+    def set(self, values: list[float], t: float = math.nan) -> None:
+        self.val[:] = values
+        self._check(self.fn(self.component, self.vr, self.n, self.val), t)
+
+    def get(self, t: float = math.nan) -> list[float]:
+        self._check(self.fn(self.component, self.vr, self.n, self.val), t)
+        return self.val[:]
+
+
 class Master:
     """Runs one scene. ``fmu_files`` maps FMU names (e.g. 'SpurDifferential') to .fmu paths."""
 
@@ -253,6 +283,25 @@ class Master:
                 by_type[t] = (vrs, [(t, vr) for vr in vrs])
             self._out_vrs[n] = by_type
         self._values: dict[str, dict[tuple[str, int], float]] = {n: {} for n in self.instances}
+        # the stepping loop reads every step only what connections and couplings need (Real);
+        # what is only recorded is read at the recording instants
+        every_step: dict[str, set[tuple[str, int]]] = {n: set() for n in self.instances}
+        for fi, key in (s for _, srcs in self._links.values() for s in srcs):
+            every_step[fi].add(key)
+        for _, refs, _ in self._couplings:
+            for i, key in refs:
+                every_step[i].add(key)
+        self._step_read: dict[str, tuple[RealPort, list] | None] = {}
+        for n, keys in every_step.items():
+            reals = sorted(vr for t, vr in keys if t == "Real")
+            if len(reals) != len(keys):   # a non-Real coupling quantity: read everything each step
+                reals = self._out_vrs[n]["Real"][0]
+            self._step_read[n] = (RealPort(self.instances[n], reals, False), [("Real", vr) for vr in reals]) \
+                if reals else None
+        self._step_full = {n: len(every_step[n]) != len([k for k in every_step[n] if k[0] == "Real"])
+                           for n in self.instances}
+        self._set_port = {n: RealPort(self.instances[n], links[0], True) if links[0] else None
+                          for n, links in self._links.items()}
 
     def _key(self, inst: str, var: str) -> tuple[str, int]:
         v = self.instances[inst].var(var)
@@ -265,9 +314,13 @@ class Master:
             if profs:
                 self.instances[name].slave.setReal([vr for vr, _ in profs], [p(t) for _, p in profs])
 
-    def _apply_connections(self, name: str, initial: bool = False) -> None:
+    def _apply_connections(self, name: str, initial: bool = False, t: float = math.nan) -> None:
         links = getattr(self, "_links", {}).get(name)
         if not links or not links[0]:
+            return
+        if not initial:
+            values = self._values
+            self._set_port[name].set([values[src][key] for src, key in links[1]], t)
             return
         vals = []
         for src, key in links[1]:
@@ -276,6 +329,15 @@ class Master:
                 d[key] = self.instances[src].slave.getReal([key[1]])[0]
             vals.append(d[key])
         self.instances[name].slave.setReal(links[0], vals)
+
+    def _read_step(self, name: str, t: float) -> None:
+        """The outputs connections and couplings need, after a step of ``name``."""
+        if self._step_full[name]:
+            self._read_outputs(name)
+            return
+        port = self._step_read[name]
+        if port is not None:
+            self._values[name].update(zip(port[1], port[0].get(t)))
 
     def _read_outputs(self, name: str) -> None:
         by_type = self._out_vrs[name]
@@ -320,16 +382,16 @@ class Master:
                 self._apply_profiles(t)
                 if jacobi:
                     for name in order:
-                        self._apply_connections(name)
+                        self._apply_connections(name, t=t)
                     for name in order:
                         self._step(name, t, h)
                     for name in order:
-                        self._read_outputs(name)
+                        self._read_step(name, t)
                 else:
                     for name in order:
-                        self._apply_connections(name)
+                        self._apply_connections(name, t=t)
                         self._step(name, t, h)
-                        self._read_outputs(name)
+                        self._read_step(name, t)
                 steps += 1
                 power = self._coupling_power()
                 for cname, (p_from, p_to) in power.items():
@@ -338,6 +400,8 @@ class Master:
                     e["work_to"] += 0.5 * (p_to + prev_power[cname][1]) * h
                 prev_power = power
                 if (k + 1) % rec_every == 0 or k + 1 == n_steps:
+                    for name in order:
+                        self._read_outputs(name)
                     rows.append(self._sample((k + 1) * h))
                 if self.progress is not None and k % 200 == 0:
                     self.progress((k + 1) / n_steps)
@@ -354,10 +418,10 @@ class Master:
 
     def _step(self, name: str, t: float, h: float) -> None:
         inst = self.instances[name]
-        try:
-            inst.slave.doStep(currentCommunicationPoint=t, communicationStepSize=h)
-        except Exception as e:  # fmpy raises FMICallException for status > warning
-            raise RunFailure(name, t, inst.last_messages() or str(e)) from None
+        slave = inst.slave
+        status = slave._functions["fmi2DoStep"](slave.component, t, h, 1)   # noSetFMUStatePriorToCurrentPoint
+        if status > 1:   # discard, error, fatal
+            raise RunFailure(name, t, inst.last_messages() or f"fmi2DoStep returned status {status}")
 
     def _sample(self, t: float) -> list[float]:
         row = [t]

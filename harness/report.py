@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import csv
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -139,6 +140,25 @@ def format_checks(outcomes: list[CheckOutcome]) -> str:
                      for o in outcomes)
 
 
+RESIDUAL_WARN = 0.01   # coupling energy residual, relative to the work transferred
+
+
+def coupling_warnings(result: Result, limit: float = RESIDUAL_WARN) -> list[str]:
+    """Couplings whose energy residual exceeds ``limit`` of the work they transferred: the
+    communication step is too coarse for the coupling's stiffness (or the run diverged)."""
+    out = []
+    for name, e in result.coupling_energy.items():
+        wf, wt = e["work_from"], e["work_to"]
+        ref = max(abs(wf), abs(wt), 1e-12)
+        rel = abs(wf - wt) / ref if math.isfinite(wf - wt) else math.inf
+        if rel > limit:
+            out.append(f"WARNING coupling {name}: energy residual {100 * rel:.3g} % of the work transferred "
+                       f"(limit {100 * limit:g} %) at step {result.scene.step:g} s ({result.scene.algorithm}): the "
+                       "communication step is too coarse for this coupling; reduce it"
+                       + (" or use gauss-seidel" if result.scene.algorithm == "jacobi" else ""))
+    return out
+
+
 def format_couplings(result: Result) -> str:
     lines = []
     for name, e in result.coupling_energy.items():
@@ -146,7 +166,7 @@ def format_couplings(result: Result) -> str:
         ref = max(abs(wf), abs(wt), 1e-12)
         lines.append(f"coupling {name}: work given {wf:.6g} J, received {wt:.6g} J, "
                      f"residual {wf - wt:+.3g} J ({100 * (wf - wt) / ref:+.3f} %)")
-    return "\n".join(lines)
+    return "\n".join(lines + coupling_warnings(result))
 
 
 def write_csv(result: Result, path: Path) -> Path:

@@ -19,6 +19,10 @@ Top-level keys::
     record                        list of "inst.var" to record (default: every connected/profiled var)
     table                         [[table]] rows of the results table (label, var, scale, unit, paper, theory, window)
     checks                        [[checks]] physical checks (name, stat, var, window, expect/rtol/atol/below/above)
+    fidelity                      "fixed" (default) | {mode = "auto", outputs = ["inst.var", ...], tolerance = 0.01,
+                                  data = "scene"}: pick the cheapest measured fidelity and step (harness/accuracy.py)
+    extends                       name of a scene this one starts from: its tables are merged key by key,
+                                  every other value (lists included) is replaced
 
 A quantity (``var``, ``expect_var``, a string ``theory``) is a recorded variable ``"inst.var"`` or an
 expression over them in braces, e.g. ``"{wheelR.wheel.w} / {wheelL.wheel.w}"`` (numpy arithmetic,
@@ -36,7 +40,9 @@ from typing import Any
 SCENE_DIR = Path(__file__).resolve().parent / "scenes"
 
 TOP_KEYS = {"name", "description", "duration", "step", "output_interval", "algorithm", "order", "effects",
-            "fmus", "inputs", "connections", "couplings", "record", "table", "checks", "fidelity"}
+            "fmus", "inputs", "connections", "couplings", "record", "table", "checks", "fidelity",
+            "extends"}
+FIDELITY_KEYS = {"mode", "outputs", "tolerance", "data"}
 FMU_KEYS = {"fmu", "parameters"}
 TABLE_KEYS = {"label", "var", "scale", "unit", "paper", "theory", "paper_max", "paper_min", "window"}
 CHECK_KEYS = {"name", "stat", "var", "window", "expect", "rtol", "atol", "below", "above", "expect_var"}
@@ -246,6 +252,17 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
     fidelity = data.get("fidelity", {})
     if isinstance(fidelity, str):
         fidelity = {"mode": fidelity}
+    _unknown(f"{where}: fidelity", fidelity, FIDELITY_KEYS)
+    if fidelity.get("mode", "fixed") not in ("fixed", "auto"):
+        raise SceneError(f"{where}: fidelity mode = {fidelity['mode']!r}; allowed: fixed | auto")
+    if fidelity.get("mode") == "auto":
+        outs = fidelity.get("outputs")
+        if not isinstance(outs, list) or not outs or not all(isinstance(o, str) for o in outs):
+            raise SceneError(f"{where}: fidelity auto needs outputs = a non-empty list of quantities")
+        tol = fidelity.get("tolerance", 0.01)
+        if not isinstance(tol, (int, float)) or not 0 < tol < 1e3:
+            raise SceneError(f"{where}: fidelity tolerance = {tol!r}; allowed: a number > 0 (relative error)")
+        fidelity.setdefault("data", data.get("extends", data["name"]))
     return Scene(name=str(data["name"]), description=str(data.get("description", "")), duration=duration,
                  step=step, output_interval=out, algorithm=algorithm, instances=instances, inputs=inputs,
                  connections=connections, couplings=couplings, record=record, table=table, checks=checks,
@@ -262,13 +279,36 @@ def scene_path(name_or_path: str) -> Path:
     raise SceneError(f"unknown scene {name_or_path!r}; available: {', '.join(available())}")
 
 
-def load_scene(name_or_path: str) -> Scene:
+def merge(base: dict, over: dict) -> dict:
+    """``over`` on top of ``base``: tables merge key by key, any other value replaces."""
+    out = dict(base)
+    for k, v in over.items():
+        out[k] = merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
+    return out
+
+
+def read_scene_data(name_or_path: str, _seen: tuple[str, ...] = ()) -> dict:
+    """The scene's TOML data with ``extends`` resolved (its parent's tables merged underneath)."""
     path = scene_path(name_or_path)
     try:
         data = tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as e:
         raise SceneError(f"{path.name}: not valid TOML: {e}") from None
-    return parse_scene(data, path)
+    parent = data.get("extends")
+    if parent is None:
+        return data
+    if not isinstance(parent, str):
+        raise SceneError(f"{path.name}: extends = {parent!r}; allowed: a scene name")
+    if parent in _seen + (path.stem,):
+        raise SceneError(f"{path.name}: extends {parent!r} makes a cycle")
+    base = read_scene_data(parent, _seen + (path.stem,))
+    base.pop("fidelity", None)
+    return merge(base, data)
+
+
+def load_scene(name_or_path: str) -> Scene:
+    path = scene_path(name_or_path)
+    return parse_scene(read_scene_data(name_or_path), path)
 
 
 def available() -> list[str]:

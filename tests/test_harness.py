@@ -2,6 +2,7 @@
 import csv
 
 import pytest
+import numpy as np
 
 from harness.cli import main
 from harness.scene import SceneError, available, load_scene, parse_scene
@@ -104,3 +105,63 @@ def test_integer_outputs_can_be_recorded(fmu_files):
     s.record += ["diff.modeSwitches", "diff.internalSteps"]
     r = run_scene(s, fmu_files)
     assert r.ok and r["diff.internalSteps"][-1] == 20 and r["diff.modeSwitches"][-1] >= 0
+
+
+def test_scene_extends_merges_tables_and_replaces_the_rest():
+    s = load_scene("cornering-speeds-auto")
+    base = load_scene("vehicle-cornering")
+    assert s.name == "cornering-speeds-auto" and s.duration == base.duration
+    assert [i.name for i in s.instances] == [i.name for i in base.instances]
+    assert s.instance("diff").parameters == base.instance("diff").parameters
+    assert s.fidelity["mode"] == "auto" and s.fidelity["data"] == "vehicle-cornering"
+    assert base.fidelity == {}
+
+
+@pytest.mark.parametrize("fidelity, match", [
+    ({"mode": "auto", "tolerance": 0.01}, "outputs"),
+    ({"mode": "auto", "outputs": ["diff.left.w"], "tolerance": -1.0}, "tolerance"),
+    ({"mode": "automatic"}, "fixed | auto"),
+    ({"mode": "auto", "outputs": ["diff.left.w"], "tolerence": 0.01}, "tolerence"),
+])
+def test_bad_fidelity_is_named(fidelity, match):
+    with pytest.raises(SceneError, match=match):
+        parse_scene({**BASE, "fidelity": fidelity})
+
+
+def test_extends_cycle_is_refused(tmp_path, monkeypatch):
+    import harness.scene as sc
+    (tmp_path / "a.toml").write_text('extends = "b"\nname = "a"\n')
+    (tmp_path / "b.toml").write_text('extends = "a"\nname = "b"\n')
+    monkeypatch.setattr(sc, "SCENE_DIR", tmp_path)
+    with pytest.raises(SceneError, match="cycle"):
+        sc.load_scene("a")
+
+
+def test_coupling_warning_names_the_coupling_and_the_cure():
+    from harness.master import Result
+    from harness.report import coupling_warnings, format_couplings
+
+    scene = load_scene("vehicle-cornering")
+    r = Result(scene, [], np.zeros((1, 1)), 0.0, 0, coupling_energy={
+        "left half-shaft": {"work_from": 100.0, "work_to": 99.95},
+        "right half-shaft": {"work_from": 100.0, "work_to": 90.0}})
+    w = coupling_warnings(r)
+    assert len(w) == 1 and "right half-shaft" in w[0] and "too coarse" in w[0]
+    assert w[0] in format_couplings(r)
+
+
+def test_build_after_loading_an_fmu_in_the_same_process(differential_fmu, tmp_path):
+    """Once a pythonfmu FMU ran in a process, `import pythonfmu` resolves to the FMU's resources/
+    copy, which has no builder binaries: a (re)build from such a process (accuracy, sweeps,
+    tests) must still produce a complete FMU."""
+    import subprocess
+    import sys
+    code = ("import sys; from pathlib import Path; from harness.master import run_scene; "
+            "from harness.scene import load_scene; from harness.build import build, _pythonfmu_shadowed; "
+            "run_scene(load_scene('paper-straight'), {'SpurDifferential': Path(sys.argv[1])}); "
+            "assert _pythonfmu_shadowed(); print(build(['SpurDifferential'], Path(sys.argv[2]), quiet=True)[0])")
+    r = subprocess.run([sys.executable, "-c", code, str(differential_fmu), str(tmp_path)], capture_output=True,
+                       text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-2000:]
+    from fmpy.validation import validate_fmu
+    assert validate_fmu(str(tmp_path / "SpurDifferential.fmu")) == []

@@ -98,63 +98,79 @@ def _trajectory(m, t_end=0.3, h=1e-3, events=None):
     return np.array(ys), time.perf_counter() - t0
 
 
-def ivp() -> None:
-    """The same ODE integrated by our do_step loop and by solve_ivp (analytic Jacobian), error of
-    the states at the 1 ms output points against a tolerance-1e-11 run of ours. Two cases without
-    friction-mode switches (pin friction off): the contact level from unloaded meshes (a ms
-    transient, then static) and the compliant level with backlash, preloaded, reversed at t = 0
-    (impacts, rattle, then static)."""
+IVP_CASES = {
+    "contact, unloaded start": (dict(meshModel="contact", preload=False, pinFriction=False), (-1050.0, -1050.0)),
+    "compliant + backlash, reversal": (dict(meshModel="compliant", backlash=True, pinFriction=False),
+                                       (1050.0, 1050.0)),
+}
+IVP_METHODS = ("Radau", "BDF", "LSODA")
+
+
+def _fresh(case: str, tol: float = 1e-6) -> MeshDifferential:
+    mesh, loads = IVP_CASES[case]
+    m = MeshDifferential(DifferentialParams(), MeshParams(tolerance=tol, maxInternalSteps=10 ** 7, **mesh))
+    m.w_ref, m.w_start_carrier = W0, W0
+    m.tau_L, m.tau_R = -1050.0, -1050.0
+    m.initialize()
+    m.tau_L, m.tau_R = loads   # applied from t = 0
+    return m
+
+
+def ivp_points(case: str, tols=(1e-4, 1e-6, 1e-8), methods=IVP_METHODS, restarted: bool = True) -> list[dict]:
+    """Work-precision points of one case: our do_step loop and solve_ivp (analytic Jacobian, one
+    call over 0.3 s and, as a co-simulation slave must, restarted at every 1 ms communication
+    point). Error: max scaled state error at the 301 output points against a tolerance-1e-11
+    run of ours."""
     from scipy.integrate import solve_ivp
 
-    cases = {
-        "contact, unloaded start": (dict(meshModel="contact", preload=False, pinFriction=False), (-1050.0, -1050.0)),
-        "compliant + backlash, reversal": (dict(meshModel="compliant", backlash=True, pinFriction=False),
-                                           (1050.0, 1050.0)),
-    }
+    ref, _ = _trajectory(_fresh(case, 1e-11))
+    out = []
+    for tol in tols:
+        ys, wall = _trajectory(_fresh(case, tol))
+        out.append({"case": case, "integrator": "ours (ROS34PW2, do_step loop)", "tolerance": tol,
+                    "error": float(np.max(np.abs(ys - ref) / SCALE)), "wall": wall, "nfev": None})
+    for method in methods:
+        for tol in tols:
+            m = _fresh(case)
+            m._ac = 0.0
+            y0 = m.state_vector()
+            atol = SCALE * tol
+            t0 = time.perf_counter()
+            sol = solve_ivp(m.rhs, (0.0, 0.3), y0, method=method, rtol=tol, atol=atol, jac=m.jac,
+                            t_eval=np.linspace(0.0, 0.3, 301))
+            w1 = time.perf_counter() - t0
+            err1 = float(np.max(np.abs(sol.y.T - ref) / SCALE)) if sol.success else float("nan")
+            out.append({"case": case, "integrator": f"solve_ivp {method}, one call", "tolerance": tol,
+                        "error": err1, "wall": w1, "nfev": sol.nfev})
+            if not restarted:
+                continue
+            y = y0.copy()
+            ys = [y0]
+            nfev = 0
+            t0 = time.perf_counter()
+            for k in range(300):
+                st = solve_ivp(m.rhs, (k * 1e-3, (k + 1) * 1e-3), y, method=method, rtol=tol, atol=atol, jac=m.jac)
+                y = st.y[:, -1]
+                ys.append(y)
+                nfev += st.nfev
+            w2 = time.perf_counter() - t0
+            out.append({"case": case, "integrator": f"solve_ivp {method}, restarted every 1 ms", "tolerance": tol,
+                        "error": float(np.max(np.abs(np.array(ys) - ref) / SCALE)), "wall": w2, "nfev": nfev})
+    return out
+
+
+def ivp() -> None:
+    """The same ODE integrated by our do_step loop and by solve_ivp: see :func:`ivp_points`.
+    Two cases without friction-mode switches (pin friction off): the contact level from unloaded
+    meshes (a ms transient, then static) and the compliant level with backlash, preloaded,
+    reversed at t = 0 (impacts, rattle, then static)."""
     print("## Against scipy solve_ivp on the same ODE (0.3 s, 1 ms outputs)\n")
     print("| case | integrator | tolerance | max scaled error at the outputs | wall s | RHS evaluations |")
     print("|---|---|---|---|---|---|")
-    for name, (mesh, loads) in cases.items():
-        def fresh(tol=1e-6):
-            m = MeshDifferential(DifferentialParams(), MeshParams(tolerance=tol, maxInternalSteps=10 ** 7, **mesh))
-            m.w_ref, m.w_start_carrier = W0, W0
-            m.tau_L, m.tau_R = -1050.0, -1050.0
-            m.initialize()
-            m.tau_L, m.tau_R = loads   # applied from t = 0
-            return m
-
-        ref, _ = _trajectory(fresh(1e-11))
-        for tol in (1e-4, 1e-6, 1e-8):
-            ys, wall = _trajectory(fresh(tol))
-            err = np.max(np.abs(ys - ref) / SCALE)
-            print(f"| {name} | do_step loop (ROS34PW2) | {tol:g} | {err:.1e} | {wall:.3f} | - |")
-        for method in ("Radau", "BDF", "LSODA"):
-            for tol in (1e-4, 1e-6, 1e-8):
-                m = fresh()
-                m._ac = 0.0
-                y0 = m.state_vector()
-                atol = SCALE * tol
-                t0 = time.perf_counter()
-                sol = solve_ivp(m.rhs, (0.0, 0.3), y0, method=method, rtol=tol, atol=atol, jac=m.jac,
-                                t_eval=np.linspace(0.0, 0.3, 301))
-                w1 = time.perf_counter() - t0
-                err1 = np.max(np.abs(sol.y.T - ref) / SCALE) if sol.success else float("nan")
-                # as a co-simulation slave must: restart at every communication point
-                y = y0.copy()
-                ys = [y0]
-                nfev = 0
-                t0 = time.perf_counter()
-                for k in range(300):
-                    s = solve_ivp(m.rhs, (k * 1e-3, (k + 1) * 1e-3), y, method=method, rtol=tol, atol=atol,
-                                  jac=m.jac)
-                    y = s.y[:, -1]
-                    ys.append(y)
-                    nfev += s.nfev
-                w2 = time.perf_counter() - t0
-                err2 = np.max(np.abs(np.array(ys) - ref) / SCALE)
-                print(f"| {name} | solve_ivp {method}, one call | {tol:g} | {err1:.1e} | {w1:.3f} | {sol.nfev} |")
-                print(f"| {name} | solve_ivp {method}, restarted every 1 ms | {tol:g} | {err2:.1e} | {w2:.3f} "
-                      f"| {nfev} |")
+    for case in IVP_CASES:
+        for p in ivp_points(case):
+            print(f"| {case} | {p['integrator']} | {p['tolerance']:g} | {p['error']:.1e} | {p['wall']:.3f} "
+                  f"| {'-' if p['nfev'] is None else p['nfev']} |")
     print()
 
 

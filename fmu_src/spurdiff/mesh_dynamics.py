@@ -1052,7 +1052,10 @@ class MeshDifferential:
                     if errE > err:
                         err = errE
                 theta = self._state_events(y, ym, yn)
-                if self._pin:
+                # a contact made or lost inside the step makes the stuck planets' friction
+                # margins jump there, and their secant estimate, from the start, middle and end
+                # values, then lands early again and again (Zeno): locate the contact first
+                if self._pin and theta >= 1.0 - 1e-6:
                     # a stuck planet whose required friction exceeds the capacity breaks away
                     tolc = STICK_RTOL * (sv1[9] + sv1[10])
                     for g0, gm, g1 in zip(self._margins_from(sv0), self._margins_from(svm),
