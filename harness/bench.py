@@ -122,6 +122,20 @@ def main(argv: list[str] | None = None) -> int:
     return code
 
 
+def _solve_ivp_ratio() -> float | None:
+    """Best speed ratio of ours over the best solve_ivp variant at equal accuracy on the contact
+    model, from the stored accuracy facts (`spurdiff accuracy`)."""
+    import json
+
+    from harness.accuracy import FACTS_FILE, equal_accuracy_ratios
+    try:
+        ivp = json.loads(FACTS_FILE.read_text()).get("ivp") or []
+    except (OSError, ValueError):
+        return None
+    r = [x["ratio"] for x in equal_accuracy_ratios(ivp) if x["ratio"] is not None and x["case"].startswith("contact")]
+    return max(r) if r else None
+
+
 class _Tee:
     def __init__(self, *streams):
         self.streams = streams
@@ -151,13 +165,29 @@ def _report(args) -> int:
     print("\n2. Cost of each effect relative to rigid (paper-straight from unloaded meshes, mesh.preload = false:"
           "\n   the loads hit at t = 0, a transient with impacts and stick-slip; 0.3 s)")
     rows = fidelity_cost("paper-straight", sets, max(3, args.repeats // 2), extra={"mesh.preload": False})
+    cost = {r["level"]: r for r in rows}
     print(render(["level", "wall s", "relative to rigid", "real-time factor"],
                  [[r["level"], f"{r['wall_s']:.4f}", f"{r['relative']:.1f}", f"{r['realtime_factor']:.1f}"]
                   for r in rows]))
     print("\n3. Real-time factor of each scene at its default fidelity")
     rows = realtime_factors(max(3, args.repeats // 2))
+    rtf = {r["scene"]: r for r in rows}
     print(render(["scene", "simulated s", "wall s", "real-time factor", "fidelity"],
                  [[r["scene"], f"{r['simulated_s']:g}", f"{r['wall_s']:.3f}", f"{r['realtime_factor']:.1f}",
                    r["fidelity"]] for r in rows]))
+    print("\n4. The targets of issue 5, from the numbers above (and docs/accuracy.md for solve_ivp)")
+    targets = [["coupled / direct run, vehicle-cornering", "<= 1.25", f"{o['ratio']:.2f}", o["ratio"] <= 1.25]]
+    if "vehicle-cornering" in rtf:
+        v = rtf["vehicle-cornering"]["realtime_factor"]
+        targets.append(["real-time factor, vehicle-cornering at rigid", ">= 20", f"{v:.1f}", v >= 20.0])
+    if "contact" in cost:
+        c = cost["contact"]["realtime_factor"]
+        targets.append(["real-time factor, paper-straight at contact (unloaded start)", ">= 1", f"{c:.1f}", c >= 1.0])
+    best = _solve_ivp_ratio()
+    if best is not None:
+        targets.append(["our solver vs best solve_ivp at equal accuracy (contact, best case)", ">= 10",
+                        f"{best:.2f}", best >= 10.0])
+    print(render(["target", "wanted", "measured", "met"],
+                 [[a, b, c, "yes" if ok else "NO"] for a, b, c, ok in targets]))
     print(f"\n(bench took {time.perf_counter() - t0:.1f} s on {sys.platform}, python {sys.version.split()[0]})")
     return 0
