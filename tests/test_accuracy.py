@@ -68,3 +68,15 @@ def test_render_rewrites_the_docs_from_stored_data(tmp_path):
     assert main(["--render", "--out", str(tmp_path)]) == 0
     text = (tmp_path / "accuracy.md").read_text()
     assert "solve_ivp" in text and "cornering-speeds-auto" in text and (tmp_path / "accuracy.png").stat().st_size > 0
+
+
+def test_auto_skips_a_setting_that_is_wildly_off_elsewhere():
+    """Requested outputs fine, another metric off by 7x its scale (a coupling spike): not chosen."""
+    cheap, costly = _pts()
+    cheap.metric_errors = {**cheap.metric_errors, "min(diff.mesh.F_A1)": 7.0}
+    cheap.error = 7.0
+    costly.error = 1e-3
+    base = prepare_scene("paper-cornering")
+    pick, _ = choose(replace(base, fidelity={"mode": "auto", "outputs": ["diff.left.w"], "tolerance": 1e-3}),
+                     [cheap, costly])
+    assert pick.fidelity == "costly"
