@@ -255,26 +255,28 @@ class Master:
                 raise SceneError(f"connections: {frm!r} -> {to!r}: only Real variables can be connected")
             self._links[ti][0].append(tvar.valueReference)
             self._links[ti][1].append((fi, ("Real", fvar.valueReference)))
-        # outputs each instance must publish (connections, recording, couplings), keyed by
-        # (type, value reference): value references are unique per type only
-        needed: dict[str, set[tuple[str, int]]] = {n: set() for n in self.instances}
+        # outputs each instance must publish, keyed by (type, value reference): value references
+        # are unique per type only. Connections and couplings need theirs after every step;
+        # what is only recorded is read at the recording instants.
+        every_step: dict[str, set[tuple[str, int]]] = {n: set() for n in self.instances}
         for fi, key in (s for _, srcs in self._links.values() for s in srcs):
-            needed[fi].add(key)
-        self._record: list[tuple[str, tuple[str, int]]] = []
-        for ref in sc.record:
-            i, v = ref.split(".", 1)
-            key = self._key(i, v)
-            self._record.append((i, key))
-            needed[i].add(key)
+            every_step[fi].add(key)
         self._couplings = []
         for c in sc.couplings:
             refs = []
             for k in ("torque", "w_from", "w_to"):
                 i, v = c[k].split(".", 1)
                 key = self._key(i, v)
-                needed[i].add(key)
+                every_step[i].add(key)
                 refs.append((i, key))
             self._couplings.append((c["name"], refs, float(c.get("sign", 1.0))))
+        needed = {n: set(keys) for n, keys in every_step.items()}
+        self._record: list[tuple[str, tuple[str, int]]] = []
+        for ref in sc.record:
+            i, v = ref.split(".", 1)
+            key = self._key(i, v)
+            self._record.append((i, key))
+            needed[i].add(key)
         self._out_vrs = {}
         for n, keys in needed.items():
             by_type = {}
@@ -283,25 +285,21 @@ class Master:
                 by_type[t] = (vrs, [(t, vr) for vr in vrs])
             self._out_vrs[n] = by_type
         self._values: dict[str, dict[tuple[str, int], float]] = {n: {} for n in self.instances}
-        # the stepping loop reads every step only what connections and couplings need (Real);
-        # what is only recorded is read at the recording instants
-        every_step: dict[str, set[tuple[str, int]]] = {n: set() for n in self.instances}
-        for fi, key in (s for _, srcs in self._links.values() for s in srcs):
-            every_step[fi].add(key)
-        for _, refs, _ in self._couplings:
-            for i, key in refs:
-                every_step[i].add(key)
-        self._step_read: dict[str, tuple[RealPort, list] | None] = {}
+        # per step: a Real port on exactly those outputs; None: nothing to read; "all": a coupling
+        # quantity is not Real, read everything like at a recording instant
+        self._step_read: dict[str, tuple[RealPort, list] | str | None] = {}
         for n, keys in every_step.items():
-            reals = sorted(vr for t, vr in keys if t == "Real")
-            if len(reals) != len(keys):   # a non-Real coupling quantity: read everything each step
-                reals = self._out_vrs[n]["Real"][0]
-            self._step_read[n] = (RealPort(self.instances[n], reals, False), [("Real", vr) for vr in reals]) \
-                if reals else None
-        self._step_full = {n: len(every_step[n]) != len([k for k in every_step[n] if k[0] == "Real"])
-                           for n in self.instances}
+            if any(t != "Real" for t, _ in keys):
+                self._step_read[n] = "all"
+            elif keys:
+                reals = sorted(vr for _, vr in keys)
+                self._step_read[n] = (RealPort(self.instances[n], reals, False), [("Real", vr) for vr in reals])
+            else:
+                self._step_read[n] = None
         self._set_port = {n: RealPort(self.instances[n], links[0], True) if links[0] else None
                           for n, links in self._links.items()}
+        self._profile_port = {n: RealPort(self.instances[n], [vr for vr, _ in profs], True) if profs else None
+                              for n, profs in self._profiles.items()}
 
     def _key(self, inst: str, var: str) -> tuple[str, int]:
         v = self.instances[inst].var(var)
@@ -312,7 +310,7 @@ class Master:
     def _apply_profiles(self, t: float) -> None:
         for name, profs in getattr(self, "_profiles", {}).items():
             if profs:
-                self.instances[name].slave.setReal([vr for vr, _ in profs], [p(t) for _, p in profs])
+                self._profile_port[name].set([p(t) for _, p in profs], t)
 
     def _apply_connections(self, name: str, initial: bool = False, t: float = math.nan) -> None:
         links = getattr(self, "_links", {}).get(name)
@@ -332,11 +330,10 @@ class Master:
 
     def _read_step(self, name: str, t: float) -> None:
         """The outputs connections and couplings need, after a step of ``name``."""
-        if self._step_full[name]:
-            self._read_outputs(name)
-            return
         port = self._step_read[name]
-        if port is not None:
+        if port == "all":
+            self._read_outputs(name)
+        elif port is not None:
             self._values[name].update(zip(port[1], port[0].get(t)))
 
     def _read_outputs(self, name: str) -> None:

@@ -143,14 +143,19 @@ def format_checks(outcomes: list[CheckOutcome]) -> str:
 RESIDUAL_WARN = 0.01   # coupling energy residual, relative to the work transferred
 
 
+def _residual(e: dict[str, float]) -> tuple[float, float]:
+    """Energy residual of a coupling (work given minus received) and the work it is relative to."""
+    wf, wt = e["work_from"], e["work_to"]
+    return wf - wt, max(abs(wf), abs(wt), 1e-12)
+
+
 def coupling_warnings(result: Result, limit: float = RESIDUAL_WARN) -> list[str]:
     """Couplings whose energy residual exceeds ``limit`` of the work they transferred: the
     communication step is too coarse for the coupling's stiffness (or the run diverged)."""
     out = []
     for name, e in result.coupling_energy.items():
-        wf, wt = e["work_from"], e["work_to"]
-        ref = max(abs(wf), abs(wt), 1e-12)
-        rel = abs(wf - wt) / ref if math.isfinite(wf - wt) else math.inf
+        res, ref = _residual(e)
+        rel = abs(res) / ref if math.isfinite(res) else math.inf
         if rel > limit:
             out.append(f"WARNING coupling {name}: energy residual {100 * rel:.3g} % of the work transferred "
                        f"(limit {100 * limit:g} %) at step {result.scene.step:g} s ({result.scene.algorithm}): the "
@@ -162,10 +167,9 @@ def coupling_warnings(result: Result, limit: float = RESIDUAL_WARN) -> list[str]
 def format_couplings(result: Result) -> str:
     lines = []
     for name, e in result.coupling_energy.items():
-        wf, wt = e["work_from"], e["work_to"]
-        ref = max(abs(wf), abs(wt), 1e-12)
-        lines.append(f"coupling {name}: work given {wf:.6g} J, received {wt:.6g} J, "
-                     f"residual {wf - wt:+.3g} J ({100 * (wf - wt) / ref:+.3f} %)")
+        res, ref = _residual(e)
+        lines.append(f"coupling {name}: work given {e['work_from']:.6g} J, received {e['work_to']:.6g} J, "
+                     f"residual {res:+.3g} J ({100 * res / ref:+.3f} %)")
     return "\n".join(lines + coupling_warnings(result))
 
 

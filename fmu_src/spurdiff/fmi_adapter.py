@@ -110,22 +110,22 @@ class ModelFmu(Fmi2Slave):
             name = names.get(vr)
             if name is None:
                 raise TypeError(f"Variable with valueReference={vr} is not a settable Real")
-            if name in self._fixed and self.phase not in ("instantiated", "initializing"):
-                raise RuntimeError(f"{name} is a fixed parameter: it cannot be set after initialization "
-                                   f"(state '{self.phase}'); use fmi2Reset first")
+            self._refuse_fixed_after_init(name)
             table[name] = x
 
     def _setter(self, name: str) -> Callable[[Any], None]:
         values = self.values
-        fixed = next(v for v in self.VARIABLES if v.name == name).fmi_variability == "fixed"
 
         def set_value(x):
-            if fixed and self.phase not in ("instantiated", "initializing"):
-                # FMI 2.0 forbids it; raising is the only refusal pythonfmu 0.7 offers (fmi2Fatal)
-                raise RuntimeError(f"{name} is a fixed parameter: it cannot be set after initialization "
-                                   f"(state '{self.phase}'); use fmi2Reset first")
+            self._refuse_fixed_after_init(name)
             values[name] = x
         return set_value
+
+    def _refuse_fixed_after_init(self, name: str) -> None:
+        if name in self._fixed and self.phase not in ("instantiated", "initializing"):
+            # FMI 2.0 forbids it; raising is the only refusal pythonfmu 0.7 offers (fmi2Fatal)
+            raise RuntimeError(f"{name} is a fixed parameter: it cannot be set after initialization "
+                               f"(state '{self.phase}'); use fmi2Reset first")
 
     # ------------------------------------------------------------------ logging
     def _log(self, msg: str, status: Fmi2Status = Fmi2Status.ok) -> None:
@@ -166,7 +166,9 @@ class ModelFmu(Fmi2Slave):
         try:
             if not step_size > 0.0 or math.isinf(step_size):
                 raise ParameterError("communicationStepSize", step_size, "> 0 and finite")
-            saved = model.get_state()
+            # the rollback point; a model whose do_step restores itself on any error says so
+            # with ATOMIC_STEP (no second snapshot on the hot path)
+            saved = None if getattr(model, "ATOMIC_STEP", False) else model.get_state()
             self.push_inputs(model, self.values)
             model.do_step(current_time, step_size)
             self.pull_outputs(model, self.values)

@@ -220,6 +220,8 @@ class MeshDifferential:
     ``w_start_carrier``, ``w_start_left``. Call :meth:`initialize`, then :meth:`do_step`.
     """
 
+    ATOMIC_STEP = True   # do_step leaves the state as it was when it raises (the FMU adapter relies on it)
+
     def __init__(self, params: DifferentialParams | None = None, mesh: MeshParams | None = None):
         self.params = params or DifferentialParams()
         self.mesh = mesh or MeshParams()
@@ -950,7 +952,7 @@ class MeshDifferential:
     def do_step(self, t: float, h: float) -> None:
         """Advance from t to t + h with the inputs held; raises ParameterError / StepError.
 
-        On StepError the model is left exactly as it was before the call."""
+        On any error the model is left exactly as it was before the call (``ATOMIC_STEP``)."""
         if not self._ready:
             raise StepError("do_step called before initialize")
         h = require_positive("communicationStepSize", h)
@@ -964,6 +966,9 @@ class MeshDifferential:
         except (ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
             self.set_state(snapshot)
             raise StepError(f"step at t = {t:.9g} s failed: {exc}") from exc
+        except Exception:
+            self.set_state(snapshot)
+            raise
 
     def _advance(self, t: float, h: float) -> None:
         integ = self._integ
