@@ -285,14 +285,20 @@ def plot(points: list[Point], path: Path, ivp: list[dict] | None = None) -> None
         for p in points:
             if p.scene == sc and p.ok and math.isfinite(p.error) and p.wall > 0:
                 curves.setdefault(p.fidelity, []).append(p)
-        for fname, ps in curves.items():
+        styles = [(m, ls) for ls in ("-", "--", ":") for m in ("o", "s", "^", "v", "D")]
+        for i, (fname, ps) in enumerate(curves.items()):
             ps.sort(key=lambda p: p.wall)
-            ax.loglog([p.wall for p in ps], [max(p.error, 1e-16) for p in ps], "o-", label=fname, ms=4)
+            m, ls = styles[i % len(styles)]
+            ax.loglog([p.wall for p in ps], [max(p.error, 1e-16) for p in ps], marker=m, ls=ls, label=fname, ms=4)
+        failed = sorted({p.step for p in points if p.scene == sc and not p.ok})
+        if failed:
+            ax.text(0.02, 0.02, "coupled run fails at steps " + ", ".join(f"{h:g}" for h in failed) + " s",
+                    transform=ax.transAxes, fontsize=7)
         ax.set_xlabel("wall time [s]")
         ax.set_ylabel("max relative error of the scene's metrics")
         ax.set_title(sc)
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7)
+        ax.legend(fontsize=6, ncol=2 if len(curves) > 6 else 1)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)
@@ -366,9 +372,11 @@ def markdown(points: list[Point], facts: dict[str, dict], command: str) -> str:
              "reference run, each relative to the quantity's scale (its largest reference magnitude); wall time is the median stepping time of repeated runs on the machine that ran "
              "the command.", "", "![work-precision](accuracy.png)", ""]
     for sc, f in facts.items():
-        lines += [f"## {sc}", "",
+        lines += [f"## {sc}", "", f"Measured by `{f.get('command', command)}`.", "",
                   f"Reference: `{f['reference']}`, step {f['ref_step']:g} s, tolerance {f['ref_tolerance']}, "
-                  f"{f['duration']:g} s simulated in {f['ref_wall']:.2f} s. " + _convergence_text(f, points, sc), "",
+                  f"{f['duration']:g} s simulated in {f['ref_wall']:.2f} s. " + _convergence_text(f, points, sc), ""]
+        lines += _summary(points, sc, f["duration"])
+        lines += ["All points:", "",
                   "| fidelity | step s | tolerance | wall s | real-time factor | max rel. error |",
                   "|---|---|---|---|---|---|"]
         for p in points:
@@ -380,6 +388,30 @@ def markdown(points: list[Point], facts: dict[str, dict], command: str) -> str:
                          f"{p.wall:.4f} | {rtf:.1f} | {err} |")
         lines.append("")
     return "\n".join(lines) + "\n"
+
+
+def _summary(points: list[Point], scene: str, duration: float) -> list[str]:
+    """Per fidelity: its fastest run, its most accurate run, and the steps at which it failed."""
+    by_fid: dict[str, list[Point]] = {}
+    for p in points:
+        if p.scene == scene:
+            by_fid.setdefault(p.fidelity, []).append(p)
+    lines = ["Per fidelity (the fastest and the most accurate of its runs; steps where the coupled run failed):", "",
+             "| fidelity | fastest: step s, tolerance | wall s | error | most accurate: step s, tolerance | wall s | error | failed at steps s |",
+             "|---|---|---|---|---|---|---|---|"]
+    for fid, ps in by_fid.items():
+        ok = [p for p in ps if p.ok]
+        failed = sorted({p.step for p in ps if not p.ok})
+        if not ok:
+            lines.append(f"| {fid} | | | | | | | {', '.join(f'{h:g}' for h in failed)} |")
+            continue
+        fast, best = min(ok, key=lambda p: p.wall), min(ok, key=lambda p: (p.error, p.wall))
+
+        def setting(p: Point) -> str:
+            return f"{p.step:g}" + ("" if p.tolerance is None else f", {p.tolerance:g}")
+        lines.append(f"| {fid} | {setting(fast)} | {fast.wall:.4f} | {fast.error:.2e} | {setting(best)} | "
+                     f"{best.wall:.4f} | {best.error:.2e} | {', '.join(f'{h:g}' for h in failed) or 'none'} |")
+    return lines + [""]
 
 
 def choose(scene: Scene, data: list[Point] | None = None) -> tuple[Point, str]:
@@ -462,11 +494,13 @@ def main(argv: list[str] | None = None) -> int:
         if n not in grid:
             raise SceneError(f"no accuracy grid for scene {n!r}; allowed: {', '.join(grid)}")
     all_points, facts = [], {}
+    cmd = ("spurdiff accuracy" + (" " + " ".join(args.scenes) if args.scenes else "") + (" --quick" if args.quick else "")
+           + (" --no-ivp" if args.no_ivp else ""))
     for n in names:
         pts, f = measure_scene(n, grid[n], args.quick)
         write_csv(pts, ROOT / "results" / "accuracy" / f"{n}.csv")
         all_points += pts
-        facts[n] = f
+        facts[n] = {**f, "command": cmd}
     # keep stored rows of scenes not rerun
     kept = [p for p in read_csv(args.data) if p.scene not in names]
     write_csv(kept + all_points, args.data)
@@ -477,12 +511,17 @@ def main(argv: list[str] | None = None) -> int:
             w = csv.DictWriter(f, fieldnames=list(ivp[0]))
             w.writeheader()
             w.writerows(ivp)
-    cmd = ("spurdiff accuracy" + (" " + " ".join(args.scenes) if args.scenes else "") + (" --quick" if args.quick else "")
-           + (" --no-ivp" if args.no_ivp else ""))
-    if not args.quick and args.data == DATA_FILE:
-        FACTS_FILE.write_text(json.dumps({"command": cmd, "facts": facts, "ivp": ivp}, indent=1) + "\n")
     print(f"wrote {args.data}")
-    return _write_docs(all_points, facts, ivp, args.out, cmd, kept + all_points)
+    if args.quick or args.data != DATA_FILE:
+        return _write_docs(all_points, facts, ivp, args.out, cmd, kept + all_points)
+    # the stored facts: those of the scenes rerun replace theirs, the others (and the solve_ivp
+    # points, unless rerun) stay; the docs then show every stored scene, each with its command
+    stored = json.loads(FACTS_FILE.read_text()) if FACTS_FILE.exists() else {"facts": {}, "ivp": None}
+    merged = {n: (facts.get(n) or stored["facts"].get(n)) for n in grid if n in facts or n in stored["facts"]}
+    ivp = ivp if ivp is not None else stored.get("ivp")
+    FACTS_FILE.write_text(json.dumps({"command": "spurdiff accuracy", "facts": merged, "ivp": ivp}, indent=1) + "\n")
+    data = kept + all_points
+    return _write_docs(data, merged, ivp, args.out, "spurdiff accuracy", data)
 
 
 def _write_docs(points, facts, ivp, out: Path, cmd: str, data) -> int:
