@@ -122,9 +122,11 @@ def main(argv: list[str] | None = None) -> int:
     return code
 
 
-def _solve_ivp_ratio() -> float | None:
+def _solve_ivp_ratio(restarted_only: bool = False) -> float | None:
     """Best speed ratio of ours over the best solve_ivp variant at equal accuracy on the contact
-    model, from the stored accuracy facts (`spurdiff accuracy`)."""
+    model (error on the paper scenes' metrics where stored, else on the states), from the stored
+    accuracy facts (`spurdiff accuracy`). ``restarted_only``: only solve_ivp restarted at every
+    communication point, as a co-simulation slave must run it."""
     import json
 
     from harness.accuracy import FACTS_FILE, equal_accuracy_ratios
@@ -132,7 +134,11 @@ def _solve_ivp_ratio() -> float | None:
         ivp = json.loads(FACTS_FILE.read_text()).get("ivp") or []
     except (OSError, ValueError):
         return None
-    r = [x["ratio"] for x in equal_accuracy_ratios(ivp) if x["ratio"] is not None and x["case"].startswith("contact")]
+    key = "metric_error" if ivp and all("metric_error" in p for p in ivp) else "error"
+    if restarted_only:
+        ivp = [p for p in ivp if "one call" not in p["integrator"]]
+    r = [x["ratio"] for x in equal_accuracy_ratios(ivp, key)
+         if x["ratio"] is not None and x["case"].startswith("contact")]
     return max(r) if r else None
 
 
@@ -183,10 +189,11 @@ def _report(args) -> int:
     if "contact" in cost:
         c = cost["contact"]["realtime_factor"]
         targets.append(["real-time factor, paper-straight at contact (unloaded start)", ">= 1", f"{c:.1f}", c >= 1.0])
-    best = _solve_ivp_ratio()
-    if best is not None:
-        targets.append(["our solver vs best solve_ivp at equal accuracy (contact, best case)", ">= 10",
-                        f"{best:.2f}", best >= 10.0])
+    for restarted, label in ((False, "any"), (True, "restarted every 1 ms")):
+        best = _solve_ivp_ratio(restarted)
+        if best is not None:
+            targets.append([f"our solver vs best solve_ivp ({label}) at equal accuracy (contact, best case)",
+                            ">= 10", f"{best:.2f}", best >= 10.0])
     print(render(["target", "wanted", "measured", "met"],
                  [[a, b, c, "yes" if ok else "NO"] for a, b, c, ok in targets]))
     print(f"\n(bench took {time.perf_counter() - t0:.1f} s on {sys.platform}, python {sys.version.split()[0]})")

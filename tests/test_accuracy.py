@@ -80,3 +80,52 @@ def test_auto_skips_a_setting_that_is_wildly_off_elsewhere():
     pick, _ = choose(replace(base, fidelity={"mode": "auto", "outputs": ["diff.left.w"], "tolerance": 1e-3}),
                      [cheap, costly])
     assert pick.fidelity == "costly"
+
+
+def test_a_per_scene_run_keeps_the_other_scenes_and_the_solve_ivp_points(tmp_path, monkeypatch):
+    """`spurdiff accuracy SCENE` replaces that scene's rows and facts and keeps everything else."""
+    import json
+
+    import harness.accuracy as acc
+
+    data, facts = tmp_path / "data.csv", tmp_path / "facts.json"
+    old = _pts()
+    other = Point("paper-straight", "rigid", {"meshModel": "rigid"}, 1e-3, None, 0.01, 1.0, {"mean(x)": 1.0})
+    write_csv(old + [other], data)
+    facts.write_text(json.dumps({"command": "spurdiff accuracy", "ivp": [{"case": "c", "integrator": "ours"}],
+                                 "ivp_command": "spurdiff accuracy --only-ivp",
+                                 "facts": {"paper-straight": {"reference": "old"}, "paper-cornering": {"reference": "old"}}}))
+    new = replace(old[0], fidelity="new", wall=0.02)
+    monkeypatch.setattr(acc, "DATA_FILE", data)
+    monkeypatch.setattr(acc, "FACTS_FILE", facts)
+    monkeypatch.setattr(acc, "ROOT", tmp_path)
+    monkeypatch.setattr(acc, "measure_scene", lambda n, spec, quick=False: ([new], {"reference": "new"}))
+    monkeypatch.setattr(acc, "_write_docs", lambda *a, **k: 0)
+    assert acc.main(["paper-cornering", "--no-ivp"]) == 0
+    rows = read_csv(data)
+    assert {(p.scene, p.fidelity) for p in rows} == {("paper-straight", "rigid"), ("paper-cornering", "new")}
+    stored = json.loads(facts.read_text())
+    assert stored["facts"]["paper-straight"] == {"reference": "old"}
+    assert stored["facts"]["paper-cornering"] == {"reference": "new", "command": "spurdiff accuracy paper-cornering --no-ivp"}
+    assert stored["ivp"] == [{"case": "c", "integrator": "ours"}]
+    assert stored["ivp_command"] == "spurdiff accuracy --only-ivp"
+    with pytest.raises(SceneError, match="--only-ivp runs no scenes"):
+        acc.main(["paper-cornering", "--only-ivp"])
+
+
+def test_scene_metrics_of_a_trajectory_measure_its_distance_from_the_reference():
+    """The solve_ivp comparison's scene-metric error: zero for the reference itself, and the
+    relative change of a peak when one output sample is perturbed."""
+    import numpy as np
+
+    from spurdiff.mesh_bench import _fresh, _trajectory, metric_error, output_metrics
+
+    m = _fresh("contact, unloaded start", 1e-4)
+    ys, _ = _trajectory(m, t_end=0.02)
+    ref = output_metrics(m, ys)
+    assert metric_error(output_metrics(m, ys), ref) == 0.0
+    assert all(np.isfinite(v) for v in ref.values())
+    assert ref["max(tau_drive)"] > 0.0 and ref["min(F_A1)"] <= ref["mean(F_A1)"] <= ref["max(F_A1)"]
+    bent = ys.copy()
+    bent[-1, 1:4] *= 1.5   # the last state's mesh deflections: the forces there grow
+    assert metric_error(output_metrics(m, bent), ref) > 1e-3

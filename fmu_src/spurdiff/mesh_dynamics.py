@@ -807,6 +807,12 @@ class MeshDifferential:
         """Copy of the continuous state y (see the module docstring for its layout)."""
         return self.y.copy()
 
+    def load_state_vector(self, y: np.ndarray) -> None:
+        """Put a continuous state (e.g. a point of a solve_ivp trajectory) in place and refresh the
+        outputs at it; friction modes and inputs stay as they are."""
+        self.y[:] = y
+        self._refresh_outputs()
+
     # ================================================================== events and modes
     def _flags(self, y) -> list[int]:
         """Contact flags (drive, coast) per mesh: 1 where the flank penetrates."""
