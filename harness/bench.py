@@ -43,16 +43,17 @@ def fmi_overhead(scene_name: str, duration: float | None = None, repeats: int = 
 
 
 # Fidelity settings whose cost `bench` compares (structural parameters of the differential).
-EFFECT_SETS: dict[str, dict] = {
-    "rigid": {"meshModel": "rigid"},
-    "compliant": {"meshModel": "compliant"},
-    "contact": {"meshModel": "contact"},
-    "contact + backlash": {"meshModel": "contact", "backlash": True},
-    "contact + meshStiffnessVariation": {"meshModel": "contact", "meshStiffnessVariation": True},
-    "contact + flankFriction": {"meshModel": "contact", "flankFriction": True},
-    "contact, all effects": {"meshModel": "contact", "backlash": True, "meshStiffnessVariation": True,
-                             "flankFriction": True},
-}
+def _effect_sets() -> dict[str, dict]:
+    """The fidelity settings of paper-straight's accuracy grid (harness/accuracy_grid.toml: every
+    mesh level, every contact effect on alone and left out of the full set), without the grid's
+    unloaded start, which fidelity_cost adds itself: one list of settings for both commands."""
+    from harness.accuracy import load_grid
+
+    return {f["name"]: {k: v for k, v in f.items() if k not in ("name", "mesh.preload")}
+            for f in load_grid()["paper-straight"]["fidelities"]}
+
+
+EFFECT_SETS: dict[str, dict] = _effect_sets()
 
 
 def fidelity_cost(scene_name: str = "paper-straight", sets: dict[str, dict] | None = None, repeats: int = 3,
