@@ -39,7 +39,8 @@ def fmi_overhead(scene_name: str, duration: float | None = None, repeats: int = 
         fmi.append(run_scene(scene, files).wall_time)
         direct.append(run_direct(scene).wall_time)
     f, d = statistics.median(fmi), statistics.median(direct)
-    return {"scene": scene_name, "simulated_s": scene.duration, "fmi_s": f, "direct_s": d, "ratio": f / d}
+    return {"scene": scene_name, "simulated_s": scene.duration, "fmi_s": f, "direct_s": d, "ratio": f / d,
+            "step": scene.step, "instances": len(scene.instances)}
 
 
 # Fidelity settings whose cost `bench` compares (structural parameters of the differential).
@@ -169,6 +170,13 @@ def _report(args) -> int:
     print(render(["scene", "simulated s", "FMI s", "direct s", "FMI / direct"],
                  [[o["scene"], f"{o['simulated_s']:g}", f"{o['fmi_s']:.4f}", f"{o['direct_s']:.4f}",
                    f"{o['ratio']:.2f}"]]))
+    n_steps = round(o["simulated_s"] / o["step"])
+    per_fmi, per_direct = 1e6 * o["fmi_s"] / n_steps, 1e6 * o["direct_s"] / n_steps
+    print(f"   per communication step ({o['step']:g} s, {n_steps} steps): FMI {per_fmi:.0f} us, direct "
+          f"{per_direct:.0f} us;\n   the difference, {per_fmi - per_direct:.0f} us, is {o['instances']} instances x "
+          f"(setReal + doStep + getReal through pythonfmu's C-to-Python path) = "
+          f"{(per_fmi - per_direct) / o['instances']:.0f} us per instance and step.\n"
+          f"   20x real time at this step leaves {1e6 * o['step'] / 20:.0f} us per step for everything.")
     print("\n2. Cost of each effect relative to rigid (paper-straight from unloaded meshes, mesh.preload = false:"
           "\n   the loads hit at t = 0, a transient with impacts and stick-slip; 0.3 s)")
     rows = fidelity_cost("paper-straight", sets, max(3, args.repeats // 2), extra={"mesh.preload": False})

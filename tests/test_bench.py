@@ -1,0 +1,44 @@
+"""spurdiff bench: the measuring functions on short runs, and the report's arithmetic on given
+numbers (the bench's ratios are printed, never asserted against wall-clock targets)."""
+import argparse
+import math
+
+import harness.bench as bench
+from harness.accuracy import load_grid
+
+
+def test_effect_settings_are_the_accuracy_grids_paper_straight_fidelities():
+    grid = [f["name"] for f in load_grid()["paper-straight"]["fidelities"]]
+    assert list(bench.EFFECT_SETS) == grid
+    assert all("mesh.preload" not in v and "name" not in v for v in bench.EFFECT_SETS.values())
+    assert bench.EFFECT_SETS["contact, no pin friction"] == {"meshModel": "contact", "pinFriction": False}
+
+
+def test_fidelity_cost_and_fmi_overhead_measure_real_runs():
+    rows = bench.fidelity_cost("paper-straight", {"rigid": {"meshModel": "rigid"},
+                                                   "contact": {"meshModel": "contact"}}, repeats=1)
+    assert [r["level"] for r in rows] == ["rigid", "contact"] and all(r["ok"] for r in rows)
+    assert rows[0]["relative"] == 1.0 and rows[1]["wall_s"] > 0 and math.isfinite(rows[1]["realtime_factor"])
+    o = bench.fmi_overhead("paper-cornering", duration=0.05, repeats=1)
+    assert o["fmi_s"] > 0 and o["direct_s"] > 0 and o["ratio"] == o["fmi_s"] / o["direct_s"]
+    assert o["step"] == 1e-3 and o["instances"] == 1
+
+
+def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeypatch, capsys):
+    monkeypatch.setattr(bench, "fmi_overhead", lambda *a, **k: {
+        "scene": "vehicle-cornering", "simulated_s": 3.0, "fmi_s": 3.0, "direct_s": 1.5, "ratio": 2.0,
+        "step": 2e-4, "instances": 4})
+    monkeypatch.setattr(bench, "fidelity_cost", lambda *a, **k: [
+        {"level": "rigid", "wall_s": 0.01, "relative": 1.0, "realtime_factor": 30.0, "ok": True},
+        {"level": "contact", "wall_s": 0.1, "relative": 10.0, "realtime_factor": 3.0, "ok": True}])
+    monkeypatch.setattr(bench, "realtime_factors", lambda *a, **k: [
+        {"scene": "vehicle-cornering", "simulated_s": 3.0, "wall_s": 1.5, "realtime_factor": 2.0,
+         "fidelity": "meshModel=rigid", "ok": True}])
+    assert bench._report(argparse.Namespace(levels=None, repeats=1)) == 0
+    out = capsys.readouterr().out
+    # 15000 steps: 200 us (FMI) and 100 us (direct) per step, 25 us per instance and step
+    assert "FMI 200 us, direct 100 us" in out and "= 25 us per instance and step" in out
+    assert "leaves 10 us per step" in out
+    lines = {ln.split("  ")[0]: ln for ln in out.splitlines()}
+    assert lines["coupled / direct run, vehicle-cornering"].rstrip().endswith("NO")
+    assert lines["real-time factor, paper-straight at contact (unloaded start)"].rstrip().endswith("yes")
