@@ -32,6 +32,7 @@ from harness.master import Result, run_scene
 from harness.report import stat
 from harness.runner import fmu_files_for, prepare_scene
 from harness.scene import Scene, SceneError
+from spurdiff.mesh_bench import metric_scales, relative_errors
 
 ROOT = Path(__file__).resolve().parent.parent
 GRID_FILE = Path(__file__).resolve().parent / "accuracy_grid.toml"
@@ -92,26 +93,6 @@ def metric_values(result: Result, quantities, window=None) -> dict[str, float]:
     return out
 
 
-def relative_errors(values: dict, ref: dict, scale: dict) -> dict:
-    """|value - reference| over the quantity's scale (the largest magnitude of its mean, max and
-    min in the reference), so a statistic that is near zero in the reference (the minimum of a
-    force that starts at zero) does not blow up the error."""
-    out = {}
-    for k, r in ref.items():
-        v = values.get(k, math.nan)
-        s = scale.get(k.split("(", 1)[1], 0.0) if "(" in k else abs(r)
-        out[k] = abs(v - r) / max(s, 1e-300) if math.isfinite(v) else math.inf
-    return out
-
-
-def _scales(ref: dict) -> dict:
-    scales: dict[str, float] = {}
-    for k, v in ref.items():
-        q = k.split("(", 1)[1]
-        scales[q] = max(scales.get(q, 0.0), abs(v))
-    return scales
-
-
 def configure(scene_name: str, fid: dict, step: float, tolerance: float | None, duration: float | None) -> Scene:
     scene = prepare_scene(scene_name, step=step, duration=duration)
     effects = {**scene.effects, **fid}
@@ -157,7 +138,7 @@ def measure_scene(name: str, spec: dict, quick: bool = False, log=print) -> tupl
     if not ref_res.ok:
         raise SceneError(f"{name}: the reference run failed: {ref_res.failure}")
     ref = metric_values(ref_res, quantities)
-    scales = _scales(ref)
+    scales = metric_scales(ref)
     # convergence of the reference: the same fidelity one refinement coarser
     check_scene = configure(name, fid_by_name[ref_fid], ref_spec.get("check_step", ref_spec["step"] * 2),
                             ref_spec.get("check_tolerance", ref_spec.get("tolerance")), duration)
@@ -209,6 +190,12 @@ def read_csv(path: Path = DATA_FILE) -> list[Point]:
                              float(r["tolerance"]) if r["tolerance"] else None, float(r["wall_s"]),
                              float(r["error"]), json.loads(r["metric_errors"]), bool(int(r["ok"])), r["reason"]))
     return out
+
+
+def ivp_error_key(ivp: list[dict]) -> str:
+    """The solve_ivp error that is plotted and compared: the scene metrics' where every point has
+    it (stored by the current ``ivp_points``), else the states'."""
+    return "metric_error" if ivp and all("metric_error" in p for p in ivp) else "error"
 
 
 def equal_accuracy_ratios(ivp: list[dict], key: str = "error") -> list[dict]:
@@ -275,7 +262,7 @@ def plot(points: list[Point], path: Path, ivp: list[dict] | None = None) -> None
     fig, axes = plt.subplots(1, ncol, figsize=(6 * ncol, 4.5), squeeze=False)
     for ax, case in zip(axes[0][len(scenes):], cases):
         curves: dict[str, list[dict]] = {}
-        key = "metric_error" if all("metric_error" in p for p in ivp) else "error"
+        key = ivp_error_key(ivp)
         for p in ivp:
             if p["case"] == case and math.isfinite(p.get(key, math.nan)):
                 curves.setdefault(p["integrator"], []).append(p)
@@ -316,7 +303,7 @@ def plot(points: list[Point], path: Path, ivp: list[dict] | None = None) -> None
 
 
 def markdown_ivp(ivp: list[dict], command: str = "spurdiff accuracy") -> list[str]:
-    has_metrics = all("metric_error" in p for p in ivp)
+    has_metrics = ivp_error_key(ivp) == "metric_error"
     lines = ["## Our internal solver against scipy's solve_ivp", "", f"Measured by `{command}`.", "",
              "The same differential ODE (`MeshDifferential.rhs`/`.jac`, pin friction off so no mode switches), "
              "0.3 s, 1 ms communication points, compared with a tolerance-1e-11 run of ours "

@@ -131,12 +131,12 @@ def _solve_ivp_ratio(restarted_only: bool = False) -> float | None:
     communication point, as a co-simulation slave must run it."""
     import json
 
-    from harness.accuracy import FACTS_FILE, equal_accuracy_ratios
+    from harness.accuracy import FACTS_FILE, equal_accuracy_ratios, ivp_error_key
     try:
         ivp = json.loads(FACTS_FILE.read_text()).get("ivp") or []
     except (OSError, ValueError):
         return None
-    key = "metric_error" if ivp and all("metric_error" in p for p in ivp) else "error"
+    key = ivp_error_key(ivp)
     if restarted_only:
         ivp = [p for p in ivp if "one call" not in p["integrator"]]
     r = [x["ratio"] for x in equal_accuracy_ratios(ivp, key)
