@@ -58,8 +58,34 @@ def test_outputs_correct_at_time_zero(differential_fmu):
     tau, fa1, K, alpha = get(inst, "carrier.tauDrive", "mesh.F_A1", "lockingCoefficient", "meshA1.alpha_w")
     assert tau == pytest.approx(2100.0, rel=1e-12)
     assert fa1 == pytest.approx(6897.45, rel=1e-5)
-    assert K == pytest.approx(0.028332, rel=2e-5)
+    assert K == pytest.approx(0.17789, rel=1e-4)   # pin-load law (default), drive
     assert math.degrees(alpha) == pytest.approx(13.3987, abs=1e-4)
+    free(inst)
+
+
+@pytest.mark.parametrize("law,K,Kc", [("pinFriction", 0.17789, 0.21064), ("paper", 0.028332, 0.028332)])
+def test_locking_law_coefficients_and_bias_ratios(differential_fmu, law, K, Kc):
+    inst = start(differential_fmu, params={"lockingLaw": law})
+    k, kc, tbr, tbrc = get(inst, "lockingCoefficient", "lockingCoefficientCoast", "torqueBiasRatio",
+                           "torqueBiasRatioCoast")
+    assert k == pytest.approx(K, rel=1e-4) and kc == pytest.approx(Kc, rel=1e-4)
+    assert tbr == pytest.approx((1 + k) / (1 - k), rel=1e-12)
+    assert tbrc == pytest.approx((1 + kc) / (1 - kc), rel=1e-12)
+    free(inst)
+
+
+def test_locking_preload_holds_a_difference_without_load(differential_fmu):
+    inst = start(differential_fmu, params={"lockingPreload": 30.0},
+                 inputs={"carrier.w_ref": 1.389, "left.tau": -14.0, "right.tau": 14.0})
+    steps(inst, 10)
+    stuck, cap = get(inst, "stuck", "lockingCapacity")
+    assert stuck == 1.0 and cap > 30.0
+    free(inst)
+
+
+def test_bad_locking_law_is_named(differential_fmu):
+    inst = start(differential_fmu, params={"lockingLaw": "adams"})
+    assert any("lockingLaw" in m and "pinFriction or paper" in m for m in inst.errors())
     free(inst)
 
 

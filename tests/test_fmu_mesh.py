@@ -106,3 +106,19 @@ def test_coarse_communication_step_is_stable_at_contact(differential_fmu):
     assert tau == pytest.approx(2100.0, rel=1e-3)
     assert wA == pytest.approx(1.389, rel=1e-3) and wB == pytest.approx(1.389, rel=1e-3)
     free(inst)
+
+
+@pytest.mark.parametrize("law,held", [("pinFriction", True), ("paper", False)])
+def test_contact_level_locking_law_through_fmi(differential_fmu, law, held):
+    """A 100 N m load difference at T0 = 2100 N m: the pin-load law (K = 0.178) holds it, the
+    paper's law (K = 0.0283, 59.5 N m) lets the differential slip."""
+    inst = start(differential_fmu, params={"meshModel": "contact", "lockingLaw": law},
+                 inputs={"carrier.w_ref": 1.389, "left.tau": -1100.0, "right.tau": -1000.0})
+    steps(inst, 30)
+    stuck, torque, cap = get(inst, "stuck", "lockingTorque", "lockingCapacity")
+    assert (stuck == 1.0) == held
+    if held:
+        assert torque == pytest.approx(100.0, rel=1e-6) and cap > 100.0
+    else:
+        assert torque == pytest.approx(cap, rel=1e-9)
+    free(inst)

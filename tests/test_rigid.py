@@ -52,7 +52,8 @@ def test_stick_below_capacity_holds_exactly():
 
 
 def test_slip_above_capacity_with_loss_equal_friction_times_speed():
-    m = model(tau_L=-1110.201, tau_R=-989.799)  # the paper's cornering loads: twice the capacity
+    # the paper's cornering loads: twice the capacity of the paper's law
+    m = model(tau_L=-1110.201, tau_R=-989.799, lockingLaw="paper")
     ke0 = m.kinetic_energy
     loss_prev, wd_prev = 0.0, 0.0
     h = 1e-3
@@ -69,14 +70,15 @@ def test_slip_above_capacity_with_loss_equal_friction_times_speed():
 
 
 def test_friction_opposes_relative_motion_at_full_capacity():
-    m = run(model(tau_L=-1110.201, tau_R=-989.799), 0.05)
+    m = run(model(tau_L=-1110.201, tau_R=-989.799, lockingLaw="paper"), 0.05)
     # sun A slows relative to the carrier; the friction pushes it forward with K |T_A + T_B|
     assert m.wd < 0.0 and m.locking_torque > 0.0
     assert m.locking_torque == pytest.approx(m.K * abs(m.tau_mesh_L + m.tau_mesh_R), rel=1e-9)
 
 
-def test_re_stick_after_reversal_without_chattering():
-    m = model(tau_L=-1110.201, tau_R=-989.799)
+@pytest.mark.parametrize("law,D", [("paper", 120.402), ("pinFriction", 800.0)])
+def test_re_stick_after_reversal_without_chattering(law, D):
+    m = model(tau_L=-1050.0 - D / 2, tau_R=-1050.0 + D / 2, lockingLaw=law)
     run(m, 0.02)
     assert m.wd < 0
     # reverse the imbalance moderately: relative motion decelerates, stops exactly, then sticks
@@ -152,3 +154,93 @@ def test_passive_and_kinematic_for_any_loads(tl, tr, tc, h, mu):
     assert abs(m.locking_torque) <= m.locking_capacity * (1 + 1e-9) + 1e-9
     scale = max(abs(m.work_in), m.kinetic_energy, ke0, 1e-9)
     assert abs(balance(m, ke0)) <= 1e-8 * scale
+
+
+# ------------------------------------------------------------------ the pin-load locking law
+def test_pin_law_slips_above_its_capacity_with_the_friction_from_the_pin_loads():
+    # difference 1.05 K T0 with K from the pin loads (0.178 in drive): slips,
+    # the friction works at n sum |rho_i| mu r_d |F_pin,i| and the energy balances
+    m = model()
+    D = 1.05 * m.K * 2100.0
+    m = model(tau_L=-1050.0 - D / 2, tau_R=-1050.0 + D / 2)
+    ke0 = m.kinetic_energy
+    run(m, 0.05)
+    assert m.wd < 0.0 and m.locking_torque > 0.0
+    assert m.locking_torque == pytest.approx(m.locking_capacity, rel=1e-12)
+    f = m.mesh_forces
+    pf = m.pf
+    cap = 3 * (abs(m.rho1) * 0.26 * 0.012 * pf.layout.pin_force(0, f.F_A1, f.F_12)[0]
+               + abs(m.rho2) * 0.26 * 0.012 * pf.layout.pin_force(1, f.F_B2, f.F_12)[0])
+    assert m.locking_capacity == pytest.approx(cap, rel=1e-12)
+    # while slipping the capacity is close to the quasi-static K |T0| (planet inertia aside)
+    assert m.locking_capacity == pytest.approx(m.K * (m.tau_mesh_L + m.tau_mesh_R), rel=0.01)
+    assert balance(m, ke0) == pytest.approx(0.0, abs=1e-9 * m.work_in)
+
+
+def test_pin_law_power_balance_planet_by_planet():
+    # (T_B - T_A) dw = n sum_i M_i |w_i,rel|, w_i,rel = (z_sun / z_planet) dw, at every step
+    D = 1.05 * model().K * 2100.0
+    m = model(tau_L=-1050.0 - D / 2, tau_R=-1050.0 + D / 2)
+    for k in range(40):
+        m.do_step(k * 1e-3, 1e-3)
+        f = m.mesh_forces
+        M = [0.26 * 0.012 * m.pf.layout.pin_force(i, Fs, f.F_12)[0] for i, Fs in ((0, f.F_A1), (1, f.F_B2))]
+        friction_power = 3 * sum(Mi * abs(36 / 13 * m.wd) for Mi in M)
+        assert abs(m.Qf * m.wd) == pytest.approx(friction_power, rel=1e-12)
+    assert m.wd < 0.0
+    # quasi-statically the sun torques carry it: (T_B - T_A) dw = loss (planet inertia aside)
+    assert (m.tau_mesh_R - m.tau_mesh_L) * m.wd == pytest.approx(friction_power, rel=0.02)
+
+
+def test_pin_law_is_loaded_with_opposite_sun_torques_and_no_net_torque():
+    # opposite external loads, tau_L + tau_R = 0: the paper's capacity K |T_A + T_B| only sees what
+    # the unequal sun inertias add to T_A + T_B while accelerating; the pins still carry the mesh
+    # forces, so the friction brakes the relative motion (it dissipates energy)
+    paper = run(model(tau_L=-300.0, tau_R=300.0, lockingLaw="paper"), 0.02)
+    m = model(tau_L=-300.0, tau_R=300.0)
+    ke0 = m.kinetic_energy
+    run(m, 0.02)
+    assert m.wd < 0.0 and m.locking_capacity > 0.0 and m.energy_loss > 0.0
+    assert m.wd > paper.wd        # braked
+    # the paper's law only sees the small T_A + T_B of the unequal sun inertias
+    assert paper.energy_loss < 0.2 * m.energy_loss
+    assert balance(m, ke0) == pytest.approx(0.0, abs=1e-9 * abs(m.work_in))
+
+
+@pytest.mark.parametrize("n", [1, 2, 3, 4])
+def test_pin_law_K_does_not_change_with_nPairs(n):
+    from spurdiff.geometry import GearTable
+
+    m = model(table=GearTable(nPairs=n))
+    ref = model()
+    assert m.K == pytest.approx(ref.K, rel=1e-12) and m.K_coast == pytest.approx(ref.K_coast, rel=1e-12)
+    assert m.K == pytest.approx(0.1779, abs=1e-4) and m.K_coast == pytest.approx(0.2106, abs=1e-4)
+    # the paper's law falls as 1/n
+    assert m.K_paper == pytest.approx(ref.K_paper * 3 / n, rel=1e-12)
+    # and the rigid level breaks away at K T0 whatever n
+    D = m.K * 2100.0
+    held = run(model(tau_L=-1050.0 - 0.499 * D, tau_R=-1050.0 + 0.499 * D, table=GearTable(nPairs=n)), 0.01)
+    slips = run(model(tau_L=-1050.0 - 0.501 * D, tau_R=-1050.0 + 0.501 * D, table=GearTable(nPairs=n)), 0.01)
+    assert held.stuck and not slips.stuck
+
+
+@pytest.mark.parametrize("law", ["pinFriction", "paper"])
+def test_preload_adds_to_the_capacity(law):
+    # clutch-type spring preload: the differential holds T_pre with no load at all
+    m = run(model(tau_L=0.0, tau_R=0.0, lockingPreload=50.0, lockingLaw=law), 0.02)
+    assert m.stuck and m.locking_capacity == pytest.approx(50.0, rel=1e-12)
+    m = run(model(tau_L=-24.0, tau_R=24.0, lockingPreload=50.0, lockingLaw=law), 0.02)
+    assert m.stuck and m.locking_torque == pytest.approx(48.0, rel=1e-9)
+    # the paper's law: K |T_A + T_B| + T_pre, and T_A + T_B = 0 here; the pin law adds the pin
+    # loads of the opposite sun torques, so it holds a little more
+    m = run(model(tau_L=-26.0, tau_R=26.0, lockingPreload=50.0, lockingLaw=law), 0.02)
+    assert m.stuck == (law == "pinFriction")
+    m = run(model(tau_L=-100.0, tau_R=100.0, lockingPreload=50.0, lockingLaw=law), 0.02)
+    assert not m.stuck and m.locking_capacity >= 50.0
+
+
+def test_bad_locking_law_and_preload_are_refused():
+    with pytest.raises(ParameterError, match="lockingLaw"):
+        model(lockingLaw="adams")
+    with pytest.raises(ParameterError, match="lockingPreload"):
+        model(lockingPreload=-1.0)

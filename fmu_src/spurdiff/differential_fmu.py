@@ -9,6 +9,7 @@ from dataclasses import replace
 
 from .fmi_vars import Var
 from .geometry import Gear, GearTable
+from .locking import torque_bias_ratio
 from .mesh_dynamics import MeshDifferential, MeshParams
 from .params import DifferentialParams
 from .rigid import RigidDifferential
@@ -100,6 +101,10 @@ VARIABLES: list[Var] = [
         None, None, _M.maxInternalSteps, kind="Integer"),
     Var("carrierDrive", "parameter", "How the carrier is driven: speed (carrier.w_ref) | torque (carrier.tau)",
         None, None, "speed", kind="String"),
+    Var("lockingLaw", "parameter",
+        "Locking law of the pin friction: pinFriction (friction torque mu r_d |F_pin| on each planet from its "
+        "actual pin load, every level, drive and coast differ) | paper (the paper's K = (mu r_d / n)"
+        "(1/(r_a+r_1) + 1/(r_b+r_2)))", None, None, "pinFriction", kind="String"),
     # --- gear table
     Var("gearing.m", "parameter", "Module of all gears", "m", "mm", _T.m),
     Var("gearing.alpha", "parameter", "Pressure angle of the basic rack", "rad", "deg", _T.alpha),
@@ -113,6 +118,9 @@ VARIABLES: list[Var] = [
     # --- friction, mass
     Var("mu_pin", "parameter", "Sliding friction coefficient of the planet pin bushings", "1", None, 0.26),
     Var("r_collar", "parameter", "Thrust-collar radius r_d of the pinion shaft", "m", "mm", 0.012),
+    Var("lockingPreload", "parameter",
+        "Spring preload of the locking friction (clutch-type limited slip): torque difference held with no load",
+        "N.m", "N.mm", 0.0),
     Var("density", "parameter", "Density of the gear steel", "kg/m3", None, 7850.0),
     Var("J_carrier", "parameter", "Carrier inertia without planets (0: estimate from geometry)", "kg.m2", None, 0.0),
     Var("J_sunA", "parameter", "Sun A inertia incl. rigidly attached parts (0: from geometry)", "kg.m2", None, 0.0),
@@ -152,7 +160,15 @@ VARIABLES: list[Var] = [
     Var("planet1.rw", "calculatedParameter", "Operating pitch radius of planet 1 in mesh A1, r_1", "m", "mm"),
     Var("sunB.rw", "calculatedParameter", "Operating pitch radius of sun B (mesh B2), r_b", "m", "mm"),
     Var("planet2.rw", "calculatedParameter", "Operating pitch radius of planet 2 in mesh B2, r_2", "m", "mm"),
-    Var("lockingCoefficient", "calculatedParameter", "Locking coefficient K = (mu r_d / n)(1/(r_a+r_1) + 1/(r_b+r_2))", "1"),
+    Var("lockingCoefficient", "calculatedParameter",
+        "Locking coefficient in drive, |T_A - T_B| / (T_A + T_B) at break-away (lockingLaw = paper: "
+        "(mu r_d / n)(1/(r_a+r_1) + 1/(r_b+r_2)))", "1"),
+    Var("lockingCoefficientCoast", "calculatedParameter",
+        "Locking coefficient in coast (suns drive the carrier); equals the drive value with lockingLaw = paper", "1"),
+    Var("torqueBiasRatio", "calculatedParameter",
+        "Torque bias ratio in drive, largest T_slow / T_fast the locking holds: (1 + K) / (1 - K)", "1"),
+    Var("torqueBiasRatioCoast", "calculatedParameter",
+        "Torque bias ratio in coast: (1 + K_coast) / (1 - K_coast)", "1"),
     Var("inertia.carrier", "calculatedParameter", "Inertia of the carrier mode (everything turning together)", "kg.m2"),
     Var("inertia.differential", "calculatedParameter", "Inertia of the differential mode (sun A relative to carrier)",
         "kg.m2"),
@@ -176,6 +192,7 @@ def differential_params(values: dict) -> DifferentialParams:
     return DifferentialParams(
         table=gear_table(values), mu_pin=float(values["mu_pin"]), r_collar=float(values["r_collar"]),
         density=float(values["density"]), carrierDrive=str(values["carrierDrive"]),
+        lockingLaw=str(values["lockingLaw"]), lockingPreload=float(values["lockingPreload"]),
         J_carrier=float(values["J_carrier"]), J_sunA=float(values["J_sunA"]), J_sunB=float(values["J_sunB"]),
         J_planet1=float(values["J_planet1"]), J_planet2=float(values["J_planet2"]))
 
@@ -223,7 +240,7 @@ def build_model(values: dict):
     params = differential_params(values)
     if mesh_model == "rigid":
         if not bool(values["pinFriction"]):
-            params = replace(params, mu_pin=0.0)
+            params = replace(params, mu_pin=0.0, lockingPreload=0.0)
         model = RigidDifferential(params)
     else:
         model = MeshDifferential(params, mesh_params(values))
@@ -247,6 +264,9 @@ def _set_calculated(model, values: dict) -> None:
     values["sunA.rw"], values["planet1.rw"] = geo.r_a, geo.r_1
     values["sunB.rw"], values["planet2.rw"] = geo.r_b, geo.r_2
     values["lockingCoefficient"] = model.K
+    values["lockingCoefficientCoast"] = model.K_coast
+    values["torqueBiasRatio"] = torque_bias_ratio(model.K)
+    values["torqueBiasRatioCoast"] = torque_bias_ratio(model.K_coast)
     values["inertia.carrier"] = model.Mcc
     values["inertia.differential"] = model.Mdd
     values["geometry.warnings"] = len(geo.warnings)
@@ -259,7 +279,7 @@ def active_effects(model) -> tuple[str, ...]:
     eff = getattr(model, "active_effects", None)
     if eff is not None:
         return tuple(eff)
-    return ("rigid",) + (("pinFriction",) if model.K > 0.0 else ())
+    return ("rigid",) + (("pinFriction",) if model.K > 0.0 or model.preload > 0.0 else ())
 
 
 def push_inputs(model, values: dict) -> None:

@@ -49,10 +49,14 @@ and ``p = -(d + j_n)`` on the coast flank (``j_n`` normal backlash, 0 without ba
   zero at the pitch point), friction ``mu(v) |F| / n_c`` (ADAMS static/dynamic law), moments
   ``-mu |F|/n_c l_1`` and ``-mu |F|/n_c l_2`` on the two gears, loss ``mu |F| v / n_c >= 0``.
 * ``pinFriction``: Coulomb friction moment ``M_i`` on each planet's spin, capacity
-  ``c_pin |F_pin,i|`` with ``F_pin,i`` the bearing force (vector sum of the planet's two normal mesh
-  forces along their lines of action, layout from the centre distances). ``c_pin`` is calibrated so
-  that, quasi-statically with equal mesh forces, the capacity on the differential coordinate
-  ``n (|rho_1| c_pin F_pin,1 + |rho_2| c_pin F_pin,2)`` equals the paper's ``K (T_A + T_B)``.
+  ``c_pin |F_pin,i| + M_0,i`` with ``F_pin,i`` the bearing force (vector sum of the planet's two
+  normal mesh forces along their lines of action, layout from the centre distances,
+  :class:`spurdiff.locking.PinLayout`) and ``M_0,i`` the share of ``lockingPreload``. With
+  ``lockingLaw = "pinFriction"`` (default) ``c_pin = mu r_d`` as given, nothing calibrated: the
+  same law as the rigid level, so both break away at the same torques in drive and in coast. With
+  ``lockingLaw = "paper"`` ``c_pin`` is scaled so that, quasi-statically with equal mesh forces,
+  the capacity on the differential coordinate ``n (|rho_1| c_pin F_pin,1 + |rho_2| c_pin F_pin,2)``
+  equals the paper's ``K (T_A + T_B)`` in drive (in coast it is then 19 % larger).
   Stick is exact (event-based): a stuck planet has ``w_i = 0`` and ``w_i' = 0`` (its Jacobian row is
   zero), the friction is whatever holds it (``M_i = J_i a_c - (Q_i - M_i)``) while
   ``|M_i| <= c_pin |F_pin,i|``; it breaks away in the direction of the excess and re-sticks when its
@@ -82,7 +86,8 @@ from .mesh_laws import (elasto_backlash, friction_coefficient, impact, impact_po
                         iso6336_stiffness)
 from .params import DifferentialParams
 from .rigid import RigidDifferential
-from .statics import MeshForces, kinematics, locking_coefficient
+from .locking import locking_coefficients, paper_locking_coefficient, pin_friction
+from .statics import MeshForces, kinematics
 
 __all__ = ["MeshParams", "MeshDifferential", "StepError", "MESH_MODELS", "N_PER_MM15"]
 
@@ -270,7 +275,14 @@ class MeshDifferential:
         # the rigid model's names, for the FMU's calculated parameters
         self.Mcc = self.Jtot
         self.Mdd = self.JA + self.lam ** 2 * self.JB + n * (self.J1 * self.rho1 ** 2 + self.J2 * self.rho2 ** 2)
-        self.K = locking_coefficient(p.mu_pin, p.r_collar, n, geo.r_a, geo.r_1, geo.r_b, geo.r_2)
+        self.law = p.lockingLaw
+        self.preload = float(p.lockingPreload)
+        self._pf = pin_friction(geo, p.mu_pin, p.r_collar, self.preload, self.law)
+        self.K_paper = paper_locking_coefficient(p.mu_pin, p.r_collar, n, geo.r_a, geo.r_1, geo.r_b, geo.r_2)
+        if self.law == "paper":
+            self.K = self.K_coast = self.K_paper
+        else:
+            self.K, self.K_coast = locking_coefficients(self._pf)
         self.speed_drive = p.carrierDrive == "speed"
         mA, mB, m12 = geo.meshA1, geo.meshB2, geo.mesh12
         self.rbA, self.rb1, self.rbB, self.rb2 = mA.rb1, mA.rb2, mB.rb1, mB.rb2
@@ -278,7 +290,7 @@ class MeshDifferential:
         self._contact = mp_.meshModel == "contact"
         self._var = bool(mp_.meshStiffnessVariation)
         self._flank = bool(mp_.flankFriction)
-        self._pin = bool(mp_.pinFriction) and self.K > 0.0
+        self._pin = bool(mp_.pinFriction) and (self._pf.c > 0.0 or self.preload > 0.0)
         self._need_phase = self._var or self._flank
         self._e = float(mp_.contactExponent)
         self._C = float(mp_.contactDamping)
@@ -357,64 +369,14 @@ class MeshDifferential:
         return tuple(out)
 
     def _setup_pin(self, geo: DifferentialGeometry) -> None:
-        """Layout of one planet pair and the pin-friction calibration.
-
-        Sun axis at the origin, planet 1 at angle 0 (radius a_A1), planet 2 at +theta (radius
-        a_B2, a_12 from planet 1), theta from the triangle of centre distances (planet 2 leads in
-        the positive sense of rotation; the mirrored layout swaps the pin-force split between the
-        planets, not the calibrated total). Force of a mesh with normal force F' (> 0: positive
-        moment on both gears) on its first gear: ``F' cos(a_w) e - |F'| sin(a_w) d`` (d from gear 1
-        to gear 2, e = z x d): tangential part carries the moment, radial part separates the gears.
-        """
-        mA, mB, m12 = geo.meshA1, geo.meshB2, geo.mesh12
-        aA, aB, a12 = mA.a, mB.a, m12.a
-        th = math.acos(max(-1.0, min(1.0, (aA ** 2 + aB ** 2 - a12 ** 2) / (2.0 * aA * aB))))
-        dA = (1.0, 0.0)
-        dB = (math.cos(th), math.sin(th))
-        P1 = (aA, 0.0)
-        P2 = (aB * dB[0], aB * dB[1])
-        d12 = ((P2[0] - P1[0]) / a12, (P2[1] - P1[1]) / a12)
-
-        def perp(d):
-            return (-d[1], d[0])
-
-        eA, eB, e12 = perp(dA), perp(dB), perp(d12)
-        cA, sA = math.cos(mA.alpha_w), math.sin(mA.alpha_w)
-        cB, sB = math.cos(mB.alpha_w), math.sin(mB.alpha_w)
-        c12, s12 = math.cos(m12.alpha_w), math.sin(m12.alpha_w)
-        # force on planet 1 = FA * tA + |FA| * rA + F12 * t12_1 + |F12| * r12_1 (vectors)
-        self._pv = (
-            (-cA * eA[0], -cA * eA[1]), (sA * dA[0], sA * dA[1]),            # from sun A (gear 2 of A1)
-            (-c12 * e12[0], -c12 * e12[1]), (-s12 * d12[0], -s12 * d12[1]),  # from planet 2 (F' = -F12)
-            (-cB * eB[0], -cB * eB[1]), (sB * dB[0], sB * dB[1]),            # on planet 2 from sun B
-            (c12 * e12[0], c12 * e12[1]), (s12 * d12[0], s12 * d12[1]),      # on planet 2 from planet 1
-        )
-        self.layout_angle = th
-        p1, _, _ = self._pin_force(0, 1.0, 1.0)
-        p2, _, _ = self._pin_force(1, 1.0, 1.0)
-        self.pin_unit = (p1, p2)
-        denom = abs(self.rho1) * p1 + abs(self.rho2) * p2
-        # quasi-static: n c_pin (|rho1| Fp1 + |rho2| Fp2) = K (T_A + T_B) = K n (rb_A + rb_B) F
-        self.c_pin = self.K * (self.rbA + self.rbB) / denom if denom > 0.0 else 0.0
-
-    def _pin_force(self, i: int, Fs: float, F12: float) -> tuple[float, float, float]:
-        """|bearing force| of planet i (0: planet 1 with Fs = F_A1; 1: planet 2 with Fs = F_B2) and
-        its derivatives with respect to Fs and F12."""
-        pv = self._pv
-        o = 4 * i
-        (tx, ty), (rx, ry), (ux, uy), (qx, qy) = pv[o], pv[o + 1], pv[o + 2], pv[o + 3]
-        aS = abs(Fs)
-        a12 = abs(F12)
-        fx = Fs * tx + aS * rx + F12 * ux + a12 * qx
-        fy = Fs * ty + aS * ry + F12 * uy + a12 * qy
-        mag = math.sqrt(fx * fx + fy * fy)
-        if mag == 0.0:
-            return 0.0, 0.0, 0.0
-        sgS = 1.0 if Fs >= 0.0 else -1.0
-        sg12 = 1.0 if F12 >= 0.0 else -1.0
-        dS = (fx * (tx + sgS * rx) + fy * (ty + sgS * ry)) / mag
-        d12 = (fx * (ux + sg12 * qx) + fy * (uy + sg12 * qy)) / mag
-        return mag, dS, d12
+        """Layout of one planet pair and the pin-friction constants (:mod:`spurdiff.locking`)."""
+        pf = self._pf
+        self._layout = pf.layout
+        self._pin_force = pf.layout.pin_force
+        self.layout_angle = pf.layout.theta
+        self.pin_unit = pf.layout.unit_pin_loads(1.0)
+        self.c_pin = pf.c
+        self._M01, self._M02 = pf.M0
 
     def _constant_jacobian(self, J: np.ndarray) -> None:
         J[:] = 0.0
@@ -478,14 +440,14 @@ class MeshDifferential:
             F12 = 0.5 * (FA + FB)
             a1, a2 = J1 * ac - rb1 * FA, J2 * ac - rb2 * FB
             for _ in range(6):
-                cap1 = self.c_pin * self._pin_force(0, FA, F12)[0]
-                cap2 = self.c_pin * self._pin_force(1, FB, F12)[0]
+                cap1 = self.c_pin * self._pin_force(0, FA, F12)[0] + self._M01
+                cap2 = self.c_pin * self._pin_force(1, FB, F12)[0] + self._M02
                 if cap1 + cap2 <= 0.0:
                     cap1 = cap2 = 1.0
                 F12 = -(cap2 * a1 + cap1 * a2) / (cap2 * rb1 + cap1 * rb2)
             M1, M2 = a1 + rb1 * F12, a2 + rb2 * F12
-            cap1 = self.c_pin * self._pin_force(0, FA, F12)[0]
-            cap2 = self.c_pin * self._pin_force(1, FB, F12)[0]
+            cap1 = self.c_pin * self._pin_force(0, FA, F12)[0] + self._M01
+            cap2 = self.c_pin * self._pin_force(1, FB, F12)[0] + self._M02
             if abs(M1) <= cap1 * (1 + 1e-9) and abs(M2) <= cap2 * (1 + 1e-9):
                 return FA, FB, F12, ac
             slip_dir = -math.copysign(1.0, self.rho1 * M1 + self.rho2 * M2)
@@ -500,8 +462,8 @@ class MeshDifferential:
             acc = ac if speed else x[2]
             FA = (JA * (acc + add) - tL) / (n * rbA)
             FB = (JB * (acc + self.lam * add) - tR) / (n * rbB)
-            M1 = -s1 * cp * self._pin_force(0, FA, F12)[0]
-            M2 = -s2 * cp * self._pin_force(1, FB, F12)[0]
+            M1 = -s1 * (cp * self._pin_force(0, FA, F12)[0] + (self._M01 if self._pin else 0.0))
+            M2 = -s2 * (cp * self._pin_force(1, FB, F12)[0] + (self._M02 if self._pin else 0.0))
             Q1, Q2 = J1 * (acc + self.rho1 * add), J2 * (acc + self.rho2 * add)
             r = [Q1 - (rb1 * (FA - F12) + M1), Q2 - (rb2 * (FB - F12) + M2)]
             if not speed:
@@ -697,7 +659,7 @@ class MeshDifferential:
             cp = self.c_pin
             Fp1, dp1S, dp112 = self._pin_force(0, FA, F12)
             Fp2, dp2S, dp212 = self._pin_force(1, FB, F12)
-            cap1, cap2 = cp * Fp1, cp * Fp2
+            cap1, cap2 = cp * Fp1 + self._M01, cp * Fp2 + self._M02
             stuck1, stuck2 = s1 == 0, s2 == 0
         else:
             cap1 = cap2 = 0.0

@@ -8,6 +8,7 @@ from .errors import ParameterError, require_finite, require_nonnegative, require
 from .geometry import DifferentialGeometry, GearTable, derive
 
 CARRIER_DRIVES = ("speed", "torque")
+LOCKING_LAWS = ("pinFriction", "paper")
 
 
 @dataclass
@@ -20,6 +21,8 @@ class DifferentialParams:
     table: GearTable = field(default_factory=GearTable)
     mu_pin: float = 0.26          # pin-bushing sliding friction coefficient (paper)
     r_collar: float = 0.012       # thrust-collar radius r_d of the pinion shaft, m (paper)
+    lockingLaw: str = "pinFriction"  # "pinFriction": from the pin loads | "paper": the paper's K
+    lockingPreload: float = 0.0   # N m, spring preload of the locking friction (0: none)
     density: float = 7850.0       # steel, kg/m^3 (paper: 7.85e-6 kg/mm^3)
     carrierDrive: str = "speed"   # "speed": carrier.w_ref imposed; "torque": carrier.tau drives it
     J_carrier: float = 0.0        # kg m^2, carrier (with everything rigidly on it), 0 = estimate
@@ -38,6 +41,16 @@ class DifferentialParams:
         if mu > 1.0:
             raise ParameterError("mu_pin", self.mu_pin, "between 0 and 1")
         require_nonnegative("r_collar", self.r_collar)
+        if self.lockingLaw not in LOCKING_LAWS:
+            raise ParameterError("lockingLaw", self.lockingLaw, " or ".join(LOCKING_LAWS))
+        pre = require_nonnegative("lockingPreload", self.lockingPreload)
+        if pre > 1e5:
+            raise ParameterError("lockingPreload", self.lockingPreload, "between 0 and 1e5 N m")
+        rb_planet = min(geo.meshA1.rb2, geo.meshB2.rb2)
+        if self.lockingLaw == "pinFriction" and mu * self.r_collar >= 0.5 * rb_planet:
+            raise ParameterError("r_collar", self.r_collar,
+                                 f"mu_pin * r_collar < r_b / 2 = {0.5 * rb_planet:.4g} m (planet base radius)",
+                                 "a larger friction lever than that makes the pins nearly self-locking")
         require_positive("density", self.density)
         if self.carrierDrive not in CARRIER_DRIVES:
             raise ParameterError("carrierDrive", self.carrierDrive, " or ".join(CARRIER_DRIVES))

@@ -16,11 +16,24 @@ on the carrier; ``Q_f``: friction on the relative motion):
     M_cc dw_c + M_cd dw_d = tau_c + tau_L + tau_R
     M_cd dw_c + M_dd dw_d = tau_L + lam tau_R + Q_f
 
-Pin-bushing friction (the paper's locking): Coulomb friction on the relative motion with the
-capacity ``|Q_f| <= K |T_0|``, ``K`` the locking coefficient and ``T_0 = T_A + T_B`` the torque the
-meshes transmit to the suns (``T_A = J_A dw_A - tau_L``). ``T_0`` depends on the accelerations, so
-each mode is solved as a small linear system with the sign of ``T_0`` checked afterwards
-(after Pelchen, Schweiger and Otter 2002, as in Modelica's LossyGear).
+Pin-bushing friction (the locking), two laws (:mod:`spurdiff.locking`):
+
+* ``lockingLaw = "pinFriction"``: each planet's friction moment ``M_i`` has the capacity
+  ``mu r_d |F_pin,i| + M_0,i`` from its actual pin load. The mesh forces per pair are
+  ``F_A1 = T_A / (n r_bA)``, ``F_B2 = T_B / (n r_bB)`` from the sun torques
+  (``T_A = J_A dw_A - tau_L``, each sun on its own, not only their sum) and ``F_12`` from the
+  planets' moment balances ``J_i (a_c + rho_i a_d) = r_bi (F_s,i - F_12) + M_i``; the friction on
+  the differential coordinate is ``Q_f = n (rho_1 M_1 + rho_2 M_2)``. Slipping:
+  ``M_i = -sgn(w_i) M_i,max`` and the two balances are solved for ``a_d`` and ``F_12`` (Newton,
+  analytic derivatives; :math:`F_{12}` only decides how the pins are loaded). Stuck (``a_d = 0``):
+  each planet holds for ``F_12`` in an interval ``|r_bi (F_12 - F*_i)| <= M_i,max(F_12)``; the
+  differential stays stuck while the two intervals overlap (``F_12`` is then statically
+  indeterminate: the point of the overlap nearest the frictionless compromise is reported).
+* ``lockingLaw = "paper"``: Coulomb friction on the relative motion with the capacity
+  ``|Q_f| <= K |T_0| + T_pre``, ``K`` the paper's locking coefficient and ``T_0 = T_A + T_B``.
+  ``T_0`` depends on the accelerations, so each mode is solved as a small linear system with
+  the sign of ``T_0`` checked afterwards (after Pelchen, Schweiger and Otter 2002, as in
+  Modelica's LossyGear).
 
 Stick-slip is exact, with no regularisation: in the stuck mode ``w_d`` is exactly 0 and the
 friction is whatever holds it (``dw_d = 0``) as long as that stays within the capacity; above it
@@ -34,14 +47,17 @@ from __future__ import annotations
 
 import math
 
+from scipy.optimize import brentq
+
 from .errors import StepError, require_finite, require_positive
 from .geometry import DifferentialGeometry
 from .inertia import MassProperties, mass_properties
 from .params import DifferentialParams
-from .statics import kinematics, locking_coefficient, mesh_forces_for
+from .locking import locking_coefficients, paper_locking_coefficient, pin_friction
+from .statics import MeshForces, kinematics, mesh_forces_for
 
 _STATE_KEYS = (
-    "t", "wc", "wd", "phic", "phid", "ac", "ad", "Qf", "slip_dir",
+    "t", "wc", "wd", "phic", "phid", "ac", "ad", "Qf", "slip_dir", "F12", "cap", "_ad_guess",
     "work_in", "energy_loss", "loss_last_step", "n_mode_switches", "n_steps",
 )
 
@@ -83,11 +99,24 @@ class RigidDifferential:
         mp = self.mass
         n = mp.n_pairs
         self.J_A, self.J_B = mp.J_sunA, mp.J_sunB
+        self.J_1, self.J_2 = mp.J_planet1, mp.J_planet2
+        self._ad_guess = None
         self.Mcc = mp.J_carrier_total + mp.J_sunA + mp.J_sunB + n * (mp.J_planet1 + mp.J_planet2)
         self.Mcd = mp.J_sunA + self.lam * mp.J_sunB + n * (mp.J_planet1 * self.rho1 + mp.J_planet2 * self.rho2)
         self.Mdd = (mp.J_sunA + self.lam ** 2 * mp.J_sunB
                     + n * (mp.J_planet1 * self.rho1 ** 2 + mp.J_planet2 * self.rho2 ** 2))
-        self.K = locking_coefficient(p.mu_pin, p.r_collar, n, geo.r_a, geo.r_1, geo.r_b, geo.r_2)
+        self.law = p.lockingLaw
+        self.preload = float(p.lockingPreload)
+        self.pf = pin_friction(geo, p.mu_pin, p.r_collar, self.preload, self.law)
+        self.K_paper = paper_locking_coefficient(p.mu_pin, p.r_collar, n, geo.r_a, geo.r_1, geo.r_b, geo.r_2)
+        if self.law == "paper":
+            self.K = self.K_coast = self.K_paper
+        else:
+            self.K, self.K_coast = locking_coefficients(self.pf)
+        # the exact pin law (pinFriction with friction or preload), else the paper's linear capacity
+        self._exact = self.law == "pinFriction" and (self.pf.c > 0.0 or self.preload > 0.0)
+        self.F12 = float("nan")
+        self.cap = 0.0
         self.speed_drive = p.carrierDrive == "speed"
         self._check_inputs()
         wc0 = self.w_ref if self.speed_drive else require_finite("carrier.w_start", self.w_start_carrier)
@@ -117,7 +146,7 @@ class RigidDifferential:
     def _solve_slip(self, ac_given: float | None, s: float, sigma: float) -> tuple[float, float]:
         """Accelerations with Q_f = -s K sigma T0(ac, ad) (sigma = assumed sign of T0)."""
         kf = s * self.K * sigma
-        Fd = self.tau_L + self.lam * self.tau_R
+        Fd = self.tau_L + self.lam * self.tau_R - s * self.preload
         alpha0 = -self.tau_L - self.tau_R
         alpha_c = self.J_A + self.J_B
         beta = self.J_A + self.lam * self.J_B
@@ -137,12 +166,108 @@ class RigidDifferential:
             ac, ad = self._solve_slip(ac_given, s, sigma)
             T0 = self._T0(ac, ad)
             if T0 * sigma >= 0.0:
-                return ac, ad, -s * self.K * abs(T0)
-        ac, ad = self._solve_slip(ac_given, s, 0.0)  # T0 changes sign with the friction: capacity 0
-        return ac, ad, 0.0
+                return ac, ad, -s * (self.K * abs(T0) + self.preload)
+        ac, ad = self._solve_slip(ac_given, s, 0.0)  # T0 changes sign with the friction: preload only
+        return ac, ad, -s * self.preload
+
+    # ------------------------------------------------------------------ the pin-load law
+    def _sun_forces(self, ac: float, ad: float) -> tuple[float, float]:
+        """Normal mesh forces per pair of the sun meshes from the sun torques."""
+        n = self.pf.n
+        rbA, _, rbB, _ = self.pf.rb
+        return ((self.J_A * (ac + ad) - self.tau_L) / (n * rbA),
+                (self.J_B * (ac + self.lam * ad) - self.tau_R) / (n * rbB))
+
+    def _slip_exact(self, ac_given: float | None, s: float) -> tuple[float, float, float]:
+        """Slipping in direction s with the pin-load law: solve the planets' moment balances
+        for (a_d, F_12) by Newton; returns (ac, ad, Q_f) and leaves F12, cap set."""
+        pf = self.pf
+        n = pf.n
+        rbA, rb1, rbB, rb2 = pf.rb
+        J1, J2 = self.J_1, self.J_2
+        rho1, rho2 = self.rho1, self.rho2
+        sg1 = math.copysign(1.0, rho1) * s
+        sg2 = math.copysign(1.0, rho2) * s
+        Qc = self.tau_c + self.tau_L + self.tau_R
+        g = 0.0 if ac_given is not None else -self.Mcd / self.Mcc
+
+        def acc(ad):
+            return ac_given if ac_given is not None else (Qc - self.Mcd * ad) / self.Mcc
+
+        # start: the paper-like linear estimate with the first-order coefficient
+        ad = self._ad_guess if self._ad_guess is not None else 0.0
+        FA, FB = self._sun_forces(acc(ad), ad)
+        F12 = self.F12 if self.F12 == self.F12 else 0.5 * (FA + FB)
+        dFA = self.J_A * (g + 1.0) / (n * rbA)
+        dFB = self.J_B * (g + self.lam) / (n * rbB)
+        scale = abs(FA) + abs(FB) + 1e-300
+        for _ in range(50):
+            ac = acc(ad)
+            FA, FB = self._sun_forces(ac, ad)
+            c1, c1S, c112 = pf.capacity(0, FA, F12)
+            c2, c2S, c212 = pf.capacity(1, FB, F12)
+            r1 = rb1 * (FA - F12) - sg1 * c1 - J1 * (ac + rho1 * ad)
+            r2 = rb2 * (FB - F12) - sg2 * c2 - J2 * (ac + rho2 * ad)
+            a11 = (rb1 - sg1 * c1S) * dFA - J1 * (g + rho1)
+            a12 = -rb1 - sg1 * c112
+            a21 = (rb2 - sg2 * c2S) * dFB - J2 * (g + rho2)
+            a22 = -rb2 - sg2 * c212
+            det = a11 * a22 - a12 * a21
+            d_ad = (r1 * a22 - a12 * r2) / det
+            d_F = (a11 * r2 - a21 * r1) / det
+            ad -= d_ad
+            F12 -= d_F
+            scale = abs(FA) + abs(FB) + abs(F12) + 1e-300
+            if abs(d_F) <= 1e-13 * scale and abs(d_ad) * (abs(dFA) + abs(dFB)) <= 1e-13 * scale:
+                break
+        ac = acc(ad)
+        FA, FB = self._sun_forces(ac, ad)
+        cap1 = pf.capacity(0, FA, F12)[0]
+        cap2 = pf.capacity(1, FB, F12)[0]
+        self.F12 = F12
+        self.cap = n * (abs(rho1) * cap1 + abs(rho2) * cap2)
+        return ac, ad, -s * self.cap
+
+    def _planet_interval(self, i: int, Fs: float, ac: float) -> tuple[float, float]:
+        """F_12 interval in which planet i holds stuck: |r_bi (F_12 - F*)| <= M_i,max(F_12)."""
+        pf = self.pf
+        rb = pf.rb[1] if i == 0 else pf.rb[3]
+        J = self.J_1 if i == 0 else self.J_2
+        Fstar = Fs - J * ac / rb
+        cap0 = pf.capacity(i, Fs, Fstar)[0]
+        if cap0 <= 0.0:
+            return Fstar, Fstar
+        span = cap0 / (rb - pf.c) * (1.0 + 1e-9) + 1e-12 * (abs(Fstar) + abs(Fs))
+        hi = brentq(lambda F: rb * (F - Fstar) - pf.capacity(i, Fs, F)[0], Fstar, Fstar + span,
+                    xtol=1e-12 * (abs(Fstar) + cap0 / rb), rtol=1e-14)
+        lo = brentq(lambda F: rb * (F - Fstar) + pf.capacity(i, Fs, F)[0], Fstar - span, Fstar,
+                    xtol=1e-12 * (abs(Fstar) + cap0 / rb), rtol=1e-14)
+        return lo, hi
+
+    def _stuck_exact(self, ac: float) -> bool:
+        """Can both planets hold (a_d = 0)? Sets F12 and cap to the reported stuck values."""
+        pf = self.pf
+        rb1, rb2 = pf.rb[1], pf.rb[3]
+        FA, FB = self._sun_forces(ac, 0.0)
+        lo1, hi1 = self._planet_interval(0, FA, ac)
+        lo2, hi2 = self._planet_interval(1, FB, ac)
+        lo, hi = max(lo1, lo2), min(hi1, hi2)
+        tol = 1e-10 * (abs(FA) + abs(FB) + abs(hi) + abs(lo)) + 1e-300
+        if lo > hi + tol:
+            return False
+        # the frictionless compromise (least squares of the two friction moments), clipped to the overlap
+        F1s, F2s = FA - self.J_1 * ac / rb1, FB - self.J_2 * ac / rb2
+        F12 = (rb1 * rb1 * F1s + rb2 * rb2 * F2s) / (rb1 * rb1 + rb2 * rb2)
+        F12 = min(max(F12, lo), hi) if lo <= hi else 0.5 * (lo + hi)
+        self.F12 = F12
+        self.cap = pf.n * (abs(self.rho1) * pf.capacity(0, FA, F12)[0]
+                           + abs(self.rho2) * pf.capacity(1, FB, F12)[0])
+        return True
 
     def _accelerations(self, ac_given: float | None) -> tuple[float, float, float, float]:
         """(ac, ad, Q_f, slip direction) in the current state (direction 0: stuck)."""
+        if self._exact:
+            return self._accelerations_exact(ac_given)
         if self.wd != 0.0:
             s = math.copysign(1.0, self.wd)
             ac, ad, Qf = self._slip_accelerations(ac_given, s)
@@ -151,7 +276,7 @@ class RigidDifferential:
         Fd = self.tau_L + self.lam * self.tau_R
         ac = ac_given if ac_given is not None else (self.tau_c + self.tau_L + self.tau_R) / self.Mcc
         Q_req = self.Mcd * ac - Fd
-        cap = self.K * abs(self._T0(ac, 0.0))
+        cap = self.K * abs(self._T0(ac, 0.0)) + self.preload
         if abs(Q_req) <= cap * (1.0 + 1e-12):
             return ac, 0.0, Q_req, 0.0
         s = -math.copysign(1.0, Q_req)
@@ -160,6 +285,29 @@ class RigidDifferential:
             return ac_s, ad_s, Qf, s
         # no consistent break-away (capacity grows with the motion it would cause): stay stuck at capacity
         return ac, 0.0, math.copysign(cap, Q_req), 0.0
+
+    def _accelerations_exact(self, ac_given: float | None) -> tuple[float, float, float, float]:
+        """As :meth:`_accelerations`, with the pin-load law."""
+        if self.wd != 0.0:
+            s = math.copysign(1.0, self.wd)
+            ac, ad, Qf = self._slip_exact(ac_given, s)
+            self._ad_guess = ad
+            return ac, ad, Qf, s
+        Fd = self.tau_L + self.lam * self.tau_R
+        ac = ac_given if ac_given is not None else (self.tau_c + self.tau_L + self.tau_R) / self.Mcc
+        Q_req = self.Mcd * ac - Fd
+        F12_prev = self.F12
+        if self._stuck_exact(ac):
+            return ac, 0.0, Q_req, 0.0
+        s = -math.copysign(1.0, Q_req)
+        self._ad_guess = 0.0
+        ac_s, ad_s, Qf = self._slip_exact(ac_given, s)
+        if ad_s * s > 0.0:
+            self._ad_guess = ad_s
+            return ac_s, ad_s, Qf, s
+        # no consistent break-away: stay stuck at capacity (as the paper law does)
+        self.F12 = F12_prev if F12_prev == F12_prev else self.F12
+        return ac, 0.0, math.copysign(self.cap, Q_req), 0.0
 
     # ------------------------------------------------------------------ stepping
     def do_step(self, t: float, h: float) -> None:
@@ -250,7 +398,10 @@ class RigidDifferential:
 
     @property
     def mesh_forces(self):
-        return mesh_forces_for(self.geometry, self.tau_mesh_L, self.tau_mesh_R)
+        if not self._exact:
+            return mesh_forces_for(self.geometry, self.tau_mesh_L, self.tau_mesh_R)
+        FA, FB = self._sun_forces(self.ac, self.ad)
+        return MeshForces(FA, FB, self.F12)
 
     @property
     def locking_torque(self) -> float:
@@ -259,7 +410,11 @@ class RigidDifferential:
 
     @property
     def locking_capacity(self) -> float:
-        return self.K * abs(self.tau_mesh_L + self.tau_mesh_R)
+        """Largest torque difference the friction can hold now (N m): the paper law's
+        ``K |T_A + T_B| + T_pre``, or ``n sum_i |rho_i| M_i,max`` from the pin loads."""
+        if self._exact:
+            return self.cap
+        return self.K * abs(self.tau_mesh_L + self.tau_mesh_R) + self.preload
 
     @property
     def power_loss(self) -> float:
