@@ -91,7 +91,8 @@ def test_bad_locking_law_is_named(differential_fmu):
 
 def test_two_instances_are_independent(differential_fmu):
     a = start(differential_fmu, "a")
-    b = start(differential_fmu, "b", inputs={**LOADS, "left.tau": -1110.201, "right.tau": -989.799})
+    b = start(differential_fmu, "b", params={"lockingLaw": "paper"},
+              inputs={**LOADS, "left.tau": -1110.201, "right.tau": -989.799})
     steps(a, 50)
     steps(b, 50)
     wa = get(a, "left.w", "right.w")
