@@ -1,26 +1,32 @@
-"""FMU compliance kit (``spurdiff check``) for any FMI 2.0 co-simulation FMU.
+"""FMU compliance kit (``spurdiff check``) for any FMI 2.0 FMU, co-simulation and model exchange.
 
-* :mod:`.static`: modelDescription.xml checks (fmpy's validation plus units, output
-  dependencies, descriptions, structured names, host binary);
-* :mod:`.lifecycle`: the FMI call sequence, each check in a fresh process;
-* :mod:`.reference`: reference results in the FMI cross-check layout and per-column comparison;
-* :mod:`.report`: PASS/FAIL/SKIP lines, JUnit XML, exit code;
+* :mod:`.rules`: every rule as data (id, FMI 2.0 section, severity, calls, what passes);
+* :mod:`.archive`: reading a possibly hostile FMU archive within limits, safe extraction;
+* :mod:`.static`: the archive and modelDescription.xml rules (no binary loaded);
+* :mod:`.isolation`: one task in a fresh process, killed with its whole group at the timeout;
+* :mod:`.worker`, :mod:`.driver`: the worker process and its FMI plumbing (fmpy);
+* :mod:`.cs_checks`, :mod:`.me_checks`: the co-simulation and model-exchange call-sequence rules;
+* :mod:`.lifecycle`: scheduling those rules, ``jobs`` processes at a time;
+* :mod:`.reference`: reference results in the FMI cross-check layout, per-column comparison;
+* :mod:`.report`: PASS/ERROR/WARN/INFO/SKIP lines, JUnit XML, exit code;
 * :mod:`.runner`: the command line, ``main(argv) -> int``.
 
-Rules and a CI recipe: docs/compliance.md.
+Rules and CI recipes: docs/compliance.md.
 """
-from .lifecycle import LIFECYCLE_CHECKS, LifecycleOptions, run_lifecycle_checks, run_lifecycle_checks_many
+from .lifecycle import LifecycleOptions, lifecycle_rules, run_lifecycle_checks, run_lifecycle_checks_many
 from .reference import (ColumnComparison, Tolerance, compare_checks, compare_results, read_cross_check_csv,
-                        read_ref_opt, write_reference_results)
-from .report import FAIL, PASS, SKIP, CheckResult, exit_code, format_line, format_report, write_junit
-from .static import STATIC_CHECKS, is_structured_name, run_static_checks
+                        read_ref_opt, safe_model_name, write_reference_results)
+from .report import FAIL, PASS, SKIP, CheckResult, exit_code, format_line, format_report, summary, write_junit
+from .rules import ERROR, INFO, RULES, WARNING, Rule, rules
+from .static import is_structured_name, run_static_checks
 
 __all__ = [
-    "CheckResult", "PASS", "FAIL", "SKIP", "format_line", "format_report", "exit_code", "write_junit",
-    "STATIC_CHECKS", "run_static_checks", "is_structured_name",
-    "LIFECYCLE_CHECKS", "LifecycleOptions", "run_lifecycle_checks", "run_lifecycle_checks_many",
+    "CheckResult", "PASS", "FAIL", "SKIP", "format_line", "format_report", "summary", "exit_code", "write_junit",
+    "Rule", "RULES", "rules", "ERROR", "WARNING", "INFO",
+    "run_static_checks", "is_structured_name",
+    "LifecycleOptions", "lifecycle_rules", "run_lifecycle_checks", "run_lifecycle_checks_many",
     "write_reference_results", "compare_results", "compare_checks", "read_cross_check_csv", "read_ref_opt",
-    "Tolerance", "ColumnComparison",
+    "safe_model_name", "Tolerance", "ColumnComparison",
     "main",
 ]
 

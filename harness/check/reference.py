@@ -18,7 +18,8 @@ one folder per model, ``DIR/<ModelName>/``:
 0 s; stop time, else start + 1 s; stepSize, else 1e-3 s, as communication step; tolerance, else
 1e-4, handed to fmi2SetupExperiment) with :func:`fmpy.simulate_fmu`, every parameter and input
 at its start value unless an input table says otherwise, in a fresh process (see
-:func:`harness.check.lifecycle.run_isolated`).
+:func:`harness.check.isolation.run_isolated`). ``modelName`` becomes a folder and file name only
+after :func:`safe_model_name` accepts it.
 
 :func:`compare_results` judges an importer's result CSV column by column against a reference:
 the result is interpolated linearly onto the reference time points, and sample i of column c
@@ -31,6 +32,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -201,10 +203,29 @@ def input_table(md, exp: Experiment, input_csv: str | Path | None = None) -> tup
 
 # ----------------------------------------------------------------------------- writing references
 
+_SAFE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]{0,127}")
+
+
+def safe_model_name(model_name: str | None) -> str:
+    """``model_name`` when it can be a folder and file name inside the output folder: letters,
+    digits, ``_ . + -``, not starting with a dot, at most 128 characters. Raises
+    ReferenceUsageError (one line) otherwise: a hostile FMU must not write outside the folder."""
+    if not model_name or not _SAFE_NAME.fullmatch(model_name) or ".." in model_name:
+        raise ReferenceUsageError(f"modelName {model_name!r} cannot be used as a file name (allowed: letters, "
+                                  f"digits, '_', '.', '+', '-', not starting with '.', no '..', 1-128 characters)")
+    return model_name
+
+
 def reference_paths(out_dir: str | Path, model_name: str) -> dict[str, Path]:
-    folder = Path(out_dir) / model_name
-    return {"ref.csv": folder / f"{model_name}_ref.csv", "ref.opt": folder / f"{model_name}_ref.opt",
-            "in.csv": folder / f"{model_name}_in.csv"}
+    name = safe_model_name(model_name)
+    root = Path(out_dir).resolve()
+    folder = root / name
+    paths = {"ref.csv": folder / f"{name}_ref.csv", "ref.opt": folder / f"{name}_ref.opt",
+             "in.csv": folder / f"{name}_in.csv"}
+    for p in paths.values():  # belt and braces: every path stays inside out_dir
+        if root not in p.resolve().parents:
+            raise ReferenceUsageError(f"modelName {model_name!r} would write outside {out_dir}")
+    return paths
 
 
 def write_reference_results(fmu_path: str | Path, out_dir: str | Path, input_csv: str | Path | None = None,
@@ -212,28 +233,42 @@ def write_reference_results(fmu_path: str | Path, out_dir: str | Path, input_csv
     """Simulate the FMU over its default experiment and write ``DIR/<Model>/<Model>_ref.csv``,
     ``_ref.opt`` and (when it has inputs) ``_in.csv``. The simulation runs in a fresh process.
 
-    Returns a ``reference.write`` CheckResult (FAIL when the simulation fails or crashes).
-    Raises ReferenceUsageError for an invalid ``input_csv``.
+    Returns a ``reference.write`` CheckResult: FAIL when the archive is unsafe, the modelName is
+    not a safe file name, or the simulation fails or crashes. Raises ReferenceUsageError for an
+    invalid ``input_csv``.
     """
+    import shutil
+
     from fmpy import read_model_description
 
-    from .lifecycle import run_isolated
+    from .archive import ArchiveError, extract
+    from .isolation import run_isolated
     subject = subject if subject is not None else str(fmu_path)
     t0 = time.perf_counter()
-    md = read_model_description(str(fmu_path), validate=False)
-    exp = default_experiment(md)
-    paths = reference_paths(out_dir, md.modelName)
-    names, table = input_table(md, exp, input_csv)
-    paths["ref.csv"].parent.mkdir(parents=True, exist_ok=True)
-    for p in paths.values():
-        if p.exists():
-            p.unlink()
-    if names:
-        write_cross_check_csv(paths["in.csv"], names, table)
-    payload = {"fmu": str(Path(fmu_path).resolve()), "ref_csv": str(paths["ref.csv"].resolve()),
-               "in_csv": str(paths["in.csv"].resolve()) if names else None,
-               "experiment": [exp.start_time, exp.stop_time, exp.step_size, exp.rel_tol]}
-    status, reason = run_isolated("reference", payload, timeout)
+    try:
+        unzipdir = extract(fmu_path)
+    except ArchiveError as e:
+        return CheckResult(subject, "reference.write", FAIL, f"the FMU could not be unpacked: {e}")
+    try:
+        md = read_model_description(str(unzipdir), validate=False)
+        try:
+            paths = reference_paths(out_dir, md.modelName)
+        except ReferenceUsageError as e:
+            return CheckResult(subject, "reference.write", FAIL, str(e), time.perf_counter() - t0)
+        exp = default_experiment(md)
+        names, table = input_table(md, exp, input_csv)
+        paths["ref.csv"].parent.mkdir(parents=True, exist_ok=True)
+        for p in paths.values():
+            if p.exists():
+                p.unlink()
+        if names:
+            write_cross_check_csv(paths["in.csv"], names, table)
+        payload = {"fmu": str(unzipdir), "ref_csv": str(paths["ref.csv"]),
+                   "in_csv": str(paths["in.csv"]) if names else None,
+                   "experiment": [exp.start_time, exp.stop_time, exp.step_size, exp.rel_tol]}
+        status, reason, _ = run_isolated("reference", payload, timeout)
+    finally:
+        shutil.rmtree(unzipdir, ignore_errors=True)
     if status == PASS:
         write_ref_opt(paths["ref.opt"], exp.start_time, exp.stop_time, exp.step_size, exp.rel_tol)
         written = [p for p in paths.values() if p.exists()]

@@ -1,23 +1,31 @@
 """Outcomes of the compliance checks and their three renderings: text lines, JUnit XML, exit code.
 
-One :class:`CheckResult` per (FMU, check). The text form is one line per check::
+One :class:`CheckResult` per (FMU, rule). A rule that does not hold is a FAIL carrying the
+rule's severity (see :mod:`.rules`); the text form shows the severity instead of FAIL::
 
-    PASS  build/fmus/SpurDifferential.fmu  lifecycle.reset  outputs identical after fmi2Reset
+    PASS   build/fmus/SpurDifferential.fmu  cs.reset  outputs identical after fmi2Reset
+    ERROR  Broken.fmu  cs.guid  [FMI 2.0 2.1.5] fmi2Instantiate accepted a wrong GUID
+    WARN   Stair.fmu  cs.zero-step-size  [FMI 2.0 4.2.2] ...
+    INFO   Stair.fmu  static.output-dependencies  ...
 
-The JUnit form (``--junit FILE``) has one ``testsuite`` per FMU and one ``testcase`` per check;
-a FAIL is a ``failure`` element, a SKIP a ``skipped`` element, both carrying the reason. This is
-the schema understood by GitHub Actions / GitLab / Jenkins JUnit reporters (no ``error``
-elements are written: a crash or timeout of an FMU is a failure of the FMU, not of the checker).
+JUnit (``--junit FILE``): one ``testsuite`` per FMU, one ``testcase`` per rule; an error is a
+``failure``; a warning is ``skipped`` with the reason (a ``failure`` with ``--strict``); an info
+is a passing test case; every test case carries ``properties`` (severity, FMI section, outcome).
+Text that an FMU wrote (log messages quoted in reasons) is cleaned of control characters, so the
+XML always parses.
 
-Exit code (:func:`exit_code`): 0 when every check passed or was skipped, 1 when any failed.
-Usage errors (exit code 2) are decided by the command line, before any check runs.
+Exit code (:func:`exit_code`): 1 when an error-severity rule failed (``strict``: or a warning),
+else 0. Usage errors (2) are decided by the command line before any check runs.
 """
 from __future__ import annotations
 
+import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Sequence
+
+from .rules import BY_ID, ERROR, INFO, SEVERITIES, WARNING
 
 PASS = "PASS"
 FAIL = "FAIL"
@@ -28,15 +36,30 @@ EXIT_OK = 0
 EXIT_FAILED = 1
 EXIT_USAGE = 2
 
+LABELS = {ERROR: "ERROR", WARNING: "WARN", INFO: "INFO"}
+
+# characters XML 1.0 cannot carry (C0 controls except tab/LF/CR, surrogates, U+FFFE/U+FFFF), and C1 controls
+_BAD_CHARS = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\x7f-\x9f\ud800-\udfff\ufffe\uffff]")
+
+
+def clean(text: str) -> str:
+    """``text`` with every control character (and anything XML cannot hold) written as ``\\xNN``."""
+    return _BAD_CHARS.sub(lambda m: f"\\x{ord(m.group()):02x}" if ord(m.group()) < 0x100
+                          else f"\\u{ord(m.group()):04x}", str(text))
+
+
+def one_line(text: str) -> str:
+    return " ".join(clean(text).split())
+
 
 @dataclass(frozen=True)
 class CheckResult:
-    """The outcome of one check on one FMU (or one compared result file).
+    """The outcome of one rule on one FMU (or one compared result file).
 
-    ``subject`` is what was checked (the FMU path as given on the command line), ``check_id`` a
-    stable dotted identifier such as ``static.units`` or ``lifecycle.reset``, ``status`` one of
-    PASS / FAIL / SKIP and ``reason`` one line saying why. ``duration`` is the wall time of the
-    check in seconds (informative only; written to JUnit's ``time`` attribute).
+    ``subject`` names what was checked (the FMU path as given), ``check_id`` the rule id (e.g.
+    ``cs.reset``), ``status`` PASS / FAIL / SKIP, ``reason`` one line. ``severity`` is the
+    severity a FAIL carries (error unless the rule says otherwise; see :mod:`.rules`);
+    ``duration`` the wall time, s (JUnit ``time``).
     """
 
     subject: str
@@ -44,10 +67,13 @@ class CheckResult:
     status: str
     reason: str = ""
     duration: float = 0.0
+    severity: str = ERROR
 
     def __post_init__(self):
         if self.status not in STATUSES:
             raise ValueError(f"CheckResult.status must be one of {STATUSES}, got {self.status!r}")
+        if self.severity not in SEVERITIES:
+            raise ValueError(f"CheckResult.severity must be one of {SEVERITIES}, got {self.severity!r}")
 
     @property
     def passed(self) -> bool:
@@ -57,64 +83,104 @@ class CheckResult:
     def failed(self) -> bool:
         return self.status == FAIL
 
+    @property
+    def is_error(self) -> bool:
+        return self.status == FAIL and self.severity == ERROR
 
-def _one_line(text: str) -> str:
-    return " ".join(str(text).split())
+    @property
+    def is_warning(self) -> bool:
+        return self.status == FAIL and self.severity == WARNING
+
+    @property
+    def label(self) -> str:
+        return LABELS[self.severity] if self.status == FAIL else self.status
+
+    @property
+    def section(self) -> str:
+        rule = BY_ID.get(self.check_id)
+        return rule.section if rule else ""
 
 
 def format_line(result: CheckResult) -> str:
-    """``STATUS  <subject> <check-id>  <reason>`` (reason flattened to one line)."""
-    return f"{result.status}  {result.subject} {result.check_id}  {_one_line(result.reason)}".rstrip()
+    """``LABEL  <subject>  <rule>  [FMI 2.0 section] <reason>`` on one line."""
+    sec = f"[FMI 2.0 {result.section}] " if result.status == FAIL and result.section else ""
+    return f"{result.label:<5}  {one_line(result.subject)}  {result.check_id}  {sec}{one_line(result.reason)}".rstrip()
+
+
+def counts(results: Sequence[CheckResult]) -> dict[str, int]:
+    return {"checks": len(results), "passed": sum(r.passed for r in results),
+            "errors": sum(r.is_error for r in results), "warnings": sum(r.is_warning for r in results),
+            "info": sum(r.status == FAIL and r.severity == INFO for r in results),
+            "skipped": sum(r.status == SKIP for r in results)}
+
+
+def summary(results: Sequence[CheckResult]) -> str:
+    n = counts(results)
+    return (f"{n['checks']} checks: {n['passed']} passed, {n['errors']} errors, {n['warnings']} warnings, "
+            f"{n['info']} info, {n['skipped']} skipped")
 
 
 def format_report(results: Iterable[CheckResult]) -> str:
-    """All result lines followed by a one-line summary (counts per status)."""
+    """All result lines, then one summary line per subject (when there are several) and the total."""
     results = list(results)
     lines = [format_line(r) for r in results]
-    n = {s: sum(r.status == s for r in results) for s in STATUSES}
-    lines.append(f"{len(results)} checks: {n[PASS]} passed, {n[FAIL]} failed, {n[SKIP]} skipped")
+    subjects = list(dict.fromkeys(r.subject for r in results))
+    if len(subjects) > 1:
+        for s in subjects:
+            lines.append(f"{one_line(s)}: " + summary([r for r in results if r.subject == s]))
+    lines.append(summary(results))
     return "\n".join(lines)
 
 
-def exit_code(results: Iterable[CheckResult]) -> int:
-    """0 when nothing failed (passes and skips only), 1 when any check failed."""
-    return EXIT_FAILED if any(r.failed for r in results) else EXIT_OK
+def exit_code(results: Iterable[CheckResult], strict: bool = False) -> int:
+    """1 when an error-severity rule failed (``strict``: or a warning), else 0."""
+    bad = any(r.is_error or (strict and r.is_warning) for r in results)
+    return EXIT_FAILED if bad else EXIT_OK
 
 
-def junit_tree(results: Sequence[CheckResult]) -> ET.ElementTree:
-    """JUnit XML: ``testsuites`` > one ``testsuite`` per subject > one ``testcase`` per check."""
+def junit_tree(results: Sequence[CheckResult], strict: bool = False) -> ET.ElementTree:
+    """JUnit XML: ``testsuites`` > one ``testsuite`` per subject > one ``testcase`` per rule."""
     suites: dict[str, list[CheckResult]] = {}
     for r in results:
         suites.setdefault(r.subject, []).append(r)
 
-    def counts(rs: Sequence[CheckResult]) -> dict[str, str]:
-        return {
-            "tests": str(len(rs)),
-            "failures": str(sum(r.status == FAIL for r in rs)),
-            "errors": "0",
-            "skipped": str(sum(r.status == SKIP for r in rs)),
-            "time": f"{sum(r.duration for r in rs):.3f}",
-        }
+    def as_failure(r: CheckResult) -> bool:
+        return r.is_error or (strict and r.is_warning)
 
-    root = ET.Element("testsuites", {"name": "spurdiff check", **counts(results)})
+    def as_skipped(r: CheckResult) -> bool:
+        return r.status == SKIP or (r.is_warning and not strict)
+
+    def attrs(rs: Sequence[CheckResult]) -> dict[str, str]:
+        return {"tests": str(len(rs)), "failures": str(sum(as_failure(r) for r in rs)), "errors": "0",
+                "skipped": str(sum(as_skipped(r) for r in rs)), "time": f"{sum(r.duration for r in rs):.3f}"}
+
+    root = ET.Element("testsuites", {"name": "spurdiff check", **attrs(results)})
     for subject, rs in suites.items():
-        suite = ET.SubElement(root, "testsuite", {"name": subject, **counts(rs)})
-        classname = Path(subject).name
+        suite = ET.SubElement(root, "testsuite", {"name": clean(subject), **attrs(rs)})
+        classname = clean(Path(subject).name)
         for r in rs:
-            case = ET.SubElement(suite, "testcase",
-                                 {"classname": classname, "name": r.check_id, "time": f"{r.duration:.3f}"})
+            case = ET.SubElement(suite, "testcase", {"classname": classname, "name": r.check_id,
+                                                     "time": f"{r.duration:.3f}"})
+            props = ET.SubElement(case, "properties")
+            for name, value in (("outcome", r.label), ("severity", r.severity), ("fmi-section", r.section)):
+                ET.SubElement(props, "property", {"name": name, "value": value})
+            message = one_line(r.reason)
             if r.status == FAIL:
-                el = ET.SubElement(case, "failure", {"message": _one_line(r.reason), "type": "FAIL"})
-                el.text = r.reason
-            elif r.status == SKIP:
-                ET.SubElement(case, "skipped", {"message": _one_line(r.reason)})
+                message = f"{r.severity} [FMI 2.0 {r.section}]: {message}" if r.section else f"{r.severity}: {message}"
+            if as_failure(r):
+                el = ET.SubElement(case, "failure", {"message": message, "type": r.severity})
+                el.text = clean(r.reason)
+            elif as_skipped(r):
+                ET.SubElement(case, "skipped", {"message": message})
+            elif r.status == FAIL:  # info: a passing test case with a note
+                ET.SubElement(props, "property", {"name": "note", "value": message})
     ET.indent(root, space="  ")
     return ET.ElementTree(root)
 
 
-def write_junit(path: str | Path, results: Sequence[CheckResult]) -> Path:
+def write_junit(path: str | Path, results: Sequence[CheckResult], strict: bool = False) -> Path:
     """Write the JUnit XML report to ``path`` (parent directories are created)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    junit_tree(results).write(path, encoding="utf-8", xml_declaration=True)
+    junit_tree(results, strict).write(path, encoding="utf-8", xml_declaration=True)
     return path

@@ -6,8 +6,9 @@ Three modes::
     spurdiff check --reference-results DIR PATH.fmu [...]          write cross-check references
     spurdiff check --compare RESULT.csv --reference REF.csv        compare a result, per column
 
-Exit code: 0 when every check passed or was skipped, 1 when any failed, 2 for a usage error
-(unknown option, missing file, bad input table). Help: ``spurdiff check -h``.
+Exit code: 1 when a rule of severity error failed (``--strict``: or a warning), 0 otherwise, 2 for
+a usage error (unknown option, missing file, bad input table). ``--profile spurdiff`` adds the
+project's own conventions (units, descriptions, ...) as errors. Help: ``spurdiff check -h``.
 """
 from __future__ import annotations
 
@@ -16,11 +17,12 @@ import sys
 from pathlib import Path
 from typing import Sequence
 
-from .lifecycle import LIFECYCLE_CHECKS, LifecycleOptions, run_lifecycle_checks_many
+from .lifecycle import LifecycleOptions, lifecycle_rules, run_lifecycle_checks_many
 from .reference import (DEFAULT_RTOL, CsvFormatError, ReferenceUsageError, Tolerance, compare_checks,
                         write_reference_results)
 from .report import EXIT_USAGE, FAIL, SKIP, CheckResult, exit_code, format_report, write_junit
-from .static import run_static_checks
+from .rules import BY_ID, PROFILES
+from .static import read_archive, run_static_checks
 
 
 class UsageError(Exception):
@@ -30,10 +32,11 @@ class UsageError(Exception):
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(
         prog="spurdiff check",
-        description="Compliance checks for any FMI 2.0 co-simulation FMU: the modelDescription.xml "
-                    "(fmpy's validation plus units, output dependencies, descriptions, names) and the "
-                    "FMI call sequence, each lifecycle check in a fresh process. See docs/compliance.md.",
-        epilog="exit code: 0 all checks passed or skipped, 1 a check failed, 2 usage error")
+        description="Compliance checks of any FMI 2.0 FMU (co-simulation and model exchange): the archive "
+                    "and modelDescription.xml, and the FMI call sequence, each rule in a fresh process. Every "
+                    "rule cites its FMI 2.0 section and has a severity (error, warning, info). "
+                    "See docs/compliance.md.",
+        epilog="exit code: 0 no error (warnings and info allowed), 1 an error (--strict: or a warning), 2 usage error")
     ap.add_argument("fmus", nargs="*", metavar="PATH.fmu", help="FMUs to check")
     ap.add_argument("--junit", metavar="FILE", help="also write a JUnit XML report (one testsuite per FMU)")
     ap.add_argument("--timeout", type=float, default=60.0, metavar="S",
@@ -43,6 +46,11 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--steps", type=int, default=10, metavar="N",
                     help="doSteps per lifecycle run (default 10, at least 2)")
     ap.add_argument("--static-only", action="store_true", help="only the static (modelDescription) checks")
+    ap.add_argument("--strict", action="store_true", help="warnings count as failures (exit code, JUnit)")
+    ap.add_argument("--profile", action="append", default=[], choices=PROFILES,
+                    help="also enforce a profile's conventions, as errors (spurdiff: a unit on every Real, "
+                         "descriptions, dependencies on every output, fixed parameters refused after "
+                         "initialization)")
     g = ap.add_argument_group("reference results (FMI cross-check layout)")
     g.add_argument("--reference-results", metavar="DIR",
                    help="simulate each FMU over its default experiment and write DIR/<Model>/<Model>_ref.csv, "
@@ -89,30 +97,37 @@ def _existing_files(paths: Sequence[str], what: str) -> list[str]:
 
 
 def run_checks(fmus: Sequence[str], options: LifecycleOptions, static_only: bool = False) -> list[CheckResult]:
-    """Static checks, then (unless ``static_only``) lifecycle checks, for every FMU; report order."""
-    static = {f: run_static_checks(f, subject=f) for f in fmus}
+    """Static rules, then (unless ``static_only``) the call-sequence rules of every interface the
+    FMU offers, for every FMU; report order."""
+    profiles = options.profiles
+    static = {f: run_static_checks(f, subject=f, profiles=profiles) for f in fmus}
     lifecycle: dict[str, list[CheckResult]] = {}
     runnable = []
     for f in fmus:
-        res = {r.check_id: r for r in static[f]}
-        blocker = next((r for r in (res["static.fmi2-cosimulation"], res["static.binary"]) if r.status != "PASS"), None)
         if static_only:
             continue
+        res = {r.check_id: r for r in static[f]}
+        arc = read_archive(f) if not any(res[c].failed or res[c].status == SKIP
+                                         for c in ("static.archive", "static.fmi2")) else None
+        kinds = [k for k in ("cs", "me") if arc is not None and arc.interface(k) is not None]
+        blocker = next((res[c] for c in ("static.archive", "static.fmi2", "static.binary") if res[c].status != "PASS"), None)
         if blocker is not None:
-            lifecycle[f] = [CheckResult(f, c, SKIP, f"{blocker.check_id} failed") for c in LIFECYCLE_CHECKS]
+            ids = lifecycle_rules(kinds or ("cs",), profiles)
+            lifecycle[f] = [CheckResult(f, c, SKIP, f"{blocker.check_id} did not pass",
+                                        severity=BY_ID[c].effective_severity(profiles)) for c in ids]
         else:
-            runnable.append(f)
+            runnable.append((f, f, kinds))
     if runnable:
-        lifecycle.update(run_lifecycle_checks_many([(f, f) for f in runnable], options))
+        lifecycle.update(run_lifecycle_checks_many(runnable, options))
     return [r for f in fmus for r in static[f] + lifecycle.get(f, [])]
 
 
-def _finish(results: Sequence[CheckResult], junit: str | None) -> int:
+def _finish(results: Sequence[CheckResult], junit: str | None, strict: bool = False) -> int:
     print(format_report(results))
     if junit:
-        path = write_junit(junit, results)
+        path = write_junit(junit, results, strict)
         print(f"JUnit report: {path}")
-    return exit_code(results)
+    return exit_code(results, strict)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -143,7 +158,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                 results = compare_checks(args.compare, args.reference, args.rtol, args.atol, per_column)
             except CsvFormatError as e:
                 results = [CheckResult(args.compare, "compare.read", FAIL, str(e))]
-            return _finish(results, args.junit)
+            return _finish(results, args.junit, args.strict)
         if not args.fmus:
             raise UsageError("no FMU given (spurdiff check PATH.fmu ...; -h for help)")
         fmus = _existing_files(args.fmus, "FMU")
@@ -161,11 +176,12 @@ def main(argv: Sequence[str] | None = None) -> int:
                     raise UsageError(str(e)) from None
                 except Exception as e:  # unreadable model description
                     results.append(CheckResult(f, "reference.write", FAIL, f"{type(e).__name__}: {e}"))
-            return _finish(results, args.junit)
+            return _finish(results, args.junit, args.strict)
         if args.input is not None:
             raise UsageError("--input goes with --reference-results")
-        options = LifecycleOptions(steps=args.steps, timeout=args.timeout, jobs=args.jobs)
-        return _finish(run_checks(fmus, options, args.static_only), args.junit)
+        options = LifecycleOptions(steps=args.steps, timeout=args.timeout, jobs=args.jobs,
+                                   profiles=tuple(dict.fromkeys(args.profile)))
+        return _finish(run_checks(fmus, options, args.static_only), args.junit, args.strict)
     except UsageError as e:
         print(f"spurdiff check: error: {e}", file=sys.stderr)
         return EXIT_USAGE

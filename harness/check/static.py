@@ -1,54 +1,20 @@
-"""Static checks of an FMI 2.0 co-simulation FMU: the archive and its modelDescription.xml.
+"""Static rules: the FMU archive and its modelDescription.xml (no binary is loaded).
 
-Nothing here loads the FMU's binary, so these checks run in the checker's own process.
-
-Checks (ids and rules; see docs/compliance.md):
-
-``static.fmi2-cosimulation``
-    The archive is a zip with a ``modelDescription.xml`` whose root has ``fmiVersion="2.0"``
-    and a ``CoSimulation`` element with a ``modelIdentifier`` (FMI 2.0 spec, 2.2 and 4.3.1).
-``static.fmpy-validate``
-    :func:`fmpy.validation.validate_fmu`: XML schema, unique and legal names, ModelStructure
-    (Outputs, InitialUnknowns), required start values, causality/variability/initial
-    combinations, units against UnitDefinitions.
-``static.binary``
-    ``binaries/<platform>/<modelIdentifier><ext>`` exists for the platform the checker runs on
-    (FMI 2.0 spec, 2.3), e.g. ``binaries/linux64/Model.so``: the lifecycle checks need it.
-``static.units``
-    Every Real variable has a non-empty ``unit``, or a ``declaredType`` whose SimpleType has a
-    non-empty ``unit``. Dimensionless quantities must say so with ``unit="1"``.
-``static.output-dependencies``
-    Every ``ModelStructure/Outputs/Unknown`` has a ``dependencies`` attribute (an empty one is
-    an explicit "depends on no input"). Without it an importer must assume direct feedthrough
-    from every input (FMI 2.0 spec, 2.2.8), which creates spurious algebraic loops.
-``static.descriptions``
-    Every ScalarVariable has a non-blank ``description``.
-``static.names``
-    Names are unique and legal for the declared ``variableNamingConvention``: for "structured"
-    the grammar of FMI 2.0 spec 2.2.9 (``a.b[1,2]``, ``'quoted name'``, ``der(x)``,
-    ``der(x,2)``); for "flat" no carriage return, line feed or tab.
+Each rule of kind ``static`` in :mod:`.rules` has one function here taking the parsed
+:class:`FmuArchive` and returning (status, reason). See docs/compliance.md for the table.
 """
 from __future__ import annotations
 
 import re
 import time
 import xml.etree.ElementTree as ET
-import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
+from .archive import ArchiveError, read_model_description_bytes, scan
 from .report import FAIL, PASS, SKIP, CheckResult
-
-STATIC_CHECKS: tuple[str, ...] = (
-    "static.fmi2-cosimulation",
-    "static.fmpy-validate",
-    "static.binary",
-    "static.units",
-    "static.output-dependencies",
-    "static.descriptions",
-    "static.names",
-)
+from .rules import rules
 
 # --- FMI 2.0 structured names (spec 2.2.9) ----------------------------------------------------
 _B_NAME = r"(?:[A-Za-z_][A-Za-z0-9_]*|'(?:[A-Za-z0-9_!#$%&()*+,\-./:;<=>?@\[\]^{}|~ ]|\\['\"?\\abfnrtv])+')"
@@ -70,47 +36,46 @@ def host_platform() -> tuple[str, str]:
 
 @dataclass
 class FmuArchive:
-    """What the static checks need from an FMU file: its member names and parsed XML."""
+    """What the static rules need from an FMU file: its member names and parsed XML."""
 
     path: Path
     members: list[str] = field(default_factory=list)
     root: ET.Element | None = None
-    error: str = ""  # why the archive or its modelDescription.xml could not be read
+    error: str = ""             # why the archive could not be read (static.archive)
+    xml_error: str = ""         # why modelDescription.xml could not be parsed (static.fmi2)
+    unpacked: int = 0           # bytes, all members unpacked
 
-    @property
-    def model_identifier(self) -> str | None:
+    def interface(self, kind: str) -> ET.Element | None:
+        """The CoSimulation ("cs") or ModelExchange ("me") element, or None."""
         if self.root is None:
             return None
-        cs = self.root.find("CoSimulation")
-        return cs.get("modelIdentifier") if cs is not None else None
+        return self.root.find({"cs": "CoSimulation", "me": "ModelExchange"}[kind])
+
+    def model_identifier(self, kind: str) -> str | None:
+        el = self.interface(kind)
+        return el.get("modelIdentifier") if el is not None else None
 
     @property
     def model_name(self) -> str | None:
         return None if self.root is None else self.root.get("modelName")
 
     def variables(self) -> list[ET.Element]:
-        if self.root is None:
-            return []
-        return self.root.findall("ModelVariables/ScalarVariable")
+        return [] if self.root is None else self.root.findall("ModelVariables/ScalarVariable")
 
 
 def read_archive(path: str | Path) -> FmuArchive:
-    """Open the FMU zip and parse ``modelDescription.xml`` (no validation, no binary loading)."""
+    """Open the FMU zip within the kit's limits and parse ``modelDescription.xml``."""
     arc = FmuArchive(Path(path))
     try:
-        with zipfile.ZipFile(arc.path) as zf:
-            arc.members = zf.namelist()
-            if "modelDescription.xml" not in arc.members:
-                arc.error = "the archive has no modelDescription.xml at its root"
-                return arc
-            data = zf.read("modelDescription.xml")
-    except (zipfile.BadZipFile, OSError) as e:
-        arc.error = f"not a readable zip archive: {e}"
+        arc.members, data = read_model_description_bytes(arc.path)
+        arc.unpacked = scan(arc.path)
+    except ArchiveError as e:
+        arc.error = str(e)
         return arc
     try:
         arc.root = ET.fromstring(data)
     except ET.ParseError as e:
-        arc.error = f"modelDescription.xml is not well-formed XML: {e}"
+        arc.xml_error = f"modelDescription.xml is not well-formed XML: {e}"
     return arc
 
 
@@ -119,22 +84,35 @@ def _names_list(names: list[str], limit: int = 8) -> str:
     return shown + (f", ... ({len(names) - limit} more)" if len(names) > limit else "")
 
 
-# --- the checks: each takes the archive and returns (status, reason) ---------------------------
+Outcome = tuple[str, str]
 
-def check_fmi2_cosimulation(arc: FmuArchive) -> tuple[str, str]:
-    if arc.root is None:
+
+# --- the rules ---------------------------------------------------------------------------------
+
+def check_archive(arc: FmuArchive) -> Outcome:
+    if arc.error:
         return FAIL, arc.error
+    return PASS, (f"{len(arc.members)} members, {arc.unpacked / 1024 ** 2:.2f} MiB unpacked, names safe, "
+                  f"within the limits")
+
+
+def check_fmi2(arc: FmuArchive) -> Outcome:
+    if arc.root is None:
+        return FAIL, arc.xml_error
     version = arc.root.get("fmiVersion")
     if version != "2.0":
-        return FAIL, f'fmiVersion is "{version}", this checker handles FMI 2.0 only'
-    if arc.root.find("CoSimulation") is None:
-        return FAIL, "no CoSimulation element: not a co-simulation FMU (model exchange is not checked)"
-    if not arc.model_identifier:
-        return FAIL, "CoSimulation has no modelIdentifier"
-    return PASS, f'FMI 2.0 co-simulation, modelIdentifier "{arc.model_identifier}"'
+        return FAIL, f'fmiVersion is "{version}", this kit checks FMI 2.0 only'
+    kinds = [k for k in ("cs", "me") if arc.interface(k) is not None]
+    if not kinds:
+        return FAIL, "neither a CoSimulation nor a ModelExchange element"
+    missing = [k for k in kinds if not arc.model_identifier(k)]
+    if missing:
+        return FAIL, " and ".join({"cs": "CoSimulation", "me": "ModelExchange"}[k] for k in missing) + " without modelIdentifier"
+    names = {"cs": "co-simulation", "me": "model exchange"}
+    return PASS, "FMI 2.0 " + " and ".join(f'{names[k]} ("{arc.model_identifier(k)}")' for k in kinds)
 
 
-def check_fmpy_validate(arc: FmuArchive) -> tuple[str, str]:
+def check_fmpy_validate(arc: FmuArchive) -> Outcome:
     from fmpy.validation import validate_fmu
     try:
         problems = validate_fmu(str(arc.path))
@@ -145,19 +123,22 @@ def check_fmpy_validate(arc: FmuArchive) -> tuple[str, str]:
     return PASS, "fmpy.validation.validate_fmu found no problems"
 
 
-def check_binary(arc: FmuArchive) -> tuple[str, str]:
+def check_binary(arc: FmuArchive) -> Outcome:
     plat, ext = host_platform()
-    wanted = f"binaries/{plat}/{arc.model_identifier}{ext}"
-    if wanted in arc.members:
-        return PASS, wanted
+    have_ids = [(k, arc.model_identifier(k)) for k in ("cs", "me") if arc.model_identifier(k)]
+    found = [f"binaries/{plat}/{mid}{ext}" for _, mid in have_ids if f"binaries/{plat}/{mid}{ext}" in arc.members]
+    wanted = [f"binaries/{plat}/{mid}{ext}" for _, mid in have_ids]
+    if found and set(found) == set(wanted):
+        return PASS, ", ".join(sorted(set(found)))
     have = sorted({m.split("/")[1] for m in arc.members if m.startswith("binaries/") and m.count("/") >= 2 and m.split("/")[1]})
     sources = any(m.startswith("sources/") for m in arc.members)
-    found = f"binaries for: {', '.join(have)}" if have else "no binaries"
-    return FAIL, f"no {wanted} ({found}{'; has sources/ (compile them first)' if sources else ''}): it cannot run here"
+    where = f"binaries for: {', '.join(have)}" if have else "no binaries"
+    missing = sorted(set(wanted) - set(found))
+    return FAIL, (f"no {', '.join(missing)} ({where}{'; has sources/ (compile them first)' if sources else ''}): "
+                  f"it cannot run here")
 
 
 def _type_units(root: ET.Element) -> dict[str, str | None]:
-    """SimpleType name -> unit of its Real element (None if it has none or is not Real)."""
     units: dict[str, str | None] = {}
     for st in root.findall("TypeDefinitions/SimpleType"):
         real = st.find("Real")
@@ -165,17 +146,16 @@ def _type_units(root: ET.Element) -> dict[str, str | None]:
     return units
 
 
-def check_units(arc: FmuArchive) -> tuple[str, str]:
+def check_units(arc: FmuArchive) -> Outcome:
     type_units = _type_units(arc.root)
     missing: list[str] = []
     n_real = 0
     for sv in arc.variables():
         real = sv.find("Real")
-        if real is None:
+        if real is None or sv.get("causality") == "independent":
             continue
         n_real += 1
-        unit = (real.get("unit") or "").strip()
-        if unit:
+        if (real.get("unit") or "").strip():
             continue
         declared = real.get("declaredType")
         if declared and (type_units.get(declared) or "").strip():
@@ -189,11 +169,9 @@ def check_units(arc: FmuArchive) -> tuple[str, str]:
     return PASS, f"all {n_real} Real variables have a unit"
 
 
-def check_output_dependencies(arc: FmuArchive) -> tuple[str, str]:
+def _outputs_without_dependencies(arc: FmuArchive) -> tuple[list[str], int]:
     variables = arc.variables()
     outputs = arc.root.findall("ModelStructure/Outputs/Unknown")
-    if not outputs:
-        return SKIP, "no outputs declared in ModelStructure/Outputs"
     missing: list[str] = []
     for u in outputs:
         if u.get("dependencies") is None:
@@ -201,13 +179,31 @@ def check_output_dependencies(arc: FmuArchive) -> tuple[str, str]:
                 missing.append(variables[int(u.get("index", "0")) - 1].get("name", "?"))
             except (ValueError, IndexError):
                 missing.append(f"index {u.get('index')}")
+    return missing, len(outputs)
+
+
+def check_output_dependencies(arc: FmuArchive) -> Outcome:
+    if not any(sv.get("causality") == "input" for sv in arc.variables()):
+        return SKIP, "no inputs: an output can depend on nothing but time and states"
+    missing, n = _outputs_without_dependencies(arc)
+    if not n:
+        return SKIP, "no outputs declared in ModelStructure/Outputs"
     if missing:
-        return FAIL, (f"{len(missing)} of {len(outputs)} outputs declare no dependencies (an importer must then "
+        return FAIL, (f"{len(missing)} of {n} outputs declare no dependencies (an importer must then "
                       f"assume direct feedthrough from every input): {_names_list(missing)}")
-    return PASS, f"all {len(outputs)} outputs declare their dependencies"
+    return PASS, f"all {n} outputs declare their dependencies"
 
 
-def check_descriptions(arc: FmuArchive) -> tuple[str, str]:
+def check_all_output_dependencies(arc: FmuArchive) -> Outcome:
+    missing, n = _outputs_without_dependencies(arc)
+    if not n:
+        return SKIP, "no outputs declared in ModelStructure/Outputs"
+    if missing:
+        return FAIL, f"{len(missing)} of {n} outputs declare no dependencies: {_names_list(missing)}"
+    return PASS, f"all {n} outputs declare their dependencies"
+
+
+def check_descriptions(arc: FmuArchive) -> Outcome:
     variables = arc.variables()
     if not variables:
         return SKIP, "no variables"
@@ -217,15 +213,15 @@ def check_descriptions(arc: FmuArchive) -> tuple[str, str]:
     return PASS, f"all {len(variables)} variables have a description"
 
 
-def check_names(arc: FmuArchive) -> tuple[str, str]:
+def check_names(arc: FmuArchive) -> Outcome:
     variables = arc.variables()
     if not variables:
         return SKIP, "no variables"
     convention = arc.root.get("variableNamingConvention", "flat")
-    names = [sv.get("name") or "" for sv in variables]
     problems: list[str] = []
     seen: set[str] = set()
-    for name in names:
+    for sv in variables:
+        name = sv.get("name") or ""
         if name in seen:
             problems.append(f"{name!r} is not unique")
         seen.add(name)
@@ -238,37 +234,89 @@ def check_names(arc: FmuArchive) -> tuple[str, str]:
             problems.append(f"{name!r} contains a carriage return, line feed or tab")
     if problems:
         return FAIL, f'naming convention "{convention}": ' + "; ".join(problems[:8]) + ("; ..." if len(problems) > 8 else "")
-    return PASS, f'all {len(names)} names are unique and legal for naming convention "{convention}"'
+    return PASS, f'all {len(variables)} names are unique and legal for naming convention "{convention}"'
 
 
-_CHECKS: dict[str, Callable[[FmuArchive], tuple[str, str]]] = {
-    "static.fmi2-cosimulation": check_fmi2_cosimulation,
+def check_model_exchange(arc: FmuArchive) -> Outcome:
+    if arc.interface("me") is None:
+        return SKIP, "no ModelExchange element"
+    problems: list[str] = []
+    nei = arc.root.get("numberOfEventIndicators", "0")
+    try:
+        if int(nei) < 0:
+            raise ValueError
+    except ValueError:
+        problems.append(f"numberOfEventIndicators={nei!r} is not a non-negative integer")
+    variables = arc.variables()
+
+    def real_of(i: int) -> ET.Element | None:
+        return variables[i - 1].find("Real") if 1 <= i <= len(variables) else None
+
+    derivative_of: dict[int, int] = {}
+    for i, sv in enumerate(variables, 1):
+        real = sv.find("Real")
+        if real is not None and real.get("derivative"):
+            try:
+                derivative_of[i] = int(real.get("derivative"))
+            except ValueError:
+                problems.append(f"{sv.get('name')}: derivative={real.get('derivative')!r} is not an index")
+    listed: list[int] = []
+    for u in arc.root.findall("ModelStructure/Derivatives/Unknown"):
+        try:
+            listed.append(int(u.get("index", "")))
+        except ValueError:
+            problems.append(f"Derivatives/Unknown index={u.get('index')!r} is not an index")
+    for i in listed:
+        if i not in derivative_of:
+            name = variables[i - 1].get("name") if 1 <= i <= len(variables) else f"index {i}"
+            problems.append(f"Derivatives lists {name}, which has no derivative attribute")
+            continue
+        j = derivative_of[i]
+        state = real_of(j)
+        if state is None:
+            problems.append(f"{variables[i - 1].get('name')}: derivative={j} points to no Real variable")
+        elif variables[j - 1].get("variability", "continuous") != "continuous":
+            problems.append(f"state {variables[j - 1].get('name')} is not continuous")
+    if problems:
+        return FAIL, "; ".join(problems[:6]) + ("; ..." if len(problems) > 6 else "")
+    return PASS, (f"{len(listed)} continuous states, each listed derivative names a continuous Real state; "
+                  f"{nei} event indicators")
+
+
+CHECKS: dict[str, Callable[[FmuArchive], Outcome]] = {
+    "static.archive": check_archive,
+    "static.fmi2": check_fmi2,
     "static.fmpy-validate": check_fmpy_validate,
     "static.binary": check_binary,
-    "static.units": check_units,
-    "static.output-dependencies": check_output_dependencies,
-    "static.descriptions": check_descriptions,
     "static.names": check_names,
+    "static.model-exchange": check_model_exchange,
+    "static.output-dependencies": check_output_dependencies,
+    "static.units": check_units,
+    "static.descriptions": check_descriptions,
+    "static.all-output-dependencies": check_all_output_dependencies,
 }
 
 
-def run_static_checks(fmu_path: str | Path, subject: str | None = None) -> list[CheckResult]:
-    """Run every static check on one FMU file; ``subject`` names it in the report (default: the path).
+def run_static_checks(fmu_path: str | Path, subject: str | None = None,
+                      profiles: tuple[str, ...] = ()) -> list[CheckResult]:
+    """Every static rule (and those of ``profiles``) on one FMU file.
 
-    When the archive is not an FMI 2.0 co-simulation FMU, the other checks are SKIPped (they
-    would only repeat the same failure).
+    When the archive or the model description cannot be read, the later rules are SKIPped
+    (they would only repeat the same failure).
     """
     subject = subject if subject is not None else str(fmu_path)
     arc = read_archive(fmu_path)
     results: list[CheckResult] = []
-    for check_id in STATIC_CHECKS:
+    for rule in rules("static", profiles):
         t0 = time.perf_counter()
-        if check_id != "static.fmi2-cosimulation" and results and results[0].failed:
-            status, reason = SKIP, "not an FMI 2.0 co-simulation FMU (see static.fmi2-cosimulation)"
+        blocker = next((r for r in results if r.check_id in ("static.archive", "static.fmi2") and r.failed), None)
+        if blocker is not None:
+            status, reason = SKIP, f"needs {blocker.check_id}, which failed"
         else:
             try:
-                status, reason = _CHECKS[check_id](arc)
-            except Exception as e:  # a malformed description must not stop the other checks
+                status, reason = CHECKS[rule.id](arc)
+            except Exception as e:  # a malformed description must not stop the other rules
                 status, reason = FAIL, f"could not evaluate: {type(e).__name__}: {e}"
-        results.append(CheckResult(subject, check_id, status, reason, time.perf_counter() - t0))
+        results.append(CheckResult(subject, rule.id, status, reason, time.perf_counter() - t0,
+                                   rule.effective_severity(profiles)))
     return results

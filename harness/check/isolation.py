@@ -1,0 +1,132 @@
+"""Running one task on an FMU in a fresh Python process, so that a crash, exit or hang of the FMU's
+binary cannot take the checker down.
+
+The worker (:func:`harness.check.worker.worker_main`) writes the FMI call it is about to make to a
+trace file, and its result as JSON to a result file. Its stdout and stderr go to files, never
+pipes: an FMU that leaves a daemon behind holding them open cannot make the checker wait. At the
+timeout (or after the worker ended) the worker's whole process group is killed, and so is every
+process that still carries the run's marker in its environment (a daemon that left the group
+with ``setsid`` keeps its environment), on Linux.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import uuid
+from pathlib import Path
+
+from .report import FAIL
+
+_PACKAGE_ROOT = Path(__file__).resolve().parents[2]  # the directory holding the ``harness`` package
+MARKER = "SPURDIFF_CHECK_RUN"
+
+
+def _last_line(path: Path) -> str:
+    try:
+        lines = [ln for ln in path.read_text(errors="replace").splitlines() if ln.strip()]
+    except OSError:
+        return ""
+    return lines[-1] if lines else ""
+
+
+def _tail(path: Path, n: int = 2, max_bytes: int = 4096) -> str:
+    try:
+        with open(path, "rb") as f:
+            f.seek(0, os.SEEK_END)
+            size = f.tell()
+            f.seek(max(0, size - max_bytes))
+            text = f.read().decode(errors="replace")
+    except OSError:
+        return ""
+    lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
+    return " / ".join(lines[-n:])
+
+
+def _marked_pids(token: str) -> list[int]:
+    """Processes of this user whose environment holds ``MARKER=token`` (Linux /proc; else [])."""
+    needle = f"{MARKER}={token}".encode()
+    pids = []
+    proc = Path("/proc")
+    if not proc.is_dir():
+        return pids
+    for d in proc.iterdir():
+        if not d.name.isdigit() or int(d.name) == os.getpid():
+            continue
+        try:
+            env = (d / "environ").read_bytes()
+        except OSError:
+            continue
+        if needle in env.split(b"\0"):
+            pids.append(int(d.name))
+    return pids
+
+
+def kill_run(pgid: int, token: str) -> None:
+    """SIGKILL the worker's process group and every process carrying the run's marker."""
+    try:
+        os.killpg(pgid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError, OSError):
+        pass
+    for pid in _marked_pids(token):
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError, OSError):
+            pass
+
+
+def run_isolated(task: str, payload: dict, timeout: float) -> tuple[str, str, str | None]:
+    """Run ``task`` (a rule id, or "reference") in a fresh Python process.
+
+    Returns (status, reason, severity or None when the rule's own applies). A signal (segfault), a non-zero exit without a result, or the
+    timeout gives FAIL naming the FMI call that was running.
+    """
+    work = Path(tempfile.mkdtemp(prefix="spurdiff-check-"))
+    trace, result = work / "trace.txt", work / "result.json"
+    out_path, err_path = work / "stdout.txt", work / "stderr.txt"
+    token = uuid.uuid4().hex
+    env = dict(os.environ, **{MARKER: token})
+    cmd = [sys.executable, "-c",
+           "import sys; sys.path.insert(0, sys.argv[1]); "
+           "from harness.check.worker import worker_main; worker_main(sys.argv[2:])",
+           str(_PACKAGE_ROOT), task, json.dumps(payload), str(trace), str(result)]
+    try:
+        with open(out_path, "wb") as out, open(err_path, "wb") as err:
+            proc = subprocess.Popen(cmd, cwd=work, stdin=subprocess.DEVNULL, stdout=out, stderr=err,
+                                    start_new_session=True, env=env)
+        try:
+            rc = proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            kill_run(proc.pid, token)
+            proc.wait()
+            where = _last_line(trace)
+            return FAIL, f"timed out after {timeout:g} s" + (f" in {where}" if where else ""), None
+        finally:
+            kill_run(proc.pid, token)  # whatever the FMU left behind
+        data = None
+        if result.exists():
+            try:
+                data = json.loads(result.read_text(encoding="utf-8"))
+            except ValueError:
+                data = None
+        if rc < 0:
+            try:
+                sig = signal.Signals(-rc).name
+            except ValueError:
+                sig = f"signal {-rc}"
+            where = _last_line(trace)
+            if data is not None:
+                return FAIL, f"{data['status']} ({data['reason']}), but the process then crashed ({sig}) at exit", None
+            return FAIL, f"crashed ({sig})" + (f" in {where}" if where else ""), None
+        if data is None:
+            where = _last_line(trace)
+            tail = _tail(err_path) or _tail(out_path)
+            return FAIL, (f"process exited with status {rc} without a result" + (f" in {where}" if where else "")
+                          + (f"; output: {tail}" if tail else "")), None
+        return data["status"], data["reason"], data.get("severity")
+    finally:
+        shutil.rmtree(work, ignore_errors=True)

@@ -1,0 +1,125 @@
+"""Model-exchange rules (kind ``me``), worker side: one function per rule, run in a fresh process.
+
+``me.basic`` drives the FMU the way a simple importer does (FMI 2.0 section 3.2.3, the
+pseudocode of 3.2.4): instantiate, start values, setupExperiment (stop time defined),
+initialization, event iteration (fmi2NewDiscreteStates until no new discrete states are
+needed), continuous-time mode, then explicit Euler steps of the DefaultExperiment stepSize (else
+1e-3 s) up to its stop time: fmi2GetDerivatives, x += h dx, fmi2SetTime, fmi2SetContinuousStates,
+fmi2GetEventIndicators, fmi2CompletedIntegratorStep; at a state event (an event indicator changes
+sign), a time event (nextEventTime reached) or when the FMU asks for one
+(enterEventMode), fmi2EnterEventMode, event iteration and back to continuous-time mode.
+Terminate and free at the end. Every call must be accepted; states and derivatives must stay
+finite. An optional ``out_csv`` in the payload receives time and the Real outputs at every step.
+"""
+from __future__ import annotations
+
+import math
+
+from .driver import CallFailed, Session
+from .report import FAIL, PASS
+from .cs_checks import WRONG_GUID
+
+MAX_EVENT_ITERATIONS = 100
+
+
+def _event_iteration(a) -> tuple[bool, float | None]:
+    """fmi2NewDiscreteStates until done; (terminate requested, next time event or None)."""
+    for _ in range(MAX_EVENT_ITERATIONS):
+        needed, terminate, _, _, defined, t_next = a.call("fmi2NewDiscreteStates", a.fmu.newDiscreteStates)
+        if terminate:
+            return True, None
+        if not needed:
+            return False, (t_next if defined else None)
+    raise CallFailed(f"fmi2NewDiscreteStates (still needed after {MAX_EVENT_ITERATIONS} iterations)", a.name, 0)
+
+
+def check_me_basic(s: Session, out_csv: str | None = None):
+    from ctypes import c_double
+    nx = len(s.md.derivatives)
+    nz = int(s.md.numberOfEventIndicators or 0)
+    real_out = [v for v in s.outputs if v.type == "Real"]
+    a = s.instance("me")
+    a.instantiate()
+    if s.start_values:
+        a.set_values(s.start_values, " start values")
+    a.setup(stop_time=s.t_stop)
+    a.call("fmi2EnterInitializationMode", a.fmu.enterInitializationMode)
+    a.call("fmi2ExitInitializationMode", a.fmu.exitInitializationMode)
+    terminated, t_event = _event_iteration(a)
+    x, dx = (c_double * max(1, nx))(), (c_double * max(1, nx))()
+    z, z_prev = (c_double * max(1, nz))(), (c_double * max(1, nz))()
+    rows = []
+    n_steps = n_events = 0
+    t = s.t0
+    if not terminated:
+        a.call("fmi2EnterContinuousTimeMode", a.fmu.enterContinuousTimeMode)
+        if nx:
+            a.call("fmi2GetContinuousStates", a.fmu.getContinuousStates, x, nx)
+        if nz:
+            a.call("fmi2GetEventIndicators", a.fmu.getEventIndicators, z_prev, nz)
+        rows.append([t] + a.read(real_out, "outputs"))
+        eps = 1e-12 * max(1.0, abs(s.t_stop))
+        while t < s.t_stop - eps:
+            h = min(s.h, s.t_stop - t)
+            time_event = t_event is not None and t_event <= t + h + eps
+            if time_event:
+                h = max(t_event - t, 0.0)
+            if nx:
+                a.call("fmi2GetDerivatives", a.fmu.getDerivatives, dx, nx)
+                bad = [s.md.derivatives[i].variable.name for i in range(nx) if not math.isfinite(dx[i])]
+                if bad:
+                    return FAIL, f"non-finite derivatives at t = {t:g} s: {', '.join(bad[:5])}"
+                for i in range(nx):
+                    x[i] += h * dx[i]
+            t = t + h if not time_event else t_event
+            a.call(f"fmi2SetTime({t:.9g})", a.fmu.setTime, t)
+            if nx:
+                a.call("fmi2SetContinuousStates", a.fmu.setContinuousStates, x, nx)
+            state_event = False
+            if nz:
+                a.call("fmi2GetEventIndicators", a.fmu.getEventIndicators, z, nz)
+                state_event = any((z_prev[i] > 0) != (z[i] > 0) for i in range(nz))
+            step_event, terminate = a.call("fmi2CompletedIntegratorStep", a.fmu.completedIntegratorStep)
+            n_steps += 1
+            if terminate:
+                break
+            if time_event or state_event or step_event:
+                n_events += 1
+                a.call("fmi2EnterEventMode", a.fmu.enterEventMode)
+                terminated, t_event = _event_iteration(a)
+                if terminated:
+                    break
+                a.call("fmi2EnterContinuousTimeMode", a.fmu.enterContinuousTimeMode)
+                if nx:
+                    a.call("fmi2GetContinuousStates", a.fmu.getContinuousStates, x, nx)
+                if nz:
+                    a.call("fmi2GetEventIndicators", a.fmu.getEventIndicators, z, nz)
+            if nz:
+                z_prev[:nz] = z[:nz]
+            bad = [s.md.derivatives[i].variable.name for i in range(nx) if not math.isfinite(x[i])]
+            if bad:
+                return FAIL, f"non-finite states at t = {t:g} s: {', '.join(bad[:5])}"
+            rows.append([t] + a.read(real_out, "outputs"))
+    a.terminate()
+    a.free()
+    if out_csv:
+        from .reference import write_cross_check_csv
+        write_cross_check_csv(out_csv, ["time"] + [v.name for v in real_out], rows)
+    how = f"the FMU asked to terminate at t = {t:g} s; " if terminated else ""
+    return PASS, (f"{how}{n_steps} explicit Euler steps of {s.h:g} s from {s.t0:g} to {t:g} s, {nx} states, "
+                  f"{nz} event indicators, {n_events} events: every call accepted, states finite")
+
+
+def check_me_guid(s: Session):
+    a = s.instance("wrongGuid", guid=WRONG_GUID)
+    if a.instantiate(raise_on_null=False):
+        a.free()
+        return FAIL, (f"fmi2Instantiate(fmi2ModelExchange) accepted the GUID {WRONG_GUID} "
+                      f"(the modelDescription's is {s.md.guid})")
+    return PASS, "fmi2Instantiate(fmi2ModelExchange) with a wrong GUID returned NULL"
+
+
+TASKS = {
+    "me.basic": check_me_basic,
+    "me.guid": check_me_guid,
+}

@@ -1,0 +1,59 @@
+"""Entry point of a check process (see :mod:`.isolation`): run one rule, write its outcome."""
+from __future__ import annotations
+
+import json
+import os
+import sys
+from typing import Sequence
+
+from .report import FAIL
+
+
+def run_task(task: str, payload: dict, tracer) -> tuple:
+    """(status, reason[, severity]) of ``task``: a rule id (``cs.*``, ``me.*``) or "reference"."""
+    from .driver import Session
+    if task == "reference":
+        from .reference import simulate_reference_task
+        return simulate_reference_task(payload, tracer)
+    kind = task.split(".", 1)[0]
+    if kind == "cs":
+        from .cs_checks import TASKS
+        return TASKS[task](Session(payload, tracer, "cs"))
+    if kind == "me":
+        from .me_checks import TASKS
+        session = Session(payload, tracer, "me")
+        if task == "me.basic" and payload.get("out_csv"):
+            return TASKS[task](session, payload["out_csv"])
+        return TASKS[task](session)
+    raise ValueError(f"unknown task {task!r}")
+
+
+def worker_main(argv: Sequence[str]) -> None:
+    """``task payload-json trace-file result-file``: writes {"status", "reason"[, "severity"]} as
+    JSON to the result file, then leaves with ``os._exit`` (no interpreter teardown touching the
+    FMU again, e.g. after fmi2Fatal)."""
+    from .driver import CallFailed, Tracer
+    task, payload_json, trace_path, result_path = argv
+    try:
+        import resource
+        resource.setrlimit(resource.RLIMIT_CORE, (0, 0))  # a crashing FMU leaves no core file
+    except Exception:
+        pass
+    tracer = Tracer(trace_path)
+    payload = json.loads(payload_json)
+    try:
+        out = run_task(task, payload, tracer)
+    except CallFailed as e:
+        out = (FAIL, str(e))
+    except Exception as e:
+        out = (FAIL, f"{type(e).__name__}: {e}")
+    data = {"status": out[0], "reason": out[1]}
+    if len(out) > 2:
+        data["severity"] = out[2]
+    with open(result_path, "w", encoding="utf-8") as f:
+        json.dump(data, f)
+        f.flush()
+        os.fsync(f.fileno())
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(0)

@@ -1,0 +1,195 @@
+"""Building the compliance kit's test FMUs, once: cached under build/test-fmus/ by a hash of their
+sources and build options (rebuilt only when these change).
+
+* pythonfmu FMUs from the small scripts in this folder (ChkGood and broken variants), with their
+  modelDescription.xml completed the way ``spurdiff build`` does it for ours (units,
+  UnitDefinitions, output dependencies, InitialUnknowns);
+* ChkC, a small C FMU (chkc.c, co-simulation and model exchange) compiled with gcc against the
+  FMI 2.0 headers fmpy ships, once plainly and once per BREAK_* macro: the API-level breakages that
+  pythonfmu's C++ layer does not let a Python script express (version strings, the logger's
+  arguments, the GUID, status calls, fmi2FreeFMUstate, input/directional derivatives, ME calls).
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+import zipfile
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]
+CACHE = ROOT / "build" / "test-fmus"
+
+# unit of every Real in the pythonfmu test FMUs, and (SI base-unit exponents) of each unit
+UNITS = {"u": "N.m", "k": "1", "x": "N.m.s", "y": "N.m", "phase": "1"}
+BASE_UNITS = {"N.m": {"kg": "1", "m": "2", "s": "-2"}, "N.m.s": {"kg": "1", "m": "2", "s": "-1"}, "1": {}}
+FEEDTHROUGH = {"y"}  # outputs with direct feedthrough from the inputs
+
+CHKC_GUID = "{c0ffee00-5b0d-4c1e-9a1e-000000000001}"
+CHKC_XML = f"""<?xml version="1.0" encoding="UTF-8"?>
+<fmiModelDescription fmiVersion="2.0" modelName="ChkC" guid="{CHKC_GUID}" description="x' = k u, y = k u (compliance-kit test FMU in C)"
+  generationTool="tests/broken_fmus/chk_build.py" variableNamingConvention="structured" numberOfEventIndicators="0">
+  <ModelExchange modelIdentifier="ChkC" canGetAndSetFMUstate="true" canSerializeFMUstate="true" providesDirectionalDerivative="true"/>
+  <CoSimulation modelIdentifier="ChkC" canHandleVariableCommunicationStepSize="true" canInterpolateInputs="true"
+    canGetAndSetFMUstate="true" canSerializeFMUstate="true" providesDirectionalDerivative="true"/>
+  <UnitDefinitions>
+    <Unit name="1"/>
+    <Unit name="N.m"><BaseUnit kg="1" m="2" s="-2"/></Unit>
+    <Unit name="N.m.s"><BaseUnit kg="1" m="2" s="-1"/></Unit>
+  </UnitDefinitions>
+  <LogCategories>
+    <Category name="logEvents" description="events"/>
+    <Category name="logStatusError" description="errors"/>
+  </LogCategories>
+  <DefaultExperiment startTime="0" stopTime="1" stepSize="0.01"/>
+  <ModelVariables>
+    <ScalarVariable name="u" valueReference="0" description="input" causality="input" variability="continuous"><Real start="1" unit="N.m"/></ScalarVariable>
+    <ScalarVariable name="k" valueReference="1" description="gain" causality="parameter" variability="fixed" initial="exact"><Real start="2" unit="1"/></ScalarVariable>
+    <ScalarVariable name="x" valueReference="2" description="integral of k u" causality="output" variability="continuous" initial="exact"><Real start="0" unit="N.m.s"/></ScalarVariable>
+    <ScalarVariable name="y" valueReference="3" description="k u" causality="output" variability="continuous" initial="calculated"><Real unit="N.m"/></ScalarVariable>
+    <ScalarVariable name="der(x)" valueReference="4" description="derivative of x" causality="local" variability="continuous" initial="calculated"><Real derivative="3" unit="N.m"/></ScalarVariable>
+  </ModelVariables>
+  <ModelStructure>
+    <Outputs>
+      <Unknown index="3" dependencies=""/>
+      <Unknown index="4" dependencies="1" dependenciesKind="dependent"/>
+    </Outputs>
+    <Derivatives>
+      <Unknown index="5" dependencies="1" dependenciesKind="dependent"/>
+    </Derivatives>
+    <InitialUnknowns>
+      <Unknown index="4" dependencies="1 2" dependenciesKind="dependent dependent"/>
+      <Unknown index="5" dependencies="1 2" dependenciesKind="dependent dependent"/>
+    </InitialUnknowns>
+  </ModelStructure>
+</fmiModelDescription>
+"""
+
+# ChkC variants: name -> BREAK_* / other macro (None: the well-behaved one)
+CHKC_VARIANTS = {
+    "ChkC": None,
+    "ChkCVersion": "BREAK_VERSION",
+    "ChkCTypes": "BREAK_TYPES",
+    "ChkCLogger": "BREAK_LOGGER",
+    "ChkCGuid": "BREAK_GUID",
+    "ChkCDebugLogging": "BREAK_DEBUG_LOGGING",
+    "ChkCInitGet": "BREAK_INIT_GET",
+    "ChkCTerminatedGet": "BREAK_TERMINATED_GET",
+    "ChkCStopTime": "BREAK_STOP_TIME",
+    "ChkCDiscardAtStop": "DISCARD_AT_STOP",
+    "ChkCStatus": "BREAK_STATUS",
+    "ChkCFreeState": "BREAK_FREE_STATE",
+    "ChkCInterpolate": "BREAK_INTERPOLATE",
+    "ChkCDirDer": "BREAK_DIRDER",
+    "ChkCModelExchange": "BREAK_ME",
+    "ChkCLateStep": "BREAK_LATE_STEP",
+}
+
+
+def _digest(*parts) -> str:
+    h = hashlib.sha256()
+    for p in parts:
+        h.update(p if isinstance(p, bytes) else str(p).encode())
+        h.update(b"\0")
+    return h.hexdigest()[:16]
+
+
+def _cached(key: str, name: str, make) -> Path:
+    """build/test-fmus/<key>/<name>.fmu, made by ``make(tmpdir) -> Path`` when missing."""
+    target = CACHE / key / f"{name}.fmu"
+    if target.exists():
+        return target
+    tmp = CACHE / f"tmp-{key}-{os.getpid()}"
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir(parents=True)
+    try:
+        built = make(tmp)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        os.replace(built, target)  # atomic: concurrent sessions never see half a file
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return target
+
+
+def rewrite_description(src: Path, dst: Path, edit) -> Path:
+    """Copy the FMU ``src`` to ``dst`` with ``edit(root)`` applied to its modelDescription.xml."""
+    with zipfile.ZipFile(src) as zin:
+        root = ET.fromstring(zin.read("modelDescription.xml"))
+        edit(root)
+        with zipfile.ZipFile(dst, "w", zipfile.ZIP_DEFLATED) as zout:
+            for item in zin.infolist():
+                data = zin.read(item.filename)
+                if item.filename == "modelDescription.xml":
+                    data = ET.tostring(root, encoding="utf-8", xml_declaration=True)
+                zout.writestr(item, data)
+    return dst
+
+
+def add_units_and_structure(root: ET.Element, drop_unit: str | None = None) -> None:
+    """What pythonfmu leaves out: units with UnitDefinitions, output dependencies, InitialUnknowns."""
+    variables = root.findall("ModelVariables/ScalarVariable")
+    used = set()
+    for sv in variables:
+        real = sv.find("Real")
+        if real is not None and sv.get("name") != drop_unit:
+            real.set("unit", UNITS[sv.get("name")])
+            used.add(UNITS[sv.get("name")])
+    ud = ET.Element("UnitDefinitions")
+    for name in sorted(used):
+        ET.SubElement(ET.SubElement(ud, "Unit", name=name), "BaseUnit", BASE_UNITS[name])
+    root.insert(list(root).index(root.find("CoSimulation")) + 1, ud)
+    inputs = [str(i) for i, sv in enumerate(variables, 1) if sv.get("causality") == "input"]
+    structure = root.find("ModelStructure")
+    initial = ET.SubElement(structure, "InitialUnknowns")
+    for u in structure.findall("Outputs/Unknown"):
+        deps = inputs if variables[int(u.get("index")) - 1].get("name") in FEEDTHROUGH else []
+        u.set("dependencies", " ".join(deps))
+        if deps:
+            u.set("dependenciesKind", " ".join("dependent" for _ in deps))
+        ET.SubElement(initial, "Unknown", index=u.get("index"))
+
+
+def pythonfmu_fmu(name: str, flags: list[str], complete: bool = True) -> Path:
+    """The pythonfmu FMU built from ``<name>.py`` (completed description unless ``complete`` is False)."""
+    import pythonfmu
+    src = HERE / f"{name}.py"
+    key = _digest("pythonfmu", pythonfmu.__version__, sys.version, src.read_bytes(), flags, complete,
+                  (Path(__file__).read_bytes()))
+
+    def make(tmp: Path) -> Path:
+        subprocess.run([sys.executable, "-m", "pythonfmu", "build", "-f", str(src), "--dest", str(tmp), *flags],
+                       check=True, capture_output=True)
+        raw = tmp / f"{name}.fmu"
+        if not complete:
+            return raw
+        return rewrite_description(raw, tmp / f"{name}-complete.fmu", add_units_and_structure)
+
+    return _cached(key, name + ("" if complete else "-plain"), make)
+
+
+def chkc_fmu(variant: str) -> Path:
+    """A ChkC variant (see CHKC_VARIANTS), compiled with gcc (raises FileNotFoundError without it)."""
+    import fmpy
+    macro = CHKC_VARIANTS[variant]
+    src = HERE / "chkc.c"
+    include = Path(fmpy.__file__).parent / "c-code"
+    key = _digest("chkc", src.read_bytes(), CHKC_XML, macro, Path(__file__).read_bytes())
+
+    def make(tmp: Path) -> Path:
+        binary = tmp / "binaries" / fmpy.platform / f"ChkC{fmpy.sharedLibraryExtension}"
+        binary.parent.mkdir(parents=True)
+        cmd = ["gcc", "-shared", "-fPIC", "-O1", "-std=c99", "-Wall", f"-I{include}", "-o", str(binary), str(src), "-lm"]
+        if macro:
+            cmd.insert(1, f"-D{macro}")
+        subprocess.run(cmd, check=True, capture_output=True)
+        out = tmp / f"{variant}.fmu"
+        with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as z:
+            z.writestr("modelDescription.xml", CHKC_XML)
+            z.write(binary, f"binaries/{fmpy.platform}/{binary.name}")
+        return out
+
+    return _cached(key, variant, make)
