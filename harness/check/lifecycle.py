@@ -44,8 +44,9 @@ def lifecycle_rules(kinds: Sequence[str], profiles: tuple[str, ...] = ()) -> lis
 def run_lifecycle_checks_many(fmus: Sequence[tuple[str | Path, str, Sequence[str]]],
                               options: LifecycleOptions | None = None,
                               checks: Sequence[str] | None = None) -> dict[str, list[CheckResult]]:
-    """Call-sequence rules for several FMUs. ``fmus`` holds (path, subject, kinds) with kinds a
-    subset of ("cs", "me"): the interfaces the FMU offers. ``checks`` restricts the rules run.
+    """Call-sequence rules for several FMUs. ``fmus`` holds (path, subject, kinds[, rule ids]) with
+    kinds a subset of ("cs", "me"): the interfaces the FMU offers. ``checks`` (or an FMU's own rule
+    ids) restricts the rules run; the gates cs.basic / me.basic run whenever they are included.
     Returns subject -> results in rule order."""
     options = options or LifecycleOptions()
     unzipped: dict[str, Path] = {}
@@ -63,8 +64,9 @@ def run_lifecycle_checks_many(fmus: Sequence[tuple[str | Path, str, Sequence[str
         return result(subject, rule_id, status, reason, time.perf_counter() - t0, severity)
 
     try:
-        for path, subject, kinds in fmus:
-            ids = [c for c in lifecycle_rules(kinds, options.profiles) if checks is None or c in checks]
+        for path, subject, kinds, *own in fmus:
+            only = own[0] if own else checks
+            ids = [c for c in lifecycle_rules(kinds, options.profiles) if only is None or c in only]
             plan[subject] = ids
             out[subject] = {}
             try:

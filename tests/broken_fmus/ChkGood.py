@@ -5,6 +5,8 @@ It tracks the FMI state machine and refuses what FMI 2.0 forbids, the way a pyth
 ``do_step`` returns False (fmi2Discard) before initialization, for a step size <= 0 and for
 non-finite inputs (outputs then show NaN); setting the fixed parameter ``k`` after
 initialization raises, which pythonfmu turns into fmi2Fatal (an error status).
+A step past a stop time given to fmi2SetupExperiment is refused (fmi2Discard: the only refusal a
+pythonfmu ``do_step`` can give; FMI 2.0 section 2.1.6 asks for fmi2Error, so cs.stop-time warns).
 The state lives in registered variables only, so pythonfmu's saved state is complete; it is
 restored by assigning the attributes directly (the default restore calls the setters, and k's
 setter refuses after initialization). Built with --handle-state --serialize-state.
@@ -25,6 +27,7 @@ class ChkGood(Fmi2Slave):
         self.x = 0.0
         self.y = 2.0
         self.phase = 0.0  # 0 instantiated, 1 initializing, 2 stepping (a Real so state save keeps it)
+        self.stop_time = None
         self.register_variable(Real("u", causality=Fmi2Causality.input,
                                     variability=Fmi2Variability.continuous, description="input signal"))
         self.register_variable(Real("k", causality=Fmi2Causality.parameter,
@@ -49,6 +52,9 @@ class ChkGood(Fmi2Slave):
         for name, value in state.items():
             setattr(self, name, value)
 
+    def setup_experiment(self, start_time, stop_time=None, tolerance=None):
+        self.stop_time = stop_time
+
     def enter_initialization_mode(self):
         self.phase = 1.0
 
@@ -58,6 +64,8 @@ class ChkGood(Fmi2Slave):
 
     def do_step(self, current_time, step_size):
         if self.phase < 2 or not step_size > 0:
+            return False
+        if self.stop_time is not None and current_time + step_size > self.stop_time * (1 + 1e-12) + 1e-12:
             return False
         self.y = self.k * self.u
         self.x += self.y * step_size
