@@ -384,8 +384,16 @@ def test_iso6336_stiffness_of_mesh_A1():
     # planet 1 (pinion) z = 13, x = +0.3 with sun A z = 36, x = -1.0099, usable eps 1.575
     _, cg = iso6336_stiffness(36, -1.0099, 13, 0.3, 1.575, 2.06e11)
     assert cg == pytest.approx(15.4, rel=0.01)   # N/(mm um), model-references.md
+    # the model feeds the usable contact ratio from the form circles (involute to tip): 1.515 for
+    # A1 (sun A's tip stops at planet 1's form circle), 1.011 for B2 and 12 (planet 2 undercut)
     m = model("compliant")
-    assert m.md[0].k == pytest.approx(cg * 1e9 * 0.022, rel=2e-3)
+    assert [round(md.eps, 3) for md in m.md] == [1.515, 1.011, 1.011]
+    for md, (z1, x1, z2, x2) in zip(m.md, ((36, -1.0099, 13, 0.3), (36, 1.2296, 13, -0.3), (13, 0.3, 13, -0.3))):
+        _, c = iso6336_stiffness(z1, x1, z2, x2, md.eps, 2.06e11)
+        assert md.k == pytest.approx(c * 1e9 * 0.022, rel=1e-12)
+    # the 0.9 factor of ISO 6336 for eps < 1.2 applies to B2 and 12 now
+    assert iso6336_stiffness(36, 1.2296, 13, -0.3, 1.011, 2.06e11)[1] == pytest.approx(
+        0.9 * iso6336_stiffness(36, 1.2296, 13, -0.3, 1.2, 2.06e11)[1] * (0.75 * 1.011 + 0.25) / (0.75 * 1.2 + 0.25))
 
 
 # ------------------------------------------------------------------ numerics

@@ -32,11 +32,21 @@ Design checks (each a :class:`Finding` with the numbers and the parameter to cha
   with tip relief to that diameter); contact below the generated involute (trochoid) is a warning
 * contact ratio: the usable ratio (tips limited to the interference-free diameter) below 1.0 is an
   error (no continuous action), below 1.1 a warning
-* symmetry: the kinematics ``w_A + w_B = 2 w_c`` need equal sun tooth counts and the paper's
-  condition ``r_a / r_1 = r_b / r_2`` (the paper prints it as ``r_a/r_b = r_2/r_1``, a typo)
+* form circle: the involute starts at the form radius from the generating rack (tool addendum
+  ``h_aP0`` and tip radius ``rho_aP0``, ISO 53 defaults; undercut by a simulated generation,
+  :mod:`spurdiff.generating`); the start of active profile (where the mating tip meets the gear)
+  must lie on the involute, else a tip-interference warning with the interference-free tip
+* usable contact ratio: the path of contact from form circle to tip on both gears; below 1.1 a
+  warning with the numbers, below 1.0 an error
+* tip clearance: tip to mating root circle >= 0.1 m (warning), > 0 (error)
+* symmetry: the kinematics ``w_A + w_B = 2 w_c`` need equal sun tooth counts only (the planets'
+  ratios cancel along the chain sun A - planet 1 - planet 2 - sun B; with equal planets the
+  paper's ``r_a / r_1 = r_b / r_2`` follows, printed as ``r_a/r_b = r_2/r_1``, a typo)
 * assembly: the three centre distances must close a triangle; planet 2 (which spans both mesh
   planes) must clear sun A's tip circle; neighbouring planet pairs must not touch
-  (this is what limits ``nPairs``: the paper's gear set fits 3 pairs, not 6).
+  (this is what limits ``nPairs``: the paper's gear set fits 3 pairs, not 6); equally spaced
+  pairs assemble only if ``(z_A + z_B) / n`` is an integer (derived in docs/paper-reproduction.md)
+* mesh phasing (:mod:`spurdiff.phasing`): ``z_sun / n`` not an integer is a warning.
 """
 from __future__ import annotations
 
@@ -46,8 +56,10 @@ from dataclasses import dataclass, field, replace
 from scipy.optimize import brentq
 
 from .errors import ParameterError, require_finite, require_positive
+from .generating import ISO53_TOOL_ADDENDUM, ISO53_TOOL_TIP_RADIUS, form_radius, straight_flank_reach
 
 MM = 1e-3  # metres per millimetre
+MIN_TIP_CLEARANCE = 0.1  # smallest tip-to-root clearance, in modules (basic rack: 0.25)
 
 
 def inv(alpha: float) -> float:
@@ -85,6 +97,8 @@ class GearTable:
     alpha: float = math.radians(20.0)
     ha: float = 1.0      # addendum coefficient of the basic rack
     hf: float = 1.25     # dedendum coefficient of the basic rack
+    haP0: float = ISO53_TOOL_ADDENDUM      # addendum coefficient of the generating tool (ISO 53 A)
+    rhoaP0: float = ISO53_TOOL_TIP_RADIUS  # tip radius coefficient of the generating tool (ISO 53 A)
     sunA: Gear = Gear(z=36, x=-1.0099, b=22 * MM, da=107.20 * MM)
     planet1: Gear = Gear(z=13, x=0.3, b=22 * MM, da=46.059 * MM)
     sunB: Gear = Gear(z=36, x=1.2296, b=22 * MM, da=120.80 * MM)
@@ -113,6 +127,16 @@ class GearTable:
         require_positive("gearing.hf", self.hf)
         if self.hf <= self.ha:
             raise ParameterError("gearing.hf", self.hf, f"> gearing.ha = {self.ha:g} (root clearance)")
+        h0 = require_positive("gearing.haP0", self.haP0)
+        if not 0.5 <= h0 <= 2.0:
+            raise ParameterError("gearing.haP0", self.haP0, "between 0.5 and 2 (ISO 53: 1.25)")
+        rho = require_finite("gearing.rhoaP0", self.rhoaP0)
+        ta, ca = math.tan(a), math.cos(a)
+        rho_max = max(0.0, (math.pi / 4.0 - h0 * ta) / (1.0 / ca - ta))   # the rounding fits the tool tip
+        rho_max = min(rho_max, h0)
+        if not 0.0 <= rho <= rho_max:
+            raise ParameterError("gearing.rhoaP0", self.rhoaP0,
+                                 f"between 0 and {rho_max:.4f} (the tip rounding must fit the tool tooth; ISO 53: 0.38)")
         n = self.nPairs
         if int(n) != n or not 1 <= n <= 12:
             raise ParameterError("nPairs", n, "an integer from 1 to 12")
@@ -141,8 +165,9 @@ class GearGeometry:
     rb: float   # base radius
     ra: float   # tip radius (trimmed if given)
     rf: float   # root radius
-    rF: float   # radius where the generated involute starts (form radius)
+    rF: float   # radius where the generated involute starts (form radius, undercut included)
     sa: float   # tip thickness (arc, on the tip circle)
+    undercut: bool = False  # the generating tool's tip cuts into the involute
 
 
 @dataclass(frozen=True)
@@ -163,22 +188,58 @@ class MeshGeometry:
     epsilon_alpha: float  # transverse contact ratio
     pb: float             # base pitch pi m cos(alpha)
     b: float              # common face width min(b1, b2)
-    path_length: float    # length of the path of contact g_alpha
+    path_length: float    # length of the path of contact g_alpha (tips as given, involutes to the base)
+    rF1: float = 0.0      # form radius of gear 1 (start of its involute)
+    rF2: float = 0.0      # form radius of gear 2
 
     def tip_limit(self, gear: str) -> float:
-        """Largest tip radius of ``gear`` free of involute interference: its tip may reach the
-        base tangent point of the mating gear, not past it: ``sqrt(rb^2 + (a sin(alpha_w))^2)``."""
-        rb = self.rb1 if gear == self.gear1 else self.rb2
-        return math.hypot(rb, self.a * math.sin(self.alpha_w))
+        """Largest tip radius of ``gear`` free of interference: its tip may reach the mating gear's
+        form circle (where its involute starts; the base circle unless undercut), not below it:
+        ``sqrt(rb^2 + (a sin(alpha_w) - sqrt(r_F,mate^2 - r_b,mate^2))^2)``."""
+        L = self.a * math.sin(self.alpha_w)
+        if gear == self.gear1:
+            rb, rbm, rFm = self.rb1, self.rb2, self.rF2
+        else:
+            rb, rbm, rFm = self.rb2, self.rb1, self.rF1
+        return math.hypot(rb, L - math.sqrt(max(max(rFm, rbm) ** 2 - rbm ** 2, 0.0)))
+
+    @property
+    def usable_path(self) -> tuple[float, float]:
+        """Start and end of the usable path of contact, as distances from gear 1's base tangent
+        point along the line of action (m): contact runs on involute flanks only, from the form
+        circle (start of the involute, :mod:`spurdiff.generating`) to the tip of each gear:
+        ``l_start = max(L - sqrt(r_a2^2 - r_b2^2), sqrt(r_F1^2 - r_b1^2))``,
+        ``l_end = min(sqrt(r_a1^2 - r_b1^2), L - sqrt(r_F2^2 - r_b2^2))``, ``L = a sin(alpha_w)``.
+        A tip reaching past the mating form circle is assumed relieved there (its excess does
+        not carry)."""
+        L = self.a * math.sin(self.alpha_w)
+        lF1 = math.sqrt(max(max(self.rF1, self.rb1) ** 2 - self.rb1 ** 2, 0.0))
+        lF2 = math.sqrt(max(max(self.rF2, self.rb2) ** 2 - self.rb2 ** 2, 0.0))
+        la1 = math.sqrt(max(self.ra1 ** 2 - self.rb1 ** 2, 0.0))
+        la2 = math.sqrt(max(self.ra2 ** 2 - self.rb2 ** 2, 0.0))
+        return max(L - la2, lF1), min(la1, L - lF2)
 
     @property
     def epsilon_usable(self) -> float:
-        """Contact ratio with each tip limited to its interference-free radius."""
-        ra1 = min(self.ra1, self.tip_limit(self.gear1))
-        ra2 = min(self.ra2, self.tip_limit(self.gear2))
-        g = (math.sqrt(max(ra1 ** 2 - self.rb1 ** 2, 0.0)) + math.sqrt(max(ra2 ** 2 - self.rb2 ** 2, 0.0))
-             - self.a * math.sin(self.alpha_w))
-        return g / self.pb
+        """Usable transverse contact ratio: the usable path (involute to tip on both gears) over
+        the base pitch."""
+        l0, l1 = self.usable_path
+        return (l1 - l0) / self.pb
+
+    def sap_distance(self, gear: str) -> float:
+        """Where contact with the mating tip starts on ``gear`` (start of active profile, tips as
+        given), as the distance from ``gear``'s base tangent point along the line of action (m);
+        negative: the mating tip reaches past that point (involute interference)."""
+        L = self.a * math.sin(self.alpha_w)
+        if gear == self.gear1:
+            return L - math.sqrt(max(self.ra2 ** 2 - self.rb2 ** 2, 0.0))
+        return L - math.sqrt(max(self.ra1 ** 2 - self.rb1 ** 2, 0.0))
+
+    def start_of_active_profile(self, gear: str) -> float:
+        """Radius of the start of active profile on ``gear`` (m; on the involute's mirror branch
+        if the mating tip reaches past the base tangent point)."""
+        rb = self.rb1 if gear == self.gear1 else self.rb2
+        return math.hypot(rb, self.sap_distance(gear))
 
     @property
     def ratio(self) -> float:
@@ -205,15 +266,18 @@ def gear_geometry(name: str, g: Gear, t: GearTable) -> GearGeometry:
     rb = r * math.cos(alpha)
     ra = g.da / 2.0 if g.da > 0.0 else r + m * (t.ha + g.x)
     rf = r - m * (t.hf - g.x)
-    # start of the generated involute (rack tip line meets the line of action)
-    u = r * math.sin(alpha) - m * (t.ha - g.x) / math.sin(alpha)
-    rF = math.hypot(rb, u) if u > 0.0 else rb
+    # start of the generated involute: the end of the tool's straight flank, or where the
+    # trochoid of its tip rounding crosses the involute (undercut), see spurdiff.generating
+    if ra > rb:
+        rF, undercut = form_radius(g.z, g.x, m, alpha, t.haP0, t.rhoaP0, ra)
+    else:
+        rF, undercut = rb, False
     if ra <= rb:
         sa = float("-inf")
     else:
         alpha_a = math.acos(rb / ra)
         sa = 2.0 * ra * ((math.pi / 2.0 + 2.0 * g.x * math.tan(alpha)) / g.z + inv(alpha) - inv(alpha_a))
-    return GearGeometry(name, g.z, g.x, g.b, r, rb, ra, rf, rF, sa)
+    return GearGeometry(name, g.z, g.x, g.b, r, rb, ra, rf, rF, sa, undercut)
 
 
 def mesh_geometry(name: str, g1: GearGeometry, g2: GearGeometry, t: GearTable) -> MeshGeometry:
@@ -229,7 +293,7 @@ def mesh_geometry(name: str, g1: GearGeometry, g2: GearGeometry, t: GearTable) -
     l2 = math.sqrt(max(g2.ra ** 2 - g2.rb ** 2, 0.0))
     g_alpha = l1 + l2 - a * math.sin(alpha_w)
     return MeshGeometry(name, g1.name, g2.name, alpha_w, a, rw1, rw2, g1.rb, g2.rb, g1.ra, g2.ra,
-                        g_alpha / pb, pb, min(g1.b, g2.b), g_alpha)
+                        g_alpha / pb, pb, min(g1.b, g2.b), g_alpha, g1.rF, g2.rF)
 
 
 @dataclass(frozen=True)
@@ -301,7 +365,12 @@ def derive(table: GearTable | None = None) -> DifferentialGeometry:
     mB2 = mesh_geometry("B2", gg["sunB"], gg["planet2"], t)
     m12 = mesh_geometry("12", gg["planet1"], gg["planet2"], t)
     findings = tuple(_check(t, gg, (mA1, mB2, m12)))
-    return DifferentialGeometry(t, gg, mA1, mB2, m12, findings)
+    geo = DifferentialGeometry(t, gg, mA1, mB2, m12, findings)
+    if not geo.errors:
+        from .phasing import phase_findings   # needs the pair layout (no import cycle at load)
+
+        geo = replace(geo, findings=findings + tuple(phase_findings(geo)))
+    return geo
 
 
 def _mm(v: float) -> str:
@@ -310,11 +379,15 @@ def _mm(v: float) -> str:
 
 def _check(t: GearTable, gg: dict[str, GearGeometry], meshes: tuple[MeshGeometry, ...]):
     m, alpha = t.m, t.alpha
+    h_ffp0 = t.haP0 - t.rhoaP0 * (1.0 - math.sin(alpha))   # end of the tool's straight flank
     for name, g in gg.items():
-        x_min = t.ha - g.z * math.sin(alpha) ** 2 / 2.0
+        x_min = h_ffp0 - g.z * math.sin(alpha) ** 2 / 2.0
         if g.x < x_min - 1e-9:
             yield Finding("warning", "undercut", f"{name}.x",
-                          f"{name} (z = {g.z}) is undercut: x = {g.x:+.4f} < x_min = {x_min:+.4f}")
+                          f"{name} (z = {g.z}) is undercut: x = {g.x:+.4f} < x_min = {x_min:+.4f}; its involute "
+                          f"starts at the form diameter d_F = {2 * g.rF / MM:.3f} mm, above the base circle "
+                          f"d_b = {2 * g.rb / MM:.3f} mm (generating tool h_aP0 = {t.haP0:g} m, "
+                          f"rho_aP0 = {t.rhoaP0:g} m)")
         if g.ra <= g.rb or g.sa <= 0.0:
             yield Finding("error", "pointed-tip", f"{name}.x",
                           f"{name} has no tooth left at its tip (tip thickness {g.sa / MM:.3f} mm)")
@@ -324,6 +397,10 @@ def _check(t: GearTable, gg: dict[str, GearGeometry], meshes: tuple[MeshGeometry
         if g.ra <= g.rf:
             yield Finding("error", "tip-below-root", f"{name}.da",
                           f"{name} tip radius {_mm(g.ra)} is not above its root radius {_mm(g.rf)}")
+        elif g.ra > g.rb and g.rF >= g.ra * (1.0 - 1e-9):
+            yield Finding("error", "undercut", f"{name}.x",
+                          f"{name}: the generating tool cuts the whole involute away (no flank left below "
+                          f"the tip, d_a = {2 * g.ra / MM:.3f} mm)")
     for me in meshes:
         g1, g2 = gg[me.gear1], gg[me.gear2]
         clear_root_1 = me.a - g2.ra - g1.rf
@@ -332,38 +409,45 @@ def _check(t: GearTable, gg: dict[str, GearGeometry], meshes: tuple[MeshGeometry
             if clr < 0.0:
                 yield Finding("error", "tip-root-clash", f"{other.name}.da",
                               f"mesh {me.name}: {other.name}'s tip cuts into {gear.name}'s root by {_mm(-clr)}")
+            elif clr < MIN_TIP_CLEARANCE * m:
+                yield Finding("warning", "tip-clearance", f"{other.name}.da",
+                              f"mesh {me.name}: {other.name}'s tip clears {gear.name}'s root circle by only "
+                              f"{_mm(clr)} < {MIN_TIP_CLEARANCE:g} m = {_mm(MIN_TIP_CLEARANCE * m)} (basic rack: "
+                              f"{t.hf - t.ha:g} m)")
         for gear, other in ((g1, g2), (g2, g1)):
-            r_limit = me.tip_limit(other.name)
-            if other.ra > r_limit + 1e-9:
+            # start of active profile on `gear` (from the other's tip) against gear's form circle
+            l_sap = me.sap_distance(gear.name)
+            l_form = math.sqrt(max(gear.rF ** 2 - gear.rb ** 2, 0.0))
+            if l_sap < l_form - 1e-12:
+                r_limit = me.tip_limit(other.name)
+                if l_sap < 0.0:
+                    where = (f"reaches {_mm(-l_sap)} past {gear.name}'s base tangent point (involute "
+                             f"interference)")
+                else:
+                    where = (f"meets {gear.name} at d = {2 * math.hypot(gear.rb, l_sap) / MM:.3f} mm, on the "
+                             f"{'trochoid of its undercut' if gear.undercut else 'fillet'}")
                 yield Finding("warning", "tip-interference", f"{other.name}.da",
-                              f"mesh {me.name}: {other.name}'s tip (d_a = {2 * other.ra / MM:.3f} mm) reaches past the "
-                              f"base tangent point of {gear.name} (involute interference); interference-free "
-                              f"d_a <= {2 * r_limit / MM:.3f} mm, i.e. tip relief assumed; usable contact ratio "
+                              f"mesh {me.name}: {other.name}'s tip (d_a = {2 * other.ra / MM:.3f} mm) {where}, "
+                              f"below {gear.name}'s form diameter d_F = {2 * gear.rF / MM:.3f} mm "
+                              f"(base circle {2 * gear.rb / MM:.3f} mm); interference-free d_a <= "
+                              f"{2 * r_limit / MM:.3f} mm, i.e. tip relief assumed; usable contact ratio "
                               f"{me.epsilon_usable:.3f}")
-            else:
-                reach = me.a * math.sin(me.alpha_w) - math.sqrt(other.ra ** 2 - other.rb ** 2)
-                r_start = math.hypot(gear.rb, reach)
-                if r_start < gear.rF - 1e-9:
-                    yield Finding("warning", "trochoid-interference", f"{other.name}.da",
-                                  f"mesh {me.name}: contact starts on {gear.name} at r = {_mm(r_start)}, below its "
-                                  f"generated involute (form radius {_mm(gear.rF)})")
-        if me.epsilon_usable < 1.0:
+        eps_u = me.epsilon_usable
+        detail = (f"mesh {me.name}: usable transverse contact ratio {eps_u:.3f} (involute to tip on both gears, form "
+                  f"diameters {2 * g1.rF / MM:.3f} / {2 * g2.rF / MM:.3f} mm) against {me.epsilon_alpha:.3f} with the "
+                  f"tips as given")
+        if eps_u < 1.0:
             yield Finding("error", "contact-ratio", f"{me.gear1}.da",
-                          f"mesh {me.name}: usable contact ratio {me.epsilon_usable:.3f} < 1.0 once the tips are "
-                          f"limited to the interference-free diameter (no continuous action)")
-        elif me.epsilon_usable < 1.1:
-            yield Finding("warning", "contact-ratio", f"{me.gear1}.da",
-                          f"mesh {me.name}: usable transverse contact ratio {me.epsilon_usable:.3f} < 1.1")
+                          f"{detail}: < 1.0, no continuous action")
+        elif eps_u < 1.1:
+            yield Finding("warning", "contact-ratio", f"{me.gear1}.da", f"{detail}: < 1.1")
     mA1, mB2, m12 = meshes
+    # symmetry: w_B - w_c = -(z_A / z_B)(w_A - w_c) whatever the planets (their ratios cancel along
+    # sun A -> planet 1 -> planet 2 -> sun B), so only the suns must be equal
     if t.sunA.z != t.sunB.z:
         yield Finding("error", "symmetry", "sunB.z",
-                      f"sun tooth counts differ ({t.sunA.z} vs {t.sunB.z}): w_A + w_B = 2 w_c does not hold")
-    ratio_a = mA1.rw1 / mA1.rw2
-    ratio_b = mB2.rw1 / mB2.rw2
-    if abs(ratio_a / ratio_b - 1.0) > 1e-6:
-        yield Finding("error", "symmetry", "planet2.z",
-                      f"r_a/r_1 = {ratio_a:.5f} differs from r_b/r_2 = {ratio_b:.5f}: "
-                      f"the planets of a pair must have equal tooth counts")
+                      f"sun tooth counts differ ({t.sunA.z} vs {t.sunB.z}): w_B - w_c = -(z_A/z_B)(w_A - w_c), "
+                      f"so w_A + w_B = 2 w_c does not hold")
     # Planet pair triangle: planet 1 at radius a_A, planet 2 at a_B, a_12 apart.
     aA, aB, a12 = mA1.a, mB2.a, m12.a
     if not abs(aA - aB) < a12 < aA + aB:
@@ -395,7 +479,11 @@ def _check(t: GearTable, gg: dict[str, GearGeometry], meshes: tuple[MeshGeometry
             if d <= need:
                 yield Finding("error", "neighbour-clearance", "nPairs",
                               f"nPairs = {n}: {what} overlap (centres {_mm(d)} apart, tips need {_mm(need)})")
-    if t.sunA.z % n or t.sunB.z % n:
-        yield Finding("warning", "equal-spacing", "nPairs",
-                      f"sun tooth counts {t.sunA.z}, {t.sunB.z} are not multiples of nPairs = {n}: "
-                      f"equally spaced pairs may not assemble")
+    # assembly of n equally spaced pairs with two suns that turn independently: a pair ties the
+    # tooth phases of the two suns at its place, p_A + p_B = const (turning the pair's gear train
+    # moves p_A and p_B by opposite amounts); pair j sits 2 pi j / n further on, where the phases
+    # are p_A + z_A j / n and p_B + z_B j / n; so (z_A + z_B) j / n must be an integer for every j
+    if (t.sunA.z + t.sunB.z) % n:
+        yield Finding("error", "assembly", "nPairs",
+                      f"(z_A + z_B) / nPairs = ({t.sunA.z} + {t.sunB.z}) / {n} is not an integer: {n} equally "
+                      f"spaced planet pairs cannot be assembled (each pair ties the tooth phases of the two suns)")

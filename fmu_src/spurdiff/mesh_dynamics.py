@@ -41,9 +41,14 @@ and ``p = -(d + j_n)`` on the coast flank (``j_n`` normal backlash, 0 without ba
   ``m_e = 1 / (rb_1^2 / J_1' + rb_2^2 / J_2')`` (a sun's inertia shared by the n pairs).
 * ``contact``: ADAMS IMPACT on each flank, ``F = K p^e + STEP(p, 0, 0, d_max, C) p'``, >= 0.
 * ``meshStiffnessVariation``: Kahraman and Singh's rectangular wave: with the mesh phase
-  ``xi = frac(xi_0 -+ u / p_b)`` (``u`` = base-circle roll of the mesh's first gear), two tooth pairs
-  carry the load for ``xi < eps_alpha - 1``, one otherwise; the stiffness (k or K) is multiplied by
+  ``xi = frac(xi_0 - u / p_b)`` on the drive flanks and ``frac(xi_0c + u / p_b)`` on the coast
+  flanks (``u`` = base-circle roll of the mesh's first gear; ``xi_0``, ``xi_0c`` from the tooth
+  positions of the pair, :mod:`spurdiff.phasing`: an A1 drive pair starts at its pitch point, the
+  other meshes where their teeth then are), two tooth pairs carry the load for
+  ``xi < eps_alpha - 1``, one otherwise; the stiffness (k or K) is multiplied by
   ``n_c / eps_alpha`` (``n_c`` pairs in contact), so its mean over a mesh period is the constant one.
+  ``eps_alpha`` is the usable contact ratio (involute to tip on both gears, undercut form circles
+  from the generating rack, :mod:`spurdiff.generating`); the ISO 6336 stiffness uses it too.
 * ``flankFriction``: on each pair in contact at distances ``l_1``, ``l_2`` from the two base tangent
   points, sliding velocity ``v = W_1 l_1 + W_2 l_2`` (``W`` gear speeds relative to the carrier;
   zero at the pitch point), friction ``mu(v) |F| / n_c`` (ADAMS static/dynamic law), moments
@@ -86,6 +91,7 @@ from .mesh_laws import (elasto_backlash, friction_coefficient, impact, impact_po
                         iso6336_stiffness)
 from .params import DifferentialParams
 from .rigid import RigidDifferential
+from .phasing import mesh_phases
 from .locking import locking_coefficients, paper_locking_coefficient, pin_friction
 from .statics import MeshForces, kinematics
 
@@ -214,7 +220,9 @@ class MeshData:
     l1min: float        # distance from gear 1's base tangent point to the start of the path
     galpha: float       # length of the path of contact
     L: float            # a sin(alpha_w): distance between the two base tangent points
-    xi0: float          # initial mesh phase (contact at the pitch point)
+    xi0: float          # initial phase of the drive-side flanks (spurdiff.phasing)
+    xi0c: float         # initial phase of the coast-side flanks
+    xip: float          # phase of the pitch point
     m_e: float          # equivalent mass (kg)
 
 
@@ -344,18 +352,16 @@ class MeshDifferential:
         gearpairs = {"A1": (t.sunA, t.planet1, ms.J_sunA / n, ms.J_planet1),
                      "B2": (t.sunB, t.planet2, ms.J_sunB / n, ms.J_planet2),
                      "12": (t.planet1, t.planet2, ms.J_planet1, ms.J_planet2)}
+        phases = mesh_phases(geo)
         out = []
         for name, me in zip(MESHES, geo.meshes):
             g1, g2, J1, J2 = gearpairs[name]
-            ra1 = min(me.ra1, me.tip_limit(me.gear1))   # tips limited to the interference-free radius
-            ra2 = min(me.ra2, me.tip_limit(me.gear2))
+            # usable path: involute to tip on both gears (form circles from the generating rack)
             L = me.a * math.sin(me.alpha_w)
-            l1max = math.sqrt(max(ra1 ** 2 - me.rb1 ** 2, 0.0))
-            l1min = L - math.sqrt(max(ra2 ** 2 - me.rb2 ** 2, 0.0))
+            l1min, l1max = me.usable_path
             galpha = l1max - l1min
             eps = galpha / me.pb
-            x_pitch = me.rb1 * math.tan(me.alpha_w) - l1min
-            xi0 = (x_pitch / me.pb) % 1.0
+            ph = phases[name]
             m_e = 1.0 / (me.rb1 ** 2 / J1 + me.rb2 ** 2 / J2)
             k = getattr(mp_, "stiffness" + name)
             if k <= 0.0:
@@ -365,7 +371,7 @@ class MeshDifferential:
             jn = getattr(mp_, "backlash" + name) * math.cos(me.alpha_w) if mp_.backlash else 0.0
             K = getattr(mp_, "contactStiffness" + name)
             out.append(MeshData(name, -1.0 if name == "12" else 1.0, me.rb1, me.rb2, k, c, K, jn, eps,
-                                me.pb, l1min, galpha, L, xi0, m_e))
+                                me.pb, l1min, galpha, L, ph.drive, ph.coast, ph.pitch, m_e))
         return tuple(out)
 
     def _setup_pin(self, geo: DifferentialGeometry) -> None:
@@ -490,7 +496,7 @@ class MeshDifferential:
         return (2.0 if xi < m.eps - 1.0 else 1.0) / m.eps
 
     def _static_deflection(self, m: MeshData, F: float) -> float:
-        kf = self._stiffness_factor(m, m.xi0)
+        kf = self._stiffness_factor(m, m.xi0 if F >= 0.0 else m.xi0c)
         if F == 0.0:
             return 0.0 if m.jn == 0.0 else -0.5 * m.jn
         if self._contact:
@@ -512,7 +518,7 @@ class MeshDifferential:
         if self._need_phase:
             r = m.sigma * u / m.pb
             xp = (m.xi0 - r) % 1.0
-            xn = (m.xi0 + r) % 1.0
+            xn = (m.xi0c + r) % 1.0
             if self._var:
                 e1 = m.eps - 1.0
                 kp = (2.0 if xp < e1 else 1.0) / m.eps
@@ -520,7 +526,7 @@ class MeshDifferential:
             else:
                 kp = kn = 1.0
         else:
-            xp = xn = m.xi0
+            xp, xn = m.xi0, m.xi0c
             kp = kn = 1.0
         if self._contact:
             if d > 0.0:
@@ -550,7 +556,7 @@ class MeshDifferential:
         """Elastic energy of one pair of mesh m (J)."""
         r = m.sigma * u / m.pb
         kp = self._stiffness_factor(m, (m.xi0 - r) % 1.0)
-        kn = self._stiffness_factor(m, (m.xi0 + r) % 1.0)
+        kn = self._stiffness_factor(m, (m.xi0c + r) % 1.0)
         if self._contact:
             if d > 0.0:
                 return impact_potential(d, m.K * kp, self._e)
@@ -871,7 +877,7 @@ class MeshDifferential:
         """Step limit at the next mesh-phase boundary of the loaded flank of each mesh, from the
         current rolling speeds (inf if none). Boundaries: a pair entering or leaving contact
         (xi = 0 and xi = eps - 1: the stiffness wave and the friction arms jump) and, with flank
-        friction, a pair passing the pitch point (xi = xi0: the sliding velocity changes sign).
+        friction, a pair passing the pitch point (xi = xip: the sliding velocity changes sign).
         The step ends just past the boundary; past a pitch point by the time the sliding speed
         needs to leave the stiction band (|v| > v_s), so the friction reversal is not inside a step."""
         best = math.inf
@@ -887,7 +893,7 @@ class MeshDifferential:
                 if d > 0.0:
                     sgn = -1.0          # drive flank: xi = frac(xi0 - sigma u / pb)
                 elif -(d + m.jn) > 0.0:
-                    sgn = 1.0           # coast flank: xi = frac(xi0 + sigma u / pb)
+                    sgn = 1.0           # coast flank: xi = frac(xi0c + sigma u / pb)
                 else:
                     continue            # no contact: nothing switches
             else:
@@ -898,9 +904,9 @@ class MeshDifferential:
             if us is None:
                 psiB, th1, _ = self._angles(yl)
                 us = (self.rbA * yl[PSI], self.rbB * psiB, self.rb1 * th1)
-            xi = (m.xi0 + sgn * m.sigma * us[mi] / m.pb) % 1.0
+            xi = ((m.xi0 if sgn < 0.0 else m.xi0c) + sgn * m.sigma * us[mi] / m.pb) % 1.0
             ar = abs(rate)
-            bounds = (0.0, m.eps - 1.0, m.xi0) if self._flank else (0.0, m.eps - 1.0)
+            bounds = (0.0, m.eps - 1.0, m.xip) if self._flank else (0.0, m.eps - 1.0)
             for j, xb in enumerate(bounds):
                 dist = (xb - xi) % 1.0 if rate > 0.0 else (xi - xb) % 1.0
                 if dist == 0.0:
