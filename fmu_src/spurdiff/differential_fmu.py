@@ -10,6 +10,7 @@ from dataclasses import replace
 from .fmi_vars import Var
 from .geometry import Gear, GearTable
 from .locking import torque_bias_ratio
+from .phasing import mesh_phases
 from .mesh_dynamics import MeshDifferential, MeshParams
 from .params import DifferentialParams
 from .rigid import RigidDifferential
@@ -27,6 +28,8 @@ def _gear_vars(name: str, label: str, g: Gear) -> list[Var]:
         Var(f"{name}.x", "parameter", f"Profile-shift coefficient of {label}", "1", None, g.x),
         Var(f"{name}.b", "parameter", f"Face width of {label}", "m", "mm", g.b),
         Var(f"{name}.da", "parameter", f"Tip diameter of {label} (0: untrimmed m (z + 2 ha + 2 x))", "m", "mm", g.da),
+        Var(f"{name}.dF", "calculatedParameter",
+            f"Form diameter of {label}: where its involute starts (generating rack, undercut included)", "m", "mm"),
     ]
 
 
@@ -37,6 +40,12 @@ def _mesh_vars(mesh: str, label: str) -> list[Var]:
         Var(f"mesh{mesh}.rw1", "calculatedParameter", f"Operating pitch radius of the first gear of mesh {label}", "m", "mm"),
         Var(f"mesh{mesh}.rw2", "calculatedParameter", f"Operating pitch radius of the second gear of mesh {label}", "m", "mm"),
         Var(f"mesh{mesh}.epsilon_alpha", "calculatedParameter", f"Transverse contact ratio of mesh {label}", "1"),
+        Var(f"mesh{mesh}.epsilon_usable", "calculatedParameter",
+            f"Usable transverse contact ratio of mesh {label} (involute from form circle to tip on both gears; "
+            "used by the ISO stiffness and the stiffness wave)", "1"),
+        Var(f"mesh{mesh}.phase", "calculatedParameter",
+            f"Initial phase of the drive flanks of mesh {label} along its usable path, in base pitches "
+            "(tooth positions; an A1 drive pair starts at its pitch point)", "1"),
     ]
 
 
@@ -110,6 +119,10 @@ VARIABLES: list[Var] = [
     Var("gearing.alpha", "parameter", "Pressure angle of the basic rack", "rad", "deg", _T.alpha),
     Var("gearing.ha", "parameter", "Addendum coefficient of the basic rack", "1", None, _T.ha),
     Var("gearing.hf", "parameter", "Dedendum coefficient of the basic rack", "1", None, _T.hf),
+    Var("gearing.haP0", "parameter", "Addendum coefficient of the generating tool (rack cutter; ISO 53 A: 1.25)",
+        "1", None, _T.haP0),
+    Var("gearing.rhoaP0", "parameter", "Tip radius coefficient of the generating tool (ISO 53 A: 0.38)", "1", None,
+        _T.rhoaP0),
     *_gear_vars("sunA", "sun A (left)", _T.sunA),
     *_gear_vars("planet1", "planet 1 (meshes sun A and planet 2)", _T.planet1),
     *_gear_vars("sunB", "sun B (right)", _T.sunB),
@@ -184,6 +197,7 @@ def gear_table(values: dict) -> GearTable:
 
     return GearTable(m=float(values["gearing.m"]), alpha=float(values["gearing.alpha"]),
                      ha=float(values["gearing.ha"]), hf=float(values["gearing.hf"]),
+                     haP0=float(values["gearing.haP0"]), rhoaP0=float(values["gearing.rhoaP0"]),
                      sunA=gear("sunA"), planet1=gear("planet1"), sunB=gear("sunB"), planet2=gear("planet2"),
                      nPairs=int(values["nPairs"]))
 
@@ -255,7 +269,12 @@ def build_model(values: dict):
 
 def _set_calculated(model, values: dict) -> None:
     geo = model.geometry
+    phases = mesh_phases(geo)
+    for name, g in geo.gears.items():
+        values[f"{name}.dF"] = 2.0 * g.rF
     for key, me in (("A1", geo.meshA1), ("B2", geo.meshB2), ("12", geo.mesh12)):
+        values[f"mesh{key}.epsilon_usable"] = me.epsilon_usable
+        values[f"mesh{key}.phase"] = phases[key].drive
         values[f"mesh{key}.alpha_w"] = me.alpha_w
         values[f"mesh{key}.a"] = me.a
         values[f"mesh{key}.rw1"] = me.rw1
