@@ -6,7 +6,10 @@ import math
 from spurdiff.geometry import MM, GearTable, derive
 from spurdiff.inertia import mass_properties
 from spurdiff.params import DifferentialParams
-from spurdiff.statics import locking_coefficient, mesh_forces, mesh_forces_for
+from spurdiff.locking import (breakaway, first_order_K, locking_coefficients, paper_locking_coefficient,
+                              pin_friction, torque_bias_ratio)
+from spurdiff.phasing import mesh_phases
+from spurdiff.statics import mesh_forces, mesh_forces_for
 
 from harness.report import render
 
@@ -34,17 +37,27 @@ def info_text(table: GearTable | None = None, params: DifferentialParams | None 
     rows = []
     for name, g in geo.gears.items():
         rows.append([name, str(g.z), f"{g.x:+.4f}", f"{g.b / MM:.1f}", f"{2 * g.r / MM:.3f}", f"{2 * g.rb / MM:.3f}",
+                     f"{2 * g.rF / MM:.3f}" + (" (undercut)" if g.undercut else ""),
                      f"{2 * g.ra / MM:.3f}", f"{2 * g.rf / MM:.3f}", f"{g.sa / MM:.3f}"])
-    out += ["Gears", render(["gear", "z", "x", "b mm", "d mm", "d_b mm", "d_a mm", "d_f mm", "s_a mm"], rows), ""]
+    out += [f"Gears (form diameter d_F: start of the involute, generating rack h_aP0 = {t.haP0:g} m, "
+            f"rho_aP0 = {t.rhoaP0:g} m)",
+            render(["gear", "z", "x", "b mm", "d mm", "d_b mm", "d_F mm", "d_a mm", "d_f mm", "s_a mm"], rows), ""]
     rows = []
+    phases = mesh_phases(geo) if not geo.errors else {}
     for me in geo.meshes:
         paper = PAPER_TABLE.get(me.name)
+        sap1, sap2 = me.start_of_active_profile(me.gear1), me.start_of_active_profile(me.gear2)
+        ph = phases.get(me.name)
         rows.append([me.name, f"{math.degrees(me.alpha_w):.4f}", f"{me.a / MM:.4f}", f"{me.rw1 / MM:.4f}",
                      f"{me.rw2 / MM:.4f}", f"{me.epsilon_alpha:.3f}", f"{me.epsilon_usable:.3f}",
+                     f"{2 * sap1 / MM:.3f} / {2 * sap2 / MM:.3f}",
+                     f"{ph.drive:.3f} / {ph.coast:.3f}" if ph else "-",
                      f"{paper[0]:g} / {paper[1]:g} / {paper[2]:g}" if paper else "-"])
-    out += ["Meshes (operating values)",
+    out += ["Meshes (operating values; eps usable: involute from form circle to tip on both gears, fed to the "
+            "ISO stiffness and the stiffness wave; SAP: start of active profile with the tips as given; phase: "
+            "drive / coast flanks along the usable path, an A1 drive pair at its pitch point)",
             render(["mesh", "alpha_w deg", "a mm", "r_w1 mm", "r_w2 mm", "eps_alpha", "eps usable",
-                    "paper a / r_w1 / r_w2 mm"], rows), ""]
+                    "d_SAP 1 / 2 mm", "phase", "paper a / r_w1 / r_w2 mm"], rows), ""]
     out.append(f"Kinematics: r_a/r_1 = {geo.r_a / geo.r_1:.5f}, r_b/r_2 = {geo.r_b / geo.r_2:.5f}, "
                f"r_a/r_b = {geo.r_a / geo.r_b:.4f}, r_1/r_2 = {geo.r_1 / geo.r_2:.4f} "
                f"(the paper prints r_a/r_b = r_2/r_1, a typo); w_A + w_B = 2 w_c")
@@ -54,15 +67,42 @@ def info_text(table: GearTable | None = None, params: DifferentialParams | None 
     out.append("")
 
     # Statics at the paper's T0
+    # Locking: both laws
+    pf = pin_friction(geo, p.mu_pin, p.r_collar, 0.0, "pinFriction")
+    Kd, Kc = locking_coefficients(pf)
+    Kp = paper_locking_coefficient(p.mu_pin, p.r_collar, t.nPairs, geo.r_a, geo.r_1, geo.r_b, geo.r_2)
+    ppf = pin_friction(geo, p.mu_pin, p.r_collar, 0.0, "paper")
+    Kpc_mesh = locking_coefficients(ppf)[1]
+    u_d, u_c = pf.layout.unit_pin_loads(1.0), pf.layout.unit_pin_loads(-1.0)
+    bd = breakaway(pf, PAPER_T0 * 1e-3, -1.0)
+    bc = breakaway(pf, -PAPER_T0 * 1e-3, -1.0)
+    rows = [
+        ["pinFriction (default)", "drive", f"{Kd:.4f}", f"{first_order_K(pf, 1.0):.4f}", f"{torque_bias_ratio(Kd):.4f}",
+         f"{u_d[0]:.3f} / {u_d[1]:.3f}", f"{Kd * PAPER_T0 * 1e-3:.1f}"],
+        ["pinFriction (default)", "coast", f"{Kc:.4f}", f"{first_order_K(pf, -1.0):.4f}", f"{torque_bias_ratio(Kc):.4f}",
+         f"{u_c[0]:.3f} / {u_c[1]:.3f}", f"{Kc * PAPER_T0 * 1e-3:.1f}"],
+        ["paper", "drive", f"{Kp:.4f}", "-", f"{torque_bias_ratio(Kp):.4f}", "-", f"{Kp * PAPER_T0 * 1e-3:.1f}"],
+        ["paper", "coast", f"{Kp:.4f}", "-", f"{torque_bias_ratio(Kp):.4f}", "-", f"{Kp * PAPER_T0 * 1e-3:.1f}"],
+    ]
+    out += [f"Locking (mu = {p.mu_pin:g}, r_d = {p.r_collar / MM:g} mm, n = {t.nPairs}): K = |T_A - T_B| / |T_A + T_B| "
+            f"at break-away; pin loads per unit mesh force with equal mesh forces; K_1 their linearisation "
+            f"c (|rho_1| p_1 + |rho_2| p_2) / (r_bA + r_bB)",
+            render(["law", "case", "K", "K_1", "bias ratio", "pin loads p_1 / p_2", "K |T0| at 2100 N m, N m"], rows),
+            f"  pinFriction at break-away, T0 = {PAPER_T0 * 1e-3:g} N m drive: T_A / T_B = {bd.T_A:.1f} / {bd.T_B:.1f} N m, "
+            f"F_A1 / F_B2 / F_12 = {bd.F_A1:,.0f} / {bd.F_B2:,.0f} / {bd.F_12:,.0f} N, pin loads "
+            f"{bd.F_pin[0]:,.0f} / {bd.F_pin[1]:,.0f} N; coast: pin loads {bc.F_pin[0]:,.0f} / {bc.F_pin[1]:,.0f} N",
+            f"  the paper's law at the compliant/contact levels (pin lever scaled to its K in drive) holds "
+            f"K = {Kpc_mesh:.4f} in coast ({Kpc_mesh / Kp:.3f} x)", ""]
+
     T0 = PAPER_T0 * 1e-3  # N m
-    K = locking_coefficient(p.mu_pin, p.r_collar, t.nPairs, geo.r_a, geo.r_1, geo.r_b, geo.r_2)
+    K = Kp
     f_exact = mesh_forces_for(geo, T0 / 2, T0 / 2)
     pr = {k: v * MM for k, v in PAPER_RADII_MM.items()}
     f_rounded = mesh_forces(T0 / 2, T0 / 2, t.nPairs, pr["r_a"], geo.meshA1.alpha_w, pr["r_1"],
                             pr["r_b"], geo.meshB2.alpha_w, geo.mesh12.rw1, geo.mesh12.alpha_w)
     K_paper = PAPER_DELTA_T / PAPER_T0
     rows = [
-        ["locking coefficient K", "1", f"{K:.6f}", f"{K_paper:.6f}", _pct(K, K_paper)],
+        ["locking coefficient K (paper's law)", "1", f"{K:.6f}", f"{K_paper:.6f}", _pct(K, K_paper)],
         ["delta T = K T0", "N mm", f"{K * PAPER_T0:,.0f}", f"{PAPER_DELTA_T:,.0f}", _pct(K * PAPER_T0, PAPER_DELTA_T)],
         ["torque bias ratio (1+K)/(1-K)", "1", f"{(1 + K) / (1 - K):.4f}", "-", "-"],
     ]

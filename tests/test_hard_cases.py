@@ -64,7 +64,7 @@ def test_torque_step_of_ten_times_rated(h):
     The carrier carries a reflected driveline inertia (13 kg m^2, as in the vehicle scenes);
     without it the carrier would accelerate at 5e5 rad/s^2 and the unequal sun inertias alone
     would break the differential loose (a real effect, tested in the rigid-model tests)."""
-    m = rigid(drive="torque", J_carrier=13.0, tau_c=0.0, tau_L=-1050.0, tau_R=-950.0, w0=1.389)
+    m = rigid(drive="torque", J_carrier=13.0, tau_c=0.0, tau_L=-1250.0, tau_R=-750.0, w0=1.389)
     ke0 = m.kinetic_energy
     wc_before = None
     for k in range(int(0.2 / h)):
@@ -80,7 +80,8 @@ def test_torque_step_of_ten_times_rated(h):
     # passive: all work in is kinetic energy or loss, nothing is created
     assert m.work_in - (m.kinetic_energy - ke0) - m.energy_loss == pytest.approx(0.0, abs=1e-9 * abs(m.work_in))
     # the torque through the gears is what the suns pass on (the loads): the capacity stays
-    # K x 2000 N m < the 100 N m imbalance, so the differential keeps slipping, at capacity
+    # about K x 2000 N m = 356 N m (pin-load law) < the 500 N m imbalance, so the differential
+    # keeps slipping, at capacity
     assert not m.stuck and abs(m.locking_torque) == pytest.approx(m.locking_capacity, rel=1e-12)
 
 
@@ -231,7 +232,7 @@ def test_ten_minute_steady_cornering_keeps_the_kinematic_constraint(level, h):
     40 % speed difference, coupled explicitly at 10 ms: k h / J_d = 0.15): the differential
     slips at a steady speed and the constraint phi_L + phi_R - 2 phi_c does not drift (rigid:
     exact; contact: the constant mesh deflection)."""
-    T0, k_load = 20.0, 0.1
+    T0, k_load = 5.0, 0.1   # demanded difference 12 k = 1.2 N m > capacity K T0 = 0.89 N m: slips
     w_target = (24.0, 36.0)
     m = rigid(w_ref=30.0, w0=30.0) if level == "rigid" else meshed(w0=30.0, loads=(-T0 / 2, -T0 / 2),
                                                                     maxInternalSteps=10 ** 6)
@@ -272,8 +273,12 @@ def test_mu_zero_on_one_side(fmu_files):
         assert np.all(series(r, "wheelL.Fx") == 0.0)             # no grip, no force
         dw = series(r, "{wheelL.wheel.w} - {wheelR.wheel.w}")
         assert dw[-1] > 5.0
+        # the quasi-static bias ratio bounds the shaft torques up to the inertia torques of the
+        # spin-up (left wheel at about 90 rad/s^2: sun and planet inertias, 0.3-0.5 N m at 150 N m
+        # with the pin-load law's K = 0.178): within 0.5 % of the right shaft torque
         tbr = "(1 + {diff.lockingCoefficient}) / (1 - {diff.lockingCoefficient})"
-        assert stat(r, "{wheelR.shaft.tau} - abs({wheelL.shaft.tau}) * " + tbr, "max", [0.001, 0.6]) < 0.5
+        excess = stat(r, "{wheelR.shaft.tau} - abs({wheelL.shaft.tau}) * " + tbr, "max", [0.001, 0.6])
+        assert excess < 5e-3 * stat(r, "wheelR.shaft.tau", "max", [0.001, 0.6])
 
 
 def test_jacobi_and_gauss_seidel_at_the_stiffest_half_shaft(fmu_files):
