@@ -111,11 +111,14 @@ class PinLayout:
         )
         return cls(th, vectors)
 
+    def __post_init__(self):
+        flat = tuple(c for v in self.vectors for c in v)
+        object.__setattr__(self, "_flat", (flat[:8], flat[8:]))
+
     def pin_force(self, i: int, Fs: float, F12: float) -> tuple[float, float, float]:
         """|bearing force| of planet i (0: planet 1 with Fs = F_A1; 1: planet 2 with Fs = F_B2)
         and its derivatives with respect to Fs and F12."""
-        o = 4 * i
-        (tx, ty), (rx, ry), (ux, uy), (qx, qy) = self.vectors[o:o + 4]
+        tx, ty, rx, ry, ux, uy, qx, qy = self._flat[i]
         aS = abs(Fs)
         a12 = abs(F12)
         fx = Fs * tx + aS * rx + F12 * ux + a12 * qx

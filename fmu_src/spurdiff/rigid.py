@@ -57,7 +57,7 @@ from .locking import locking_coefficients, paper_locking_coefficient, pin_fricti
 from .statics import MeshForces, kinematics, mesh_forces_for
 
 _STATE_KEYS = (
-    "t", "wc", "wd", "phic", "phid", "ac", "ad", "Qf", "slip_dir", "F12", "cap", "_ad_guess",
+    "t", "wc", "wd", "phic", "phid", "ac", "ad", "Qf", "slip_dir", "F12", "cap", "_ad_guess", "_slip_key", "_slip_val",
     "work_in", "energy_loss", "loss_last_step", "n_mode_switches", "n_steps",
 )
 
@@ -101,6 +101,7 @@ class RigidDifferential:
         self.J_A, self.J_B = mp.J_sunA, mp.J_sunB
         self.J_1, self.J_2 = mp.J_planet1, mp.J_planet2
         self._ad_guess = None
+        self._slip_key = self._slip_val = None
         self.Mcc = mp.J_carrier_total + mp.J_sunA + mp.J_sunB + n * (mp.J_planet1 + mp.J_planet2)
         self.Mcd = mp.J_sunA + self.lam * mp.J_sunB + n * (mp.J_planet1 * self.rho1 + mp.J_planet2 * self.rho2)
         self.Mdd = (mp.J_sunA + self.lam ** 2 * mp.J_sunB
@@ -200,7 +201,6 @@ class RigidDifferential:
         F12 = self.F12 if self.F12 == self.F12 else 0.5 * (FA + FB)
         dFA = self.J_A * (g + 1.0) / (n * rbA)
         dFB = self.J_B * (g + self.lam) / (n * rbB)
-        scale = abs(FA) + abs(FB) + 1e-300
         for _ in range(50):
             ac = acc(ad)
             FA, FB = self._sun_forces(ac, ad)
@@ -208,6 +208,9 @@ class RigidDifferential:
             c2, c2S, c212 = pf.capacity(1, FB, F12)
             r1 = rb1 * (FA - F12) - sg1 * c1 - J1 * (ac + rho1 * ad)
             r2 = rb2 * (FB - F12) - sg2 * c2 - J2 * (ac + rho2 * ad)
+            # moment residuals at rounding level of the largest moment: converged
+            if abs(r1) + abs(r2) <= 1e-14 * (rb1 * (abs(FA) + abs(F12)) + rb2 * (abs(FB) + abs(F12))) + 1e-300:
+                break
             a11 = (rb1 - sg1 * c1S) * dFA - J1 * (g + rho1)
             a12 = -rb1 - sg1 * c112
             a21 = (rb2 - sg2 * c2S) * dFB - J2 * (g + rho2)
@@ -218,12 +221,13 @@ class RigidDifferential:
             ad -= d_ad
             F12 -= d_F
             scale = abs(FA) + abs(FB) + abs(F12) + 1e-300
-            if abs(d_F) <= 1e-13 * scale and abs(d_ad) * (abs(dFA) + abs(dFB)) <= 1e-13 * scale:
+            if abs(d_F) <= 1e-15 * scale and abs(d_ad) * (abs(dFA) + abs(dFB)) <= 1e-15 * scale:
+                ac = acc(ad)
+                FA, FB = self._sun_forces(ac, ad)
+                c1 = pf.capacity(0, FA, F12)[0]
+                c2 = pf.capacity(1, FB, F12)[0]
                 break
-        ac = acc(ad)
-        FA, FB = self._sun_forces(ac, ad)
-        cap1 = pf.capacity(0, FA, F12)[0]
-        cap2 = pf.capacity(1, FB, F12)[0]
+        cap1, cap2 = c1, c2
         self.F12 = F12
         self.cap = n * (abs(rho1) * cap1 + abs(rho2) * cap2)
         return ac, ad, -s * self.cap
@@ -290,8 +294,13 @@ class RigidDifferential:
         """As :meth:`_accelerations`, with the pin-load law."""
         if self.wd != 0.0:
             s = math.copysign(1.0, self.wd)
+            key = (s, ac_given, self.tau_c, self.tau_L, self.tau_R)
+            if key == self._slip_key:          # same mode and inputs: same accelerations
+                ac, ad, Qf, s, self.F12, self.cap = self._slip_val
+                return ac, ad, Qf, s
             ac, ad, Qf = self._slip_exact(ac_given, s)
             self._ad_guess = ad
+            self._slip_key, self._slip_val = key, (ac, ad, Qf, s, self.F12, self.cap)
             return ac, ad, Qf, s
         Fd = self.tau_L + self.lam * self.tau_R
         ac = ac_given if ac_given is not None else (self.tau_c + self.tau_L + self.tau_R) / self.Mcc
@@ -439,7 +448,8 @@ class RigidDifferential:
 
     def set_state(self, state: dict) -> None:
         for k in _STATE_KEYS:
-            setattr(self, k, state[k])
+            v = state[k]
+            setattr(self, k, tuple(v) if isinstance(v, list) else v)
         self.w_ref, self.tau_c, self.tau_L, self.tau_R = state["w_ref"], state["tau_c"], state["tau_L"], state["tau_R"]
         self._last_h = state["last_h"]
 
