@@ -225,10 +225,11 @@ def test_control_characters_in_reasons_keep_junit_parseable(tmp_path):
 
 
 def test_model_name_cannot_write_outside_the_folder(tmp_path, fmus):
-    for name in ("../escape", "a/b", "..", ".hidden", "", "x" * 200, "a\\b"):
+    for name in ("../escape", "a/b", "..", ".hidden", "", "x" * 200, "a\\b", "C:x", "a..b", " lead"):
         with pytest.raises(ReferenceUsageError, match="cannot be used as a file name"):
             safe_model_name(name)
     assert safe_model_name("ChkGood") == "ChkGood"
+    assert safe_model_name("Van der Pol oscillator") == "Van der Pol oscillator"
     hostile = rewrite_description(fmus["ChkGood"], tmp_path / "Hostile.fmu",
                                   lambda root: root.set("modelName", "../../escaped"))
     out = tmp_path / "refs"

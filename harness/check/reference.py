@@ -203,16 +203,17 @@ def input_table(md, exp: Experiment, input_csv: str | Path | None = None) -> tup
 
 # ----------------------------------------------------------------------------- writing references
 
-_SAFE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]{0,127}")
+_SAFE_NAME = re.compile(r"[A-Za-z0-9_](?:[A-Za-z0-9_ .+(),-]{0,126}[A-Za-z0-9_+)-])?")
 
 
 def safe_model_name(model_name: str | None) -> str:
     """``model_name`` when it can be a folder and file name inside the output folder: letters,
-    digits, ``_ . + -``, not starting with a dot, at most 128 characters. Raises
+    digits, and inside the name spaces and ``_ . + - ( ) ,``; no separator, ``:`` or ``..``; at
+    most 128 characters. Raises
     ReferenceUsageError (one line) otherwise: a hostile FMU must not write outside the folder."""
     if not model_name or not _SAFE_NAME.fullmatch(model_name) or ".." in model_name:
         raise ReferenceUsageError(f"modelName {model_name!r} cannot be used as a file name (allowed: letters, "
-                                  f"digits, '_', '.', '+', '-', not starting with '.', no '..', 1-128 characters)")
+                                  f"digits, space and _ . + - ( ) , inside; no '/', '\\', ':', '..'; 1-128 characters)")
     return model_name
 
 
