@@ -119,3 +119,49 @@ def info_text(table: GearTable | None = None, params: DifferentialParams | None 
                f"J_planet1 = {mp.J_planet1:.3e}, J_planet2 = {mp.J_planet2:.3e}, J_carrier (estimate) = "
                f"{mp.J_carrier:.4e} kg m^2; planet masses {mp.m_planet1:.3f} / {mp.m_planet2:.3f} kg")
     return "\n".join(out)
+
+
+def breakaway_table(resolution: float = 1e-3) -> str:
+    """Break-away of the rigid and contact levels with the pin-load law, drive and coast: the sun
+    load difference is ramped (1 ms steps of ``resolution`` x K T0, from 0.97 K T0, the model
+    starting statically loaded) until the differential moves (rigid: relative speed; contact: both
+    planets slipping). T0 = 2100 N m, carrier at 1.389 rad/s, sun A the more loaded one."""
+    from spurdiff.mesh_dynamics import MeshDifferential, MeshParams
+    from spurdiff.rigid import RigidDifferential
+
+    def make(level: str, loads: tuple[float, float]):
+        p = DifferentialParams()
+        m = RigidDifferential(p) if level == "rigid" else MeshDifferential(p, MeshParams(meshModel=level))
+        m.w_ref, m.w_start_carrier = 1.389, 1.389
+        m.tau_L, m.tau_R = loads
+        m.initialize()
+        return m
+
+    def loads(sign: float, D: float) -> tuple[float, float]:
+        return -1050.0 * sign - D / 2, -1050.0 * sign + D / 2
+
+    ref = make("rigid", loads(1.0, 0.0))
+    rows = []
+    for case, sign, K in (("drive", 1.0, ref.K), ("coast", -1.0, ref.K_coast)):
+        KT0 = K * 2100.0
+        found = {}
+        for level in ("rigid", "contact"):
+            D0 = 0.97 * KT0
+            m = make(level, loads(sign, D0))
+            for k in range(400):
+                D = D0 + resolution * KT0 * k
+                m.tau_L, m.tau_R = loads(sign, D)
+                m.do_step(k * 1e-3, 1e-3)
+                if (m.wd != 0.0) if level == "rigid" else (0 not in m.planet_modes):
+                    found[level] = D
+                    break
+        rows.append([case, f"{K:.4f}", f"{KT0:.2f}", f"{found['rigid']:.2f}", f"{found['contact']:.2f}",
+                     f"{100 * (found['contact'] / found['rigid'] - 1):+.2f} %"])
+    return render(["case", "K", "K T0 N m", "rigid breaks at N m", "contact breaks at N m", "contact vs rigid"],
+                  rows)
+
+
+if __name__ == "__main__":   # python -m harness.info breakaway
+    import sys
+
+    print(breakaway_table() if sys.argv[1:] == ["breakaway"] else info_text())
