@@ -2,9 +2,21 @@
 
 For each FMU script in ``fmu_src/``: pythonfmu builds the archive with the ``spurdiff`` package
 bundled as a resource; the modelDescription.xml is post-processed from the script's declared
-variables (:mod:`harness.modeldescription`); the Linux binary gets a ``DT_NEEDED`` entry for this
-Python's shared libpython (and a RUNPATH to its directory) with patchelf, so that a C host that
-does not embed Python can load it. A build is skipped when the FMU is newer than every source.
+variables (:mod:`harness.modeldescription`). The Linux binary is then our own (``fmu_src/native``,
+compiled here with the C compiler and this Python's headers), in place of pythonfmu's wrapper:
+
+* ``binaries/linux64/<model>.so``, the loader, depends on the C library only; at
+  fmi2Instantiate it makes the recorded libpython's symbols global (or uses the Python the host
+  process already runs) and loads
+* ``binaries/linux64/fmi2_pybridge.so``, which starts the interpreter with the recorded home and
+  module path (isolated from the host's environment), never finalizes it, and maps each FMI call
+  onto the adapter's ``fmi2_*`` methods with the statuses the standard asks for;
+* ``resources/python_runtime.cfg`` records this Python (libpython, home, sys.path), the packages
+  the FMU needs, its module, class and GUID.
+
+So a C host (fmuCheck, fmusim, ecos) runs the FMU with a bare environment. Without a C compiler
+the build keeps pythonfmu's wrapper, linked to libpython with patchelf, and says so (a C host then
+needs LD_PRELOAD and PYTHONHOME). A build is skipped when the FMU is newer than every source.
 """
 from __future__ import annotations
 
@@ -18,11 +30,13 @@ import sys
 import sysconfig
 import tempfile
 import zipfile
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 FMU_SRC = ROOT / "fmu_src"
 PACKAGE = FMU_SRC / "spurdiff"
+NATIVE = FMU_SRC / "native"
 DEFAULT_DEST = ROOT / "build" / "fmus"
 
 # FMU name -> (script, default experiment)
@@ -31,6 +45,14 @@ FMUS: dict[str, tuple[str, dict]] = {
     "WheelLoad": ("WheelLoad.py", {"startTime": 0.0, "stopTime": 1.0, "stepSize": 1e-3}),
     "Vehicle": ("Vehicle.py", {"startTime": 0.0, "stopTime": 10.0, "stepSize": 1e-3}),
 }
+# the packages each FMU imports at instantiate (named in the log when the host's Python lacks one)
+REQUIRES: dict[str, tuple[str, ...]] = {
+    "SpurDifferential": ("numpy", "scipy"),
+    "WheelLoad": ("numpy",),
+    "Vehicle": ("numpy",),
+}
+BRIDGE = "fmi2_pybridge.so"
+RUNTIME_CFG = "python_runtime.cfg"
 
 
 class BuildError(RuntimeError):
@@ -42,6 +64,7 @@ def source_digest(script: Path) -> str:
     h = hashlib.sha256()
     files = [script, Path(__file__), ROOT / "harness" / "modeldescription.py"]
     files += sorted(p for p in PACKAGE.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
+    files += sorted(p for p in NATIVE.glob("*") if p.suffix in (".c", ".h"))
     for p in files:
         h.update(str(p.relative_to(ROOT)).encode())
         h.update(p.read_bytes())
@@ -89,6 +112,67 @@ def find_patchelf() -> str | None:
     return shutil.which("patchelf")
 
 
+def _fmi2_headers() -> Path:
+    """The FMI 2.0 standard headers: fmpy ships them."""
+    import fmpy
+    return Path(fmpy.__file__).parent / "c-code"
+
+
+def compile_native(out_dir: Path) -> tuple[Path, Path]:
+    """Compile the loader and the bridge into ``out_dir``; raises BuildError with the compiler's
+    message when there is no compiler or a build fails."""
+    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        raise BuildError("no C compiler (cc/gcc) on PATH")
+    include = sysconfig.get_paths()["include"]
+    if not (Path(include) / "Python.h").is_file():
+        raise BuildError(f"no Python.h in {include} (install this Python's development headers)")
+    common = ["-shared", "-fPIC", "-O2", "-Wall", "-Werror=implicit-function-declaration",
+              f"-I{_fmi2_headers()}", f"-I{NATIVE}"]
+    loader, bridge = out_dir / "loader.so", out_dir / BRIDGE
+    jobs = [
+        [cc, *common, str(NATIVE / "fmi2_loader.c"), "-o", str(loader), "-ldl", "-lpthread"],
+        [cc, *common, f"-I{include}",
+         str(NATIVE / "fmi2_pybridge.c"), "-o", str(bridge), "-lpthread"],
+    ]
+    for cmd in jobs:
+        source = next(c for c in cmd if c.endswith(".c"))
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        if r.returncode != 0:
+            raise BuildError(f"compiling {source} failed:\n{r.stderr.strip()}")
+    return loader, bridge
+
+
+def runtime_cfg(name: str, script: str, guid: str) -> str:
+    """resources/python_runtime.cfg: the Python this FMU runs on (see fmu_src/native/runtime_cfg.h)."""
+    lib = _libpython()
+    if lib is None:
+        raise BuildError(f"this Python ({sys.executable}) has no shared libpython: a C host could not "
+                         "load it (use a Python built with --enable-shared)")
+    prefixes = {str(Path(p).resolve()) for p in (sys.prefix, sys.base_prefix)}
+    path = []
+    for entry in sys.path:
+        if not entry or not Path(entry).exists():
+            continue
+        resolved = str(Path(entry).resolve())
+        if any(resolved == p or resolved.startswith(p + os.sep) for p in prefixes) and entry not in path:
+            path.append(entry)
+    lines = [
+        "# The Python this FMU was built with; its binary loads it at fmi2Instantiate.",
+        "# To run the FMU on a machine where that Python lives elsewhere, edit libpython, home and path.",
+        f"libpython={lib}",
+        f"version={sys.version_info.major}.{sys.version_info.minor}",
+        f"executable={sys.executable}",
+        f"home={sys.base_prefix}",
+        *(f"path={p}" for p in path),
+        *(f"require={m}" for m in REQUIRES.get(name, ())),
+        f"module={Path(script).stem}",
+        f"class={name}",
+        f"guid={guid}",
+    ]
+    return "\n".join(lines) + "\n"
+
+
 def _patch_binary(so: Path) -> str:
     """Add DT_NEEDED libpython (+ RUNPATH) to the Linux binary. Returns a note for the log."""
     patchelf = find_patchelf()
@@ -114,25 +198,41 @@ def build_one(name: str, dest: Path = DEFAULT_DEST, quiet: bool = False) -> Path
     variables = _load_variables(script, name)
     with tempfile.TemporaryDirectory(prefix="spurdiff_build_") as tmp:
         tmp = Path(tmp)
+        native: tuple[Path, Path] | None = None
+        notes = []
+        if sys.platform.startswith("linux"):
+            try:
+                native = compile_native(tmp)
+            except BuildError as e:
+                notes.append(f"WARNING: the native bridge was not built ({e}); the FMU keeps pythonfmu's "
+                             "wrapper, which C hosts load only with LD_PRELOAD and PYTHONHOME")
         # bundle a clean copy of the package (no caches)
         pkg = tmp / "spurdiff"
         shutil.copytree(PACKAGE, pkg, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
         raw = FmuBuilder.build_FMU(script, dest=tmp / "raw", project_files=[pkg],
                                    canGetAndSetFMUstate=True, canSerializeFMUstate=True)
         out = fmu_path(name, dest)
-        notes = []
         part = tmp / f"{name}.fmu"
         with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as zout:
+            guid = None
             for item in zin.infolist():
                 data = zin.read(item.filename)
                 if item.filename == "modelDescription.xml":
                     data = postprocess(data.decode("utf-8"), variables, experiment).encode("utf-8")
+                    guid = ET.fromstring(data).get("guid")
                 elif item.filename.startswith("binaries/linux64/") and item.filename.endswith(".so"):
-                    so = tmp / "lib.so"
-                    so.write_bytes(data)
-                    notes.append(_patch_binary(so))
-                    data = so.read_bytes()
+                    if native is not None:
+                        data = native[0].read_bytes()
+                        zout.writestr(f"binaries/linux64/{BRIDGE}", native[1].read_bytes())
+                        notes.append("native bridge: a C host needs no environment variables")
+                    else:
+                        so = tmp / "lib.so"
+                        so.write_bytes(data)
+                        notes.append(_patch_binary(so))
+                        data = so.read_bytes()
                 zout.writestr(item, data)
+            if native is not None:
+                zout.writestr(f"resources/{RUNTIME_CFG}", runtime_cfg(name, script_name, guid))
         with zipfile.ZipFile(part) as z:
             if not any(n.startswith("binaries/") for n in z.namelist()):
                 raise BuildError(f"{name}: the built archive has no binaries/ (pythonfmu build incomplete)")

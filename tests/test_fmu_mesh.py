@@ -95,7 +95,7 @@ def test_contact_state_rollback_is_exact(differential_fmu, serialize):
     ({"meshModel": "compliant", "meshA1.backlash": -1e-4}, "backlash"),
 ])
 def test_bad_mesh_parameters_name_the_parameter(differential_fmu, params, name):
-    inst = start(differential_fmu, params=params)
+    inst = start(differential_fmu, params=params, expect_error=True)
     errs = inst.errors()
     assert errs and name in errs[0] and "allowed" in errs[0]
     free(inst)

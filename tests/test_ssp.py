@@ -7,12 +7,9 @@ same FMU code with the same inputs; what is left is rounding (libcosim counts ti
 nanoseconds, we in floating seconds): measured at most 1e-15 of the scale on the differential
 scenes and 1.6e-12 on vehicle-cornering (15,000 steps).
 
-Initialization: libcosim exchanges connected values in Initialization Mode (every FMU reads
-its sources before any leaves it); our master initializes instance by instance in scene order.
-Our FMUs compute their outputs in exitInitializationMode, so the two differ at t = 0 whenever a
-consumer initializes after its producer. The comparison therefore runs our master's stepping
-with libcosim's initialization (LibcosimInitMaster below); separate tests show what our own
-initialization changes (see docs/interoperability.md).
+Initialization: both masters exchange connected values in Initialization Mode (one Jacobi
+sweep per instance, every FMU computing its outputs there from what it was given), so the runs
+agree from t = 0 on (docs/interoperability.md).
 """
 from __future__ import annotations
 
@@ -26,7 +23,7 @@ pytest.importorskip("pyssp_standard", reason="pyssp-standard is not installed (p
 pytest.importorskip("libcosimpy", reason="libcosimpy is not installed (pip install libcosimpy)")
 
 from harness.libcosim_run import LibcosimError, read_facts, run_ssp  # noqa: E402
-from harness.master import Master, RunFailure, run_scene  # noqa: E402
+from harness.master import run_scene  # noqa: E402
 from harness.runner import fmu_files_for, prepare_scene  # noqa: E402
 from harness.scene import SCENE_DIR, SceneError  # noqa: E402
 from harness.ssp import SspError, export_ssp, export_ssp_summary, main as export_main  # noqa: E402
@@ -50,11 +47,11 @@ meshModel = "rigid"
 
 [fmus.a]
 fmu = "SpurDifferential"
-parameters = { carrierDrive = "speed", mu_pin = 0.2 }
+parameters = { carrierDrive = "speed", mu_pin = 0.2, lockingLaw = "paper" }
 
 [fmus.b]
 fmu = "SpurDifferential"
-parameters = { carrierDrive = "speed" }
+parameters = { carrierDrive = "speed", lockingLaw = "paper" }
 
 [inputs]
 "a.carrier.w_ref" = { table = [[0.0, 0.5], [0.05, 1.389], [0.1, 1.389]] }
@@ -70,10 +67,6 @@ parameters = { carrierDrive = "speed" }
 VEHICLE = SCENE_DIR / "vehicle-cornering.toml"
 
 
-class TrajectoriesDiffer(AssertionError):
-    """The two runs completed and differ (as opposed to a run that failed)."""
-
-
 def _scene(name: str, tmp_path: Path) -> str:
     """A shipped scene's name, or the path of the two-differential test scene written to tmp_path."""
     if name == "two-differentials":
@@ -86,37 +79,6 @@ def _scene(name: str, tmp_path: Path) -> str:
 @pytest.fixture
 def chain_toml(tmp_path) -> str:
     return _scene("two-differentials", tmp_path)
-
-
-class LibcosimInitMaster(Master):
-    """Our master (same stepping) with libcosim's initialization instead of its own: every
-    instance enters Initialization Mode and gets its parameters and profile values, then N
-    times (N = number of instances) every connected input is set from its source as read in
-    Initialization Mode (a Jacobi sweep), then every instance exits. Our own initialization goes
-    instance by instance in scene order, so a consumer after its producer reads the producer's
-    outputs computed in exitInitializationMode, which libcosim never does."""
-
-    def _initialize(self) -> None:
-        sc = self.scene
-        for spec in sc.instances:
-            inst = self.instances[spec.name]
-            inst.slave.setupExperiment(startTime=0.0, stopTime=sc.duration)
-            inst.slave.enterInitializationMode()
-            params = {**sc.effects, **spec.parameters} if spec.fmu == "SpurDifferential" else dict(spec.parameters)
-            for name, value in params.items():
-                inst.set_value(name, value)
-        self._apply_profiles(0.0)
-        for _ in range(len(sc.instances)):
-            sources = {name: [self.instances[src].slave.getReal([key[1]])[0] for src, key in srcs]
-                       for name, (_, srcs) in self._links.items()}
-            for name, (vrs, _) in self._links.items():
-                if vrs:
-                    self.instances[name].slave.setReal(vrs, sources[name])
-        for spec in sc.instances:
-            inst = self.instances[spec.name]
-            inst.slave.exitInitializationMode()
-            if inst.errors():
-                raise RunFailure(spec.name, 0.0, inst.errors()[-1])
 
 
 def differences(ours, theirs, names):
@@ -134,15 +96,14 @@ def differences(ours, theirs, names):
     return out
 
 
-def _both(scene_name: str, tmp_path: Path, algorithm: str = "jacobi", libcosim_init: bool = True):
-    """The scene run by libcosim from its SSP, and by our master (with libcosim's initialization
-    unless ``libcosim_init`` is false)."""
+def _both(scene_name: str, tmp_path: Path, algorithm: str = "jacobi"):
+    """The scene run by libcosim from its SSP, and by our master as it is."""
     scene = prepare_scene(scene_name, algorithm=algorithm)
     files = fmu_files_for(scene, build_missing=True)
     ssp = export_ssp(scene, files, tmp_path / f"{scene.name}.ssp")
     theirs = run_ssp(ssp)
     assert theirs.ok, theirs.failure
-    ours = (LibcosimInitMaster(scene, files).run() if libcosim_init else run_scene(scene, files))
+    ours = run_scene(scene, files)
     assert ours.ok, str(ours.failure)
     return scene, ours, theirs
 
@@ -167,6 +128,7 @@ def test_export_paper_cornering_reads_back_and_passes_the_schema(tmp_path):
         bound = {p["name"]: (p["type_name"], p["type_value"].parameter["value"])
                  for b in diff.parameter_bindings for p in b.ssv.parameters}
     assert bound == {"meshModel": ("String", "rigid"), "carrierDrive": ("String", "speed"),
+                     "lockingLaw": ("String", "paper"),
                      "carrier.w_ref": ("Real", "1.389"), "left.tau": ("Real", "-1110.201"),
                      "right.tau": ("Real", "-989.799")}
     facts = read_facts(path)
@@ -247,25 +209,23 @@ def test_libcosim_from_ssp_matches_our_jacobi_master(name, tmp_path):
     assert max(np.ptp(ours[n]) for n in scene.record) > 1.0  # a real trajectory, not constants
 
 
-WHEELS_START_FROM_REST = pytest.mark.xfail(
-    strict=True, raises=TrajectoriesDiffer,
-    reason="our FMUs compute outputs only in exitInitializationMode, so under libcosim the wheels read "
-           "flange speed 0 at initialization and start from rest (docs/interoperability.md)")
-
-
 @pytest.mark.parametrize("name", [
     "paper-cornering",
-    pytest.param("vehicle-cornering", marks=[
-        pytest.mark.skipif(not VEHICLE.exists(), reason=f"{VEHICLE.name} does not exist yet"),
-        WHEELS_START_FROM_REST]),
+    "two-differentials",
+    pytest.param("vehicle-cornering", marks=pytest.mark.skipif(
+        not VEHICLE.exists(), reason=f"{VEHICLE.name} does not exist yet")),
 ])
-def test_libcosim_from_ssp_reproduces_spurdiff_run(name, tmp_path):
-    """The SSP run by libcosim against `spurdiff run --algorithm jacobi` as it is (our master's
-    own initialization): what a user of the SSP gets."""
-    scene, ours, theirs = _both(_scene(name, tmp_path), tmp_path, libcosim_init=False)
-    bad = [n for n, d, s, _ in differences(ours, theirs, scene.record) if d > RTOL * s]
-    if bad:
-        raise TrajectoriesDiffer(f"differ: {', '.join(bad)}")
+def test_libcosim_from_ssp_reproduces_spurdiff_run_from_t0(name, tmp_path):
+    """What a user of the SSP gets: libcosim reads our outputs in Initialization Mode to
+    propagate initial values (they are computed there from the parameters and inputs set so far),
+    and our master initializes the same way, so both runs agree from t = 0 on, the vehicle's
+    wheels included (they used to start from rest under libcosim)."""
+    scene, ours, theirs = _both(_scene(name, tmp_path), tmp_path)
+    bad = [f"{n}: {d:.3g} at t = {t:g} s" for n, d, s, t in differences(ours, theirs, scene.record) if d > RTOL * s]
+    assert not bad, "differ: " + "; ".join(bad)
+    idx = np.rint(ours.time / theirs.step).astype(int)
+    for n in scene.record:   # t = 0 itself, not only the trajectory after it
+        assert abs(ours[n][0] - theirs[n][idx[0]]) <= RTOL * max(1.0, abs(ours[n][0])), n
 
 
 def test_the_comparison_tells_jacobi_from_gauss_seidel(tmp_path):
@@ -277,17 +237,12 @@ def test_the_comparison_tells_jacobi_from_gauss_seidel(tmp_path):
     assert worst["a.left.w"] <= RTOL  # a has no connected input: the same either way
 
 
-def test_our_own_initialization_differs_from_libcosims_only_at_t0_in_the_chain(tmp_path):
-    """Characterization (docs/interoperability.md): with our master's own initialization b, which
-    initializes after its producer a, starts from a's real initial sun speed (0.5 rad/s); under
-    libcosim it starts from the start value 0. The drive reaches its reference within the first
-    step, so nothing differs after t = 0."""
-    scene, ours, theirs = _both(_scene("two-differentials", tmp_path), tmp_path, libcosim_init=False)
-    idx = np.rint(ours.time / theirs.step).astype(int)
-    for n in ("b.carrier.w", "b.left.w", "b.right.w"):
-        d = ours[n] - theirs[n][idx]
-        assert d[0] == pytest.approx(0.5, abs=1e-12), n
-        assert np.max(np.abs(d[1:])) <= RTOL * max(1.0, np.max(np.abs(ours[n]))), n
+def test_initial_values_travel_through_the_chain_in_initialization_mode(tmp_path):
+    """b's carrier is driven by a's sun speed; a starts at 0.5 rad/s. In Initialization Mode b
+    already reads a's initial output (not the start value 0): b starts at 0.5 rad/s."""
+    scene, ours, theirs = _both(_scene("two-differentials", tmp_path), tmp_path)
+    assert ours["b.carrier.w"][0] == pytest.approx(0.5, abs=1e-12)
+    assert theirs["b.carrier.w"][0] == pytest.approx(0.5, abs=1e-12)
 
 
 def test_a_binding_libcosim_drops_is_reported(chain_toml, tmp_path):

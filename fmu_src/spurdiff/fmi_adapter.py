@@ -1,4 +1,4 @@
-"""Thin pythonfmu adapter shared by the project's FMUs.
+"""Thin adapter between FMI 2.0 co-simulation and the project's physics models.
 
 An FMU script declares its interface as a list of :class:`Var` (name, causality, variability,
 unit, display unit, description, start value, direct dependencies) and maps it onto a physics
@@ -8,37 +8,71 @@ model from this package. The same list drives
 * the build-time post-processing of modelDescription.xml (units, display units, unit
   definitions, Outputs with dependencies, InitialUnknowns; see ``harness/modeldescription.py``).
 
-What pythonfmu 0.7 cannot do, and how the adapter copes:
+The FMU's binary is our own bridge (``fmu_src/native``), not pythonfmu's wrapper: it calls the
+``fmi2_*`` methods below, one per FMI function, and takes their return value as the status
+(``None`` is fmi2OK). So every refusal has the status the standard asks for, the instance
+stays usable after it, and nothing here needs to raise. The FMI state machine (FMI 2.0
+section 4.2.4) is tracked in ``phase``:
 
-* Every Python exception escaping a callback becomes fmi2Fatal (the instance is then unusable).
-  So no callback here raises: setters only store values; parameters and inputs are validated in
-  ``exit_initialization_mode`` and ``do_step``; a failure is logged with status error (message
-  names the variable and the allowed range) and ``do_step`` returns False, which pythonfmu
-  reports as fmi2Discard. ``exitInitializationMode`` itself cannot return an error status, so an
-  invalid parameter set is reported by the logger there and every later doStep is refused.
-* The FMI state machine is tracked: doStep before initialization, or after a failed
-  initialization, is refused (fmi2Discard); setting a fixed parameter after initialization is
-  refused by raising, which pythonfmu reports as fmi2Fatal (the only refusal a setter has).
-* get/set FMU state carries the whole model state (including integrator memory), not only the
-  registered variables.
+``instantiated`` -> ``initializing`` -> ``stepping`` -> ``terminated``, and ``error`` after an
+initialization that failed (only fmi2Reset and fmi2FreeInstance help then).
+
+* Parameters and inputs are validated in fmi2ExitInitializationMode (fmi2Error, with the logged
+  reason naming the variable and its allowed range); outputs and calculated parameters read
+  in initialization mode are computed from the values set so far (FMI 2.0 section 2.2.7,
+  InitialUnknowns).
+* fmi2DoStep refuses (fmi2Discard, state kept at the last successful time, logged reason) a
+  communication point that is not the FMU's time, a step past a defined stop time, a
+  non-finite input, and a step whose result is not finite.
+* get/set FMU state carry the whole model state (integrator memory included); a serialized
+  state is validated (kind, version, fixed parameters, the parameter ranges) before it can be
+  set, and a state of another fidelity is refused.
+
+pythonfmu's own protocol (``do_step`` returning a bool, ``exit_initialization_mode``...) is kept
+on top, for an FMU built without a C compiler, which then runs on pythonfmu's wrapper.
 """
 from __future__ import annotations
 
+import json
 import math
+from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real, String
 from pythonfmu.enums import Fmi2Status
 
+from . import __version__
 from .errors import ParameterError
 from .fmi_vars import Var
 
-
+OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3
 _TYPES = {"Real": Real, "Integer": Integer, "Boolean": Boolean, "String": String}
+_CAST = {"Real": float, "Integer": int, "Boolean": bool, "String": str}
+_STATE_FORMAT = "spurdiff-fmu-state"
+_STATE_VERSION = 1
+# fmi2StatusKind
+_DO_STEP_STATUS, _PENDING_STATUS, _LAST_SUCCESSFUL_TIME, _TERMINATED = range(4)
 
 
 def _is_bad_number(v: Any) -> bool:
     return isinstance(v, float) and (math.isnan(v) or math.isinf(v))
+
+
+def _time_tolerance(t: float, h: float) -> float:
+    """How far a communication point may stand from the FMU's time: rounding of a sum of steps."""
+    return 1e-9 * max(1.0, abs(t)) + 1e-6 * h
+
+
+@dataclass
+class FmuState:
+    """An FMU state: what ``fmi2GetFMUstate`` hands out (opaque to the host)."""
+
+    kind: str
+    values: dict
+    phase: str
+    failure: str
+    time: float
+    model: Any
 
 
 class ModelFmu(Fmi2Slave):
@@ -64,13 +98,22 @@ class ModelFmu(Fmi2Slave):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
+        self._bridged = "logging_on" in kwargs   # our bridge passes it, pythonfmu's wrapper does not
         self.values: dict[str, Any] = {}
-        self._real_get: dict[int, str] = {}     # value reference -> name, every Real
-        self._real_set: dict[int, str] = {}     # value reference -> name, settable Reals
+        self._get: dict[str, dict[int, str]] = {k: {} for k in _TYPES}   # type -> vr -> name
+        self._set: dict[str, dict[int, str]] = {k: {} for k in _TYPES}   # settable ones
         self._fixed: set[str] = {v.name for v in self.VARIABLES if v.fmi_variability == "fixed"}
+        self._inputs = [v.name for v in self.VARIABLES if v.causality == "input"]
+        self._outputs = [v.name for v in self.VARIABLES if v.causality == "output" and v.kind == "Real"]
         self.model = None
-        self.phase = "instantiated"   # instantiated | initializing | stepping | failed | terminated
+        self.phase = "instantiated"
         self.failure = ""
+        self.time = 0.0
+        self.stop_time: float | None = None
+        self.terminated = False          # fmi2Terminated: the FMU cannot go on (stop time reached)
+        self.last_step_status = OK
+        self._dirty = True               # values changed since the model was built
+        self._categories: set[str] | None = None   # None: every category
         for v in self.VARIABLES:
             self.values[v.name] = v.start
             self._register(v)
@@ -79,133 +122,357 @@ class ModelFmu(Fmi2Slave):
     def _register(self, v: Var) -> None:
         values = self.values
         name = v.name
+        settable = v.causality not in ("output", "calculatedParameter", "local")
         var = _TYPES[v.kind](
             name,
             causality=getattr(Fmi2Causality, v.causality),
             variability=getattr(Fmi2Variability, v.fmi_variability),
             description=v.description,
             getter=lambda: values[name],
-            setter=None if v.causality in ("output", "calculatedParameter", "local") else self._setter(name),
+            setter=self._setter(name) if settable else None,
         )
         self.register_variable(var, nested=False)
-        if v.kind == "Real":
-            self._real_get[var.value_reference] = name
-            if v.causality not in ("output", "calculatedParameter", "local"):
-                self._real_set[var.value_reference] = name
-
-    # ------------------------------------------------------------------ Real access
-    # pythonfmu's own get_real/set_real look up each variable object and call its lambda; these
-    # read and write the value table directly (same behaviour, a third of the cost per call:
-    # the FMI overhead of a coupled run is mostly these calls, see docs/performance.md)
-    def get_real(self, vrs):
-        values, names = self.values, self._real_get
-        try:
-            return [float(values[names[vr]]) for vr in vrs]
-        except KeyError as e:
-            raise TypeError(f"Variable with valueReference={e.args[0]} is not of type Real!") from None
-
-    def set_real(self, vrs, values):
-        table, names = self.values, self._real_set
-        for vr, x in zip(vrs, values):
-            name = names.get(vr)
-            if name is None:
-                raise TypeError(f"Variable with valueReference={vr} is not a settable Real")
-            self._refuse_fixed_after_init(name)
-            table[name] = x
+        self._get[v.kind][var.value_reference] = name
+        if settable:
+            self._set[v.kind][var.value_reference] = name
 
     def _setter(self, name: str) -> Callable[[Any], None]:
-        values = self.values
-
         def set_value(x):
-            self._refuse_fixed_after_init(name)
-            values[name] = x
+            status = self._store([name], [x])
+            if status != OK:
+                raise RuntimeError(self.failure_of_last_set)
         return set_value
-
-    def _refuse_fixed_after_init(self, name: str) -> None:
-        if name in self._fixed and self.phase not in ("instantiated", "initializing"):
-            # FMI 2.0 forbids it; raising is the only refusal pythonfmu 0.7 offers (fmi2Fatal)
-            raise RuntimeError(f"{name} is a fixed parameter: it cannot be set after initialization "
-                               f"(state '{self.phase}'); use fmi2Reset first")
 
     # ------------------------------------------------------------------ logging
     def _log(self, msg: str, status: Fmi2Status = Fmi2Status.ok) -> None:
-        # pythonfmu passes the text as a printf format: escape '%'
-        self.log(msg.replace("%", "%%"), status)
+        # both our bridge and pythonfmu's wrapper hand the text to the host's logger as its format;
+        # the bridge doubles '%' itself
+        self.log(msg if self._bridged else msg.replace("%", "%%"), status)
 
-    # ------------------------------------------------------------------ FMI callbacks
-    def enter_initialization_mode(self):
+    def log(self, msg, status=Fmi2Status.ok, category=None, debug=None):
+        if category is None:
+            category = f"logStatus{Fmi2Status(status).name.capitalize()}"
+            if category not in self.log_categories:
+                category = "logAll"
+        if status == Fmi2Status.ok and self._categories is not None and category not in self._categories:
+            return
+        super().log(msg, status, category)
+
+    def _refuse(self, status: int, msg: str) -> int:
+        self._log(msg, Fmi2Status(status))
+        return status
+
+    # ------------------------------------------------------------------ values
+    def _store(self, names: Sequence[str], xs: Sequence[Any]) -> int:
+        phase = self.phase
+        if phase in ("terminated", "error"):
+            self.failure_of_last_set = (f"setting {names[0]} refused: the instance is in state '{phase}' "
+                                        "(fmi2Reset first)")
+            return self._refuse(ERROR, self.failure_of_last_set)
+        for name in names:
+            if name in self._fixed and phase not in ("instantiated", "initializing"):
+                self.failure_of_last_set = (f"{name} is a fixed parameter: it cannot be set after "
+                                            f"initialization (state '{phase}'); fmi2Reset first")
+                return self._refuse(ERROR, self.failure_of_last_set)
+        table = self.values
+        for name, x in zip(names, xs):
+            table[name] = x
+        self._dirty = True
+        return OK
+
+    def _names(self, kind: str, vrs, settable: bool) -> list[str]:
+        table = (self._set if settable else self._get)[kind]
+        try:
+            return [table[vr] for vr in vrs]
+        except KeyError as e:
+            vr = e.args[0]
+            what = "settable " if settable and vr in self._get[kind] else ""
+            raise ValueError(f"value reference {vr} is not a {what}{kind} variable of this FMU") from None
+
+    def _read(self, kind: str, vrs) -> list:
+        names = self._names(kind, vrs, settable=False)
+        if self.phase == "initializing" and self._dirty:
+            self._initial_outputs()
+        cast, values = _CAST[kind], self.values
+        return [cast(values[n]) for n in names]
+
+    def _initial_outputs(self) -> None:
+        """Outputs and calculated parameters from the values set so far (initialization mode)."""
+        self.model = self._built()
+        self.pull_outputs(self.model, self.values)
+        self._dirty = False
+
+    def _built(self):
+        for v in self.VARIABLES:
+            if v.causality in ("parameter", "input") and _is_bad_number(self.values[v.name]):
+                raise ParameterError(v.name, self.values[v.name], "a finite number")
+        return self.build_model(self.values)
+
+    # ------------------------------------------------------------------ FMI 2.0 (the bridge)
+    def fmi2_set_debug_logging(self, on: bool, categories: list[str]) -> int:
+        unknown = [c for c in categories if c not in self.log_categories]
+        if unknown:
+            return self._refuse(ERROR, f"fmi2SetDebugLogging: unknown log categories {unknown}; "
+                                       f"declared: {sorted(self.log_categories)}")
+        self._categories = set(categories) if (on and categories) else None
+        return OK
+
+    def fmi2_setup_experiment(self, tolerance_defined: bool, tolerance: float, start: float,
+                              stop_defined: bool, stop: float) -> int:
+        if self.phase != "instantiated":
+            return self._refuse(ERROR, f"fmi2SetupExperiment refused in state '{self.phase}' "
+                                       "(only after fmi2Instantiate or fmi2Reset)")
+        if not math.isfinite(start):
+            return self._refuse(ERROR, f"fmi2SetupExperiment: startTime = {start} must be finite")
+        if stop_defined and not (math.isfinite(stop) and stop >= start):
+            return self._refuse(ERROR, f"fmi2SetupExperiment: stopTime = {stop} must be finite and >= "
+                                       f"startTime = {start}")
+        self.time = start
+        self.stop_time = stop if stop_defined else None
+        return OK
+
+    def fmi2_enter_initialization_mode(self) -> int:
+        if self.phase != "instantiated":
+            return self._refuse(ERROR, f"fmi2EnterInitializationMode refused in state '{self.phase}' "
+                                       "(only once, after fmi2Instantiate or fmi2Reset)")
         self.phase = "initializing"
+        return OK
+
+    def fmi2_exit_initialization_mode(self) -> int:
+        if self.phase != "initializing":
+            return self._refuse(ERROR, f"fmi2ExitInitializationMode refused in state '{self.phase}'")
+        try:
+            if self._dirty or self.model is None:
+                self._initial_outputs()
+            self.phase = "stepping"
+            return OK
+        except ParameterError as e:
+            self.failure = f"invalid parameter: {e}"
+        except Exception as e:
+            self.failure = f"initialization failed: {type(e).__name__}: {e}"
+        self.phase = "error"
+        self.model = None
+        return self._refuse(ERROR, self.failure)
+
+    def fmi2_terminate(self) -> int:
+        if self.phase not in ("stepping", "error"):
+            return self._refuse(ERROR, f"fmi2Terminate refused in state '{self.phase}'")
+        self.phase = "terminated"
+        return OK
+
+    def fmi2_get_real(self, vrs) -> list:
+        return self._read("Real", vrs)
+
+    def fmi2_get_integer(self, vrs) -> list:
+        return self._read("Integer", vrs)
+
+    def fmi2_get_boolean(self, vrs) -> list:
+        return self._read("Boolean", vrs)
+
+    def fmi2_get_string(self, vrs) -> list:
+        return self._read("String", vrs)
+
+    def fmi2_set_real(self, vrs, xs) -> int:
+        return self._store(self._names("Real", vrs, True), xs)
+
+    def fmi2_set_integer(self, vrs, xs) -> int:
+        return self._store(self._names("Integer", vrs, True), xs)
+
+    def fmi2_set_boolean(self, vrs, xs) -> int:
+        return self._store(self._names("Boolean", vrs, True), xs)
+
+    def fmi2_set_string(self, vrs, xs) -> int:
+        return self._store(self._names("String", vrs, True), xs)
+
+    def fmi2_do_step(self, t: float, h: float, no_set_prior: bool = False) -> int:
+        status = self._step(t, h)
+        self.last_step_status = status
+        return status
+
+    def _step(self, t: float, h: float) -> int:
+        if self.phase != "stepping":
+            why = f": {self.failure}" if self.failure else ""
+            return self._refuse(ERROR, f"fmi2DoStep refused in state '{self.phase}'{why}")
+        if not (h > 0.0 and math.isfinite(h)):
+            return self._refuse(DISCARD, f"fmi2DoStep at t = {t:g} s refused: communicationStepSize = {h} "
+                                         "must be > 0 and finite")
+        if not (math.isfinite(t) and abs(t - self.time) <= _time_tolerance(t, h)):
+            return self._refuse(DISCARD, f"fmi2DoStep refused: currentCommunicationPoint = {t!r} s is not the "
+                                         f"FMU's time {self.time!r} s (no gaps, no going back: use fmi2SetFMUstate)")
+        if self.stop_time is not None and t + h > self.stop_time + _time_tolerance(self.stop_time, h):
+            self.terminated = True
+            return self._refuse(DISCARD, f"fmi2DoStep refused: t + h = {t + h:g} s is past the stopTime "
+                                         f"{self.stop_time:g} s set by fmi2SetupExperiment")
+        values = self.values
+        for name in self._inputs:
+            if _is_bad_number(values[name]):
+                return self._refuse(DISCARD, f"fmi2DoStep at t = {t:g} s refused: input {name} = "
+                                             f"{values[name]} is not a finite number; state kept at t = {self.time:g} s")
+        model = self.model
+        # the rollback point; a model whose do_step leaves itself as it was on any error and never
+        # commits a non-finite state says so with ATOMIC_STEP (no snapshot on the hot path)
+        atomic = getattr(model, "ATOMIC_STEP", False)
+        saved = None if atomic else model.get_state()
+        try:
+            self.push_inputs(model, values)
+            model.do_step(t, h)
+            self.pull_outputs(model, values)
+            bad = next((n for n in self._outputs if not math.isfinite(values[n])), None)
+            if bad is None:
+                self.time = t + h
+                return OK
+            msg = f"fmi2DoStep at t = {t:g} s refused: its result is not finite ({bad} = {values[bad]})"
+        except ParameterError as e:
+            msg = f"fmi2DoStep at t = {t:g} s refused: {e}"
+        except Exception as e:
+            msg = f"fmi2DoStep at t = {t:g} s failed: {type(e).__name__}: {e}"
+        try:
+            if saved is not None:
+                model.set_state(saved)   # the last successful state stays valid
+            self.pull_outputs(model, values)
+        except Exception as e:
+            self.phase, self.failure = "error", f"state lost after a failed step: {e}"
+            return self._refuse(ERROR, msg + "; " + self.failure)
+        return self._refuse(DISCARD, msg + f"; state kept at t = {self.time:g} s")
+
+    def fmi2_cancel_step(self) -> int:
+        return self._refuse(ERROR, "fmi2CancelStep: no asynchronous step is pending (fmi2DoStep never "
+                                   "returns fmi2Pending)")
+
+    def fmi2_get_status(self, kind: int, type_: str) -> tuple[int, Any]:
+        if type_ == "status" and kind == _DO_STEP_STATUS:
+            return OK, self.last_step_status
+        if type_ == "real" and kind == _LAST_SUCCESSFUL_TIME:
+            return OK, self.time
+        if type_ == "boolean" and kind == _TERMINATED:
+            return OK, self.terminated
+        if kind == _PENDING_STATUS:
+            return self._refuse(DISCARD, "fmi2PendingStatus: no asynchronous step is pending"), ""
+        return self._refuse(ERROR, f"status kind {kind} is not defined for fmi2Get{type_.capitalize()}Status"), 0
+
+    # ------------------------------------------------------------------ FMU state
+    def fmi2_get_state(self) -> FmuState:
+        return FmuState(type(self).__name__, dict(self.values), self.phase, self.failure, self.time,
+                        self.model.get_state() if self.model is not None else None)
+
+    def fmi2_set_state(self, state: FmuState) -> int:
+        if not isinstance(state, FmuState) or state.kind != type(self).__name__:
+            return self._refuse(ERROR, "fmi2SetFMUstate: not a state of this FMU")
+        if self.phase not in ("instantiated", "initializing"):
+            differ = next((n for n in sorted(self._fixed) if n in state.values
+                           and state.values[n] != self.values[n]), None)
+            if differ is not None:
+                return self._refuse(ERROR, f"fmi2SetFMUstate: the state has {differ} = {state.values[differ]!r}, "
+                                           f"this instance {self.values[differ]!r} (another configuration "
+                                           "or fidelity): fmi2Reset first")
+        try:
+            model = self.model
+            if state.model is not None and (model is None or any(
+                    state.values[n] != self.values[n] for n in self._fixed)):
+                model = self.build_model(dict(state.values))
+            if state.model is not None:
+                model.set_state(state.model)
+        except Exception as e:
+            return self._refuse(ERROR, f"fmi2SetFMUstate: the state does not fit this FMU: {type(e).__name__}: {e}")
+        self.values.clear()
+        self.values.update(state.values)
+        self.model = model if state.model is not None else None
+        self.phase, self.failure, self.time = state.phase, state.failure, state.time
+        self.terminated = False
+        self._dirty = False
+        return OK
+
+    def fmi2_serialize_state(self, state: FmuState) -> bytes:
+        doc = {"format": _STATE_FORMAT, "version": _STATE_VERSION, "package": __version__,
+               "kind": state.kind, "values": state.values, "phase": state.phase, "failure": state.failure,
+               "time": state.time, "model": state.model}
+        return json.dumps(doc, allow_nan=True).encode("utf-8")
+
+    def fmi2_deserialize_state(self, data: bytes) -> FmuState:
+        """A serialized state, validated before it can reach the instance: its format and
+        version, the FMU it belongs to, every variable's name and type, the parameter ranges
+        (the model is built from its values apart from this instance) and the model state."""
+        if len(data) > 64 * 1024 * 1024:
+            raise ValueError(f"serialized state of {len(data)} bytes: more than any state of this FMU")
+        try:
+            doc = json.loads(data.decode("utf-8"))
+        except (UnicodeDecodeError, ValueError) as e:
+            raise ValueError(f"not a serialized state of this FMU (not JSON: {e})") from None
+        if not isinstance(doc, dict) or doc.get("format") != _STATE_FORMAT:
+            raise ValueError("not a serialized spurdiff FMU state")
+        if doc.get("version") != _STATE_VERSION:
+            raise ValueError(f"state format version {doc.get('version')!r}, this FMU reads {_STATE_VERSION}")
+        if doc.get("kind") != type(self).__name__:
+            raise ValueError(f"a state of {doc.get('kind')!r}, not of {type(self).__name__}")
+        values = doc.get("values")
+        if not isinstance(values, dict) or set(values) != set(self.values):
+            raise ValueError("the state's variables are not this FMU's")
+        for v in self.VARIABLES:
+            x = values[v.name]
+            ok = (isinstance(x, (int, float)) and not isinstance(x, bool) if v.kind == "Real"
+                  else isinstance(x, int) and not isinstance(x, bool) if v.kind == "Integer"
+                  else isinstance(x, (bool, int)) if v.kind == "Boolean" else isinstance(x, str))
+            if not ok:
+                raise ValueError(f"{v.name} = {x!r} in the state is not a {v.kind}")
+        if doc.get("phase") not in ("instantiated", "initializing", "stepping", "terminated", "error"):
+            raise ValueError(f"unknown phase {doc.get('phase')!r} in the state")
+        t = doc.get("time")
+        if not isinstance(t, (int, float)) or not math.isfinite(t):
+            raise ValueError(f"time {t!r} in the state is not finite")
+        state = FmuState(doc["kind"], values, doc["phase"], str(doc.get("failure", "")), float(t), doc.get("model"))
+        if state.model is not None:
+            try:
+                model = self._built_from(values)
+                model.set_state(state.model)
+            except ParameterError as e:
+                raise ValueError(f"invalid parameter in the state: {e}") from None
+            except Exception as e:
+                raise ValueError(f"the state's model part does not fit: {type(e).__name__}: {e}") from None
+        return state
+
+    def _built_from(self, values: dict):
+        saved = self.values
+        try:
+            self.values = dict(values)
+            return self._built()
+        finally:
+            self.values = saved
+
+    # ------------------------------------------------------------------ pythonfmu's protocol
+    # (an FMU built without a C compiler runs on pythonfmu's wrapper, which calls these)
+    def get_real(self, vrs):
+        return self.fmi2_get_real(vrs)
+
+    def set_real(self, vrs, values):
+        if self.fmi2_set_real(vrs, values) != OK:
+            raise RuntimeError(self.failure_of_last_set)
+
+    def enter_initialization_mode(self):
+        self.fmi2_enter_initialization_mode()
 
     def exit_initialization_mode(self):
-        try:
-            for v in self.VARIABLES:
-                if v.causality in ("parameter", "input") and _is_bad_number(self.values[v.name]):
-                    raise ParameterError(v.name, self.values[v.name], "a finite number")
-            self.model = self.build_model(self.values)
-            self.pull_outputs(self.model, self.values)
-            self.phase = "stepping"
-        except ParameterError as e:
-            self.phase = "failed"
-            self.failure = f"invalid parameter: {e}"
-            self._log(self.failure, Fmi2Status.error)
-        except Exception as e:  # never let an exception reach pythonfmu (fmi2Fatal)
-            self.phase = "failed"
-            self.failure = f"initialization failed: {type(e).__name__}: {e}"
-            self._log(self.failure, Fmi2Status.error)
+        self.fmi2_exit_initialization_mode()
 
     def do_step(self, current_time: float, step_size: float) -> bool:
-        if self.phase != "stepping":
-            if self.phase == "failed":
-                self._log(f"doStep refused at t = {current_time:g} s: {self.failure}", Fmi2Status.error)
-            else:
-                self._log(f"doStep refused: called in state '{self.phase}' (exitInitializationMode first)",
-                          Fmi2Status.error)
-            return False
-        model = self.model
-        saved = None
-        try:
-            if not step_size > 0.0 or math.isinf(step_size):
-                raise ParameterError("communicationStepSize", step_size, "> 0 and finite")
-            # the rollback point; a model whose do_step restores itself on any error says so
-            # with ATOMIC_STEP (no second snapshot on the hot path)
-            saved = None if getattr(model, "ATOMIC_STEP", False) else model.get_state()
-            self.push_inputs(model, self.values)
-            model.do_step(current_time, step_size)
-            self.pull_outputs(model, self.values)
-            return True
-        except ParameterError as e:
-            msg = f"doStep at t = {current_time:g} s refused: {e}"
-        except Exception as e:
-            msg = f"doStep at t = {current_time:g} s failed: {type(e).__name__}: {e}"
-        if saved is not None:
-            try:
-                model.set_state(saved)  # the last successful state stays valid
-            except Exception:
-                pass
-        self._log(msg + f"; last successful time {model_time(model, current_time):g} s", Fmi2Status.error)
-        return False
+        return self.fmi2_do_step(current_time, step_size) <= WARNING
 
     def terminate(self):
-        self.phase = "terminated"
+        self.fmi2_terminate()
 
-    # ------------------------------------------------------------------ state
-    def _get_fmu_state(self) -> dict:
-        return {
-            "values": dict(self.values),
-            "phase": self.phase,
-            "failure": self.failure,
-            "model": self.model.get_state() if self.model is not None else None,
-        }
+    def _get_fmu_state(self) -> FmuState:
+        return self.fmi2_get_state()
 
-    def _set_fmu_state(self, state: dict) -> None:
-        self.values.clear()
-        self.values.update(state["values"])
-        self.phase = state["phase"]
-        self.failure = state["failure"]
-        if state["model"] is not None:
-            if self.model is None:
-                self.model = self.build_model(self.values)
-            self.model.set_state(state["model"])
+    def _set_fmu_state(self, state) -> None:
+        if self.fmi2_set_state(state) != OK:
+            raise RuntimeError("fmi2SetFMUstate refused (see the log)")
+
+    @staticmethod
+    def _fmu_state_to_bytes(state: FmuState) -> bytes:
+        return json.dumps(vars(state)).encode("utf-8")
+
+    @staticmethod
+    def _fmu_state_from_bytes(data: bytes) -> FmuState:
+        return FmuState(**json.loads(data.decode("utf-8")))
 
     # ------------------------------------------------------------------ interface hooks
     def build_model(self, values: dict):  # pragma: no cover - overridden
@@ -216,7 +483,3 @@ class ModelFmu(Fmi2Slave):
 
     def pull_outputs(self, model, values: dict) -> None:  # pragma: no cover - overridden
         raise NotImplementedError
-
-
-def model_time(model, fallback: float) -> float:
-    return float(getattr(model, "t", fallback))

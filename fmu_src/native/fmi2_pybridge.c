@@ -1,0 +1,750 @@
+/* FMI 2.0 co-simulation functions over a Python slave object (fmi2_pybridge.so).
+ *
+ * Loaded by fmi2_loader.c once Python's symbols are global; compiled against the building
+ * Python's headers with its functions left undefined (they resolve against the process's Python).
+ * Every exported name carries the prefix spurdiff_bridge_ (defined below: the headers fmpy ships
+ * ignore FMI2_FUNCTION_PREFIX), so it never shadows the loader's unprefixed functions.
+ *
+ * The interpreter: when the process has none running, fmi2Instantiate starts one with the home
+ * and module path recorded in resources/python_runtime.cfg (isolated: the host's environment
+ * variables are not read, no signal handlers are installed) and never finalizes it: a process
+ * that exits with numpy and scipy loaded must not run Python's finalization after their
+ * libraries' destructors (that corrupted the heap at exit under pythonfmu's wrapper).
+ *
+ * The slave protocol (see spurdiff/fmi_adapter.py): the class from the cfg is called with
+ * instance_name, resources, visible, logging_on; each FMI function calls one method named
+ * fmi2_<function> whose return value is the status (None = fmi2OK) or, for getters, the values.
+ * A Python exception becomes fmi2Error with the exception logged; the instance stays usable.
+ * After each call the slave's `log_queue` (pythonfmu LogMsg objects) is passed to the host's
+ * logger (see emit: '%' escaped, so the slave's text is never taken as a format).
+ */
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+
+#include <pthread.h>
+#include <stdarg.h>
+
+#include "fmi2Functions.h"
+#include "runtime_cfg.h"
+
+/* every function defined here carries the prefix the loader looks for */
+#define fmi2SetDebugLogging spurdiff_bridge_fmi2SetDebugLogging
+#define fmi2Instantiate spurdiff_bridge_fmi2Instantiate
+#define fmi2FreeInstance spurdiff_bridge_fmi2FreeInstance
+#define fmi2SetupExperiment spurdiff_bridge_fmi2SetupExperiment
+#define fmi2EnterInitializationMode spurdiff_bridge_fmi2EnterInitializationMode
+#define fmi2ExitInitializationMode spurdiff_bridge_fmi2ExitInitializationMode
+#define fmi2Terminate spurdiff_bridge_fmi2Terminate
+#define fmi2Reset spurdiff_bridge_fmi2Reset
+#define fmi2GetReal spurdiff_bridge_fmi2GetReal
+#define fmi2GetInteger spurdiff_bridge_fmi2GetInteger
+#define fmi2GetBoolean spurdiff_bridge_fmi2GetBoolean
+#define fmi2GetString spurdiff_bridge_fmi2GetString
+#define fmi2SetReal spurdiff_bridge_fmi2SetReal
+#define fmi2SetInteger spurdiff_bridge_fmi2SetInteger
+#define fmi2SetBoolean spurdiff_bridge_fmi2SetBoolean
+#define fmi2SetString spurdiff_bridge_fmi2SetString
+#define fmi2GetFMUstate spurdiff_bridge_fmi2GetFMUstate
+#define fmi2SetFMUstate spurdiff_bridge_fmi2SetFMUstate
+#define fmi2FreeFMUstate spurdiff_bridge_fmi2FreeFMUstate
+#define fmi2SerializedFMUstateSize spurdiff_bridge_fmi2SerializedFMUstateSize
+#define fmi2SerializeFMUstate spurdiff_bridge_fmi2SerializeFMUstate
+#define fmi2DeSerializeFMUstate spurdiff_bridge_fmi2DeSerializeFMUstate
+#define fmi2GetDirectionalDerivative spurdiff_bridge_fmi2GetDirectionalDerivative
+#define fmi2SetRealInputDerivatives spurdiff_bridge_fmi2SetRealInputDerivatives
+#define fmi2GetRealOutputDerivatives spurdiff_bridge_fmi2GetRealOutputDerivatives
+#define fmi2DoStep spurdiff_bridge_fmi2DoStep
+#define fmi2CancelStep spurdiff_bridge_fmi2CancelStep
+#define fmi2GetStatus spurdiff_bridge_fmi2GetStatus
+#define fmi2GetRealStatus spurdiff_bridge_fmi2GetRealStatus
+#define fmi2GetIntegerStatus spurdiff_bridge_fmi2GetIntegerStatus
+#define fmi2GetBooleanStatus spurdiff_bridge_fmi2GetBooleanStatus
+#define fmi2GetStringStatus spurdiff_bridge_fmi2GetStringStatus
+
+#define INSTANCE_MAGIC 0x5350444Du  /* "SPDM" */
+#define STATE_MAGIC 0x53544154u     /* "STAT" */
+
+enum {
+    M_SET_DEBUG_LOGGING, M_SETUP_EXPERIMENT, M_ENTER_INIT, M_EXIT_INIT, M_TERMINATE,
+    M_GET_REAL, M_GET_INTEGER, M_GET_BOOLEAN, M_GET_STRING,
+    M_SET_REAL, M_SET_INTEGER, M_SET_BOOLEAN, M_SET_STRING,
+    M_GET_STATE, M_SET_STATE, M_SERIALIZE_STATE, M_DESERIALIZE_STATE,
+    M_DO_STEP, M_CANCEL_STEP, M_GET_STATUS, N_METHODS
+};
+static const char *METHOD_NAMES[N_METHODS] = {
+    "fmi2_set_debug_logging", "fmi2_setup_experiment", "fmi2_enter_initialization_mode",
+    "fmi2_exit_initialization_mode", "fmi2_terminate",
+    "fmi2_get_real", "fmi2_get_integer", "fmi2_get_boolean", "fmi2_get_string",
+    "fmi2_set_real", "fmi2_set_integer", "fmi2_set_boolean", "fmi2_set_string",
+    "fmi2_get_state", "fmi2_set_state", "fmi2_serialize_state", "fmi2_deserialize_state",
+    "fmi2_do_step", "fmi2_cancel_step", "fmi2_get_status",
+};
+
+typedef struct {
+    unsigned magic;
+    char *name;
+    char *resources;
+    fmi2CallbackFunctions cb;
+    int logging_on;
+    int visible;
+    PyObject *klass;          /* the slave class (kept for fmi2Reset) */
+    PyObject *slave;          /* the slave object */
+    PyObject *log_queue;      /* slave.log_queue */
+    PyObject *methods[N_METHODS];
+    PyObject *strings;        /* keeps the buffers of the last fmi2GetString alive */
+} Instance;
+
+typedef struct {
+    unsigned magic;
+    Instance *owner;
+    PyObject *obj;            /* the slave's state object */
+    PyObject *bytes;          /* its serialization, once asked for */
+} State;
+
+static pthread_mutex_t init_lock = PTHREAD_MUTEX_INITIALIZER;
+
+/* ------------------------------------------------------------------------------ logging */
+/* The message goes to the host as the logger's format with no arguments, every '%' doubled: a
+ * host that formats it (FMI 2.0 section 2.1.5) prints the text as it is, and so does one that
+ * cannot handle variadic arguments and reads the format itself (fmpy). */
+static void emit(const fmi2CallbackFunctions *cb, const char *name, fmi2Status status,
+                 const char *category, const char *msg)
+{
+    if (!cb || !cb->logger) {
+        if (status >= fmi2Warning) fprintf(stderr, "%s: %s\n", name ? name : "fmu", msg);
+        return;
+    }
+    char buf[16384];
+    size_t n = 0;
+    for (const char *p = msg; *p && n + 2 < sizeof buf; p++) {
+        if (*p == '%') buf[n++] = '%';
+        buf[n++] = *p;
+    }
+    buf[n] = 0;
+    cb->logger(cb->componentEnvironment, name ? name : "", status, category ? category : "logAll", buf);
+}
+
+static void emitf(const fmi2CallbackFunctions *cb, const char *name, fmi2Status status, const char *fmt, ...)
+{
+    char msg[8192];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    emit(cb, name, status, status >= fmi2Error ? "logStatusError" : "logAll", msg);
+}
+
+/* The pending Python exception as "Type: message" (cleared). */
+static void exception_text(char *out, size_t size)
+{
+    PyObject *type, *value, *tb;
+    PyErr_Fetch(&type, &value, &tb);
+    PyErr_NormalizeException(&type, &value, &tb);
+    const char *tname = type ? ((PyTypeObject *)type)->tp_name : "Error";
+    PyObject *s = value ? PyObject_Str(value) : NULL;
+    const char *text = s ? PyUnicode_AsUTF8(s) : NULL;
+    if (!text) { PyErr_Clear(); text = "(no message)"; }
+    snprintf(out, size, "%s: %s", tname, text);
+    Py_XDECREF(s);
+    Py_XDECREF(type);
+    Py_XDECREF(value);
+    Py_XDECREF(tb);
+}
+
+/* Pass the slave's queued messages to the host (GIL held). */
+static void flush_log(Instance *I)
+{
+    if (!I->log_queue || !PyList_Check(I->log_queue)) return;
+    Py_ssize_t n = PyList_GET_SIZE(I->log_queue);
+    for (Py_ssize_t i = 0; i < n; i++) {
+        PyObject *m = PyList_GET_ITEM(I->log_queue, i);
+        PyObject *st = PyObject_GetAttrString(m, "status");
+        PyObject *cat = PyObject_GetAttrString(m, "category");
+        PyObject *msg = PyObject_GetAttrString(m, "msg");
+        long status = st ? PyLong_AsLong(st) : fmi2Error;
+        const char *c = (cat && PyUnicode_Check(cat)) ? PyUnicode_AsUTF8(cat) : "logAll";
+        PyObject *ms = msg ? PyObject_Str(msg) : NULL;
+        const char *text = ms ? PyUnicode_AsUTF8(ms) : NULL;
+        if (PyErr_Occurred()) PyErr_Clear();
+        if (status < fmi2OK || status > fmi2Fatal) status = fmi2Error;
+        if (text && (status != fmi2OK || I->logging_on))
+            emit(&I->cb, I->name, (fmi2Status)status, c ? c : "logAll", text);
+        Py_XDECREF(st);
+        Py_XDECREF(cat);
+        Py_XDECREF(msg);
+        Py_XDECREF(ms);
+    }
+    if (n) PyList_SetSlice(I->log_queue, 0, n, NULL);
+}
+
+/* The status a slave method returned (reference stolen), or fmi2Error with the exception logged. */
+static fmi2Status status_of(Instance *I, PyObject *r, const char *fn)
+{
+    if (!r) {
+        char text[4096];
+        exception_text(text, sizeof text);
+        flush_log(I);
+        emitf(&I->cb, I->name, fmi2Error, "%s failed: %s", fn, text);
+        return fmi2Error;
+    }
+    fmi2Status s = fmi2OK;
+    if (r != Py_None) {
+        long v = PyLong_AsLong(r);
+        if (v == -1 && PyErr_Occurred()) {
+            PyErr_Clear();
+            emitf(&I->cb, I->name, fmi2Error, "%s: the slave returned a status that is not an integer", fn);
+            s = fmi2Error;
+        } else if (v < fmi2OK || v > fmi2Error) {   /* a slave never ends the process's simulation: no fatal */
+            s = fmi2Error;
+        } else {
+            s = (fmi2Status)v;
+        }
+    }
+    Py_DECREF(r);
+    return s;
+}
+
+/* ------------------------------------------------------------------------------ interpreter */
+static int start_python(const RuntimeCfg *cfg, char *err, size_t errsize)
+{
+    if (Py_IsInitialized()) {
+        /* a Python host (or another FMU) runs one: it must be the version we were built for */
+        const char *v = Py_GetVersion();
+        size_t n = strlen(cfg->version);
+        if (strncmp(v, cfg->version, n) != 0 || (v[n] != '.' && v[n] != ' ')) {
+            snprintf(err, errsize, "the process runs Python %.20s, this FMU was built for Python %s (%s)",
+                     v, cfg->version, cfg->executable ? cfg->executable : "");
+            return -1;
+        }
+        return 0;
+    }
+    PyStatus status;
+    PyConfig config;
+    PyConfig_InitIsolatedConfig(&config);
+    config.install_signal_handlers = 0;   /* the host owns its signals */
+    config.site_import = 0;               /* the recorded path already holds what site added */
+    config.parse_argv = 0;
+    status = PyConfig_SetBytesString(&config, &config.program_name, cfg->executable ? cfg->executable : "python3");
+    if (!PyStatus_Exception(status) && cfg->home)
+        status = PyConfig_SetBytesString(&config, &config.home, cfg->home);
+    for (int i = 0; i < cfg->n_path && !PyStatus_Exception(status); i++) {
+        wchar_t *w = Py_DecodeLocale(cfg->path[i], NULL);
+        if (!w) { status = PyStatus_NoMemory(); break; }
+        status = PyWideStringList_Append(&config.module_search_paths, w);
+        PyMem_RawFree(w);
+    }
+    config.module_search_paths_set = 1;
+    if (!PyStatus_Exception(status)) status = Py_InitializeFromConfig(&config);
+    PyConfig_Clear(&config);
+    if (PyStatus_Exception(status)) {
+        snprintf(err, errsize, "cannot start Python %s (home %s): %s%s%s", cfg->version,
+                 cfg->home ? cfg->home : "?", status.func ? status.func : "",
+                 status.func ? ": " : "", status.err_msg ? status.err_msg : "unknown error");
+        return -1;
+    }
+    PyEval_SaveThread();   /* release the GIL: every call takes it with PyGILState_Ensure */
+    return 0;
+}
+
+/* ------------------------------------------------------------------------------ instances */
+static Instance *valid(fmi2Component c)
+{
+    Instance *I = (Instance *)c;
+    return (I && I->magic == INSTANCE_MAGIC) ? I : NULL;
+}
+
+static void drop_methods(Instance *I)
+{
+    for (int i = 0; i < N_METHODS; i++) Py_CLEAR(I->methods[i]);
+    Py_CLEAR(I->log_queue);
+    Py_CLEAR(I->slave);
+}
+
+/* Create the slave object and bind its methods (GIL held). 0, or -1 with a Python error set. */
+static int make_slave(Instance *I)
+{
+    PyObject *kw = Py_BuildValue("{s:s,s:s,s:O,s:O}", "instance_name", I->name, "resources", I->resources,
+                                 "visible", I->visible ? Py_True : Py_False,
+                                 "logging_on", I->logging_on ? Py_True : Py_False);
+    if (!kw) return -1;
+    PyObject *args = PyTuple_New(0);
+    PyObject *slave = args ? PyObject_Call(I->klass, args, kw) : NULL;
+    Py_XDECREF(args);
+    Py_DECREF(kw);
+    if (!slave) return -1;
+    PyObject *methods[N_METHODS] = {0};
+    PyObject *queue = PyObject_GetAttrString(slave, "log_queue");
+    int ok = queue != NULL;
+    for (int i = 0; ok && i < N_METHODS; i++) ok = (methods[i] = PyObject_GetAttrString(slave, METHOD_NAMES[i])) != NULL;
+    if (!ok) {
+        for (int i = 0; i < N_METHODS; i++) Py_XDECREF(methods[i]);
+        Py_XDECREF(queue);
+        Py_DECREF(slave);
+        return -1;
+    }
+    drop_methods(I);
+    I->slave = slave;
+    I->log_queue = queue;
+    memcpy(I->methods, methods, sizeof methods);
+    return 0;
+}
+
+static void free_instance(Instance *I)
+{
+    if (!I) return;
+    I->magic = 0;
+    free(I->name);
+    free(I->resources);
+    free(I);
+}
+
+fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
+                              fmi2String resources /* a decoded path: the loader converted the URI */,
+                              const fmi2CallbackFunctions *functions, fmi2Boolean visible,
+                              fmi2Boolean loggingOn)
+{
+    RuntimeCfg cfg;
+    char err[8192];
+    if (cfg_read(resources, &cfg, err, sizeof err) != 0) {
+        emitf(functions, instanceName, fmi2Error, "fmi2Instantiate: %s", err);
+        return NULL;
+    }
+    Instance *I = NULL;
+    if (fmuType != fmi2CoSimulation) {
+        emitf(functions, instanceName, fmi2Error, "fmi2Instantiate: this FMU implements co-simulation only "
+              "(fmuType %d requested)", (int)fmuType);
+        goto fail;
+    }
+    if (!fmuGUID || strcmp(fmuGUID, cfg.guid) != 0) {
+        emitf(functions, instanceName, fmi2Error, "fmi2Instantiate: GUID '%s' does not match this FMU's "
+              "modelDescription.xml ('%s')", fmuGUID ? fmuGUID : "(null)", cfg.guid);
+        goto fail;
+    }
+    pthread_mutex_lock(&init_lock);
+    int rc = start_python(&cfg, err, sizeof err);
+    pthread_mutex_unlock(&init_lock);
+    if (rc != 0) {
+        emitf(functions, instanceName, fmi2Error, "fmi2Instantiate: %s", err);
+        goto fail;
+    }
+    I = (Instance *)calloc(1, sizeof *I);
+    if (!I) goto fail;
+    I->magic = INSTANCE_MAGIC;
+    I->name = cfg_strdup(instanceName);
+    I->resources = cfg_strdup(resources);
+    if (functions) I->cb = *functions;
+    I->logging_on = loggingOn ? 1 : 0;
+    I->visible = visible ? 1 : 0;
+
+    PyGILState_STATE g = PyGILState_Ensure();
+    const char *stage = "";
+    /* the packages the FMU needs, named when missing */
+    for (int i = 0; i < cfg.n_require; i++) {
+        PyObject *m = PyImport_ImportModule(cfg.require[i]);
+        if (!m) {
+            char text[4096];
+            exception_text(text, sizeof text);
+            emitf(functions, instanceName, fmi2Error,
+                  "fmi2Instantiate: this FMU needs the Python package '%s', which Python %s (%s) cannot "
+                  "import: %s. Install it for that interpreter (pip install %s).",
+                  cfg.require[i], Py_GetVersion(), cfg.executable ? cfg.executable : "?", text, cfg.require[i]);
+            PyGILState_Release(g);
+            goto fail;
+        }
+        Py_DECREF(m);
+    }
+    /* resources/ first on sys.path, then the slave module and class */
+    PyObject *sys_path = PySys_GetObject("path");   /* borrowed */
+    PyObject *res = PyUnicode_DecodeFSDefault(resources);
+    int present = (res && sys_path) ? PySequence_Contains(sys_path, res) : -1;
+    if (present < 0 || (!present && PyList_Insert(sys_path, 0, res) != 0)) { stage = "sys.path"; goto pyfail; }
+    Py_CLEAR(res);
+    PyObject *mod = PyImport_ImportModule(cfg.module);
+    if (!mod) { stage = "importing the FMU's module"; goto pyfail; }
+    I->klass = PyObject_GetAttrString(mod, cfg.klass);
+    Py_DECREF(mod);
+    if (!I->klass) { stage = "finding the slave class"; goto pyfail; }
+    if (make_slave(I) != 0) { stage = "creating the slave"; goto pyfail; }
+    flush_log(I);
+    PyGILState_Release(g);
+    cfg_free(&cfg);
+    return I;
+
+pyfail:
+    Py_XDECREF(res);
+    {
+        char text[4096];
+        exception_text(text, sizeof text);
+        emitf(functions, instanceName, fmi2Error, "fmi2Instantiate: %s failed: %s", stage, text);
+    }
+    Py_CLEAR(I->klass);
+    drop_methods(I);
+    PyGILState_Release(g);
+fail:
+    free_instance(I);
+    cfg_free(&cfg);
+    return NULL;
+}
+
+void fmi2FreeInstance(fmi2Component c)
+{
+    Instance *I = valid(c);
+    if (!I) return;
+    PyGILState_STATE g = PyGILState_Ensure();
+    flush_log(I);
+    drop_methods(I);
+    Py_CLEAR(I->klass);
+    Py_CLEAR(I->strings);
+    PyGILState_Release(g);
+    free_instance(I);
+}
+
+/* ------------------------------------------------------------------------------ calls */
+#define ENTER                                                                                      \
+    Instance *I = valid(c);                                                                        \
+    if (!I) return fmi2Error;                                                                      \
+    PyGILState_STATE g = PyGILState_Ensure();                                                      \
+    fmi2Status s;
+
+#define LEAVE                                                                                      \
+    flush_log(I);                                                                                  \
+    PyGILState_Release(g);                                                                         \
+    return s;
+
+fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean on, size_t n, const fmi2String cat[])
+{
+    ENTER
+    PyObject *cats = PyList_New(0);
+    for (size_t i = 0; cats && i < n; i++) {
+        PyObject *x = PyUnicode_FromString(cat && cat[i] ? cat[i] : "");
+        if (!x || PyList_Append(cats, x) != 0) Py_CLEAR(cats);
+        Py_XDECREF(x);
+    }
+    s = cats ? status_of(I, PyObject_CallFunction(I->methods[M_SET_DEBUG_LOGGING], "OO", on ? Py_True : Py_False, cats),
+                         "fmi2SetDebugLogging")
+             : status_of(I, NULL, "fmi2SetDebugLogging");
+    Py_XDECREF(cats);
+    if (s <= fmi2Warning) I->logging_on = on ? 1 : 0;
+    LEAVE
+}
+
+fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean td, fmi2Real tol, fmi2Real t0, fmi2Boolean sd, fmi2Real t1)
+{
+    ENTER
+    s = status_of(I, PyObject_CallFunction(I->methods[M_SETUP_EXPERIMENT], "OddOd", td ? Py_True : Py_False, tol, t0,
+                                           sd ? Py_True : Py_False, t1), "fmi2SetupExperiment");
+    LEAVE
+}
+
+#define SIMPLE_CALL(fn, method)                                                                    \
+    fmi2Status fn(fmi2Component c)                                                                 \
+    {                                                                                              \
+        ENTER                                                                                      \
+        s = status_of(I, PyObject_CallNoArgs(I->methods[method]), #fn);                            \
+        LEAVE                                                                                      \
+    }
+SIMPLE_CALL(fmi2EnterInitializationMode, M_ENTER_INIT)
+SIMPLE_CALL(fmi2ExitInitializationMode, M_EXIT_INIT)
+SIMPLE_CALL(fmi2Terminate, M_TERMINATE)
+SIMPLE_CALL(fmi2CancelStep, M_CANCEL_STEP)
+
+fmi2Status fmi2Reset(fmi2Component c)
+{
+    ENTER
+    if (make_slave(I) == 0) s = fmi2OK;
+    else s = status_of(I, NULL, "fmi2Reset");   /* the old slave stays */
+    LEAVE
+}
+
+static PyObject *vr_list(const fmi2ValueReference vr[], size_t n)
+{
+    PyObject *l = PyList_New((Py_ssize_t)n);
+    for (size_t i = 0; l && i < n; i++) {
+        PyObject *x = PyLong_FromUnsignedLong(vr[i]);
+        if (!x) { Py_CLEAR(l); break; }
+        PyList_SET_ITEM(l, (Py_ssize_t)i, x);
+    }
+    return l;
+}
+
+/* Call a getter; on success a sequence of exactly n items is returned (new reference). */
+static PyObject *get_values(Instance *I, int method, const fmi2ValueReference vr[], size_t n, const char *fn,
+                            fmi2Status *s)
+{
+    if (n && !vr) { emitf(&I->cb, I->name, fmi2Error, "%s: vr is NULL", fn); *s = fmi2Error; return NULL; }
+    PyObject *vrs = vr_list(vr, n);
+    PyObject *r = vrs ? PyObject_CallOneArg(I->methods[method], vrs) : NULL;
+    Py_XDECREF(vrs);
+    if (!r) { *s = status_of(I, NULL, fn); return NULL; }
+    PyObject *seq = PySequence_Fast(r, "the slave's getter did not return a sequence");
+    Py_DECREF(r);
+    if (!seq || (size_t)PySequence_Fast_GET_SIZE(seq) != n) {
+        if (seq) emitf(&I->cb, I->name, fmi2Error, "%s: the slave returned %zd values for %zu references", fn,
+                       PySequence_Fast_GET_SIZE(seq), n);
+        Py_XDECREF(seq);
+        *s = seq ? fmi2Error : status_of(I, NULL, fn);
+        return NULL;
+    }
+    *s = fmi2OK;
+    return seq;
+}
+
+#define GETTER(fn, ctype, method, convert)                                                         \
+    fmi2Status fn(fmi2Component c, const fmi2ValueReference vr[], size_t n, ctype v[])             \
+    {                                                                                              \
+        ENTER                                                                                      \
+        PyObject *seq = get_values(I, method, vr, n, #fn, &s);                                     \
+        if (seq) {                                                                                 \
+            for (size_t i = 0; i < n; i++) {                                                       \
+                PyObject *x = PySequence_Fast_GET_ITEM(seq, (Py_ssize_t)i);                        \
+                v[i] = convert;                                                                    \
+            }                                                                                      \
+            if (PyErr_Occurred()) s = status_of(I, NULL, #fn);                                     \
+            Py_DECREF(seq);                                                                        \
+        }                                                                                          \
+        LEAVE                                                                                      \
+    }
+GETTER(fmi2GetReal, fmi2Real, M_GET_REAL, PyFloat_AsDouble(x))
+GETTER(fmi2GetInteger, fmi2Integer, M_GET_INTEGER, (fmi2Integer)PyLong_AsLong(x))
+GETTER(fmi2GetBoolean, fmi2Boolean, M_GET_BOOLEAN, PyObject_IsTrue(x) > 0 ? fmi2True : fmi2False)
+
+fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String v[])
+{
+    ENTER
+    PyObject *seq = get_values(I, M_GET_STRING, vr, n, "fmi2GetString", &s);
+    if (seq) {
+        PyObject *keep = PyList_New(0);
+        for (size_t i = 0; keep && i < n; i++) {
+            PyObject *x = PyObject_Str(PySequence_Fast_GET_ITEM(seq, (Py_ssize_t)i));
+            v[i] = x ? PyUnicode_AsUTF8(x) : NULL;
+            if (!x || !v[i] || PyList_Append(keep, x) != 0) Py_CLEAR(keep);
+            Py_XDECREF(x);
+        }
+        if (!keep) s = status_of(I, NULL, "fmi2GetString");
+        Py_XSETREF(I->strings, keep);   /* the buffers stay valid until the next fmi2GetString */
+        Py_DECREF(seq);
+    }
+    LEAVE
+}
+
+#define SETTER(fn, ctype, method, build)                                                           \
+    fmi2Status fn(fmi2Component c, const fmi2ValueReference vr[], size_t n, const ctype v[])       \
+    {                                                                                              \
+        ENTER                                                                                      \
+        if (n && (!vr || !v)) {                                                                    \
+            emitf(&I->cb, I->name, fmi2Error, "%s: vr or value is NULL", #fn);                     \
+            s = fmi2Error;                                                                         \
+        } else {                                                                                   \
+            PyObject *vrs = vr_list(vr, n), *vals = PyList_New((Py_ssize_t)n);                     \
+            for (size_t i = 0; vals && i < n; i++) {                                               \
+                PyObject *x = build;                                                               \
+                if (!x) { Py_CLEAR(vals); break; }                                                 \
+                PyList_SET_ITEM(vals, (Py_ssize_t)i, x);                                           \
+            }                                                                                      \
+            s = status_of(I, (vrs && vals) ? PyObject_CallFunctionObjArgs(I->methods[method], vrs, vals, NULL) : NULL, #fn); \
+            Py_XDECREF(vrs);                                                                       \
+            Py_XDECREF(vals);                                                                      \
+        }                                                                                          \
+        LEAVE                                                                                      \
+    }
+SETTER(fmi2SetReal, fmi2Real, M_SET_REAL, PyFloat_FromDouble(v[i]))
+SETTER(fmi2SetInteger, fmi2Integer, M_SET_INTEGER, PyLong_FromLong(v[i]))
+SETTER(fmi2SetBoolean, fmi2Boolean, M_SET_BOOLEAN, PyBool_FromLong(v[i]))
+SETTER(fmi2SetString, fmi2String, M_SET_STRING, PyUnicode_FromString(v[i] ? v[i] : ""))
+
+/* ------------------------------------------------------------------------------ FMU states */
+static State *valid_state(Instance *I, fmi2FMUstate p)
+{
+    State *S = (State *)p;
+    return (S && S->magic == STATE_MAGIC && S->owner == I) ? S : NULL;
+}
+
+static fmi2Status new_state(Instance *I, PyObject *obj, fmi2FMUstate *out, const char *fn)
+{
+    if (!obj) return status_of(I, NULL, fn);
+    State *S = (State *)calloc(1, sizeof *S);
+    if (!S) { Py_DECREF(obj); emitf(&I->cb, I->name, fmi2Error, "%s: out of memory", fn); return fmi2Error; }
+    S->magic = STATE_MAGIC;
+    S->owner = I;
+    S->obj = obj;
+    *out = S;
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *p)
+{
+    ENTER
+    if (!p) { emitf(&I->cb, I->name, fmi2Error, "fmi2GetFMUstate: FMUstate is NULL"); s = fmi2Error; LEAVE }
+    PyObject *obj = PyObject_CallNoArgs(I->methods[M_GET_STATE]);
+    State *S = *p ? valid_state(I, *p) : NULL;
+    if (*p && !S) {
+        Py_XDECREF(obj);
+        emitf(&I->cb, I->name, fmi2Error, "fmi2GetFMUstate: *FMUstate is neither NULL nor a state of this instance");
+        s = fmi2Error;
+    } else if (S && obj) {          /* overwrite the given state (FMI 2.0 section 2.1.8) */
+        Py_XSETREF(S->obj, obj);
+        Py_CLEAR(S->bytes);
+        s = fmi2OK;
+    } else {
+        s = new_state(I, obj, p, "fmi2GetFMUstate");
+    }
+    LEAVE
+}
+
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate p)
+{
+    ENTER
+    State *S = valid_state(I, p);
+    if (!S) { emitf(&I->cb, I->name, fmi2Error, "fmi2SetFMUstate: not a state of this instance"); s = fmi2Error; }
+    else s = status_of(I, PyObject_CallOneArg(I->methods[M_SET_STATE], S->obj), "fmi2SetFMUstate");
+    LEAVE
+}
+
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *p)
+{
+    ENTER
+    if (!p || !*p) { s = fmi2OK; LEAVE }   /* freeing NULL is a no-op */
+    State *S = valid_state(I, *p);
+    if (!S) { emitf(&I->cb, I->name, fmi2Error, "fmi2FreeFMUstate: not a state of this instance"); s = fmi2Error; LEAVE }
+    Py_CLEAR(S->obj);
+    Py_CLEAR(S->bytes);
+    S->magic = 0;
+    free(S);
+    *p = NULL;
+    s = fmi2OK;
+    LEAVE
+}
+
+static PyObject *state_bytes(Instance *I, State *S, const char *fn)
+{
+    if (!S->bytes) {
+        PyObject *b = PyObject_CallOneArg(I->methods[M_SERIALIZE_STATE], S->obj);
+        if (b && !PyBytes_Check(b)) {
+            Py_DECREF(b);
+            PyErr_SetString(PyExc_TypeError, "the slave's serialization is not bytes");
+            b = NULL;
+        }
+        if (!b) { status_of(I, NULL, fn); return NULL; }
+        S->bytes = b;
+    }
+    return S->bytes;
+}
+
+fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate p, size_t *n)
+{
+    ENTER
+    State *S = valid_state(I, p);
+    PyObject *b = (S && n) ? state_bytes(I, S, "fmi2SerializedFMUstateSize") : NULL;
+    if (!S || !n) emitf(&I->cb, I->name, fmi2Error, "fmi2SerializedFMUstateSize: not a state of this instance");
+    if (b) { *n = (size_t)PyBytes_GET_SIZE(b); s = fmi2OK; } else s = fmi2Error;
+    LEAVE
+}
+
+fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate p, fmi2Byte out[], size_t n)
+{
+    ENTER
+    State *S = valid_state(I, p);
+    PyObject *b = (S && out) ? state_bytes(I, S, "fmi2SerializeFMUstate") : NULL;
+    if (!S || !out) emitf(&I->cb, I->name, fmi2Error, "fmi2SerializeFMUstate: not a state of this instance");
+    if (b && (size_t)PyBytes_GET_SIZE(b) != n) {
+        emitf(&I->cb, I->name, fmi2Error, "fmi2SerializeFMUstate: size %zu given, fmi2SerializedFMUstateSize "
+              "said %zd", n, PyBytes_GET_SIZE(b));
+        b = NULL;
+    }
+    if (b) { memcpy(out, PyBytes_AS_STRING(b), n); s = fmi2OK; } else s = fmi2Error;
+    LEAVE
+}
+
+fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte in[], size_t n, fmi2FMUstate *p)
+{
+    ENTER
+    if (!p || (n && !in)) {
+        emitf(&I->cb, I->name, fmi2Error, "fmi2DeSerializeFMUstate: NULL argument");
+        s = fmi2Error;
+        LEAVE
+    }
+    PyObject *b = PyBytes_FromStringAndSize((const char *)in, (Py_ssize_t)n);
+    PyObject *obj = b ? PyObject_CallOneArg(I->methods[M_DESERIALIZE_STATE], b) : NULL;
+    Py_XDECREF(b);
+    s = new_state(I, obj, p, "fmi2DeSerializeFMUstate");
+    LEAVE
+}
+
+/* ------------------------------------------------------------------------------ stepping */
+fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp)
+{
+    ENTER
+    s = status_of(I, PyObject_CallFunction(I->methods[M_DO_STEP], "ddO", t, h, nsp ? Py_True : Py_False),
+                  "fmi2DoStep");
+    LEAVE
+}
+
+/* fmi2GetXxxStatus: the slave's fmi2_get_status(kind, type) returns (status, value). */
+static PyObject *status_value(Instance *I, int kind, const char *type, const char *fn, fmi2Status *s)
+{
+    PyObject *r = PyObject_CallFunction(I->methods[M_GET_STATUS], "is", kind, type);
+    if (!r) { *s = status_of(I, NULL, fn); return NULL; }
+    PyObject *st = NULL, *val = NULL;
+    if (!PyArg_ParseTuple(r, "OO", &st, &val)) { Py_DECREF(r); *s = status_of(I, NULL, fn); return NULL; }
+    Py_INCREF(st);
+    Py_INCREF(val);
+    Py_DECREF(r);
+    *s = status_of(I, st, fn);
+    if (*s > fmi2Warning) { Py_DECREF(val); return NULL; }
+    return val;
+}
+
+#define STATUS_GETTER(fn, ctype, type, convert)                                                    \
+    fmi2Status fn(fmi2Component c, const fmi2StatusKind k, ctype *v)                               \
+    {                                                                                              \
+        ENTER                                                                                      \
+        PyObject *x = v ? status_value(I, (int)k, type, #fn, &s) : NULL;                          \
+        if (!v) { emitf(&I->cb, I->name, fmi2Error, "%s: value is NULL", #fn); s = fmi2Error; }   \
+        if (x) {                                                                                   \
+            *v = convert;                                                                          \
+            if (PyErr_Occurred()) s = status_of(I, NULL, #fn);                                     \
+            Py_DECREF(x);                                                                          \
+        }                                                                                          \
+        LEAVE                                                                                      \
+    }
+STATUS_GETTER(fmi2GetStatus, fmi2Status, "status", (fmi2Status)PyLong_AsLong(x))
+STATUS_GETTER(fmi2GetRealStatus, fmi2Real, "real", PyFloat_AsDouble(x))
+STATUS_GETTER(fmi2GetIntegerStatus, fmi2Integer, "integer", (fmi2Integer)PyLong_AsLong(x))
+STATUS_GETTER(fmi2GetBooleanStatus, fmi2Boolean, "boolean", PyObject_IsTrue(x) > 0 ? fmi2True : fmi2False)
+
+fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind k, fmi2String *v)
+{
+    ENTER
+    PyObject *x = v ? status_value(I, (int)k, "string", "fmi2GetStringStatus", &s) : NULL;
+    if (!v) { emitf(&I->cb, I->name, fmi2Error, "fmi2GetStringStatus: value is NULL"); s = fmi2Error; }
+    if (x) {
+        PyObject *str = PyObject_Str(x);
+        Py_DECREF(x);
+        if (str) {
+            *v = PyUnicode_AsUTF8(str);
+            Py_XSETREF(I->strings, str);
+        } else {
+            s = status_of(I, NULL, "fmi2GetStringStatus");
+        }
+    }
+    LEAVE
+}
+
+/* ------------------------------------------------------------------------------ not offered */
+#define NOT_OFFERED(fn, params, what)                                                              \
+    fmi2Status fn params                                                                           \
+    {                                                                                              \
+        Instance *I = valid(c);                                                                    \
+        if (I) emitf(&I->cb, I->name, fmi2Error, "%s: %s", #fn, what);                            \
+        return fmi2Error;                                                                          \
+    }
+NOT_OFFERED(fmi2GetDirectionalDerivative,
+            (fmi2Component c, const fmi2ValueReference u[], size_t nu, const fmi2ValueReference z[], size_t nz,
+             const fmi2Real du[], fmi2Real dz[]),
+            "not offered (providesDirectionalDerivative is false)")
+NOT_OFFERED(fmi2SetRealInputDerivatives,
+            (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer o[], const fmi2Real v[]),
+            "not offered (canInterpolateInputs is false)")
+NOT_OFFERED(fmi2GetRealOutputDerivatives,
+            (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer o[], fmi2Real v[]),
+            "not offered (maxOutputDerivativeOrder is 0)")

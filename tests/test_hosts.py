@@ -1,0 +1,158 @@
+"""Our FMUs in FMI hosts nobody here wrote, and in our own C host, with a bare environment.
+
+The hosts: the FMU Compliance Checker (``fmuCheck.linux64``) and the Reference FMUs' ``fmusim``
+from ``../shared/hosts`` (skipped with that reason where the folder is absent), and
+``tests/c_host/fmi2_host.c`` (compiled here). Each is started as a user would start it, with
+``env -i PATH=/usr/bin:/bin`` (no LD_PRELOAD, PYTHONHOME or PYTHONPATH) from an unrelated working
+directory, several times per FMU: every run must exit 0 (Python is never finalized in the host,
+so no crash at exit) and give fmpy's numbers for the same case to 1e-9.
+"""
+from __future__ import annotations
+
+import csv
+import shutil
+import subprocess
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fmpy import read_model_description, simulate_fmu
+
+HERE = Path(__file__).resolve().parent
+HOSTS = HERE.parent.parent / "shared" / "hosts"
+BARE_ENV = {"PATH": "/usr/bin:/bin"}
+RUNS = 10
+STOP, STEP = 0.05, 1e-3
+
+# one case per FMU: constant inputs given as start values (fmusim) or an input file (fmuCheck)
+CASES = {
+    "SpurDifferential": {"carrier.w_ref": 1.389, "left.tau": -1050.0, "right.tau": -1040.0},
+    "WheelLoad": {"flange.w": 30.0, "Fz": 4000.0, "mu": 0.9, "vx": 10.0},
+    "Vehicle": {"rearLeft.Fx": 500.0, "rearRight.Fx": 480.0, "speedTarget": 10.0, "pathRadius": 20.0},
+}
+
+needs_hosts = pytest.mark.skipif(not HOSTS.is_dir(), reason=f"{HOSTS} is absent (third-party FMI hosts)")
+
+
+def _read_csv(path: Path) -> dict[str, np.ndarray]:
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    names = [n.strip().strip('"') for n in rows[0]]
+    data = np.array([[float(x) for x in r] for r in rows[1:] if r], dtype=float)
+    return {n: data[:, i] for i, n in enumerate(names)}
+
+
+@pytest.fixture(scope="module")
+def reference(fmu_files):
+    """fmpy's run of each case (the same FMU, the same inputs, the same step)."""
+    out = {}
+    for name, inputs in CASES.items():
+        res = simulate_fmu(str(fmu_files[name]), stop_time=STOP, output_interval=STEP, start_values=inputs)
+        out[name] = {n: np.asarray(res[n], dtype=float) for n in res.dtype.names}
+    return out
+
+
+def _compare(name: str, got: dict[str, np.ndarray], ref: dict[str, np.ndarray], where: str) -> None:
+    t_ref = ref["time"]
+    common = [n for n in got if n in ref and n != "time"]
+    assert len(common) >= 5, f"{where}: too few common outputs {common}"
+    for n in common:
+        # the hosts may also write t = 0; compare at the times both have
+        idx = np.searchsorted(got["time"], t_ref - 1e-12)
+        ok = (idx < len(got["time"])) & (np.abs(got["time"][np.minimum(idx, len(got["time"]) - 1)] - t_ref) < 1e-9)
+        assert ok.sum() >= int(STOP / STEP), f"{where}: the host wrote {len(got['time'])} rows"
+        g, r = got[n][idx[ok]], ref[n][ok]
+        assert np.allclose(g, r, rtol=1e-9, atol=1e-9), (
+            f"{where}: {n} differs from fmpy by {np.max(np.abs(g - r)):.3g}")
+
+
+def _run(cmd: list[str], cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run(cmd, cwd=cwd, env=BARE_ENV, capture_output=True, text=True, timeout=120)
+
+
+@needs_hosts
+@pytest.mark.parametrize("name", list(CASES))
+def test_fmusim_runs_our_fmu_with_a_bare_environment(name, fmu_files, reference, tmp_path):
+    args = []
+    for k, v in CASES[name].items():
+        args += ["--start-value", k, repr(v)]
+    for i in range(RUNS):
+        out = tmp_path / f"out{i}.csv"
+        r = _run([str(HOSTS / "fmusim"), "--interface-type", "cs", "--output-interval", str(STEP),
+                  "--stop-time", str(STOP), *args, "--output-file", str(out), str(fmu_files[name])], tmp_path)
+        assert r.returncode == 0, f"run {i + 1}/{RUNS}: exit {r.returncode}\n{r.stdout[-2000:]}{r.stderr[-2000:]}"
+        _compare(name, _read_csv(out), reference[name], f"fmusim run {i + 1}")
+
+
+@needs_hosts
+@pytest.mark.parametrize("name", list(CASES))
+def test_fmucheck_runs_our_fmu_with_a_bare_environment(name, fmu_files, reference, tmp_path):
+    inputs = tmp_path / "inputs.csv"
+    names = list(CASES[name])
+    with open(inputs, "w") as f:
+        f.write(",".join(["time", *names]) + "\n")
+        for t in (0.0, STOP):
+            f.write(",".join([repr(t), *(repr(CASES[name][n]) for n in names)]) + "\n")
+    for i in range(RUNS):
+        out = tmp_path / f"out{i}.csv"
+        r = _run([str(HOSTS / "fmuCheck.linux64"), "-k", "cs", "-h", str(STEP), "-s", str(STOP),
+                  "-i", str(inputs), "-o", str(out), str(fmu_files[name])], tmp_path)
+        assert r.returncode == 0, f"run {i + 1}/{RUNS}: exit {r.returncode}\n{r.stdout[-3000:]}{r.stderr[-3000:]}"
+        assert "0 Error(s)" in r.stdout + r.stderr, (r.stdout + r.stderr)[-3000:]
+        _compare(name, _read_csv(out), reference[name], f"fmuCheck run {i + 1}")
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="no C compiler")
+def test_our_c_host_runs_the_fmu_with_a_bare_environment(differential_fmu, tmp_path):
+    exe = tmp_path / "fmi2_host"
+    subprocess.run(["gcc", "-o", str(exe), str(HERE / "c_host" / "fmi2_host.c"), "-ldl"], check=True)
+    with zipfile.ZipFile(differential_fmu) as z:
+        z.extractall(tmp_path / "fmu")
+    md = read_model_description(str(differential_fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    so = tmp_path / "fmu" / "binaries" / "linux64" / "SpurDifferential.so"
+    needed = subprocess.run(["readelf", "-d", str(so)], capture_output=True, text=True).stdout
+    assert "libpython" not in needed, "the loader must not depend on libpython (any host can dlopen it)"
+    args = [str(exe), str(so), md.guid, (tmp_path / "fmu" / "resources").as_uri(),
+            str(vr["carrier.w_ref"]), str(vr["left.tau"]), str(vr["right.tau"]), str(vr["carrier.tauDrive"])]
+    for i in range(3):
+        r = _run(args, tmp_path)
+        assert "status 0 tauDrive 2100.000000" in r.stdout, r.stdout + r.stderr
+        assert "freed" in r.stdout
+        assert r.returncode == 0, f"run {i + 1}: exit {r.returncode}\n{r.stdout}{r.stderr}"
+
+
+@needs_hosts
+def test_a_missing_package_is_named_and_instantiate_returns_null(differential_fmu, tmp_path):
+    """The host's Python lacks scipy: fmi2Instantiate logs which package and which interpreter,
+    and returns NULL (the host reports it; no crash)."""
+    fmu = tmp_path / "NoScipy.fmu"
+    with zipfile.ZipFile(differential_fmu) as zin, zipfile.ZipFile(fmu, "w") as zout:
+        for item in zin.infolist():
+            data = zin.read(item.filename)
+            if item.filename == "resources/python_runtime.cfg":
+                data = data.replace(b"require=scipy", b"require=scipy_not_installed_here")
+            zout.writestr(item, data)
+    r = _run([str(HOSTS / "fmuCheck.linux64"), "-k", "cs", "-s", "0.01", str(fmu)], tmp_path)
+    text = r.stdout + r.stderr
+    assert "scipy_not_installed_here" in text and "cannot import" in text, text[-3000:]
+    assert "Could not instantiate" in text
+    assert r.returncode != -11 and r.returncode >= 0, f"crashed: {r.returncode}"
+
+
+@needs_hosts
+def test_a_missing_python_is_named_and_instantiate_returns_null(differential_fmu, tmp_path):
+    fmu = tmp_path / "NoPython.fmu"
+    with zipfile.ZipFile(differential_fmu) as zin, zipfile.ZipFile(fmu, "w") as zout:
+        for item in zin.infolist():
+            data = zin.read(item.filename)
+            if item.filename == "resources/python_runtime.cfg":
+                data = b"\n".join(b"libpython=/nonexistent/libpython3.11.so.1.0" if line.startswith(b"libpython=")
+                                  else line for line in data.split(b"\n"))
+            zout.writestr(item, data)
+    r = _run([str(HOSTS / "fmusim"), "--interface-type", "cs", "--stop-time", "0.01",
+              "--output-file", str(tmp_path / "o.csv"), str(fmu)], tmp_path)
+    text = r.stdout + r.stderr
+    assert "/nonexistent/libpython3.11.so.1.0" in text, text[-3000:]
+    assert r.returncode > 0, f"expected a clean failure, got exit {r.returncode}"
