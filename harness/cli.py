@@ -57,8 +57,9 @@ class Progress:
 def cmd_run(args) -> int:
     from harness.build import build
     from harness.plots import plot_result
-    from harness.report import evaluate_checks, format_checks, format_couplings, format_table, write_csv
-    from harness.runner import prepare_scene, fmu_files_for
+    from harness.master import Interrupted, stop_on_sigint
+    from harness.report import CsvStream, evaluate_checks, format_checks, format_couplings, format_table, writable_dir
+    from harness.runner import explain_failure, fmu_files_for, prepare_scene, typed_parameters
 
     scene = prepare_scene(args.scene, mesh=args.mesh, step=args.step, duration=args.duration,
                           algorithm=args.algorithm, sets=args.set)
@@ -70,10 +71,16 @@ def cmd_run(args) -> int:
             pick, reason = choose(scene)
             scene = apply_choice(scene, pick)
             print(reason)
-    files = fmu_files_for(scene, build_missing=True)
-    result = __import__("harness.master", fromlist=["run_scene"]).run_scene(scene, files, Progress(scene.name))
     out_dir = Path(args.out) if args.out else RESULTS / scene.name
-    csv_path = write_csv(result, out_dir / f"{scene.name}.csv")
+    writable_dir(out_dir, "--out" if args.out else "results folder")   # before running, not after
+    csv_path = out_dir / f"{scene.name}.csv"
+    files = fmu_files_for(scene, build_missing=True)
+    typed_parameters(scene, files)
+    with CsvStream(csv_path, ["time"] + list(scene.record)) as stream, stop_on_sigint():   # rows as they come
+        result = __import__("harness.master", fromlist=["run_scene"]).run_scene(scene, files, Progress(scene.name),
+                                                                                 sink=stream.write)
+    if isinstance(result.failure, Interrupted):
+        return _fail(f"{result.failure}; the {len(result.time)} samples recorded so far are in {csv_path}", 130)
     print(f"scene {scene.name}: {scene.description}")
     fid = ", ".join(f"{k} = {v}" for k, v in scene.effects.items()) or "defaults"
     print(f"fidelity: {fid}; step {scene.step:g} s, {scene.algorithm}; simulated {result.time[-1] if len(result.time) else 0:g} s "
@@ -96,12 +103,13 @@ def cmd_run(args) -> int:
         print()
         print(format_checks(outcomes))
     print()
-    print(f"results: {csv_path}")
+    print(f"results: {csv_path}" if stream.rows else "results: nothing recorded")
     if not args.no_plots and len(result.time) > 1:
         for p in plot_result(result, out_dir):
             print(f"plot: {p}")
     if result.failure is not None:
-        return _fail(f"run stopped: {result.failure} (results so far kept in {csv_path})", 1)
+        return _fail(f"run stopped: {explain_failure(scene, result.failure)}"
+                     + (f" (results so far kept in {csv_path})" if stream.rows else " (nothing recorded)"), 1)
     if any(not o.passed for o in outcomes):
         return _fail("some physical checks failed", 1)
     return 0

@@ -15,9 +15,13 @@ when the communication step is too coarse.
 """
 from __future__ import annotations
 
+import contextlib
 import math
+import os
 import shutil
+import signal
 import tempfile
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -27,7 +31,7 @@ import numpy as np
 from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
 
-from harness.scene import Scene, SceneError
+from harness.scene import Scene, SceneError, parameter_value
 
 
 class RunFailure(RuntimeError):
@@ -36,6 +40,82 @@ class RunFailure(RuntimeError):
     def __init__(self, instance: str, time_: float, reason: str):
         self.instance, self.time, self.reason = instance, time_, reason
         super().__init__(f"{instance} failed at t = {time_:.6g} s: {reason}")
+
+
+class Interrupted(KeyboardInterrupt):
+    """The user interrupted the run (Ctrl-C) at ``time``; what was recorded before is kept."""
+
+    def __init__(self, time_: float):
+        self.instance, self.time, self.reason = "master", time_, "interrupted"
+        super().__init__(f"interrupted at t = {time_:.6g} s")
+
+
+STOP = threading.Event()   # set by the SIGINT handler of stop_on_sigint; runs stop at the next step
+
+
+@contextlib.contextmanager
+def stop_on_sigint():
+    """While active, Ctrl-C (SIGINT) sets :data:`STOP` instead of raising KeyboardInterrupt wherever
+    the interpreter happens to be (inside an FMU's own Python code, which would turn it into an FMU
+    error): the master stops at the next communication step and raises :class:`Interrupted`.
+    A second Ctrl-C raises KeyboardInterrupt at once. An inherited 'ignore SIGINT' is respected."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.getsignal(signal.SIGINT)
+    if old is signal.SIG_IGN:
+        yield
+        return
+
+    def handler(signum, frame):
+        if STOP.is_set():
+            raise KeyboardInterrupt
+        STOP.set()
+
+    STOP.clear()
+    signal.signal(signal.SIGINT, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+        STOP.clear()
+
+
+def _available_memory() -> float:
+    """Bytes of memory available to new allocations (MemAvailable), or the physical memory."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024.0
+    except OSError:
+        pass
+    try:
+        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):
+        return 8e9
+
+
+MEMORY_SHARE = 0.5   # recorded samples may take at most this share of the available memory
+
+
+def recording_size(scene: Scene) -> tuple[int, int, int]:
+    """(communication steps, recorded samples, values per sample) of a run of ``scene``."""
+    n_steps = int(round(scene.duration / scene.step))
+    rec_every = max(1, int(round(scene.output_interval / scene.step)))
+    return n_steps, n_steps // rec_every + 2, 1 + len(scene.record)
+
+
+def check_recording(scene: Scene, where: str = "") -> None:
+    """Refuse a run whose recorded samples would not fit in memory (``duration = 1e300``)."""
+    n_steps, n_samples, width = recording_size(scene)
+    need, avail = 8.0 * n_samples * width, _available_memory()
+    if need > MEMORY_SHARE * avail:
+        most = MEMORY_SHARE * avail / (8.0 * width)
+        raise SceneError(f"{where or 'scene ' + scene.name}: duration = {scene.duration:g} s at output_interval = "
+                         f"{scene.output_interval:g} s records {n_samples:.3g} samples of {width} values "
+                         f"({need / 1e9:.3g} GB); allowed: at most {most:.3g} samples ({100 * MEMORY_SHARE:g} % of "
+                         f"the {avail / 1e9:.3g} GB available): shorten the duration or lengthen output_interval")
 
 
 @dataclass
@@ -47,7 +127,7 @@ class Result:
     data: np.ndarray                     # shape (n_samples, 1 + len(names)), column 0 is time
     wall_time: float                     # s spent stepping (after initialization)
     steps: int
-    failure: RunFailure | None = None
+    failure: RunFailure | Interrupted | None = None
     coupling_energy: dict[str, dict[str, float]] = field(default_factory=dict)
     messages: list[str] = field(default_factory=list)
     chosen: dict[str, Any] = field(default_factory=dict)
@@ -130,6 +210,7 @@ class Instance:
 
     def set_value(self, name: str, value) -> None:
         v = self.var(name)
+        value = parameter_value(f"{self.name}.{name}", v.type, value)   # 'off' is false, not true
         vr = [v.valueReference]
         if v.type == "Real":
             self.slave.setReal(vr, [float(value)])
@@ -192,10 +273,12 @@ class RealPort:
 class Master:
     """Runs one scene. ``fmu_files`` maps FMU names (e.g. 'SpurDifferential') to .fmu paths."""
 
-    def __init__(self, scene: Scene, fmu_files: dict[str, Path], progress: Callable[[float], None] | None = None):
+    def __init__(self, scene: Scene, fmu_files: dict[str, Path], progress: Callable[[float], None] | None = None,
+                 sink: Callable[[list[float]], None] | None = None):
         self.scene = scene
         self.fmu_files = fmu_files
         self.progress = progress
+        self.sink = sink        # called with each recorded row as it is recorded (results streamed to disk)
         self.instances: dict[str, Instance] = {}
 
     # ------------------------------------------------------------------ setup
@@ -354,9 +437,21 @@ class Master:
         t_wall = time.perf_counter()
         t_setup = 0.0
         failure = None
-        rows: list[list[float]] = []
+        check_recording(sc)
+        n_steps, n_samples, width = recording_size(sc)
+        store = np.empty((n_samples, width))   # pages are committed as rows are written
+        rows = 0
         steps = 0
         energy = {}
+        t = 0.0
+
+        def record(row: list[float]) -> None:
+            nonlocal rows
+            store[rows] = row
+            rows += 1
+            if self.sink is not None:
+                self.sink(row)
+
         try:
             self._instantiate()
             self._compile()
@@ -365,9 +460,8 @@ class Master:
                 self._read_outputs(name)
             t_setup = time.perf_counter() - t_wall
             t_wall = time.perf_counter()
-            n_steps = int(round(sc.duration / sc.step))
             rec_every = max(1, int(round(sc.output_interval / sc.step)))
-            rows.append(self._sample(0.0))
+            record(self._sample(0.0))
             energy = {c[0]: {"work_from": 0.0, "work_to": 0.0} for c in self._couplings}
             prev_power = self._coupling_power()
             order = [s.name for s in sc.instances]
@@ -376,6 +470,8 @@ class Master:
             t = 0.0
             for k in range(n_steps):
                 t = k * h
+                if STOP.is_set():
+                    raise Interrupted(t)
                 self._apply_profiles(t)
                 if jacobi:
                     for name in order:
@@ -399,16 +495,20 @@ class Master:
                 if (k + 1) % rec_every == 0 or k + 1 == n_steps:
                     for name in order:
                         self._read_outputs(name)
-                    rows.append(self._sample((k + 1) * h))
+                    record(self._sample((k + 1) * h))
                 if self.progress is not None and k % 200 == 0:
                     self.progress((k + 1) / n_steps)
         except RunFailure as e:
             failure = e
+        except Interrupted as e:
+            failure = e
+        except KeyboardInterrupt:
+            failure = Interrupted(t)
         finally:
             self._free()
-        if self.progress is not None:
+        if self.progress is not None and not isinstance(failure, Interrupted):
             self.progress(1.0)
-        data = np.array(rows, dtype=float) if rows else np.zeros((0, 1 + len(sc.record)))
+        data = store[:rows].copy() if rows < len(store) // 2 else store[:rows]
         msgs = [f"{n}: {m}" for n, inst in self.instances.items() for s, m in inst.messages if s >= 1]
         wall = time.perf_counter() - t_wall
         return Result(sc, list(sc.record), data, wall, steps, failure, energy, msgs, setup_time=t_setup)
@@ -446,7 +546,9 @@ class Master:
                 pass
 
 
-def run_scene(scene: Scene, fmu_files: dict[str, Path], progress=None) -> Result:
-    """Run a scene once; the result carries a failure instead of raising for FMU errors."""
-    return Master(scene, fmu_files, progress).run()
+def run_scene(scene: Scene, fmu_files: dict[str, Path], progress=None, sink=None) -> Result:
+    """Run a scene once; the result carries a failure instead of raising for FMU errors (and an
+    :class:`Interrupted` failure after Ctrl-C under :func:`stop_on_sigint`). ``sink`` receives each
+    recorded row as it is recorded."""
+    return Master(scene, fmu_files, progress, sink).run()
 

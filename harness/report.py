@@ -3,13 +3,17 @@ from __future__ import annotations
 
 import csv
 import math
+import os
+import tempfile
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from harness.master import Result
-from harness.scene import refs_of
+from harness.master import Result, RunFailure
+from harness.scene import SceneError
+from harness.expressions import compile_expression, is_expression
 
 
 def window_mask(t: np.ndarray, window) -> np.ndarray:
@@ -19,21 +23,13 @@ def window_mask(t: np.ndarray, window) -> np.ndarray:
     return (t >= lo - 1e-12) & (t <= hi + 1e-12)
 
 
-_FUNCS = {"abs": np.abs, "sqrt": np.sqrt, "maximum": np.maximum, "minimum": np.minimum, "sign": np.sign}
-
-
 def series(result: Result, quantity: str) -> np.ndarray:
-    """A recorded variable, or an expression over recorded variables in braces."""
-    if "{" not in quantity:
+    """A recorded variable, or an expression over recorded variables in braces
+    (checked and evaluated by :mod:`harness.expressions`, never ``eval``)."""
+    if not is_expression(quantity):
         return result[quantity]
-    refs = refs_of(quantity)
-    code = quantity
-    env = dict(_FUNCS)
-    for i, r in enumerate(dict.fromkeys(refs)):
-        code = code.replace("{" + r + "}", f"_v{i}")
-        env[f"_v{i}"] = result[r]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.asarray(eval(compile(code, "<scene expression>", "eval"), {"__builtins__": {}}, env), dtype=float)
+    expr = compile_expression(quantity, f"scene {result.scene.name}: quantity")
+    return np.broadcast_to(np.asarray(expr(result.__getitem__), dtype=float), result.time.shape)
 
 
 def stat(result: Result, name: str, kind: str, window=None) -> float:
@@ -171,6 +167,60 @@ def format_couplings(result: Result) -> str:
         lines.append(f"coupling {name}: work given {e['work_from']:.6g} J, received {e['work_to']:.6g} J, "
                      f"residual {res:+.3g} J ({100 * res / ref:+.3f} %)")
     return "\n".join(lines + coupling_warnings(result))
+
+
+def writable_dir(path: Path, label: str) -> Path:
+    """Make sure results can be written into folder ``path`` (created if missing) before a run
+    starts; else a one-line SceneError naming ``label``."""
+    path = Path(path)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(dir=path, prefix=".spurdiff-write-test-")
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise SceneError(f"{label} = {str(path)!r}: cannot write there ({e.strerror or e}); "
+                         "allowed: a folder you can write") from None
+    return path
+
+
+class CsvStream:
+    """Recorded rows to a CSV file as they come (the same format as :func:`write_csv`), flushed at
+    least every ``flush_every`` s of wall time and on close: an interrupted or killed run keeps what
+    it recorded. The file is opened at the first row, so a run refused before it starts leaves an
+    earlier file in place. A write error stops the run as a :class:`RunFailure`."""
+
+    def __init__(self, path: Path, header: list[str], flush_every: float = 0.5):
+        self.path, self.header, self.flush_every = Path(path), list(header), flush_every
+        self.fh = None
+        self.rows = 0
+        self._last = 0.0
+
+    def write(self, row) -> None:
+        try:
+            if self.fh is None:
+                self.fh = open(self.path, "w", newline="")
+                self._w = csv.writer(self.fh)
+                self._w.writerow(self.header)
+            self._w.writerow([repr(float(x)) for x in row])
+            self.rows += 1
+            now = time.monotonic()
+            if now - self._last >= self.flush_every:
+                self.fh.flush()
+                self._last = now
+        except OSError as e:
+            raise RunFailure("results", float(row[0]), f"cannot write {self.path}: {e.strerror or e}") from None
+
+    def close(self) -> None:
+        if self.fh is not None:
+            self.fh.close()
+            self.fh = None
+
+    def __enter__(self) -> "CsvStream":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
 
 
 def write_csv(result: Result, path: Path) -> Path:

@@ -7,10 +7,12 @@ from dataclasses import replace
 from pathlib import Path
 
 from harness.build import DEFAULT_DEST, FMUS, build
-from harness.scene import Scene, SceneError, load_scene
+from harness.scene import Scene, SceneError, divides, load_scene, parameter_value
 
 
 def _parse_value(text: str):
+    """A --set value: a TOML value (number, true/false, "string"), else the bare word as a string.
+    Its FMI type decides later what it means (:func:`typed_parameters`)."""
     try:
         return tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
@@ -20,6 +22,8 @@ def _parse_value(text: str):
 def prepare_scene(name: str, mesh: str | None = None, step: float | None = None, duration: float | None = None,
                   algorithm: str | None = None, sets: list[str] | None = None) -> Scene:
     """Load a scene and apply overrides (``sets``: 'instance.parameter=value')."""
+    from harness.master import check_recording
+
     scene = load_scene(name)
     effects = dict(scene.effects)
     if mesh:
@@ -37,6 +41,9 @@ def prepare_scene(name: str, mesh: str | None = None, step: float | None = None,
         scene = replace(scene, output_interval=max(scene.output_interval, scene.step))
     if scene.step > scene.duration:
         raise SceneError(f"step = {scene.step} s is longer than duration = {scene.duration} s")
+    if step is not None or duration is not None:
+        divides("--step/--duration", scene.step, scene.duration)
+    check_recording(scene, f"scene {scene.name}")
     names = {i.name for i in scene.instances}
     for item in sets or []:
         if "=" not in item or "." not in item.split("=", 1)[0]:
@@ -46,6 +53,31 @@ def prepare_scene(name: str, mesh: str | None = None, step: float | None = None,
         if inst not in names:
             raise SceneError(f"--set {item!r}: unknown instance {inst!r}; allowed: {', '.join(sorted(names))}")
         scene.instance(inst).parameters[param] = _parse_value(value)
+    return scene
+
+
+def typed_parameters(scene: Scene, fmu_files: dict[str, Path]) -> Scene:
+    """Convert every parameter value of the scene (and the differential's effects) by the FMI type
+    of its variable in the FMU's modelDescription: ``pinFriction = "off"`` is false, ``nPairs = true``
+    and values out of the int32 range are refused. Raises a one-line SceneError naming the parameter."""
+    from harness.master import fmu_cache
+
+    for spec in scene.instances:
+        _, md = fmu_cache().get(fmu_files[spec.fmu])
+        variables = {v.name: v for v in md.modelVariables}
+        groups = [(f"{spec.name}.", spec.parameters)]
+        if spec.fmu == "SpurDifferential":
+            groups.append(("effects.", scene.effects))
+        for prefix, params in groups:
+            for name, value in list(params.items()):
+                v = variables.get(name)
+                if v is None:
+                    allowed = sorted(n for n, x in variables.items() if x.causality == "parameter")
+                    raise SceneError(f"{prefix}{name}: {spec.fmu} has no parameter {name!r}; allowed: "
+                                     f"{', '.join(allowed)}")
+                if v.causality not in ("parameter", "input"):
+                    raise SceneError(f"{prefix}{name} is a {v.causality}, not a parameter")
+                params[name] = parameter_value(f"{prefix}{name}", v.type, value)
     return scene
 
 
@@ -60,3 +92,17 @@ def fmu_files_for(scene: Scene, build_missing: bool = True, dest: Path = DEFAULT
     else:
         paths = [Path(dest) / f"{n}.fmu" for n in needed]
     return dict(zip(needed, paths))
+
+
+def explain_failure(scene: Scene, failure) -> str:
+    """A run failure in one line; a failure at initialization also names the parameters given to
+    that instance (the FMU's own reason, e.g. 'math domain error', may not name the culprit)."""
+    text = str(failure)
+    spec = next((i for i in scene.instances if i.name == getattr(failure, "instance", None)), None)
+    if spec is None or getattr(failure, "time", 1.0) != 0.0 or not spec.parameters:
+        return text
+    given = [f"{k} = {v!r}" for k, v in spec.parameters.items() if k not in text]
+    if len(given) < len(spec.parameters):   # the reason names a parameter already
+        return text
+    more = f", ... ({len(given)} in all)" if len(given) > 8 else ""
+    return f"{text} (parameters given to {spec.name}: {', '.join(given[:8])}{more})"

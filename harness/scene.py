@@ -25,8 +25,13 @@ Top-level keys::
                                   every other value (lists included) is replaced
 
 A quantity (``var``, ``expect_var``, a string ``theory``) is a recorded variable ``"inst.var"`` or an
-expression over them in braces, e.g. ``"{wheelR.wheel.w} / {wheelL.wheel.w}"`` (numpy arithmetic,
-``abs``, ``sqrt``, ``maximum``, ``minimum``; evaluated sample by sample).
+expression over them in braces, e.g. ``"{wheelR.wheel.w} / {wheelL.wheel.w}"``: arithmetic,
+comparisons and a few named functions, checked when the scene is read and evaluated sample by
+sample without ``eval`` (:mod:`harness.expressions`).
+
+A scene's ``name`` becomes a file and folder name: letters, digits, ``_``, ``-`` and ``.``, no ``..``.
+Values must have the types above; a wrong type is refused with one line naming the key. Parameter
+values are converted by the FMU variable's type (:func:`parameter_value`) before they are set.
 """
 from __future__ import annotations
 
@@ -55,6 +60,64 @@ class SceneError(ValueError):
     """A scene file that cannot be run (bad key, bad value, unknown FMU or variable)."""
 
 
+_SAFE_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]{0,99}$")
+
+
+def safe_name(where: str, name) -> str:
+    """``name`` if it can be a file or folder name inside a results folder (no separator, no '..',
+    no leading dot, at most 100 characters); else a SceneError naming ``where``."""
+    if not isinstance(name, str) or not _SAFE_NAME.match(name) or ".." in name:
+        raise SceneError(f"{where} = {name!r}: allowed letters, digits, '_', '-' and '.' (not first, no '..'), "
+                         "at most 100 characters: it becomes a file name")
+    return name
+
+
+INT32 = (-2**31, 2**31 - 1)
+_TRUE = {"true", "on", "yes", "1"}
+_FALSE = {"false", "off", "no", "0"}
+
+
+def parameter_value(where: str, type_: str, value):
+    """``value`` converted to the FMI type ``type_`` (Real, Integer, Enumeration, Boolean, String) of
+    the variable it is set on; a value that does not fit raises a one-line SceneError.
+
+    Booleans: true/false, or the words true/false, on/off, yes/no, 1/0 (any case). Integers: whole
+    numbers in the int32 range (a boolean is not an integer). Reals: finite numbers."""
+    if type_ == "Boolean":
+        if isinstance(value, bool):
+            return value
+        if isinstance(value, int) and value in (0, 1):
+            return bool(value)
+        if isinstance(value, str) and value.strip().lower() in _TRUE | _FALSE:
+            return value.strip().lower() in _TRUE
+        raise SceneError(f"{where} = {value!r}: allowed a boolean: true or false (also on/off, yes/no, 1/0)")
+    if type_ in ("Integer", "Enumeration"):
+        v = value
+        if isinstance(v, float) and math.isfinite(v) and v.is_integer():
+            v = int(v)
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise SceneError(f"{where} = {value!r}: allowed an integer in {INT32[0]} .. {INT32[1]}")
+        if not INT32[0] <= v <= INT32[1]:
+            raise SceneError(f"{where} = {value!r}: out of the int32 range; allowed an integer in "
+                             f"{INT32[0]} .. {INT32[1]}")
+        return v
+    if type_ == "Real":
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise SceneError(f"{where} = {value!r}: allowed a number")
+        try:
+            x = float(value)
+        except OverflowError:
+            x = math.inf
+        if not math.isfinite(x):
+            raise SceneError(f"{where} = {value!r}: allowed a finite number")
+        return x
+    if type_ == "String":
+        if not isinstance(value, str):
+            raise SceneError(f"{where} = {value!r}: allowed a string")
+        return value
+    raise SceneError(f"{where}: variable type {type_} cannot be set")
+
+
 _REF = re.compile(r"\{([^{}]+)\}")
 
 
@@ -62,7 +125,7 @@ def refs_of(quantity: str) -> list[str]:
     """Variables a quantity needs: 'inst.var' itself, or every {inst.var} in an expression."""
     if not isinstance(quantity, str):
         return []
-    return _REF.findall(quantity) if "{" in quantity else [quantity]
+    return [r.strip() for r in _REF.findall(quantity)] if "{" in quantity else [quantity]
 
 
 @dataclass
@@ -132,13 +195,62 @@ def _unknown(where: str, keys, allowed) -> None:
 
 
 def _positive(where: str, value) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise SceneError(f"{where} = {value!r}: allowed a number > 0") from None
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise SceneError(f"{where} = {value!r}: allowed a number > 0")
+    v = float(value)
     if not (v > 0.0 and math.isfinite(v)):
         raise SceneError(f"{where} = {value!r}: allowed a finite number > 0")
     return v
+
+
+def _number(where: str, value, minimum: float | None = None) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(float(value)):
+        raise SceneError(f"{where} = {value!r}: allowed a finite number")
+    if minimum is not None and value < minimum:
+        raise SceneError(f"{where} = {value!r}: allowed a number >= {minimum:g}")
+    return float(value)
+
+
+def _text(where: str, value) -> str:
+    if not isinstance(value, str):
+        raise SceneError(f"{where} = {value!r}: allowed a string")
+    return value
+
+
+def _table_of(where: str, value) -> dict:
+    if not isinstance(value, dict):
+        raise SceneError(f"{where} = {value!r}: allowed a table {{key = value, ...}}")
+    return value
+
+
+def _tables(where: str, value) -> list[dict]:
+    if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+        raise SceneError(f"{where} = {value!r}: allowed an array of tables [[...]]")
+    return value
+
+
+def _strings(where: str, value) -> list[str]:
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise SceneError(f"{where} = {value!r}: allowed a list of strings")
+    return value
+
+
+def _window(where: str, value) -> tuple[float, float]:
+    if not (isinstance(value, list) and len(value) == 2):
+        raise SceneError(f"{where} = {value!r}: allowed [t0, t1] in s")
+    lo, hi = (_number(where, v) for v in value)
+    if not lo <= hi:
+        raise SceneError(f"{where} = {value!r}: allowed [t0, t1] with t0 <= t1")
+    return value
+
+
+def divides(where: str, step: float, duration: float) -> None:
+    """Refuse a communication step that does not divide the duration (the run would end elsewhere)."""
+    n = duration / step
+    if abs(n - round(n)) > 1e-9 * max(1.0, n) or round(n) < 1:
+        k = max(1, math.ceil(n - 1e-9))
+        raise SceneError(f"{where}: step = {step:g} s does not divide duration = {duration:g} s ({n:.4g} steps); "
+                         f"allowed: a step that divides it, e.g. {duration / k:.6g} s")
 
 
 def _profile(where: str, spec) -> Profile:
@@ -150,20 +262,23 @@ def _profile(where: str, spec) -> Profile:
         return Profile("constant", float(spec))
     if isinstance(spec, dict):
         _unknown(where, spec, {"table", "step"})
+        if len(spec) != 1:
+            raise SceneError(f"{where}: give one of 'table' or 'step'")
         if "table" in spec:
             rows = spec["table"]
-            try:
-                ts = tuple(float(r[0]) for r in rows)
-                vs = tuple(float(r[1]) for r in rows)
-            except (TypeError, ValueError, IndexError):
-                raise SceneError(f"{where}.table: allowed a list of [time, value] pairs") from None
-            if not ts or any(b < a for a, b in zip(ts, ts[1:])) or not all(map(math.isfinite, ts + vs)):
+            if not isinstance(rows, list) or not all(isinstance(r, list) and len(r) == 2 for r in rows):
+                raise SceneError(f"{where}.table: allowed a list of [time, value] pairs")
+            ts = tuple(_number(f"{where}.table time", r[0]) for r in rows)
+            vs = tuple(_number(f"{where}.table value", r[1]) for r in rows)
+            if not ts or any(b < a for a, b in zip(ts, ts[1:])):
                 raise SceneError(f"{where}.table: times must be finite and non-decreasing, values finite")
             return Profile("table", times=ts, values=vs)
-        st = spec["step"]
+        st = _table_of(f"{where}.step", spec["step"])
         _unknown(f"{where}.step", st, {"time", "before", "after", "rise"})
-        t0, rise = float(st.get("time", 0.0)), float(st.get("rise", 0.0))
-        b, a = float(st.get("before", 0.0)), float(st.get("after", 0.0))
+        t0 = _number(f"{where}.step.time", st.get("time", 0.0))
+        rise = _number(f"{where}.step.rise", st.get("rise", 0.0), minimum=0.0)
+        b = _number(f"{where}.step.before", st.get("before", 0.0))
+        a = _number(f"{where}.step.after", st.get("after", 0.0))
         return Profile("table", times=(t0, t0 + rise), values=(b, a))
     raise SceneError(f"{where}: allowed a number, {{table = [[t, v], ...]}} or {{step = {{time, before, after}}}}")
 
@@ -177,81 +292,139 @@ def _split(where: str, ref: str, names: set[str]) -> tuple[str, str]:
     return inst, var
 
 
+def _quantity(where: str, q, names: set[str]) -> list[str]:
+    """Variables a quantity reads, after checking it: 'inst.var' or an expression over {inst.var}."""
+    from harness.expressions import compile_expression, is_expression
+
+    if is_expression(q):
+        refs = list(compile_expression(q, where).refs)
+    else:
+        refs = [_text(where, q)]
+    for r in refs:
+        _split(where, r, names)
+    return refs
+
+
+_INSTANCE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,63}$")
+
+
 def parse_scene(data: dict, source: Path | None = None) -> Scene:
     where = str(source.name) if source else "scene"
+    _table_of(where, data)
     _unknown(where, data, TOP_KEYS)
     for req in ("name", "duration", "step", "fmus"):
         if req not in data:
             raise SceneError(f"{where}: missing required key {req!r}")
+    name = safe_name(f"{where}: name", data["name"])
+    description = _text(f"{where}: description", data.get("description", ""))
     duration = _positive(f"{where}: duration", data["duration"])
     step = _positive(f"{where}: step", data["step"])
     if step > duration:
         raise SceneError(f"{where}: step = {step} s is longer than duration = {duration} s")
+    divides(where, step, duration)
     out = _positive(f"{where}: output_interval", data.get("output_interval", step))
     algorithm = data.get("algorithm", "gauss-seidel")
-    if algorithm not in ALGORITHMS:
+    if not isinstance(algorithm, str) or algorithm not in ALGORITHMS:
         raise SceneError(f"{where}: algorithm = {algorithm!r}; allowed: {', '.join(sorted(ALGORITHMS))}")
     instances = []
     if not isinstance(data["fmus"], dict) or not data["fmus"]:
         raise SceneError(f"{where}: [fmus.<instance>] tables required")
-    for name, spec in data["fmus"].items():
-        _unknown(f"{where}: fmus.{name}", spec, FMU_KEYS)
+    for iname, spec in data["fmus"].items():
+        if not _INSTANCE.match(iname):
+            raise SceneError(f"{where}: fmus.{iname!r}: allowed an instance name of letters, digits and _")
+        _table_of(f"{where}: fmus.{iname}", spec)
+        _unknown(f"{where}: fmus.{iname}", spec, FMU_KEYS)
         if "fmu" not in spec:
-            raise SceneError(f"{where}: fmus.{name}: missing key 'fmu'")
-        instances.append(FmuInstance(name, spec["fmu"], dict(spec.get("parameters", {}))))
+            raise SceneError(f"{where}: fmus.{iname}: missing key 'fmu'")
+        fmu = _text(f"{where}: fmus.{iname}.fmu", spec["fmu"])
+        params = _table_of(f"{where}: fmus.{iname}.parameters", spec.get("parameters", {}))
+        instances.append(FmuInstance(iname, fmu, dict(params)))
     names = {i.name for i in instances}
     order = data.get("order")
     if order is not None:
+        _strings(f"{where}: order", order)
         if sorted(order) != sorted(names):
             raise SceneError(f"{where}: order must list each instance once: {', '.join(sorted(names))}")
         instances.sort(key=lambda i: order.index(i.name))
     inputs = {}
-    for ref, spec in data.get("inputs", {}).items():
+    for ref, spec in _table_of(f"{where}: inputs", data.get("inputs", {})).items():
         _split(f"{where}: inputs", ref, names)
         inputs[ref] = _profile(f"{where}: inputs.{ref!r}", spec)
     connections = {}
-    for to, frm in data.get("connections", {}).items():
+    for to, frm in _table_of(f"{where}: connections", data.get("connections", {})).items():
         _split(f"{where}: connections", to, names)
-        _split(f"{where}: connections", frm, names)
+        _split(f"{where}: connections.{to!r}", frm, names)
         if to in inputs:
             raise SceneError(f"{where}: {to!r} is both connected and given an input profile")
         connections[to] = frm
     couplings = []
-    for c in data.get("couplings", []):
+    for c in _tables(f"{where}: couplings", data.get("couplings", [])):
         _unknown(f"{where}: couplings", c, COUPLING_KEYS)
         for k in ("name", "torque", "w_from", "w_to"):
             if k not in c:
                 raise SceneError(f"{where}: couplings: missing key {k!r}")
+            _text(f"{where}: couplings.{k}", c[k])
             if k != "name":
                 _split(f"{where}: couplings.{k}", c[k], names)
+        if "sign" in c:
+            _number(f"{where}: couplings {c['name']!r}.sign", c["sign"])
         couplings.append(dict(c))
-    record = list(data.get("record", []))
+    record = list(_strings(f"{where}: record", data.get("record", [])))
     for r in record:
         _split(f"{where}: record", r, names)
+    needed: list[str] = []
     table = []
-    for row in data.get("table", []):
+    for i, row in enumerate(_tables(f"{where}: table", data.get("table", []))):
         _unknown(f"{where}: table", row, TABLE_KEYS)
-        for ref in refs_of(row.get("var", "")) + refs_of(row.get("theory")):
-            _split(f"{where}: table {row.get('label', '')!r}", ref, names)
+        at = f"{where}: table[{i}]"
+        for k in ("label", "var"):
+            if k not in row:
+                raise SceneError(f"{at}: missing key {k!r}")
+        _text(f"{at}.label", row["label"])
+        at = f"{where}: table {row['label']!r}"
+        needed += _quantity(f"{at}.var", row["var"], names)
+        for k in ("scale", "paper", "paper_max", "paper_min"):
+            if k in row:
+                _number(f"{at}.{k}", row[k])
+        if "unit" in row:
+            _text(f"{at}.unit", row["unit"])
+        if isinstance(row.get("theory"), str):
+            needed += _quantity(f"{at}.theory", row["theory"], names)
+        elif "theory" in row:
+            _number(f"{at}.theory", row["theory"])
+        if "window" in row:
+            _window(f"{at}.window", row["window"])
         table.append(dict(row))
     checks = []
-    for c in data.get("checks", []):
+    for i, c in enumerate(_tables(f"{where}: checks", data.get("checks", []))):
         _unknown(f"{where}: checks", c, CHECK_KEYS)
+        at = f"{where}: checks {c['name']!r}" if isinstance(c.get("name"), str) else f"{where}: checks[{i}]"
+        if "name" in c:
+            _text(f"{at}.name", c["name"])
         if c.get("stat") not in STATS:
-            raise SceneError(f"{where}: checks.stat = {c.get('stat')!r}; allowed: {', '.join(sorted(STATS))}")
-        for ref in refs_of(c.get("var", "")) + refs_of(c.get("expect_var")):
-            _split(f"{where}: checks {c.get('name', '')!r}", ref, names)
+            raise SceneError(f"{at}.stat = {c.get('stat')!r}; allowed: {', '.join(sorted(STATS))}")
+        if "var" not in c:
+            raise SceneError(f"{at}: missing key 'var'")
+        needed += _quantity(f"{at}.var", c["var"], names)
+        if "expect_var" in c:
+            needed += _quantity(f"{at}.expect_var", c["expect_var"], names)
+        for k in ("expect", "below", "above"):
+            if k in c:
+                _number(f"{at}.{k}", c[k])
+        for k in ("rtol", "atol"):
+            if k in c:
+                _number(f"{at}.{k}", c[k], minimum=0.0)
+        if "window" in c:
+            _window(f"{at}.window", c["window"])
         checks.append(dict(c))
-    quantities = ([t["var"] for t in table] + [t.get("theory") for t in table] + [c["var"] for c in checks]
-                  + [c.get("expect_var") for c in checks])
-    for q in quantities:
-        for r in refs_of(q):
-            if r not in record:
-                record.append(r)
-    effects = dict(data.get("effects", {}))
+    for r in needed:
+        if r not in record:
+            record.append(r)
+    effects = dict(_table_of(f"{where}: effects", data.get("effects", {})))
     fidelity = data.get("fidelity", {})
     if isinstance(fidelity, str):
         fidelity = {"mode": fidelity}
+    _table_of(f"{where}: fidelity", fidelity)
     _unknown(f"{where}: fidelity", fidelity, FIDELITY_KEYS)
     if fidelity.get("mode", "fixed") not in ("fixed", "auto"):
         raise SceneError(f"{where}: fidelity mode = {fidelity['mode']!r}; allowed: fixed | auto")
@@ -259,24 +432,36 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
         outs = fidelity.get("outputs")
         if not isinstance(outs, list) or not outs or not all(isinstance(o, str) for o in outs):
             raise SceneError(f"{where}: fidelity auto needs outputs = a non-empty list of quantities")
+        for o in outs:
+            _quantity(f"{where}: fidelity.outputs", o, names)
         tol = fidelity.get("tolerance", 0.01)
-        if not isinstance(tol, (int, float)) or not 0 < tol < 1e3:
+        if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 0 < tol < 1e3:
             raise SceneError(f"{where}: fidelity tolerance = {tol!r}; allowed: a number > 0 (relative error)")
         fidelity.setdefault("data", data.get("extends", data["name"]))
-    return Scene(name=str(data["name"]), description=str(data.get("description", "")), duration=duration,
+        _text(f"{where}: fidelity.data", fidelity["data"])
+    return Scene(name=name, description=description, duration=duration,
                  step=step, output_interval=out, algorithm=algorithm, instances=instances, inputs=inputs,
                  connections=connections, couplings=couplings, record=record, table=table, checks=checks,
                  effects=effects, fidelity=dict(fidelity), source=source)
 
 
-def scene_path(name_or_path: str) -> Path:
+def scene_path(name_or_path: str, base: Path | None = None) -> Path:
+    """The file of a scene name, or of a path to a .toml file (relative paths from ``base``, the
+    folder of the scene that names it, else the working directory)."""
+    if not isinstance(name_or_path, str) or not name_or_path or "\0" in name_or_path:
+        raise SceneError(f"scene {name_or_path!r}: allowed a scene name or a path to a .toml file")
     p = Path(name_or_path)
-    if p.suffix == ".toml" and p.exists():
-        return p
-    q = SCENE_DIR / f"{name_or_path}.toml"
-    if q.exists():
-        return q
-    raise SceneError(f"unknown scene {name_or_path!r}; available: {', '.join(available())}")
+    if p.suffix == ".toml":
+        if base is not None and not p.is_absolute():
+            p = base / p
+        if p.is_file():
+            return p
+        raise SceneError(f"scene file {str(p)!r} not found")
+    if _SAFE_NAME.match(name_or_path) and ".." not in name_or_path:
+        q = SCENE_DIR / f"{name_or_path}.toml"
+        if q.is_file():
+            return q
+    raise SceneError(f"unknown scene {name_or_path!r}; available: {', '.join(available())} (or a .toml file)")
 
 
 def merge(base: dict, over: dict) -> dict:
@@ -287,21 +472,34 @@ def merge(base: dict, over: dict) -> dict:
     return out
 
 
-def read_scene_data(name_or_path: str, _seen: tuple[str, ...] = ()) -> dict:
-    """The scene's TOML data with ``extends`` resolved (its parent's tables merged underneath)."""
-    path = scene_path(name_or_path)
+MAX_EXTENDS = 16
+
+
+def read_scene_data(name_or_path: str, _seen: tuple[Path, ...] = (), _base: Path | None = None) -> dict:
+    """The scene's TOML data with ``extends`` resolved (its parent's tables merged underneath).
+
+    A parent given as a path is read relative to the folder of the scene that names it."""
+    path = scene_path(name_or_path, _base)
+    real = path.resolve()
+    if real in _seen:
+        chain = " -> ".join(p.name for p in _seen + (real,))
+        raise SceneError(f"{_seen[-1].name}: extends makes a cycle: {chain}")
+    if len(_seen) >= MAX_EXTENDS:
+        raise SceneError(f"{path.name}: extends chain longer than {MAX_EXTENDS} scenes")
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(path.read_bytes().decode("utf-8"))
+    except UnicodeDecodeError as e:
+        raise SceneError(f"{path.name}: not UTF-8 text (byte {e.start}); allowed: a UTF-8 TOML file") from None
     except tomllib.TOMLDecodeError as e:
         raise SceneError(f"{path.name}: not valid TOML: {e}") from None
+    except OSError as e:
+        raise SceneError(f"{path.name}: cannot read: {e.strerror}") from None
     parent = data.get("extends")
     if parent is None:
         return data
     if not isinstance(parent, str):
-        raise SceneError(f"{path.name}: extends = {parent!r}; allowed: a scene name")
-    if parent in _seen + (path.stem,):
-        raise SceneError(f"{path.name}: extends {parent!r} makes a cycle")
-    base = read_scene_data(parent, _seen + (path.stem,))
+        raise SceneError(f"{path.name}: extends = {parent!r}; allowed: a scene name or a path to a .toml file")
+    base = read_scene_data(parent, _seen + (real,), path.parent)
     base.pop("fidelity", None)
     return merge(base, data)
 

@@ -30,7 +30,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from harness.scene import Scene, SceneError
+from harness.scene import Scene, SceneError, safe_name
 
 SSD_FILE = "SystemStructure.ssd"
 FMU_TYPE = "application/x-fmu-sharedlibrary"
@@ -271,7 +271,8 @@ def _write(scene: Scene, fmu_files: dict[str, Path], mds: dict, variables: dict,
 
 
 def default_output(scene: Scene) -> Path:
-    return ROOT / "results" / scene.name / f"{scene.name}.ssp"
+    name = safe_name("scene name", scene.name)   # a name becomes a path only after validation
+    return ROOT / "results" / name / f"{name}.ssp"
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -33,6 +33,7 @@ import logging
 import math
 import os
 import re
+import socket
 import sys
 import time
 import tomllib
@@ -41,7 +42,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator
 
-from harness.scene import STATS, SceneError, refs_of
+from harness.expressions import compile_expression, is_expression
+from harness.scene import STATS, SceneError, parameter_value, refs_of, safe_name
 from harness.sweep_worker import STATUSES, THEORIES, FmuRef, Job, Metric, Task, compile_expr, evaluate_metrics, \
     run_one, scene_for, snapshot
 
@@ -215,6 +217,11 @@ def _parse_metric(where: str, spec: dict, earlier: list[str]) -> Metric:
     if kind == "var":
         if not isinstance(spec["var"], str):
             raise SweepError(f"{where}: var = {spec['var']!r}; allowed: 'inst.var' or an expression over {{inst.var}}")
+        if is_expression(spec["var"]):
+            try:
+                compile_expression(spec["var"], f"{where}.var")
+            except SceneError as e:
+                raise SweepError(str(e)) from None
         st = spec.get("stat", "mean")
         if st not in STATS:
             raise SweepError(f"{where}: stat = {st!r}; allowed: {', '.join(sorted(STATS))}")
@@ -231,9 +238,9 @@ def _parse_metric(where: str, spec: dict, earlier: list[str]) -> Metric:
         if not isinstance(spec["expr"], str):
             raise SweepError(f"{where}: expr = {spec['expr']!r}; allowed: a string")
         try:
-            compile_expr(spec["expr"], earlier)
+            compile_expr(spec["expr"], earlier, f"{where}.expr")
         except SceneError as e:
-            raise SweepError(f"{where}: {e}") from None
+            raise SweepError(str(e)) from None
         return Metric(name, "expr", expr=spec["expr"])
     if spec["theory"] not in THEORIES:
         raise SweepError(f"{where}: theory = {spec['theory']!r}; allowed: {', '.join(sorted(THEORIES))}")
@@ -257,7 +264,15 @@ def _parse_plot(where: str, spec: dict, params: list[str], columns: list[str]) -
         for n in names:
             if n not in allowed:
                 raise SweepError(f"{where}.{key} = {n!r}; allowed: {', '.join(allowed)}")
-    return Plot(spec["x"], y, th, spec.get("group"), str(spec.get("title", "")), str(spec.get("file", "")))
+    title, file = spec.get("title", ""), spec.get("file", "")
+    if not isinstance(title, str):
+        raise SweepError(f"{where}.title = {title!r}; allowed: a string")
+    if file:
+        try:
+            safe_name(f"{where}.file", file)
+        except SceneError as e:
+            raise SweepError(str(e)) from None
+    return Plot(spec["x"], y, th, spec.get("group"), title, file)
 
 
 def parse_sweep(data: dict, source: Path | None = None) -> Sweep:
@@ -267,8 +282,10 @@ def parse_sweep(data: dict, source: Path | None = None) -> Sweep:
     if "scene" not in data or not isinstance(data["scene"], str):
         raise SweepError(f"{where}: missing key 'scene' (a scene name or .toml path)")
     name = data.get("name", source.stem if source else "sweep")
-    if not isinstance(name, str) or not re.match(r"^[\w.-]+$", name):
-        raise SweepError(f"{where}: name = {name!r}; allowed: letters, digits, '_', '-', '.'")
+    try:
+        safe_name(f"{where}: name", name)
+    except SceneError as e:
+        raise SweepError(str(e)) from None
     overrides = {}
     for k in ("duration", "step"):
         if k in data:
@@ -345,7 +362,9 @@ def sweep_path(name_or_path: str) -> Path:
 def load_sweep(name_or_path: str) -> Sweep:
     path = sweep_path(name_or_path)
     try:
-        data = tomllib.loads(path.read_text())
+        data = tomllib.loads(path.read_bytes().decode("utf-8"))
+    except UnicodeDecodeError as e:
+        raise SweepError(f"{path.name}: not UTF-8 text (byte {e.start}); allowed: a UTF-8 TOML file") from None
     except tomllib.TOMLDecodeError as e:
         raise SweepError(f"{path.name}: not valid TOML: {e}") from None
     return parse_sweep(data, path)
@@ -476,14 +495,31 @@ def plan_sweep(sweep: Sweep, duration: float | None = None, timeout: float | Non
             allowed = sorted(n for n, v in vs.items() if v.causality == "parameter")
             raise SweepError(f"{where}: {label} {key!r}: {insts[inst].fmu} has no parameter {param!r}; "
                              f"allowed: {', '.join(allowed)}")
+        return vs[param].type
 
-    for key in sweep.fixed:
-        parameter("fixed", key)
-    for p in sweep.params:
-        parameter("parameters", p.name)
+    def typed(label: str, type_: str, value):
+        try:
+            return parameter_value(f"{where}: {label}", type_, value)
+        except SceneError as e:
+            raise SweepError(str(e)) from None
+
     for key, value in sweep.fixed.items():
+        t = parameter("fixed", key)
         inst, param = key.split(".", 1)
-        scene.instance(inst).parameters[param] = value
+        scene.instance(inst).parameters[param] = typed(f"fixed.{key}", t, value)
+    params = []
+    for p in sweep.params:
+        t = parameter("parameters", p.name)
+        if p.values is not None:
+            p = replace(p, values=[typed(f"parameters {p.name!r}.values", t, v) for v in p.values])
+        elif t in ("Boolean", "String") or (t in ("Integer", "Enumeration") and not p.integer):
+            raise SweepError(f"{where}: parameters {p.name!r}: range = {list(p.range)} for a {t} parameter; allowed: "
+                             + ("values = [...]" if t in ("Boolean", "String") else "integer = true with the range"))
+        else:
+            for x in p.range:
+                typed(f"parameters {p.name!r}.range", t, int(round(x)) if p.integer else x)
+        params.append(p)
+    sweep = replace(sweep, params=params)
     metrics = []
     for m in sweep.metrics:
         if m.kind == "stat":
@@ -581,6 +617,55 @@ class TableWriter:
         self.fh.close()
 
 
+class FolderLock:
+    """An exclusive lock on a sweep's results folder (``fcntl.flock`` on a hidden file in it): a
+    second sweep writing the same folder is refused, told who holds it. The kernel drops the lock
+    when its holder exits, however it exits, so a killed sweep leaves no stale lock behind."""
+
+    NAME = ".spurdiff-sweep.lock"
+
+    def __init__(self, folder: Path, what: str):
+        self.path = Path(folder) / self.NAME
+        self.what = what
+        self.fd: int | None = None
+
+    def acquire(self) -> "FolderLock":
+        import fcntl
+
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as e:
+            raise SweepError(f"results folder {self.path.parent}: cannot write there: {e.strerror}") from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            holder = os.pread(fd, 500, 0).decode("utf-8", "replace").strip() or "another process"
+            os.close(fd)
+            raise SweepError(f"results folder {self.path.parent} is in use by {holder}; wait for it to finish "
+                             "or give another --out") from None
+        os.ftruncate(fd, 0)
+        stamp = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime())
+        os.pwrite(fd, f"sweep {self.what} (pid {os.getpid()} on {socket.gethostname()}, since {stamp})\n".encode(), 0)
+        self.fd = fd
+        return self
+
+    def release(self) -> None:
+        import fcntl
+
+        if self.fd is not None:
+            os.ftruncate(self.fd, 0)
+            fcntl.flock(self.fd, fcntl.LOCK_UN)
+            os.close(self.fd)
+            self.fd = None
+
+    def __enter__(self) -> "FolderLock":
+        return self.acquire()
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+
 # ------------------------------------------------------------------------------------ progress
 class ProgressBar:
     """One line on stderr: runs done of total, failures, elapsed and estimated time left."""
@@ -622,9 +707,16 @@ Runner = Callable[[Task, Job], dict]
 
 
 def serial_rows(job: Job, tasks: list[Task], runner: Runner) -> Iterator[dict]:
-    """Runs in this process, one after the other."""
-    for t in tasks:
-        yield runner(t, job)
+    """Runs in this process, one after the other. Ctrl-C stops the running run at its next step
+    (:func:`harness.master.stop_on_sigint`): it gives no row, and KeyboardInterrupt ends the sweep."""
+    from harness.master import STOP, stop_on_sigint
+
+    with stop_on_sigint():
+        for t in tasks:
+            if STOP.is_set():
+                raise KeyboardInterrupt
+            row = runner(t, job)
+            yield row
 
 
 def _broken_row(task: Task, job: Job, exc: BaseException) -> dict:
@@ -769,6 +861,14 @@ def run_sweep(sweep: Sweep, out_dir: Path | None = None, *, workers: int | None 
         raise SweepError("--resume and --overwrite: allowed one of them")
     plan = plan or plan_sweep(sweep, duration=duration, timeout=timeout)
     path = table_path(sweep, out_dir)
+    with FolderLock(path.parent, sweep.name):
+        return _run_locked(sweep, plan, path, t0, workers=workers, scheduler=scheduler, client=client,
+                           resume=resume, overwrite=overwrite, retry_failed=retry_failed, progress=progress,
+                           runner=runner, on_row=on_row)
+
+
+def _run_locked(sweep: Sweep, plan: Plan, path: Path, t0: float, *, workers, scheduler, client, resume, overwrite,
+                retry_failed, progress, runner, on_row) -> Outcome:
     done = _prepare_table(sweep, plan.tasks, path, resume, overwrite, retry_failed)
     todo = [t for t in plan.tasks if t.run not in done]
     bar = ProgressBar(len(plan.tasks), len(done), sum(r["status"] != "ok" for r in done.values()), enabled=progress)

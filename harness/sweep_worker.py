@@ -31,9 +31,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from harness.master import Instance, Master, RunFailure
+from harness.master import Instance, Interrupted, Master, RunFailure
 from harness.scene import Scene, SceneError
 
 STATUSES = ("ok", "failed", "timeout", "error", "crashed")
@@ -309,6 +307,8 @@ def run_one(task: Task, job: Job, pool: InstancePool = POOL) -> dict[str, Any]:
             pool.check_build(ref)
         files = {name: local_fmu(ref) for name, ref in job.fmus.items()}
         result = ReusingMaster(scene, files, pool, job.timeout).run()
+        if isinstance(result.failure, Interrupted):
+            raise result.failure   # Ctrl-C: no row for an interrupted run, the sweep stops
         if result.failure is not None:
             status = "timeout" if isinstance(result.failure, RunTimeout) else "failed"
             reason = str(result.failure)
@@ -346,48 +346,14 @@ def evaluate_metrics(metrics: list[Metric], params: dict[str, Any], result, scen
 
 
 # ------------------------------------------------------------------------ metric expressions
-_FUNCS = {"abs": abs, "sqrt": np.sqrt, "min": min, "max": max, "log": np.log, "exp": np.exp}
+def compile_expr(expr: str, names, where: str = "expr"):
+    """Check a metric expression over ``{name}`` references (earlier columns and parameters);
+    return the checked :class:`harness.expressions.Expression`. Raises a one-line SceneError."""
+    from harness.expressions import compile_expression
 
-
-def compile_expr(expr: str, names) -> tuple[str, list[str]]:
-    """Check an expression over ``{name}`` references; return (python code, referenced names).
-
-    Allowed: numbers, + - * / ** and parentheses, abs sqrt min max log exp. Raises SceneError."""
-    import ast
-    import re
-
-    refs = re.findall(r"\{([^{}]+)\}", expr)
-    missing = [r for r in refs if r not in names]
-    if missing:
-        raise SceneError(f"expression {expr!r}: unknown column {missing[0]!r}; allowed: {', '.join(names)}")
-    code = expr
-    for i, r in enumerate(dict.fromkeys(refs)):
-        code = code.replace("{" + r + "}", f"_v{i}")
-    try:
-        tree = ast.parse(code, mode="eval")
-    except SyntaxError:
-        raise SceneError(f"expression {expr!r}: not valid arithmetic") from None
-    ok = (ast.Expression, ast.BinOp, ast.UnaryOp, ast.Constant, ast.Name, ast.Call, ast.Load,
-          ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow, ast.USub, ast.UAdd)
-    for node in ast.walk(tree):
-        if not isinstance(node, ok):
-            raise SceneError(f"expression {expr!r}: {type(node).__name__} not allowed; "
-                             f"allowed: numbers, + - * / **, {', '.join(_FUNCS)}")
-        if isinstance(node, ast.Name) and not (node.id.startswith("_v") or node.id in _FUNCS):
-            raise SceneError(f"expression {expr!r}: unknown name {node.id!r}; refer to columns as {{name}}")
-        if isinstance(node, ast.Call) and not (isinstance(node.func, ast.Name) and node.func.id in _FUNCS
-                                               and not node.keywords):
-            what = node.func.id if isinstance(node.func, ast.Name) else type(node.func).__name__
-            raise SceneError(f"expression {expr!r}: function {what!r} not allowed; allowed: {', '.join(_FUNCS)}")
-        if isinstance(node, ast.Constant) and not isinstance(node.value, (int, float)):
-            raise SceneError(f"expression {expr!r}: only numeric constants allowed")
-    return code, list(dict.fromkeys(refs))
+    return compile_expression(expr, where, names)
 
 
 def eval_expr(expr: str, env: dict[str, Any]) -> float:
-    code, refs = compile_expr(expr, list(env))
-    local = dict(_FUNCS)
-    for i, r in enumerate(refs):
-        local[f"_v{i}"] = np.float64(env[r])
-    with np.errstate(all="ignore"):
-        return float(eval(compile(code, "<sweep expression>", "eval"), {"__builtins__": {}}, local))
+    """The value of a metric expression over the run's parameters and earlier columns."""
+    return float(compile_expr(expr, list(env))(env))

@@ -48,10 +48,14 @@ def test_unknown_scene_is_one_line_and_nonzero(capsys):
 
 
 def test_bad_parameter_stops_run_with_fmu_message_and_keeps_results(tmp_path, capsys):
+    earlier = tmp_path / "paper-straight.csv"
+    earlier.write_text("an earlier run's results\n")
     rc = main(["run", "paper-straight", "--set", "diff.mu_pin=-1", "--out", str(tmp_path), "--no-plots"])
     err = capsys.readouterr().err
     assert rc != 0 and "diff" in err and "mu_pin" in err
-    assert (tmp_path / "paper-straight.csv").exists()
+    # refused at initialization: nothing recorded, so the earlier results file is left as it was
+    assert "nothing recorded" in err and err.count("\n") == 1
+    assert earlier.read_text() == "an earlier run's results\n"
 
 
 def test_unknown_parameter_is_named(tmp_path, capsys):
