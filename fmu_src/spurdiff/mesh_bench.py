@@ -22,10 +22,11 @@ SCALE = np.array([1.0, 1e-5, 1e-5, 1e-5, 1.0, 1.0, 1.0, 1.0])  # state units for
 
 
 def make(level: str, loads, **mesh):
+    p = DifferentialParams(lockingLaw="paper")   # the paper's cases, with the paper's locking law
     if level == "rigid":
-        m = RigidDifferential(DifferentialParams())
+        m = RigidDifferential(p)
     else:
-        m = MeshDifferential(DifferentialParams(), MeshParams(meshModel=level, **mesh))
+        m = MeshDifferential(p, MeshParams(meshModel=level, **mesh))
     m.w_ref, m.w_start_carrier = W0, W0
     m.tau_L, m.tau_R = loads
     m.initialize()
