@@ -38,7 +38,6 @@
     X(fmi2GetReal, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[]), (c, vr, n, v)) \
     X(fmi2GetInteger, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer v[]), (c, vr, n, v)) \
     X(fmi2GetBoolean, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[]), (c, vr, n, v)) \
-    X(fmi2GetString, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String v[]), (c, vr, n, v)) \
     X(fmi2SetReal, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real v[]), (c, vr, n, v)) \
     X(fmi2SetInteger, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer v[]), (c, vr, n, v)) \
     X(fmi2SetBoolean, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Boolean v[]), (c, vr, n, v)) \
@@ -63,6 +62,7 @@
 static struct {
     fmi2InstantiateTYPE *fmi2Instantiate;
     fmi2FreeInstanceTYPE *fmi2FreeInstance;
+    fmi2GetStringTYPE *fmi2GetString;
 #define X_MEMBER(name, params, args) name##TYPE *name;
     FMI2_FORWARDED(X_MEMBER)
 #undef X_MEMBER
@@ -137,6 +137,7 @@ static int load_bridge(const RuntimeCfg *cfg, char *err, size_t errsize)
 #define X_LOAD(name, params, args) LOAD(name)
     FMI2_FORWARDED(X_LOAD)
     LOAD(fmi2FreeInstance)
+    LOAD(fmi2GetString)
     LOAD(fmi2Instantiate)   /* last: it marks the table complete */
 #undef X_LOAD
 #undef LOAD
@@ -180,6 +181,16 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         return NULL;
     }
     return B.fmi2Instantiate(instanceName, fmuType, fmuGUID, resources, functions, visible, loggingOn);
+}
+
+/* Strings are handed out even when the call fails ("" each): some hosts read them without
+ * looking at the status (the ecos command line did, after an fmi2Instantiate that returned NULL). */
+fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String v[])
+{
+    fmi2Status s = (c && B.fmi2GetString) ? B.fmi2GetString(c, vr, n, v) : fmi2Error;
+    if (s > fmi2Warning && v)
+        for (size_t i = 0; i < n; i++) v[i] = "";
+    return s;
 }
 
 void fmi2FreeInstance(fmi2Component c)
