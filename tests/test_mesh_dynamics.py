@@ -557,3 +557,23 @@ def test_bad_inputs_and_steps():
         MeshDifferential(DifferentialParams(mu_pin=-1.0), MeshParams()).initialize()
     with pytest.raises(StepError):
         MeshDifferential().do_step(0.0, 1e-3)
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0], ids=["drive", "coast"])
+def test_contact_level_pin_friction_power_balance_while_slipping(sign):
+    # pin-load law, difference 2 % above K T0: the contact level slips, the friction works at
+    # n sum_i mu r_d |F_pin,i| |w_i| from its own mesh forces, and the sun torques carry it:
+    # (T_B - T_A) dw = friction power (planet and sun inertia aside)
+    ref = model("contact")
+    K = ref.K if sign > 0 else ref.K_coast
+    D = 1.02 * K * 2100.0
+    m = model("contact", (-1050.0 * sign - D / 2, -1050.0 * sign + D / 2))
+    run(m, 0.02)
+    assert 0 not in m.planet_modes and m.wd < 0.0
+    f = m.mesh_forces
+    Fp = (m._pin_force(0, f.F_A1, f.F_12)[0], m._pin_force(1, f.F_B2, f.F_12)[0])
+    w = (m.y[6], m.y[7])
+    P = 3 * sum(0.26 * 0.012 * F * abs(wi) for F, wi in zip(Fp, w))
+    assert abs(m.locking_torque * m.wd) == pytest.approx(P, rel=1e-3)
+    # the 2 % excess accelerates suns and planets: their inertia torques are in T_B - T_A
+    assert (m.tau_mesh_R - m.tau_mesh_L) * m.wd == pytest.approx(P, rel=0.01)

@@ -61,3 +61,32 @@ def test_planet_mesh_force_lies_between_the_sun_mesh_forces_when_friction_holds_
     assert f.F_B2 < f.F_12 < f.F_A1
     # the two planets' moment balances add up: F_A1 - F_B2 is shared by the two pin frictions
     assert (f.F_A1 - f.F_12) + (f.F_12 - f.F_B2) == pytest.approx(f.F_A1 - f.F_B2)
+
+
+def test_locking_coefficients_for_each_law(geo):
+    from spurdiff.params import DifferentialParams
+    from spurdiff.statics import locking_coefficients_for
+
+    assert locking_coefficients_for(DifferentialParams(lockingLaw="paper"), geo) == pytest.approx((0.028332, 0.028332),
+                                                                                                 rel=2e-5)
+    Kd, Kc = locking_coefficients_for(DifferentialParams(), geo)
+    assert Kd == pytest.approx(0.17789, rel=1e-4) and Kc == pytest.approx(0.21064, rel=1e-4)
+
+
+def test_pin_law_breakaway_power_balance_and_review_numbers(geo):
+    # the review: pin loads per unit mesh force 1.689 / 0.398 (drive), 0.821 / 1.661 (coast),
+    # K_drive about 0.178; the quasi-static break-away satisfies (T_B - T_A) dw = n sum M_i |w_i|
+    from spurdiff.locking import breakaway, first_order_K, pin_friction
+
+    pf = pin_friction(geo, 0.26, 0.012)
+    assert pf.layout.unit_pin_loads(1.0) == pytest.approx((1.689, 0.398), abs=5e-4)
+    assert pf.layout.unit_pin_loads(-1.0) == pytest.approx((0.821, 1.661), abs=5e-4)
+    assert first_order_K(pf, 1.0) == pytest.approx(0.178, abs=5e-4)
+    for T0 in (2100.0, -2100.0):
+        for s in (1.0, -1.0):
+            b = breakaway(pf, T0, s)
+            assert b.T_A + b.T_B == pytest.approx(T0, rel=1e-12)
+            dw = s   # sun A relative to the carrier; the planets turn 36/13 times as fast
+            loss = 3 * sum(abs(M) * 36 / 13 * abs(dw) for M in b.M)
+            assert (b.T_B - b.T_A) * dw == pytest.approx(loss, rel=1e-10)
+            assert [abs(M) for M in b.M] == pytest.approx([0.26 * 0.012 * F for F in b.F_pin], rel=1e-12)

@@ -8,9 +8,11 @@ planet 1 spins relative to the carrier at ``w_1 = -(z_a/z_1) (w_A - w_c)``, plan
 Statics with ``n`` planet pairs and the input torque ``T0`` on the carrier:
 
 * ideal split ``T_A = T_B = T0 / 2``;
-* locking coefficient ``K = (mu r_d / n) (1/(r_a + r_1) + 1/(r_b + r_2))`` and the torque difference
-  the pin-bushing friction can hold, ``dT = K T0`` (the paper writes 6 for ``n``; its figures
-  follow from 3 pairs, see docs/paper-reproduction.md);
+* the paper's locking coefficient ``K = (mu r_d / n) (1/(r_a + r_1) + 1/(r_b + r_2))`` and the
+  torque difference it lets the pin-bushing friction hold, ``dT = K T0`` (the paper writes 6 for
+  ``n``; its figures follow from 3 pairs, see docs/paper-reproduction.md). This is
+  ``lockingLaw = "paper"``; the default law, pin friction from the actual pin loads (drive and
+  coast differ, independent of ``n``), is derived in :mod:`spurdiff.locking`;
 * normal mesh forces per planet from a free-body balance of each planet:
   ``F_A1 = T_A / (n r_a cos(alpha_wA))``, ``F_B2 = T_B / (n r_b cos(alpha_wB))`` and, from the moment
   balance of planet 1 about its pin, ``F_12 r_0 cos(alpha_w0) = F_A1 r_1 cos(alpha_wA)``.
@@ -26,7 +28,8 @@ from .geometry import DifferentialGeometry
 
 
 def locking_coefficient(mu: float, r_d: float, n_pairs: int, r_a: float, r_1: float, r_b: float, r_2: float) -> float:
-    """K = (mu r_d / n) (1/(r_a + r_1) + 1/(r_b + r_2)), dimensionless."""
+    """The paper's K = (mu r_d / n) (1/(r_a + r_1) + 1/(r_b + r_2)), dimensionless
+    (``lockingLaw = "paper"``; see :func:`locking_coefficients_for` for the selected law)."""
     return mu * r_d / n_pairs * (1.0 / (r_a + r_1) + 1.0 / (r_b + r_2))
 
 
@@ -93,3 +96,15 @@ def kinematics(geo: DifferentialGeometry) -> Kinematics:
     p2 = -t.planet1.z / t.planet2.z * p1
     b = -t.planet2.z / t.sunB.z * p2
     return Kinematics(p1, p2, b)
+
+
+def locking_coefficients_for(p, geo: DifferentialGeometry) -> tuple[float, float]:
+    """(K_drive, K_coast) of the locking law ``p.lockingLaw`` for parameters ``p``
+    (:class:`spurdiff.params.DifferentialParams`): the paper's K twice, or the pin-load law's
+    break-away coefficients (:func:`spurdiff.locking.locking_coefficients`)."""
+    from .locking import locking_coefficients, pin_friction
+
+    if p.lockingLaw == "paper":
+        K = locking_coefficient(p.mu_pin, p.r_collar, geo.table.nPairs, geo.r_a, geo.r_1, geo.r_b, geo.r_2)
+        return K, K
+    return locking_coefficients(pin_friction(geo, p.mu_pin, p.r_collar, 0.0, "pinFriction"))
