@@ -74,7 +74,9 @@ VARIABLES: list[Var] = [
     Var("lockingTorque", "output",
         "Pin-bushing friction torque on the differential motion, as a sun-torque difference (positive speeds sun A up)",
         "N.m", "N.mm"),
-    Var("lockingCapacity", "output", "Largest torque difference the friction can hold now (K |T_A + T_B|)", "N.m", "N.mm"),
+    Var("lockingCapacity", "output",
+        "Largest torque difference the friction can hold now: n sum_i |rho_i| (mu r_d |F_pin,i| + preload share) "
+        "from the pin loads (lockingLaw = pinFriction), K |T_A + T_B| + preload (paper)", "N.m", "N.mm"),
     Var("powerLoss", "output", "Friction power, mean over the last step (>= 0)", "W"),
     Var("energyLoss", "output", "Friction energy dissipated since the start", "J"),
     Var("workIn", "output", "Work done on the differential by the carrier drive and the flange torques since the start", "J"),
