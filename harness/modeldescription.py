@@ -97,6 +97,10 @@ def postprocess(xml_text: str, variables: Sequence[Var], default_experiment: dic
                 raise ValueError(f"Real variable {name} has no unit")
             real.set("unit", v.unit)
             used_units.add(v.unit)
+            if v.min is not None:
+                real.set("min", repr(float(v.min)))
+            if v.max is not None:
+                real.set("max", repr(float(v.max)))
             if v.display_unit:
                 if v.display_unit not in UNITS[v.unit][1]:
                     raise ValueError(f"{name}: display unit {v.display_unit} not defined for {v.unit}")

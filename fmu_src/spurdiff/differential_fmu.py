@@ -52,12 +52,12 @@ def _mesh_vars(mesh: str, label: str) -> list[Var]:
 VARIABLES: list[Var] = [
     # --- inputs
     Var("carrier.w_ref", "input", "Carrier speed target (carrierDrive = speed); reached linearly over each step",
-        "rad/s", "rpm", 0.0),
-    Var("carrier.tau", "input", "External torque driving the carrier (carrierDrive = torque)", "N.m", "N.mm", 0.0),
+        "rad/s", "rpm", 0.0, min=-1e4, max=1e4),
+    Var("carrier.tau", "input", "External torque driving the carrier (carrierDrive = torque)", "N.m", "N.mm", 0.0, min=-1e6, max=1e6),
     Var("left.tau", "input", "External torque on the left half-shaft flange (sun A), Modelica sign: a load is negative",
-        "N.m", "N.mm", 0.0),
+        "N.m", "N.mm", 0.0, min=-1e6, max=1e6),
     Var("right.tau", "input", "External torque on the right half-shaft flange (sun B), Modelica sign: a load is negative",
-        "N.m", "N.mm", 0.0),
+        "N.m", "N.mm", 0.0, min=-1e6, max=1e6),
     # --- outputs (values at the end of the last step; no direct feedthrough)
     Var("carrier.w", "output", "Carrier speed", "rad/s", "rpm"),
     Var("carrier.phi", "output", "Carrier angle", "rad", "deg"),

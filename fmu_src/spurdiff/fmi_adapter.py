@@ -22,8 +22,9 @@ initialization that failed (only fmi2Reset and fmi2FreeInstance help then).
   in initialization mode are computed from the values set so far (FMI 2.0 section 2.2.7,
   InitialUnknowns).
 * fmi2DoStep refuses (fmi2Discard, state kept at the last successful time, logged reason) a
-  communication point that is not the FMU's time, a step past a defined stop time, a
-  non-finite input, and a step whose result is not finite.
+  communication point that is not the FMU's time, a step past a defined stop time, an input
+  that is not finite or outside its declared range (``Var.min``/``max``, also in
+  modelDescription.xml), and a step whose result is not finite.
 * get/set FMU state carry the whole model state (integrator memory included); a serialized
   state is validated (kind, version, fixed parameters, the parameter ranges) before it can be
   set, and a state of another fidelity is refused.
@@ -103,7 +104,9 @@ class ModelFmu(Fmi2Slave):
         self._get: dict[str, dict[int, str]] = {k: {} for k in _TYPES}   # type -> vr -> name
         self._set: dict[str, dict[int, str]] = {k: {} for k in _TYPES}   # settable ones
         self._fixed: set[str] = {v.name for v in self.VARIABLES if v.fmi_variability == "fixed"}
-        self._inputs = [v.name for v in self.VARIABLES if v.causality == "input"]
+        # inputs with their accepted range (modelDescription min/max; unbounded where none)
+        self._inputs = [(v.name, -math.inf if v.min is None else v.min, math.inf if v.max is None else v.max)
+                        for v in self.VARIABLES if v.causality == "input" and v.kind == "Real"]
         self._outputs = [v.name for v in self.VARIABLES if v.causality == "output" and v.kind == "Real"]
         self.model = None
         self.phase = "instantiated"
@@ -304,10 +307,12 @@ class ModelFmu(Fmi2Slave):
             return self._refuse(DISCARD, f"fmi2DoStep refused: t + h = {t + h:g} s is past the stopTime "
                                          f"{self.stop_time:g} s set by fmi2SetupExperiment")
         values = self.values
-        for name in self._inputs:
-            if _is_bad_number(values[name]):
-                return self._refuse(DISCARD, f"fmi2DoStep at t = {t:g} s refused: input {name} = "
-                                             f"{values[name]} is not a finite number; state kept at t = {self.time:g} s")
+        for name, lo, hi in self._inputs:
+            x = values[name]
+            if not lo <= x <= hi:   # NaN too
+                what = "is not a finite number" if not math.isfinite(x) else f"is outside [{lo:g}, {hi:g}]"
+                return self._refuse(DISCARD, f"fmi2DoStep at t = {t:g} s refused: input {name} = {x} {what}; "
+                                             f"state kept at t = {self.time:g} s")
         model = self.model
         # the rollback point; a model whose do_step leaves itself as it was on any error and never
         # commits a non-finite state says so with ATOMIC_STEP (no snapshot on the hot path)

@@ -19,6 +19,8 @@ class Var:
     variability: str | None = None  # default from causality
     depends: tuple[str, ...] = ()  # outputs: inputs with direct feedthrough (none: values are
     #                                those at the end of the last step)
+    min: float | None = None       # inputs: the physical range a step accepts (modelDescription
+    max: float | None = None       # min/max; a value outside is refused with fmi2Discard)
 
     @property
     def fmi_variability(self) -> str:

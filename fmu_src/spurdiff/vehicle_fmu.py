@@ -36,16 +36,16 @@ def _p(group: str, field: str, description: str, unit: str | None, display: str 
 VARIABLES: list[Var] = [
     # --- inputs
     Var("rearLeft.Fx", "input", "Longitudinal tyre force of the rear left wheel on the body (its WheelLoad Fx)",
-        "N", None, 0.0),
+        "N", None, 0.0, min=-1e6, max=1e6),
     Var("rearRight.Fx", "input", "Longitudinal tyre force of the rear right wheel on the body (its WheelLoad Fx)",
-        "N", None, 0.0),
-    Var("speedTarget", "input", "Target of the speed controller (longitudinal speed v_x)", "m/s", "km/h", 0.0),
+        "N", None, 0.0, min=-1e6, max=1e6),
+    Var("speedTarget", "input", "Target of the speed controller (longitudinal speed v_x)", "m/s", "km/h", 0.0, min=-1e3, max=1e3),
     Var("pathRadius", "input", "Path radius the steering controller follows (steering.mode = 0); "
         "positive: left turn; 0: straight", "m", None, 0.0),
     Var("steeringAngleCommand", "input", "Road-wheel steering angle command (steering.mode = 1), positive left",
-        "rad", "deg", 0.0),
-    Var("grade", "input", "Road grade angle, uphill positive (|grade| <= pi/4)", "rad", "deg", 0.0),
-    Var("mu", "input", "Road friction coefficient for the lateral tyres (>= 0)", "1", None, ROAD_MU),
+        "rad", "deg", 0.0, min=-3.15, max=3.15),
+    Var("grade", "input", "Road grade angle, uphill positive (|grade| <= pi/4)", "rad", "deg", 0.0, min=-0.786, max=0.786),
+    Var("mu", "input", "Road friction coefficient for the lateral tyres (>= 0)", "1", None, ROAD_MU, min=0.0, max=10.0),
     # --- outputs (values at the end of the last step; no direct feedthrough)
     Var("rearLeft.vx", "output", "Velocity of the rear left wheel centre along the wheel (v_x - r t_r / 2)",
         "m/s", "km/h"),

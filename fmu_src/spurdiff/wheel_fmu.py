@@ -49,10 +49,10 @@ VARIABLES: list[Var] = [
     Var("flange.phi", "input", "Angle of the differential's sun flange driving this half-shaft (its left.phi / right.phi)",
         "rad", "deg", 0.0),
     Var("flange.w", "input", "Speed of the differential's sun flange driving this half-shaft (its left.w / right.w)",
-        "rad/s", "rpm", 0.0),
-    Var("Fz", "input", "Normal load on the wheel (negative is treated as 0: a lifted wheel)", "N", None, 0.0),
-    Var("mu", "input", "Road friction coefficient (>= 0)", "1", None, ROAD_MU),
-    Var("vx", "input", "Longitudinal velocity of the wheel centre along the wheel heading", "m/s", "km/h", 0.0),
+        "rad/s", "rpm", 0.0, min=-1e4, max=1e4),
+    Var("Fz", "input", "Normal load on the wheel (negative is treated as 0: a lifted wheel)", "N", None, 0.0, min=-1e6, max=1e6),
+    Var("mu", "input", "Road friction coefficient (>= 0)", "1", None, ROAD_MU, min=0.0, max=10.0),
+    Var("vx", "input", "Longitudinal velocity of the wheel centre along the wheel heading", "m/s", "km/h", 0.0, min=-1e3, max=1e3),
     # --- outputs (values at the end of the last step; no direct feedthrough)
     Var("flange.tau", "output",
         "Torque of the half-shaft on the differential's flange, Modelica sign (negative while driving): "

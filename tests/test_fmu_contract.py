@@ -1,0 +1,245 @@
+"""The FMI 2.0 co-simulation contract, one suite over our three FMUs (through fmpy).
+
+Misuse sequences a careless or hostile host can send, each answered with the status the standard
+asks for and a logged reason, never fmi2Fatal and never a crash, the instance staying usable:
+Initialization Mode entered again after stepping, a communication point that is not the FMU's
+time, a step past the stop time, inputs so large the result is not finite, tampered and foreign
+serialized states, garbage bytes, invalid value references, a wrong GUID, a missing resources
+folder; and outputs valid in Initialization Mode.
+"""
+from __future__ import annotations
+
+import json
+import shutil
+import zipfile
+
+import pytest
+from fmpy import read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import FMU2Slave
+
+from harness.master import Instance, _make_logger
+
+# a case per FMU: the inputs of a normal run, an input that can be driven to overflow, a
+# parameter whose tampered value is out of range, and a fixed (structural) parameter
+CASES = {
+    "SpurDifferential": dict(inputs={"carrier.w_ref": 1.389, "left.tau": -1050.0, "right.tau": -1040.0},
+                             huge=("left.tau", 1e308), bad_param=("mu_pin", -5.0), output="left.w"),
+    "WheelLoad": dict(inputs={"flange.w": 30.0, "Fz": 4000.0, "mu": 0.9, "vx": 10.0},
+                      huge=("Fz", 1e300), bad_param=("halfShaft.c", -1.0), output="wheel.w"),
+    "Vehicle": dict(inputs={"rearLeft.Fx": 500.0, "rearRight.Fx": 480.0, "speedTarget": 10.0, "pathRadius": 20.0},
+                    huge=("rearLeft.Fx", 1e300), bad_param=("vehicle.m", -1.0), output="vx"),
+}
+H = 1e-3
+
+
+def start(fmu, name, case, stop=None):
+    inst = Instance(name, fmu)
+    s = inst.slave
+    s.setupExperiment(startTime=0.0, stopTime=stop)
+    s.enterInitializationMode()
+    for k, v in case["inputs"].items():
+        inst.set_value(k, v)
+    s.exitInitializationMode()
+    return inst
+
+
+def get(inst, name):
+    return inst.slave.getReal([inst.var(name).valueReference])[0]
+
+
+def steps(inst, n, t0=0.0):
+    t = t0
+    for _ in range(n):
+        inst.slave.doStep(t, H)
+        t += H
+    return t
+
+
+def status_of(call) -> int:
+    with pytest.raises(FMICallException) as e:
+        call()
+    return e.value.status
+
+
+def last(inst) -> str:
+    return inst.messages[-1][1] if inst.messages else ""
+
+
+@pytest.fixture(params=list(CASES))
+def fmu(request, fmu_files):
+    return request.param, fmu_files[request.param], CASES[request.param]
+
+
+def test_initialization_mode_cannot_be_entered_again_after_stepping(fmu):
+    name, path, case = fmu
+    inst = start(path, "a", case)
+    t = steps(inst, 5)
+    before = get(inst, case["output"])
+    assert status_of(inst.slave.enterInitializationMode) == 3
+    assert "EnterInitializationMode refused in state 'stepping'" in last(inst)
+    assert status_of(lambda: inst.slave.setupExperiment(startTime=0.0)) == 3
+    steps(inst, 5, t)   # went on from where it was, not from t = 0
+    assert get(inst, case["output"]) != pytest.approx(0.0) or before == pytest.approx(0.0)
+    assert inst.slave.getRealStatus(2) == pytest.approx(t + 5 * H)   # fmi2LastSuccessfulTime
+    inst.slave.terminate()
+    inst.slave.freeInstance()
+
+
+def test_outputs_are_valid_in_initialization_mode(fmu):
+    """What libcosim reads between enter- and exitInitializationMode: the values the FMU will
+    report at t = 0, computed from the parameters and inputs set so far."""
+    name, path, case = fmu
+    inst = Instance("init", path)
+    s = inst.slave
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    for k, v in case["inputs"].items():
+        inst.set_value(k, v)
+    outs = [v for v in inst.vars.values() if v.causality in ("output", "calculatedParameter") and v.type == "Real"]
+    vrs = [v.valueReference for v in outs]
+    during = s.getReal(vrs)
+    s.exitInitializationMode()
+    after = s.getReal(vrs)
+    assert during == after
+    assert any(abs(x) > 0 for x in during)   # computed, not the start values 0
+    s.terminate()
+    s.freeInstance()
+
+
+def test_a_communication_point_that_is_not_the_fmus_time_is_refused(fmu):
+    name, path, case = fmu
+    inst = start(path, "t", case)
+    t = steps(inst, 3)
+    for bad in (t + 0.5, t - 2 * H, float("nan")):
+        assert status_of(lambda: inst.slave.doStep(bad, H)) == 2   # fmi2Discard, state kept
+        assert "not the FMU's time" in last(inst)
+    assert inst.slave.getRealStatus(2) == pytest.approx(t)
+    steps(inst, 2, t)   # the right time still works
+    inst.slave.freeInstance()
+
+
+def test_a_step_past_the_stop_time_is_refused_and_says_terminated(fmu):
+    name, path, case = fmu
+    inst = start(path, "stop", case, stop=3 * H)
+    t = steps(inst, 3)
+    assert status_of(lambda: inst.slave.doStep(t, H)) == 2
+    assert "past the stopTime" in last(inst)
+    assert inst.slave.getBooleanStatus(3) is True or inst.slave.getBooleanStatus(3) == 1   # fmi2Terminated
+    inst.slave.freeInstance()
+
+
+def test_an_input_that_makes_the_result_overflow_is_discarded_and_the_state_kept(fmu):
+    name, path, case = fmu
+    inst = start(path, "huge", case)
+    ref = start(path, "ref", case)
+    t = steps(inst, 5)
+    steps(ref, 5)
+    var, value = case["huge"]
+    good = get(inst, var)
+    inst.set_value(var, value)
+    assert status_of(lambda: inst.slave.doStep(t, H)) == 2
+    assert var in last(inst) and "state kept" in last(inst)
+    outs = [v.valueReference for v in inst.vars.values() if v.causality == "output" and v.type == "Real"]
+    assert inst.slave.getReal(outs) == ref.slave.getReal(outs)   # the outputs of the last good step
+    inst.set_value(var, good)
+    steps(inst, 5, t)           # not poisoned: goes on exactly like the reference
+    steps(ref, 5, t)
+    assert inst.slave.getReal(outs) == ref.slave.getReal(outs)
+    inst.slave.freeInstance()
+    ref.slave.freeInstance()
+
+
+def _serialized(inst) -> bytes:
+    state = inst.slave.getFMUstate()
+    data = bytes(inst.slave.serializeFMUstate(state))
+    inst.slave.freeFMUstate(state)
+    return data
+
+
+def test_tampered_foreign_and_garbage_states_are_refused_and_the_instance_kept(fmu, fmu_files):
+    name, path, case = fmu
+    inst = start(path, "s", case)
+    t = steps(inst, 5)
+    outs = [v.valueReference for v in inst.vars.values() if v.causality == "output" and v.type == "Real"]
+    before = inst.slave.getReal(outs)
+    good = _serialized(inst)
+    doc = json.loads(good)
+    param, bad_value = case["bad_param"]
+    doc["values"][param] = bad_value
+    tampered = json.dumps(doc).encode()
+    other = next(n for n in fmu_files if n != name)
+    foreign_inst = start(fmu_files[other], "f", CASES[other])
+    foreign = _serialized(foreign_inst)
+    foreign_inst.slave.freeInstance()
+    for data, why in ((tampered, param), (foreign, "not of"), (b"\x00garbage\xff" * 10, "not"),
+                      (good[: len(good) // 2], "not"), (b"", "not")):
+        assert status_of(lambda: inst.slave.deSerializeFMUstate(data)) == 3, why
+        assert why in last(inst), (why, last(inst))
+    assert inst.slave.getReal(outs) == before   # untouched
+    # a valid state still restores exactly, and the instance still steps
+    state = inst.slave.deSerializeFMUstate(good)
+    steps(inst, 3, t)
+    inst.slave.setFMUstate(state)
+    assert inst.slave.getReal(outs) == before
+    inst.slave.freeFMUstate(state)
+    steps(inst, 3, t)
+    inst.slave.freeInstance()
+
+
+def test_invalid_value_references_are_an_error_not_fatal(fmu):
+    name, path, case = fmu
+    inst = start(path, "vr", case)
+    n = max(v.valueReference for v in inst.vars.values())
+    assert status_of(lambda: inst.slave.getReal([n + 1000])) == 3
+    assert "value reference" in last(inst)
+    out = inst.var(case["output"]).valueReference
+    assert status_of(lambda: inst.slave.setReal([out], [1.0])) == 3    # an output is not settable
+    for _ in range(5):   # repeated errors never poison the instance (pythonfmu's wrapper crashed after four fatals)
+        status_of(lambda: inst.slave.getReal([n + 1000]))
+    steps(inst, 2)
+    inst.slave.freeInstance()
+
+
+def test_a_fixed_parameter_set_after_initialization_is_an_error_and_ignored(fmu):
+    name, path, case = fmu
+    param = case["bad_param"][0]
+    inst = start(path, "fixed", case)
+    t = steps(inst, 2)
+    v = inst.var(param)
+    assert status_of(lambda: inst.slave.setReal([v.valueReference], [123.0])) == 3
+    assert "fixed parameter" in last(inst)
+    assert inst.slave.getReal([v.valueReference])[0] != 123.0
+    steps(inst, 2, t)
+    inst.slave.freeInstance()
+
+
+def _instantiate_raw(fmu, tmp_path, guid=None, drop_resources=False):
+    md = read_model_description(str(fmu))
+    unzip = tmp_path / "fmu"
+    with zipfile.ZipFile(fmu) as z:
+        z.extractall(unzip)
+    if drop_resources:
+        shutil.rmtree(unzip / "resources")
+    from fmpy.fmi2 import fmi2CallbackFunctions
+    messages = []
+    cb = fmi2CallbackFunctions()
+    cb.logger = _make_logger(messages)
+    slave = FMU2Slave(guid=guid or md.guid, unzipDirectory=str(unzip),
+                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName="raw")
+    with pytest.raises(Exception):
+        slave.instantiate(callbacks=cb)
+    slave.freeLibrary()
+    return messages
+
+
+def test_a_wrong_guid_is_refused_with_the_reason(fmu, tmp_path):
+    name, path, case = fmu
+    messages = _instantiate_raw(path, tmp_path, guid="{00000000-0000-0000-0000-000000000000}")
+    assert any("GUID" in m and "does not match" in m for _, m in messages), messages
+
+
+def test_a_missing_resources_folder_is_refused_with_the_reason(fmu, tmp_path):
+    name, path, case = fmu
+    messages = _instantiate_raw(path, tmp_path, drop_resources=True)
+    assert any("resources" in m and "does not exist" in m for _, m in messages), messages
