@@ -29,6 +29,7 @@ from typing import Any, Callable
 
 import numpy as np
 from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 
 from harness.scene import Scene, SceneError, parameter_value
@@ -302,15 +303,33 @@ class Master:
                 if v.causality not in ("parameter", "input"):
                     raise SceneError(f"{spec.name}.{name} is a {v.causality}, not a parameter")
                 inst.set_value(name, value)
-        # inputs at t = 0: profiles, then connections from start values
+        # inputs at t = 0: the profiles, then the connections propagated in Initialization Mode,
+        # where every FMU computes its outputs from what it was given (FMI 2.0 section 3.2.3):
+        # one Jacobi sweep per instance, so a value travels through a chain of N instances.
+        # libcosim initializes the same way, so both masters start from the same state.
         self._apply_profiles(0.0)
+        for _ in range(len(sc.instances)):
+            sources = {name: [self._initial_output(src, key[1]) for src, key in srcs]
+                       for name, (_, srcs) in self._links.items()}
+            for name, (vrs, _) in self._links.items():
+                if vrs:
+                    self.instances[name].slave.setReal(vrs, sources[name])
         for spec in sc.instances:
             inst = self.instances[spec.name]
-            self._apply_connections(spec.name, initial=True)
-            inst.slave.exitInitializationMode()
+            try:
+                inst.slave.exitInitializationMode()
+            except FMICallException as e:   # fmi2Error: the FMU logged why (an invalid parameter)
+                raise RunFailure(spec.name, 0.0, (inst.errors() or [str(e)])[-1]) from None
             errs = inst.errors()
             if errs:
                 raise RunFailure(spec.name, 0.0, errs[-1])
+
+    def _initial_output(self, name: str, vr: int) -> float:
+        inst = self.instances[name]
+        try:
+            return inst.slave.getReal([vr])[0]
+        except FMICallException as e:   # the FMU cannot compute its initial outputs (it logged why)
+            raise RunFailure(name, 0.0, (inst.errors() or [str(e)])[-1]) from None
 
     # ------------------------------------------------------------------ wiring
     def _compile(self) -> None:
@@ -395,21 +414,12 @@ class Master:
             if profs:
                 self._profile_port[name].set([p(t) for _, p in profs], t)
 
-    def _apply_connections(self, name: str, initial: bool = False, t: float = math.nan) -> None:
+    def _apply_connections(self, name: str, t: float = math.nan) -> None:
         links = getattr(self, "_links", {}).get(name)
         if not links or not links[0]:
             return
-        if not initial:
-            values = self._values
-            self._set_port[name].set([values[src][key] for src, key in links[1]], t)
-            return
-        vals = []
-        for src, key in links[1]:
-            d = self._values[src]
-            if key not in d:
-                d[key] = self.instances[src].slave.getReal([key[1]])[0]
-            vals.append(d[key])
-        self.instances[name].slave.setReal(links[0], vals)
+        values = self._values
+        self._set_port[name].set([values[src][key] for src, key in links[1]], t)
 
     def _read_step(self, name: str, t: float) -> None:
         """The outputs connections and couplings need, after a step of ``name``."""
