@@ -510,10 +510,8 @@ class Master:
                     self.progress((k + 1) / n_steps)
         except RunFailure as e:
             failure = e
-        except Interrupted as e:
+        except Interrupted as e:   # Ctrl-C under stop_on_sigint: stopped between two steps
             failure = e
-        except KeyboardInterrupt:
-            failure = Interrupted(t)
         finally:
             self._free()
         if self.progress is not None and not isinstance(failure, Interrupted):
