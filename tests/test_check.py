@@ -1,14 +1,13 @@
-"""Tests of the FMU compliance kit (``spurdiff check``, harness/check/).
+"""Tests of the FMU compliance kit (``spurdiff check``, harness/check/): the rules as data, the static
+rules, hostile archives and names (issue 14), the report (severities, exit code, JUnit), the command
+line, reference results and comparison. The call-sequence rules on broken FMUs are in
+test_check_fmus.py; the Reference FMUs and the FMU Compliance Checker in test_check_reference_fmus.py.
 
-Small pythonfmu FMUs are built once per session from tests/broken_fmus/: a well-behaved one
-(ChkGood) and deliberately broken ones. Their modelDescription.xml is post-processed here (units,
-UnitDefinitions, output dependencies, InitialUnknowns) so that the static checks pass and each
-broken FMU fails exactly the check it was built to fail.
+Test FMUs are built once and cached under build/test-fmus/ (tests/broken_fmus/chk_build.py).
 """
 from __future__ import annotations
 
 import csv
-import subprocess
 import sys
 import xml.etree.ElementTree as ET
 import zipfile
@@ -20,7 +19,7 @@ sys.path.insert(0, str(Path(__file__).parent / "broken_fmus"))
 import chk_build  # noqa: E402
 from chk_build import add_units_and_structure, rewrite_description  # noqa: E402
 
-from harness.check import (CheckResult, LifecycleOptions, compare_results, is_structured_name,  # noqa: E402
+from harness.check import (CheckResult, compare_results, is_structured_name,  # noqa: E402
                            lifecycle_rules, read_cross_check_csv, read_ref_opt, rules, run_static_checks,
                            safe_model_name, write_junit)
 from harness.check.archive import ArchiveError, extract, member_name_problem  # noqa: E402

@@ -40,7 +40,10 @@ CATCH_TABLE = {
     "ChkCGuid": ("c", ["cs.guid", "me.guid"], {"cs.guid": "error", "me.guid": "error"}),
     "ChkCLateStep": ("c", ["cs.default-experiment"], {"cs.default-experiment": "error"}),
     "ChkCInterpolate": ("c", ["cs.interpolate-inputs"], {"cs.interpolate-inputs": "error"}),
-    "ChkCDirDer": ("c", ["cs.directional-derivative"], {"cs.directional-derivative": "error"}),
+    "ChkCDirDer": ("c", ["cs.directional-derivative", "me.directional-derivative"],
+                   {"cs.directional-derivative": "error", "me.directional-derivative": "error"}),
+    "ChkCJacobian": ("c", ["cs.directional-derivative", "me.directional-derivative"],
+                     {"me.directional-derivative": "error"}),
     "ChkCModelExchange": ("c", ["me.basic"], {"me.basic": "error"}),
     "ChkIgnoresStopTime": ("py", ["cs.stop-time"], {"cs.stop-time": "error"}),
     "ChkConsumesState": ("py", ["cs.get-set-state", "cs.free-state"], {"cs.free-state": "error"}),
@@ -113,6 +116,7 @@ def test_broken_fmu_reasons(caught):
     assert "x after initialization: 0.2" in reason("ChkResetKeepsState", "cs.reset")
     assert "the first instance (start values) changed when a second one ran beside it" in reason("ChkSharedGlobal", "cs.two-instances")
     assert "fmi2CompletedIntegratorStep [instance me] returned fmi2Error" in reason("ChkCModelExchange", "me.basic")
+    assert "d der(x)/d x: 1.0 vs central difference 0.0" in reason("ChkCJacobian", "me.directional-derivative")
 
 
 def test_pythonfmu_limits_are_reported_not_hidden():

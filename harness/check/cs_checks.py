@@ -590,20 +590,41 @@ def check_directional_derivative(s: Session):
         return SKIP, "providesDirectionalDerivative is not declared"
     unknowns = [v for v in s.outputs if v.type == "Real"]
     knowns = s.real_inputs
-    if not unknowns or not knowns:
-        return SKIP, "no Real outputs or no Real inputs to take derivatives with respect to"
     a = s.instance("directionalDerivative")
-    a.initialize()
-    a.run(s.t0, 1)
-    seed = [1.0] + [0.0] * (len(knowns) - 1)
-    values = a.call(f"fmi2GetDirectionalDerivative(outputs, d {knowns[0].name})", a.fmu.getDirectionalDerivative,
-                    [v.valueReference for v in unknowns], [v.valueReference for v in knowns], seed)
-    a.terminate()
-    a.free()
-    bad = [v.name for v, x in zip(unknowns, values) if not math.isfinite(x)]
+    if unknowns and knowns:  # after initialization: outputs with respect to the inputs
+        a.initialize()
+        a.run(s.t0, 1)
+        what = "after a step"
+    else:  # in initialization mode: the InitialUnknowns with respect to their dependencies
+        initial = [u for u in s.md.initialUnknowns if u.variable is not None and u.variable.type == "Real"
+                   and u.dependencies]
+        unknowns = [u.variable for u in initial]
+        seen, knowns = set(), []
+        for u in initial:
+            for d in u.dependencies:
+                if d.type == "Real" and d.name not in seen:
+                    seen.add(d.name)
+                    knowns.append(d)
+        if not unknowns or not knowns:
+            return SKIP, "no Real inputs, and no InitialUnknowns with Real dependencies"
+        a.instantiate()
+        if s.start_values:
+            a.set_values(s.start_values, " start values")
+        a.setup()
+        a.call("fmi2EnterInitializationMode", a.fmu.enterInitializationMode)
+        what = "in initialization mode"
+    bad = []
+    for k, known in enumerate(knowns):
+        seed = [0.0] * len(knowns)
+        seed[k] = 1.0
+        values = a.call(f"fmi2GetDirectionalDerivative({what}, d/d {known.name})", a.fmu.getDirectionalDerivative,
+                        [v.valueReference for v in unknowns], [v.valueReference for v in knowns], seed)
+        bad += [f"d {v.name}/d {known.name}" for v, x in zip(unknowns, values) if not math.isfinite(x)]
     if bad:
-        return FAIL, f"non-finite directional derivatives: {', '.join(bad[:5])}"
-    return PASS, f"d(outputs)/d({knowns[0].name}) given for {len(unknowns)} Real outputs, finite"
+        return FAIL, f"non-finite directional derivatives {what}: {', '.join(bad[:5])}"
+    a.free()
+    return PASS, (f"{what}: derivatives of {', '.join(v.name for v in unknowns[:4])} with respect to "
+                  f"{', '.join(v.name for v in knowns[:4])} given, finite")
 
 
 def check_step_before_init(s: Session):

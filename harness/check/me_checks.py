@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 
 from .driver import CallFailed, Session
-from .report import FAIL, PASS
+from .report import FAIL, PASS, SKIP
 from .cs_checks import WRONG_GUID
 
 MAX_EVENT_ITERATIONS = 100
@@ -110,6 +110,67 @@ def check_me_basic(s: Session, out_csv: str | None = None):
                   f"{nz} event indicators, {n_events} events: every call accepted, states finite")
 
 
+def _continuous_time(s: Session, name: str):
+    """An ME instance initialized and in continuous-time mode (None if the FMU asked to terminate)."""
+    a = s.instance(name)
+    a.instantiate()
+    if s.start_values:
+        a.set_values(s.start_values, " start values")
+    a.setup(stop_time=s.t_stop)
+    a.call("fmi2EnterInitializationMode", a.fmu.enterInitializationMode)
+    a.call("fmi2ExitInitializationMode", a.fmu.exitInitializationMode)
+    terminated, _ = _event_iteration(a)
+    if terminated:
+        return None
+    a.call("fmi2EnterContinuousTimeMode", a.fmu.enterContinuousTimeMode)
+    return a
+
+
+def check_me_directional_derivative(s: Session):
+    from ctypes import c_double
+    if not s.me.providesDirectionalDerivative:
+        return SKIP, "providesDirectionalDerivative is not declared"
+    nx = len(s.md.derivatives)
+    if nx == 0:
+        return SKIP, "no continuous states"
+    ders = [u.variable for u in s.md.derivatives]
+    states = [v.derivative for v in ders]
+    a = _continuous_time(s, "jacobian")
+    if a is None:
+        return SKIP, "the FMU asked to terminate during initialization"
+    x, dx = (c_double * nx)(), (c_double * nx)()
+    a.call("fmi2GetContinuousStates", a.fmu.getContinuousStates, x, nx)
+    x0 = list(x)
+    worst = (0.0, "")
+    for k in range(nx):
+        seed = [0.0] * nx
+        seed[k] = 1.0
+        col = a.call(f"fmi2GetDirectionalDerivative(derivatives, d/d {states[k].name})", a.fmu.getDirectionalDerivative,
+                     [v.valueReference for v in ders], [v.valueReference for v in states], seed)
+        delta = 1e-6 * max(1.0, abs(x0[k]))
+        fd = []
+        for sign in (1.0, -1.0):
+            xs = (c_double * nx)(*x0)
+            xs[k] = x0[k] + sign * delta
+            a.call("fmi2SetContinuousStates", a.fmu.setContinuousStates, xs, nx)
+            a.call("fmi2GetDerivatives", a.fmu.getDerivatives, dx, nx)
+            fd.append(list(dx))
+        a.call("fmi2SetContinuousStates", a.fmu.setContinuousStates, (c_double * nx)(*x0), nx)
+        for i in range(nx):
+            approx = (fd[0][i] - fd[1][i]) / (2 * delta)
+            if not math.isfinite(col[i]):
+                return FAIL, f"d {ders[i].name}/d {states[k].name} is {col[i]!r}"
+            err = abs(col[i] - approx) / (1.0 + abs(approx))
+            if err > worst[0]:
+                worst = (err, f"d {ders[i].name}/d {states[k].name}: {col[i]!r} vs central difference {approx!r}")
+    a.terminate()
+    a.free()
+    if worst[0] > 1e-4:
+        return FAIL, f"directional derivatives differ from central differences of fmi2GetDerivatives: {worst[1]}"
+    return PASS, (f"the {nx}x{nx} state Jacobian from fmi2GetDirectionalDerivative matches central differences of "
+                  f"fmi2GetDerivatives (worst relative difference {worst[0]:.1e})")
+
+
 def check_me_guid(s: Session):
     a = s.instance("wrongGuid", guid=WRONG_GUID)
     if a.instantiate(raise_on_null=False):
@@ -121,5 +182,6 @@ def check_me_guid(s: Session):
 
 TASKS = {
     "me.basic": check_me_basic,
+    "me.directional-derivative": check_me_directional_derivative,
     "me.guid": check_me_guid,
 }

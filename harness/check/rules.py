@@ -117,8 +117,9 @@ RULES: tuple[Rule, ...] = (
     R("cs.output-derivatives", "4.2.1, 4.3.1", ERROR, "fmi2GetRealOutputDerivatives",
       "(maxOutputDerivativeOrder >= 1) first derivatives of the Real outputs are given, finite"),
     R("cs.directional-derivative", "2.1.9", ERROR, "fmi2GetDirectionalDerivative",
-      "(providesDirectionalDerivative) derivatives of the outputs with respect to the Real inputs (or, "
-      "without inputs, the states) are given after initialization, finite"),
+      "(providesDirectionalDerivative) derivatives of the outputs with respect to the Real inputs after a "
+      "step (without inputs: of the InitialUnknowns with respect to their dependencies, in initialization "
+      "mode) are given, finite"),
     R("cs.step-before-init", "4.2.4", WARNING, "fmi2DoStep",
       "a doStep before initialization (not allowed in state instantiated) is refused"),
     R("cs.zero-step-size", "4.2.2", WARNING, "fmi2DoStep",
@@ -138,6 +139,9 @@ RULES: tuple[Rule, ...] = (
       "fmi2Terminate, fmi2FreeInstance",
       "the model-exchange call sequence, driven by explicit Euler at the DefaultExperiment step to its stop "
       "time with event iteration at state, time and step events, is accepted; states and derivatives finite"),
+    R("me.directional-derivative", "2.1.9, 3.2.2", ERROR, "fmi2GetDirectionalDerivative, fmi2GetDerivatives",
+      "(providesDirectionalDerivative) in continuous-time mode the state Jacobian (derivatives with respect to "
+      "the states) is given and matches central differences of fmi2GetDerivatives within 1e-4 (relative)"),
     R("me.guid", "2.1.5", ERROR, "fmi2Instantiate(fmi2ModelExchange)",
       "fmi2Instantiate with a GUID other than the modelDescription's returns NULL"),
 )

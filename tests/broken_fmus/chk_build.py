@@ -85,6 +85,7 @@ CHKC_VARIANTS = {
     "ChkCFreeState": "BREAK_FREE_STATE",
     "ChkCInterpolate": "BREAK_INTERPOLATE",
     "ChkCDirDer": "BREAK_DIRDER",
+    "ChkCJacobian": "BREAK_JACOBIAN",
     "ChkCModelExchange": "BREAK_ME",
     "ChkCLateStep": "BREAK_LATE_STEP",
 }

@@ -18,6 +18,7 @@
    BREAK_FREE_STATE    fmi2FreeFMUstate leaves the pointer as it was (not NULL)
    BREAK_INTERPOLATE   fmi2SetRealInputDerivatives refused although canInterpolateInputs
    BREAK_DIRDER        fmi2GetDirectionalDerivative refused although providesDirectionalDerivative
+   BREAK_JACOBIAN      fmi2GetDirectionalDerivative gives d der(x)/d x = 1 (it is 0)
    BREAK_ME            fmi2CompletedIntegratorStep refused (model exchange)
    BREAK_LATE_STEP     doSteps after t = 0.5 s are refused (fmi2Error): only a long run sees it
 */
@@ -275,6 +276,9 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReferenc
         du[i] = 0.0;
         for (j = 0; j < nk; j++)
             if (kn[j] == VR_U && (unk[i] == VR_Y || unk[i] == VR_DX)) du[i] += m->k * dk[j];
+#ifdef BREAK_JACOBIAN
+            else if (kn[j] == VR_X && unk[i] == VR_DX) du[i] += dk[j];
+#endif
     }
     return fmi2OK;
 }
