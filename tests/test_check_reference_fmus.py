@@ -4,7 +4,7 @@
   errors (skipped, with that reason, where the folder is absent);
 * the kit's reference run and the Compliance Checker's output CSV agree to 1e-9 (co-simulation,
   the DefaultExperiment step, output at every step), on the Reference FMUs and on ours where the
-  checker can run them;
+  checker can run them; so do the kit's model-exchange run (me.basic) and the checker's (-k me);
 * whatever the checker flags, the kit flags too (on the Reference FMUs and the ChkC variants of
   tests/broken_fmus/); where only the kit flags, docs/compliance.md says why (section of FMI 2.0);
 * our three FMUs under ``--profile spurdiff`` (the project's own conventions as errors).
@@ -110,6 +110,21 @@ def test_reference_run_agrees_with_the_compliance_checker(fmu, tmp_path, referen
     assert worst <= 1e-9, f"{fmu.stem}: kit and checker differ by {worst:g} (relative, over {n} rows)"
     # the checker passes it, and so does the kit
     assert not any(r.is_error for r in reference_results[str(fmu)])
+
+
+@needs_reference
+@needs_fmucheck
+@pytest.mark.parametrize("fmu", REFERENCE_FMUS, ids=lambda p: p.stem)
+def test_model_exchange_run_agrees_with_the_compliance_checker(fmu, tmp_path):
+    """me.basic's explicit Euler (events included: BouncingBall's bounces, Stair's time events and
+    termination) reproduces the checker's forward Euler (-k me) at every row."""
+    from harness.check.lifecycle import run_model_exchange
+    rc, log, checker_csv = fmucheck(fmu, tmp_path, "me")
+    assert rc == 0 and not checker_flags(rc, log), log[-800:]
+    res = run_model_exchange(fmu, tmp_path / "kit_me.csv")
+    assert res.status == "PASS", res.reason
+    worst, n = max_difference(tmp_path / "kit_me.csv", checker_csv)
+    assert worst <= 1e-9, f"{fmu.stem}: kit and checker differ by {worst:g} (relative, over {n} rows)"
 
 
 # ChkC variants: the kit must flag every one the checker flags

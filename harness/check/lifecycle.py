@@ -103,3 +103,21 @@ def run_lifecycle_checks(fmu_path: str | Path, subject: str | None = None, optio
     """All call-sequence rules of ``kinds`` for one FMU."""
     subject = subject if subject is not None else str(fmu_path)
     return run_lifecycle_checks_many([(fmu_path, subject, kinds)], options)[subject]
+
+
+def run_model_exchange(fmu_path: str | Path, out_csv: str | Path, timeout: float = 600.0,
+                       steps: int = 10) -> CheckResult:
+    """``me.basic`` on one FMU (in a fresh process), writing time and the outputs after every
+    explicit Euler step to ``out_csv`` (cross-check CSV): the run compared with the FMU Compliance
+    Checker's ``-k me`` output."""
+    t0 = time.perf_counter()
+    try:
+        unzipdir = extract(fmu_path)
+    except ArchiveError as e:
+        return CheckResult(str(fmu_path), "me.basic", FAIL, f"the FMU could not be unpacked: {e}")
+    try:
+        payload = {"unzipdir": str(unzipdir), "steps": steps, "out_csv": str(Path(out_csv).resolve())}
+        status, reason, severity = run_isolated("me.basic", payload, timeout)
+    finally:
+        shutil.rmtree(unzipdir, ignore_errors=True)
+    return CheckResult(str(fmu_path), "me.basic", status, reason, time.perf_counter() - t0, severity or "error")
