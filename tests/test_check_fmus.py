@@ -119,14 +119,24 @@ def test_broken_fmu_reasons(caught):
     assert "d der(x)/d x: 1.0 vs central difference 0.0" in reason("ChkCJacobian", "me.directional-derivative")
 
 
-def test_pythonfmu_limits_are_reported_not_hidden():
-    """pythonfmu 0.7's C++ layer does not compare the GUID and leaves fmi2FreeFMUstate's pointer set:
-    every pythonfmu FMU fails cs.guid and cs.free-state; its fmi2GetStatus answers fmi2Error (a warning)."""
+def test_pythonfmu_limits_are_reported_not_hidden(tmp_path, capsys):
+    """The whole command on ChkGood (pythonfmu): pythonfmu 0.7's C++ layer does not compare the GUID
+    and leaves fmi2FreeFMUstate's pointer set, so every pythonfmu FMU fails cs.guid and cs.free-state;
+    it answers fmi2GetStatus with fmi2Error and refuses past the stop time with fmi2Discard (warnings)."""
+    from harness.check.rules import rules
+    from harness.check.runner import main
+    import xml.etree.ElementTree as ET
     path = chk_build.pythonfmu_fmu("ChkGood", STATE_FLAGS)
-    results = run_lifecycle_checks_many([(path, "ChkGood", ["cs"])], LifecycleOptions())["ChkGood"]
-    failed = {r.check_id: r.severity for r in results if r.status == "FAIL"}
-    assert failed == {"cs.guid": "error", "cs.free-state": "error", "cs.stop-time": "warning",
-                      "cs.status-after-discard": "warning"}, [(r.check_id, r.reason) for r in results if r.failed]
+    junit = tmp_path / "good.xml"
+    assert main([str(path), "--junit", str(junit), "--jobs", "2"]) == 1
+    lines = [ln for ln in capsys.readouterr().out.splitlines()
+             if ln.split(" ")[0] in ("PASS", "ERROR", "WARN", "INFO", "SKIP")]
+    assert len(lines) == len(rules("static")) + len(rules("cs"))
+    labels = {ln.split("  ")[2]: ln.split(" ")[0] for ln in lines if not ln.startswith(("PASS", "SKIP"))}
+    assert labels == {"cs.guid": "ERROR", "cs.free-state": "ERROR", "cs.stop-time": "WARN",
+                      "cs.status-after-discard": "WARN"}, labels
+    root = ET.parse(junit).getroot()
+    assert root.get("tests") == str(len(lines)) and root.get("failures") == "2"
 
 
 def test_timeout_kills_a_daemon_left_behind(tmp_path, monkeypatch):
