@@ -16,7 +16,8 @@ one folder per model, ``DIR/<ModelName>/``:
 
 :func:`write_reference_results` simulates an FMU over its DefaultExperiment (start time, else
 0 s; stop time, else start + 1 s; stepSize, else 1e-3 s, as communication step; tolerance, else
-1e-4, handed to fmi2SetupExperiment) with :func:`fmpy.simulate_fmu`, every parameter and input
+1e-4, handed to fmi2SetupExperiment) with :func:`fmpy.simulate_fmu` (co-simulation when the FMU
+offers it, else model exchange with fmpy's CVode), every parameter and input
 at its start value unless an input table says otherwise, in a fresh process (see
 :func:`harness.check.isolation.run_isolated`). ``modelName`` becomes a folder and file name only
 after :func:`safe_model_name` accepts it.
@@ -294,7 +295,8 @@ def simulate_reference_task(payload: dict, trace) -> tuple[str, str]:
                                           for n in names[1:]]
         signals = np.array([tuple(r) for r in rows], dtype=dtype)
     trace(f"fmpy.simulate_fmu(start_time={start!r}, stop_time={stop!r}, output_interval={step!r})")
-    result = simulate_fmu(payload["fmu"], validate=False, fmi_type="CoSimulation", start_time=start,
+    fmi_type = "CoSimulation" if md.coSimulation is not None else "ModelExchange"  # ME: fmpy's CVode
+    result = simulate_fmu(payload["fmu"], validate=False, fmi_type=fmi_type, start_time=start,
                           stop_time=stop, output_interval=step, relative_tolerance=rel_tol,
                           apply_default_start_values=True, input=signals, output=[v.name for v in outputs])
     names = ["time"] + [v.name for v in outputs]
