@@ -20,8 +20,9 @@ import chk_build  # noqa: E402
 from chk_build import add_units_and_structure, rewrite_description  # noqa: E402
 
 from harness.check import (CheckResult, compare_results, is_structured_name,  # noqa: E402
-                           lifecycle_rules, read_cross_check_csv, read_ref_opt, rules, run_static_checks,
+                           lifecycle_rules, read_cross_check_csv, read_ref_opt, run_static_checks,
                            safe_model_name, write_junit)
+from harness.check.rules import rules  # noqa: E402
 from harness.check.archive import ArchiveError, extract, member_name_problem  # noqa: E402
 from harness.check.reference import ReferenceUsageError, write_cross_check_csv  # noqa: E402
 from harness.check.report import exit_code, format_report  # noqa: E402

@@ -17,12 +17,12 @@ from .lifecycle import LifecycleOptions, lifecycle_rules, run_lifecycle_checks, 
 from .reference import (ColumnComparison, Tolerance, compare_checks, compare_results, read_cross_check_csv,
                         read_ref_opt, safe_model_name, write_reference_results)
 from .report import FAIL, PASS, SKIP, CheckResult, exit_code, format_line, format_report, summary, write_junit
-from .rules import ERROR, INFO, RULES, WARNING, Rule, rules
+from .rules import ERROR, INFO, RULES, WARNING, Rule
 from .static import is_structured_name, run_static_checks
 
 __all__ = [
     "CheckResult", "PASS", "FAIL", "SKIP", "format_line", "format_report", "summary", "exit_code", "write_junit",
-    "Rule", "RULES", "rules", "ERROR", "WARNING", "INFO",
+    "Rule", "RULES", "ERROR", "WARNING", "INFO",
     "run_static_checks", "is_structured_name",
     "LifecycleOptions", "lifecycle_rules", "run_lifecycle_checks", "run_lifecycle_checks_many",
     "write_reference_results", "compare_results", "compare_checks", "read_cross_check_csv", "read_ref_opt",
