@@ -64,6 +64,12 @@ def test_every_rule_cites_a_section_and_has_a_severity():
     assert len({r.id for r in RULES}) == len(RULES)
 
 
+def test_the_docs_rule_table_is_the_rules_data():
+    from harness.check.rules import rule_table_markdown
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "compliance.md").read_text(encoding="utf-8")
+    assert rule_table_markdown() in doc
+
+
 # ------------------------------------------------------------------ static checks
 
 def test_good_fmu_passes_every_static_check_also_with_the_profile(fmus):

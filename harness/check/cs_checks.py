@@ -23,6 +23,7 @@ from .rules import WARNING
 VARIABLE_STEP_FACTORS = (1.0, 0.5, 2.0, 0.25, 1.5, 3.0, 0.75, 1.0)
 NAN_STEPS = 3
 WRONG_GUID = "{00000000-0000-0000-0000-5b0ad5b0ad00}"
+MAX_DEFAULT_STEPS = 1_000_000  # cs.default-experiment: beyond this the run is skipped, not cut short
 OK_STATUSES = (0, 1)
 
 
@@ -198,6 +199,9 @@ def _run_default_experiment(s: Session, a):
 
 
 def check_default_experiment(s: Session):
+    if _n_steps(s) > MAX_DEFAULT_STEPS:
+        return SKIP, (f"the DefaultExperiment needs {_n_steps(s)} steps of {s.h:g} s to its stop time {s.t_stop:g} s, "
+                      f"more than {MAX_DEFAULT_STEPS}: not run")
     a = s.instance("defaultExperiment")
     a.initialize(stop_time=s.t_stop)
     problem, t, n = _run_default_experiment(s, a)
