@@ -78,13 +78,23 @@ def run_direct(scene: Scene) -> Result:
     rows = []
     steps = 0
     try:
+        # initialization as the master does it (FMI Initialization Mode): the connections
+        # propagated in one Jacobi sweep per instance, every source's outputs computed from the
+        # values it was given so far; then every instance built from its final values
         apply_profiles(0.0)
-        for name in order:
-            apply_links(name)
-            try:
+        sources = sorted({src for dests in by_dest.values() for _, src, _ in dests}, key=order.index)
+        name = order[0] if order else ""
+        try:
+            for _ in range(len(order)):
+                for name in sources:
+                    insts[name].initialize()
+                pending = [(insts[n].values, tv, insts[src].values[fv]) for n in order for tv, src, fv in by_dest[n]]
+                for vals, tv, x in pending:
+                    vals[tv] = x
+            for name in order:
                 insts[name].initialize()
-            except Exception as e:
-                raise RunFailure(name, 0.0, str(e)) from None
+        except Exception as e:
+            raise RunFailure(name, 0.0, str(e)) from None
         setup = time.perf_counter() - t0
         t_loop = time.perf_counter()
         rows.append([0.0] + [d[k] for d, k in record])

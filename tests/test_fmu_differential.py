@@ -164,7 +164,7 @@ def test_nan_input_discards_step_and_keeps_last_state(differential_fmu):
     from fmpy.fmi1 import FMICallException
     inst = start(differential_fmu)
     t = steps(inst, 5)
-    inst.set_value("left.tau", float("nan"))
+    inst.slave.setReal([inst.var("left.tau").valueReference], [float("nan")])   # past the harness's own check
     with pytest.raises(FMICallException):
         inst.slave.doStep(t, 1e-3)
     assert any("left.tau" in m for s, m in inst.messages if s == 2)   # logged with fmi2Discard

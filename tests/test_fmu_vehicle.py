@@ -203,7 +203,7 @@ def test_nan_input_discards_the_step_names_it_and_keeps_the_state(fmu_files, nam
     t = stepper(inst, 5)
     stepper(ref, 5)
     good = get(inst, bad) if inst.var(bad).causality == "input" else None
-    inst.set_value(bad, float("nan"))
+    inst.slave.setReal([inst.var(bad).valueReference], [float("nan")])   # past the harness's own check
     with pytest.raises(FMICallException):
         inst.slave.doStep(t, 1e-3)
     # fmpy's logger proxy (addLoggerProxy) keeps one static logger per process, so the message

@@ -12,11 +12,16 @@ from harness.report import evaluate_checks, series, stat
 from harness.runner import prepare_scene
 
 SCENES = ["vehicle-cornering", "split-mu-launch", "tip-in-tip-out", "standstill-launch", "wheel-lift"]
-TBR = "(1 + {diff.lockingCoefficient}) / (1 - {diff.lockingCoefficient})"
+TBR = "{diff.torqueBiasRatio}"   # drive; from the pin-load law (calculated parameter)
+# the friction never exceeds what the pins can hold (exact at the rigid level: stick-slip is solved
+# exactly); the shaft torques differ from it by the suns' inertia torques
+WITHIN_CAPACITY = "abs({diff.lockingTorque}) - {diff.lockingCapacity} * (1 + 1e-9)"
 
 
 def run(fmu_files, name, duration, **kw):
     scene = prepare_scene(name, duration=duration, **kw)
+    scene.record = list(scene.record) + [n for n in ("diff.torqueBiasRatio", "diff.lockingTorque",
+                                                     "diff.lockingCapacity") if n not in scene.record]
     result = run_scene(scene, fmu_files)
     assert result.ok, result.failure
     assert np.all(np.isfinite(result.data)), "NaN or inf recorded"
@@ -75,17 +80,23 @@ def test_vehicle_cornering(fmu_files):
 
 
 def test_vehicle_cornering_step_above_the_stability_limit_diverges(fmu_files):
-    """The scene's step comment says 0.5 ms is beyond the Gauss-Seidel limit (0.49 ms): it is."""
-    scene = replace(prepare_scene("vehicle-cornering", step=5e-4, duration=0.6), output_interval=5e-3)
+    """The scene's step comment says 0.5 ms is beyond the Gauss-Seidel limit (0.49 ms): it is, for
+    the slipping differential (the paper's locking law; the pin-load law's six times larger
+    friction keeps this differential stuck, which damps the sun/shaft mode at this step)."""
+    scene = replace(prepare_scene("vehicle-cornering", step=5e-4, duration=0.6, sets=["diff.lockingLaw=paper"]),
+                    output_interval=5e-3)
     r = run_scene(scene, fmu_files)
-    assert r.ok
+    # the sun/shaft mode grows until a flange speed leaves the wheel FMU's physical input range:
+    # it refuses the step (fmi2Discard) rather than go on with a meaningless value
+    assert not r.ok and "outside [-10000, 10000]" in str(r.failure)
     assert stat(r, "wheelL.shaft.tau", "absmax") > 1e3   # the steady value is 78 N m
 
 
 def test_split_mu_launch(fmu_files):
     r = run(fmu_files, "split-mu-launch", 1.0)
-    # the grip side never gets more than (1+K)/(1-K) times the ice side (plus inertia, see the scene)
-    assert stat(r, "{wheelR.shaft.tau} - {wheelL.shaft.tau} * " + TBR, "max", [0.001, 1.0]) < 0.5
+    # the grip side never gets more than the torque bias ratio times the ice side: the friction
+    # stays within its capacity, and while slipping the shaft torques split at that ratio
+    assert stat(r, WITHIN_CAPACITY, "max", [0.001, 1.0]) <= 0.0
     assert stat(r, "{wheelR.shaft.tau} / {wheelL.shaft.tau}", "mean", [0.5, 1.0]) == pytest.approx(
         stat(r, TBR, "mean"), rel=5e-3)
     # the ice wheel spins up relative to the other, the grippy one keeps rolling
@@ -111,7 +122,7 @@ def test_tip_in_tip_out(fmu_files):
     coast = r.time > 2.3
     tL, tR = series(r, "wheelL.shaft.tau")[coast], series(r, "wheelR.shaft.tau")[coast]
     assert np.all(tR < tL) and np.all(tL < 0.0)
-    assert stat(r, "abs({wheelL.shaft.tau} - {wheelR.shaft.tau}) - {diff.lockingCapacity}", "max", after0) < 0.25
+    assert stat(r, WITHIN_CAPACITY, "max", after0) <= 0.0
     assert stat(r, "diff.stuck", "max") == 0.0
     assert all(o.passed for o in checks_within(r, 2.6))
 
