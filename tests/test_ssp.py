@@ -271,3 +271,15 @@ def test_libcosim_runner_errors_are_one_line(tmp_path, chain_toml):
         run_ssp(ssp, step=1e-3 / 3)
     with pytest.raises(LibcosimError, match="no variable 'nope'"):
         run_ssp(ssp, record=["a.nope"])
+
+
+if __name__ == "__main__":   # the numbers in docs/interoperability.md: python tests/test_ssp.py
+    import tempfile
+
+    tmp = Path(tempfile.mkdtemp())
+    for scene_name in ("paper-cornering", "two-differentials", "vehicle-cornering"):
+        sc, ours, theirs = _both(_scene(scene_name, tmp), tmp)
+        n, d, s, t = max(differences(ours, theirs, sc.record), key=lambda x: x[1] / x[2])
+        i0 = int(round(ours.time[0] / theirs.step))
+        at0 = max(abs(ours[v][0] - theirs[v][i0]) / max(1.0, abs(ours[v][0])) for v in sc.record)
+        print(f"{scene_name}: largest relative difference {d / s:.2g} ({n} at t = {t:g} s); at t = 0: {at0:.2g}")
