@@ -14,6 +14,7 @@ from .phasing import mesh_phases
 from .mesh_dynamics import MeshDifferential, MeshParams
 from .params import DifferentialParams
 from .rigid import RigidDifferential
+from .shafts import SHAFT_COUPLINGS, ShaftedDifferential, ShaftParams, ShaftsParams
 
 MESH_MODELS = ("rigid", "compliant", "contact")
 EFFECTS = ("backlash", "meshStiffnessVariation", "pinFriction", "flankFriction")
@@ -58,7 +59,27 @@ VARIABLES: list[Var] = [
         "N.m", "N.mm", 0.0, min=-1e6, max=1e6),
     Var("right.tau", "input", "External torque on the right half-shaft flange (sun B), Modelica sign: a load is negative",
         "N.m", "N.mm", 0.0, min=-1e6, max=1e6),
+    Var("leftWheel.phi", "input", "shaftCoupling = wheel: angle of the wheel end of the left half-shaft "
+        "(WheelLoad's wheel.phi)", "rad", "deg", 0.0, min=-1e9, max=1e9),
+    Var("leftWheel.w", "input", "shaftCoupling = wheel: speed of the wheel end of the left half-shaft "
+        "(WheelLoad's wheel.w)", "rad/s", "rpm", 0.0, min=-1e4, max=1e4),
+    Var("rightWheel.phi", "input", "shaftCoupling = wheel: angle of the wheel end of the right half-shaft",
+        "rad", "deg", 0.0, min=-1e9, max=1e9),
+    Var("rightWheel.w", "input", "shaftCoupling = wheel: speed of the wheel end of the right half-shaft",
+        "rad/s", "rpm", 0.0, min=-1e4, max=1e4),
     # --- outputs (values at the end of the last step; no direct feedthrough)
+    Var("leftShaft.tau", "output", "shaftCoupling = wheel: torque of the left half-shaft on its wheel, mean over "
+        "the last step (positive drives the wheel forward; connect to WheelLoad's shaftIn.tau); "
+        "torque: -left.tau", "N.m", "N.mm"),
+    Var("rightShaft.tau", "output", "shaftCoupling = wheel: torque of the right half-shaft on its wheel, mean over "
+        "the last step; torque: -right.tau", "N.m", "N.mm"),
+    Var("leftShaft.tauEnd", "output", "Torque of the left half-shaft on its wheel at the end of the last step",
+        "N.m", "N.mm"),
+    Var("rightShaft.tauEnd", "output", "Torque of the right half-shaft on its wheel at the end of the last step",
+        "N.m", "N.mm"),
+    Var("leftShaft.phi_rel", "output", "Twist of the left half-shaft, sun angle - wheel angle (0 with "
+        "shaftCoupling = torque)", "rad", "deg"),
+    Var("rightShaft.phi_rel", "output", "Twist of the right half-shaft (0 with shaftCoupling = torque)", "rad", "deg"),
     Var("carrier.w", "output", "Carrier speed", "rad/s", "rpm"),
     Var("carrier.phi", "output", "Carrier angle", "rad", "deg"),
     Var("left.w", "output", "Left flange (sun A) speed", "rad/s", "rpm"),
@@ -112,6 +133,21 @@ VARIABLES: list[Var] = [
         None, None, _M.maxInternalSteps, kind="Integer"),
     Var("carrierDrive", "parameter", "How the carrier is driven: speed (carrier.w_ref) | torque (carrier.tau)",
         None, None, "speed", kind="String"),
+    Var("shaftCoupling", "parameter",
+        "Who owns the half-shafts: torque = the wheel side (left.tau / right.tau in, sun speeds and angles out; "
+        "stable communication step about 0.45 ms in the vehicle scenes) | wheel = this FMU (leftWheel/rightWheel "
+        "angle and speed in, leftShaft.tau / rightShaft.tau out; the stiff sun/shaft mode integrated implicitly "
+        "inside the step, stable to 20 ms and beyond)", None, None, "torque", kind="String"),
+    *[v for side, label in (("left", "left (sun A)"), ("right", "right (sun B)")) for v in (
+        Var(f"{side}Shaft.c", "parameter", f"Torsional stiffness of the {label} half-shaft (shaftCoupling = wheel)",
+            "N.m/rad", None, 8000.0),
+        Var(f"{side}Shaft.d", "parameter", f"Torsional damping of the {label} half-shaft (shaftCoupling = wheel)",
+            "N.m.s/rad", None, 10.0),
+        Var(f"{side}Shaft.phi_rel_start", "parameter",
+            f"Twist of the {label} half-shaft at the start (shaftCoupling = wheel)", "rad", "deg", 0.0),
+    )],
+    Var("shafts.h_max", "parameter", "Largest sub-step of the implicit half-shaft integration (shaftCoupling = wheel)",
+        "s", "ms", 2.5e-3),
     Var("lockingLaw", "parameter",
         "Locking law of the pin friction: pinFriction (friction torque mu r_d |F_pin| on each planet from its "
         "actual pin load, every level, drive and coast differ) | paper (the paper's K = (mu r_d / n)"
@@ -264,6 +300,17 @@ def build_model(values: dict):
     model.w_start_carrier = float(values["carrier.w_start"])
     wc0 = model.w_ref if model.params.carrierDrive == "speed" else model.w_start_carrier
     model.w_start_left = wc0 + float(values["differential.w_start"])
+    coupling = str(values["shaftCoupling"])
+    if coupling not in SHAFT_COUPLINGS:
+        raise ParameterError("shaftCoupling", coupling, " | ".join(SHAFT_COUPLINGS))
+    if coupling == "wheel":
+        model = ShaftedDifferential(model, ShaftsParams(
+            left=ShaftParams(float(values["leftShaft.c"]), float(values["leftShaft.d"]),
+                             float(values["leftShaft.phi_rel_start"])),
+            right=ShaftParams(float(values["rightShaft.c"]), float(values["rightShaft.d"]),
+                              float(values["rightShaft.phi_rel_start"])),
+            h_max=float(values["shafts.h_max"])))
+        push_inputs(model, values)
     model.initialize(0.0)
     _set_calculated(model, values)
     return model
@@ -306,11 +353,25 @@ def active_effects(model) -> tuple[str, ...]:
 def push_inputs(model, values: dict) -> None:
     model.w_ref = values["carrier.w_ref"]
     model.tau_c = values["carrier.tau"]
+    if isinstance(model, ShaftedDifferential):   # the sun torques come from the shafts
+        model.wheelL_phi = values["leftWheel.phi"]
+        model.wheelL_w = values["leftWheel.w"]
+        model.wheelR_phi = values["rightWheel.phi"]
+        model.wheelR_w = values["rightWheel.w"]
+        return
     model.tau_L = values["left.tau"]
     model.tau_R = values["right.tau"]
 
 
 def pull_outputs(model, values: dict) -> None:
+    if isinstance(model, ShaftedDifferential):
+        values["leftShaft.tau"], values["rightShaft.tau"] = model.tau_mean_L, model.tau_mean_R
+        values["leftShaft.tauEnd"], values["rightShaft.tauEnd"] = model.tau_end_L, model.tau_end_R
+        values["leftShaft.phi_rel"], values["rightShaft.phi_rel"] = model.theta_L, model.theta_R
+    else:
+        values["leftShaft.tau"] = values["leftShaft.tauEnd"] = -model.tau_L
+        values["rightShaft.tau"] = values["rightShaft.tauEnd"] = -model.tau_R
+        values["leftShaft.phi_rel"] = values["rightShaft.phi_rel"] = 0.0
     values["carrier.w"] = model.wc
     values["carrier.phi"] = model.phic
     values["left.w"] = model.w_L

@@ -60,7 +60,13 @@ _STATE_KEYS = (
     # inputs held over the last step and outputs (so a restored instance reports the same values)
     "flange_phi", "flange_w", "Fz", "mu", "vx",
     "flange_tau", "Fx", "wheel_w", "slip", "shaft_tau", "shaft_power",
+    # shaftCoupling = "wheel": wheel angle, shaft torque input and the anchor of the step
+    "phi", "tau_in", "w_anchor",
 )
+SHAFT_COUPLINGS = ("torque", "wheel")
+_WHEEL_STEP_KEYS = ("theta", "w_anchor", "w", "k", "phi", "t", "n_steps", "n_substeps", "work_flange",
+                    "work_road", "loss_slip", "loss_rolling", "flange_tau", "Fx", "wheel_w", "slip",
+                    "shaft_tau", "shaft_power")
 
 
 @dataclass
@@ -104,13 +110,16 @@ class WheelLoadParams:
     tyre: TyreParams = field(default_factory=TyreParams)
     h_max: float = 1e-3
     followFlangeAngle: int = 1
+    shaftCoupling: str = "torque"
+    interfaceStiffness: int = 1
 
     @classmethod
     def from_data(cls, data: dict) -> "WheelLoadParams":
         solver = dict(data.get("wheelLoad", {}))
         for key in solver:
-            if key not in ("h_max", "followFlangeAngle"):
-                raise ParameterError(f"wheelLoad.{key}", solver[key], "h_max or followFlangeAngle",
+            if key not in ("h_max", "followFlangeAngle", "shaftCoupling", "interfaceStiffness"):
+                raise ParameterError(f"wheelLoad.{key}", solver[key],
+                                     "h_max, followFlangeAngle, shaftCoupling or interfaceStiffness",
                                      "unknown parameter")
         return cls(halfShaft=section(HalfShaftParams, data, "halfShaft"),
                    wheel=section(WheelParams, data, "wheel"),
@@ -130,6 +139,10 @@ class WheelLoadParams:
             raise ParameterError("wheelLoad.h_max", self.h_max, "between 0 and 0.1 s")
         if self.followFlangeAngle not in (0, 1):
             raise ParameterError("wheelLoad.followFlangeAngle", self.followFlangeAngle, "0 or 1")
+        if self.shaftCoupling not in SHAFT_COUPLINGS:
+            raise ParameterError("shaftCoupling", self.shaftCoupling, " or ".join(SHAFT_COUPLINGS))
+        if self.interfaceStiffness not in (0, 1):
+            raise ParameterError("wheelLoad.interfaceStiffness", self.interfaceStiffness, "0 or 1")
 
 
 class WheelLoad:
@@ -157,6 +170,7 @@ class WheelLoad:
         self.Fz = 0.0
         self.mu = 1.0
         self.vx = 0.0
+        self.tau_in = 0.0
         self.flange_tau = self.Fx = self.wheel_w = self.slip = self.shaft_tau = self.shaft_power = 0.0
         self._ready = False
 
@@ -175,6 +189,12 @@ class WheelLoad:
             k = float(ty.k_start)
         self.k = min(max(k, -ty.k_max), ty.k_max)
         self.phi_ref = phi_in
+        self.phi = 0.0
+        self.w_anchor = self.w
+        self.wheel_mode = p.shaftCoupling == "wheel"
+        if self.wheel_mode:
+            self.theta = 0.0
+            require_finite("shaft.tauIn", self.tau_in)
         self.t = float(require_finite("t0", t0))
         self.n_steps = 0
         self.n_substeps = 0
@@ -182,7 +202,7 @@ class WheelLoad:
         self.loss_damping = self.loss_slip = self.loss_rolling = 0.0
         self.KE0 = self.kinetic_energy
         self.PE0 = self.potential_energy
-        self._update_outputs(w_in, v, Fz, mu)
+        self._update_outputs(self.w if self.wheel_mode else w_in, v, Fz, mu)
         self._ready = True
 
     def _inputs(self) -> tuple[float, float, float, float, float]:
@@ -200,6 +220,9 @@ class WheelLoad:
         if not self._ready:
             raise StepError("do_step called before initialize")
         h = require_positive("communicationStepSize", h)
+        if self.wheel_mode:
+            self._do_step_wheel(t, h)
+            return
         phi_in, w_in, Fz, mu, v = self._inputs()
         p = self.params
         c = p.halfShaft.c
@@ -219,10 +242,52 @@ class WheelLoad:
         self.n_steps += 1
         self._update_outputs(w_in, v, Fz, mu)
 
-    def _substep(self, hs: float, w_in: float, v: float, Fz: float, mu: float) -> None:
-        """One implicit-midpoint step of length hs; updates the state and the energy ledger."""
+    def _do_step_wheel(self, t: float, h: float) -> None:
+        """shaftCoupling = "wheel": the shaft torque is an input (the differential owns the shaft).
+        Atomic: on an error or a non-finite result the state is as before the call."""
+        _, _, Fz, mu, v = self._inputs()
+        tau_in = require_finite("shaft.tauIn", self.tau_in)
         p = self.params
-        c, d = p.halfShaft.c, p.halfShaft.d
+        saved = [getattr(self, k) for k in _WHEEL_STEP_KEYS]   # what a step changes (cheap)
+        try:
+            # interface stiffness: the differential computed tau_in with the wheel side moving at
+            # the speed it had at the start of the step; the shaft's c and d act on the deviation
+            # from that motion (implicitly, inside this step)
+            self.theta = 0.0
+            self.w_anchor = w0 = self.w
+            k = 1.0 if p.interfaceStiffness else 0.0
+            c, d = k * p.halfShaft.c, k * p.halfShaft.d
+            n = max(1, math.ceil(h / p.h_max - 1e-9))
+            hs = h / n
+            for _ in range(n):
+                self._substep(hs, w0, v, Fz, mu, c, d, tau_in)
+            self.n_substeps += n
+            self.t = t + h
+            self.n_steps += 1
+            self._update_outputs(w0, v, Fz, mu)
+            if not all(math.isfinite(x) for x in (self.w, self.k, self.phi, self.shaft_tau, self.Fx)):
+                raise StepError(f"wheel: the step at t = {t:.6g} s gave a non-finite state")
+        except BaseException:
+            for k, x in zip(_WHEEL_STEP_KEYS, saved):
+                setattr(self, k, x)
+            raise
+
+    @property
+    def ATOMIC_STEP(self) -> bool:
+        """True with shaftCoupling = "wheel": do_step leaves the state as it was when it raises
+        and never commits a non-finite state (the FMU adapter then takes no snapshot)."""
+        return getattr(self, "wheel_mode", False)
+
+    def _substep(self, hs: float, w_in: float, v: float, Fz: float, mu: float,
+                 c: float | None = None, d: float | None = None, tau0: float | None = None) -> None:
+        """One implicit-midpoint step of length hs; updates the state and the energy ledger.
+        tau0 given (shaftCoupling = "wheel"): shaft torque tau0 + c theta + d (w_in - w), the
+        twist-like theta measured from the anchor motion w_in; work booked at the wheel speed."""
+        p = self.params
+        torque_in = tau0 is not None
+        if not torque_in:
+            c, d = p.halfShaft.c, p.halfShaft.d
+            tau0 = 0.0
         J, R = p.wheel.J, p.wheel.R
         ty = p.tyre
         B, C, E = ty.B, ty.C, ty.E
@@ -252,7 +317,7 @@ class WheelLoad:
             dF = D * math.cos(cat) * C / (1.0 + phi * phi) * B * (1.0 - E + E / (1.0 + x * x))
             tnh = math.tanh(wm * inv_weps)
             M = Mrr0 * tnh
-            tau = c * th + d * (w_in - wm)
+            tau = tau0 + c * th + d * (w_in - wm)
             g = J * (wm - w0) - a * (tau - R * F - M)
             dg = gs + a * (R * dF * dk_dw + Mrr0 * (1.0 - tnh * tnh) * inv_weps)
             if not dg > 0.0:
@@ -268,11 +333,15 @@ class WheelLoad:
         k = k_c + dk_dw * wm
         F = D * _mf(k, B, C, E)
         M = Mrr0 * math.tanh(wm * inv_weps)
-        tau = c * th + d * (w_in - wm)
+        tau = tau0 + c * th + d * (w_in - wm)
         slip_v = R * wm - v
-        self.work_flange += hs * tau * w_in
+        if torque_in:   # no shaft in this model: the work is done at the wheel
+            self.work_flange += hs * tau * wm
+            self.phi += hs * wm
+        else:
+            self.work_flange += hs * tau * w_in
+            self.loss_damping += hs * d * (w_in - wm) * (w_in - wm)
         self.work_road += hs * F * v
-        self.loss_damping += hs * d * (w_in - wm) * (w_in - wm)
         self.loss_slip += hs * F * slip_v
         self.loss_rolling += hs * M * wm
         self.theta = 2.0 * th - th0
@@ -284,8 +353,13 @@ class WheelLoad:
     def _update_outputs(self, w_in: float, v: float, Fz: float, mu: float) -> None:
         p = self.params
         ty = p.tyre
-        self.shaft_tau = p.halfShaft.c * self.theta + p.halfShaft.d * (w_in - self.w)
-        self.flange_tau = -self.shaft_tau
+        if self.wheel_mode:
+            k = 1.0 if p.interfaceStiffness else 0.0
+            self.shaft_tau = self.tau_in + k * (p.halfShaft.c * self.theta + p.halfShaft.d * (w_in - self.w))
+            self.flange_tau = 0.0
+        else:
+            self.shaft_tau = p.halfShaft.c * self.theta + p.halfShaft.d * (w_in - self.w)
+            self.flange_tau = -self.shaft_tau
         self.Fx = mu * Fz * _mf(self.k, ty.B, ty.C, ty.E)
         self.wheel_w = self.w
         self.slip = self.k
@@ -299,7 +373,10 @@ class WheelLoad:
 
     @property
     def potential_energy(self) -> float:
-        """Elastic energy of the half-shaft twist, J."""
+        """Elastic energy of the half-shaft twist, J (0 with shaftCoupling = "wheel": the
+        differential owns the shaft)."""
+        if self.wheel_mode:
+            return 0.0
         return 0.5 * self.params.halfShaft.c * self.theta * self.theta
 
     @property
@@ -322,7 +399,8 @@ class WheelLoad:
         """Restore a state from :meth:`get_state`; the continuation is then bit-identical."""
         for k in _STATE_KEYS:
             setattr(self, k, state[k])
+        self.wheel_mode = self.params.shaftCoupling == "wheel"
         self._ready = True
 
 
-__all__ = ["WheelLoad", "WheelLoadParams", "HalfShaftParams", "WheelParams"]
+__all__ = ["SHAFT_COUPLINGS", "WheelLoad", "WheelLoadParams", "HalfShaftParams", "WheelParams"]

@@ -52,6 +52,10 @@ VARIABLES: list[Var] = [
         "rad/s", "rpm", 0.0, min=-1e4, max=1e4),
     Var("Fz", "input", "Normal load on the wheel (negative is treated as 0: a lifted wheel)", "N", None, 0.0, min=-1e6, max=1e6),
     Var("mu", "input", "Road friction coefficient (>= 0)", "1", None, ROAD_MU, min=0.0, max=10.0),
+    Var("shaftIn.tau", "input",
+        "shaftCoupling = wheel: torque of the differential's half-shaft on this wheel, positive drives it forward "
+        "(connect the differential's leftShaft.tau / rightShaft.tau); ignored with shaftCoupling = torque",
+        "N.m", "N.mm", 0.0, min=-1e6, max=1e6),
     Var("vx", "input", "Longitudinal velocity of the wheel centre along the wheel heading", "m/s", "km/h", 0.0, min=-1e3, max=1e3),
     # --- outputs (values at the end of the last step; no direct feedthrough)
     Var("flange.tau", "output",
@@ -59,6 +63,9 @@ VARIABLES: list[Var] = [
         "connect to the differential's left.tau / right.tau", "N.m", "N.mm"),
     Var("Fx", "output", "Longitudinal tyre force on the vehicle (positive forward)", "N"),
     Var("wheel.w", "output", "Wheel spin speed", "rad/s", "rpm"),
+    Var("wheel.phi", "output",
+        "Wheel angle since the start (shaftCoupling = wheel: connect to the differential's leftWheel.phi / "
+        "rightWheel.phi; 0 with shaftCoupling = torque)", "rad", "deg"),
     Var("slip", "output", "Transient longitudinal slip ratio k (steady state: (R w - vx) / |vx|)", "1", "%"),
     Var("shaft.tau", "output", "Half-shaft torque on the wheel, c theta + d (flange.w - wheel.w)", "N.m", "N.mm"),
     Var("shaft.power", "output", "Power the differential's flange delivers into the half-shaft (shaft.tau * flange.w)",
@@ -98,6 +105,16 @@ VARIABLES: list[Var] = [
         "true: the slip starts at the steady value for the start speeds (tyre.k_start ignored); false: at tyre.k_start",
         None, None, bool(math.isnan(_D.tyre.k_start)), kind="Boolean"),
     _p("tyre", "k_start", "Slip at the start (used when tyre.k_startSteady = false)", "1"),
+    Var("shaftCoupling", "parameter",
+        "Who owns the half-shaft: torque = this model (flange angle and speed in, flange torque out; stable "
+        "step about 0.45 ms with the differential) | wheel = the differential (shaftIn.tau in, wheel.phi and "
+        "wheel.w out; pairs with the differential's shaftCoupling = wheel, stable to 20 ms and beyond)",
+        None, None, _D.shaftCoupling, kind="String"),
+    Var("wheelLoad.interfaceStiffness", "parameter",
+        "shaftCoupling = wheel: the shaft's c and d (halfShaft.c, halfShaft.d, equal to the differential's "
+        "leftShaft/rightShaft values) act inside the step on the wheel's deviation from the motion the "
+        "differential extrapolated (implicit wheel mode); false: shaftIn.tau is held as given",
+        None, None, bool(_D.interfaceStiffness), kind="Boolean"),
     _p(None, "h_max", "Largest internal step of the implicit-midpoint integrator", "s", "ms"),
     _p(None, "followFlangeAngle",
        "true: the half-shaft twist follows the flange angle input (no drift); false: integrate flange.w only",
@@ -115,6 +132,8 @@ def wheel_params(values: dict) -> WheelLoadParams:
         else:
             value = float(value)
         setattr(getattr(p, group) if group else p, field, value)
+    p.shaftCoupling = str(values["shaftCoupling"])
+    p.interfaceStiffness = 1 if values["wheelLoad.interfaceStiffness"] else 0
     if values["wheel.w_startFromFlange"]:
         p.wheel.w_start = math.nan
     if values["tyre.k_startSteady"]:
@@ -136,12 +155,14 @@ def push_inputs(model: WheelLoad, values: dict) -> None:
     model.Fz = values["Fz"]
     model.mu = values["mu"]
     model.vx = values["vx"]
+    model.tau_in = values["shaftIn.tau"]
 
 
 def pull_outputs(model: WheelLoad, values: dict) -> None:
     values["flange.tau"] = model.flange_tau
     values["Fx"] = model.Fx
     values["wheel.w"] = model.wheel_w
+    values["wheel.phi"] = model.phi
     values["slip"] = model.slip
     values["shaft.tau"] = model.shaft_tau
     values["shaft.power"] = model.shaft_power

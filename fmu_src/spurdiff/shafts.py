@@ -1,0 +1,331 @@
+"""Half-shafts owned by the differential: the stiff sun/shaft mode integrated inside the step.
+
+Why: the suns' small inertia (``inertia.differential`` about 6.8e-3 kg m^2) on two 8,000 N m/rad
+half-shafts is an anti-symmetric mode at about 1,530 rad/s. Split across two FMUs (torque in,
+speed out on the differential) and coupled explicitly, it limits the communication step to about
+0.49 ms. Here the compliance is part of the differential's step, integrated implicitly, so the
+coupling to the wheels carries only the wheel mode (about 100 rad/s): wheel-side angle and speed
+in, shaft torque out (``shaftCoupling = "wheel"``).
+
+Model (each side, Modelica signs, ``phi_s`` the sun flange angle, ``phi_w`` the wheel-side angle)::
+
+    theta = phi_s - phi_w - theta_off             twist (rad)
+    tau   = c theta + d dtheta/dt                 shaft torque ON THE WHEEL (drives it forward)
+    sun flange torque (input of the inner model) = -tau
+
+Integration over a communication step ``h`` (wheel-side inputs held as a linear extrapolation
+``phi_w(t) = phi_w,k + w_w,k (t - t_k)``), in ``n = ceil(h / h_max)`` sub-steps ``hs``. In each
+sub-step the sun torques ``T = (T_L, T_R)`` are constant and solve (backward Euler in the twist)::
+
+    T + c (theta_0 + dtheta(T)) + d dtheta(T) / hs = 0,   dtheta(T) = dphi_s(T) - w_w hs
+
+where ``dphi_s(T)`` is the inner model's (rigid, compliant or contact) sun-angle change over the
+sub-step with the torques ``T`` held. The inner model's response is affine in ``T`` within a
+friction/contact mode (exactly so at rigid), so a Newton iteration with a finite-difference
+Jacobian, refreshed by Broyden updates and recomputed when a mode change slows it, converges in
+one correction in the usual case (two inner steps per sub-step).
+
+Backward Euler in the twist is L-stable: the stiff mode is damped for any ``hs`` and never rings
+(the physical mode is about critically damped anyway). It is passive: the twist energy changes by
+``c theta_1 dtheta - c dtheta^2 / 2``, so the scheme dissipates ``c dtheta^2 / 2`` per sub-step on
+top of the damper's ``d dtheta^2 / hs``; both are booked in ``shaft_loss`` and the energy balance
+closes to rounding. The price is first order in ``hs`` during fast transients of the twist; in
+steady driving the twist is quasi-static and the step does not matter (docs/accuracy.md).
+
+Angles: at the start of each step the twist is re-anchored on the wheel-side angle input
+(``theta = phi_s - phi_w,in - theta_off``, ``theta_off`` fixed at initialization from
+``phi_rel_start``), so it does not drift, whatever the step sequence, as long as the wheel-side
+inputs are the values at the communication point (Jacobi, or Gauss-Seidel with the differential
+stepped before the wheels). The spring-energy change of that re-anchoring is booked as work done
+at the wheel side. Output: the shaft torque on each wheel as the mean over the last step
+(``tau_mean``: the work it does on the linearly moving wheel side equals that torque times the
+wheel's angle change), and the value at the end of the step.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from .errors import ParameterError, StepError, require_finite, require_nonnegative, require_positive
+
+SHAFT_COUPLINGS = ("torque", "wheel")
+
+_STATE_KEYS = (
+    "t", "off_L", "off_R", "theta_L", "theta_R", "T_L", "T_R", "tau_mean_L", "tau_mean_R",
+    "tau_end_L", "tau_end_R", "work_wheels", "work_suns", "shaft_loss", "PE0_shaft", "n_steps",
+    "n_substeps", "n_evals", "n_jacobians", "jac", "wheelL_phi", "wheelL_w", "wheelR_phi", "wheelR_w",
+)
+
+
+@dataclass
+class ShaftParams:
+    """One half-shaft: c torsional stiffness (N m/rad), d damping (N m s/rad), phi_rel_start twist
+    at the start (rad)."""
+
+    c: float = 8000.0
+    d: float = 10.0
+    phi_rel_start: float = 0.0
+
+    def validate(self, name: str) -> None:
+        c = require_positive(f"{name}.c", self.c)
+        if c > 1e9:
+            raise ParameterError(f"{name}.c", self.c, "between 0 and 1e9 N m/rad")
+        d = require_nonnegative(f"{name}.d", self.d)
+        if d > 1e6:
+            raise ParameterError(f"{name}.d", self.d, "between 0 and 1e6 N m s/rad")
+        th = require_finite(f"{name}.phi_rel_start", self.phi_rel_start)
+        if abs(th) > 1.0:
+            raise ParameterError(f"{name}.phi_rel_start", self.phi_rel_start, "between -1 and 1 rad")
+
+
+@dataclass
+class ShaftsParams:
+    """Both half-shafts and the largest sub-step h_max (s) of the implicit shaft integration."""
+
+    left: ShaftParams = field(default_factory=ShaftParams)
+    right: ShaftParams = field(default_factory=ShaftParams)
+    h_max: float = 2.5e-3
+
+    def validate(self) -> None:
+        self.left.validate("leftShaft")
+        self.right.validate("rightShaft")
+        h = require_positive("shafts.h_max", self.h_max)
+        if h > 0.1:
+            raise ParameterError("shafts.h_max", self.h_max, "between 0 and 0.1 s")
+
+
+class ShaftedDifferential:
+    """A differential model (rigid or mesh) with its two half-shafts; see the module docstring.
+
+    Inputs (attributes, SI): ``wheelL_phi``, ``wheelL_w``, ``wheelR_phi``, ``wheelR_w`` (wheel-side
+    angle and speed of each shaft), ``w_ref`` and ``tau_c`` (the carrier, forwarded to the inner
+    model). Outputs: ``tau_mean_L/R`` (shaft torque on the wheel, mean over the last step),
+    ``tau_end_L/R`` (at the end of the step), ``theta_L/R`` (twist), and everything of the inner
+    model (read through attribute delegation: ``w_L``, ``phi_L``, ``locking_torque``...).
+    ``do_step`` is atomic: on any error the state is as before the call.
+    """
+
+    ATOMIC_STEP = True
+
+    def __init__(self, inner, params: ShaftsParams | None = None):
+        self.__dict__["inner"] = inner
+        self.shafts = params if params is not None else ShaftsParams()
+        self.wheelL_phi = self.wheelL_w = self.wheelR_phi = self.wheelR_w = 0.0
+        self._ready = False
+
+    # inputs of the inner model pass through; every other unknown attribute is the inner model's
+    def __getattr__(self, name):
+        return getattr(self.__dict__["inner"], name)
+
+    @property
+    def w_ref(self) -> float:
+        return self.inner.w_ref
+
+    @w_ref.setter
+    def w_ref(self, v: float) -> None:
+        self.inner.w_ref = v
+
+    @property
+    def tau_c(self) -> float:
+        return self.inner.tau_c
+
+    @tau_c.setter
+    def tau_c(self, v: float) -> None:
+        self.inner.tau_c = v
+
+    # ------------------------------------------------------------------ setup
+    def _wheel_inputs(self) -> tuple[float, float, float, float]:
+        return (require_finite("leftWheel.phi", self.wheelL_phi), require_finite("leftWheel.w", self.wheelL_w),
+                require_finite("rightWheel.phi", self.wheelR_phi), require_finite("rightWheel.w", self.wheelR_w))
+
+    def initialize(self, t0: float = 0.0) -> None:
+        """Validate, initialize the inner model with the start twists' torques, set the state."""
+        sp = self.shafts
+        sp.validate()
+        pL, wL, pR, wR = self._wheel_inputs()
+        inner = self.inner
+        cL, dL, cR, dR = sp.left.c, sp.left.d, sp.right.c, sp.right.d
+        thL, thR = float(sp.left.phi_rel_start), float(sp.right.phi_rel_start)
+        # the inner model's start speeds are needed for the damper part: initialize twice
+        inner.tau_L = inner.tau_R = 0.0
+        inner.initialize(t0)
+        for _ in range(2):
+            inner.tau_L = -(cL * thL + dL * (inner.w_L - wL))
+            inner.tau_R = -(cR * thR + dR * (inner.w_R - wR))
+            inner.initialize(t0)
+        self.T_L, self.T_R = inner.tau_L, inner.tau_R
+        self.off_L = inner.phi_L - pL - thL
+        self.off_R = inner.phi_R - pR - thR
+        self.theta_L, self.theta_R = thL, thR
+        self.tau_end_L = self.tau_mean_L = -self.T_L
+        self.tau_end_R = self.tau_mean_R = -self.T_R
+        self.t = float(t0)
+        self.work_wheels = self.work_suns = self.shaft_loss = 0.0
+        self.PE0_shaft = self.shaft_energy
+        self.n_steps = self.n_substeps = self.n_evals = self.n_jacobians = 0
+        self.jac = None
+        self._ready = True
+
+    # ------------------------------------------------------------------ stepping
+    def _eval(self, snap: dict, t: float, hs: float, TL: float, TR: float,
+              phiL0: float, phiR0: float, dwL: float, dwR: float) -> tuple[float, float, float, float]:
+        """Residuals (N m) and twist changes for sun torques (TL, TR) held over one sub-step."""
+        inner = self.inner
+        inner.set_state(snap)
+        inner.tau_L, inner.tau_R = TL, TR
+        inner.do_step(t, hs)
+        self.n_evals += 1
+        sp = self.shafts
+        dthL = inner.phi_L - phiL0 - dwL
+        dthR = inner.phi_R - phiR0 - dwR
+        rL = TL + sp.left.c * (self.theta_L + dthL) + sp.left.d * dthL / hs
+        rR = TR + sp.right.c * (self.theta_R + dthR) + sp.right.d * dthR / hs
+        return rL, rR, dthL, dthR
+
+    def _jacobian(self, snap, t, hs, TL, TR, r, args) -> list[float]:
+        """Finite-difference Jacobian of the residuals at (TL, TR) (exact within a mode)."""
+        dT = 1e-3 * (1.0 + abs(TL) + abs(TR))
+        a = self._eval(snap, t, hs, TL + dT, TR, *args)
+        b = self._eval(snap, t, hs, TL, TR + dT, *args)
+        self.n_jacobians += 1
+        return [(a[0] - r[0]) / dT, (b[0] - r[0]) / dT, (a[1] - r[1]) / dT, (b[1] - r[1]) / dT]
+
+    def _substep(self, t: float, hs: float, wL: float, wR: float) -> tuple[float, float, float, float]:
+        inner = self.inner
+        snap = inner.get_state()
+        phiL0, phiR0 = inner.phi_L, inner.phi_R
+        args = (phiL0, phiR0, wL * hs, wR * hs)
+        TL, TR = self.T_L, self.T_R
+        r = self._eval(snap, t, hs, TL, TR, *args)
+        scale = 1e-10 * (1.0 + abs(TL) + abs(TR))
+        J = self.jac
+        fresh = False
+        for it in range(40):
+            if abs(r[0]) + abs(r[1]) <= scale:
+                break
+            if J is None or (it >= 2 and not fresh):
+                J = self._jacobian(snap, t, hs, TL, TR, r, args)
+                fresh = True
+            det = J[0] * J[3] - J[1] * J[2]
+            if not (det != 0.0 and math.isfinite(det)):
+                if fresh:
+                    raise StepError("shafts: the sun-torque Jacobian is singular")
+                J = None
+                continue
+            dTL = -(J[3] * r[0] - J[1] * r[1]) / det
+            dTR = -(J[0] * r[1] - J[2] * r[0]) / det
+            if it >= 8:   # piecewise-affine residual near a mode switch: damp the correction
+                dTL *= 0.5
+                dTR *= 0.5
+            TL, TR = TL + dTL, TR + dTR
+            r_new = self._eval(snap, t, hs, TL, TR, *args)
+            # Broyden update: J += (dr - J dT) dT' / |dT|^2
+            n2 = dTL * dTL + dTR * dTR
+            if n2 > 0.0:
+                yL = r_new[0] - r[0] - (J[0] * dTL + J[1] * dTR)
+                yR = r_new[1] - r[1] - (J[2] * dTL + J[3] * dTR)
+                J = [J[0] + yL * dTL / n2, J[1] + yL * dTR / n2, J[2] + yR * dTL / n2, J[3] + yR * dTR / n2]
+            r = r_new
+            scale = 1e-10 * (1.0 + abs(TL) + abs(TR))
+        else:
+            raise StepError(f"shafts: the implicit sub-step at t = {t:.6g} s did not converge "
+                            f"(residual {abs(r[0]) + abs(r[1]):.3g} N m); reduce shafts.h_max")
+        self.jac = J
+        # the inner model now holds the converged sub-step (the last evaluation)
+        dthL, dthR = r[2], r[3]
+        sp = self.shafts
+        self.work_suns += TL * (inner.phi_L - phiL0) + TR * (inner.phi_R - phiR0)
+        # shaft torque on the wheel is -T; the wheel side moves by w hs
+        self.work_wheels += -(-TL) * args[2] - (-TR) * args[3]
+        self.shaft_loss += (0.5 * sp.left.c * dthL * dthL + sp.left.d * dthL * dthL / hs
+                            + 0.5 * sp.right.c * dthR * dthR + sp.right.d * dthR * dthR / hs)
+        self.theta_L += dthL
+        self.theta_R += dthR
+        self.T_L, self.T_R = TL, TR
+        return TL, TR, dthL, dthR
+
+    def do_step(self, t: float, h: float) -> None:
+        """Advance from t to t + h; atomic (the state is unchanged when it raises)."""
+        if not self._ready:
+            raise StepError("do_step called before initialize")
+        h = require_positive("communicationStepSize", h)
+        pL, wL, pR, wR = self._wheel_inputs()
+        inner = self.inner
+        saved_inner = inner.get_state()
+        saved = self.get_own_state()
+        try:
+            self._do_step(t, h, pL, wL, pR, wR)
+            if not all(math.isfinite(x) for x in (self.theta_L, self.theta_R, self.T_L, self.T_R,
+                                                  inner.w_L, inner.w_R)):
+                raise StepError(f"shafts: the step at t = {t:.6g} s gave a non-finite state")
+        except BaseException:
+            inner.set_state(saved_inner)
+            self.set_own_state(saved)
+            raise
+
+    def _do_step(self, t, h, pL, wL, pR, wR) -> None:
+        inner = self.inner
+        sp = self.shafts
+        cL, cR = sp.left.c, sp.right.c
+        # re-anchor the twists on the wheel-side angles (no drift); book the spring-energy change
+        thL = inner.phi_L - pL - self.off_L
+        thR = inner.phi_R - pR - self.off_R
+        self.work_wheels += (0.5 * cL * (thL * thL - self.theta_L * self.theta_L)
+                             + 0.5 * cR * (thR * thR - self.theta_R * self.theta_R))
+        self.theta_L, self.theta_R = thL, thR
+        n = max(1, math.ceil(h / sp.h_max - 1e-9))
+        hs = h / n
+        sumL = sumR = 0.0
+        for i in range(n):
+            TL, TR, dthL, dthR = self._substep(t + i * hs, hs, wL, wR)
+            sumL -= TL
+            sumR -= TR
+        self.n_substeps += n
+        self.tau_mean_L, self.tau_mean_R = sumL / n, sumR / n
+        self.tau_end_L, self.tau_end_R = -self.T_L, -self.T_R
+        self.t = t + h
+        self.n_steps += 1
+        self.wheelL_phi, self.wheelL_w, self.wheelR_phi, self.wheelR_w = pL, wL, pR, wR
+
+    # ------------------------------------------------------------------ energy
+    @property
+    def shaft_energy(self) -> float:
+        """Elastic energy of the two half-shafts (J)."""
+        sp = self.shafts
+        return 0.5 * (sp.left.c * self.theta_L ** 2 + sp.right.c * self.theta_R ** 2)
+
+    @property
+    def potential_energy(self) -> float:
+        return float(getattr(self.inner, "potential_energy", 0.0)) + self.shaft_energy
+
+    @property
+    def energy_loss(self) -> float:
+        """Friction (inner model) + shaft damping and the implicit scheme's dissipation (J)."""
+        return self.inner.energy_loss + self.shaft_loss
+
+    @property
+    def work_in(self) -> float:
+        """Work done on differential and shafts by the carrier drive and the wheel sides (J)."""
+        return self.inner.work_in - self.work_suns + self.work_wheels
+
+    # ------------------------------------------------------------------ state
+    def get_own_state(self) -> dict:
+        s = {k: getattr(self, k) for k in _STATE_KEYS}
+        s["jac"] = None if self.jac is None else list(self.jac)
+        return s
+
+    def set_own_state(self, s: dict) -> None:
+        for k in _STATE_KEYS:
+            object.__setattr__(self, k, s[k])
+        self.jac = None if s["jac"] is None else list(s["jac"])
+        self._ready = True
+
+    def get_state(self) -> dict:
+        return {"inner": self.inner.get_state(), "shafts": self.get_own_state()}
+
+    def set_state(self, state: dict) -> None:
+        self.inner.set_state(state["inner"])
+        self.set_own_state(state["shafts"])
+
+
+__all__ = ["ShaftedDifferential", "ShaftParams", "ShaftsParams", "SHAFT_COUPLINGS"]
