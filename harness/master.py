@@ -211,7 +211,7 @@ class Instance:
 
     def set_value(self, name: str, value) -> None:
         v = self.var(name)
-        value = parameter_value(f"{self.name}.{name}", v.type, value)   # 'off' is false, not true
+        value = parameter_value(f"{self.name}.{name}", v.type, value, finite=False)   # 'off' is false, not true
         vr = [v.valueReference]
         if v.type == "Real":
             self.slave.setReal(vr, [float(value)])

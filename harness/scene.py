@@ -77,12 +77,18 @@ _TRUE = {"true", "on", "yes", "1"}
 _FALSE = {"false", "off", "no", "0"}
 
 
-def parameter_value(where: str, type_: str, value):
+def _short(value, n: int = 60) -> str:
+    r = repr(value)
+    return r if len(r) <= n else r[: n - 3] + "..."
+
+
+def parameter_value(where: str, type_: str, value, finite: bool = True):
     """``value`` converted to the FMI type ``type_`` (Real, Integer, Enumeration, Boolean, String) of
     the variable it is set on; a value that does not fit raises a one-line SceneError.
 
     Booleans: true/false, or the words true/false, on/off, yes/no, 1/0 (any case). Integers: whole
-    numbers in the int32 range (a boolean is not an integer). Reals: finite numbers."""
+    numbers in the int32 range (a boolean is not an integer). Reals: numbers, finite unless
+    ``finite`` is false (an FMU's own refusal of inf and NaN is tested through the master)."""
     if type_ == "Boolean":
         if isinstance(value, bool):
             return value
@@ -90,30 +96,30 @@ def parameter_value(where: str, type_: str, value):
             return bool(value)
         if isinstance(value, str) and value.strip().lower() in _TRUE | _FALSE:
             return value.strip().lower() in _TRUE
-        raise SceneError(f"{where} = {value!r}: allowed a boolean: true or false (also on/off, yes/no, 1/0)")
+        raise SceneError(f"{where} = {_short(value)}: allowed a boolean: true or false (also on/off, yes/no, 1/0)")
     if type_ in ("Integer", "Enumeration"):
         v = value
         if isinstance(v, float) and math.isfinite(v) and v.is_integer():
             v = int(v)
         if isinstance(v, bool) or not isinstance(v, int):
-            raise SceneError(f"{where} = {value!r}: allowed an integer in {INT32[0]} .. {INT32[1]}")
+            raise SceneError(f"{where} = {_short(value)}: allowed an integer in {INT32[0]} .. {INT32[1]}")
         if not INT32[0] <= v <= INT32[1]:
-            raise SceneError(f"{where} = {value!r}: out of the int32 range; allowed an integer in "
+            raise SceneError(f"{where} = {_short(value)}: out of the int32 range; allowed an integer in "
                              f"{INT32[0]} .. {INT32[1]}")
         return v
     if type_ == "Real":
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise SceneError(f"{where} = {value!r}: allowed a number")
+            raise SceneError(f"{where} = {_short(value)}: allowed a number")
         try:
             x = float(value)
         except OverflowError:
-            x = math.inf
-        if not math.isfinite(x):
-            raise SceneError(f"{where} = {value!r}: allowed a finite number")
+            x = math.inf if value > 0 else -math.inf
+        if finite and not math.isfinite(x):
+            raise SceneError(f"{where} = {_short(value)}: allowed a finite number")
         return x
     if type_ == "String":
         if not isinstance(value, str):
-            raise SceneError(f"{where} = {value!r}: allowed a string")
+            raise SceneError(f"{where} = {_short(value)}: allowed a string")
         return value
     raise SceneError(f"{where}: variable type {type_} cannot be set")
 
@@ -458,9 +464,11 @@ def scene_path(name_or_path: str, base: Path | None = None) -> Path:
             return p
         raise SceneError(f"scene file {str(p)!r} not found")
     if _SAFE_NAME.match(name_or_path) and ".." not in name_or_path:
-        q = SCENE_DIR / f"{name_or_path}.toml"
-        if q.is_file():
-            return q
+        # a name: a scene beside the one that names it, then the packaged scenes
+        for folder in ([base] if base is not None else []) + [SCENE_DIR]:
+            q = folder / f"{name_or_path}.toml"
+            if q.is_file():
+                return q
     raise SceneError(f"unknown scene {name_or_path!r}; available: {', '.join(available())} (or a .toml file)")
 
 

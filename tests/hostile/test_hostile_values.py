@@ -4,6 +4,7 @@ must be numbers, and a duration whose samples cannot fit in memory is refused be
 from __future__ import annotations
 
 import csv
+import math
 
 import pytest
 
@@ -131,3 +132,22 @@ def test_recording_budget_counts_the_samples():
     check_recording(sc)
     with pytest.raises(SceneError, match="allowed: at most"):
         check_recording(replace(sc, duration=1e15))
+
+
+def test_parameter_value_reads_each_fmi_type():
+    from harness.scene import SceneError, parameter_value as pv
+
+    assert [pv("k", "Boolean", v) for v in ("Off", " NO ", "false", 0, False, "on", "Yes", 1, True)] == \
+        [False] * 5 + [True] * 4
+    assert pv("k", "Integer", 3.0) == 3 and type(pv("k", "Integer", 3.0)) is int
+    assert pv("k", "Integer", -2**31) == -2**31 and pv("k", "Enumeration", 2**31 - 1) == 2**31 - 1
+    assert pv("k", "Real", 2) == 2.0 and pv("k", "String", "rigid") == "rigid"
+    assert math.isnan(pv("k", "Real", float("nan"), finite=False))   # the master lets the FMU refuse it
+    for t, v, words in [("Boolean", 2, "allowed a boolean"), ("Boolean", 0.5, "allowed a boolean"),
+                        ("Integer", True, "allowed an integer"), ("Integer", 2**31, "int32 range"),
+                        ("Integer", "3", "allowed an integer"), ("Real", "1.5", "allowed a number"),
+                        ("Real", True, "allowed a number"), ("Real", 10**400, "allowed a finite number"),
+                        ("Real", float("inf"), "allowed a finite number"), ("String", 3, "allowed a string")]:
+        with pytest.raises(SceneError) as e:
+            pv("diff.x", t, v)
+        assert str(e.value).startswith("diff.x = ") and words in str(e.value) and len(str(e.value)) < 200
