@@ -28,13 +28,14 @@ import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from harness.paths import checkout_root, docs_dir, results_dir
+
 from harness.master import Result, run_scene
 from harness.report import stat
 from harness.runner import fmu_files_for, prepare_scene
 from harness.scene import Scene, SceneError
 from spurdiff.mesh_bench import metric_scales, relative_errors
 
-ROOT = Path(__file__).resolve().parent.parent
 GRID_FILE = Path(__file__).resolve().parent / "accuracy_grid.toml"
 DATA_FILE = Path(__file__).resolve().parent / "accuracy_data.csv"
 FACTS_FILE = Path(__file__).resolve().parent / "accuracy_facts.json"   # references, solve_ivp points
@@ -481,16 +482,25 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="spurdiff accuracy", description="accuracy versus wall time, measured")
     ap.add_argument("scenes", nargs="*", help="scenes (default: all in the grid file)")
     ap.add_argument("--quick", action="store_true", help="the grid's small 'quick' subset (for tests)")
-    ap.add_argument("--out", type=Path, default=ROOT / "docs", help="where accuracy.md and accuracy.png go")
-    ap.add_argument("--data", type=Path, default=DATA_FILE, help="stored data for fidelity = auto")
+    ap.add_argument("--out", type=Path, default=None,
+                    help="where accuracy.md and accuracy.png go (default: docs/ in a checkout, else ./results/docs)")
+    # the stored data live in the package; an installed package is never written: there a run's
+    # data go to ./results/accuracy/ (fidelity = auto keeps reading the shipped data)
+    installed = checkout_root() is None
+    data_file = results_dir("accuracy", DATA_FILE.name) if installed else DATA_FILE
+    facts_file = results_dir("accuracy", FACTS_FILE.name) if installed else FACTS_FILE
+    ap.add_argument("--data", type=Path, default=data_file, help="stored data for fidelity = auto")
     ap.add_argument("--no-ivp", action="store_true", help="skip the solve_ivp baseline (a few minutes)")
     ap.add_argument("--only-ivp", action="store_true",
                     help="run only the solve_ivp baseline; the stored scene data stay as they are")
     ap.add_argument("--render", action="store_true",
                     help="only rewrite docs/accuracy.md and .png from the stored data (no runs)")
     args = ap.parse_args(argv)
+    args.out = args.out or docs_dir()
     if args.render:
-        stored = json.loads(FACTS_FILE.read_text())
+        stored = json.loads((facts_file if facts_file.exists() else FACTS_FILE).read_text())
+        if not args.data.exists():
+            args.data = DATA_FILE
         data = read_csv(args.data)
         return _write_docs(data, stored["facts"], stored.get("ivp"), args.out, stored["command"], data,
                            stored.get("ivp_command"))
@@ -506,31 +516,32 @@ def main(argv: list[str] | None = None) -> int:
            + (" --no-ivp" if args.no_ivp else "") + (" --only-ivp" if args.only_ivp else ""))
     for n in names:
         pts, f = measure_scene(n, grid[n], args.quick)
-        write_csv(pts, ROOT / "results" / "accuracy" / f"{n}.csv")
+        write_csv(pts, results_dir("accuracy", f"{n}.csv"))
         all_points += pts
         facts[n] = {**f, "command": cmd}
     # keep stored rows of scenes not rerun
-    kept = [p for p in read_csv(args.data) if p.scene not in names]
+    kept = [p for p in read_csv(args.data if args.data.exists() else DATA_FILE) if p.scene not in names]
     write_csv(kept + all_points, args.data)
     ivp = None if args.no_ivp or args.quick else ivp_baseline()
     if ivp:
-        path = ROOT / "results" / "accuracy" / "ivp.csv"
+        path = results_dir("accuracy", "ivp.csv")
         with open(path, "w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=list(ivp[0]))
             w.writeheader()
             w.writerows(ivp)
     print(f"wrote {args.data}")
-    if args.quick or args.data != DATA_FILE:
+    if args.quick or args.data != data_file:
         return _write_docs(all_points, facts, ivp, args.out, cmd, kept + all_points)
     # the stored facts: those of the scenes rerun replace theirs, the others (and the solve_ivp
     # points, unless rerun) stay; the docs then show every stored scene, each with its command
-    stored = json.loads(FACTS_FILE.read_text()) if FACTS_FILE.exists() else {"facts": {}, "ivp": None}
+    stored = json.loads(facts_file.read_text()) if facts_file.exists() else {"facts": {}, "ivp": None}
     merged = {n: (facts.get(n) or stored["facts"].get(n)) for n in grid if n in facts or n in stored["facts"]}
     if ivp is None:
         ivp, ivp_cmd = stored.get("ivp"), stored.get("ivp_command", "spurdiff accuracy")
     else:
         ivp_cmd = cmd
-    FACTS_FILE.write_text(json.dumps({"command": "spurdiff accuracy", "facts": merged, "ivp": ivp,
+    facts_file.parent.mkdir(parents=True, exist_ok=True)
+    facts_file.write_text(json.dumps({"command": "spurdiff accuracy", "facts": merged, "ivp": ivp,
                                       "ivp_command": ivp_cmd}, indent=1) + "\n")
     data = kept + all_points
     return _write_docs(data, merged, ivp, args.out, "spurdiff accuracy", data, ivp_cmd)

@@ -33,11 +33,11 @@ import zipfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-FMU_SRC = ROOT / "fmu_src"
-PACKAGE = FMU_SRC / "spurdiff"
+from harness.paths import fmu_cache_dir, fmu_sources, physics_package, sources_digest
+
+FMU_SRC = fmu_sources()          # the FMU scripts and native/ (package spurdiff_fmus = fmu_src/)
+PACKAGE = physics_package()      # bundled into every FMU
 NATIVE = FMU_SRC / "native"
-DEFAULT_DEST = ROOT / "build" / "fmus"
 
 # FMU name -> (script, default experiment)
 FMUS: dict[str, tuple[str, dict]] = {
@@ -60,22 +60,16 @@ class BuildError(RuntimeError):
 
 
 def source_digest(script: Path) -> str:
-    """Hash of everything that goes into an FMU (script, physics package, this build code)."""
-    h = hashlib.sha256()
-    files = [script, Path(__file__), ROOT / "harness" / "modeldescription.py"]
-    files += sorted(p for p in PACKAGE.rglob("*") if p.is_file() and "__pycache__" not in p.parts)
-    files += sorted(p for p in NATIVE.glob("*") if p.suffix in (".c", ".h"))
-    for p in files:
-        h.update(str(p.relative_to(ROOT)).encode())
-        h.update(p.read_bytes())
-    return h.hexdigest()
+    """Hash of everything that goes into an FMU (its script, the C sources, the physics package,
+    this build code): see :func:`harness.paths.sources_digest`."""
+    return hashlib.sha256(f"{sources_digest()}:{Path(script).name}".encode()).hexdigest()
 
 
-def fmu_path(name: str, dest: Path = DEFAULT_DEST) -> Path:
-    return Path(dest) / f"{name}.fmu"
+def fmu_path(name: str, dest: Path | None = None) -> Path:
+    return Path(dest or fmu_cache_dir()) / f"{name}.fmu"
 
 
-def is_current(name: str, dest: Path = DEFAULT_DEST) -> bool:
+def is_current(name: str, dest: Path | None = None) -> bool:
     script, _ = FMUS[name]
     fmu = fmu_path(name, dest)
     stamp = fmu.with_suffix(".sha256")
@@ -186,14 +180,14 @@ def _patch_binary(so: Path) -> str:
     return f"binary linked to {lib}"
 
 
-def build_one(name: str, dest: Path = DEFAULT_DEST, quiet: bool = False) -> Path:
+def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
     from pythonfmu.builder import FmuBuilder
 
     from harness.modeldescription import postprocess
 
     script_name, experiment = FMUS[name]
     script = FMU_SRC / script_name
-    dest = Path(dest)
+    dest = Path(dest) if dest else fmu_cache_dir()
     dest.mkdir(parents=True, exist_ok=True)
     variables = _load_variables(script, name)
     with tempfile.TemporaryDirectory(prefix="spurdiff_build_") as tmp:
@@ -248,11 +242,11 @@ def build_one(name: str, dest: Path = DEFAULT_DEST, quiet: bool = False) -> Path
     return out
 
 
-def build(names: list[str] | None = None, dest: Path = DEFAULT_DEST, force: bool = False,
+def build(names: list[str] | None = None, dest: Path | None = None, force: bool = False,
           quiet: bool = False) -> list[Path]:
     """Build the named FMUs (default: all) unless they are up to date. Returns their paths."""
     paths = []
-    dest = Path(dest)
+    dest = Path(dest) if dest else fmu_cache_dir()
     dest.mkdir(parents=True, exist_ok=True)
     for name in names or list(FMUS):
         if name not in FMUS:
@@ -292,11 +286,13 @@ def main(argv: list[str] | None = None) -> int:
 
     ap = argparse.ArgumentParser(prog="spurdiff build", description="Build the project's FMUs")
     ap.add_argument("names", nargs="*", help=f"FMUs to build (default: all of {', '.join(FMUS)})")
-    ap.add_argument("--dest", type=Path, default=DEFAULT_DEST, help="output directory (default build/fmus)")
+    ap.add_argument("--out", "--dest", dest="dest", type=Path, default=None,
+                    help="output directory (default: build/fmus in a checkout, else the per-user cache)")
     ap.add_argument("--force", action="store_true", help="rebuild even if up to date")
     args = ap.parse_args(argv)
     try:
-        build(args.names or None, args.dest, args.force)
+        paths = build(args.names or None, args.dest, args.force)
+        print(f"FMUs in {paths[0].parent}" if paths else "nothing to build")
     except BuildError as e:
         print(f"spurdiff build: {e}", file=sys.stderr)
         return 2

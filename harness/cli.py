@@ -6,8 +6,8 @@ import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-RESULTS = ROOT / "results"
+from harness.paths import results_dir
+
 
 
 def _fail(msg: str, code: int = 2) -> int:
@@ -71,7 +71,7 @@ def cmd_run(args) -> int:
             pick, reason = choose(scene)
             scene = apply_choice(scene, pick)
             print(reason)
-    out_dir = Path(args.out) if args.out else RESULTS / scene.name
+    out_dir = Path(args.out) if args.out else results_dir(scene.name)
     writable_dir(out_dir, "--out" if args.out else "results folder")   # before running, not after
     csv_path = out_dir / f"{scene.name}.csv"
     files = fmu_files_for(scene, build_missing=True)
@@ -115,10 +115,27 @@ def cmd_run(args) -> int:
     return 0
 
 
+def cmd_fmu(args) -> int:
+    """The path of a built FMU (built first if needed), for scripts and other hosts."""
+    from harness.build import FMUS, BuildError, build
+    if args.name not in FMUS:
+        return _fail(f"unknown FMU {args.name!r}; allowed: {', '.join(FMUS)}")
+    try:
+        (path,) = build([args.name], args.out, quiet=True)
+    except BuildError as e:
+        return _fail(str(e))
+    print(path)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
+    from harness.paths import package_version
+
     ap = argparse.ArgumentParser(prog="spurdiff", description="Spur-gear planetary differential FMUs and co-simulation harness")
+    ap.add_argument("--version", action="version", version=f"spurdiff {package_version()}")
     sub = ap.add_subparsers(dest="command", required=True)
-    sub.add_parser("build", help="build the FMUs into build/fmus (same as python build_fmu.py); --force, --dest")
+    sub.add_parser("build", help="build the FMUs (build/fmus in a checkout, else the per-user cache; "
+                                 "--out DIR, --force); prints where")
     sub.add_parser("bench", help="measured cost ratios: FMI vs direct, each fidelity vs rigid, real-time factors")
     sub.add_parser("check", help="FMI 2.0 compliance checks of any co-simulation FMU, JUnit report (docs/compliance.md)")
     sub.add_parser("export-ssp", help="write a scene as an SSP file other masters run (docs/interoperability.md)")
@@ -128,6 +145,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_info)
     p = sub.add_parser("scenes", help="list the scenes")
     p.set_defaults(func=cmd_scenes)
+    p = sub.add_parser("fmu", help="print the path of a built FMU, building it if needed")
+    p.add_argument("name", help="SpurDifferential, WheelLoad or Vehicle")
+    p.add_argument("--out", type=Path, default=None, help="build into DIR instead of the default place")
+    p.set_defaults(func=cmd_fmu)
     p = sub.add_parser("run", help="run a scene: results table, checks, CSV and plots")
     p.add_argument("scene", help="scene name (see `spurdiff scenes`) or path to a .toml file")
     p.add_argument("--mesh", help="differential mesh model (overrides the scene's effects.meshModel)")
@@ -136,7 +157,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--algorithm", choices=["gauss-seidel", "jacobi"])
     p.add_argument("--set", action="append", default=[], metavar="INST.PARAM=VALUE",
                    help="override a parameter, e.g. --set diff.mu_pin=0.1")
-    p.add_argument("--out", help="output directory (default results/<scene>)")
+    p.add_argument("--out", help="output directory (default ./results/<scene> under the current folder)")
     p.add_argument("--no-plots", action="store_true")
     p.set_defaults(func=cmd_run)
     return ap

@@ -6,7 +6,7 @@ import tomllib
 from dataclasses import replace
 from pathlib import Path
 
-from harness.build import DEFAULT_DEST, FMUS, build
+from harness.build import FMUS, build, fmu_path
 from harness.scene import Scene, SceneError, divides, load_scene, parameter_value
 
 
@@ -81,7 +81,7 @@ def typed_parameters(scene: Scene, fmu_files: dict[str, Path]) -> Scene:
     return scene
 
 
-def fmu_files_for(scene: Scene, build_missing: bool = True, dest: Path = DEFAULT_DEST) -> dict[str, Path]:
+def fmu_files_for(scene: Scene, build_missing: bool = True, dest: Path | None = None) -> dict[str, Path]:
     """Paths of the FMUs the scene uses, building missing or outdated ones."""
     needed = sorted({i.fmu for i in scene.instances})
     for n in needed:
@@ -90,7 +90,7 @@ def fmu_files_for(scene: Scene, build_missing: bool = True, dest: Path = DEFAULT
     if build_missing:
         paths = build(needed, dest, quiet=True)
     else:
-        paths = [Path(dest) / f"{n}.fmu" for n in needed]
+        paths = [fmu_path(n, dest) for n in needed]
     return dict(zip(needed, paths))
 
 

@@ -30,6 +30,8 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from harness.paths import results_dir
+
 from harness.scene import Scene, SceneError, safe_name
 
 SSD_FILE = "SystemStructure.ssd"
@@ -39,7 +41,6 @@ OSP_NS = "http://opensimulationplatform.com/SSP/OSPAnnotations"
 SCENE_ANNOTATION = "org.spurdiff.scene"
 SCENE_NS = "urn:spurdiff:ssp-scene:1"
 CONNECTOR_KINDS = ("input", "output", "parameter", "calculatedParameter")
-ROOT = Path(__file__).resolve().parent.parent
 
 
 class SspError(RuntimeError):
@@ -272,7 +273,7 @@ def _write(scene: Scene, fmu_files: dict[str, Path], mds: dict, variables: dict,
 
 def default_output(scene: Scene) -> Path:
     name = safe_name("scene name", scene.name)   # a name becomes a path only after validation
-    return ROOT / "results" / name / f"{name}.ssp"
+    return results_dir(name) / f"{name}.ssp"
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -40,6 +40,8 @@ import tomllib
 import uuid
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+
+from harness.paths import results_dir
 from typing import Any, Callable, Iterable, Iterator
 
 from harness.expressions import compile_expression, is_expression
@@ -48,8 +50,6 @@ from harness.sweep_worker import STATUSES, THEORIES, FmuRef, Job, Metric, Task, 
     run_one, scene_for, snapshot
 
 SWEEP_DIR = Path(__file__).resolve().parent / "sweeps"
-ROOT = Path(__file__).resolve().parent.parent
-RESULTS = ROOT / "results" / "sweeps"
 
 TOP_KEYS = {"name", "description", "scene", "duration", "step", "mesh", "algorithm", "fixed", "timeout",
             "sample", "parameters", "metrics", "plots"}
@@ -565,7 +565,7 @@ def fmt(v) -> str:
 
 
 def table_path(sweep: Sweep, out_dir: Path | None) -> Path:
-    return Path(out_dir if out_dir else RESULTS / sweep.name) / f"{sweep.name}.csv"
+    return Path(out_dir if out_dir else results_dir("sweeps", sweep.name)) / f"{sweep.name}.csv"
 
 
 def read_table(path: Path) -> tuple[list[str], dict[int, dict[str, str]]]:
@@ -1134,7 +1134,7 @@ def _main(args) -> int:
             return _fail(f"--bench-runs = {args.bench_runs}: allowed an integer >= 1")
         bench(sweep, args.bench_runs, duration=args.duration)
         return 0
-    out_dir = Path(args.out) if args.out else RESULTS / sweep.name
+    out_dir = Path(args.out) if args.out else results_dir("sweeps", sweep.name)
     path = table_path(sweep, out_dir)
     if args.plot_only:
         if not path.exists():
