@@ -36,8 +36,13 @@ def physics_package() -> Path:
 
 
 def fmu_sources() -> Path:
-    """The folder with the FMU scripts (``SpurDifferential.py``...) and ``native/`` (C sources)."""
-    import spurdiff_fmus
+    """The folder with the FMU scripts (``SpurDifferential.py``...) and ``native/`` (C sources):
+    the installed package ``spurdiff_fmus``, or ``fmu_src/`` of a checkout run without installing
+    (``python build_fmu.py``)."""
+    try:
+        import spurdiff_fmus
+    except ImportError:
+        return HARNESS.parent / "fmu_src"
     return Path(spurdiff_fmus.__file__).resolve().parent
 
 
