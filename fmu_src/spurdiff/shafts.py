@@ -228,8 +228,11 @@ class ShaftedDifferential:
             r = r_new
             scale = 1e-10 * (1.0 + abs(TL) + abs(TR))
         else:
-            raise StepError(f"shafts: the implicit sub-step at t = {t:.6g} s did not converge "
-                            f"(residual {abs(r[0]) + abs(r[1]):.3g} N m); reduce shafts.h_max")
+            # a piecewise-affine residual (a mode switch inside the sub-step) can stall Newton just
+            # above the tight tolerance: accept 1e-8 relative (a micro-N m at 100 N m), no more
+            if not abs(r[0]) + abs(r[1]) <= 1e-8 * (1.0 + abs(TL) + abs(TR)):
+                raise StepError(f"shafts: the implicit sub-step at t = {t:.6g} s did not converge "
+                                f"(residual {abs(r[0]) + abs(r[1]):.3g} N m); reduce shafts.h_max")
         self.jac = J
         # the inner model now holds the converged sub-step (the last evaluation)
         dthL, dthR = r[2], r[3]
