@@ -98,7 +98,7 @@ def test_a_per_scene_run_keeps_the_other_scenes_and_the_solve_ivp_points(tmp_pat
     new = replace(old[0], fidelity="new", wall=0.02)
     monkeypatch.setattr(acc, "DATA_FILE", data)
     monkeypatch.setattr(acc, "FACTS_FILE", facts)
-    monkeypatch.setattr(acc, "ROOT", tmp_path)
+    monkeypatch.chdir(tmp_path)   # results/accuracy/ goes under the current folder
     monkeypatch.setattr(acc, "measure_scene", lambda n, spec, quick=False: ([new], {"reference": "new"}))
     monkeypatch.setattr(acc, "_write_docs", lambda *a, **k: 0)
     assert acc.main(["paper-cornering", "--no-ivp"]) == 0
