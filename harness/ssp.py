@@ -25,14 +25,13 @@ What the SSD carries (see docs/interoperability.md for what it cannot):
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 from harness.paths import results_dir
 
-from harness.scene import Scene, SceneError, safe_name
+from harness.scene import Scene, SceneError, parameter_value, safe_name
 
 SSD_FILE = "SystemStructure.ssd"
 FMU_TYPE = "application/x-fmu-sharedlibrary"
@@ -102,27 +101,19 @@ def instance_values(scene: Scene, variables: dict[str, dict]) -> dict[str, dict[
 
 
 def _typed(where: str, var, value) -> tuple[str, str]:
-    """(ssv type, value text) for a start value of an FMU variable."""
-    t = var.type
-    if t == "Real":
-        try:
-            x = float(value)
-        except (TypeError, ValueError):
-            raise SceneError(f"{where} = {value!r}: allowed a number") from None
-        if not math.isfinite(x):
-            raise SceneError(f"{where} = {value!r}: allowed a finite number")
-        return "Real", repr(x)
-    if t in ("Integer", "Enumeration"):  # libcosim cannot read ssv:Enumeration; an enumeration is its integer
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or float(value) != int(value):
-            raise SceneError(f"{where} = {value!r}: allowed an integer")
-        return "Integer", str(int(value))
-    if t == "Boolean":
-        if not (isinstance(value, bool) or (isinstance(value, int) and value in (0, 1))):
-            raise SceneError(f"{where} = {value!r}: allowed true or false")
-        return "Boolean", "true" if value else "false"
-    if t == "String":
-        return "String", str(value)
-    raise SceneError(f"{where}: variable type {t} cannot be bound in SSP")
+    """(ssv type, value text) for a start value of an FMU variable, converted by the variable's
+    type as every other command converts it (:func:`harness.scene.parameter_value`: 'off' is
+    false, a whole float is an integer...)."""
+    if var.type not in ("Real", "Integer", "Enumeration", "Boolean", "String"):
+        raise SceneError(f"{where}: variable type {var.type} cannot be bound in SSP")
+    v = parameter_value(where, var.type, value)
+    if var.type == "Real":
+        return "Real", repr(v)
+    if var.type in ("Integer", "Enumeration"):  # libcosim cannot read ssv:Enumeration; an enumeration is its integer
+        return "Integer", str(v)
+    if var.type == "Boolean":
+        return "Boolean", "true" if v else "false"
+    return "String", v
 
 
 def _parameter_type(ptype: str, text: str):

@@ -151,3 +151,16 @@ def test_parameter_value_reads_each_fmi_type():
         with pytest.raises(SceneError) as e:
             pv("diff.x", t, v)
         assert str(e.value).startswith("diff.x = ") and words in str(e.value) and len(str(e.value)) < 200
+
+
+def test_export_ssp_converts_a_boolean_word_like_run(tmp_path):
+    """`spurdiff export-ssp --set diff.pinFriction=off` binds false (it used to be refused)."""
+    import zipfile
+
+    from harness.ssp import main as export_main
+
+    out = tmp_path / "pc.ssp"
+    assert export_main(["paper-cornering", "-o", str(out), "--set", "diff.pinFriction=off"]) == 0
+    ssd = zipfile.ZipFile(out).read("SystemStructure.ssd").decode()
+    i = ssd.index('<ssv:Parameter name="pinFriction">')
+    assert 'value="false"' in ssd[i:i + 200]
