@@ -138,15 +138,16 @@ def test_kit_flags_what_the_checker_flags(tmp_path):
     fmus = {v: chk_build.chkc_fmu(v) for v in CHKC_FOR_AGREEMENT}
     by_checker = {v: any(checker_flags(*fmucheck(p, tmp_path, kind)[:2]) for kind in ("cs", "me"))
                   for v, p in fmus.items()}
-    # the whole kit on what the checker flags, and on the well-behaved ChkC (the variants only the
-    # kit flags are the catch table of test_check_fmus.py)
-    run = [v for v in fmus if by_checker[v] or v == "ChkC"]
+    # the whole kit on what the checker flags (that the kit passes ChkC, which the checker passes too, is
+    # test_check_fmus.py::test_well_behaved_c_fmu_passes_every_rule_of_both_interfaces; the variants
+    # only the kit flags are the catch table there)
+    run = [v for v in fmus if by_checker[v]]
     kit = run_checks([str(fmus[v]) for v in run], LifecycleOptions(timeout=60.0))
     by_kit = {v: any(r.is_error for r in kit if r.subject == str(fmus[v])) for v in run}
     print("\nvariant: checker flags, kit flags\n" + "\n".join(f"{v}: {by_checker[v]}, {by_kit.get(v, '-')}" for v in fmus))
-    assert all(by_kit[v] for v in run if by_checker[v]), by_kit   # the checker flags => the kit flags
-    assert by_checker["ChkC"] is False and by_kit["ChkC"] is False  # both pass the well-behaved one
-    assert sum(by_checker.values()) >= 2                            # the comparison is not vacuous
+    assert all(by_kit.values()), by_kit          # the checker flags => the kit flags
+    assert by_checker["ChkC"] is False           # the checker passes the well-behaved one
+    assert len(run) >= 2                         # the comparison is not vacuous
 
 
 @pytest.fixture(scope="session")
