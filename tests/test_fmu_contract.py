@@ -123,7 +123,7 @@ def test_a_step_past_the_stop_time_is_refused_and_says_terminated(fmu):
     name, path, case = fmu
     inst = start(path, "stop", case, stop=3 * H)
     t = steps(inst, 3)
-    assert status_of(lambda: inst.slave.doStep(t, H)) == 2
+    assert status_of(lambda: inst.slave.doStep(t, H)) == 3   # fmi2Error (FMI 2.0 section 2.1.6)
     assert "past the stopTime" in last(inst)
     assert inst.slave.getBooleanStatus(3) is True or inst.slave.getBooleanStatus(3) == 1   # fmi2Terminated
     inst.slave.freeInstance()

@@ -21,8 +21,9 @@ initialization that failed (only fmi2Reset and fmi2FreeInstance help then).
   reason naming the variable and its allowed range); outputs and calculated parameters read
   in initialization mode are computed from the values set so far (FMI 2.0 section 2.2.7,
   InitialUnknowns).
-* fmi2DoStep refuses (fmi2Discard, state kept at the last successful time, logged reason) a
-  communication point that is not the FMU's time, a step past a defined stop time, an input
+* fmi2DoStep refuses a step past a defined stop time with fmi2Error (section 2.1.6), and with
+  fmi2Discard (state kept at the last successful time, logged reason) a
+  communication point that is not the FMU's time, an input
   that is not finite or outside its declared range (``Var.min``/``max``, also in
   modelDescription.xml), and a step whose result is not finite.
 * get/set FMU state carry the whole model state (integrator memory included); a serialized
@@ -303,9 +304,9 @@ class ModelFmu(Fmi2Slave):
             return self._refuse(DISCARD, f"fmi2DoStep refused: currentCommunicationPoint = {t!r} s is not the "
                                          f"FMU's time {self.time!r} s (no gaps, no going back: use fmi2SetFMUstate)")
         if self.stop_time is not None and t + h > self.stop_time + _time_tolerance(self.stop_time, h):
-            self.terminated = True
-            return self._refuse(DISCARD, f"fmi2DoStep refused: t + h = {t + h:g} s is past the stopTime "
-                                         f"{self.stop_time:g} s set by fmi2SetupExperiment")
+            self.terminated = True   # FMI 2.0 section 2.1.6: computing past a defined stopTime is fmi2Error
+            return self._refuse(ERROR, f"fmi2DoStep refused: t + h = {t + h:g} s is past the stopTime "
+                                       f"{self.stop_time:g} s set by fmi2SetupExperiment; state kept at t = {self.time:g} s")
         values = self.values
         for name, lo, hi in self._inputs:
             x = values[name]
