@@ -257,14 +257,21 @@ class RealPort:
         self.fn = inst.slave._functions["fmi2SetReal" if write else "fmi2GetReal"]
         self.component = inst.slave.component
         self.what = "fmi2SetReal" if write else "fmi2GetReal"
+        self.last = None   # values of the last set: inputs keep their values, an unchanged set is skipped
 
     def _check(self, status: int, t: float) -> None:
         if status > 1:
             raise RunFailure(self.inst.name, t, f"{self.what} returned status {status}: {self.inst.last_messages()}")
 
     def set(self, values: list[float], t: float = math.nan) -> None:
+        if values == self.last:   # (call forget() after fmi2SetFMUstate, which restores old inputs)
+            return
         self.val[:] = values
         self._check(self.fn(self.component, self.vr, self.n, self.val), t)
+        self.last = values
+
+    def forget(self) -> None:
+        self.last = None
 
     def get(self, t: float = math.nan) -> list[float]:
         self._check(self.fn(self.component, self.vr, self.n, self.val), t)

@@ -263,7 +263,7 @@ def test_mu_zero_on_one_side(fmu_files):
     from harness.report import series, stat
     from harness.scene import parse_scene, read_scene_data
 
-    for h in (2e-4, 4e-4):
+    for h in (5e-3, 2e-2):
         data = read_scene_data("split-mu-launch")
         data["inputs"]["wheelL.mu"] = 0.0
         data.update(step=h, duration=0.6, output_interval=2e-3)
@@ -277,33 +277,34 @@ def test_mu_zero_on_one_side(fmu_files):
         # spin-up (left wheel at about 90 rad/s^2: sun and planet inertias, 0.3-0.5 N m at 150 N m
         # with the pin-load law's K = 0.178): within 0.5 % of the right shaft torque
         tbr = "(1 + {diff.lockingCoefficient}) / (1 - {diff.lockingCoefficient})"
-        excess = stat(r, "{wheelR.shaft.tau} - abs({wheelL.shaft.tau}) * " + tbr, "max", [0.001, 0.6])
-        assert excess < 5e-3 * stat(r, "wheelR.shaft.tau", "max", [0.001, 0.6])
+        excess = stat(r, "{diff.rightShaft.tau} - abs({diff.leftShaft.tau}) * " + tbr, "max", [0.001, 0.6])
+        assert excess < 5e-3 * stat(r, "diff.rightShaft.tau", "max", [0.001, 0.6])
 
 
 def test_jacobi_and_gauss_seidel_at_the_stiffest_half_shaft(fmu_files):
-    """Half-shafts ten times stiffer (80 kN m/rad): at the default 0.2 ms step Gauss-Seidel is
-    stable and Jacobi is not (the harness warns, or the run stops with the FMU's message);
-    Jacobi is stable at 0.1 ms."""
+    """Half-shafts ten times stiffer (80 kN m/rad, inside the differential, and the wheels'
+    interface stiffness with them): at the default 5 ms step Gauss-Seidel (differential first) is
+    stable and agrees with 1 ms; Jacobi is not (the wheels get the shaft torque one step late:
+    the harness warns, or the run stops with the FMU's message)."""
     from dataclasses import replace
 
     from harness.master import run_scene
     from harness.report import coupling_warnings, stat
     from harness.runner import prepare_scene
 
-    stiff = ["wheelL.halfShaft.c=80000.0", "wheelR.halfShaft.c=80000.0"]
+    stiff = ["diff.leftShaft.c=80000.0", "diff.rightShaft.c=80000.0",
+             "wheelL.halfShaft.c=80000.0", "wheelR.halfShaft.c=80000.0"]
 
     def go(alg, h):
-        s = prepare_scene("vehicle-cornering", step=h, duration=0.3, algorithm=alg, sets=stiff)
-        return run_scene(replace(s, output_interval=1e-3), fmu_files)
+        s = prepare_scene("vehicle-cornering", step=h, duration=1.0, algorithm=alg, sets=stiff)
+        return run_scene(replace(s, output_interval=5e-3), fmu_files)
 
-    gs, jac_coarse, jac_fine = go("gauss-seidel", 2e-4), go("jacobi", 2e-4), go("jacobi", 1e-4)
-    for r in (gs, jac_fine):
+    gs, gs_fine, jac = go("gauss-seidel", 5e-3), go("gauss-seidel", 1e-3), go("jacobi", 5e-3)
+    for r in (gs, gs_fine):
         assert r.ok and not coupling_warnings(r)
         assert np.all(np.isfinite(r.data))
-    assert stat(gs, "diff.carrier.w", "final") == pytest.approx(stat(jac_fine, "diff.carrier.w", "final"), rel=1e-4)
-    assert not jac_coarse.ok or coupling_warnings(jac_coarse)
-    assert coupling_warnings(jac_coarse) or "step" in str(jac_coarse.failure)
+    assert stat(gs, "diff.carrier.w", "final") == pytest.approx(stat(gs_fine, "diff.carrier.w", "final"), rel=1e-4)
+    assert not jac.ok or coupling_warnings(jac)
 
 
 @pytest.mark.parametrize("tol", [1e-5, 1e-6, 1e-7])
