@@ -19,10 +19,11 @@ from spurdiff.wheel import WheelLoad, WheelLoadParams
 R_WHEEL = WheelLoadParams.defaults().wheel.R
 
 
-def make(mesh: str = "rigid", w0: float = 0.0, twist: float = 0.0, backlash: bool = False, **kw):
+def make(mesh: str = "rigid", w0: float = 0.0, twist: float = 0.0, backlash: bool = False, tol: float = 1e-6,
+         **kw):
     p = DifferentialParams(carrierDrive="torque", J_carrier=13.1)
     inner = (RigidDifferential(p) if mesh == "rigid"
-             else MeshDifferential(p, MeshParams(meshModel=mesh, backlash=backlash, tolerance=1e-6)))
+             else MeshDifferential(p, MeshParams(meshModel=mesh, backlash=backlash, tolerance=tol)))
     inner.w_start_carrier = w0
     inner.w_start_left = w0
     diff = ShaftedDifferential(inner, ShaftsParams(ShaftParams(phi_rel_start=twist), ShaftParams(phi_rel_start=twist),
@@ -134,18 +135,18 @@ def test_stick_slip_through_capacity(h):
 
 @pytest.mark.parametrize("h", STEPS)
 def test_torque_reversal_with_backlash(h):
-    """Contact level with backlash: drive 300 N m, then coast -300 N m at 0.1 s: the teeth cross
+    """Contact level with backlash: drive 300 N m, then coast -300 N m at 0.04 s: the teeth cross
     the backlash; finite, passive, suns and carrier keep w_A + w_B = 2 w_c up to the mesh
     deflection (the planets are free at the contact level: the constraint holds for the rigid
     kinematics of the suns through the planets, not exactly, see the scene checks)."""
-    diff, wheels = make("contact", w0=10.0 / R_WHEEL, backlash=True)
-    loop = start(Loop(diff, wheels, tau_c=lambda t: 300.0 if t < 0.1 else -300.0, vx=lambda t: 10.0))
-    rows = loop.run(0.25, h)
+    diff, wheels = make("contact", w0=10.0 / R_WHEEL, backlash=True, tol=1e-4)
+    loop = start(Loop(diff, wheels, tau_c=lambda t: 300.0 if t < 0.04 else -300.0, vx=lambda t: 10.0))
+    rows = loop.run(0.12, h)
     # the kinematic constraint holds only through the teeth: while they cross the backlash the
     # suns and planets move freely against the carrier (up to 2 rad/s here, physical), so it is
     # checked once the flanks are back in contact (the end), to the mesh deflection rate
     assert_sound(loop, rows, kin_tol=10.0)
-    assert abs(rows[-1, 2] + rows[-1, 3] - 2.0 * rows[-1, 1]) < 1e-3   # still decaying at 0.25 s
+    assert abs(rows[-1, 2] + rows[-1, 3] - 2.0 * rows[-1, 1]) < 1e-2   # still decaying at 0.12 s
     assert diff.n_contact_transitions >= 1
     assert rows[-1, 8] < 0.0 and rows[-1, 9] < 0.0        # both shafts brake the wheels now
 
