@@ -24,6 +24,18 @@ def test_fidelity_cost_and_fmi_overhead_measure_real_runs():
     assert o["step"] == 1e-3 and o["instances"] == 1
 
 
+def test_step_control_comparison_measures_real_runs(monkeypatch):
+    """The fixed and variable runs of section 5, on a 0.3 s tip-in-tip-out."""
+    from dataclasses import replace
+
+    real = bench.prepare_scene
+    monkeypatch.setattr(bench, "prepare_scene", lambda name, **k: replace(real(name, **k), duration=0.3))
+    rows = bench.step_control_comparison("tip-in-tip-out", repeats=1)
+    assert [r["run"][:5] for r in rows] == ["fixed", "fixed", "varia", "varia"] and all(r["ok"] for r in rows)
+    assert rows[0]["steps"] == 60 and rows[1]["steps"] == 300
+    assert all(math.isfinite(r["err_ratio"]) and r["err_lock"] >= 0.0 for r in rows)
+
+
 def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeypatch, capsys):
     monkeypatch.setattr(bench, "fmi_overhead", lambda *a, **k: {
         "scene": "vehicle-cornering", "simulated_s": 3.0, "fmi_s": 3.0, "direct_s": 1.5, "ratio": 2.0,
@@ -34,11 +46,17 @@ def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeyp
     monkeypatch.setattr(bench, "realtime_factors", lambda *a, **k: [
         {"scene": "vehicle-cornering", "simulated_s": 3.0, "wall_s": 1.5, "realtime_factor": 2.0,
          "fidelity": "meshModel=rigid", "ok": True}])
+    monkeypatch.setattr(bench, "step_control_comparison", lambda *a, **k: [
+        {"run": "fixed 5 ms (scene default)", "wall_s": 0.5, "steps": 700, "rejected": 0, "ok": True,
+         "err_ratio": 1e-3, "err_lock": 7.0},
+        {"run": "variable (rtol 0.001, atol 0.001 J)", "wall_s": 4.0, "steps": 3900, "rejected": 99, "ok": True,
+         "err_ratio": 6e-4, "err_lock": 2.9}])
     assert bench._report(argparse.Namespace(levels=None, repeats=1)) == 0
     out = capsys.readouterr().out
     # 15000 steps: 200 us (FMI) and 100 us (direct) per step, 25 us per instance and step
     assert "FMI 200 us, direct 100 us" in out and "= 25 us per instance and step" in out
     assert "leaves 10 us per step" in out
     lines = {ln.split("  ")[0]: ln for ln in out.splitlines()}
-    assert lines["coupled / direct run, vehicle-cornering"].rstrip().endswith("NO")
+    assert lines["coupled / direct run, vehicle-cornering (step 0.2 ms)"].rstrip().endswith("NO")
+    assert "variable (rtol 0.001, atol 0.001 J)" in lines and lines["variable (rtol 0.001, atol 0.001 J)"].split()[-4] == "3900"
     assert lines["real-time factor, paper-straight at contact (unloaded start)"].rstrip().endswith("yes")
