@@ -18,7 +18,8 @@ Top-level keys::
     couplings                     [[couplings]]: power bonds to monitor (name, torque, w_from, w_to)
     record                        list of "inst.var" to record (default: every connected/profiled var)
     table                         [[table]] rows of the results table (label, var, scale, unit, paper, theory, window)
-    checks                        [[checks]] physical checks (name, stat, var, window, expect/rtol/atol/below/above)
+    checks                        [[checks]] physical checks (name, stat, var, window, expect/rtol/atol/below/above,
+                                  fidelity: the mesh models it holds at, others report it as not checked)
     fidelity                      "fixed" (default) | {mode = "auto", outputs = ["inst.var", ...], tolerance = 0.01,
                                   data = "scene"}: pick the cheapest measured fidelity and step (harness/accuracy.py)
     extends                       name of a scene this one starts from: its tables are merged key by key,
@@ -50,7 +51,7 @@ TOP_KEYS = {"name", "description", "duration", "step", "output_interval", "algor
 FIDELITY_KEYS = {"mode", "outputs", "tolerance", "data"}
 FMU_KEYS = {"fmu", "parameters"}
 TABLE_KEYS = {"label", "var", "scale", "unit", "paper", "theory", "paper_max", "paper_min", "window"}
-CHECK_KEYS = {"name", "stat", "var", "window", "expect", "rtol", "atol", "below", "above", "expect_var"}
+CHECK_KEYS = {"name", "stat", "var", "window", "expect", "rtol", "atol", "below", "above", "expect_var", "fidelity"}
 COUPLING_KEYS = {"name", "torque", "w_from", "w_to", "sign"}
 STATS = {"mean", "max", "min", "final", "absmax", "span"}
 ALGORITHMS = {"gauss-seidel", "jacobi"}
@@ -422,6 +423,9 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
                 _number(f"{at}.{k}", c[k], minimum=0.0)
         if "window" in c:
             _window(f"{at}.window", c["window"])
+        if "fidelity" in c and not (isinstance(c["fidelity"], list) and c["fidelity"]
+                                    and all(f in ("rigid", "compliant", "contact") for f in c["fidelity"])):
+            raise SceneError(f"{at}.fidelity = {c['fidelity']!r}; allowed: a list of rigid, compliant, contact")
         checks.append(dict(c))
     for r in needed:
         if r not in record:

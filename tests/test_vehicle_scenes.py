@@ -237,3 +237,26 @@ def test_direct_physics_run_equals_fmi_run_for_the_car(fmu_files):
     a, b = run_direct(scene), run_scene(scene, fmu_files)
     assert a.ok and b.ok
     assert np.array_equal(a.data, b.data)
+
+
+def test_kinematic_checks_state_the_fidelity_they_hold_at():
+    """Issue 19 item 6: the exact constraint is checked at rigid; at contact the mesh deflection
+    rate replaces it (below 1e-4 rad/s in the steady turn) and the rigid one reports N/A."""
+    from harness.direct import run_direct
+    from harness.report import format_checks
+    from harness.scene import SceneError, parse_scene, read_scene_data
+
+    for mesh in ("rigid", "contact"):
+        r = run_direct(prepare_scene("vehicle-cornering", mesh=mesh, duration=1.2))
+        assert r.ok
+        out = {o.name: o for o in evaluate_checks(r)}
+        rigid = out["kinematics (rigid): w_A + w_B = 2 w_c (to 1e-9 rad/s)"]
+        mesh_check = next(o for n, o in out.items() if n.startswith("kinematics (compliant, contact)"))
+        applies, na = (rigid, mesh_check) if mesh == "rigid" else (mesh_check, rigid)
+        assert applies.passed and np.isfinite(applies.value)
+        assert np.isnan(na.value) and na.expectation.startswith(f"not checked at meshModel = {mesh}")
+        assert "N/A   " + na.name in format_checks(list(out.values()))
+    data = read_scene_data("vehicle-cornering")
+    data["checks"][0]["fidelity"] = "rigid"
+    with pytest.raises(SceneError, match=r"fidelity = 'rigid'; allowed: a list of rigid, compliant, contact"):
+        parse_scene(data)
