@@ -38,18 +38,27 @@ def _listing(folder: Path, deep: bool) -> list:
 
 @pytest.fixture
 def sandbox(tmp_path):
-    """The test's folder; after the test: no marker file written by an escape, nothing new or
-    changed next to the temporary folder, in the repository's results/ or beside the repository,
-    and the bundled scenes and sweeps untouched."""
+    """The test's folder; after the test: no marker file written by an escape, no new entry next to
+    the temporary folder, in the repository's results/ or beside the repository (folders other
+    processes may write to, a CI log beside the checkout for one: only new names count there), and
+    the bundled scenes and sweeps untouched (not a file added, removed or modified)."""
     marker = tmp_path.parent / f"escaped-{uuid.uuid4().hex}"
     watched = {tmp_path.parent: False, ROOT / "results": False, ROOT.parent: False,
                ROOT / "harness" / "scenes": True, ROOT / "harness" / "sweeps": True}
-    before = {w: [x for x in _listing(w, deep) if x[0] != tmp_path.name] for w, deep in watched.items()}
+
+    def state(w, deep):
+        items = [x for x in _listing(w, deep) if x[0] != tmp_path.name]
+        return items if deep else {name for name, _ in items}
+
+    before = {w: state(w, deep) for w, deep in watched.items()}
     yield SimpleNamespace(dir=tmp_path, marker=marker)
     assert not marker.exists(), "an expression ran a shell command"
     for w, deep in watched.items():
-        after = [x for x in _listing(w, deep) if x[0] != tmp_path.name]
-        assert after == before[w], f"{w} changed: {sorted(set(after) ^ set(before[w]))}"
+        after = state(w, deep)
+        if deep:
+            assert after == before[w], f"{w} changed: {sorted(set(after) ^ set(before[w]))}"
+        else:
+            assert not (after - before[w]), f"new in {w}: {sorted(after - before[w])}"
 
 
 def scene(folder: Path, body: str, name: str = "hostile", filename: str | None = None) -> Path:
