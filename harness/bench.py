@@ -101,6 +101,37 @@ def realtime_factors(repeats: int = 3) -> list[dict]:
     return rows
 
 
+def step_cost_breakdown(scene_name: str = "vehicle-cornering") -> dict:
+    """Direct run of a scene with each instance's stepping time measured: microseconds per
+    communication step per instance, and for a differential owning its half-shafts the inner
+    model's evaluations per step (what bounds the real-time factor)."""
+    import harness.direct as hd
+
+    scene = prepare_scene(scene_name)
+    acc: dict[str, float] = {}
+    models: dict[str, object] = {}
+    orig = hd.DirectInstance.step
+
+    def timed(self, t, h):
+        t0 = time.perf_counter()
+        orig(self, t, h)
+        acc[self.name] = acc.get(self.name, 0.0) + time.perf_counter() - t0
+        models[self.name] = self.model
+
+    hd.DirectInstance.step = timed
+    try:
+        r = run_direct(scene)
+    finally:
+        hd.DirectInstance.step = orig
+    n = max(1, r.steps)
+    out = {"scene": scene_name, "step": scene.step, "steps": r.steps, "wall_s": r.wall_time,
+           "us_per_step": {k: 1e6 * v / n for k, v in acc.items()}, "evals_per_step": {}}
+    for name, m in models.items():
+        if hasattr(m, "n_evals"):
+            out["evals_per_step"][name] = (m.n_evals / n, m.n_substeps / n, m.n_jacobians / n)
+    return out
+
+
 def step_control_comparison(scene_name: str = "tip-in-tip-out", repeats: int = 3) -> list[dict]:
     """Fixed steps (the scene's and 1 ms) and the energy-controlled variable step against a
     fixed 0.2 ms run: wall time, steps, rejected steps, largest error of the wheel-speed ratio and
@@ -214,6 +245,15 @@ def _report(args) -> int:
           f"(setReal + doStep + getReal through pythonfmu's C-to-Python path) = "
           f"{(per_fmi - per_direct) / o['instances']:.0f} us per instance and step.\n"
           f"   20x real time at this step leaves {1e6 * o['step'] / 20:.0f} us per step for everything.")
+    b = step_cost_breakdown(o["scene"]) if o["scene"] == "vehicle-cornering" else None
+    if b:
+        parts = ", ".join(f"{k} {v:.0f} us" for k, v in b["us_per_step"].items())
+        print(f"   direct physics per step by instance: {parts} (sum {sum(b['us_per_step'].values()):.0f} us);")
+        for name, (ev, sub, jac) in b["evals_per_step"].items():
+            us = b["us_per_step"][name]
+            print(f"   {name} owns the half-shafts: {sub:.1f} sub-steps and {ev:.1f} inner-model steps per communication "
+                  f"step ({jac:.3f} Jacobians), {us / max(ev, 1e-9):.0f} us per inner step: the rigid model's "
+                  f"pin-load friction solve and its state copy bound the real-time factor.")
     print("\n2. Cost of each effect relative to rigid (paper-straight from unloaded meshes, mesh.preload = false:"
           "\n   the loads hit at t = 0, a transient with impacts and stick-slip; 0.3 s)")
     rows = fidelity_cost("paper-straight", sets, max(3, args.repeats // 2), extra={"mesh.preload": False})

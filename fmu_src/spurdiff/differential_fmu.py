@@ -147,7 +147,7 @@ VARIABLES: list[Var] = [
             f"Twist of the {label} half-shaft at the start (shaftCoupling = wheel)", "rad", "deg", 0.0),
     )],
     Var("shafts.h_max", "parameter", "Largest sub-step of the implicit half-shaft integration (shaftCoupling = wheel)",
-        "s", "ms", 2.5e-3),
+        "s", "ms", 5e-3),
     Var("lockingLaw", "parameter",
         "Locking law of the pin friction: pinFriction (friction torque mu r_d |F_pin| on each planet from its "
         "actual pin load, every level, drive and coast differ) | paper (the paper's K = (mu r_d / n)"
