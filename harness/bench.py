@@ -284,7 +284,15 @@ def _report(args) -> int:
                             ">= 10", f"{best:.2f}", best >= 10.0])
     print(render(["target", "wanted", "measured", "met"],
                  [[a, b, c, "yes" if ok else "NO"] for a, b, c, ok in targets]))
-    if "tip-in-tip-out" in available():
+    if o["ratio"] > 1.25:
+        print(f"   coupled / direct is bounded by the FMI call path, {(per_fmi - per_direct) / o['instances']:.0f} us per "
+              f"instance and step, against {per_direct:.0f} us of physics per step: (physics + {o['instances']} x "
+              "call path) / physics; a larger step does not change it, cheaper physics makes it worse.")
+    if b and "vehicle-cornering" in rtf and rtf["vehicle-cornering"]["realtime_factor"] < 20.0:
+        us = b["us_per_step"]
+        print(f"   the real-time factor is bounded by the physics per {b['step'] * 1e3:g} ms step ("
+              + ", ".join(f"{k} {v:.0f} us" for k, v in us.items())
+              + f") plus the FMI path; 20x needs {1e6 * b['step'] / 20:.0f} us per step for everything.")
         print("\n5. Fixed versus variable communication steps on tip-in-tip-out (errors: largest difference from a")
         print("   fixed 0.2 ms run at its 1 ms recording instants; variable: harness/stepcontrol.py, power-bond residual)")
         rows = step_control_comparison("tip-in-tip-out", max(3, args.repeats // 2))
