@@ -40,6 +40,18 @@ Integration: implicit midpoint rule, sub-stepped to ``h_max`` (default 1 ms). Wh
 * Cheap: twist and slip are linear in the midpoint wheel speed, so each sub-step is one scalar
   Newton iteration (2-4 passes) in plain floats, no arrays, no allocation.
 
+``shaftCoupling = "wheel"`` (the differential owns the half-shaft, :mod:`spurdiff.shafts`): the
+shaft torque ``shaftIn.tau`` is an input, the wheel angle and speed are outputs. The differential
+computed that torque (the mean over its step) for the wheel turning at the speed ``w_k`` it had at
+the communication point; with ``interfaceStiffness = 1`` the shaft's ``c`` and ``d`` act inside
+this step on the wheel's deviation from that motion, ``tau = tau_in + c (w_k s - (phi - phi_k)) +
+d (w_k - w)``, so the stiff wheel/shaft mode (about 100 rad/s) is implicit on this side too. Any
+step sequence: nothing here assumes a constant step. With ``shaftCoupling = "torque"`` and
+``followFlangeAngle = 1``, a Gauss-Seidel master that steps the differential first hands the
+flange angle at the end of the differential's step: the reference offset taken at the first step
+(``w h``) is right only while the step stays the same (alternating steps give errors of order
+``c w dh`` in the shaft torque); use ``shaftCoupling = "wheel"`` or a constant step there.
+
 The slip energy ``Fx (R w - v_x)`` is the net work done at the contact patch: with transient slip
 a small part of it is elastic (tread deflection) and comes back; over a run it is dissipation.
 """
