@@ -252,55 +252,78 @@ def ivp_baseline(log=print) -> list[dict]:
     return out
 
 
-def plot(points: list[Point], path: Path, ivp: list[dict] | None = None) -> None:
+def _legend_outside(ax, n: int) -> None:
+    """The legend to the right of the panel, so it never hides a curve."""
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
+              ncol=2 if n > 12 else 1, frameon=False)
+
+
+def plot(points: list[Point], path: Path, ivp: list[dict] | None = None) -> list[Path]:
+    """Work-precision figures: ``path`` has one panel per scene (two columns, legends outside
+    the data); the solver comparison against solve_ivp is its own figure beside it
+    (``<stem>_solvers.png``), one panel per case. Returns the files written."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    scenes = sorted({p.scene for p in points})
-    cases = list(dict.fromkeys(p["case"] for p in ivp or []))
-    ncol = len(scenes) + len(cases)
-    fig, axes = plt.subplots(1, ncol, figsize=(6 * ncol, 4.5), squeeze=False)
-    for ax, case in zip(axes[0][len(scenes):], cases):
-        curves: dict[str, list[dict]] = {}
-        key = ivp_error_key(ivp)
-        for p in ivp:
-            if p["case"] == case and math.isfinite(p.get(key, math.nan)):
-                curves.setdefault(p["integrator"], []).append(p)
-        for name, ps in curves.items():
-            ps.sort(key=lambda p: p["wall"])
-            ax.loglog([p["wall"] for p in ps], [max(p[key], 1e-16) for p in ps],
-                      "o-" if name.startswith("ours") else ("s--" if "restarted" in name else "^:"),
-                      label=name, ms=4, lw=2.5 if name.startswith("ours") else 1)
-        ax.set_xlabel("wall time [s]")
-        ax.set_ylabel("max relative error of the paper scenes' metrics" if key == "metric_error"
-                      else "max scaled state error at 1 ms outputs")
-        ax.set_title(f"differential ODE, {case}: ours vs solve_ivp", fontsize=9)
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=6)
-    for ax, sc in zip(axes[0], scenes):
-        curves: dict[str, list[Point]] = {}
-        for p in points:
-            if p.scene == sc and p.ok and math.isfinite(p.error) and p.wall > 0:
-                curves.setdefault(p.fidelity, []).append(p)
-        styles = [(m, ls) for ls in ("-", "--", ":") for m in ("o", "s", "^", "v", "D")]
-        for i, (fname, ps) in enumerate(curves.items()):
-            ps.sort(key=lambda p: p.wall)
-            m, ls = styles[i % len(styles)]
-            ax.loglog([p.wall for p in ps], [max(p.error, 1e-16) for p in ps], marker=m, ls=ls, label=fname, ms=4)
-        failed = sorted({p.step for p in points if p.scene == sc and not p.ok})
-        if failed:
-            ax.text(0.02, 0.02, "coupled run fails at steps " + ", ".join(f"{h:g}" for h in failed) + " s",
-                    transform=ax.transAxes, fontsize=7)
-        ax.set_xlabel("wall time [s]")
-        ax.set_ylabel("max relative error of the scene's metrics")
-        ax.set_title(sc)
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=6, ncol=2 if len(curves) > 6 else 1)
-    fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    written = []
+    scenes = sorted({p.scene for p in points})
+    if scenes:
+        ncol = 2 if len(scenes) > 1 else 1
+        nrow = -(-len(scenes) // ncol)
+        fig, axes = plt.subplots(nrow, ncol, figsize=(7.2 * ncol, 3.9 * nrow), squeeze=False)
+        styles = [(m, ls) for ls in ("-", "--", ":") for m in ("o", "s", "^", "v", "D")]
+        for ax, sc in zip(axes.flat, scenes):
+            curves: dict[str, list[Point]] = {}
+            for p in points:
+                if p.scene == sc and p.ok and math.isfinite(p.error) and p.wall > 0:
+                    curves.setdefault(p.fidelity, []).append(p)
+            for i, (fname, ps) in enumerate(curves.items()):
+                ps.sort(key=lambda p: p.wall)
+                m, ls = styles[i % len(styles)]
+                ax.loglog([p.wall for p in ps], [max(p.error, 1e-16) for p in ps], marker=m, ls=ls, label=fname, ms=4)
+            failed = sorted({p.step for p in points if p.scene == sc and not p.ok})
+            if failed:
+                ax.text(0.02, 0.02, "coupled run fails at steps " + ", ".join(f"{h:g}" for h in failed) + " s",
+                        transform=ax.transAxes, fontsize=7)
+            ax.set_xlabel("wall time [s]")
+            ax.set_ylabel("max relative error of the metrics")
+            ax.set_title(sc, fontsize=10)
+            ax.grid(True, which="both", alpha=0.3)
+            _legend_outside(ax, len(curves))
+        for ax in list(axes.flat)[len(scenes):]:
+            ax.set_visible(False)
+        fig.tight_layout()
+        fig.savefig(path, dpi=100)
+        plt.close(fig)
+        written.append(path)
+    cases = list(dict.fromkeys(p["case"] for p in ivp or []))
+    if cases:
+        key = ivp_error_key(ivp)
+        fig, axes = plt.subplots(1, len(cases), figsize=(7.2 * len(cases), 4.2), squeeze=False)
+        for ax, case in zip(axes[0], cases):
+            curves: dict[str, list[dict]] = {}
+            for p in ivp:
+                if p["case"] == case and math.isfinite(p.get(key, math.nan)):
+                    curves.setdefault(p["integrator"], []).append(p)
+            for name, ps in curves.items():
+                ps.sort(key=lambda p: p["wall"])
+                ax.loglog([p["wall"] for p in ps], [max(p[key], 1e-16) for p in ps],
+                          "o-" if name.startswith("ours") else ("s--" if "restarted" in name else "^:"),
+                          label=name, ms=4, lw=2.5 if name.startswith("ours") else 1)
+            ax.set_xlabel("wall time [s]")
+            ax.set_ylabel("max relative error of the paper scenes' metrics" if key == "metric_error"
+                          else "max scaled state error at 1 ms outputs")
+            ax.set_title(f"differential ODE, {case}: ours vs solve_ivp", fontsize=10)
+            ax.grid(True, which="both", alpha=0.3)
+            _legend_outside(ax, len(curves))
+        fig.tight_layout()
+        solvers = path.with_name(f"{path.stem}_solvers.png")
+        fig.savefig(solvers, dpi=100)
+        plt.close(fig)
+        written.append(solvers)
+    return written
 
 
 def markdown_ivp(ivp: list[dict], command: str = "spurdiff accuracy") -> list[str]:
@@ -549,12 +572,12 @@ def main(argv: list[str] | None = None) -> int:
 
 def _write_docs(points, facts, ivp, out: Path, cmd: str, data, ivp_cmd: str | None = None) -> int:
     out.mkdir(parents=True, exist_ok=True)
-    plot(data, out / "accuracy.png", ivp)
+    figures = plot(data, out / "accuracy.png", ivp)
     text = markdown(points, facts, cmd)
     if ivp:
-        text += "\n".join(markdown_ivp(ivp, ivp_cmd or cmd))
+        text += "\n".join(markdown_ivp(ivp, ivp_cmd or cmd) + ["", "![ours against solve_ivp](accuracy_solvers.png)", "", ""])
     text += "\n".join(markdown_auto(data))
     (out / "accuracy.md").write_text(text)
-    print(f"wrote {out / 'accuracy.md'}, {out / 'accuracy.png'}")
+    print(f"wrote {out / 'accuracy.md'}, " + ", ".join(str(f) for f in figures))
     return 0
 
