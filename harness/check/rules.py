@@ -95,8 +95,9 @@ RULES: tuple[Rule, ...] = (
       "with the stop time defined, a doStep past it is refused with fmi2Error (refusing with fmi2Discard: warning)"),
     R("cs.status-after-discard", "4.2.3", ERROR,
       "fmi2GetStatus, fmi2GetRealStatus(fmi2LastSuccessfulTime), fmi2GetBooleanStatus(fmi2Terminated)",
-      "after a discarded doStep the status calls answer (fmi2Discard for a status the slave cannot give, "
-      "never fmi2Error/Fatal) and fmi2LastSuccessfulTime lies within the refused step"),
+      "after a discarded doStep (past the stop time, in the default experiment, or with NaN inputs) the status "
+      "calls answer (fmi2Discard for a status the slave cannot give, never fmi2Error/Fatal) and "
+      "fmi2LastSuccessfulTime lies within the refused step"),
     R("cs.get-after-terminate", "4.2.4", ERROR, "fmi2Terminate, fmi2Get*",
       "after fmi2Terminate the outputs can still be read (state terminated allows fmi2Get*)"),
     R("cs.reset", "2.1.6", ERROR, "fmi2Reset",
