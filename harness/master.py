@@ -421,6 +421,24 @@ class Master:
             if profs:
                 self._profile_port[name].set([p(t) for _, p in profs], t)
 
+    def _communication_step(self, t: float, h: float, order: list[str], jacobi: bool) -> None:
+        """One communication step of every instance from t to t + h: the profiles at t, then Jacobi
+        (every instance sees the outputs of the last step) or Gauss-Seidel (in scene order, each
+        sees the outputs its predecessors just computed)."""
+        self._apply_profiles(t)
+        if jacobi:
+            for name in order:
+                self._apply_connections(name, t=t)
+            for name in order:
+                self._step(name, t, h)
+            for name in order:
+                self._read_step(name, t)
+        else:
+            for name in order:
+                self._apply_connections(name, t=t)
+                self._step(name, t, h)
+                self._read_step(name, t)
+
     def _apply_connections(self, name: str, t: float = math.nan) -> None:
         links = getattr(self, "_links", {}).get(name)
         if not links or not links[0]:
@@ -492,19 +510,7 @@ class Master:
                 t = k * h
                 if STOP.is_set():
                     raise Interrupted(t)
-                self._apply_profiles(t)
-                if jacobi:
-                    for name in order:
-                        self._apply_connections(name, t=t)
-                    for name in order:
-                        self._step(name, t, h)
-                    for name in order:
-                        self._read_step(name, t)
-                else:
-                    for name in order:
-                        self._apply_connections(name, t=t)
-                        self._step(name, t, h)
-                        self._read_step(name, t)
+                self._communication_step(t, h, order, jacobi)
                 steps += 1
                 power = self._coupling_power()
                 for cname, (p_from, p_to) in power.items():

@@ -139,19 +139,7 @@ class VariableStepMaster(Master):
                 prev_bonds, prev_power = self._bonds(), self._coupling_power()
                 saved = self._save()
                 for attempt in range(ctl.max_rejects + 1):
-                    self._apply_profiles(t)
-                    if jacobi:
-                        for name in order:
-                            self._apply_connections(name, t=t)
-                        for name in order:
-                            self._step(name, t, h)
-                        for name in order:
-                            self._read_step(name, t)
-                    else:
-                        for name in order:
-                            self._apply_connections(name, t=t)
-                            self._step(name, t, h)
-                            self._read_step(name, t)
+                    self._communication_step(t, h, order, jacobi)
                     err = bond_error(prev_bonds, self._bonds(), h, ctl)
                     if err <= 1.0 or h <= ctl.h_min * (1.0 + 1e-12):
                         break
