@@ -67,9 +67,9 @@ def sources_digest() -> str:
     h = hashlib.sha256()
     roots = [fmu_sources(), physics_package()]
     files = [HARNESS / "build.py", HARNESS / "modeldescription.py"]
-    for root in roots:
+    for root in roots:   # in a checkout the physics package lies inside fmu_src/: each file once
         files += sorted(p for p in root.rglob("*") if p.is_file() and "__pycache__" not in p.parts
-                        and p.suffix in (".py", ".c", ".h", ".toml"))
+                        and p.suffix in (".py", ".c", ".h", ".toml") and p not in files)
     for p in files:
         h.update(p.name.encode())
         h.update(p.read_bytes())

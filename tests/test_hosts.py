@@ -62,11 +62,11 @@ def _compare(name: str, got: dict[str, np.ndarray], ref: dict[str, np.ndarray], 
     t_ref = ref["time"]
     common = [n for n in got if n in ref and n != "time"]
     assert len(common) >= 5, f"{where}: too few common outputs {common}"
+    # the hosts may also write t = 0; compare at the times both have
+    idx = np.searchsorted(got["time"], t_ref - 1e-12)
+    ok = (idx < len(got["time"])) & (np.abs(got["time"][np.minimum(idx, len(got["time"]) - 1)] - t_ref) < 1e-9)
+    assert ok.sum() >= int(STOP / STEP), f"{where}: the host wrote {len(got['time'])} rows"
     for n in common:
-        # the hosts may also write t = 0; compare at the times both have
-        idx = np.searchsorted(got["time"], t_ref - 1e-12)
-        ok = (idx < len(got["time"])) & (np.abs(got["time"][np.minimum(idx, len(got["time"]) - 1)] - t_ref) < 1e-9)
-        assert ok.sum() >= int(STOP / STEP), f"{where}: the host wrote {len(got['time'])} rows"
         g, r = got[n][idx[ok]], ref[n][ok]
         assert np.allclose(g, r, rtol=1e-9, atol=1e-9), (
             f"{where}: {n} differs from fmpy by {np.max(np.abs(g - r)):.3g}")

@@ -202,15 +202,16 @@ class ModelFmu(Fmi2Slave):
 
     def _initial_outputs(self) -> None:
         """Outputs and calculated parameters from the values set so far (initialization mode)."""
-        self.model = self._built()
+        self.model = self._built(self.values)
         self.pull_outputs(self.model, self.values)
         self._dirty = False
 
-    def _built(self):
+    def _built(self, values: dict):
+        """The model built from ``values`` (ParameterError for a non-finite parameter or input)."""
         for v in self.VARIABLES:
-            if v.causality in ("parameter", "input") and _is_bad_number(self.values[v.name]):
-                raise ParameterError(v.name, self.values[v.name], "a finite number")
-        return self.build_model(self.values)
+            if v.causality in ("parameter", "input") and _is_bad_number(values[v.name]):
+                raise ParameterError(v.name, values[v.name], "a finite number")
+        return self.build_model(values)
 
     # ------------------------------------------------------------------ FMI 2.0 (the bridge)
     def fmi2_set_debug_logging(self, on: bool, categories: list[str]) -> int:
@@ -428,21 +429,13 @@ class ModelFmu(Fmi2Slave):
         state = FmuState(doc["kind"], values, doc["phase"], str(doc.get("failure", "")), float(t), doc.get("model"))
         if state.model is not None:
             try:
-                model = self._built_from(values)
+                model = self._built(dict(values))
                 model.set_state(state.model)
             except ParameterError as e:
                 raise ValueError(f"invalid parameter in the state: {e}") from None
             except Exception as e:
                 raise ValueError(f"the state's model part does not fit: {type(e).__name__}: {e}") from None
         return state
-
-    def _built_from(self, values: dict):
-        saved = self.values
-        try:
-            self.values = dict(values)
-            return self._built()
-        finally:
-            self.values = saved
 
     # ------------------------------------------------------------------ pythonfmu's protocol
     # (an FMU built without a C compiler runs on pythonfmu's wrapper, which calls these)
