@@ -3,7 +3,7 @@ numbers (the bench's ratios are printed, never asserted against wall-clock targe
 import argparse
 import math
 
-import harness.bench as bench
+import harness.bench.core as bench
 from harness.accuracy import load_grid
 
 
