@@ -103,7 +103,7 @@ def torque_coupled(name: str, **changes) -> dict:
         twist = dp.pop(f"{side}Shaft.phi_rel_start", 0.0)
         data["fmus"][w]["parameters"] = {"halfShaft.phi_rel_start": twist}
         con = data["connections"]
-        for k in (f"diff.{side}Wheel.phi", f"diff.{side}Wheel.w", f"{w}.shaftIn.tau"):
+        for k in [k for k, v in con.items() if k.startswith((f"diff.{side}Wheel.", f"{w}.shaftIn."))]:
             del con[k]
         con[f"diff.{side}.tau"] = f"{w}.flange.tau"
         con[f"{w}.flange.phi"] = f"diff.{side}.phi"

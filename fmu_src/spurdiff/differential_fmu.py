@@ -14,7 +14,7 @@ from .phasing import mesh_phases
 from .mesh_dynamics import MeshDifferential, MeshParams
 from .params import DifferentialParams
 from .rigid import RigidDifferential
-from .shafts import SHAFT_COUPLINGS, ShaftedDifferential, ShaftParams, ShaftsParams
+from .shafts import SHAFT_COUPLINGS, ShaftedDifferential, ShaftParams, ShaftsParams, WheelSurrogate
 
 MESH_MODELS = ("rigid", "compliant", "contact")
 EFFECTS = ("backlash", "meshStiffnessVariation", "pinFriction", "flankFriction")
@@ -67,12 +67,35 @@ VARIABLES: list[Var] = [
         "rad", "deg", 0.0, min=-1e9, max=1e9),
     Var("rightWheel.w", "input", "shaftCoupling = wheel: speed of the wheel end of the right half-shaft",
         "rad/s", "rpm", 0.0, min=-1e4, max=1e4),
+    # the wheel side's linear model over the coming step (WheelLoad's outputs of the same names; all 0:
+    # the wheel side keeps its speed over the step, the linear extrapolation; spurdiff.shafts.WheelSurrogate)
+    *[v for side in ("left", "right") for v in (
+        Var(f"{side}Wheel.aFree", "input", f"shaftCoupling = wheel, interface model of the {side} wheel: its "
+            "acceleration without the shaft torque (WheelLoad's wheel.aFree; 0 with the defaults: speed held)",
+            "rad/s2", None, 0.0, min=-1e7, max=1e7),
+        Var(f"{side}Wheel.invJ", "input", f"Interface model of the {side} wheel: acceleration per N m of shaft "
+            "torque (WheelLoad's wheel.invJ; 0: speed held)", "1/(kg.m2)", None, 0.0, min=0.0, max=1e6),
+        Var(f"{side}Wheel.dadw", "input", f"Interface model of the {side} wheel: acceleration per rad/s of "
+            "wheel speed (WheelLoad's wheel.dadw, <= 0)", "1/s", None, 0.0, min=-1e6, max=0.0),
+        Var(f"{side}Wheel.tyreTorqueRate", "input", f"Interface model of the {side} wheel: rate of its tyre "
+            "torque (WheelLoad's tyre.torqueRate)", "N.m/s", None, 0.0, min=-1e9, max=1e9),
+        Var(f"{side}Wheel.tyreStiffness", "input", f"Interface model of the {side} wheel: change of the tyre "
+            "torque's rate per rad/s of wheel speed (WheelLoad's tyre.torqueStiffness, >= 0)", "N.m/rad", None,
+            0.0, min=0.0, max=1e9),
+        Var(f"{side}Wheel.tyreRelaxation", "input", f"Interface model of the {side} wheel: relaxation rate of "
+            "its tyre torque (WheelLoad's tyre.relaxationRate, >= 0)", "1/s", None, 0.0, min=0.0, max=1e6),
+    )],
     # --- outputs (values at the end of the last step; no direct feedthrough)
     Var("leftShaft.tau", "output", "shaftCoupling = wheel: torque of the left half-shaft on its wheel, mean over "
         "the last step (positive drives the wheel forward; connect to WheelLoad's shaftIn.tau); "
         "torque: -left.tau", "N.m", "N.mm"),
     Var("rightShaft.tau", "output", "shaftCoupling = wheel: torque of the right half-shaft on its wheel, mean over "
         "the last step; torque: -right.tau", "N.m", "N.mm"),
+    Var("leftShaft.dwWheel", "output", "shaftCoupling = wheel: change of the left wheel's speed over the last "
+        "step that leftShaft.tau was computed for (from the interface model; connect to WheelLoad's "
+        "shaftIn.dw)", "rad/s", "rpm"),
+    Var("rightShaft.dwWheel", "output", "shaftCoupling = wheel: change of the right wheel's speed over the "
+        "last step that rightShaft.tau was computed for (connect to WheelLoad's shaftIn.dw)", "rad/s", "rpm"),
     Var("leftShaft.tauEnd", "output", "Torque of the left half-shaft on its wheel at the end of the last step",
         "N.m", "N.mm"),
     Var("rightShaft.tauEnd", "output", "Torque of the right half-shaft on its wheel at the end of the last step",
@@ -350,6 +373,9 @@ def active_effects(model) -> tuple[str, ...]:
     return ("rigid",) + (("pinFriction",) if model.K > 0.0 or model.preload > 0.0 else ())
 
 
+_SURROGATE = ("aFree", "invJ", "dadw", "tyreTorqueRate", "tyreStiffness", "tyreRelaxation")
+
+
 def push_inputs(model, values: dict) -> None:
     model.w_ref = values["carrier.w_ref"]
     model.tau_c = values["carrier.tau"]
@@ -358,6 +384,8 @@ def push_inputs(model, values: dict) -> None:
         model.wheelL_w = values["leftWheel.w"]
         model.wheelR_phi = values["rightWheel.phi"]
         model.wheelR_w = values["rightWheel.w"]
+        for side, attr in (("left", "wheelL_model"), ("right", "wheelR_model")):
+            setattr(model, attr, WheelSurrogate(*(float(values[f"{side}Wheel.{n}"]) for n in _SURROGATE)))
         return
     model.tau_L = values["left.tau"]
     model.tau_R = values["right.tau"]
@@ -368,7 +396,9 @@ def pull_outputs(model, values: dict) -> None:
         values["leftShaft.tau"], values["rightShaft.tau"] = model.tau_mean_L, model.tau_mean_R
         values["leftShaft.tauEnd"], values["rightShaft.tauEnd"] = model.tau_end_L, model.tau_end_R
         values["leftShaft.phi_rel"], values["rightShaft.phi_rel"] = model.theta_L, model.theta_R
+        values["leftShaft.dwWheel"], values["rightShaft.dwWheel"] = model.dw_pred_L, model.dw_pred_R
     else:
+        values["leftShaft.dwWheel"] = values["rightShaft.dwWheel"] = 0.0
         values["leftShaft.tau"] = values["leftShaft.tauEnd"] = -model.tau_L
         values["rightShaft.tau"] = values["rightShaft.tauEnd"] = -model.tau_R
         values["leftShaft.phi_rel"] = values["rightShaft.phi_rel"] = 0.0

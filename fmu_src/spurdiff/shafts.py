@@ -13,17 +13,27 @@ Model (each side, Modelica signs, ``phi_s`` the sun flange angle, ``phi_w`` the 
     tau   = c theta + d dtheta/dt                 shaft torque ON THE WHEEL (drives it forward)
     sun flange torque (input of the inner model) = -tau
 
-Integration over a communication step ``h`` (wheel-side inputs held as a linear extrapolation
-``phi_w(t) = phi_w,k + w_w,k (t - t_k)``), in ``n = ceil(h / h_max)`` sub-steps ``hs``. In each
-sub-step the sun torques ``T = (T_L, T_R)`` are constant and solve (backward Euler in the twist)::
+Integration over a communication step ``h`` in ``n = ceil(h / h_max)`` sub-steps ``hs``. The wheel
+side moves over the step as the wheel's reported linear model predicts (the interface surrogate,
+:class:`WheelSurrogate`: wheel speed ``w`` and tyre torque deviation ``q`` about the communication
+point, the shaft torque ``tau`` on the wheel an input)::
 
-    T + c (theta_0 + dtheta(T)) + d dtheta(T) / hs = 0,   dtheta(T) = dphi_s(T) - w_w hs
+    dw/dt = a_free + (tau - q) / J + dadw (w - w_k)
+    dq/dt = q_rate + c_t (w - w_k) - r_t q,      q(t_k) = 0
+
+integrated by the implicit midpoint rule (as the wheel integrates itself), so the wheel-side angle
+change of a sub-step is affine in the shaft torque. All zero (the defaults, nothing connected):
+the wheel side turns at its speed of the communication point, ``phi_w(t) = phi_w,k + w_w,k (t -
+t_k)`` (the linear extrapolation). In each sub-step the sun torques ``T = (T_L, T_R)`` are
+constant and solve (backward Euler in the twist; the shaft torque on the wheel is ``-T``)::
+
+    T + c (theta_0 + dtheta(T)) + d dtheta(T) / hs = 0,   dtheta(T) = dphi_s(T) - dphi_w(-T)
 
 where ``dphi_s(T)`` is the inner model's (rigid, compliant or contact) sun-angle change over the
 sub-step with the torques ``T`` held. The inner model's response is affine in ``T`` within a
-friction/contact mode (exactly so at rigid), so a Newton iteration with a finite-difference
-Jacobian, refreshed by Broyden updates and recomputed when a mode change slows it, converges in
-two corrections in the usual case (three inner steps per sub-step).
+friction/contact mode (exactly so at rigid), and so is the wheel side's: a Newton iteration with a
+finite-difference Jacobian, refreshed by Broyden updates and recomputed when a mode change slows
+it, converges in two corrections in the usual case (three inner steps per sub-step).
 
 Backward Euler in the twist is L-stable: the stiff mode is damped for any ``hs`` and never rings
 (the physical mode is about critically damped anyway). It is passive: the twist energy changes by
@@ -53,7 +63,7 @@ SHAFT_COUPLINGS = ("torque", "wheel")
 _STATE_KEYS = (
     "t", "off_L", "off_R", "theta_L", "theta_R", "T_L", "T_R", "tau_mean_L", "tau_mean_R",
     "tau_end_L", "tau_end_R", "work_wheels", "work_suns", "shaft_loss", "PE0_shaft", "n_steps",
-    "n_substeps", "n_evals", "n_jacobians", "jac",
+    "n_substeps", "n_evals", "n_jacobians", "jac", "dw_pred_L", "dw_pred_R",
 )
 
 
@@ -95,12 +105,60 @@ class ShaftsParams:
             raise ParameterError("shafts.h_max", self.h_max, "between 0 and 0.1 s")
 
 
+@dataclass
+class WheelSurrogate:
+    """The wheel side's linear model over the coming step, reported by the wheel at the
+    communication point (WheelLoad's ``wheel.aFree`` ... outputs; see the module docstring).
+    a_free (rad/s^2): wheel acceleration without the shaft torque; inv_J (1/(kg m^2)): its change
+    per N m of shaft torque; dadw (1/s): per rad/s of wheel speed; q_rate (N m/s): rate of the tyre
+    torque; c_t (N m/rad): its rate's change per rad/s of wheel speed; r_t (1/s): its
+    relaxation rate. All zero: the wheel side keeps its speed (the linear extrapolation)."""
+
+    a_free: float = 0.0
+    inv_J: float = 0.0
+    dadw: float = 0.0
+    q_rate: float = 0.0
+    c_t: float = 0.0
+    r_t: float = 0.0
+
+    FIELDS = ("a_free", "inv_J", "dadw", "q_rate", "c_t", "r_t")
+
+    def checked(self, side: str) -> "WheelSurrogate":
+        names = ("aFree", "invJ", "dadw", "tyreTorqueRate", "tyreStiffness", "tyreRelaxation")
+        for f, n in zip(self.FIELDS, names):
+            require_finite(f"{side}Wheel.{n}", getattr(self, f))
+        for f, n in (("inv_J", "invJ"), ("c_t", "tyreStiffness"), ("r_t", "tyreRelaxation")):
+            require_nonnegative(f"{side}Wheel.{n}", getattr(self, f))
+        if self.dadw > 0.0:
+            raise ParameterError(f"{side}Wheel.dadw", self.dadw, "<= 0 (a passive wheel)")
+        return self
+
+    def midpoint(self, hs: float, x0: tuple[float, float]) -> tuple[float, float, float, float]:
+        """One implicit-midpoint sub-step of the linear model from x0 = (w - w_k, q): the end values
+        affine in the shaft torque tau: (dw_0, dw_tau, q_0, q_tau), dw_1 = dw_0 + dw_tau tau."""
+        a = 0.5 * hs
+        # (I - a A) x1 = (I + a A) x0 + hs (b + B tau), A = [[dadw, -inv_J], [c_t, -r_t]], B = (inv_J, 0)
+        m11, m12, m21, m22 = 1.0 - a * self.dadw, a * self.inv_J, -a * self.c_t, 1.0 + a * self.r_t
+        w0, q0 = x0
+        rhs1 = w0 + a * (self.dadw * w0 - self.inv_J * q0) + hs * self.a_free
+        rhs2 = q0 + a * (self.c_t * w0 - self.r_t * q0) + hs * self.q_rate
+        det = m11 * m22 - m12 * m21   # >= 1 for the allowed signs
+        w_c = (m22 * rhs1 - m12 * rhs2) / det
+        q_c = (m11 * rhs2 - m21 * rhs1) / det
+        w_t = m22 * hs * self.inv_J / det
+        q_t = -m21 * hs * self.inv_J / det
+        return w_c, w_t, q_c, q_t
+
+
 class ShaftedDifferential:
     """A differential model (rigid or mesh) with its two half-shafts; see the module docstring.
 
     Inputs (attributes, SI): ``wheelL_phi``, ``wheelL_w``, ``wheelR_phi``, ``wheelR_w`` (wheel-side
-    angle and speed of each shaft), ``w_ref`` and ``tau_c`` (the carrier, forwarded to the inner
-    model). Outputs: ``tau_mean_L/R`` (shaft torque on the wheel, mean over the last step),
+    angle and speed of each shaft), ``wheelL_model``, ``wheelR_model`` (:class:`WheelSurrogate`,
+    the wheel side's linear model; zero: constant speed), ``w_ref`` and ``tau_c`` (the carrier,
+    forwarded to the inner model). Outputs: ``tau_mean_L/R`` (shaft torque on the wheel, mean over
+    the last step), ``dw_pred_L/R`` (the wheel-side speed change over the last step the torques
+    were computed for),
     ``tau_end_L/R`` (at the end of the step), ``theta_L/R`` (twist), and everything of the inner
     model (read through attribute delegation: ``w_L``, ``phi_L``, ``locking_torque``...).
     ``do_step`` is atomic: on any error the state is as before the call.
@@ -112,6 +170,8 @@ class ShaftedDifferential:
         self.__dict__["inner"] = inner
         self.shafts = params if params is not None else ShaftsParams()
         self.wheelL_phi = self.wheelL_w = self.wheelR_phi = self.wheelR_w = 0.0
+        self.wheelL_model = WheelSurrogate()
+        self.wheelR_model = WheelSurrogate()
         self._ready = False
 
     # inputs of the inner model pass through; every other unknown attribute is the inner model's
@@ -160,6 +220,7 @@ class ShaftedDifferential:
         self.theta_L, self.theta_R = thL, thR
         self.tau_end_L = self.tau_mean_L = -self.T_L
         self.tau_end_R = self.tau_mean_R = -self.T_R
+        self.dw_pred_L = self.dw_pred_R = 0.0
         self.t = float(t0)
         self.work_wheels = self.work_suns = self.shaft_loss = 0.0
         self.PE0_shaft = self.shaft_energy
@@ -173,16 +234,18 @@ class ShaftedDifferential:
 
     # ------------------------------------------------------------------ stepping
     def _eval(self, snap: dict, t: float, hs: float, TL: float, TR: float,
-              phiL0: float, phiR0: float, dwL: float, dwR: float) -> tuple[float, float, float, float]:
-        """Residuals (N m) and twist changes for sun torques (TL, TR) held over one sub-step."""
+              phiL0: float, phiR0: float, dwL: float, dwR: float, sL: float = 0.0,
+              sR: float = 0.0) -> tuple[float, float, float, float]:
+        """Residuals (N m) and twist changes for sun torques (TL, TR) held over one sub-step; the
+        wheel-side angle changes are dwL + sL (-TL) and dwR + sR (-TR) (affine in the torque)."""
         inner = self.inner
         inner.set_state(snap)
         inner.tau_L, inner.tau_R = TL, TR
         inner.do_step(t, hs)
         self.n_evals += 1
         sp = self.shafts
-        dthL = inner.phi_L - phiL0 - dwL
-        dthR = inner.phi_R - phiR0 - dwR
+        dthL = inner.phi_L - phiL0 - (dwL - sL * TL)
+        dthR = inner.phi_R - phiR0 - (dwR - sR * TR)
         rL = TL + sp.left.c * (self.theta_L + dthL) + sp.left.d * dthL / hs
         rR = TR + sp.right.c * (self.theta_R + dthR) + sp.right.d * dthR / hs
         return rL, rR, dthL, dthR
@@ -195,11 +258,19 @@ class ShaftedDifferential:
         self.n_jacobians += 1
         return [(a[0] - r[0]) / dT, (b[0] - r[0]) / dT, (a[1] - r[1]) / dT, (b[1] - r[1]) / dT]
 
-    def _substep(self, t: float, hs: float, wL: float, wR: float) -> tuple[float, float, float, float]:
+    def _substep(self, t: float, hs: float, wL: float, wR: float, xL: tuple, xR: tuple,
+                 mL: WheelSurrogate, mR: WheelSurrogate) -> tuple[float, float, float, float]:
+        """One sub-step; wL, wR the wheel-side speeds at the communication point, xL, xR the wheel
+        sides' deviations (dw, q) from it at the start of the sub-step (updated in place)."""
         inner = self.inner
         snap = inner.get_state()
         phiL0, phiR0 = inner.phi_L, inner.phi_R
-        args = (phiL0, phiR0, wL * hs, wR * hs)
+        # wheel-side angle change, trapezoidal in the midpoint rule's speeds: affine in its torque
+        pL = mL.midpoint(hs, xL)
+        pR = mR.midpoint(hs, xR)
+        a = 0.5 * hs
+        args = (phiL0, phiR0, hs * wL + a * (xL[0] + pL[0]), hs * wR + a * (xR[0] + pR[0]),
+                a * pL[1], a * pR[1])
         TL, TR = self.T_L, self.T_R
         r = self._eval(snap, t, hs, TL, TR, *args)
         # the torque-twist law to 1e-10 relative: the result is then a smooth function of the
@@ -251,8 +322,10 @@ class ShaftedDifferential:
         dthL, dthR = r[2], r[3]
         sp = self.shafts
         self.work_suns += TL * (inner.phi_L - phiL0) + TR * (inner.phi_R - phiR0)
-        # shaft torque on the wheel is -T; the wheel side moves by w hs
-        self.work_wheels += -(-TL) * args[2] - (-TR) * args[3]
+        # shaft torque on the wheel is -T; the wheel side moves by the model's angle change
+        self.work_wheels += TL * (args[2] - args[4] * TL) + TR * (args[3] - args[5] * TR)
+        xL[0], xL[1] = pL[0] - pL[1] * TL, pL[2] - pL[3] * TL
+        xR[0], xR[1] = pR[0] - pR[1] * TR, pR[2] - pR[3] * TR
         self.shaft_loss += (0.5 * sp.left.c * dthL * dthL + sp.left.d * dthL * dthL / hs
                             + 0.5 * sp.right.c * dthR * dthR + sp.right.d * dthR * dthR / hs)
         self.theta_L += dthL
@@ -266,6 +339,8 @@ class ShaftedDifferential:
             raise StepError("do_step called before initialize")
         h = require_positive("communicationStepSize", h)
         pL, wL, pR, wR = self._wheel_inputs()
+        self.wheelL_model.checked("left")
+        self.wheelR_model.checked("right")
         inner = self.inner
         saved_inner = inner.get_state()
         saved = self.get_own_state()
@@ -292,10 +367,12 @@ class ShaftedDifferential:
         n = max(1, math.ceil(h / sp.h_max - 1e-9))
         hs = h / n
         sumL = sumR = 0.0
+        xL, xR = [0.0, 0.0], [0.0, 0.0]
         for i in range(n):
-            TL, TR, dthL, dthR = self._substep(t + i * hs, hs, wL, wR)
+            TL, TR, dthL, dthR = self._substep(t + i * hs, hs, wL, wR, xL, xR, self.wheelL_model, self.wheelR_model)
             sumL -= TL
             sumR -= TR
+        self.dw_pred_L, self.dw_pred_R = xL[0], xR[0]
         self.n_substeps += n
         self.tau_mean_L, self.tau_mean_R = sumL / n, sumR / n
         self.tau_end_L, self.tau_end_R = -self.T_L, -self.T_R
@@ -343,4 +420,4 @@ class ShaftedDifferential:
         self.set_own_state(state["shafts"])
 
 
-__all__ = ["ShaftedDifferential", "ShaftParams", "ShaftsParams", "SHAFT_COUPLINGS"]
+__all__ = ["ShaftedDifferential", "ShaftParams", "ShaftsParams", "WheelSurrogate", "SHAFT_COUPLINGS"]

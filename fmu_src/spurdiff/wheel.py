@@ -72,13 +72,15 @@ _STATE_KEYS = (
     # inputs held over the last step and outputs (so a restored instance reports the same values)
     "flange_phi", "flange_w", "Fz", "mu", "vx",
     "flange_tau", "Fx", "wheel_w", "slip", "shaft_tau", "shaft_power",
-    # shaftCoupling = "wheel": wheel angle, shaft torque input and the anchor of the step
-    "phi", "tau_in", "w_anchor",
+    # shaftCoupling = "wheel": wheel angle, shaft torque input and the anchor of the step, the
+    # differential's predicted speed change over the step, the linear model reported for the next
+    "phi", "tau_in", "w_anchor", "dw_in", "sur_a", "sur_invJ", "sur_dadw", "sur_qrate", "sur_ct", "sur_rt",
 )
 SHAFT_COUPLINGS = ("torque", "wheel")
 _WHEEL_STEP_KEYS = ("theta", "w_anchor", "w", "k", "phi", "t", "n_steps", "n_substeps", "work_flange",
                     "work_road", "loss_slip", "loss_rolling", "flange_tau", "Fx", "wheel_w", "slip",
-                    "shaft_tau", "shaft_power")
+                    "shaft_tau", "shaft_power", "sur_a", "sur_invJ", "sur_dadw", "sur_qrate", "sur_ct",
+                    "sur_rt")
 
 
 @dataclass
@@ -183,6 +185,7 @@ class WheelLoad:
         self.mu = 1.0
         self.vx = 0.0
         self.tau_in = 0.0
+        self.dw_in = 0.0
         self.flange_tau = self.Fx = self.wheel_w = self.slip = self.shaft_tau = self.shaft_power = 0.0
         self._ready = False
 
@@ -206,7 +209,7 @@ class WheelLoad:
         self.wheel_mode = p.shaftCoupling == "wheel"
         if self.wheel_mode:
             self.theta = 0.0
-            require_finite("shaft.tauIn", self.tau_in)
+            require_finite("shaftIn.tau", self.tau_in)
         self.t = float(require_finite("t0", t0))
         self.n_steps = 0
         self.n_substeps = 0
@@ -258,25 +261,28 @@ class WheelLoad:
         """shaftCoupling = "wheel": the shaft torque is an input (the differential owns the shaft).
         Atomic: on an error or a non-finite result the state is as before the call."""
         _, _, Fz, mu, v = self._inputs()
-        tau_in = require_finite("shaft.tauIn", self.tau_in)
+        tau_in = require_finite("shaftIn.tau", self.tau_in)
+        dw_in = require_finite("shaftIn.dw", self.dw_in)
         p = self.params
         saved = [getattr(self, k) for k in _WHEEL_STEP_KEYS]   # what a step changes (cheap)
         try:
             # interface stiffness: the differential computed tau_in with the wheel side moving at
-            # the speed it had at the start of the step; the shaft's c and d act on the deviation
-            # from that motion (implicitly, inside this step)
+            # the speed it had at the start of the step plus the change dw_in it predicted (a linear
+            # ramp; 0: constant speed); the shaft's c and d act on the deviation from that motion
+            # (implicitly, inside this step)
             self.theta = 0.0
             self.w_anchor = w0 = self.w
             k = 1.0 if p.interfaceStiffness else 0.0
             c, d = k * p.halfShaft.c, k * p.halfShaft.d
             n = max(1, math.ceil(h / p.h_max - 1e-9))
             hs = h / n
-            for _ in range(n):
-                self._substep(hs, w0, v, Fz, mu, c, d, tau_in)
+            for i in range(n):
+                # the anchor speed at the sub-step's midpoint (the midpoint rule integrates the ramp)
+                self._substep(hs, w0 + dw_in * (i + 0.5) / n, v, Fz, mu, c, d, tau_in)
             self.n_substeps += n
             self.t = t + h
             self.n_steps += 1
-            self._update_outputs(w0, v, Fz, mu)
+            self._update_outputs(w0 + dw_in, v, Fz, mu)
             if not all(math.isfinite(x) for x in (self.w, self.k, self.phi, self.shaft_tau, self.Fx)):
                 raise StepError(f"wheel: the step at t = {t:.6g} s gave a non-finite state")
         except BaseException:
@@ -376,6 +382,31 @@ class WheelLoad:
         self.wheel_w = self.w
         self.slip = self.k
         self.shaft_power = self.shaft_tau * w_in
+        self._update_surrogate(v, Fz, mu)
+
+    def _update_surrogate(self, v: float, Fz: float, mu: float) -> None:
+        """The wheel side's linear model about the present state for the coming step, with the
+        inputs v, Fz, mu as held over the last step (see spurdiff.shafts.WheelSurrogate): the wheel
+        speed w and the tyre torque R Fx(k) linearized, the shaft torque the input."""
+        p = self.params
+        ty, R, J = p.tyre, p.wheel.R, p.wheel.J
+        B, C, E = ty.B, ty.C, ty.E
+        D = mu * Fz
+        x = B * self.k
+        phi = x - E * (x - math.atan(x))
+        cat = C * math.atan(phi)
+        dF = D * math.cos(cat) * C / (1.0 + phi * phi) * B * (1.0 - E + E / (1.0 + x * x))
+        Mrr0 = ty.f_rr * Fz * R
+        tnh = math.tanh(self.w / ty.w_eps)
+        kdot = (R * self.w - v - abs(v) * self.k) / ty.sigma
+        if abs(self.k) >= ty.k_max and kdot * self.k > 0.0:
+            kdot = 0.0   # at the slip limit: the slip stays there
+        self.sur_a = -(R * self.Fx + Mrr0 * tnh) / J
+        self.sur_invJ = 1.0 / J
+        self.sur_dadw = -Mrr0 * (1.0 - tnh * tnh) / ty.w_eps / J
+        self.sur_qrate = R * dF * kdot
+        self.sur_ct = R * R * dF / ty.sigma if dF > 0.0 else 0.0
+        self.sur_rt = abs(v) / ty.sigma
 
     # ------------------------------------------------------------------ energy
     @property

@@ -56,6 +56,11 @@ VARIABLES: list[Var] = [
         "shaftCoupling = wheel: torque of the differential's half-shaft on this wheel, positive drives it forward "
         "(connect the differential's leftShaft.tau / rightShaft.tau); ignored with shaftCoupling = torque",
         "N.m", "N.mm", 0.0, min=-1e6, max=1e6),
+    Var("shaftIn.dw", "input",
+        "shaftCoupling = wheel: change of the wheel speed over the step that the differential predicted when it "
+        "computed shaftIn.tau (connect the differential's leftShaft.dwWheel / rightShaft.dwWheel; 0: the wheel "
+        "speed held, the linear extrapolation); the interface stiffness acts on the deviation from that motion",
+        "rad/s", "rpm", 0.0, min=-1e4, max=1e4),
     Var("vx", "input", "Longitudinal velocity of the wheel centre along the wheel heading", "m/s", "km/h", 0.0, min=-1e3, max=1e3),
     # --- outputs (values at the end of the last step; no direct feedthrough)
     Var("flange.tau", "output",
@@ -66,6 +71,19 @@ VARIABLES: list[Var] = [
     Var("wheel.phi", "output",
         "Wheel angle since the start (shaftCoupling = wheel: connect to the differential's leftWheel.phi / "
         "rightWheel.phi; 0 with shaftCoupling = torque)", "rad", "deg"),
+    # the wheel side's linear model for the coming step (shaftCoupling = wheel; spurdiff.shafts.WheelSurrogate)
+    Var("wheel.aFree", "output", "Interface model: wheel acceleration without the shaft torque (tyre and rolling "
+        "resistance at the present state; connect to the differential's leftWheel.aFree / rightWheel.aFree)",
+        "rad/s2"),
+    Var("wheel.invJ", "output", "Interface model: change of the wheel acceleration per N m of shaft torque, 1 / wheel.J",
+        "1/(kg.m2)"),
+    Var("wheel.dadw", "output", "Interface model: change of the wheel acceleration per rad/s of wheel speed "
+        "(rolling resistance; <= 0)", "1/s"),
+    Var("tyre.torqueRate", "output", "Interface model: rate of the tyre torque R Fx at the present state (relaxation)",
+        "N.m/s"),
+    Var("tyre.torqueStiffness", "output", "Interface model: change of the tyre torque's rate per rad/s of wheel "
+        "speed, R^2 dFx/dk / sigma (>= 0)", "N.m/rad"),
+    Var("tyre.relaxationRate", "output", "Interface model: relaxation rate of the tyre torque, |vx| / sigma", "1/s"),
     Var("slip", "output", "Transient longitudinal slip ratio k (steady state: (R w - vx) / |vx|)", "1", "%"),
     Var("shaft.tau", "output", "Half-shaft torque on the wheel, c theta + d (flange.w - wheel.w)", "N.m", "N.mm"),
     Var("shaft.power", "output", "Power the differential's flange delivers into the half-shaft (shaft.tau * flange.w)",
@@ -156,6 +174,7 @@ def push_inputs(model: WheelLoad, values: dict) -> None:
     model.mu = values["mu"]
     model.vx = values["vx"]
     model.tau_in = values["shaftIn.tau"]
+    model.dw_in = values["shaftIn.dw"]
 
 
 def pull_outputs(model: WheelLoad, values: dict) -> None:
@@ -164,6 +183,12 @@ def pull_outputs(model: WheelLoad, values: dict) -> None:
     values["wheel.w"] = model.wheel_w
     values["wheel.phi"] = model.phi
     values["slip"] = model.slip
+    values["wheel.aFree"] = model.sur_a
+    values["wheel.invJ"] = model.sur_invJ
+    values["wheel.dadw"] = model.sur_dadw
+    values["tyre.torqueRate"] = model.sur_qrate
+    values["tyre.torqueStiffness"] = model.sur_ct
+    values["tyre.relaxationRate"] = model.sur_rt
     values["shaft.tau"] = model.shaft_tau
     values["shaft.power"] = model.shaft_power
     values["shaft.phi_rel"] = model.theta

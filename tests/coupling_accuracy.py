@@ -1,0 +1,99 @@
+"""Issue 19 item 2: the vehicle scenes with the shaft-owning differential (``shaftCoupling = wheel``)
+at 1, 5, 10 and 20 ms against the old coupling (the wheels own the half-shafts) at its stable 0.2 ms
+step. Prints one table: per scene and step the mean outer/inner wheel-speed ratio's difference
+(absolute) and the mean locking torque's difference (relative to the reference mean, and in N m),
+over the scene's window.
+
+    SPURDIFF_FMU_DIR=/tmp/fmus_x .venv/bin/python tests/coupling_accuracy.py [scene ...] [--steps 1e-3,5e-3]
+
+The reference runs are cached in results/coupling_refs.json (keyed by scene, window and the
+sources digest of the built FMUs); ``--fresh`` recomputes them.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))
+
+# scene -> window (s) of the means: the scene's own results window (or its driven part)
+WINDOWS = {
+    "vehicle-cornering": (1.0, 3.0),
+    "split-mu-launch": (1.0, 2.0),
+    "wheel-lift": (1.1, 2.2),
+    "standstill-launch": (0.5, 3.0),
+    "tip-in-tip-out": (0.5, 3.5),
+}
+RATIO = "{wheelR.wheel.w} / {wheelL.wheel.w}"
+LOCK = "diff.lockingTorque"
+
+
+def measures(result, window):
+    from harness.report import stat
+
+    return {"ratio": stat(result, RATIO, "mean", list(window)), "lock": stat(result, LOCK, "mean", list(window)),
+            "lock_absmean": stat(result, "abs({diff.lockingTorque})", "mean", list(window))}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("scenes", nargs="*", default=list(WINDOWS))
+    ap.add_argument("--steps", default="1e-3,5e-3,1e-2,2e-2")
+    ap.add_argument("--fresh", action="store_true")
+    args = ap.parse_args(argv)
+    for s in args.scenes:
+        if s not in WINDOWS:
+            print(f"error: scene {s!r} not one of {', '.join(WINDOWS)}", file=sys.stderr)
+            return 2
+    steps = [float(x) for x in args.steps.split(",")]
+
+    from harness.build import FMUS, build
+    from harness.master import run_scene
+    from harness.runner import prepare_scene
+    from harness.scene import parse_scene
+    from test_vehicle_scenes import torque_coupled
+
+    fmu_files = dict(zip(FMUS, build(list(FMUS), quiet=True)))
+    cache_path = ROOT / "results" / "coupling_refs.json"
+    cache = {} if args.fresh or not cache_path.exists() else json.loads(cache_path.read_text())
+    rows = []
+    for name in args.scenes:
+        win = WINDOWS[name]
+        key = f"{name} {win}"
+        if key not in cache:
+            t0 = time.perf_counter()
+            r = run_scene(parse_scene(torque_coupled(name, step=2e-4)), fmu_files)
+            if not r.ok:
+                print(f"error: the reference run of {name} failed: {r.failure}", file=sys.stderr)
+                return 1
+            cache[key] = measures(r, win)
+            cache_path.parent.mkdir(exist_ok=True)
+            cache_path.write_text(json.dumps(cache, indent=1))
+            print(f"# reference {name}: old coupling, 0.2 ms, {time.perf_counter() - t0:.0f} s wall", flush=True)
+        ref = cache[key]
+        for h in steps:
+            t0 = time.perf_counter()
+            r = run_scene(prepare_scene(name, step=h), fmu_files)
+            wall = time.perf_counter() - t0
+            if not r.ok:
+                rows.append((name, h, "failed", str(r.failure)[:60], "", "", wall))
+                continue
+            m = measures(r, win)
+            dl = m["lock"] - ref["lock"]
+            rows.append((name, h, f"{abs(m['ratio'] - ref['ratio']):.2e}", f"{abs(dl) / max(abs(ref['lock']), 1e-12):.2e}",
+                         f"{abs(dl):.2e}", f"{ref['lock']:.4g}", wall))
+            print(f"# {name} {h * 1e3:g} ms done ({wall:.1f} s)", flush=True)
+    print("\n| scene | step ms | window s | ratio diff (abs) | locking torque diff (rel) | (N m) | ref. locking torque N m | wall s |")
+    print("|---|---|---|---|---|---|---|---|")
+    for name, h, a, b, c, ref_lock, wall in rows:
+        print(f"| {name} | {h * 1e3:g} | {WINDOWS[name][0]:g}-{WINDOWS[name][1]:g} | {a} | {b} | {c} | {ref_lock} | {wall:.1f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
