@@ -1,4 +1,6 @@
-"""ChkGood: a small, well-behaved FMI 2.0 co-simulation FMU for the compliance-checker tests.
+"""ChkGood: a small, well-behaved FMI 2.0 co-simulation FMU for the compliance-checker tests, and the
+base of the broken variants (each ``ChkX.py`` subclasses it and breaks one thing; chk_build.py packs
+this file beside each).
 
 Model: x' = k u (explicit Euler over each communication step), y = k u (direct feedthrough).
 It tracks the FMI state machine and refuses what FMI 2.0 forbids, the way a pythonfmu FMU can:
@@ -10,6 +12,12 @@ pythonfmu ``do_step`` can give; FMI 2.0 section 2.1.6 asks for fmi2Error, so cs.
 The state lives in registered variables only, so pythonfmu's saved state is complete; it is
 restored by assigning the attributes directly (the default restore calls the setters, and k's
 setter refuses after initialization). Built with --handle-state --serialize-state.
+
+Hooks for the variants: :meth:`init_state` (the integrator state at construction, which
+pythonfmu's fmi2Reset runs again), :meth:`past_stop` (the stop-time refusal), ``_set_fmu_state``
+and ``do_step``. A variant must define at least one method of its own: pythonfmu 0.7 instantiates
+a class without one once, then fails the next fmi2Instantiate of the process ("module has no
+attribute").
 """
 
 from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Real
@@ -24,7 +32,7 @@ class ChkGood(Fmi2Slave):
         super().__init__(**kwargs)
         self.u = 1.0
         self.k = 2.0
-        self.x = 0.0
+        self.init_state()
         self.y = 2.0
         self.phase = 0.0  # 0 instantiated, 1 initializing, 2 stepping (a Real so state save keeps it)
         self.stop_time = None
@@ -40,6 +48,9 @@ class ChkGood(Fmi2Slave):
         self.register_variable(Real("phase", causality=Fmi2Causality.local,
                                     variability=Fmi2Variability.discrete,
                                     description="FMI state: 0 instantiated, 1 initializing, 2 stepping"))
+
+    def init_state(self):
+        self.x = 0.0
 
     def _set_k(self, value):
         if self.phase >= 2:
@@ -62,10 +73,13 @@ class ChkGood(Fmi2Slave):
         self.y = self.k * self.u
         self.phase = 2.0
 
+    def past_stop(self, current_time, step_size) -> bool:
+        return self.stop_time is not None and current_time + step_size > self.stop_time * (1 + 1e-12) + 1e-12
+
     def do_step(self, current_time, step_size):
         if self.phase < 2 or not step_size > 0:
             return False
-        if self.stop_time is not None and current_time + step_size > self.stop_time * (1 + 1e-12) + 1e-12:
+        if self.past_stop(current_time, step_size):
             return False
         self.y = self.k * self.u
         self.x += self.y * step_size

@@ -1,7 +1,8 @@
 """Building the compliance kit's test FMUs, once: cached under build/test-fmus/ by a hash of their
 sources and build options (rebuilt only when these change).
 
-* pythonfmu FMUs from the small scripts in this folder (ChkGood and broken variants), with their
+* pythonfmu FMUs from the small scripts in this folder (ChkGood and broken variants, each a subclass
+  of ChkGood, whose script is packed beside it), with their
   modelDescription.xml completed the way ``spurdiff build`` does it for ours (units,
   UnitDefinitions, output dependencies, InitialUnknowns);
 * ChkC, a small C FMU (chkc.c, co-simulation and model exchange) compiled with gcc against the
@@ -157,12 +158,13 @@ def add_units_and_structure(root: ET.Element, drop_unit: str | None = None) -> N
 def pythonfmu_fmu(name: str, flags: list[str], complete: bool = True) -> Path:
     """The pythonfmu FMU built from ``<name>.py`` (completed description unless ``complete`` is False)."""
     import pythonfmu
-    src = HERE / f"{name}.py"
-    key = _digest("pythonfmu", pythonfmu.__version__, sys.version, src.read_bytes(), flags, complete,
-                  (Path(__file__).read_bytes()))
+    src, base = HERE / f"{name}.py", HERE / "ChkGood.py"
+    key = _digest("pythonfmu", pythonfmu.__version__, sys.version, src.read_bytes(), base.read_bytes(), flags,
+                  complete, (Path(__file__).read_bytes()))
 
     def make(tmp: Path) -> Path:
-        subprocess.run([sys.executable, "-m", "pythonfmu", "build", "-f", str(src), "--dest", str(tmp), *flags],
+        subprocess.run([sys.executable, "-m", "pythonfmu", "build", "-f", str(src), "--dest", str(tmp), *flags,
+                        *([str(base)] if src != base else [])],
                        check=True, capture_output=True)
         raw = tmp / f"{name}.fmu"
         if not complete:
