@@ -225,7 +225,7 @@ class ShaftedDifferential:
         self.work_wheels = self.work_suns = self.shaft_loss = 0.0
         self.PE0_shaft = self.shaft_energy
         self.n_steps = self.n_substeps = self.n_evals = self.n_jacobians = 0
-        self.jac = None
+        self.jac = {}   # mode key -> the inner model's normalized sun-angle sensitivity (see _substep)
         # how closely the residual can be solved: to rounding for the rigid model (exact
         # integration), to the integrator's relative tolerance for the mesh models
         mesh = getattr(inner, "mesh", None)
@@ -250,13 +250,31 @@ class ShaftedDifferential:
         rR = TR + sp.right.c * (self.theta_R + dthR) + sp.right.d * dthR / hs
         return rL, rR, dthL, dthR
 
-    def _jacobian(self, snap, t, hs, TL, TR, r, args) -> list[float]:
-        """Finite-difference Jacobian of the residuals at (TL, TR) (exact within a mode)."""
-        dT = 1e-3 * (1.0 + abs(TL) + abs(TR))
-        a = self._eval(snap, t, hs, TL + dT, TR, *args)
-        b = self._eval(snap, t, hs, TL, TR + dT, *args)
+    def _jacobian(self, snap, t, hs, TL, TR, r, args, mode) -> list[float]:
+        """Finite-difference Jacobian of the residuals at (TL, TR) on the piece (mode) of the point
+        (the response is affine within a mode of the rigid model): each column from a difference
+        of 1e-3 relative (smaller ones lose digits to the absolute angles), on whichever side
+        stays on the point's piece, down to 1e-7 relative near a stick-slip kink."""
+        cols = []
+        base = 1e-3 * (1.0 + abs(TL) + abs(TR))
+        for j in (0, 1):
+            for dT in (base, -base, 1e-2 * base, -1e-2 * base, 1e-4 * base, -1e-4 * base):
+                e = self._eval(snap, t, hs, TL + (dT if j == 0 else 0.0), TR + (dT if j == 1 else 0.0), *args)
+                if self._mode(snap) == mode:
+                    break
+            cols.append(((e[0] - r[0]) / dT, (e[1] - r[1]) / dT))
         self.n_jacobians += 1
-        return [(a[0] - r[0]) / dT, (b[0] - r[0]) / dT, (a[1] - r[1]) / dT, (b[1] - r[1]) / dT]
+        return [cols[0][0], cols[1][0], cols[0][1], cols[1][1]]
+
+    def _mode(self, snap: dict) -> str:
+        """The inner model's mode over the last evaluated sub-step: the slip direction at its end
+        and whether it switched inside (a rigid model; the mesh models have one key)."""
+        inner = self.inner
+        sd = getattr(inner, "slip_dir", None)
+        if sd is None:
+            return "m"
+        switched = inner.n_mode_switches != snap.get("n_mode_switches", inner.n_mode_switches)
+        return f"{sd:+.0f}{'x' if switched else ''}"
 
     def _substep(self, t: float, hs: float, wL: float, wR: float, xL: tuple, xR: tuple,
                  mL: WheelSurrogate, mR: WheelSurrogate) -> tuple[float, float, float, float]:
@@ -271,21 +289,36 @@ class ShaftedDifferential:
         a = 0.5 * hs
         args = (phiL0, phiR0, hs * wL + a * (xL[0] + pL[0]), hs * wR + a * (xR[0] + pR[0]),
                 a * pL[1], a * pR[1])
+        sp = self.shafts
+        # The Jacobian J = I + diag(k) (S + diag(s)) with k = c + d / hs, s the wheel sides' angle
+        # change per N m (known) and S the inner model's sun-angle change per N m, S = hs^2 S_n with
+        # S_n constant within a mode of the rigid model (constant accelerations). S_n is kept per
+        # mode (self.jac: mode key -> S_n, refreshed by Broyden updates and finite differences), so
+        # the usual sub-step needs the first evaluation, one correction and its check.
+        kL, kR = sp.left.c + sp.left.d / hs, sp.right.c + sp.right.d / hs
+        sL, sR, h2 = args[4], args[5], hs * hs
+
+        def J_of(Sn):
+            return [1.0 + kL * (Sn[0] * h2 + sL), kL * Sn[1] * h2, kR * Sn[2] * h2, 1.0 + kR * (Sn[3] * h2 + sR)]
+
+        def Sn_of(J):
+            return [((J[0] - 1.0) / kL - sL) / h2, J[1] / kL / h2, J[2] / kR / h2, ((J[3] - 1.0) / kR - sR) / h2]
+
+        cache = self.jac
         TL, TR = self.T_L, self.T_R
         r = self._eval(snap, t, hs, TL, TR, *args)
+        mode = self._mode(snap)
+        J = J_of(cache[mode]) if mode in cache else None
         # the torque-twist law to 1e-10 relative: the result is then a smooth function of the
         # inputs down to that level (another host feeding the same inputs to the last bits gets the
-        # same trajectory to 1e-9; at 1e-8 the iteration count flips and it does not); with the
-        # kept Jacobian usually two corrections (three inner steps per sub-step; the pin-load law
-        # is mildly nonlinear in the sun torques)
+        # same trajectory to 1e-9; at 1e-8 the iteration count flips and it does not)
         scale = 1e-10 * (1.0 + abs(TL) + abs(TR))
-        J = self.jac
-        fresh = False
+        fresh = switched = False
         for it in range(40):
             if abs(r[0]) + abs(r[1]) <= scale:
                 break
             if J is None or (it >= 2 and not fresh):
-                J = self._jacobian(snap, t, hs, TL, TR, r, args)
+                J = self._jacobian(snap, t, hs, TL, TR, r, args, mode)
                 fresh = True
             det = J[0] * J[3] - J[1] * J[2]
             if not (det != 0.0 and math.isfinite(det)):
@@ -300,12 +333,20 @@ class ShaftedDifferential:
                 dTR *= 0.5
             TL, TR = TL + dTL, TR + dTR
             r_new = self._eval(snap, t, hs, TL, TR, *args)
-            # Broyden update: J += (dr - J dT) dT' / |dT|^2
-            n2 = dTL * dTL + dTR * dTR
-            if n2 > 0.0:
-                yL = r_new[0] - r[0] - (J[0] * dTL + J[1] * dTR)
-                yR = r_new[1] - r[1] - (J[2] * dTL + J[3] * dTR)
-                J = [J[0] + yL * dTL / n2, J[1] + yL * dTR / n2, J[2] + yR * dTL / n2, J[3] + yR * dTR / n2]
+            mode_new = self._mode(snap)
+            if mode_new != mode and mode_new in cache and not switched:
+                # the first switch to another piece of the piecewise-affine response: its kept
+                # Jacobian (later switches: the secant across the kink, which does not cycle)
+                J = J_of(cache[mode_new])
+                switched = True
+            else:
+                # Broyden update: J += (dr - J dT) dT' / |dT|^2 (the secant through both points)
+                n2 = dTL * dTL + dTR * dTR
+                if n2 > 0.0:
+                    yL = r_new[0] - r[0] - (J[0] * dTL + J[1] * dTR)
+                    yR = r_new[1] - r[1] - (J[2] * dTL + J[3] * dTR)
+                    J = [J[0] + yL * dTL / n2, J[1] + yL * dTR / n2, J[2] + yR * dTL / n2, J[3] + yR * dTR / n2]
+            mode = mode_new
             r = r_new
             scale = 1e-10 * (1.0 + abs(TL) + abs(TR))
         else:
@@ -317,7 +358,8 @@ class ShaftedDifferential:
             if not abs(r[0]) + abs(r[1]) <= self._accept * (1.0 + abs(TL) + abs(TR)):
                 raise StepError(f"shafts: the implicit sub-step at t = {t:.6g} s did not converge "
                                 f"(residual {abs(r[0]) + abs(r[1]):.3g} N m); reduce shafts.h_max")
-        self.jac = J
+        if J is not None:
+            cache[mode] = Sn_of(J)
         # the inner model now holds the converged sub-step (the last evaluation)
         dthL, dthR = r[2], r[3]
         sp = self.shafts
@@ -403,13 +445,13 @@ class ShaftedDifferential:
     # ------------------------------------------------------------------ state
     def get_own_state(self) -> dict:
         s = {k: getattr(self, k) for k in _STATE_KEYS}
-        s["jac"] = None if self.jac is None else list(self.jac)
+        s["jac"] = {k: list(v) for k, v in self.jac.items()}
         return s
 
     def set_own_state(self, s: dict) -> None:
         for k in _STATE_KEYS:
             object.__setattr__(self, k, s[k])
-        self.jac = None if s["jac"] is None else list(s["jac"])
+        self.jac = {k: list(v) for k, v in s["jac"].items()}
         self._ready = True
 
     def get_state(self) -> dict:
