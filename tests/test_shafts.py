@@ -13,7 +13,7 @@ from spurdiff.errors import ParameterError, StepError
 from spurdiff.mesh_dynamics import MeshDifferential, MeshParams
 from spurdiff.params import DifferentialParams
 from spurdiff.rigid import RigidDifferential
-from spurdiff.shafts import ShaftedDifferential, ShaftParams, ShaftsParams
+from spurdiff.shafts import ShaftedDifferential, ShaftParams, ShaftsParams, WheelSurrogate
 from spurdiff.wheel import WheelLoad, WheelLoadParams
 
 R_WHEEL = WheelLoadParams.defaults().wheel.R
@@ -39,13 +39,19 @@ def make(mesh: str = "rigid", w0: float = 0.0, twist: float = 0.0, backlash: boo
     return diff, wheels
 
 
+def surrogate_of(w: WheelLoad) -> WheelSurrogate:
+    """The wheel's interface-model outputs as the differential's input (what the scenes connect)."""
+    return WheelSurrogate(w.sur_a, w.sur_invJ, w.sur_dadw, w.sur_qrate, w.sur_ct, w.sur_rt)
+
+
 class Loop:
     """Differential + two wheels, Gauss-Seidel (differential first); ``tau_c(t)``, ``Fz(t)``,
     ``mu(t)`` per side and ``vx(t)`` the wheel-centre speed (the car is not modelled here)."""
 
     def __init__(self, diff, wheels, tau_c, Fz=lambda t: (3000.0, 3000.0), mu=lambda t: (1.0, 1.0),
-                 vx=lambda t: None):
+                 vx=lambda t: None, surrogate: bool = True):
         self.diff, self.wheels = diff, wheels
+        self.surrogate = surrogate   # the wheels' interface model connected (False: speed held)
         self.tau_c, self.Fz, self.mu, self.vx = tau_c, Fz, mu, vx
         wl, wr = wheels
         for w, fz, m in zip(wheels, Fz(0.0), mu(0.0)):
@@ -64,6 +70,8 @@ class Loop:
         d, (wl, wr) = self.diff, self.wheels
         d.wheelL_phi, d.wheelL_w = getattr(wl, "phi", 0.0), getattr(wl, "w", wl.params.wheel.w_start)
         d.wheelR_phi, d.wheelR_w = getattr(wr, "phi", 0.0), getattr(wr, "w", wr.params.wheel.w_start)
+        if self.surrogate and hasattr(wl, "sur_a"):
+            d.wheelL_model, d.wheelR_model = surrogate_of(wl), surrogate_of(wr)
 
     def step(self, h: float):
         d, ws, t = self.diff, self.wheels, self.t
@@ -72,8 +80,10 @@ class Loop:
         wc0 = d.wc
         d.do_step(t, h)
         vx = self.vx(t)
-        for w, tau, fz, m in zip(ws, (d.tau_mean_L, d.tau_mean_R), self.Fz(t), self.mu(t)):
+        for w, tau, dw, fz, m in zip(ws, (d.tau_mean_L, d.tau_mean_R), (d.dw_pred_L, d.dw_pred_R), self.Fz(t),
+                                     self.mu(t)):
             w.tau_in, w.Fz, w.mu = tau, fz, m
+            w.dw_in = dw
             w.vx = vx if vx is not None else w.vx
             w.do_step(t, h)
         self.t = t + h
@@ -253,12 +263,14 @@ def test_shafts_integrated_implicitly_whatever_the_sub_step():
     for h_max in (2.5e-4, 2e-2):
         diff, wheels = make(w0=10.0 / R_WHEEL, h_max=h_max)
         loop = start(Loop(diff, wheels, tau_c=lambda t: 300.0, mu=lambda t: (0.6, 1.0), vx=lambda t: 10.0))
-        rows = loop.run(0.5, 2e-2)
+        rows = loop.run(1.5, 2e-2)
         assert_sound(loop, rows)
         out.append(rows[-1])
-    # first order in the sub-step: 20 ms against 0.25 ms costs 0.6 % of the shaft torques here
-    # (a slip transient); the steady vehicle scenes see 1e-4 (tests/test_vehicle_scenes.py)
-    assert out[1][8:10] == pytest.approx(out[0][8:10], rel=1e-2)
+    # first order in the sub-step during the slip transient (the first 0.5 s: the end-of-step
+    # torques differ by up to 3 % between the two, each about 2 % from a 0.25 ms communication
+    # step); once steady (1.5 s) they agree to 2e-5 (measured)
+    assert out[1][8:10] == pytest.approx(out[0][8:10], rel=1e-4)
+    assert out[1][6:8] == pytest.approx(out[0][6:8], rel=1e-6)
 
 
 def test_wheel_mode_error_when_not_initialized():
