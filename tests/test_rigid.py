@@ -244,3 +244,54 @@ def test_bad_locking_law_and_preload_are_refused():
         model(lockingLaw="adams")
     with pytest.raises(ParameterError, match="lockingPreload"):
         model(lockingPreload=-1.0)
+
+
+@pytest.mark.parametrize("law,preload", [("pinFriction", 0.0), ("pinFriction", 40.0), ("paper", 25.0)])
+def test_stuck_interval_ends_solve_the_planet_balances(law, preload):
+    """The closed-form ends of each planet's stuck interval of F_12 are the roots of
+    r_b (F - F*) -+ (c |F_pin(F)| + M_0) = 0 (the capacity from the pin loads, as the slipping
+    law uses it), agree with a bracketing root finder to 1e-12, and enclose F*."""
+    import random
+
+    from scipy.optimize import brentq
+
+    m = model(lockingLaw=law, lockingPreload=preload, mu_pin=0.3)
+    pf = m.pf
+    rng = random.Random(7)
+    for _ in range(300):
+        i = rng.randrange(2)
+        Fs = rng.choice([-1.0, 1.0]) * 10.0 ** rng.uniform(-2.0, 4.5)
+        ac = rng.uniform(-500.0, 500.0)
+        rb, J = (pf.rb[1], m.J_1) if i == 0 else (pf.rb[3], m.J_2)
+        Fstar = Fs - J * ac / rb
+        lo, hi = m._planet_interval(i, Fs, ac)
+        assert lo <= Fstar <= hi
+        scale = rb * (abs(Fstar) + abs(Fs) + abs(hi) + abs(lo)) + pf.M0[i]
+        assert abs(rb * (hi - Fstar) - pf.capacity(i, Fs, hi)[0]) <= 1e-13 * scale
+        assert abs(rb * (lo - Fstar) + pf.capacity(i, Fs, lo)[0]) <= 1e-13 * scale
+        span = 2.0 * (hi - lo) + 1.0
+        ref_hi = brentq(lambda F: rb * (F - Fstar) - pf.capacity(i, Fs, F)[0], Fstar, Fstar + span, xtol=1e-300,
+                        rtol=1e-15)
+        ref_lo = brentq(lambda F: rb * (F - Fstar) + pf.capacity(i, Fs, F)[0], Fstar - span, Fstar, xtol=1e-300,
+                        rtol=1e-15)
+        assert hi == pytest.approx(ref_hi, rel=1e-12, abs=1e-12 * abs(Fstar))
+        assert lo == pytest.approx(ref_lo, rel=1e-12, abs=1e-12 * abs(Fstar))
+
+
+@pytest.mark.parametrize("law,D", [("paper", 120.402), ("pinFriction", 800.0)])
+def test_json_state_roundtrip_reproduces_continuation_bit_for_bit(law, D):
+    """A state through JSON (tuples become lists) continues exactly as the original, through a
+    re-stick after a torque reversal."""
+    import json
+
+    a = model(tau_L=-1050.0 - D / 2, tau_R=-1050.0 + D / 2, lockingLaw=law)
+    run(a, 0.02)
+    b = model(lockingLaw=law)
+    b.set_state(json.loads(json.dumps(a.get_state())))
+    same = lambda: json.dumps(a.get_state()) == json.dumps(b.get_state())   # floats exactly; NaN equal
+    assert same() and a.wd < 0.0
+    for m in (a, b):
+        m.tau_L, m.tau_R = -1040.0, -1060.0
+        for k in range(20, 400):
+            m.do_step(k * 1e-3, 1e-3)
+    assert same() and a.stuck and a.n_mode_switches >= 1

@@ -46,23 +46,25 @@ energy and friction loss balance to rounding error.
 from __future__ import annotations
 
 import math
-
-from scipy.optimize import brentq
+import operator
 
 from .errors import StepError, require_finite, require_positive
 from .geometry import DifferentialGeometry
 from .inertia import MassProperties, mass_properties
 from .params import DifferentialParams
 from .locking import locking_coefficients, paper_locking_coefficient, pin_friction
+from .model_base import DifferentialModel
 from .statics import MeshForces, kinematics, mesh_forces_for
 
 _STATE_KEYS = (
     "t", "wc", "wd", "phic", "phid", "ac", "ad", "Qf", "slip_dir", "F12", "cap", "_ad_guess", "_slip_key", "_slip_val",
     "work_in", "energy_loss", "loss_last_step", "n_mode_switches", "n_steps",
 )
+_get_state_values = operator.itemgetter(*_STATE_KEYS)
+_TUPLE_KEYS = ("_slip_key", "_slip_val")   # the only state entries that are not numbers or None
 
 
-class RigidDifferential:
+class RigidDifferential(DifferentialModel):
     """Rigid differential; see the module docstring for the equations.
 
     Inputs (attributes, SI): ``w_ref`` carrier speed target (speed drive), ``tau_c`` carrier torque
@@ -116,6 +118,7 @@ class RigidDifferential:
             self.K, self.K_coast = locking_coefficients(self.pf)
         # the exact pin law (pinFriction with friction or preload), else the paper's linear capacity
         self._exact = self.law == "pinFriction" and (self.pf.c > 0.0 or self.preload > 0.0)
+        self._pin_constants()
         self.F12 = float("nan")
         self.cap = 0.0
         self.speed_drive = p.carrierDrive == "speed"
@@ -134,7 +137,26 @@ class RigidDifferential:
         self.ac, self.ad, self.Qf, self.slip_dir = self._accelerations(ac)
         self._ready = True
 
+    def _pin_constants(self) -> None:
+        """What the pin-load Newton needs that depends on the parameters only (set once, in
+        :meth:`initialize`): the pins' unit force parts (:class:`spurdiff.locking.PinLayout`) with
+        their sums and differences (the derivative of ``|F_pin|`` for either sign of a mesh force),
+        the lever, the preloads and the mesh-force divisors ``n r_b``."""
+        pf = self.pf
+        rbA, rb1, rbB, rb2 = pf.rb
+        planets = []
+        for i in (0, 1):
+            tx, ty, rx, ry, ux, uy, qx, qy = pf.layout._flat[i]
+            planets.append((tx, ty, rx, ry, ux, uy, qx, qy,
+                            tx + rx, ty + ry, tx - rx, ty - ry,      # d|F_pin|/dFs for Fs >= 0, < 0
+                            ux + qx, uy + qy, ux - qx, uy - qy))     # d|F_pin|/dF12 for F12 >= 0, < 0
+        self._pin1, self._pin2 = planets
+        self._nrbA, self._nrbB = pf.n * rbA, pf.n * rbB
+
     def _check_inputs(self) -> None:
+        isfinite = math.isfinite
+        if isfinite(self.w_ref) and isfinite(self.tau_c) and isfinite(self.tau_L) and isfinite(self.tau_R):
+            return
         require_finite("carrier.w_ref", self.w_ref)
         require_finite("carrier.tau", self.tau_c)
         require_finite("left.tau", self.tau_L)
@@ -181,72 +203,147 @@ class RigidDifferential:
 
     def _slip_exact(self, ac_given: float | None, s: float) -> tuple[float, float, float]:
         """Slipping in direction s with the pin-load law: solve the planets' moment balances
-        for (a_d, F_12) by Newton; returns (ac, ad, Q_f) and leaves F12, cap set."""
+        for (a_d, F_12) by Newton; returns (ac, ad, Q_f) and leaves F12, cap set.
+
+        The hot path of the rigid level (one solve per inner step): the sun forces
+        (:meth:`_sun_forces`) and the pin capacities (:meth:`spurdiff.locking.PinFriction.capacity`)
+        are written out here with the constants of :meth:`_pin_constants`, the same arithmetic in
+        the same order, so the result is bit for bit that of the two calls."""
         pf = self.pf
         n = pf.n
-        rbA, rb1, rbB, rb2 = pf.rb
+        _, rb1, _, rb2 = pf.rb
+        nrbA, nrbB = self._nrbA, self._nrbB
+        cpin = pf.c
+        M01, M02 = pf.M0
+        (t1x, t1y, r1x, r1y, u1x, u1y, q1x, q1y, p1x, p1y, m1x, m1y, P1x, P1y, N1x, N1y) = self._pin1
+        (t2x, t2y, r2x, r2y, u2x, u2y, q2x, q2y, p2x, p2y, m2x, m2y, P2x, P2y, N2x, N2y) = self._pin2
+        J_A, J_B, lam = self.J_A, self.J_B, self.lam
         J1, J2 = self.J_1, self.J_2
         rho1, rho2 = self.rho1, self.rho2
+        tau_L, tau_R = self.tau_L, self.tau_R
+        Mcd, Mcc = self.Mcd, self.Mcc
         sg1 = math.copysign(1.0, rho1) * s
         sg2 = math.copysign(1.0, rho2) * s
-        Qc = self.tau_c + self.tau_L + self.tau_R
-        g = 0.0 if ac_given is not None else -self.Mcd / self.Mcc
+        Qc = self.tau_c + tau_L + tau_R
+        given = ac_given is not None
+        g = 0.0 if given else -Mcd / Mcc
+        sqrt = math.sqrt
 
-        def acc(ad):
-            return ac_given if ac_given is not None else (Qc - self.Mcd * ad) / self.Mcc
-
-        # start: the paper-like linear estimate with the first-order coefficient
+        # start: the last solution (or 0) for a_d, the last F_12 (or the mean sun force)
         ad = self._ad_guess if self._ad_guess is not None else 0.0
-        FA, FB = self._sun_forces(acc(ad), ad)
-        F12 = self.F12 if self.F12 == self.F12 else 0.5 * (FA + FB)
-        dFA = self.J_A * (g + 1.0) / (n * rbA)
-        dFB = self.J_B * (g + self.lam) / (n * rbB)
+        F12 = self.F12
+        if F12 != F12:
+            ac = ac_given if given else (Qc - Mcd * ad) / Mcc
+            F12 = 0.5 * ((J_A * (ac + ad) - tau_L) / nrbA + (J_B * (ac + lam * ad) - tau_R) / nrbB)
+        dFA = J_A * (g + 1.0) / nrbA
+        dFB = J_B * (g + lam) / nrbB
+        a11_0 = J1 * (g + rho1)
+        a21_0 = J2 * (g + rho2)
         for _ in range(50):
-            ac = acc(ad)
-            FA, FB = self._sun_forces(ac, ad)
-            c1, c1S, c112 = pf.capacity(0, FA, F12)
-            c2, c2S, c212 = pf.capacity(1, FB, F12)
+            ac = ac_given if given else (Qc - Mcd * ad) / Mcc
+            FA = (J_A * (ac + ad) - tau_L) / nrbA
+            FB = (J_B * (ac + lam * ad) - tau_R) / nrbB
+            aA, aB, a12 = abs(FA), abs(FB), abs(F12)
+            # pin force of planet 1 (sun A mesh FA, planet mesh F12) and of planet 2 (FB, F12)
+            f1x = FA * t1x + aA * r1x + F12 * u1x + a12 * q1x
+            f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y
+            f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x
+            f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y
+            mag1 = sqrt(f1x * f1x + f1y * f1y)
+            mag2 = sqrt(f2x * f2x + f2y * f2y)
+            c1 = cpin * mag1 + M01
+            c2 = cpin * mag2 + M02
             r1 = rb1 * (FA - F12) - sg1 * c1 - J1 * (ac + rho1 * ad)
             r2 = rb2 * (FB - F12) - sg2 * c2 - J2 * (ac + rho2 * ad)
             # moment residuals at rounding level of the largest moment: converged
-            if abs(r1) + abs(r2) <= 1e-14 * (rb1 * (abs(FA) + abs(F12)) + rb2 * (abs(FB) + abs(F12))) + 1e-300:
+            if abs(r1) + abs(r2) <= 1e-14 * (rb1 * (aA + a12) + rb2 * (aB + a12)) + 1e-300:
                 break
-            a11 = (rb1 - sg1 * c1S) * dFA - J1 * (g + rho1)
-            a12 = -rb1 - sg1 * c112
-            a21 = (rb2 - sg2 * c2S) * dFB - J2 * (g + rho2)
+            if mag1 == 0.0:
+                c1S = c112 = 0.0
+            else:
+                c1S = cpin * ((f1x * p1x + f1y * p1y) / mag1 if FA >= 0.0 else (f1x * m1x + f1y * m1y) / mag1)
+                c112 = cpin * ((f1x * P1x + f1y * P1y) / mag1 if F12 >= 0.0 else (f1x * N1x + f1y * N1y) / mag1)
+            if mag2 == 0.0:
+                c2S = c212 = 0.0
+            else:
+                c2S = cpin * ((f2x * p2x + f2y * p2y) / mag2 if FB >= 0.0 else (f2x * m2x + f2y * m2y) / mag2)
+                c212 = cpin * ((f2x * P2x + f2y * P2y) / mag2 if F12 >= 0.0 else (f2x * N2x + f2y * N2y) / mag2)
+            a11 = (rb1 - sg1 * c1S) * dFA - a11_0
+            a12_ = -rb1 - sg1 * c112
+            a21 = (rb2 - sg2 * c2S) * dFB - a21_0
             a22 = -rb2 - sg2 * c212
-            det = a11 * a22 - a12 * a21
-            d_ad = (r1 * a22 - a12 * r2) / det
+            det = a11 * a22 - a12_ * a21
+            d_ad = (r1 * a22 - a12_ * r2) / det
             d_F = (a11 * r2 - a21 * r1) / det
             ad -= d_ad
             F12 -= d_F
-            scale = abs(FA) + abs(FB) + abs(F12) + 1e-300
+            scale = aA + aB + abs(F12) + 1e-300
             if abs(d_F) <= 1e-15 * scale and abs(d_ad) * (abs(dFA) + abs(dFB)) <= 1e-15 * scale:
-                ac = acc(ad)
-                FA, FB = self._sun_forces(ac, ad)
-                c1 = pf.capacity(0, FA, F12)[0]
-                c2 = pf.capacity(1, FB, F12)[0]
+                ac = ac_given if given else (Qc - Mcd * ad) / Mcc
+                FA = (J_A * (ac + ad) - tau_L) / nrbA
+                FB = (J_B * (ac + lam * ad) - tau_R) / nrbB
+                aA, aB, a12 = abs(FA), abs(FB), abs(F12)
+                f1x = FA * t1x + aA * r1x + F12 * u1x + a12 * q1x
+                f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y
+                f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x
+                f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y
+                c1 = cpin * sqrt(f1x * f1x + f1y * f1y) + M01
+                c2 = cpin * sqrt(f2x * f2x + f2y * f2y) + M02
                 break
-        cap1, cap2 = c1, c2
         self.F12 = F12
-        self.cap = n * (abs(rho1) * cap1 + abs(rho2) * cap2)
+        self.cap = n * (abs(rho1) * c1 + abs(rho2) * c2)
         return ac, ad, -s * self.cap
 
     def _planet_interval(self, i: int, Fs: float, ac: float) -> tuple[float, float]:
-        """F_12 interval in which planet i holds stuck: |r_bi (F_12 - F*)| <= M_i,max(F_12)."""
+        """F_12 interval in which planet i holds stuck: |r_bi (F_12 - F*)| <= M_i,max(F_12).
+
+        Closed form. Both ends solve ``r_b (F - F*) -+ (c |P(F)| + M_0) = 0``, with the pin force
+        ``P(F) = a + F u + |F| q`` (``a`` from the sun mesh force, :class:`spurdiff.locking.PinLayout`):
+        for F of one sign, ``P = a + F v`` with ``v = u + q`` (F >= 0) or ``u - q`` (F < 0), ``|v| = 1``.
+        Each left side increases strictly in F (slope >= r_b - c > 0), so each end is the one root;
+        the sign of the left side at F = 0 tells which side of 0 it lies on, and there, squared,
+        ``(r_b F - k)^2 = c^2 |a + F v|^2`` (``k = r_b F* +- M_0``) is a quadratic whose larger root
+        is the upper end (``r_b F - k = +c |P|``) and whose smaller root is the lower end."""
         pf = self.pf
-        rb = pf.rb[1] if i == 0 else pf.rb[3]
-        J = self.J_1 if i == 0 else self.J_2
+        if i == 0:
+            rb, J, M0 = pf.rb[1], self.J_1, pf.M0[0]
+            tx, ty, rx, ry, _, _, _, _, _, _, _, _, Px, Py, Nx, Ny = self._pin1
+        else:
+            rb, J, M0 = pf.rb[3], self.J_2, pf.M0[1]
+            tx, ty, rx, ry, _, _, _, _, _, _, _, _, Px, Py, Nx, Ny = self._pin2
+        c = pf.c
         Fstar = Fs - J * ac / rb
         cap0 = pf.capacity(i, Fs, Fstar)[0]
         if cap0 <= 0.0:
             return Fstar, Fstar
-        span = cap0 / (rb - pf.c) * (1.0 + 1e-9) + 1e-12 * (abs(Fstar) + abs(Fs))
-        hi = brentq(lambda F: rb * (F - Fstar) - pf.capacity(i, Fs, F)[0], Fstar, Fstar + span,
-                    xtol=1e-12 * (abs(Fstar) + cap0 / rb), rtol=1e-14)
-        lo = brentq(lambda F: rb * (F - Fstar) + pf.capacity(i, Fs, F)[0], Fstar - span, Fstar,
-                    xtol=1e-12 * (abs(Fstar) + cap0 / rb), rtol=1e-14)
-        return lo, hi
+        aS = abs(Fs)
+        ax, ay = Fs * tx + aS * rx, Fs * ty + aS * ry      # P(0)
+        c_a0 = c * math.sqrt(ax * ax + ay * ay)             # c |P(0)|
+        ends = []
+        for sign in (1.0, -1.0):                            # upper end, lower end
+            k = rb * Fstar + sign * M0
+            if c == 0.0:
+                ends.append(k / rb)
+                continue
+            # which side of F = 0: the left side at 0 is -k -+ c |P(0)|
+            vx, vy = (Px, Py) if -rb * Fstar - sign * (c_a0 + M0) <= 0.0 else (Nx, Ny)
+            # (rb^2 - c^2 |v|^2) F^2 - 2 beta F + (k^2 - c^2 |a|^2) = 0, discriminant written
+            # without cancellation: beta^2 - alpha gamma = c^2 (|rb a + k v|^2 - c^2 (a x v)^2)
+            vv = vx * vx + vy * vy
+            alpha = rb * rb - c * c * vv
+            beta = rb * k + c * c * (ax * vx + ay * vy)
+            gamma = k * k - c * c * (ax * ax + ay * ay)
+            wx, wy = rb * ax + k * vx, rb * ay + k * vy
+            cross = ax * vy - ay * vx
+            disc = c * c * (wx * wx + wy * wy - c * c * cross * cross)
+            root = math.sqrt(disc) if disc > 0.0 else 0.0
+            q = beta + math.copysign(root, beta)
+            if q == 0.0:
+                ends.append(0.0)
+                continue
+            r1, r2 = q / alpha, gamma / q                   # the two roots, stably
+            ends.append(max(r1, r2) if sign > 0.0 else min(r1, r2))
+        return ends[1], ends[0]
 
     def _stuck_exact(self, ac: float) -> bool:
         """Can both planets hold (a_d = 0)? Sets F12 and cap to the reported stuck values."""
@@ -323,7 +420,8 @@ class RigidDifferential:
         """Advance from t to t + h with the inputs held; raises ParameterError / StepError."""
         if not self._ready:
             raise StepError("do_step called before initialize")
-        h = require_positive("communicationStepSize", h)
+        if not (h.__class__ is float and 0.0 < h < math.inf):
+            h = require_positive("communicationStepSize", h)
         self._check_inputs()
         ac_given = (self.w_ref - self.wc) / h if self.speed_drive else None
         remaining = h
@@ -440,16 +538,22 @@ class RigidDifferential:
         return self.wd == 0.0 and self.ad == 0.0
 
     # ------------------------------------------------------------------ state
+    # the state is plain attributes (no properties among them): read and written through the
+    # instance dictionary in one C-level call each (the shafted differential copies it per inner step)
     def get_state(self) -> dict:
-        s = {k: getattr(self, k) for k in _STATE_KEYS}
-        s.update(w_ref=self.w_ref, tau_c=self.tau_c, tau_L=self.tau_L, tau_R=self.tau_R,
-                 last_h=getattr(self, "_last_h", 0.0))
+        d = self.__dict__
+        s = dict(zip(_STATE_KEYS, _get_state_values(d)))
+        s["w_ref"], s["tau_c"], s["tau_L"], s["tau_R"] = d["w_ref"], d["tau_c"], d["tau_L"], d["tau_R"]
+        s["last_h"] = d.get("_last_h", 0.0)
         return s
 
     def set_state(self, state: dict) -> None:
-        for k in _STATE_KEYS:
-            v = state[k]
-            setattr(self, k, tuple(v) if isinstance(v, list) else v)
-        self.w_ref, self.tau_c, self.tau_L, self.tau_R = state["w_ref"], state["tau_c"], state["tau_L"], state["tau_R"]
-        self._last_h = state["last_h"]
+        d = self.__dict__
+        d.update(zip(_STATE_KEYS, _get_state_values(state)))
+        for k in _TUPLE_KEYS:      # a deserialized (JSON) state holds lists
+            v = d[k]
+            if v.__class__ is list:
+                d[k] = tuple(v)
+        d["w_ref"], d["tau_c"], d["tau_L"], d["tau_R"] = state["w_ref"], state["tau_c"], state["tau_L"], state["tau_R"]
+        d["_last_h"] = state["last_h"]
 
