@@ -53,10 +53,7 @@ def run_direct(scene: Scene) -> Result:
     t0 = time.perf_counter()
     insts = {}
     for spec in scene.instances:
-        params = dict(spec.parameters)
-        if spec.fmu == "SpurDifferential":
-            params = {**scene.effects, **params}
-        insts[spec.name] = DirectInstance(spec.name, spec.fmu, params)
+        insts[spec.name] = DirectInstance(spec.name, spec.fmu, scene.parameters_of(spec.name))
     profiles = [(ref.split(".", 1), prof) for ref, prof in scene.inputs.items()]
     links = [(to.split(".", 1), frm.split(".", 1)) for to, frm in scene.connections.items()]
     by_dest: dict[str, list] = {n: [] for n in insts}

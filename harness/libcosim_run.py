@@ -8,8 +8,8 @@ only adds what an SSP cannot hold, read from the ``org.spurdiff.scene`` annotati
 libcosim's override manipulator before each step (zero-order hold at the communication points,
 as our master does).
 
-:func:`run_ssp` returns a :class:`CosimResult` with ``result["inst.var"]`` arrays and ``.time``
-like :class:`harness.master.Result`. By default libcosim runs in a child process
+:func:`run_ssp` returns a :class:`harness.result.Result` (``result["inst.var"]`` arrays, ``.time``,
+``.step``) as our master does. By default libcosim runs in a child process
 (``python -m harness.libcosim_run``): pythonfmu FMUs share one interpreter per process, and a
 crash inside libcosim or an FMU then cannot take the caller down.
 
@@ -26,11 +26,12 @@ import subprocess
 import sys
 import tempfile
 import zipfile
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from harness.result import Result
 from harness.scene import Profile
 
 SSD_FILE = "SystemStructure.ssd"
@@ -59,33 +60,6 @@ class SspFacts:
     tables: dict[str, Profile]                          # "element.connector" -> table profile
     bindings: dict[str, dict[str, tuple[str, str]]]     # element -> {variable: (ssv type, text)}
     algorithm: str | None = None                        # the scene's own algorithm (information)
-
-
-@dataclass
-class CosimResult:
-    """Trajectories recorded by libcosim: ``data[:, 0]`` is time, one column per name."""
-
-    names: list[str]
-    data: np.ndarray
-    step: float
-    failure: str | None = None
-    messages: list[str] = field(default_factory=list)
-
-    @property
-    def time(self) -> np.ndarray:
-        return self.data[:, 0]
-
-    def __getitem__(self, name: str) -> np.ndarray:
-        if name == "time":
-            return self.time
-        try:
-            return self.data[:, 1 + self.names.index(name)]
-        except ValueError:
-            raise KeyError(f"{name!r} was not recorded; recorded: {', '.join(self.names)}") from None
-
-    @property
-    def ok(self) -> bool:
-        return self.failure is None
 
 
 # ---------------------------------------------------------------------------- reading the SSP
@@ -194,7 +168,7 @@ def _check_bindings(observer, facts: SspFacts, slaves: dict, variables: dict) ->
 
 
 def run_here(ssp_path: Path | str, record: list[str] | None = None, step: float | None = None,
-             duration: float | None = None) -> CosimResult:
+             duration: float | None = None) -> Result:
     """Run in this process (see :func:`run_ssp` for the arguments)."""
     from libcosimpy.CosimEnums import CosimVariableType
     from libcosimpy.CosimExecution import CosimExecution
@@ -288,12 +262,12 @@ def run_here(ssp_path: Path | str, record: list[str] | None = None, step: float 
         problems = _check_bindings(last, facts, slaves, variables)
         if problems:
             failure = f"{len(problems)} start value(s) did not reach the FMUs: {problems[0]}"
-    return CosimResult(record, data, h, failure)
+    return Result(None, record, data, failure=failure, step=h)
 
 
 # ---------------------------------------------------------------------------- child process
 def run_ssp(ssp_path: Path | str, record: list[str] | None = None, step: float | None = None,
-            duration: float | None = None, isolate: bool = True, timeout: float | None = None) -> CosimResult:
+            duration: float | None = None, isolate: bool = True, timeout: float | None = None) -> Result:
     """Run an SSP file with libcosim's fixed-step (Jacobi) algorithm and record variables.
 
     ``record``: "component.variable" names (default: the scene's recording list in the SSP).
@@ -325,7 +299,7 @@ def run_ssp(ssp_path: Path | str, record: list[str] | None = None, step: float |
                                 f"{lines[-1] if lines else 'no message'}")
         z = np.load(out, allow_pickle=False)
         failure = str(z["failure"]) or None
-        return CosimResult([str(n) for n in z["names"]], z["data"], float(z["step"]), failure, lines)
+        return Result(None, [str(n) for n in z["names"]], z["data"], failure=failure, messages=lines, step=float(z["step"]))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -18,21 +18,18 @@ from __future__ import annotations
 import contextlib
 import math
 import os
-import shutil
 import signal
-import tempfile
 import threading
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Callable
 
 import numpy as np
-from fmpy import extract, read_model_description
 from fmpy.fmi1 import FMICallException
-from fmpy.fmi2 import FMU2Slave
 
-from harness.scene import Scene, SceneError, parameter_value
+from harness.fmi.instance import FmuCache, Instance, RealPort, fmu_cache, make_logger as _make_logger  # noqa: F401
+from harness.result import Result
+from harness.scene import Scene, SceneError
 
 
 class RunFailure(RuntimeError):
@@ -119,165 +116,6 @@ def check_recording(scene: Scene, where: str = "") -> None:
                          f"the {avail / 1e9:.3g} GB available): shorten the duration or lengthen output_interval")
 
 
-@dataclass
-class Result:
-    """Recorded trajectories (``time`` plus one array per recorded variable) and run facts."""
-
-    scene: Scene
-    names: list[str]
-    data: np.ndarray                     # shape (n_samples, 1 + len(names)), column 0 is time
-    wall_time: float                     # s spent stepping (after initialization)
-    steps: int
-    failure: RunFailure | Interrupted | None = None
-    coupling_energy: dict[str, dict[str, float]] = field(default_factory=dict)
-    messages: list[str] = field(default_factory=list)
-    chosen: dict[str, Any] = field(default_factory=dict)
-    setup_time: float = 0.0              # s to load, instantiate and initialize the FMUs
-
-    @property
-    def time(self) -> np.ndarray:
-        return self.data[:, 0]
-
-    def __getitem__(self, name: str) -> np.ndarray:
-        if name == "time":
-            return self.time
-        return self.data[:, 1 + self.names.index(name)]
-
-    @property
-    def ok(self) -> bool:
-        return self.failure is None
-
-
-class FmuCache:
-    """Extracts each FMU file once per process and keeps its model description."""
-
-    def __init__(self):
-        self._dirs: dict[Path, tuple[str, Any]] = {}
-        self._tmp = Path(tempfile.mkdtemp(prefix="spurdiff_fmus_"))
-
-    def get(self, path: Path):
-        path = Path(path).resolve()
-        key = (path, path.stat().st_mtime_ns)
-        if key not in self._dirs:
-            target = self._tmp / f"{path.stem}_{len(self._dirs)}"
-            d = extract(str(path), unzipdir=str(target))
-            self._dirs[key] = (d, read_model_description(d))
-        return self._dirs[key]
-
-    def cleanup(self) -> None:
-        shutil.rmtree(self._tmp, ignore_errors=True)
-
-
-_CACHE: FmuCache | None = None
-
-
-def fmu_cache() -> FmuCache:
-    """The process-wide cache of extracted FMUs (removed at interpreter exit)."""
-    global _CACHE
-    if _CACHE is None:
-        import atexit
-        _CACHE = FmuCache()
-        atexit.register(_CACHE.cleanup)
-    return _CACHE
-
-
-class Instance:
-    """One FMU instance: the fmpy slave, its variables and the messages it logged."""
-
-    def __init__(self, name: str, fmu_file: Path):
-        from fmpy.fmi2 import (calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                               fmi2CallbackFunctions, free)
-
-        unzip, md = fmu_cache().get(fmu_file)
-        self.name, self.md = name, md
-        self.vars = {v.name: v for v in md.modelVariables}
-        self.messages: list[tuple[int, str]] = []
-        self.slave = FMU2Slave(guid=md.guid, unzipDirectory=unzip,
-                               modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name)
-        callbacks = fmi2CallbackFunctions()
-        callbacks.logger = _make_logger(self.messages)
-        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        # no fmpy logger proxy: it keeps one logger per process, so messages would reach the last
-        # instance created; our own callback per instance reads the message text directly
-        self._callbacks = callbacks  # keep the C callbacks alive as long as the instance
-        self.slave.instantiate(loggingOn=True, callbacks=callbacks)
-
-    def var(self, name: str):
-        try:
-            return self.vars[name]
-        except KeyError:
-            raise SceneError(f"{self.name}: FMU has no variable {name!r}") from None
-
-    def set_value(self, name: str, value) -> None:
-        v = self.var(name)
-        value = parameter_value(f"{self.name}.{name}", v.type, value, finite=False)   # 'off' is false, not true
-        vr = [v.valueReference]
-        if v.type == "Real":
-            self.slave.setReal(vr, [float(value)])
-        elif v.type in ("Integer", "Enumeration"):
-            if isinstance(value, float) and not value.is_integer():
-                raise SceneError(f"{self.name}.{name} = {value!r}: allowed an integer")
-            self.slave.setInteger(vr, [int(value)])
-        elif v.type == "Boolean":
-            self.slave.setBoolean(vr, [bool(value)])
-        elif v.type == "String":
-            self.slave.setString(vr, [str(value)])
-
-    def errors(self) -> list[str]:
-        return [m for s, m in self.messages if s >= 3]  # fmi2Error, fmi2Fatal
-
-    def last_messages(self, n: int = 3) -> str:
-        errs = [m for s, m in self.messages if s >= 2] or [m for _, m in self.messages]
-        return "; ".join(errs[-n:]) if errs else "no message logged"
-
-
-def _make_logger(sink: list):
-    """A C callback collecting (status, message) into ``sink``."""
-    from fmpy.fmi2 import fmi2CallbackLoggerTYPE
-
-    def logger(componentEnvironment, instanceName, status, category, message):
-        text = message.decode("utf-8", "replace") if isinstance(message, bytes) else str(message)
-        sink.append((int(status), text.replace("%%", "%")))  # pythonfmu escapes '%' (printf format)
-    return fmi2CallbackLoggerTYPE(logger)
-
-
-class RealPort:
-    """fmi2GetReal / fmi2SetReal on a fixed list of value references, with the C arrays allocated
-    once: the stepping loop calls the FMU's C functions directly (fmpy's wrappers convert lists
-    to new arrays on every call). A status above warning raises :class:`RunFailure` with the
-    FMU's logged reason."""
-
-    def __init__(self, inst: Instance, vrs: list[int], write: bool):
-        from fmpy.fmi2 import fmi2Real, fmi2ValueReference
-
-        self.inst, self.n = inst, len(vrs)
-        self.vr = (fmi2ValueReference * self.n)(*vrs)
-        self.val = (fmi2Real * self.n)()
-        self.fn = inst.slave._functions["fmi2SetReal" if write else "fmi2GetReal"]
-        self.component = inst.slave.component
-        self.what = "fmi2SetReal" if write else "fmi2GetReal"
-        self.last = None   # values of the last set: inputs keep their values, an unchanged set is skipped
-
-    def _check(self, status: int, t: float) -> None:
-        if status > 1:
-            raise RunFailure(self.inst.name, t, f"{self.what} returned status {status}: {self.inst.last_messages()}")
-
-    def set(self, values: list[float], t: float = math.nan) -> None:
-        if values == self.last:   # (call forget() after fmi2SetFMUstate, which restores old inputs)
-            return
-        self.val[:] = values
-        self._check(self.fn(self.component, self.vr, self.n, self.val), t)
-        self.last = values
-
-    def forget(self) -> None:
-        self.last = None
-
-    def get(self, t: float = math.nan) -> list[float]:
-        self._check(self.fn(self.component, self.vr, self.n, self.val), t)
-        return self.val[:]
-
-
 class Master:
     """Runs one scene. ``fmu_files`` maps FMU names (e.g. 'SpurDifferential') to .fmu paths."""
 
@@ -302,13 +140,7 @@ class Master:
             inst = self.instances[spec.name]
             inst.slave.setupExperiment(startTime=0.0, stopTime=sc.duration)
             inst.slave.enterInitializationMode()
-            params = dict(spec.parameters)
-            if spec.fmu == "SpurDifferential":
-                params = {**sc.effects, **params}
-            for name, value in params.items():
-                v = inst.var(name)
-                if v.causality not in ("parameter", "input"):
-                    raise SceneError(f"{spec.name}.{name} is a {v.causality}, not a parameter")
+            for name, value in sc.parameters_of(spec.name).items():   # checked by Scene.check_wiring
                 inst.set_value(name, value)
         # inputs at t = 0: the profiles, then the connections propagated in Initialization Mode,
         # where every FMU computes its outputs from what it was given (FMI 2.0 section 3.2.3):
@@ -341,27 +173,15 @@ class Master:
     # ------------------------------------------------------------------ wiring
     def _compile(self) -> None:
         sc = self.scene
+        links = sc.check_wiring({n: inst.vars for n, inst in self.instances.items()})
+        self._do_step = {n: inst.c_function("fmi2DoStep") for n, inst in self.instances.items()}
         self._profiles: dict[str, list[tuple[int, Callable]]] = {n: [] for n in self.instances}
         for ref, prof in sc.inputs.items():
             inst, var = ref.split(".", 1)
-            v = self.instances[inst].var(var)
-            if v.causality != "input":
-                raise SceneError(f"inputs: {ref!r} is a {v.causality}, not an input (parameters go in [fmus.<instance>.parameters])")
-            self._profiles[inst].append((v.valueReference, prof))
+            self._profiles[inst].append((self.instances[inst].var(var).valueReference, prof))
         # connections grouped by destination instance: (dest vrs, [(src inst, src vr)])
         self._links: dict[str, tuple[list[int], list[tuple[str, int]]]] = {n: ([], []) for n in self.instances}
-        for to, frm in sc.connections.items():
-            ti, tv = to.split(".", 1)
-            fi, fv = frm.split(".", 1)
-            tvar, fvar = self.instances[ti].var(tv), self.instances[fi].var(fv)
-            if tvar.causality != "input":
-                raise SceneError(f"connections: {to!r} is a {tvar.causality}, not an input")
-            if fvar.causality != "output":
-                raise SceneError(f"connections: {frm!r} is a {fvar.causality}, not an output")
-            if tvar.unit != fvar.unit:
-                raise SceneError(f"connections: {frm!r} [{fvar.unit}] -> {to!r} [{tvar.unit}]: units differ")
-            if tvar.type != "Real" or fvar.type != "Real":
-                raise SceneError(f"connections: {frm!r} -> {to!r}: only Real variables can be connected")
+        for ti, tvar, fi, fvar in links:
             self._links[ti][0].append(tvar.valueReference)
             self._links[ti][1].append((fi, ("Real", fvar.valueReference)))
         # outputs each instance must publish, keyed by (type, value reference): value references
@@ -402,13 +222,19 @@ class Master:
                 self._step_read[n] = "all"
             elif keys:
                 reals = sorted(vr for _, vr in keys)
-                self._step_read[n] = (RealPort(self.instances[n], reals, False), [("Real", vr) for vr in reals])
+                self._step_read[n] = (self._port(n, reals, False), [("Real", vr) for vr in reals])
             else:
                 self._step_read[n] = None
-        self._set_port = {n: RealPort(self.instances[n], links[0], True) if links[0] else None
+        self._set_port = {n: self._port(n, links[0], True) if links[0] else None
                           for n, links in self._links.items()}
-        self._profile_port = {n: RealPort(self.instances[n], [vr for vr, _ in profs], True) if profs else None
+        self._profile_port = {n: self._port(n, [vr for vr, _ in profs], True) if profs else None
                               for n, profs in self._profiles.items()}
+
+    def _port(self, name: str, vrs: list[int], write: bool) -> RealPort:
+        """A RealPort on instance ``name`` whose refused call ends the run (:class:`RunFailure`)."""
+        def fail(reason: str, t: float):
+            raise RunFailure(name, t, reason)
+        return RealPort(self.instances[name], vrs, write, fail)
 
     def _key(self, inst: str, var: str) -> tuple[str, int]:
         v = self.instances[inst].var(var)
@@ -539,8 +365,7 @@ class Master:
 
     def _step(self, name: str, t: float, h: float) -> None:
         inst = self.instances[name]
-        slave = inst.slave
-        status = slave._functions["fmi2DoStep"](slave.component, t, h, 1)   # noSetFMUStatePriorToCurrentPoint
+        status = self._do_step[name](inst.component, t, h, 1)   # noSetFMUStatePriorToCurrentPoint
         if status > 1:   # discard, error, fatal
             raise RunFailure(name, t, inst.last_messages() or f"fmi2DoStep returned status {status}")
 
@@ -560,14 +385,7 @@ class Master:
 
     def _free(self) -> None:
         for inst in self.instances.values():
-            try:
-                inst.slave.terminate()
-            except Exception:
-                pass
-            try:
-                inst.slave.freeInstance()
-            except Exception:
-                pass
+            inst.close()
 
 
 def run_scene(scene: Scene, fmu_files: dict[str, Path], progress=None, sink=None) -> Result:

@@ -60,15 +60,12 @@ def typed_parameters(scene: Scene, fmu_files: dict[str, Path]) -> Scene:
     """Convert every parameter value of the scene (and the differential's effects) by the FMI type
     of its variable in the FMU's modelDescription: ``pinFriction = "off"`` is false, ``nPairs = true``
     and values out of the int32 range are refused. Raises a one-line SceneError naming the parameter."""
-    from harness.master import fmu_cache
+    from harness.fmi.instance import fmu_cache
 
     for spec in scene.instances:
         _, md = fmu_cache().get(fmu_files[spec.fmu])
         variables = {v.name: v for v in md.modelVariables}
-        groups = [(f"{spec.name}.", spec.parameters)]
-        if spec.fmu == "SpurDifferential":
-            groups.append(("effects.", scene.effects))
-        for prefix, params in groups:
+        for prefix, params in reversed(scene.parameter_sources(spec.name)):   # own parameters first
             for name, value in list(params.items()):
                 v = variables.get(name)
                 if v is None:

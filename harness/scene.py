@@ -38,10 +38,13 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+from harness.schema import (SceneError, is_safe_name, number as _number, parameter_value, positive as _positive,  # noqa: F401
+                            read_toml, safe_name, strings as _strings, table as _table_of, tables as _tables,
+                            text as _text, unknown as _unknown, window as _window)
 
 SCENE_DIR = Path(__file__).resolve().parent / "scenes"
 
@@ -57,72 +60,7 @@ STATS = {"mean", "max", "min", "final", "absmax", "span"}
 ALGORITHMS = {"gauss-seidel", "jacobi"}
 
 
-class SceneError(ValueError):
-    """A scene file that cannot be run (bad key, bad value, unknown FMU or variable)."""
-
-
-_SAFE_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]{0,99}$")
-
-
-def safe_name(where: str, name) -> str:
-    """``name`` if it can be a file or folder name inside a results folder (no separator, no '..',
-    no leading dot, at most 100 characters); else a SceneError naming ``where``."""
-    if not isinstance(name, str) or not _SAFE_NAME.match(name) or ".." in name:
-        raise SceneError(f"{where} = {name!r}: allowed letters, digits, '_', '-' and '.' (not first, no '..'), "
-                         "at most 100 characters: it becomes a file name")
-    return name
-
-
-INT32 = (-2**31, 2**31 - 1)
-_TRUE = {"true", "on", "yes", "1"}
-_FALSE = {"false", "off", "no", "0"}
-
-
-def _short(value, n: int = 60) -> str:
-    r = repr(value)
-    return r if len(r) <= n else r[: n - 3] + "..."
-
-
-def parameter_value(where: str, type_: str, value, finite: bool = True):
-    """``value`` converted to the FMI type ``type_`` (Real, Integer, Enumeration, Boolean, String) of
-    the variable it is set on; a value that does not fit raises a one-line SceneError.
-
-    Booleans: true/false, or the words true/false, on/off, yes/no, 1/0 (any case). Integers: whole
-    numbers in the int32 range (a boolean is not an integer). Reals: numbers, finite unless
-    ``finite`` is false (an FMU's own refusal of inf and NaN is tested through the master)."""
-    if type_ == "Boolean":
-        if isinstance(value, bool):
-            return value
-        if isinstance(value, int) and value in (0, 1):
-            return bool(value)
-        if isinstance(value, str) and value.strip().lower() in _TRUE | _FALSE:
-            return value.strip().lower() in _TRUE
-        raise SceneError(f"{where} = {_short(value)}: allowed a boolean: true or false (also on/off, yes/no, 1/0)")
-    if type_ in ("Integer", "Enumeration"):
-        v = value
-        if isinstance(v, float) and math.isfinite(v) and v.is_integer():
-            v = int(v)
-        if isinstance(v, bool) or not isinstance(v, int):
-            raise SceneError(f"{where} = {_short(value)}: allowed an integer in {INT32[0]} .. {INT32[1]}")
-        if not INT32[0] <= v <= INT32[1]:
-            raise SceneError(f"{where} = {_short(value)}: out of the int32 range; allowed an integer in "
-                             f"{INT32[0]} .. {INT32[1]}")
-        return v
-    if type_ == "Real":
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise SceneError(f"{where} = {_short(value)}: allowed a number")
-        try:
-            x = float(value)
-        except OverflowError:
-            x = math.inf if value > 0 else -math.inf
-        if finite and not math.isfinite(x):
-            raise SceneError(f"{where} = {_short(value)}: allowed a finite number")
-        return x
-    if type_ == "String":
-        if not isinstance(value, str):
-            raise SceneError(f"{where} = {_short(value)}: allowed a string")
-        return value
-    raise SceneError(f"{where}: variable type {type_} cannot be set")
+EFFECTS_FMU = "SpurDifferential"   # the FMU whose structural parameters a scene's [effects] table sets
 
 
 _REF = re.compile(r"\{([^{}]+)\}")
@@ -193,62 +131,61 @@ class Scene:
                 return inst
         raise SceneError(f"scene {self.name}: no FMU instance named {name!r}")
 
+    def parameter_sources(self, instance: str) -> list[tuple[str, dict[str, Any]]]:
+        """Where an instance's parameter values come from, lowest priority first, as (prefix for
+        messages, table): the scene's ``effects`` for the differential, then its own parameters."""
+        spec = self.instance(instance)
+        own = (f"{spec.name}.", spec.parameters)
+        return [("effects.", self.effects), own] if spec.fmu == EFFECTS_FMU else [own]
 
-def _unknown(where: str, keys, allowed) -> None:
-    bad = sorted(set(keys) - set(allowed))
-    if bad:
-        raise SceneError(f"{where}: unknown key{'s' if len(bad) > 1 else ''} {', '.join(repr(b) for b in bad)}; "
-                         f"allowed: {', '.join(sorted(allowed))}")
+    def parameters_of(self, instance: str) -> dict[str, Any]:
+        """The parameter values an instance is given (its own over the scene's effects)."""
+        out: dict[str, Any] = {}
+        for _, values in self.parameter_sources(instance):
+            out.update(values)
+        return out
 
+    def check_wiring(self, variables: dict[str, dict[str, Any]]) -> list[tuple[str, Any, str, Any]]:
+        """Check the scene against its FMUs' variables (instance -> {name: fmpy model variable}),
+        with one line naming what does not fit: each input profile sets an input; each connection
+        takes a Real output to a Real input of the same unit; each coupling and recorded quantity
+        is a numeric variable; each parameter is a parameter (or an input). Returns the
+        connections as (to instance, to variable, from instance, from variable)."""
+        def var(inst: str, name: str):
+            try:
+                return variables[inst][name]
+            except KeyError:
+                raise SceneError(f"{inst}: FMU has no variable {name!r}") from None
 
-def _positive(where: str, value) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise SceneError(f"{where} = {value!r}: allowed a number > 0")
-    v = float(value)
-    if not (v > 0.0 and math.isfinite(v)):
-        raise SceneError(f"{where} = {value!r}: allowed a finite number > 0")
-    return v
-
-
-def _number(where: str, value, minimum: float | None = None) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(float(value)):
-        raise SceneError(f"{where} = {value!r}: allowed a finite number")
-    if minimum is not None and value < minimum:
-        raise SceneError(f"{where} = {value!r}: allowed a number >= {minimum:g}")
-    return float(value)
-
-
-def _text(where: str, value) -> str:
-    if not isinstance(value, str):
-        raise SceneError(f"{where} = {value!r}: allowed a string")
-    return value
-
-
-def _table_of(where: str, value) -> dict:
-    if not isinstance(value, dict):
-        raise SceneError(f"{where} = {value!r}: allowed a table {{key = value, ...}}")
-    return value
-
-
-def _tables(where: str, value) -> list[dict]:
-    if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
-        raise SceneError(f"{where} = {value!r}: allowed an array of tables [[...]]")
-    return value
-
-
-def _strings(where: str, value) -> list[str]:
-    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-        raise SceneError(f"{where} = {value!r}: allowed a list of strings")
-    return value
-
-
-def _window(where: str, value) -> tuple[float, float]:
-    if not (isinstance(value, list) and len(value) == 2):
-        raise SceneError(f"{where} = {value!r}: allowed [t0, t1] in s")
-    lo, hi = (_number(where, v) for v in value)
-    if not lo <= hi:
-        raise SceneError(f"{where} = {value!r}: allowed [t0, t1] with t0 <= t1")
-    return value
+        for ref in self.inputs:
+            v = var(*ref.split(".", 1))
+            if v.causality != "input":
+                raise SceneError(f"inputs: {ref!r} is a {v.causality}, not an input (parameters go in "
+                                 "[fmus.<instance>.parameters])")
+        links = []
+        for to, frm in self.connections.items():
+            (ti, tv), (fi, fv) = to.split(".", 1), frm.split(".", 1)
+            tvar, fvar = var(ti, tv), var(fi, fv)
+            if tvar.causality != "input":
+                raise SceneError(f"connections: {to!r} is a {tvar.causality}, not an input")
+            if fvar.causality != "output":
+                raise SceneError(f"connections: {frm!r} is a {fvar.causality}, not an output")
+            if tvar.unit != fvar.unit:
+                raise SceneError(f"connections: {frm!r} [{fvar.unit}] -> {to!r} [{tvar.unit}]: units differ")
+            if tvar.type != "Real" or fvar.type != "Real":
+                raise SceneError(f"connections: {frm!r} -> {to!r}: only Real variables can be connected")
+            links.append((ti, tvar, fi, fvar))
+        for ref in [c[k] for c in self.couplings for k in ("torque", "w_from", "w_to")] + list(self.record):
+            inst, name = ref.split(".", 1)
+            v = var(inst, name)
+            if v.type not in ("Real", "Integer", "Boolean", "Enumeration"):
+                raise SceneError(f"{inst}.{name} is a {v.type}: only numeric variables can be recorded")
+        for spec in self.instances:
+            for name in self.parameters_of(spec.name):
+                v = var(spec.name, name)
+                if v.causality not in ("parameter", "input"):
+                    raise SceneError(f"{spec.name}.{name} is a {v.causality}, not a parameter")
+        return links
 
 
 def divides(where: str, step: float, duration: float) -> None:
@@ -467,7 +404,7 @@ def scene_path(name_or_path: str, base: Path | None = None) -> Path:
         if p.is_file():
             return p
         raise SceneError(f"scene file {str(p)!r} not found")
-    if _SAFE_NAME.match(name_or_path) and ".." not in name_or_path:
+    if is_safe_name(name_or_path):
         # a name: a scene beside the one that names it, then the packaged scenes
         for folder in ([base] if base is not None else []) + [SCENE_DIR]:
             q = folder / f"{name_or_path}.toml"
@@ -498,14 +435,7 @@ def read_scene_data(name_or_path: str, _seen: tuple[Path, ...] = (), _base: Path
         raise SceneError(f"{_seen[-1].name}: extends makes a cycle: {chain}")
     if len(_seen) >= MAX_EXTENDS:
         raise SceneError(f"{path.name}: extends chain longer than {MAX_EXTENDS} scenes")
-    try:
-        data = tomllib.loads(path.read_bytes().decode("utf-8"))
-    except UnicodeDecodeError as e:
-        raise SceneError(f"{path.name}: not UTF-8 text (byte {e.start}); allowed: a UTF-8 TOML file") from None
-    except tomllib.TOMLDecodeError as e:
-        raise SceneError(f"{path.name}: not valid TOML: {e}") from None
-    except OSError as e:
-        raise SceneError(f"{path.name}: cannot read: {e.strerror}") from None
+    data = read_toml(path)
     parent = data.get("extends")
     if parent is None:
         return data

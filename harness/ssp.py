@@ -69,33 +69,13 @@ def _model_descriptions(scene: Scene, fmu_files: dict[str, Path]):
     return mds
 
 
-def _var(variables: dict, inst: str, name: str):
-    try:
-        return variables[name]
-    except KeyError:
-        raise SceneError(f"{inst}: FMU has no variable {name!r}") from None
-
-
-def instance_values(scene: Scene, variables: dict[str, dict]) -> dict[str, dict[str, object]]:
-    """Start values per instance, as our master applies them: parameters (SpurDifferential:
-    effects, then the instance's own parameters), then each input profile's value at t = 0."""
-    out: dict[str, dict[str, object]] = {}
-    for spec in scene.instances:
-        params = dict(spec.parameters)
-        if spec.fmu == "SpurDifferential":
-            params = {**scene.effects, **params}
-        vals = {}
-        for name, value in params.items():
-            v = _var(variables[spec.name], spec.name, name)
-            if v.causality not in ("parameter", "input"):
-                raise SceneError(f"{spec.name}.{name} is a {v.causality}, not a parameter")
-            vals[name] = value
-        out[spec.name] = vals
+def instance_values(scene: Scene) -> dict[str, dict[str, object]]:
+    """Start values per instance, as our master applies them: parameters (:meth:`Scene.parameters_of`:
+    the differential's effects under its own parameters), then each input profile's value at t = 0.
+    The scene is checked against the FMUs first (:meth:`Scene.check_wiring`)."""
+    out = {spec.name: dict(scene.parameters_of(spec.name)) for spec in scene.instances}
     for ref, prof in scene.inputs.items():
         inst, name = ref.split(".", 1)
-        v = _var(variables[inst], inst, name)
-        if v.causality != "input":
-            raise SceneError(f"inputs: {ref!r} is a {v.causality}, not an input")
         out[inst][name] = prof(0.0)
     return out
 
@@ -193,19 +173,8 @@ def export_ssp_summary(scene: Scene, fmu_files: dict[str, Path], path: Path | st
         raise SspError(f"{path}: an SSP file name must end in .ssp")
     mds = _model_descriptions(scene, fmu_files)
     variables = {i.name: {v.name: v for v in mds[i.fmu].modelVariables} for i in scene.instances}
-    values = instance_values(scene, variables)
-    for to, frm in scene.connections.items():
-        (ti, tv), (fi, fv) = to.split(".", 1), frm.split(".", 1)
-        tvar, fvar = _var(variables[ti], ti, tv), _var(variables[fi], fi, fv)
-        if tvar.causality != "input":
-            raise SceneError(f"connections: {to!r} is a {tvar.causality}, not an input")
-        if fvar.causality != "output":
-            raise SceneError(f"connections: {frm!r} is a {fvar.causality}, not an output")
-        if tvar.unit != fvar.unit:
-            raise SceneError(f"connections: {frm!r} [{fvar.unit}] -> {to!r} [{tvar.unit}]: units differ")
-    for ref in scene.record:
-        inst, name = ref.split(".", 1)
-        _var(variables[inst], inst, name)
+    scene.check_wiring(variables)
+    values = instance_values(scene)
     tables = {ref: p for ref, p in scene.inputs.items() if p.kind != "constant"}
 
     path.parent.mkdir(parents=True, exist_ok=True)

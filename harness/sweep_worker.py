@@ -31,7 +31,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from harness.master import Instance, Interrupted, Master, RunFailure
+from harness.fmi.instance import Instance
+from harness.master import Interrupted, Master, RunFailure
 from harness.scene import Scene, SceneError
 
 STATUSES = ("ok", "failed", "timeout", "error", "crashed")
@@ -196,7 +197,7 @@ class InstancePool:
             try:
                 inst.slave.reset()
             except Exception:
-                _free_instance(inst)       # cannot be reused: drop it, try the next one
+                inst.close()               # cannot be reused: drop it, try the next one
                 continue
             self.reused += 1
             return inst
@@ -224,15 +225,7 @@ class InstancePool:
             insts = [i for lst in self._free.values() for i in lst]
             self._free.clear()
         for inst in insts:
-            _free_instance(inst)
-
-
-def _free_instance(inst: Instance) -> None:
-    for call in (inst.slave.terminate, inst.slave.freeInstance):
-        try:
-            call()
-        except Exception:
-            pass
+            inst.close()
 
 
 POOL = InstancePool()
@@ -282,11 +275,7 @@ def scene_for(job: Job, task: Task) -> Scene:
 
 def instance_params(scene: Scene, instance: str) -> dict[str, Any]:
     """Parameter values an instance gets (the differential's scene effects under its parameters)."""
-    spec = scene.instance(instance)
-    params = dict(spec.parameters)
-    if spec.fmu == "SpurDifferential":
-        params = {**scene.effects, **params}
-    return params
+    return scene.parameters_of(instance)
 
 
 def _worker_name() -> str:

@@ -28,9 +28,7 @@ OK_STATUSES = (0, 1)
 
 
 def check_version(s: Session):
-    from fmpy.fmi2 import FMU2Slave
-    s.trace("loading the binary")
-    fmu = FMU2Slave(guid=s.md.guid, unzipDirectory=s.unzipdir, modelIdentifier=s.cs.modelIdentifier)
+    fmu = s.instance("version").slave   # loaded, not instantiated
     s.trace("fmi2GetVersion")
     version = fmu.fmi2GetVersion()
     s.trace("fmi2GetTypesPlatform")
@@ -93,7 +91,7 @@ def _set_debug_logging(inst, on: bool, categories: list[str]) -> int:
     from fmpy.fmi2 import fmi2String
     arr = (fmi2String * max(1, len(categories)))(*[c.encode() for c in categories]) if categories else None
     label = f"fmi2SetDebugLogging({'on' if on else 'off'}, {len(categories)} categories)"
-    return inst.raw_status(label, inst.fmu.fmi2SetDebugLogging, inst.fmu.component, 1 if on else 0,
+    return inst.status(label, inst.slave.fmi2SetDebugLogging, inst.slave.component, 1 if on else 0,
                            len(categories), arr)
 
 
@@ -139,7 +137,7 @@ def check_initial_unknowns(s: Session):
     if s.start_values:
         a.set_values(s.start_values, " start values")
     a.setup()
-    a.call("fmi2EnterInitializationMode", a.fmu.enterInitializationMode)
+    a.call("fmi2EnterInitializationMode", a.slave.enterInitializationMode)
     refused = []
     for v in wanted:
         try:
@@ -152,7 +150,7 @@ def check_initial_unknowns(s: Session):
         msg = a.last_message()
         return FAIL, (f"in initialization mode fmi2Get* refused {len(refused)} of {len(wanted)}: "
                       + ", ".join(refused[:6]) + (f' ("{msg}")' if msg else ""))
-    a.call("fmi2ExitInitializationMode", a.fmu.exitInitializationMode)
+    a.call("fmi2ExitInitializationMode", a.slave.exitInitializationMode)
     a.terminate()
     a.free()
     return PASS, f"in initialization mode all {len(wanted)} InitialUnknowns / calculated parameters / outputs were read"
@@ -166,7 +164,7 @@ def _terminated(a) -> bool | None:
     """fmi2GetBooleanStatus(fmi2Terminated) after a discarded step: True/False, None if not answered."""
     from fmpy.fmi2 import fmi2Terminated
     value = c_int(0)
-    st = a.raw_status("fmi2GetBooleanStatus(fmi2Terminated)", a.fmu.fmi2GetBooleanStatus, a.fmu.component,
+    st = a.status("fmi2GetBooleanStatus(fmi2Terminated)", a.slave.fmi2GetBooleanStatus, a.slave.component,
                       fmi2Terminated, byref(value))
     return bool(value.value) if st in OK_STATUSES else None
 
@@ -289,10 +287,10 @@ def check_status_after_discard(s: Session):
                               ": the status calls are defined after fmi2Discard")
             stop, h = s.t0, s.h
     from fmpy.fmi2 import fmi2DoStepStatus, fmi2LastSuccessfulTime, fmi2Terminated
-    c = a.fmu.component
+    c = a.slave.component
     errors, warnings, seen = [], [], []
     term = c_int(-1)
-    st_b = a.raw_status("fmi2GetBooleanStatus(fmi2Terminated)", a.fmu.fmi2GetBooleanStatus, c, fmi2Terminated, byref(term))
+    st_b = a.status("fmi2GetBooleanStatus(fmi2Terminated)", a.slave.fmi2GetBooleanStatus, c, fmi2Terminated, byref(term))
     if st_b in OK_STATUSES:
         if term.value not in (0, 1):
             errors.append(f"fmi2Terminated is {term.value}, not fmi2True/fmi2False")
@@ -304,7 +302,7 @@ def check_status_after_discard(s: Session):
         errors.append(f"fmi2GetBooleanStatus(fmi2Terminated) returned {status_label(st_b)}")
     if st_b != 4:
         last = c_double(math.nan)
-        st_r = a.raw_status("fmi2GetRealStatus(fmi2LastSuccessfulTime)", a.fmu.fmi2GetRealStatus, c,
+        st_r = a.status("fmi2GetRealStatus(fmi2LastSuccessfulTime)", a.slave.fmi2GetRealStatus, c,
                             fmi2LastSuccessfulTime, byref(last))
         if st_r in OK_STATUSES:
             eps = 1e-9 * max(1.0, abs(stop))
@@ -318,7 +316,7 @@ def check_status_after_discard(s: Session):
             errors.append(f"fmi2GetRealStatus(fmi2LastSuccessfulTime) returned {status_label(st_r)}")
         if st_r != 4:
             val = c_int(-1)
-            st_s = a.raw_status("fmi2GetStatus(fmi2DoStepStatus)", a.fmu.fmi2GetStatus, c, fmi2DoStepStatus, byref(val))
+            st_s = a.status("fmi2GetStatus(fmi2DoStepStatus)", a.slave.fmi2GetStatus, c, fmi2DoStepStatus, byref(val))
             if st_s == 3:
                 warnings.append("fmi2GetStatus(fmi2DoStepStatus) returned fmi2Error (defined after fmi2Pending; "
                                 "a status the slave cannot give should be fmi2Discard)")
@@ -352,7 +350,7 @@ def check_reset(s: Session):
     a = s.instance("reset")
     a.initialize()
     first, _ = a.run(s.t0, s.steps)
-    a.call("fmi2Reset", a.fmu.reset)
+    a.call("fmi2Reset", a.slave.reset)
     a.initialize(instantiate=False)
     second, _ = a.run(s.t0, s.steps)
     a.terminate()
@@ -425,9 +423,9 @@ def check_two_instances(s: Session):
     for inst in (a, b):
         inst.setup()
     for inst in (a, b):
-        inst.call("fmi2EnterInitializationMode", inst.fmu.enterInitializationMode)
+        inst.call("fmi2EnterInitializationMode", inst.slave.enterInitializationMode)
     for inst in (a, b):
-        inst.call("fmi2ExitInitializationMode", inst.fmu.exitInitializationMode)
+        inst.call("fmi2ExitInitializationMode", inst.slave.exitInitializationMode)
     in_a = s.input_values()
     in_b = dict(in_a)
     in_b.update({k: x for k, x in overrides.items() if s.by_name[k].causality == "input"})
@@ -469,11 +467,11 @@ def check_get_set_state(s: Session):
     a = s.instance("state")
     a.initialize()
     _, t_k = a.run(s.t0, k)
-    state = a.call("fmi2GetFMUstate", a.fmu.getFMUstate)
+    state = a.call("fmi2GetFMUstate", a.slave.getFMUstate)
     first, _ = a.run(t_k, m)
-    a.call("fmi2SetFMUstate", a.fmu.setFMUstate, state)
+    a.call("fmi2SetFMUstate", a.slave.setFMUstate, state)
     second, _ = a.run(t_k, m)
-    a.call("fmi2FreeFMUstate", a.fmu.freeFMUstate, state)
+    a.call("fmi2FreeFMUstate", a.slave.freeFMUstate, state)
     a.terminate()
     a.free()
     diff = first_difference(s, second, first, "right after the state call")
@@ -492,13 +490,13 @@ def check_free_state(s: Session):
     a = s.instance("freeState")
     a.initialize()
     _, t_k = a.run(s.t0, k)
-    c = a.fmu.component
+    c = a.slave.component
     state = c_void_p()
-    a.call("fmi2GetFMUstate", a.fmu.fmi2GetFMUstate, c, byref(state))
+    a.call("fmi2GetFMUstate", a.slave.fmi2GetFMUstate, c, byref(state))
     first, t_end = a.run(t_k, m)
     runs = []
     for _ in range(2):
-        a.call("fmi2SetFMUstate", a.fmu.fmi2SetFMUstate, c, state)
+        a.call("fmi2SetFMUstate", a.slave.fmi2SetFMUstate, c, state)
         rows, _ = a.run(t_k, m)
         runs.append(rows)
     for i, rows in enumerate(runs, 1):
@@ -507,19 +505,19 @@ def check_free_state(s: Session):
             return FAIL, (f"the state saved at t = {t_k:g} s, set for the {('first', 'second')[i - 1]} time, "
                           f"continues differently: {diff} (restored vs first continuation)")
     # fmi2GetFMUstate with a state given: it is overwritten with the current state
-    a.call("fmi2GetFMUstate (overwriting a saved state)", a.fmu.fmi2GetFMUstate, c, byref(state))
+    a.call("fmi2GetFMUstate (overwriting a saved state)", a.slave.fmi2GetFMUstate, c, byref(state))
     again, _ = a.run(t_end, m)
-    a.call("fmi2SetFMUstate", a.fmu.fmi2SetFMUstate, c, state)
+    a.call("fmi2SetFMUstate", a.slave.fmi2SetFMUstate, c, state)
     back, _ = a.run(t_end, m)
     diff = first_difference(s, back, again, "right after the state call")
     if diff:
         return FAIL, (f"fmi2GetFMUstate into an existing state did not overwrite it with the state at "
                       f"t = {t_end:g} s: {diff} (restored vs continuation)")
-    a.call("fmi2FreeFMUstate", a.fmu.fmi2FreeFMUstate, c, byref(state))
+    a.call("fmi2FreeFMUstate", a.slave.fmi2FreeFMUstate, c, byref(state))
     if state.value is not None:
         return FAIL, f"fmi2FreeFMUstate left the state pointer at {state.value:#x}, not NULL"
     null = c_void_p()
-    a.call("fmi2FreeFMUstate(NULL)", a.fmu.fmi2FreeFMUstate, c, byref(null))
+    a.call("fmi2FreeFMUstate(NULL)", a.slave.fmi2FreeFMUstate, c, byref(null))
     a.terminate()
     a.free()
     return PASS, (f"a state set twice repeats the continuation twice; fmi2GetFMUstate overwrote a given state; "
@@ -537,18 +535,18 @@ def check_serialize_state(s: Session):
     a = s.instance("serialize")
     a.initialize()
     _, t_k = a.run(s.t0, k)
-    state = a.call("fmi2GetFMUstate", a.fmu.getFMUstate)
-    blob = a.call("fmi2SerializeFMUstate", a.fmu.serializeFMUstate, state)
-    a.call("fmi2FreeFMUstate", a.fmu.freeFMUstate, state)
+    state = a.call("fmi2GetFMUstate", a.slave.getFMUstate)
+    blob = a.call("fmi2SerializeFMUstate", a.slave.serializeFMUstate, state)
+    a.call("fmi2FreeFMUstate", a.slave.freeFMUstate, state)
     first, _ = a.run(t_k, m)
     a.terminate()
     a.free()
     b = s.instance("deserialize")
     b.initialize()
-    restored = b.call("fmi2DeSerializeFMUstate", b.fmu.deSerializeFMUstate, blob)
-    b.call("fmi2SetFMUstate", b.fmu.setFMUstate, restored)
+    restored = b.call("fmi2DeSerializeFMUstate", b.slave.deSerializeFMUstate, blob)
+    b.call("fmi2SetFMUstate", b.slave.setFMUstate, restored)
     second, _ = b.run(t_k, m)
-    b.call("fmi2FreeFMUstate", b.fmu.freeFMUstate, restored)
+    b.call("fmi2FreeFMUstate", b.slave.freeFMUstate, restored)
     b.terminate()
     b.free()
     diff = first_difference(s, second, first, "right after the state call")
@@ -587,7 +585,7 @@ def check_interpolate_inputs(s: Session):
     a.initialize()
     vrs = [v.valueReference for v in s.real_inputs]
     a.call(f"fmi2SetRealInputDerivatives({', '.join(v.name for v in s.real_inputs)}, order 1)",
-           a.fmu.setRealInputDerivatives, vrs, [1] * len(vrs), [0.0] * len(vrs))
+           a.slave.setRealInputDerivatives, vrs, [1] * len(vrs), [0.0] * len(vrs))
     a.run(s.t0, 1)
     a.terminate()
     a.free()
@@ -605,7 +603,7 @@ def check_output_derivatives(s: Session):
     a.initialize()
     a.run(s.t0, 1)
     vrs = [v.valueReference for v in real_out]
-    values = a.call("fmi2GetRealOutputDerivatives(order 1)", a.fmu.getRealOutputDerivatives, vrs, [1] * len(vrs))
+    values = a.call("fmi2GetRealOutputDerivatives(order 1)", a.slave.getRealOutputDerivatives, vrs, [1] * len(vrs))
     a.terminate()
     a.free()
     bad = [v.name for v, x in zip(real_out, values) if not math.isfinite(x)]
@@ -640,13 +638,13 @@ def check_directional_derivative(s: Session):
         if s.start_values:
             a.set_values(s.start_values, " start values")
         a.setup()
-        a.call("fmi2EnterInitializationMode", a.fmu.enterInitializationMode)
+        a.call("fmi2EnterInitializationMode", a.slave.enterInitializationMode)
         what = "in initialization mode"
     bad = []
     for k, known in enumerate(knowns):
         seed = [0.0] * len(knowns)
         seed[k] = 1.0
-        values = a.call(f"fmi2GetDirectionalDerivative({what}, d/d {known.name})", a.fmu.getDirectionalDerivative,
+        values = a.call(f"fmi2GetDirectionalDerivative({what}, d/d {known.name})", a.slave.getDirectionalDerivative,
                         [v.valueReference for v in unknowns], [v.valueReference for v in knowns], seed)
         bad += [f"d {v.name}/d {known.name}" for v, x in zip(unknowns, values) if not math.isfinite(x)]
     if bad:

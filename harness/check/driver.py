@@ -1,8 +1,9 @@
 """Worker side: driving one FMU through fmpy's low-level FMI 2.0 API, every call traced.
 
 Runs inside the fresh process of :mod:`.isolation`. :class:`Session` holds what the model
-description says (variables, experiment, capabilities); :class:`Instance` is one FMU instance
-(co-simulation via :class:`fmpy.fmi2.FMU2Slave`, model exchange via :class:`fmpy.fmi2.FMU2Model`).
+description says (variables, experiment, capabilities); :class:`Instance` is one FMU instance:
+the harness's FMU wrapper (:class:`harness.fmi.instance.Instance`: calls, statuses, messages,
+co-simulation or model exchange) driven the way the session says.
 
 How an instance is driven: after ``fmi2Instantiate`` (logging on) the start value of every
 non-constant parameter and input is set; ``fmi2SetupExperiment`` gets the DefaultExperiment start
@@ -20,30 +21,15 @@ import math
 import os
 from typing import Any, Callable, Sequence
 
+from harness.fmi.instance import REFUSED, CallFailed, Instance as FmuInstance, status_label  # noqa: F401
+
 DEFAULT_STEP_SIZE = 1e-3          # s, when the FMU has no DefaultExperiment stepSize
 SAME_RTOL, SAME_ATOL = 1e-9, 1e-12  # "same outputs": rounding-level differences only
-STATUS_LABELS = ("fmi2OK", "fmi2Warning", "fmi2Discard", "fmi2Error", "fmi2Fatal", "fmi2Pending")
-REFUSED = (2, 3, 4)  # discard, error, fatal
 ENV_BASE = 0x5D1F0000  # componentEnvironment values handed out: ENV_BASE + 16 k
 
 INSTANCES: dict[int, "Instance"] = {}          # componentEnvironment -> instance
 LOGGER_VIOLATIONS: list[str] = []              # messages with a wrong environment or instance name
 _LOGGER: list = []                             # the process's logger callback (kept alive)
-
-
-def status_label(status: int | None) -> str:
-    if status is None:
-        return "no status"
-    return STATUS_LABELS[status] if 0 <= status < len(STATUS_LABELS) else f"illegal status {status}"
-
-
-class CallFailed(Exception):
-    """An FMI call returned a status above fmi2Warning (or fmi2Instantiate returned NULL)."""
-
-    def __init__(self, call: str, instance: str, status: int | None, message: str = ""):
-        self.call, self.instance, self.status, self.message = call, instance, status, message
-        text = f"{call} [instance {instance}] returned {status_label(status) if status is not None else 'NULL'}"
-        super().__init__(text + (f': FMU says "{message}"' if message else ""))
 
 
 class Tracer:
@@ -165,108 +151,23 @@ class Session:
         return Instance(self, name, ENV_BASE + 16 * self._n, guid)
 
 
-class Instance:
-    """One FMU instance driven through fmpy's FMU2Slave / FMU2Model, every call traced and checked."""
+class Instance(FmuInstance):
+    """One FMU instance of the session: co-simulation or model exchange as the session says, every
+    call traced, messages through the process's logger (:func:`logger_callback`)."""
 
     def __init__(self, session: Session, name: str, env: int, guid: str | None = None):
-        from fmpy.fmi2 import FMU2Model, FMU2Slave
-        self.s, self.name, self.env = session, name, env
-        self.messages: list[tuple[int, str]] = []
-        self.s.trace(f"loading the binary [instance {name}]")
-        cls = FMU2Slave if session.kind == "cs" else FMU2Model
-        self.fmu = cls(guid=guid if guid is not None else session.md.guid, unzipDirectory=session.unzipdir,
-                       modelIdentifier=session.iface.modelIdentifier, instanceName=name)
+        self.s, self.env = session, env
+        super().__init__(name, unzipdir=session.unzipdir, md=session.md, kind=session.kind, guid=guid,
+                         trace=session.trace, instantiate=False)
 
-    # -- plumbing
-    def last_message(self) -> str:
-        bad = [m for st, m in self.messages if st >= 1]
-        text = (bad or [m for _, m in self.messages] or [""])[-1]
-        return " ".join(text.split())[:300]
-
-    def call(self, label: str, fn: Callable, *args):
-        """Trace, call, and turn fmpy's FMICallException into :class:`CallFailed`."""
-        from fmpy.fmi1 import FMICallException
-        self.s.trace(f"{label} [instance {self.name}]")
-        try:
-            return fn(*args)
-        except FMICallException as e:
-            raise CallFailed(label, self.name, e.status, self.last_message()) from None
-
-    def raw_status(self, label: str, fn: Callable, *args) -> int:
-        """Trace and call a raw fmi2XXX function; its status (no exception)."""
-        from fmpy.fmi1 import FMICallException
-        self.s.trace(f"{label} [instance {self.name}]")
-        try:
-            return int(fn(*args))
-        except FMICallException as e:
-            return int(e.status)
-
-    # -- lifecycle
     def instantiate(self, raise_on_null: bool = True) -> bool:
-        from ctypes import byref, c_void_p
-        from fmpy import calloc, free
-        from fmpy.fmi2 import fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions
-        cb = fmi2CallbackFunctions()
-        cb.logger = logger_callback()
-        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        cb.componentEnvironment = c_void_p(self.env)
-        try:
-            from fmpy.logging import addLoggerProxy  # formats printf-style messages in C
-            addLoggerProxy(byref(cb))
-        except Exception:
-            pass
-        self._callbacks = cb
         INSTANCES[self.env] = self
-        self.s.trace(f"fmi2Instantiate [instance {self.name}]")
-        try:
-            self.fmu.instantiate(visible=False, callbacks=cb, loggingOn=True)
-        except Exception:
-            if raise_on_null:
-                raise CallFailed("fmi2Instantiate", self.name, None, self.last_message()) from None
-            return False
-        return True
-
-    def set_values(self, values: dict[str, Any], label: str = "") -> None:
-        """Set variables by name, batched per type (one fmi2SetXXX call per type)."""
-        groups: dict[str, tuple[list[int], list[Any], list[str]]] = {}
-        for name, value in values.items():
-            v = self.s.by_name[name]
-            kind = "Integer" if v.type == "Enumeration" else v.type
-            vrs, vals, names = groups.setdefault(kind, ([], [], []))
-            vrs.append(v.valueReference)
-            vals.append(value)
-            names.append(name)
-        for kind, (vrs, vals, names) in groups.items():
-            setter = {"Real": self.fmu.setReal, "Integer": self.fmu.setInteger,
-                      "Boolean": self.fmu.setBoolean, "String": self.fmu.setString}[kind]
-            self.call(f"fmi2Set{kind}({', '.join(names)}){label}", setter, vrs, vals)
-
-    def set_status(self, name: str, value: Any) -> int:
-        """Set one variable through the raw FMI function and return its status (no exception)."""
-        from ctypes import c_char_p
-        from fmpy.fmi2 import fmi2Boolean, fmi2Integer, fmi2Real, fmi2ValueReference
-        v = self.s.by_name[name]
-        vr = (fmi2ValueReference * 1)(v.valueReference)
-        if v.type == "Real":
-            fn, arr = self.fmu.fmi2SetReal, (fmi2Real * 1)(value)
-        elif v.type in ("Integer", "Enumeration"):
-            fn, arr = self.fmu.fmi2SetInteger, (fmi2Integer * 1)(value)
-        elif v.type == "Boolean":
-            fn, arr = self.fmu.fmi2SetBoolean, (fmi2Boolean * 1)(1 if value else 0)
-        else:
-            fn, arr = self.fmu.fmi2SetString, (c_char_p * 1)(str(value).encode())
-        kind = "Integer" if v.type == "Enumeration" else v.type
-        return self.raw_status(f"fmi2Set{kind}({name} = {value!r})", fn, self.fmu.component, vr, 1, arr)
-
-    def step_status(self, t: float, h: float) -> int:
-        """fmi2DoStep returning its status instead of raising."""
-        return self.raw_status(f"fmi2DoStep(t={t:.9g}, h={h:.9g})", self.fmu.fmi2DoStep,
-                               self.fmu.component, t, h, 1)
+        return super().instantiate(logger=logger_callback(), environment=self.env, format_messages=True,
+                                   raise_on_null=raise_on_null)
 
     def setup(self, stop_time: float | None = None) -> None:
         label = f"fmi2SetupExperiment(startTime={self.s.t0:g}" + (f", stopTime={stop_time:g})" if stop_time is not None else ")")
-        self.call(label, self.fmu.setupExperiment, None, self.s.t0, stop_time)
+        self.call(label, self.slave.setupExperiment, None, self.s.t0, stop_time)
 
     def initialize(self, overrides: dict[str, Any] | None = None, instantiate: bool = True,
                    stop_time: float | None = None) -> None:
@@ -278,31 +179,12 @@ class Instance:
         if values:
             self.set_values(values, " start values")
         self.setup(stop_time)
-        self.call("fmi2EnterInitializationMode", self.fmu.enterInitializationMode)
-        self.call("fmi2ExitInitializationMode", self.fmu.exitInitializationMode)
-
-    def read(self, variables: Sequence, label: str) -> list[float]:
-        """Values of Real/Integer/Enumeration/Boolean ``variables`` as floats, in the given order."""
-        by_kind: dict[str, list] = {}
-        for i, v in enumerate(variables):
-            kind = "Integer" if v.type == "Enumeration" else v.type
-            by_kind.setdefault(kind, []).append((i, v.valueReference))
-        row = [math.nan] * len(variables)
-        getters = {"Real": self.fmu.getReal, "Integer": self.fmu.getInteger, "Boolean": self.fmu.getBoolean}
-        for kind, items in by_kind.items():
-            if kind not in getters:
-                continue
-            vals = self.call(f"fmi2Get{kind}({label})", getters[kind], [vr for _, vr in items])
-            for (i, _), x in zip(items, vals):
-                row[i] = float(x)
-        return row
+        self.call("fmi2EnterInitializationMode", self.slave.enterInitializationMode)
+        self.call("fmi2ExitInitializationMode", self.slave.exitInitializationMode)
 
     def outputs(self) -> list[float]:
         """Every Real/Integer/Enumeration/Boolean output, as floats, in model-description order."""
         return self.read(self.s.outputs, "outputs")
-
-    def do_step(self, t: float, h: float) -> None:
-        self.call(f"fmi2DoStep(t={t:.9g}, h={h:.9g})", self.fmu.doStep, t, h)
 
     def run(self, t: float, steps: Sequence[float] | int, inputs: dict[str, Any] | None = None):
         """Outputs now, then for each step: set inputs, doStep, read outputs. Returns (rows, t_end)."""
@@ -325,13 +207,6 @@ class Instance:
             t = t_next
             rows.append(self.outputs())
         return rows, t
-
-    def terminate(self) -> None:
-        self.call("fmi2Terminate", self.fmu.terminate)
-
-    def free(self) -> None:
-        self.s.trace(f"fmi2FreeInstance [instance {self.name}]")
-        self.fmu.freeInstance()
 
 
 def first_difference(s: Session, a: list[list[float]], b: list[list[float]],

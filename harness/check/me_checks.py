@@ -27,7 +27,7 @@ MAX_EVENT_ITERATIONS = 100
 def _event_iteration(a) -> tuple[bool, float | None]:
     """fmi2NewDiscreteStates until done; (terminate requested, next time event or None)."""
     for _ in range(MAX_EVENT_ITERATIONS):
-        needed, terminate, _, _, defined, t_next = a.call("fmi2NewDiscreteStates", a.fmu.newDiscreteStates)
+        needed, terminate, _, _, defined, t_next = a.call("fmi2NewDiscreteStates", a.slave.newDiscreteStates)
         if terminate:
             return True, None
         if not needed:
@@ -44,8 +44,8 @@ def check_me_basic(s: Session, out_csv: str | None = None):
     if s.start_values:
         a.set_values(s.start_values, " start values")
     a.setup(stop_time=s.t_stop)
-    a.call("fmi2EnterInitializationMode", a.fmu.enterInitializationMode)
-    a.call("fmi2ExitInitializationMode", a.fmu.exitInitializationMode)
+    a.call("fmi2EnterInitializationMode", a.slave.enterInitializationMode)
+    a.call("fmi2ExitInitializationMode", a.slave.exitInitializationMode)
     terminated, t_event = _event_iteration(a)
     x, dx = (c_double * max(1, nx))(), (c_double * max(1, nx))()
     z, z_prev = (c_double * max(1, nz))(), (c_double * max(1, nz))()
@@ -53,11 +53,11 @@ def check_me_basic(s: Session, out_csv: str | None = None):
     rows = [[t] + a.outputs()]
     n_steps = n_events = 0
     if not terminated:
-        a.call("fmi2EnterContinuousTimeMode", a.fmu.enterContinuousTimeMode)
+        a.call("fmi2EnterContinuousTimeMode", a.slave.enterContinuousTimeMode)
         if nx:
-            a.call("fmi2GetContinuousStates", a.fmu.getContinuousStates, x, nx)
+            a.call("fmi2GetContinuousStates", a.slave.getContinuousStates, x, nx)
         if nz:
-            a.call("fmi2GetEventIndicators", a.fmu.getEventIndicators, z_prev, nz)
+            a.call("fmi2GetEventIndicators", a.slave.getEventIndicators, z_prev, nz)
     while not terminated and t < s.t_stop:
         t_next = t + s.h
         time_event = t_event is not None and t_next >= t_event
@@ -67,32 +67,32 @@ def check_me_basic(s: Session, out_csv: str | None = None):
             t_next = s.t_stop
         h = t_next - t
         if nx:
-            a.call("fmi2GetDerivatives", a.fmu.getDerivatives, dx, nx)
+            a.call("fmi2GetDerivatives", a.slave.getDerivatives, dx, nx)
             bad = [s.md.derivatives[i].variable.name for i in range(nx) if not math.isfinite(dx[i])]
             if bad:
                 return FAIL, f"non-finite derivatives at t = {t:g} s: {', '.join(bad[:5])}"
             for i in range(nx):
                 x[i] += h * dx[i]
         t = t_next
-        a.call(f"fmi2SetTime({t:.9g})", a.fmu.setTime, t)
+        a.call(f"fmi2SetTime({t:.9g})", a.slave.setTime, t)
         if nx:
-            a.call("fmi2SetContinuousStates", a.fmu.setContinuousStates, x, nx)
+            a.call("fmi2SetContinuousStates", a.slave.setContinuousStates, x, nx)
         state_event = False
         if nz:
-            a.call("fmi2GetEventIndicators", a.fmu.getEventIndicators, z, nz)
+            a.call("fmi2GetEventIndicators", a.slave.getEventIndicators, z, nz)
             state_event = any(z_prev[i] * z[i] < 0 for i in range(nz))
-        step_event, terminated = a.call("fmi2CompletedIntegratorStep", a.fmu.completedIntegratorStep)
+        step_event, terminated = a.call("fmi2CompletedIntegratorStep", a.slave.completedIntegratorStep)
         n_steps += 1
         if not terminated and (time_event or state_event or step_event):
             n_events += 1
-            a.call("fmi2EnterEventMode", a.fmu.enterEventMode)
+            a.call("fmi2EnterEventMode", a.slave.enterEventMode)
             terminated, t_event = _event_iteration(a)
             if not terminated:
-                a.call("fmi2EnterContinuousTimeMode", a.fmu.enterContinuousTimeMode)
+                a.call("fmi2EnterContinuousTimeMode", a.slave.enterContinuousTimeMode)
                 if nx:
-                    a.call("fmi2GetContinuousStates", a.fmu.getContinuousStates, x, nx)
+                    a.call("fmi2GetContinuousStates", a.slave.getContinuousStates, x, nx)
                 if nz:
-                    a.call("fmi2GetEventIndicators", a.fmu.getEventIndicators, z, nz)
+                    a.call("fmi2GetEventIndicators", a.slave.getEventIndicators, z, nz)
         if nz:
             z_prev[:nz] = z[:nz]
         bad = [s.md.derivatives[i].variable.name for i in range(nx) if not math.isfinite(x[i])]
@@ -118,12 +118,12 @@ def _continuous_time(s: Session, name: str):
     if s.start_values:
         a.set_values(s.start_values, " start values")
     a.setup(stop_time=s.t_stop)
-    a.call("fmi2EnterInitializationMode", a.fmu.enterInitializationMode)
-    a.call("fmi2ExitInitializationMode", a.fmu.exitInitializationMode)
+    a.call("fmi2EnterInitializationMode", a.slave.enterInitializationMode)
+    a.call("fmi2ExitInitializationMode", a.slave.exitInitializationMode)
     terminated, _ = _event_iteration(a)
     if terminated:
         return None
-    a.call("fmi2EnterContinuousTimeMode", a.fmu.enterContinuousTimeMode)
+    a.call("fmi2EnterContinuousTimeMode", a.slave.enterContinuousTimeMode)
     return a
 
 
@@ -140,23 +140,23 @@ def check_me_directional_derivative(s: Session):
     if a is None:
         return SKIP, "the FMU asked to terminate during initialization"
     x, dx = (c_double * nx)(), (c_double * nx)()
-    a.call("fmi2GetContinuousStates", a.fmu.getContinuousStates, x, nx)
+    a.call("fmi2GetContinuousStates", a.slave.getContinuousStates, x, nx)
     x0 = list(x)
     worst = (0.0, "")
     for k in range(nx):
         seed = [0.0] * nx
         seed[k] = 1.0
-        col = a.call(f"fmi2GetDirectionalDerivative(derivatives, d/d {states[k].name})", a.fmu.getDirectionalDerivative,
+        col = a.call(f"fmi2GetDirectionalDerivative(derivatives, d/d {states[k].name})", a.slave.getDirectionalDerivative,
                      [v.valueReference for v in ders], [v.valueReference for v in states], seed)
         delta = 1e-6 * max(1.0, abs(x0[k]))
         fd = []
         for sign in (1.0, -1.0):
             xs = (c_double * nx)(*x0)
             xs[k] = x0[k] + sign * delta
-            a.call("fmi2SetContinuousStates", a.fmu.setContinuousStates, xs, nx)
-            a.call("fmi2GetDerivatives", a.fmu.getDerivatives, dx, nx)
+            a.call("fmi2SetContinuousStates", a.slave.setContinuousStates, xs, nx)
+            a.call("fmi2GetDerivatives", a.slave.getDerivatives, dx, nx)
             fd.append(list(dx))
-        a.call("fmi2SetContinuousStates", a.fmu.setContinuousStates, (c_double * nx)(*x0), nx)
+        a.call("fmi2SetContinuousStates", a.slave.setContinuousStates, (c_double * nx)(*x0), nx)
         for i in range(nx):
             approx = (fd[0][i] - fd[1][i]) / (2 * delta)
             if not math.isfinite(col[i]):
