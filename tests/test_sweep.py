@@ -1,4 +1,4 @@
-"""Sweeps (harness/sweep.py, harness/sweep_worker.py): file validation, sampling, failures recorded,
+"""Sweeps (harness/sweep/): file validation, sampling, failures recorded,
 nothing lost when the driver or a worker dies, resume, and identical results in-process and on a
 dask.distributed LocalCluster of worker processes."""
 from __future__ import annotations
@@ -16,7 +16,8 @@ import pytest
 
 from harness.sweep import (ProgressBar, SweepError, available, expand, load_sweep, main, parse_sweep, plan_sweep,
                            read_table, run_sweep, sweep_path)
-from harness.sweep_worker import InstancePool, ReusingMaster, run_one, scene_for
+from harness.sweep.pool import InstancePool, ReusingMaster
+from harness.sweep.worker import run_one, scene_for
 
 SMALL = """
 name = "small"
@@ -285,7 +286,7 @@ def test_a_sweep_run_after_other_fmu_users_in_the_process_still_gets_the_reason(
 import os, sys
 from harness.master import run_scene
 from harness.sweep import load_sweep, plan_sweep
-from harness.sweep_worker import run_one, scene_for
+from harness.sweep.worker import run_one, scene_for
 plan = plan_sweep(load_sweep({str(sweep)!r}))
 print(run_one(plan.tasks[5], plan.job)["status"])
 run_scene(scene_for(plan.job, plan.tasks[5]), plan.fmu_files)   # instantiates and frees its own

@@ -1,0 +1,54 @@
+"""Parameter sweeps over a scene: one command from a laptop to a Dask cluster, nothing lost.
+
+A sweep file (``harness/sweeps/*.toml``, read with :mod:`tomllib`; unknown keys are rejected)
+names a scene, the parameters to vary and the metrics to collect::
+
+    name, description          text (name defaults to the file name)
+    scene                      a scene name (``spurdiff scenes``) or a path to a scene file
+    duration, step, mesh, algorithm   scene overrides, as for ``spurdiff run``
+    fixed                      {"inst.param" = value}: set in every run
+    timeout                    s of wall time per run (checked between steps); default none
+    [sample]                   method = "grid" (default) | "list" | "random" | "lhs"; n, seed (random, lhs)
+    [[parameters]]             name = "inst.param"; values = [...] (grid, list) or range = [lo, hi]
+                               (grid with n; random, lhs); scale = "linear" | "log"; integer = true
+    [[metrics]]                name plus one of:
+                                 var = quantity, stat = mean|max|min|final|absmax|span, window = [t0, t1]
+                                 expr = arithmetic over earlier columns, e.g. "{a} / abs({b})"
+                                 theory = "locking_coefficient" | "torque_bias_ratio" (instance = "diff")
+    [[plots]]                  x, y = [...], theory = [...] (dashed), group, title, file
+
+Runs go to a Dask cluster: by default a local one of worker processes (pythonfmu FMUs run in
+their host's interpreter, so parallelism comes from processes), ``scheduler`` = an existing
+cluster, ``workers = 0`` = in this process. Every finished run is appended to one CSV table at
+once (a row per run: run, status, reason, wall_time_s, worker, parameters, metrics); a failed run
+is a row with its reason; ``resume`` reruns only the runs missing from the table.
+
+The package, one module per job: :mod:`.spec` (the file's schema), :mod:`.sampling` (the runs),
+:mod:`.plan` (scene, FMUs and names checked), :mod:`.jobs` (what travels to the workers),
+:mod:`.worker` (one run, inside a worker), :mod:`.pool` (FMU instances reused per process),
+:mod:`.fmu_files` (FMU snapshots), :mod:`.theory` (closed-form metrics), :mod:`.table` (the CSV
+table, resume, the folder lock), :mod:`.executors` (this process or Dask), :mod:`.progress`,
+:mod:`.run` (all of it together), :mod:`.plots`, :mod:`.bench`; the command line is
+:mod:`harness.cli.sweep`.
+"""
+from __future__ import annotations
+
+from harness.sweep.jobs import STATUSES, FmuRef, Job, Metric, Task
+from harness.sweep.plan import Plan, plan_sweep
+from harness.sweep.progress import ProgressBar
+from harness.sweep.run import Outcome, run_sweep
+from harness.sweep.sampling import expand, unit_samples
+from harness.sweep.spec import SWEEP_DIR, Param, Plot, Sweep, SweepError, available, load_sweep, parse_sweep, sweep_path
+from harness.sweep.table import FolderLock, TableWriter, fmt, read_table, table_path, write_table
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``spurdiff sweep`` (see :mod:`harness.cli.sweep`)."""
+    from harness.sweep.command import main as _main
+    return _main(argv)
+
+
+__all__ = ["STATUSES", "FmuRef", "Job", "Metric", "Task", "Plan", "plan_sweep", "ProgressBar", "Outcome", "run_sweep",
+           "expand", "unit_samples", "SWEEP_DIR", "Param", "Plot", "Sweep", "SweepError", "available", "load_sweep",
+           "parse_sweep", "sweep_path", "FolderLock", "TableWriter", "fmt", "read_table", "table_path", "write_table",
+           "main"]
