@@ -34,7 +34,7 @@ from harness.master import Result, run_scene
 from harness.report import stat
 from harness.runner import fmu_files_for, prepare_scene
 from harness.scene import Scene, SceneError
-from spurdiff.mesh_bench import metric_scales, relative_errors
+from harness.metrics import metric_scales, relative_errors
 
 GRID_FILE = Path(__file__).resolve().parent / "accuracy_grid.toml"
 DATA_FILE = Path(__file__).resolve().parent / "accuracy_data.csv"
@@ -238,9 +238,9 @@ def _wall_at(curve: list[dict], err: float) -> float | None:
 
 def ivp_baseline(log=print) -> list[dict]:
     """Our internal solver against scipy's solve_ivp on the same differential ODE
-    (:mod:`spurdiff.mesh_bench`: contact level from unloaded meshes, compliant level with
+    (:mod:`harness.bench.mesh`: contact level from unloaded meshes, compliant level with
     backlash through a torque reversal)."""
-    from spurdiff.mesh_bench import IVP_CASES, ivp_points
+    from harness.bench.mesh import IVP_CASES, ivp_points
 
     out = []
     for case in IVP_CASES:
@@ -331,7 +331,7 @@ def markdown_ivp(ivp: list[dict], command: str = "spurdiff accuracy") -> list[st
     lines = ["## Our internal solver against scipy's solve_ivp", "", f"Measured by `{command}`.", "",
              "The same differential ODE (`MeshDifferential.rhs`/`.jac`, pin friction off so no mode switches), "
              "0.3 s, 1 ms communication points, compared with a tolerance-1e-11 run of ours "
-             "(`spurdiff.mesh_bench.ivp_points`) on two errors: the paper scenes' metrics (mean, max and min of the "
+             "(`harness.bench.mesh.ivp_points`) on two errors: the paper scenes' metrics (mean, max and min of the "
              "carrier and sun torques and the three mesh forces along the trajectory, each relative to its "
              "quantity's scale, as the scenes above are measured; plotted) and the scaled states at the "
              "communication points (stricter). solve_ivp runs once over the whole interval (\"one call\") and, "

@@ -126,12 +126,12 @@ def breakaway_table(resolution: float = 1e-3) -> str:
     load difference is ramped (1 ms steps of ``resolution`` x K T0, from 0.97 K T0, the model
     starting statically loaded) until the differential moves (rigid: relative speed; contact: both
     planets slipping). T0 = 2100 N m, carrier at 1.389 rad/s, sun A the more loaded one."""
-    from spurdiff.mesh_dynamics import MeshDifferential, MeshParams
+    from spurdiff.mesh import MeshDifferential, MeshParams
     from spurdiff.rigid import RigidDifferential
 
     def make(level: str, loads: tuple[float, float]):
         p = DifferentialParams()
-        m = RigidDifferential(p) if level == "rigid" else MeshDifferential(p, MeshParams(meshModel=level))
+        m = RigidDifferential(p) if level == "rigid" else MeshDifferential(p, MeshParams(level=level))
         m.w_ref, m.w_start_carrier = 1.389, 1.389
         m.tau_L, m.tau_R = loads
         m.initialize()

@@ -118,10 +118,11 @@ def test_scene_metrics_of_a_trajectory_measure_its_distance_from_the_reference()
     relative change of a peak when one output sample is perturbed."""
     import numpy as np
 
-    from spurdiff.mesh_bench import _fresh, _trajectory, metric_error, output_metrics
+    from harness.bench.mesh import ivp_model, output_metrics, trajectory
+    from harness.metrics import metric_error
 
-    m = _fresh("contact, unloaded start", 1e-4)
-    ys, _ = _trajectory(m, t_end=0.02)
+    m = ivp_model("contact, unloaded start", 1e-4)
+    ys, _ = trajectory(m, t_end=0.02)
     ref = output_metrics(m, ys)
     assert metric_error(output_metrics(m, ys), ref) == 0.0
     assert all(np.isfinite(v) for v in ref.values())

@@ -125,12 +125,12 @@ def test_bad_step_through_fmi_is_discarded_not_fatal(differential_fmu):
 # ---------------------------------------------------------------- mesh levels (compliant, contact)
 from hypothesis import given, settings, strategies as st  # noqa: E402
 
-from spurdiff.mesh_dynamics import MeshDifferential, MeshParams  # noqa: E402
+from spurdiff.mesh import MeshDifferential, MeshParams  # noqa: E402
 
 
 def meshed(level="contact", drive="speed", w0=1.389, loads=(-1050.0, -1050.0), **mesh):
     m = MeshDifferential(DifferentialParams(carrierDrive=drive, J_carrier=13.0 if drive == "torque" else 0.0),
-                         MeshParams(meshModel=level, **mesh))
+                         MeshParams(level=level, **mesh))
     m.w_ref, m.w_start_carrier = w0, w0
     m.tau_L, m.tau_R = loads
     m.initialize()
@@ -351,7 +351,7 @@ def test_drawn_gear_tables_loads_and_steps_stay_finite_passive_and_kinematic(zs,
     if level == "rigid":
         m = RigidDifferential(params)
     else:
-        m = MeshDifferential(params, MeshParams(meshModel="contact", maxInternalSteps=10 ** 6))
+        m = MeshDifferential(params, MeshParams(level="contact", maxInternalSteps=10 ** 6))
     m.w_start_carrier, m.tau_c = 10.0, 0.0
     m.tau_L, m.tau_R = -t0 / 2 - dt / 2, -t0 / 2 + dt / 2
     m.initialize()

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from spurdiff.errors import ParameterError
-from spurdiff.mesh_dynamics import MeshDifferential, MeshParams, N_PER_MM15
-from spurdiff.mesh_laws import friction_coefficient, impact, elasto_backlash, iso6336_stiffness, step
+from spurdiff.mesh import MeshDifferential, MeshParams, N_PER_MM15
+from spurdiff.mesh.laws import friction_coefficient, impact, elasto_backlash, iso6336_stiffness, step
 from spurdiff.params import DifferentialParams
 from spurdiff.rigid import RigidDifferential, StepError
 
@@ -22,7 +22,7 @@ LEVELS = ("compliant", "contact")
 def model(level="contact", loads=STRAIGHT, drive="speed", tau_c=0.0, w_left=float("nan"), law="pinFriction",
           locking_preload=0.0, **mesh):
     m = MeshDifferential(DifferentialParams(carrierDrive=drive, lockingLaw=law, lockingPreload=locking_preload),
-                         MeshParams(meshModel=level, **mesh))
+                         MeshParams(level=level, **mesh))
     m.w_ref, m.tau_c = W0, tau_c
     m.tau_L, m.tau_R = loads
     m.w_start_carrier = W0
@@ -356,7 +356,7 @@ def test_mesh_stiffness_wave_follows_the_contact_ratio():
     assert frac_double == pytest.approx(me.eps - 1.0, abs=0.03)
     # the wave keeps the mean stiffness: the factor averaged over one mesh period is 1
     xs = np.linspace(0.0, 1.0, 100001)[:-1]
-    assert np.mean([m._stiffness_factor(me, x) for x in xs]) == pytest.approx(1.0, rel=1e-4)
+    assert np.mean([m.phase_obj.factor(me, x) for x in xs]) == pytest.approx(1.0, rel=1e-4)
 
 
 def test_flank_friction_loses_power_only_when_the_gears_roll():
@@ -422,7 +422,7 @@ def test_tiny_communication_steps():
 
 
 def test_rosenbrock_w_method_has_order_3_even_with_a_wrong_jacobian():
-    from spurdiff.mesh_integrator import RosenbrockW
+    from spurdiff.mesh.integrator import RosenbrockW
 
     def f(y, out, J):  # oscillator driving a stiff component (eigenvalue -1e4)
         out[0], out[1], out[2] = -y[1], y[0], -1e4 * (y[2] - math.sin(y[0]))
@@ -463,9 +463,9 @@ def test_rhs_is_the_integrated_ode():
 def test_analytic_jacobian_matches_finite_differences():
     rng = np.random.default_rng(3)
     for drive in ("speed", "torque"):
-        for mesh in (dict(meshModel="compliant"), dict(meshModel="contact", backlash=True)):
+        for mesh in (dict(level="compliant"), dict(level="contact", backlash=True)):
             mesh = dict(mesh)
-            m = model(mesh.pop("meshModel"), CORNER, drive, 2000.0, **mesh)
+            m = model(mesh.pop("level"), CORNER, drive, 2000.0, **mesh)
             for modes in ([0, 0], [1, -1], [0, 1]):
                 m.s = modes
                 y = m.state_vector()
@@ -532,7 +532,7 @@ def test_step_error_leaves_the_state_unchanged():
 
 
 @pytest.mark.parametrize("field,value", [
-    ("meshModel", "rigid"), ("tolerance", 0.0), ("tolerance", float("nan")), ("backlashA1", -1e-4),
+    ("level", "rigid"), ("tolerance", 0.0), ("tolerance", float("nan")), ("backlashA1", -1e-4),
     ("stiffness12", -1.0), ("dampingRatio", 20.0), ("contactExponent", 0.5), ("contactDepth", 0.0),
     ("contactStiffnessB2", 0.0), ("muStatic", 1.5), ("muDynamic", 0.06), ("vStiction", 0.0),
     ("vTransition", 1e-5), ("maxInternalSteps", 2), ("pinFriction", "yes"), ("youngsModulus", 1.0),
@@ -549,7 +549,7 @@ def test_bad_inputs_and_steps():
     m.tau_L = float("nan")
     with pytest.raises(ParameterError) as e:
         m.do_step(0.0, 1e-3)
-    assert e.value.name == "left.tau"
+    assert e.value.name == "tau_L"
     m.tau_L = -1050.0
     with pytest.raises(ParameterError):
         m.do_step(0.0, 0.0)

@@ -11,7 +11,7 @@ from .fmi_vars import Var
 from .geometry import Gear, GearTable
 from .locking import torque_bias_ratio
 from .phasing import mesh_phases
-from .mesh_dynamics import MeshDifferential, MeshParams
+from .mesh import MeshDifferential, MeshParams
 from .params import DifferentialParams
 from .rigid import RigidDifferential
 from .shafts import SHAFT_COUPLINGS, ShaftedDifferential, ShaftParams, ShaftsParams, WheelSurrogate
@@ -274,7 +274,7 @@ def differential_params(values: dict) -> DifferentialParams:
 
 # FMU parameter name -> MeshParams field
 MESH_FIELDS: dict[str, str] = {
-    "meshModel": "meshModel", "tolerance": "tolerance", "maxInternalSteps": "maxInternalSteps",
+    "meshModel": "level", "tolerance": "tolerance", "maxInternalSteps": "maxInternalSteps",
     **{e: e for e in EFFECTS},
     "mesh.preload": "preload", "mesh.dampingRatio": "dampingRatio", "mesh.E": "youngsModulus",
     "mesh.contactExponent": "contactExponent", "mesh.contactDamping": "contactDamping",
@@ -284,6 +284,8 @@ MESH_FIELDS: dict[str, str] = {
        for a, b in (("backlash", "backlash"), ("c", "stiffness"), ("contactStiffness", "contactStiffness"))},
 }
 _FMU_NAME = {field: name for name, field in MESH_FIELDS.items()}
+# the physics' input names -> the FMU's (named in the error of a non-finite input)
+INPUT_NAMES = {"w_ref": "carrier.w_ref", "tau_c": "carrier.tau", "tau_L": "left.tau", "tau_R": "right.tau"}
 
 
 def mesh_params(values: dict) -> MeshParams:
@@ -319,6 +321,7 @@ def build_model(values: dict):
         model = RigidDifferential(params)
     else:
         model = MeshDifferential(params, mesh_params(values))
+        model.input_names = INPUT_NAMES
     push_inputs(model, values)
     model.w_start_carrier = float(values["carrier.w_start"])
     wc0 = model.w_ref if model.params.carrierDrive == "speed" else model.w_start_carrier

@@ -57,9 +57,12 @@ def require_nonnegative(name: str, value: float) -> float:
     return v
 
 
-def require_range(name: str, value: float, lo: float, hi: float) -> float:
-    """Return ``value`` as float if finite and lo <= value <= hi."""
+def require_range(name: str, value: float, lo: float, hi: float, allowed: str | None = None,
+                  lo_open: bool = False) -> float:
+    """Return ``value`` as float if finite and lo <= value <= hi (lo < value with ``lo_open``);
+    ``allowed`` replaces the default description of the range in the error."""
     v = require_finite(name, value)
-    if not lo <= v <= hi:
-        raise ParameterError(name, value, f"between {lo:g} and {hi:g}")
+    if not (lo < v if lo_open else lo <= v) or not v <= hi:
+        raise ParameterError(name, value, allowed or (f"> {lo:g} and <= {hi:g}" if lo_open
+                                                      else f"between {lo:g} and {hi:g}"))
     return v

@@ -3,7 +3,7 @@
 A mesh phase says where the tooth pairs of a mesh are along its path of contact: with the pairs
 one base pitch ``p_b`` apart, the phase ``xi`` in [0, 1) is the position of a pair measured from
 the start of the usable path (gear 1's side), in base pitches. The stiffness wave and the flank
-friction of :mod:`spurdiff.mesh_dynamics` read it.
+friction of :mod:`spurdiff.mesh` read it.
 
 Geometry (all angles in the carrier, gear centres from :class:`spurdiff.locking.PinLayout`):
 

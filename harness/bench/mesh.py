@@ -1,34 +1,47 @@
 """Measurements behind docs/mesh-dynamics.md: the paper's two cases at each mesh level, the
-tolerance sweep that chose the default tolerance, and the comparison with scipy's solve_ivp.
+tolerance sweep that chose the default tolerance, and the comparison with scipy's solve_ivp on the
+same differential ODE.
 
-Run ``PYTHONPATH=fmu_src python -m spurdiff.mesh_bench [--full] [--section paper|tolerance|ivp]``.
-Wall times are measured here and printed, never asserted (they depend on the machine).
+Run ``python -m harness.bench.mesh [--full] [--section paper|tolerance|ivp]``. The paper's cases
+are read from the scenes ``paper-straight`` and ``paper-cornering`` (carrier speed, sun loads,
+locking law, duration, step). Wall times are measured here and printed, never asserted.
 """
 from __future__ import annotations
 
 import argparse
-import math
 import time
 
 import numpy as np
 
-from .mesh_dynamics import MeshDifferential, MeshParams
-from .params import DifferentialParams
-from .rigid import RigidDifferential
+from harness.metrics import metric_error
+from harness.scene import load_scene
+from spurdiff.mesh import MeshDifferential, MeshParams
+from spurdiff.params import DifferentialParams
+from spurdiff.rigid import RigidDifferential
 
-W0 = 1.389
-CASES = {"paper-straight": (-1050.0, -1050.0), "paper-cornering": (-1110.201, -989.799)}
+PAPER_SCENES = ("paper-straight", "paper-cornering")
 SCALE = np.array([1.0, 1e-5, 1e-5, 1e-5, 1.0, 1.0, 1.0, 1.0])  # state units for error norms
 
 
-def make(level: str, loads, **mesh):
-    p = DifferentialParams(lockingLaw="paper")   # the paper's cases, with the paper's locking law
+def paper_case(scene_name: str) -> dict:
+    """Carrier speed, sun loads, locking law, duration and step of a paper scene (its differential
+    instance ``diff`` with constant inputs)."""
+    sc = load_scene(scene_name)
+    inp = sc.inputs
+    params = next(i.parameters for i in sc.instances if i.name == "diff")
+    return {"w0": inp["diff.carrier.w_ref"].value, "loads": (inp["diff.left.tau"].value, inp["diff.right.tau"].value),
+            "lockingLaw": params.get("lockingLaw", "pinFriction"), "duration": sc.duration, "step": sc.step}
+
+
+def make(level: str, case: dict, **mesh):
+    """A model of the paper case ``case`` (:func:`paper_case`) at ``level``, initialized."""
+    p = DifferentialParams(lockingLaw=case["lockingLaw"])
     if level == "rigid":
         m = RigidDifferential(p)
     else:
-        m = MeshDifferential(p, MeshParams(meshModel=level, **mesh))
-    m.w_ref, m.w_start_carrier = W0, W0
-    m.tau_L, m.tau_R = loads
+        m = MeshDifferential(p, MeshParams(level=level, **mesh))
+    m.w_ref, m.w_start_carrier = case["w0"], case["w0"]
+    m.tau_L, m.tau_R = case["loads"]
     m.initialize()
     return m
 
@@ -58,10 +71,11 @@ def paper(full: bool) -> None:
     print("| case | level | effects | carrier | sun A | sun B | F_A1 | F_B2 | F_12 | w_A(0.3 s) | w_B(0.3 s) "
           "| wall s | x real time | internal steps |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for case, loads in CASES.items():
+    for case in PAPER_SCENES:
+        spec = paper_case(case)
         for level, mesh in levels + (extra if full or case == "paper-straight" else []):
-            m = make(level, loads, **mesh)
-            mean, last, wall = simulate(m)
+            m = make(level, spec, **mesh)
+            mean, last, wall = simulate(m, spec["duration"], spec["step"])
             eff = ", ".join(m.active_effects[1:]) if level != "rigid" else "-"
             steps = getattr(m, "n_internal_steps", m.n_steps)
             print(f"| {case} | {level} | {eff} | {mean[0]:.2f} | {mean[1]:.2f} | {mean[2]:.2f} | {mean[3]:.1f} | "
@@ -75,10 +89,11 @@ def tolerance() -> None:
     print("| level | tolerance | max rel. error of the 6 means vs tolerance 1e-10 | |energy balance| J "
           "| internal steps | wall s |")
     print("|---|---|---|---|---|---|")
+    spec = paper_case("paper-straight")
     for level in ("compliant", "contact"):
-        ref, _, _ = simulate(make(level, CASES["paper-straight"], preload=False, tolerance=1e-10), 0.1)
+        ref, _, _ = simulate(make(level, spec, preload=False, tolerance=1e-10), 0.1)
         for tol in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8):
-            m = make(level, CASES["paper-straight"], preload=False, tolerance=tol)
+            m = make(level, spec, preload=False, tolerance=tol)
             e0 = m.kinetic_energy + m.potential_energy
             mean, _, wall = simulate(m, 0.1)
             err = np.max(np.abs(mean[:6] - ref[:6]) / np.abs(ref[:6]))
@@ -87,7 +102,7 @@ def tolerance() -> None:
     print()
 
 
-def _trajectory(m, t_end=0.3, h=1e-3, events=None):
+def trajectory(m, t_end=0.3, h=1e-3, events=None):
     """States at the communication points of a do_step loop, and the wall time."""
     n = int(round(t_end / h))
     ys = [m.state_vector()]
@@ -100,21 +115,25 @@ def _trajectory(m, t_end=0.3, h=1e-3, events=None):
     return np.array(ys), time.perf_counter() - t0
 
 
+# the paper-straight case (its loads, carrier speed) started unloaded, and reversed
 IVP_CASES = {
-    "contact, unloaded start": (dict(meshModel="contact", preload=False, pinFriction=False), (-1050.0, -1050.0)),
-    "compliant + backlash, reversal": (dict(meshModel="compliant", backlash=True, pinFriction=False),
-                                       (1050.0, 1050.0)),
+    "contact, unloaded start": (dict(level="contact", preload=False, pinFriction=False), 1.0),
+    "compliant + backlash, reversal": (dict(level="compliant", backlash=True, pinFriction=False), -1.0),
 }
 IVP_METHODS = ("Radau", "BDF", "LSODA")
 
 
-def _fresh(case: str, tol: float = 1e-6) -> MeshDifferential:
-    mesh, loads = IVP_CASES[case]
+def ivp_model(case: str, tol: float = 1e-6) -> MeshDifferential:
+    """A model of one of IVP_CASES: paper-straight's carrier speed and loads (default locking
+    law; pin friction off), initialized with the loads, then the case's loads applied from t = 0
+    (the same loads from unloaded meshes, or reversed)."""
+    mesh, sign = IVP_CASES[case]
+    spec = paper_case("paper-straight")
     m = MeshDifferential(DifferentialParams(), MeshParams(tolerance=tol, maxInternalSteps=10 ** 7, **mesh))
-    m.w_ref, m.w_start_carrier = W0, W0
-    m.tau_L, m.tau_R = -1050.0, -1050.0
+    m.w_ref, m.w_start_carrier = spec["w0"], spec["w0"]
+    m.tau_L, m.tau_R = spec["loads"]
     m.initialize()
-    m.tau_L, m.tau_R = loads   # applied from t = 0
+    m.tau_L, m.tau_R = sign * spec["loads"][0], sign * spec["loads"][1]   # applied from t = 0
     return m
 
 
@@ -137,34 +156,6 @@ def output_metrics(m: MeshDifferential, ys: np.ndarray, h: float = 1e-3) -> dict
     return out
 
 
-def metric_scales(ref: dict[str, float]) -> dict[str, float]:
-    """Each quantity's scale: the largest magnitude of its statistics ("mean(q)", "max(q)", "min(q)")
-    in the reference."""
-    scales: dict[str, float] = {}
-    for k, v in ref.items():
-        q = k.split("(", 1)[1]
-        scales[q] = max(scales.get(q, 0.0), abs(v))
-    return scales
-
-
-def relative_errors(values: dict, ref: dict, scale: dict) -> dict:
-    """|value - reference| over the quantity's scale (:func:`metric_scales`), so a statistic that is
-    near zero in the reference (the minimum of a force that starts at zero) does not blow up the
-    error; a missing or non-finite value is an infinite error."""
-    out = {}
-    for k, r in ref.items():
-        v = values.get(k, math.nan)
-        s = scale.get(k.split("(", 1)[1], 0.0) if "(" in k else abs(r)
-        out[k] = abs(v - r) / max(s, 1e-300) if math.isfinite(v) else math.inf
-    return out
-
-
-def metric_error(values: dict[str, float], ref: dict[str, float]) -> float:
-    """Largest error of the metrics, each relative to its quantity's scale, as ``spurdiff accuracy``
-    measures the scenes."""
-    return max(relative_errors(values, ref, metric_scales(ref)).values())
-
-
 def ivp_points(case: str, tols=(1e-4, 1e-6, 1e-8), methods=IVP_METHODS, restarted: bool = True) -> list[dict]:
     """Work-precision points of one case: our do_step loop and solve_ivp (analytic Jacobian, one
     call over 0.3 s and, as a co-simulation slave must, restarted at every 1 ms communication
@@ -173,8 +164,8 @@ def ivp_points(case: str, tols=(1e-4, 1e-6, 1e-8), methods=IVP_METHODS, restarte
     (:func:`output_metrics`, :func:`metric_error`)."""
     from scipy.integrate import solve_ivp
 
-    ref, _ = _trajectory(_fresh(case, 1e-11))
-    probe = _fresh(case)            # evaluates the outputs along every trajectory
+    ref, _ = trajectory(ivp_model(case, 1e-11))
+    probe = ivp_model(case)            # evaluates the outputs along every trajectory
     ref_metrics = output_metrics(probe, ref)
 
     def errors(ys: np.ndarray) -> dict:
@@ -185,12 +176,12 @@ def ivp_points(case: str, tols=(1e-4, 1e-6, 1e-8), methods=IVP_METHODS, restarte
 
     out = []
     for tol in tols:
-        ys, wall = _trajectory(_fresh(case, tol))
+        ys, wall = trajectory(ivp_model(case, tol))
         out.append({"case": case, "integrator": "ours (ROS34PW2, do_step loop)", "tolerance": tol,
                     **errors(ys), "wall": wall, "nfev": None})
     for method in methods:
         for tol in tols:
-            m = _fresh(case)
+            m = ivp_model(case)
             m._ac = 0.0
             y0 = m.state_vector()
             atol = SCALE * tol

@@ -30,70 +30,111 @@ Why ROS34PW2 (J. Rang, L. Angermann, BIT 45 (2005) 761-787; tableau as registere
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from scipy.linalg.lapack import dgetrf, dgetrs
 
-GAMMA = 4.3586652150845900e-01
-_ALPHA = np.array([
-    [0.0, 0.0, 0.0, 0.0],
-    [8.7173304301691801e-01, 0.0, 0.0, 0.0],
-    [8.4457060015369423e-01, -1.1299064236484185e-01, 0.0, 0.0],
-    [0.0, 0.0, 1.0, 0.0],
-])
-_GAMMA = np.array([
-    [GAMMA, 0.0, 0.0, 0.0],
-    [-8.7173304301691801e-01, GAMMA, 0.0, 0.0],
-    [-9.0338057013044082e-01, 5.4180672388095326e-02, GAMMA, 0.0],
-    [2.4212380706095346e-01, -1.2232505839045147e+00, 5.4526025533510214e-01, GAMMA],
-])
-_B = np.array([2.4212380706095346e-01, -1.2232505839045147e+00, 1.5452602553351020e+00, 4.3586652150845900e-01])
-_BHAT = np.array([3.7810903145819369e-01, -9.6042292212423178e-02, 5.0000000000000000e-01, 2.1793326075422950e-01])
-# dense output: y(t + theta h) = y + sum_i B_i(theta) k_i, B_i(theta) = sum_j BINTERP[i, j] theta^(j+1)
-_BINTERP = np.array([
-    [1.0564298455794094, -1.3864882699759573, 0.5721822314575016],
-    [2.296429974281067, -8.262611700275677, 4.742931142090097],
-    [-1.307599564525376, 7.250979895056055, -4.398120075195578],
-    [-1.045260255335102, 2.398120075195581, -0.9169932983520199],
-])
-ORDER = 3
-EMBEDDED_ORDER = 2
+class RosenbrockTableau(NamedTuple):
+    """Coefficients of a Rosenbrock(-W) method in the form of Hairer-Wanner: ``alpha``,
+    ``Gamma`` (lower triangular, constant diagonal ``gamma``), weights ``b`` and the embedded
+    ``bhat``, and the dense output ``y(t + theta h) = y + sum_i B_i(theta) k_i`` with
+    ``B_i(theta) = sum_j binterp[i, j] theta^(j+1)``."""
 
-_GINV = np.linalg.inv(_GAMMA)
-A_T = _ALPHA @ _GINV                                 # a_ij
-C_T = np.diag(1.0 / np.diag(_GAMMA)) - _GINV          # c_ij (strictly lower)
-M_T = _B @ _GINV                                      # m_i
-E_T = (_B - _BHAT) @ _GINV                            # error weights
-STAGES = 4
+    name: str
+    gamma: float
+    alpha: np.ndarray
+    Gamma: np.ndarray
+    b: np.ndarray
+    bhat: np.ndarray
+    binterp: np.ndarray
+    order: int
+    embedded_order: int
 
 
-def dense_weights(theta: float) -> np.ndarray:
+ROS34PW2 = RosenbrockTableau(
+    name="ROS34PW2",
+    gamma=4.3586652150845900e-01,
+    alpha=np.array([
+        [0.0, 0.0, 0.0, 0.0],
+        [8.7173304301691801e-01, 0.0, 0.0, 0.0],
+        [8.4457060015369423e-01, -1.1299064236484185e-01, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+    ]),
+    Gamma=np.array([
+        [4.3586652150845900e-01, 0.0, 0.0, 0.0],
+        [-8.7173304301691801e-01, 4.3586652150845900e-01, 0.0, 0.0],
+        [-9.0338057013044082e-01, 5.4180672388095326e-02, 4.3586652150845900e-01, 0.0],
+        [2.4212380706095346e-01, -1.2232505839045147e+00, 5.4526025533510214e-01, 4.3586652150845900e-01],
+    ]),
+    b=np.array([2.4212380706095346e-01, -1.2232505839045147e+00, 1.5452602553351020e+00, 4.3586652150845900e-01]),
+    bhat=np.array([3.7810903145819369e-01, -9.6042292212423178e-02, 5.0000000000000000e-01, 2.1793326075422950e-01]),
+    binterp=np.array([
+        [1.0564298455794094, -1.3864882699759573, 0.5721822314575016],
+        [2.296429974281067, -8.262611700275677, 4.742931142090097],
+        [-1.307599564525376, 7.250979895056055, -4.398120075195578],
+        [-1.045260255335102, 2.398120075195581, -0.9169932983520199],
+    ]),
+    order=3,
+    embedded_order=2,
+)
+
+
+class Transformed(NamedTuple):
+    """A tableau in the transformed variables ``u_i = sum_j Gamma_ij k_j``: ``a`` (stage
+    arguments), ``c`` (strictly lower, stage right-hand sides), ``m`` (solution weights), ``e``
+    (error weights), ``dmid`` (dense output at theta = 1/2); rows as contiguous arrays."""
+
+    gamma: float
+    stages: int
+    a_rows: list
+    c_rows: list
+    m: np.ndarray
+    e: np.ndarray
+    dmid: np.ndarray
+    Ginv: np.ndarray
+    binterp: np.ndarray
+    embedded_order: int
+
+
+def transform(tab: RosenbrockTableau) -> Transformed:
+    Ginv = np.linalg.inv(tab.Gamma)
+    a = tab.alpha @ Ginv
+    c = np.diag(1.0 / np.diag(tab.Gamma)) - Ginv
+    s = len(tab.b)
+    tr = Transformed(tab.gamma, s, [np.ascontiguousarray(a[i, :i]) for i in range(s)],
+                     [np.ascontiguousarray(c[i, :i]) for i in range(s)], np.ascontiguousarray(tab.b @ Ginv),
+                     np.ascontiguousarray((tab.b - tab.bhat) @ Ginv), None, Ginv, tab.binterp, tab.embedded_order)
+    return tr._replace(dmid=np.ascontiguousarray(dense_weights(0.5, tr)))
+
+
+def dense_weights(theta: float, tr: "Transformed | None" = None) -> np.ndarray:
     """Weights d_i with y(t + theta h) = y + sum_i d_i u_i (transformed stages)."""
-    Bt = _BINTERP @ np.array([theta, theta ** 2, theta ** 3])
-    return Bt @ _GINV
+    tr = tr or METHOD
+    Bt = tr.binterp @ np.array([theta, theta ** 2, theta ** 3])
+    return Bt @ tr.Ginv
 
 
-# numpy rows for the vectorised stage sums
-_AR = [np.ascontiguousarray(A_T[i, :i]) for i in range(STAGES)]
-_CR = [np.ascontiguousarray(C_T[i, :i]) for i in range(STAGES)]
-_MV = np.ascontiguousarray(M_T)
-_EV = np.ascontiguousarray(E_T)
-_DMV = np.ascontiguousarray(dense_weights(0.5))
+METHOD = transform(ROS34PW2)
+GAMMA = METHOD.gamma
+STAGES = METHOD.stages
+ORDER, EMBEDDED_ORDER = ROS34PW2.order, ROS34PW2.embedded_order
 
 
 class RosenbrockW:
-    """One step of ROS34PW2 on a system given by ``evaluate(y, f_out, J_out)``.
+    """One step of a Rosenbrock-W method (default ROS34PW2) on a system given by ``evaluate(y, f_out, J_out)``.
 
     All work arrays are allocated once. ``evaluate`` fills ``f_out`` (and ``J_out`` if not None)
     and returns nothing; it must not keep references to ``y``.
     """
 
-    def __init__(self, n: int, evaluate):
+    def __init__(self, n: int, evaluate, method: Transformed = METHOD):
+        self.method = method
         self.n = n
         self.evaluate = evaluate
         self.J = np.zeros((n, n))
         self.W = np.zeros((n, n))
-        self.U = np.zeros((STAGES, n))
+        self.U = np.zeros((method.stages, n))
         self.Ys = np.zeros(n)
         self.F = np.zeros(n)
         self.rhs = np.zeros(n)
@@ -109,8 +150,9 @@ class RosenbrockW:
         system is singular or a stage is not finite.
         """
         U, F, rhs, Ys = self.U, self.F, self.rhs, self.Ys
+        tr = self.method
         W = self.W
-        np.multiply(self.eye, 1.0 / (GAMMA * h), out=W)
+        np.multiply(self.eye, 1.0 / (tr.gamma * h), out=W)
         W -= self.J
         lu, piv, info = dgetrf(W, overwrite_a=1)
         if info != 0:
@@ -120,12 +162,12 @@ class RosenbrockW:
             return False
         U[0] = x
         ih = 1.0 / h
-        for i in range(1, STAGES):
+        for i in range(1, tr.stages):
             Ui = U[:i]
-            np.dot(_AR[i], Ui, out=Ys)
+            np.dot(tr.a_rows[i], Ui, out=Ys)
             Ys += y
             self.evaluate(Ys, F, None)
-            np.dot(_CR[i], Ui, out=rhs)
+            np.dot(tr.c_rows[i], Ui, out=rhs)
             rhs *= ih
             rhs += F
             x, info = dgetrs(lu, piv, rhs)
@@ -133,15 +175,15 @@ class RosenbrockW:
                 return False
             U[i] = x
         yn = self.y_new
-        np.dot(_MV, U, out=yn)
+        np.dot(tr.m, U, out=yn)
         yn += y
-        np.dot(_EV, U, out=self.err)
+        np.dot(tr.e, U, out=self.err)
         return bool(np.isfinite(yn).all())
 
     def midpoint(self, y: np.ndarray) -> np.ndarray:
         """Dense output at the middle of the last step (order 3)."""
         ym = self.y_mid
-        np.dot(_DMV, self.U, out=ym)
+        np.dot(self.method.dmid, self.U, out=ym)
         ym += y
         return ym
 

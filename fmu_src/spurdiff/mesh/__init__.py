@@ -1,0 +1,14 @@
+"""The compliant and contact levels of the differential: gear-mesh dynamics with switchable
+effects (backlash, stiffness wave, pin and flank friction).
+
+Modules: :mod:`.params` (parameters and their limits), :mod:`.layout` (state vector, mesh
+geometry), :mod:`.laws` (force and friction laws), :mod:`.forces` (the effects and the
+right-hand side), :mod:`.events`, :mod:`.stickslip` (friction modes), :mod:`.integrator`
+(ROS34PW2), :mod:`.stepper` (the driver over a communication step), :mod:`.model`
+(:class:`MeshDifferential`). Documentation: docs/mesh-dynamics.md.
+"""
+from ..errors import StepError
+from .model import MeshDifferential
+from .params import LEVELS, N_PER_MM15, MeshParams
+
+__all__ = ["MeshDifferential", "MeshParams", "LEVELS", "N_PER_MM15", "StepError"]

@@ -1,0 +1,217 @@
+"""The driver of the mesh model over one communication step, apart from the model and from the
+method (as scipy's ``solve_ivp`` keeps its driver apart from its methods): internal steps of the
+Rosenbrock-W method (:mod:`spurdiff.mesh.integrator`) with error control of the state and of the
+loss quadrature, events (:mod:`spurdiff.mesh.events`), friction modes
+(:mod:`spurdiff.mesh.stickslip`) and the work accounting.
+
+Per internal step: a trial step limited by the communication point and the next mesh-phase
+boundary; rejected (smaller step) when the state error or the loss-quadrature error exceeds the
+tolerance, or when an event lies inside it (the step is cut to land just past the event, up to
+four times); accepted: work and loss booked, contact transitions counted, planets that reached
+zero slip speed stuck, the friction modes decided again where needed.
+"""
+from __future__ import annotations
+
+from .events import (STICK_RTOL, breakaway, contact_flags, friction_margins, phase_limit,
+                     state_events)
+from .forces import evaluate
+from .integrator import error_norm, new_step_size
+from .layout import PHIC, PSI, VA, VB, W1, W2, WC, relative_angles
+from .stickslip import settle_modes, slip_speed_reached_zero, stick_impulse
+from ..errors import StepError
+
+E_REF = 0.1       # J, energy scale of the loss-quadrature error control
+H_MIN = 1e-13     # s, smallest internal step
+
+
+def loss_quadrature(P0: float, Pm: float, P1: float, h: float, rtol: float) -> tuple[float, float]:
+    """Loss over a step by Simpson's rule with the dense-output midpoint, and its error estimate:
+    the difference to the trapezoidal rule relative to ``rtol (E_REF + loss)`` (the dissipated
+    power is not smooth where forces clip, so the state error alone does not see it)."""
+    dloss = h / 6.0 * (P0 + 4.0 * Pm + P1)
+    return dloss, abs(dloss - 0.5 * h * (P0 + P1)) / (rtol * (E_REF + dloss))
+
+
+def work_speed_drive(c, ya, yb, hi: float, ac: float, wc_a: float, wc_b: float, dphic: float) -> float:
+    """Work put in over an internal step with the speed drive, exactly from the state change
+    (momentum balance of the relative motion; the carrier's speed follows ``wc_a -> wc_b``)."""
+    n = c.n
+    JA, JB, J1, J2 = c.JA, c.JB, c.J1 * n, c.J2 * n
+    psiBa, th1a, th2a = relative_angles(c, ya)
+    psiBb, th1b, th2b = relative_angles(c, yb)
+    dpsiA, dpsiB = yb[PSI] - ya[PSI], psiBb - psiBa
+    return (c.Jtot * ac * dphic
+            + JA * (yb[VA] * wc_b - ya[VA] * wc_a - ac * dpsiA)
+            + JB * (yb[VB] * wc_b - ya[VB] * wc_a - ac * dpsiB)
+            + J1 * (yb[W1] * wc_b - ya[W1] * wc_a - ac * (th1b - th1a))
+            + J2 * (yb[W2] * wc_b - ya[W2] * wc_a - ac * (th2b - th2a))
+            + c.tau_L * dpsiA + c.tau_R * dpsiB)
+
+
+def work_torque_drive(c, ya, yb) -> float:
+    """Work put in over an internal step with the torque drive (the carrier angle is a state)."""
+    psiBa, _, _ = relative_angles(c, ya)
+    psiBb, _, _ = relative_angles(c, yb)
+    dpsiA, dpsiB = yb[PSI] - ya[PSI], psiBb - psiBa
+    dphic = yb[PHIC] - ya[PHIC]
+    return c.tau_c * dphic + c.tau_L * (dphic + dpsiA) + c.tau_R * (dphic + dpsiB)
+
+
+def book_parametric_work(c, ya, yb) -> None:
+    """Book the energy put into the mesh springs by single/double contact switches (rectangular
+    stiffness wave) over a step: V(d, k_after) - V(d, k_before) at the end of the step."""
+    psiBa, th1a, _ = relative_angles(c, ya)
+    psiBb, th1b, _ = relative_angles(c, yb)
+    ua = (c.rbA * ya[PSI], c.rbB * psiBa, c.rb1 * th1a)
+    ub = (c.rbA * yb[PSI], c.rbB * psiBb, c.rb1 * th1b)
+    for mi, m in enumerate(c.md):
+        d = yb[m.d]
+        Va = c.law_obj.potential(m, d, *c.phase_obj.factors(m, ua[mi]))
+        Vb = c.law_obj.potential(m, d, *c.phase_obj.factors(m, ub[mi]))
+        if Va != Vb:
+            c.parametric_work += c.n * (Vb - Va)
+
+
+def advance(c, t: float, h: float) -> None:
+    """Advance the model ``c`` from t to t + h (inputs held); raises StepError."""
+    integ = c._integ
+    y = c.y
+    speed = c.speed_drive
+    wc_start = c.wc
+    if speed:
+        c._ac = (c.w_ref - wc_start) / h
+    ac = c._ac
+    f0, f1 = c._f0, c._f1
+    key = (c.tau_L, c.tau_R, c.tau_c, ac if speed else None, c.s[0], c.s[1])
+    if key == c._f0_key:
+        sv0 = c._sv0               # f0, J and side values at y are still those of the last step
+    else:
+        sv0 = evaluate(c, y, f0, integ.J)
+    loss0 = c.energy_loss
+    max_steps = int(c.mesh.maxInternalSteps)
+    n_here = 0
+    tin = 0.0          # time into the communication step
+    remaining = h
+    h_ctrl = c.h_next
+    wc_a = wc_start
+    phic = c.phic
+    dloss = 0.0
+    while remaining > 1e-12 * h:
+        hi = h_ctrl if h_ctrl < remaining else remaining
+        if c._need_phase:
+            lim = phase_limit(c, y)
+            if lim < hi:
+                hi = lim
+        if remaining - hi < 1e-9 * h:
+            hi = remaining
+        truncated = hi < h_ctrl
+        located = 0
+        rejected = False
+        while True:                                   # trial steps until one is accepted
+            n_here += 1
+            if n_here > max_steps:
+                raise StepError(f"more than {max_steps} internal steps in the step at t = {t:.9g} s "
+                                f"(maxInternalSteps)")
+            if hi < H_MIN:
+                raise StepError(f"internal step size {hi:.3g} s below {H_MIN:g} s at t = {t + tin:.9g} s")
+            if not integ.step(y, f0, hi):
+                c.n_rejected_steps += 1
+                rejected = truncated = True
+                hi *= 0.25
+                continue
+            yn = integ.y_new
+            if c._pin:
+                if c.s[0] == 0:
+                    yn[W1] = 0.0
+                if c.s[1] == 0:
+                    yn[W2] = 0.0
+            err = error_norm(integ.err, y, yn, c._atol, c._rtol, c._scr)
+            if not err <= 1.0:  # also catches nan
+                c.n_rejected_steps += 1
+                rejected = truncated = True
+                hi = new_step_size(hi, err, True) if err == err else hi * 0.25
+                continue
+            sv1 = evaluate(c, yn, f1, c._J1)
+            ym = integ.midpoint(y)
+            if c._dissipative:
+                svm = evaluate(c, ym, c._fscratch, None)
+                dloss, errE = loss_quadrature(sv0.P, svm.P, sv1.P, hi, c._rtol)
+                if not errE <= 1.0:
+                    c.n_rejected_steps += 1
+                    rejected = truncated = True
+                    hi = new_step_size(hi, errE, True) if errE == errE else hi * 0.25
+                    continue
+                if errE > err:
+                    err = errE
+            theta = state_events(c, y, ym, yn)
+            # a contact made or lost inside the step makes the stuck planets' friction margins
+            # jump there, and their secant estimate then lands early again and again (Zeno):
+            # locate the contact first
+            if c._pin and theta >= 1.0 - 1e-6:        # (pin friction dissipates: svm is there)
+                theta = breakaway(c, sv0, svm, sv1, theta)
+            if theta < 1.0 - 1e-6 and located < 4 and theta * hi > H_MIN:
+                located += 1
+                c.n_rejected_steps += 1
+                hi = hi * theta * (1.0 + 1e-4) + 1e-14
+                truncated = True
+                continue
+            break
+        # ---- accept
+        c.n_internal_steps += 1
+        h_prop = new_step_size(hi, err, rejected)
+        h_ctrl = max(h_ctrl, h_prop) if truncated and not rejected else h_prop
+        if c._dissipative:
+            c.energy_loss += dloss
+        ya = y.tolist()
+        yb = yn.tolist()
+        if speed:
+            wc_b = wc_start + ac * (tin + hi)
+            dphic = wc_a * hi + 0.5 * ac * hi * hi
+            c.work_in += work_speed_drive(c, ya, yb, hi, ac, wc_a, wc_b, dphic)
+            phic += dphic
+            wc_a = wc_b
+        else:
+            c.work_in += work_torque_drive(c, ya, yb)
+            wc_b = yb[WC]
+        if c._var:
+            book_parametric_work(c, ya, yb)
+        y[:] = yn
+        tin += hi
+        remaining = h - tin
+        if c._bl or c._contact:
+            fl = contact_flags(c, y)
+            c.n_contact_transitions += sum(1 for a, b in zip(fl, c._contact_flags) if a != b)
+            c._contact_flags = fl
+        switched = False
+        if c._pin:
+            zeroed = []
+            for i in (0, 1):
+                if slip_speed_reached_zero(c, y, f1, i):
+                    stick_impulse(c, y, i, wc_b)
+                    zeroed.append(i)
+            m1 = friction_margins(c, sv1)
+            tolc = -STICK_RTOL * (sv1.cap_1 + sv1.cap_2)
+            if zeroed or m1[0] < tolc or m1[1] < tolc:
+                c.n_mode_switches += settle_modes(c, y, zeroed)
+                switched = True
+        if not switched:
+            f0, f1 = f1, f0
+            integ.J, c._J1 = c._J1, integ.J
+            c._f0, c._f1 = f0, f1
+            sv0 = sv1
+        else:
+            f0, f1 = c._f0, c._f1
+            sv0 = c._sv
+    c.h_next = h_ctrl
+    c._f0_key = (c.tau_L, c.tau_R, c.tau_c, ac if speed else None, c.s[0], c.s[1])
+    c._sv0 = sv0
+    if speed:
+        c.wc = float(c.w_ref)
+        c.phic = phic
+    else:
+        c.wc = float(y[WC])
+        c.phic = float(y[PHIC])
+    c.t = t + h
+    c.loss_last_step = c.energy_loss - loss0
+    c._last_h = h
+    c.n_steps += 1

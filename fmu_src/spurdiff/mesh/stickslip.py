@@ -1,0 +1,126 @@
+"""Pin-friction modes of the two planets (exact stick, event based): the mode decision at a
+state, the inelastic impulse that zeroes a planet's slip speed, and the consistent start."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .events import STICK_RTOL
+from .forces import evaluate
+from .layout import VA, VB, W1, W2, WC
+
+
+def settle_modes(c, y, zeroed) -> int:
+    """Decide the friction modes at a state (after zeroing the planets in ``zeroed``): stuck
+    planets whose required friction exceeds the capacity break away in the direction of the
+    excess. Returns the number of mode changes; leaves f0, J and the side values evaluated at y
+    (``c._f0``, ``c._integ.J``, ``c._sv``)."""
+    before = list(c.s)
+    for i in zeroed:
+        c.s[i] = 0
+    for _ in range(4):
+        sv = c._sv = evaluate(c, y, c._f0, c._integ.J)
+        changed = False
+        for i in (0, 1):
+            if c.s[i] == 0:
+                Mreq, cap = (sv.M_2, sv.cap_2) if i else (sv.M_1, sv.cap_1)
+                if abs(Mreq) > cap * (1.0 + STICK_RTOL):
+                    c.s[i] = -1 if Mreq > 0.0 else 1
+                    changed = True
+        if not changed:
+            break
+    return sum(1 for a, b in zip(before, c.s) if a != b)
+
+
+def slip_speed_reached_zero(c, y, f1, i: int) -> bool:
+    """A slipping planet's speed reached zero, or decays towards it below the resolution of the
+    integrator (overdamped approach to the capacity limit): try to stick."""
+    s = c.s[i]
+    idx = W1 if i == 0 else W2
+    w = float(y[idx])
+    return s != 0 and (s * w <= 0.0 or (abs(w) <= c._w_stick and s * f1[idx] < 0.0))
+
+
+def stick_impulse(c, y, i: int, wc: float) -> None:
+    """Set planet i's slip speed to exactly zero (it re-sticks). The friction impulse that does it
+    is inelastic: the kinetic energy it removes is booked as loss, the drive's impulsive work
+    (speed drive) as work in."""
+    idx = W1 if i == 0 else W2
+    w = float(y[idx])
+    if w == 0.0:
+        return
+    nJ = c.n * (c.J1 if i == 0 else c.J2)
+    if c.speed_drive:
+        c.work_in += -nJ * wc * w
+        c.energy_loss += 0.5 * nJ * w * w
+        y[idx] = 0.0
+        return
+    # torque drive: impulse p on w_i with the carrier free: dv = M^-1 e_i p, w_i -> 0,
+    # loss 1/2 w^2 / (M^-1)_ii
+    k = 3 + i
+    col = c._Minv[:, k]
+    v = np.array([y[WC], y[VA], y[VB], y[W1], y[W2]]) - col * (w / col[k])
+    c.energy_loss += 0.5 * w * w / col[k]
+    y[WC], y[VA], y[VB], y[W1], y[W2] = v
+    y[idx] = 0.0
+
+
+def initial_forces(c, ac: float, ad: float, slip_dir: float, wd0: float):
+    """Mesh forces consistent with the rigid motion at t0 (deflection rates and their
+    accelerations zero): stuck planets share the friction in proportion to their capacity (equal
+    utilisation); otherwise the slipping (or frictionless) motion is solved for. Sets the modes
+    ``c.s`` of a slipping start; returns (F_A1, F_B2, F_12, carrier acceleration)."""
+    n, JA, JB, J1, J2 = c.n, c.JA, c.JB, c.J1, c.J2
+    rbA, rbB, rb1, rb2 = c.rbA, c.rbB, c.rb1, c.rb2
+    tL, tR = c.tau_L, c.tau_R
+    pin_force = c._pin_force
+    if c._pin and slip_dir == 0.0 and wd0 == 0.0:
+        FA = (JA * ac - tL) / (n * rbA)
+        FB = (JB * ac - tR) / (n * rbB)
+        F12 = 0.5 * (FA + FB)
+        a1, a2 = J1 * ac - rb1 * FA, J2 * ac - rb2 * FB
+        for _ in range(6):
+            cap1 = c.c_pin * pin_force(0, FA, F12)[0] + c._M01
+            cap2 = c.c_pin * pin_force(1, FB, F12)[0] + c._M02
+            if cap1 + cap2 <= 0.0:
+                cap1 = cap2 = 1.0
+            F12 = -(cap2 * a1 + cap1 * a2) / (cap2 * rb1 + cap1 * rb2)
+        M1, M2 = a1 + rb1 * F12, a2 + rb2 * F12
+        cap1 = c.c_pin * pin_force(0, FA, F12)[0] + c._M01
+        cap2 = c.c_pin * pin_force(1, FB, F12)[0] + c._M02
+        if abs(M1) <= cap1 * (1 + 1e-9) and abs(M2) <= cap2 * (1 + 1e-9):
+            return FA, FB, F12, ac
+        slip_dir = -math.copysign(1.0, c.rho1 * M1 + c.rho2 * M2)
+    sd = slip_dir if slip_dir != 0.0 else (math.copysign(1.0, wd0) if wd0 != 0.0 else 1.0)
+    s1 = math.copysign(1.0, c.rho1) * sd if c._pin else 0.0
+    s2 = math.copysign(1.0, c.rho2) * sd if c._pin else 0.0
+    cp = c.c_pin if c._pin else 0.0
+    speed = c.speed_drive
+
+    def res(x):
+        F12, add = x[0], x[1]
+        acc = ac if speed else x[2]
+        FA = (JA * (acc + add) - tL) / (n * rbA)
+        FB = (JB * (acc + c.lam * add) - tR) / (n * rbB)
+        M1 = -s1 * (cp * pin_force(0, FA, F12)[0] + (c._M01 if c._pin else 0.0))
+        M2 = -s2 * (cp * pin_force(1, FB, F12)[0] + (c._M02 if c._pin else 0.0))
+        Q1, Q2 = J1 * (acc + c.rho1 * add), J2 * (acc + c.rho2 * add)
+        r = [Q1 - (rb1 * (FA - F12) + M1), Q2 - (rb2 * (FB - F12) + M2)]
+        if not speed:
+            r.append(c.Jc * acc - (c.tau_c - (n * rbA * FA + n * rbB * FB + n * Q1 + n * Q2)))
+        return r
+
+    from scipy.optimize import fsolve
+
+    F0 = -(tL + tR) / (n * (rbA + rbB))
+    x0 = [F0, ad] + ([] if speed else [ac])
+    sol, info, ier, _ = fsolve(res, x0, full_output=True, xtol=1e-13)
+    if not np.all(np.isfinite(sol)):
+        sol = x0  # no consistent start found: start from the rigid estimate (a short transient)
+    F12, add = float(sol[0]), float(sol[1])
+    acc = ac if speed else float(sol[2])
+    FA = (JA * (acc + add) - tL) / (n * rbA)
+    FB = (JB * (acc + c.lam * add) - tR) / (n * rbB)
+    c.s = [int(s1), int(s2)]
+    return FA, FB, F12, acc
