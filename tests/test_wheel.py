@@ -283,3 +283,52 @@ def test_bad_inputs_are_named_and_leave_the_state_unchanged(attr, value, name):
     after = m.get_state()
     after[attr] = before[attr]
     assert after == before
+
+
+@pytest.mark.parametrize("vx, w, mu", [(10.0, 10.0 / R * 1.02, 1.0), (10.0, 10.0 / R * 1.3, 0.1), (0.0, 0.5, 1.0),
+                                        (5.0, 5.0 / R * 0.97, 0.8)])
+def test_interface_model_outputs_are_the_wheel_derivatives(vx, w, mu):
+    """shaftCoupling = wheel: the linear model reported for the next step (wheel.aFree, wheel.invJ,
+    tyre.torqueRate, tyre.torqueStiffness, tyre.relaxationRate) is the wheel's own derivative: a
+    step of 1e-8 s with the shaft torque held gives the reported wheel acceleration and tyre-torque
+    rate, and a second torque the reported 1 / J."""
+    def fresh():
+        m = make(Fz=3000.0, mu=mu, vx=vx, shaftCoupling="wheel", wheel_w_start=w, interfaceStiffness=0)
+        m.do_step(0.0, 1e-3)          # leave the start state: some transient slip
+        return m
+
+    m = fresh()
+    s = m.get_state()
+    h = 1e-8
+    out = []
+    for tau in (0.0, 100.0):
+        m.set_state(s)
+        m.tau_in = tau
+        F0 = m.params.wheel.R * m.Fx
+        m.do_step(m.t, h)
+        out.append(((m.w - s["w"]) / h, (m.params.wheel.R * m.Fx - F0) / h))
+        m.set_state(s)
+    m.set_state(s)
+    a_free, inv_J, q_rate = s["sur_a"], s["sur_invJ"], s["sur_qrate"]
+    assert out[0][0] == pytest.approx(a_free, rel=1e-4, abs=1e-3)
+    assert (out[1][0] - out[0][0]) / 100.0 == pytest.approx(inv_J, rel=1e-4)
+    assert out[0][1] == pytest.approx(q_rate, rel=1e-3, abs=1e-2 * abs(q_rate) + 1.0)
+    assert s["sur_ct"] >= 0.0 and s["sur_rt"] == pytest.approx(abs(vx) / m.params.tyre.sigma)
+    assert s["sur_dadw"] <= 0.0
+
+
+def test_predicted_speed_change_input_defaults_to_the_held_speed():
+    """shaftIn.dw = 0 (the default) is the speed held over the step: the same step as before the
+    input existed (the anchor speed is the wheel speed at the start of the step)."""
+    a = make(Fz=3000.0, vx=10.0, shaftCoupling="wheel", wheel_w_start=31.0)
+    b = make(Fz=3000.0, vx=10.0, shaftCoupling="wheel", wheel_w_start=31.0)
+    for m in (a, b):
+        m.tau_in = 120.0
+    b.dw_in = 0.0
+    run(a, 5e-3, 10)
+    run(b, 5e-3, 10)
+    assert a.get_state() == b.get_state()
+    c = make(Fz=3000.0, vx=10.0, shaftCoupling="wheel", wheel_w_start=31.0)
+    c.tau_in, c.dw_in = 120.0, 0.5
+    run(c, 5e-3, 1)
+    assert c.shaft_tau != a.shaft_tau   # the interface stiffness acts on the deviation from the ramp
