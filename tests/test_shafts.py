@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from spurdiff.errors import ParameterError, StepError
-from spurdiff.mesh_dynamics import MeshDifferential, MeshParams
+from spurdiff.mesh import MeshDifferential, MeshParams
 from spurdiff.params import DifferentialParams
 from spurdiff.rigid import RigidDifferential
 from spurdiff.shafts import ShaftedDifferential, ShaftParams, ShaftsParams, WheelSurrogate
@@ -23,7 +23,7 @@ def make(mesh: str = "rigid", w0: float = 0.0, twist: float = 0.0, backlash: boo
          **kw):
     p = DifferentialParams(carrierDrive="torque", J_carrier=13.1)
     inner = (RigidDifferential(p) if mesh == "rigid"
-             else MeshDifferential(p, MeshParams(meshModel=mesh, backlash=backlash, tolerance=tol)))
+             else MeshDifferential(p, MeshParams(level=mesh, backlash=backlash, tolerance=tol)))
     inner.w_start_carrier = w0
     inner.w_start_left = w0
     diff = ShaftedDifferential(inner, ShaftsParams(ShaftParams(phi_rel_start=twist), ShaftParams(phi_rel_start=twist),
