@@ -4,18 +4,22 @@
 * :mod:`.archive`: reading a possibly hostile FMU archive within limits, safe extraction;
 * :mod:`.static`: the archive and modelDescription.xml rules (no binary loaded);
 * :mod:`.isolation`: one task in a fresh process, killed with its whole group at the timeout;
-* :mod:`.worker`, :mod:`.driver`: the worker process and its FMI plumbing (fmpy);
-* :mod:`.cs_checks`, :mod:`.me_checks`: the co-simulation and model-exchange call-sequence rules;
+* :mod:`.worker`, :mod:`.driver`: the worker process and its FMI session (on :mod:`harness.fmi`);
+* :mod:`.tasks`: what a worker process can run, by id: the co-simulation rules (:mod:`.cs_lifecycle`,
+  :mod:`.cs_state`, :mod:`.cs_steps`), the model-exchange rules (:mod:`.me_checks`) and the
+  reference simulation (:mod:`.reference_task`);
 * :mod:`.lifecycle`: scheduling those rules, ``jobs`` processes at a time;
-* :mod:`.reference`: reference results in the FMI cross-check layout, per-column comparison;
+* :mod:`.crosscheck`: the cross-check file formats (CSV, ``_ref.opt``);
+* :mod:`.reference`: writing reference results (parent side); :mod:`.compare`: per-column comparison;
 * :mod:`.report`: PASS/ERROR/WARN/INFO/SKIP lines, JUnit XML, exit code;
 * :mod:`.runner`: the command line, ``main(argv) -> int``.
 
 Rules and CI recipes: docs/compliance.md.
 """
 from .lifecycle import LifecycleOptions, lifecycle_rules, run_lifecycle_checks, run_lifecycle_checks_many
-from .reference import (ColumnComparison, Tolerance, compare_checks, compare_results, read_cross_check_csv,
-                        read_ref_opt, safe_model_name, write_reference_results)
+from .compare import ColumnComparison, Tolerance, compare_checks, compare_results
+from .crosscheck import read_cross_check_csv, read_ref_opt
+from .reference import safe_model_name, write_reference_results
 from .report import FAIL, PASS, SKIP, CheckResult, exit_code, format_line, format_report, summary, write_junit
 from .rules import ERROR, INFO, RULES, WARNING, Rule
 from .static import is_structured_name, run_static_checks

@@ -26,6 +26,7 @@ from harness.fmi.instance import REFUSED, CallFailed, Instance as FmuInstance, s
 DEFAULT_STEP_SIZE = 1e-3          # s, when the FMU has no DefaultExperiment stepSize
 SAME_RTOL, SAME_ATOL = 1e-9, 1e-12  # "same outputs": rounding-level differences only
 ENV_BASE = 0x5D1F0000  # componentEnvironment values handed out: ENV_BASE + 16 k
+WRONG_GUID = "{00000000-0000-0000-0000-5b0ad5b0ad00}"  # cs.guid, me.guid
 
 INSTANCES: dict[int, "Instance"] = {}          # componentEnvironment -> instance
 LOGGER_VIOLATIONS: list[str] = []              # messages with a wrong environment or instance name
@@ -207,6 +208,16 @@ class Instance(FmuInstance):
             t = t_next
             rows.append(self.outputs())
         return rows, t
+
+
+def accepts_wrong_guid(s: Session) -> tuple[bool, str]:
+    """Whether fmi2Instantiate with :data:`WRONG_GUID` gave an instance (freed again), and the FMU's
+    last message."""
+    a = s.instance("wrongGuid", guid=WRONG_GUID)
+    if a.instantiate(raise_on_null=False):
+        a.free()
+        return True, a.last_message()
+    return False, a.last_message()
 
 
 def first_difference(s: Session, a: list[list[float]], b: list[list[float]],

@@ -17,9 +17,8 @@ from __future__ import annotations
 
 import math
 
-from .driver import CallFailed, Session
+from .driver import WRONG_GUID, CallFailed, Session, accepts_wrong_guid
 from .report import FAIL, PASS, SKIP
-from .cs_checks import WRONG_GUID
 
 MAX_EVENT_ITERATIONS = 100
 
@@ -40,12 +39,7 @@ def check_me_basic(s: Session, out_csv: str | None = None):
     nx = len(s.md.derivatives)
     nz = int(s.md.numberOfEventIndicators or 0)
     a = s.instance("me")
-    a.instantiate()
-    if s.start_values:
-        a.set_values(s.start_values, " start values")
-    a.setup(stop_time=s.t_stop)
-    a.call("fmi2EnterInitializationMode", a.slave.enterInitializationMode)
-    a.call("fmi2ExitInitializationMode", a.slave.exitInitializationMode)
+    a.initialize(stop_time=s.t_stop)   # instantiate, start values, setupExperiment, initialization
     terminated, t_event = _event_iteration(a)
     x, dx = (c_double * max(1, nx))(), (c_double * max(1, nx))()
     z, z_prev = (c_double * max(1, nz))(), (c_double * max(1, nz))()
@@ -102,7 +96,7 @@ def check_me_basic(s: Session, out_csv: str | None = None):
     a.terminate()
     a.free()
     if out_csv:
-        from .reference import write_cross_check_csv
+        from .crosscheck import write_cross_check_csv
         as_int = [v.type != "Real" for v in s.outputs]
         write_cross_check_csv(out_csv, ["time"] + [v.name for v in s.outputs],
                               [[r[0]] + [int(x) if i else x for i, x in zip(as_int, r[1:])] for r in rows])
@@ -114,12 +108,7 @@ def check_me_basic(s: Session, out_csv: str | None = None):
 def _continuous_time(s: Session, name: str):
     """An ME instance initialized and in continuous-time mode (None if the FMU asked to terminate)."""
     a = s.instance(name)
-    a.instantiate()
-    if s.start_values:
-        a.set_values(s.start_values, " start values")
-    a.setup(stop_time=s.t_stop)
-    a.call("fmi2EnterInitializationMode", a.slave.enterInitializationMode)
-    a.call("fmi2ExitInitializationMode", a.slave.exitInitializationMode)
+    a.initialize(stop_time=s.t_stop)   # instantiate, start values, setupExperiment, initialization
     terminated, _ = _event_iteration(a)
     if terminated:
         return None
@@ -173,9 +162,7 @@ def check_me_directional_derivative(s: Session):
 
 
 def check_me_guid(s: Session):
-    a = s.instance("wrongGuid", guid=WRONG_GUID)
-    if a.instantiate(raise_on_null=False):
-        a.free()
+    if accepts_wrong_guid(s)[0]:
         return FAIL, (f"fmi2Instantiate(fmi2ModelExchange) accepted the GUID {WRONG_GUID} "
                       f"(the modelDescription's is {s.md.guid})")
     return PASS, "fmi2Instantiate(fmi2ModelExchange) with a wrong GUID returned NULL"

@@ -18,8 +18,9 @@ from pathlib import Path
 from typing import Sequence
 
 from .lifecycle import LifecycleOptions, lifecycle_rules, run_lifecycle_checks_many
-from .reference import (DEFAULT_RTOL, CsvFormatError, ReferenceUsageError, Tolerance, compare_checks,
-                        write_reference_results)
+from .compare import DEFAULT_RTOL, Tolerance, compare_checks
+from .crosscheck import CsvFormatError, read_cross_check_csv
+from .reference import ReferenceUsageError, write_reference_results
 from .report import EXIT_USAGE, FAIL, SKIP, CheckResult, exit_code, format_report, write_junit
 from .rules import BY_ID, PROFILES
 from .static import read_archive, run_static_checks
@@ -150,7 +151,6 @@ def main(argv: Sequence[str] | None = None) -> int:
             if args.rtol < 0 or (args.atol is not None and args.atol < 0):
                 raise UsageError("--rtol and --atol must be >= 0")
             try:
-                from .reference import read_cross_check_csv
                 read_cross_check_csv(args.reference)
             except CsvFormatError as e:
                 raise UsageError(f"--reference: {e}") from None

@@ -9,30 +9,12 @@ from typing import Sequence
 from .report import FAIL
 
 
-def run_task(task: str, payload: dict, tracer) -> tuple:
-    """(status, reason[, severity]) of ``task``: a rule id (``cs.*``, ``me.*``) or "reference"."""
-    from .driver import Session
-    if task == "reference":
-        from .reference import simulate_reference_task
-        return simulate_reference_task(payload, tracer)
-    kind = task.split(".", 1)[0]
-    if kind == "cs":
-        from .cs_checks import TASKS
-        return TASKS[task](Session(payload, tracer, "cs"))
-    if kind == "me":
-        from .me_checks import TASKS
-        session = Session(payload, tracer, "me")
-        if task == "me.basic" and payload.get("out_csv"):
-            return TASKS[task](session, payload["out_csv"])
-        return TASKS[task](session)
-    raise ValueError(f"unknown task {task!r}")
-
-
 def worker_main(argv: Sequence[str]) -> None:
     """``task payload-json trace-file result-file``: writes {"status", "reason"[, "severity"]} as
     JSON to the result file, then leaves with ``os._exit`` (no interpreter teardown touching the
     FMU again, e.g. after fmi2Fatal)."""
     from .driver import CallFailed, Tracer
+    from .tasks import run_task
     task, payload_json, trace_path, result_path = argv
     try:
         import resource

@@ -1,0 +1,356 @@
+"""Co-simulation rules (kind ``cs``), worker side: the life of an instance (version, basic run, GUID,
+logger, debug logging, initial unknowns, default experiment, stop time, status after a discard,
+get after terminate, reset), one function per rule, run in a fresh process.
+
+Each takes the :class:`~.driver.Session` and returns (status, reason) or (status, reason,
+severity) when a failure is milder than the rule's own severity (e.g. a step past the stop time
+refused with fmi2Discard where the standard says fmi2Error). A :class:`~.driver.CallFailed`
+raised by a call the rule needs to work is a FAIL of the rule naming that call.
+
+"Refused" means a status above fmi2Warning. After a refusal with fmi2Fatal no further call is
+made on that instance. Outputs are "the same" when numpy.isclose(rtol=1e-9, atol=1e-12,
+equal_nan=True) holds for every output at every sample.
+"""
+from __future__ import annotations
+
+import math
+from ctypes import byref, c_double, c_int
+
+from .driver import WRONG_GUID, CallFailed, accepts_wrong_guid, LOGGER_VIOLATIONS, Session, first_difference, status_label
+from .report import FAIL, PASS, SKIP
+from .rules import WARNING
+
+MAX_DEFAULT_STEPS = 1_000_000  # cs.default-experiment: beyond this the run is skipped, not cut short
+OK_STATUSES = (0, 1)
+
+
+def check_version(s: Session):
+    fmu = s.instance("version").slave   # loaded, not instantiated
+    s.trace("fmi2GetVersion")
+    version = fmu.fmi2GetVersion()
+    s.trace("fmi2GetTypesPlatform")
+    types = fmu.fmi2GetTypesPlatform()
+    problems = []
+    if version != b"2.0":
+        problems.append(f'fmi2GetVersion returned {version!r}, not "2.0"')
+    if types != b"default":
+        problems.append(f'fmi2GetTypesPlatform returned {types!r}, not "default" (an importer built with the '
+                        f'standard header passes arguments of other types)')
+    if problems:
+        return FAIL, "; ".join(problems)
+    return PASS, 'fmi2GetVersion "2.0", fmi2GetTypesPlatform "default"'
+
+
+def check_basic(s: Session):
+    a = s.instance("basic")
+    a.initialize()
+    a.run(s.t0, s.steps)
+    a.terminate()
+    a.free()
+    return PASS, (f"instantiate, setupExperiment, initialization, {s.steps} doSteps of {s.h:g} s, terminate, "
+                  f"freeInstance all accepted; {len(s.outputs)} outputs read")
+
+
+def check_guid(s: Session):
+    accepted, msg = accepts_wrong_guid(s)
+    if accepted:
+        return FAIL, (f"fmi2Instantiate accepted the GUID {WRONG_GUID} (the modelDescription's is {s.md.guid}): "
+                      f"a binary and a modelDescription.xml that do not belong together would run")
+    return PASS, f"fmi2Instantiate with a wrong GUID returned NULL" + (f' ("{msg}")' if msg else "")
+
+
+def check_logger(s: Session):
+    total = 0
+    wrong = s.instance("wrongGuid", guid=WRONG_GUID)  # many FMUs log why they refuse
+    if wrong.instantiate(raise_on_null=False):
+        wrong.free()
+    total += len(wrong.messages)
+    a = s.instance("logger")
+    a.instantiate()
+    cats = s.log_categories
+    _set_debug_logging(a, True, cats)
+    a.initialize(instantiate=False)
+    a.run(s.t0, 2)
+    st = a.step_status(s.t0 + 2 * s.h, 0.0)  # a zero step: most FMUs say something
+    if st != 4:
+        a.free()
+    total += len(a.messages)
+    if LOGGER_VIOLATIONS:
+        return FAIL, f"{len(LOGGER_VIOLATIONS)} message(s) with a wrong argument: " + "; ".join(LOGGER_VIOLATIONS[:3])
+    if total == 0:
+        return SKIP, "the FMU logged nothing (wrong GUID, debug logging on, a zero step): nothing to check"
+    return PASS, f"all {total} messages came with the componentEnvironment and instance name given"
+
+
+def _set_debug_logging(inst, on: bool, categories: list[str]) -> int:
+    from fmpy.fmi2 import fmi2String
+    arr = (fmi2String * max(1, len(categories)))(*[c.encode() for c in categories]) if categories else None
+    label = f"fmi2SetDebugLogging({'on' if on else 'off'}, {len(categories)} categories)"
+    return inst.status(label, inst.slave.fmi2SetDebugLogging, inst.slave.component, 1 if on else 0,
+                           len(categories), arr)
+
+
+def check_debug_logging(s: Session):
+    a = s.instance("debugLogging")
+    a.instantiate()
+    calls = [(True, [], "on with no category (all)"), (False, [], "off")]
+    if s.log_categories:
+        calls.insert(0, (True, s.log_categories, f"on with the {len(s.log_categories)} declared categories"))
+    results = []
+    for on, cats, what in calls:
+        st = _set_debug_logging(a, on, cats)
+        results.append((what, st))
+        if st == 4:
+            break
+    bad = [(w, st) for w, st in results if st not in OK_STATUSES]
+    if bad:
+        msg = a.last_message()
+        return FAIL, ("fmi2SetDebugLogging " + "; ".join(f"{w} returned {status_label(st)}" for w, st in bad)
+                      + (f' ("{msg}")' if msg else ""))
+    a.free()
+    return PASS, "fmi2SetDebugLogging accepted: " + ", ".join(w for w, _ in results)
+
+
+def _initial_readables(s: Session) -> list:
+    seen, out = set(), []
+    candidates = [u.variable for u in s.md.initialUnknowns if u.variable is not None]
+    candidates += [v for v in s.outputs if v.initial in ("exact", "approx") or v.variability == "constant"]
+    candidates += [v for v in s.variables if v.causality == "calculatedParameter"]
+    for v in candidates:
+        if v.name not in seen and v.type in ("Real", "Integer", "Enumeration", "Boolean"):
+            seen.add(v.name)
+            out.append(v)
+    return out
+
+
+def check_initial_unknowns(s: Session):
+    wanted = _initial_readables(s)
+    if not wanted:
+        return SKIP, "no InitialUnknowns, outputs with a start value or calculated parameters"
+    a = s.instance("initialUnknowns")
+    a.instantiate()
+    if s.start_values:
+        a.set_values(s.start_values, " start values")
+    a.setup()
+    a.call("fmi2EnterInitializationMode", a.slave.enterInitializationMode)
+    refused = []
+    for v in wanted:
+        try:
+            a.read([v], v.name)
+        except CallFailed as e:
+            refused.append(f"{v.name} ({status_label(e.status)})")
+            if e.status == 4:
+                break
+    if refused:
+        msg = a.last_message()
+        return FAIL, (f"in initialization mode fmi2Get* refused {len(refused)} of {len(wanted)}: "
+                      + ", ".join(refused[:6]) + (f' ("{msg}")' if msg else ""))
+    a.call("fmi2ExitInitializationMode", a.slave.exitInitializationMode)
+    a.terminate()
+    a.free()
+    return PASS, f"in initialization mode all {len(wanted)} InitialUnknowns / calculated parameters / outputs were read"
+
+
+def _n_steps(s: Session) -> int:
+    return max(1, int(round((s.t_stop - s.t0) / s.h)))
+
+
+def _terminated(a) -> bool | None:
+    """fmi2GetBooleanStatus(fmi2Terminated) after a discarded step: True/False, None if not answered."""
+    from fmpy.fmi2 import fmi2Terminated
+    value = c_int(0)
+    st = a.status("fmi2GetBooleanStatus(fmi2Terminated)", a.slave.fmi2GetBooleanStatus, a.slave.component,
+                      fmi2Terminated, byref(value))
+    return bool(value.value) if st in OK_STATUSES else None
+
+
+def _run_default_experiment(s: Session, a):
+    """Run the instance from start to stop time. Returns (None, t_end, n) when done, or
+    (reason of failure, t, i) / ("discard", t, i) at a discarded step."""
+    n = _n_steps(s)
+    inputs = s.input_values()
+    real = [j for j, v in enumerate(s.outputs) if v.type == "Real"]
+    row0 = a.outputs()
+    finite0 = [j for j in real if math.isfinite(row0[j])]
+    t = s.t0
+    for i in range(n):
+        if inputs:
+            a.set_values(inputs)
+        t_next = s.t_stop if i == n - 1 else s.t0 + (i + 1) * s.h
+        st = a.step_status(t, t_next - t)
+        if st == 2:
+            return "discard", t, i
+        if st not in OK_STATUSES:
+            msg = a.last_message()
+            raise CallFailed(f"fmi2DoStep(t={t:.9g}, h={t_next - t:.9g})", a.name, st, msg)
+        t = t_next
+        row = a.outputs()
+        bad = [s.outputs[j].name for j in finite0 if not math.isfinite(row[j])]
+        if bad:
+            return f"outputs became non-finite at t = {t:g} s: {', '.join(bad[:5])}", t, i + 1
+    return None, t, n
+
+
+def check_default_experiment(s: Session):
+    if _n_steps(s) > MAX_DEFAULT_STEPS:
+        return SKIP, (f"the DefaultExperiment needs {_n_steps(s)} steps of {s.h:g} s to its stop time {s.t_stop:g} s, "
+                      f"more than {MAX_DEFAULT_STEPS}: not run")
+    a = s.instance("defaultExperiment")
+    a.initialize(stop_time=s.t_stop)
+    problem, t, n = _run_default_experiment(s, a)
+    if problem == "discard":
+        term = _terminated(a)
+        if term:
+            a.terminate()
+            a.free()
+            return PASS, (f"{n} doSteps of {s.h:g} s accepted; at t = {t:g} s the FMU ended the simulation "
+                          f"(fmi2Discard with fmi2Terminated = true) before the stop time {s.t_stop:g} s")
+        return FAIL, (f"fmi2DoStep(t={t:g}, h={s.h:g}) returned fmi2Discard before the stop time "
+                      f"{s.t_stop:g} s, and the FMU does not say it terminated (fmi2Terminated "
+                      f"{'false' if term is False else 'not answered'})")
+    if problem:
+        return FAIL, problem
+    a.terminate()
+    a.free()
+    return PASS, f"{n} doSteps of {s.h:g} s from {s.t0:g} to the stop time {s.t_stop:g} s accepted, outputs finite"
+
+
+def _past_stop(s: Session, name: str):
+    """An instance run to a defined stop time t0 + 2h, then asked to step past it.
+    Returns (instance, status of that step, its communication point)."""
+    stop = s.t0 + 2 * s.h
+    a = s.instance(name)
+    a.initialize(stop_time=stop)
+    a.run(s.t0, 2)
+    if s.input_values():
+        a.set_values(s.input_values())
+    return a, a.step_status(stop, s.h), stop
+
+
+def check_stop_time(s: Session):
+    a, st, stop = _past_stop(s, "stopTime")
+    what = f"fmi2DoStep(t={stop:g}, h={s.h:g}) past the defined stop time {stop:g} s"
+    msg = a.last_message()
+    said = f' ("{msg}")' if msg else ""
+    if st in OK_STATUSES:
+        return FAIL, f"{what} returned {status_label(st)}{said}: the FMU has to return fmi2Error"
+    if st == 2:
+        return FAIL, f"{what} refused with fmi2Discard{said}; section 2.1.6 says fmi2Error", WARNING
+    return PASS, f"{what} refused with {status_label(st)}{said}"
+
+
+def _discard_by_nan(s: Session):
+    """(instance, status of a doStep with NaN on every Real input), or (None, None) without inputs."""
+    if not s.real_inputs:
+        return None, None
+    a = s.instance("discardNan")
+    a.initialize()
+    for v in s.real_inputs:
+        if a.set_status(v.name, math.nan) not in OK_STATUSES:
+            a.free()
+            return None, None
+    st = a.step_status(s.t0, s.h)
+    if st != 2 and st != 4:
+        a.free()
+    return (a if st == 2 else None), st
+
+
+def check_status_after_discard(s: Session):
+    a, st, stop = _past_stop(s, "discard")
+    h = s.h
+    if st != 2:
+        first = status_label(st)
+        if st != 4:
+            a.free()
+        if _n_steps(s) > MAX_DEFAULT_STEPS:
+            return SKIP, (f"no step was discarded (a doStep past the stop time returned {first}); the default "
+                          f"experiment ({_n_steps(s)} steps) is too long to look for one")
+        a = s.instance("discardInRun")  # does the default experiment discard a step?
+        a.initialize(stop_time=s.t_stop)
+        try:
+            problem, t, _ = _run_default_experiment(s, a)
+        except CallFailed as e:
+            return SKIP, f"no step was discarded; the default experiment failed ({e}; see cs.default-experiment)"
+        if problem == "discard":
+            stop, h = t, min(s.h, s.t_stop - t) if s.t_stop > t else s.h
+        else:   # a third way: NaN on the Real inputs (an FMU that refuses them may discard the step)
+            a.free()
+            a, st_nan = _discard_by_nan(s)
+            if st_nan != 2:
+                return SKIP, (f"no step was discarded (a doStep past the stop time returned {first}, the default "
+                              f"experiment none, NaN inputs {status_label(st_nan) if st_nan is not None else 'none'})"
+                              ": the status calls are defined after fmi2Discard")
+            stop, h = s.t0, s.h
+    from fmpy.fmi2 import fmi2DoStepStatus, fmi2LastSuccessfulTime, fmi2Terminated
+    c = a.slave.component
+    errors, warnings, seen = [], [], []
+    term = c_int(-1)
+    st_b = a.status("fmi2GetBooleanStatus(fmi2Terminated)", a.slave.fmi2GetBooleanStatus, c, fmi2Terminated, byref(term))
+    if st_b in OK_STATUSES:
+        if term.value not in (0, 1):
+            errors.append(f"fmi2Terminated is {term.value}, not fmi2True/fmi2False")
+        seen.append(f"fmi2Terminated = {bool(term.value)}")
+    elif st_b == 2:
+        warnings.append("fmi2GetBooleanStatus(fmi2Terminated) returned fmi2Discard (the master cannot tell "
+                        "whether the slave wants to stop)")
+    else:
+        errors.append(f"fmi2GetBooleanStatus(fmi2Terminated) returned {status_label(st_b)}")
+    if st_b != 4:
+        last = c_double(math.nan)
+        st_r = a.status("fmi2GetRealStatus(fmi2LastSuccessfulTime)", a.slave.fmi2GetRealStatus, c,
+                            fmi2LastSuccessfulTime, byref(last))
+        if st_r in OK_STATUSES:
+            eps = 1e-9 * max(1.0, abs(stop))
+            if not (stop - eps <= last.value <= stop + h + eps):
+                errors.append(f"fmi2LastSuccessfulTime is {last.value!r}, outside the refused step "
+                              f"[{stop:g}, {stop + h:g}] s")
+            seen.append(f"fmi2LastSuccessfulTime = {last.value:g} s")
+        elif st_r == 2:
+            warnings.append("fmi2GetRealStatus(fmi2LastSuccessfulTime) returned fmi2Discard")
+        else:
+            errors.append(f"fmi2GetRealStatus(fmi2LastSuccessfulTime) returned {status_label(st_r)}")
+        if st_r != 4:
+            val = c_int(-1)
+            st_s = a.status("fmi2GetStatus(fmi2DoStepStatus)", a.slave.fmi2GetStatus, c, fmi2DoStepStatus, byref(val))
+            if st_s == 3:
+                warnings.append("fmi2GetStatus(fmi2DoStepStatus) returned fmi2Error (defined after fmi2Pending; "
+                                "a status the slave cannot give should be fmi2Discard)")
+            elif st_s == 4 or st_s not in range(5):
+                errors.append(f"fmi2GetStatus(fmi2DoStepStatus) returned {status_label(st_s)}")
+            else:
+                seen.append(f"fmi2GetStatus {status_label(st_s)}")
+    if errors:
+        return FAIL, "after a discarded doStep: " + "; ".join(errors + warnings)
+    if warnings:
+        return FAIL, "after a discarded doStep: " + "; ".join(warnings), WARNING
+    return PASS, "after a discarded doStep: " + ", ".join(seen)
+
+
+def check_get_after_terminate(s: Session):
+    wanted = s.outputs or [v for v in s.variables if v.type == "Real" and v.causality != "independent"]
+    if not wanted:
+        return SKIP, "no variables to read"
+    a = s.instance("terminated")
+    a.initialize()
+    a.run(s.t0, 2)
+    a.terminate()
+    a.read(wanted, "after fmi2Terminate")
+    a.free()
+    return PASS, f"{len(wanted)} variables read after fmi2Terminate"
+
+
+def check_reset(s: Session):
+    if not s.outputs:
+        return SKIP, "no outputs to compare"
+    a = s.instance("reset")
+    a.initialize()
+    first, _ = a.run(s.t0, s.steps)
+    a.call("fmi2Reset", a.slave.reset)
+    a.initialize(instantiate=False)
+    second, _ = a.run(s.t0, s.steps)
+    a.terminate()
+    a.free()
+    diff = first_difference(s, second, first)
+    if diff:
+        return FAIL, f"after fmi2Reset the same run gives different outputs: {diff} (after reset vs first run)"
+    return PASS, f"after fmi2Reset the same {s.steps} steps give the same outputs"
