@@ -6,8 +6,8 @@ over the scene's window.
 
     SPURDIFF_FMU_DIR=/tmp/fmus_x .venv/bin/python tests/coupling_accuracy.py [scene ...] [--steps 1e-3,5e-3]
 
-The reference runs are cached in results/coupling_refs.json (keyed by scene, window and the
-sources digest of the built FMUs); ``--fresh`` recomputes them.
+The reference runs' means are cached in results/coupling_refs.json (keyed by scene and window);
+``--fresh`` recomputes them (do so after changing the old coupling's physics).
 """
 from __future__ import annotations
 
