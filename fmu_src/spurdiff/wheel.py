@@ -42,11 +42,15 @@ Integration: implicit midpoint rule, sub-stepped to ``h_max`` (default 1 ms). Wh
 
 ``shaftCoupling = "wheel"`` (the differential owns the half-shaft, :mod:`spurdiff.shafts`): the
 shaft torque ``shaftIn.tau`` is an input, the wheel angle and speed are outputs. The differential
-computed that torque (the mean over its step) for the wheel turning at the speed ``w_k`` it had at
-the communication point; with ``interfaceStiffness = 1`` the shaft's ``c`` and ``d`` act inside
-this step on the wheel's deviation from that motion, ``tau = tau_in + c (w_k s - (phi - phi_k)) +
-d (w_k - w)``, so the stiff wheel/shaft mode (about 100 rad/s) is implicit on this side too. Any
-step sequence: nothing here assumes a constant step. With ``shaftCoupling = "torque"`` and
+computed that torque (the mean over its step) for the wheel moving as this model's interface
+outputs predicted (``wheel.aFree``, ``wheel.invJ``, ``wheel.dadw``, ``tyre.torqueRate``,
+``tyre.torqueStiffness``, ``tyre.relaxationRate``: the wheel speed and tyre torque linearized about
+the state at the communication point, :meth:`WheelLoad._update_surrogate`), a speed change
+``shaftIn.dw`` over the step (0 when not connected: the speed ``w_k`` held). With
+``interfaceStiffness = 1`` the shaft's ``c`` and ``d`` act inside this step on the wheel's deviation
+from that motion (the speed ramp ``w_p(s) = w_k + dw s / h`` and its angle), ``tau = tau_in + c
+(phi_p(s) - (phi - phi_k)) + d (w_p(s) - w)``, so the stiff wheel/shaft mode (about 100 rad/s) is
+implicit on this side too. Any step sequence: nothing here assumes a constant step. With ``shaftCoupling = "torque"`` and
 ``followFlangeAngle = 1``, a Gauss-Seidel master that steps the differential first hands the
 flange angle at the end of the differential's step: the reference offset taken at the first step
 (``w h``) is right only while the step stays the same (alternating steps give errors of order
