@@ -243,3 +243,43 @@ def test_a_missing_resources_folder_is_refused_with_the_reason(fmu, tmp_path):
     name, path, case = fmu
     messages = _instantiate_raw(path, tmp_path, drop_resources=True)
     assert any("resources" in m and "does not exist" in m for _, m in messages), messages
+
+
+def test_a_reused_value_reference_buffer_is_read_for_what_it_holds_now(fmu):
+    """A host that keeps one value-reference array and rewrites it in place between calls (as a
+    master's preallocated ports may) gets the variables the array names at each call: the bridge
+    reuses its tuple of the references and the adapter its getter only for the same contents."""
+    from fmpy.fmi2 import fmi2Real, fmi2ValueReference
+
+    name, path, case = fmu
+    inst = start(path, "buf", case)
+    t = steps(inst, 3)
+    s = inst.slave
+    ins = [inst.var(k).valueReference for k in case["inputs"]][:2]
+    out = inst.var(case["output"]).valueReference
+    get_fn, set_fn = s._functions["fmi2GetReal"], s._functions["fmi2SetReal"]
+    vr, val = (fmi2ValueReference * 2)(), (fmi2Real * 2)()
+
+    def get_pair(a, b):
+        vr[0], vr[1] = a, b
+        assert get_fn(s.component, vr, 2, val) == 0
+        return val[0], val[1]
+
+    x_out, x_in = s.getReal([out])[0], s.getReal([ins[0]])[0]
+    assert get_pair(out, ins[0]) == (x_out, x_in)
+    assert get_pair(out, ins[0]) == (x_out, x_in)       # the same vector again
+    assert get_pair(ins[0], out) == (x_in, x_out)       # rewritten in place: the new order
+    vr[0] = max(v.valueReference for v in inst.vars.values()) + 1000
+    assert get_fn(s.component, vr, 2, val) == 3 and "value reference" in last(inst)
+    # setting through the same array: inputs while stepping, then a fixed parameter among them
+    vr[0], vr[1] = ins
+    val[0], val[1] = 1.25 * case["inputs"][next(iter(case["inputs"]))], 0.5 * list(case["inputs"].values())[1]
+    assert set_fn(s.component, vr, 2, val) == 0
+    assert s.getReal(ins) == [val[0], val[1]]
+    fixed = inst.var(case["bad_param"][0]).valueReference
+    before = s.getReal([fixed])[0]
+    vr[1] = fixed
+    assert set_fn(s.component, vr, 2, val) == 3 and "fixed parameter" in last(inst)
+    assert s.getReal([fixed])[0] == before
+    steps(inst, 2, t)
+    s.freeInstance()

@@ -14,6 +14,9 @@
  * The slave protocol (see spurdiff/fmi_adapter.py): the class from the cfg is called with
  * instance_name, resources, visible, logging_on; each FMI function calls one method named
  * fmi2_<function> whose return value is the status (None = fmi2OK) or, for getters, the values.
+ * Getters and setters get the value references as a tuple (the same tuple object while the host
+ * passes the same vector again: a master's step loop makes no new objects for them) and setters
+ * the values as a tuple; a getter returns any sequence of numbers (converted here).
  * A Python exception becomes fmi2Error with the exception logged; the instance stays usable.
  * After each call the slave's `log_queue` (pythonfmu LogMsg objects) is passed to the host's
  * logger (see emit: '%' escaped, so the slave's text is never taken as a format).
@@ -80,6 +83,15 @@ static const char *METHOD_NAMES[N_METHODS] = {
     "fmi2_do_step", "fmi2_cancel_step", "fmi2_get_status",
 };
 
+/* The last value-reference vector a getter or setter was called with, and the Python tuple made
+ * of it: a master calls with the same few vectors every step, so the tuple is made once and the
+ * slave's caches keyed on it (fmi_adapter.py) hit. */
+typedef struct {
+    fmi2ValueReference *vr;
+    size_t n;
+    PyObject *tuple;
+} VrCache;
+
 typedef struct {
     unsigned magic;
     char *name;
@@ -92,6 +104,7 @@ typedef struct {
     PyObject *log_queue;      /* slave.log_queue */
     PyObject *methods[N_METHODS];
     PyObject *strings;        /* keeps the buffers of the last fmi2GetString alive */
+    VrCache vrc[N_METHODS];   /* per getter/setter method */
 } Instance;
 
 typedef struct {
@@ -289,6 +302,17 @@ static int make_slave(Instance *I)
     return 0;
 }
 
+/* (GIL held) */
+static void drop_vr_caches(Instance *I)
+{
+    for (int i = 0; i < N_METHODS; i++) {
+        Py_CLEAR(I->vrc[i].tuple);
+        free(I->vrc[i].vr);
+        I->vrc[i].vr = NULL;
+        I->vrc[i].n = 0;
+    }
+}
+
 static void free_instance(Instance *I)
 {
     if (!I) return;
@@ -393,6 +417,7 @@ void fmi2FreeInstance(fmi2Component c)
     PyGILState_STATE g = PyGILState_Ensure();
     flush_log(I);
     drop_methods(I);
+    drop_vr_caches(I);
     Py_CLEAR(I->klass);
     Py_CLEAR(I->strings);
     PyGILState_Release(g);
@@ -456,15 +481,31 @@ fmi2Status fmi2Reset(fmi2Component c)
     LEAVE
 }
 
-static PyObject *vr_list(const fmi2ValueReference vr[], size_t n)
+/* The tuple of the value references (new reference), the cached one when the host passes the same
+ * vector as last time to this method (GIL held). */
+static PyObject *vr_tuple(Instance *I, int method, const fmi2ValueReference vr[], size_t n)
 {
-    PyObject *l = PyList_New((Py_ssize_t)n);
-    for (size_t i = 0; l && i < n; i++) {
-        PyObject *x = PyLong_FromUnsignedLong(vr[i]);
-        if (!x) { Py_CLEAR(l); break; }
-        PyList_SET_ITEM(l, (Py_ssize_t)i, x);
+    VrCache *c = &I->vrc[method];
+    if (c->tuple && c->n == n && (n == 0 || memcmp(c->vr, vr, n * sizeof *vr) == 0)) {
+        Py_INCREF(c->tuple);
+        return c->tuple;
     }
-    return l;
+    PyObject *t = PyTuple_New((Py_ssize_t)n);
+    for (size_t i = 0; t && i < n; i++) {
+        PyObject *x = PyLong_FromUnsignedLong(vr[i]);
+        if (!x) { Py_CLEAR(t); break; }
+        PyTuple_SET_ITEM(t, (Py_ssize_t)i, x);
+    }
+    if (!t) return NULL;
+    fmi2ValueReference *copy = n ? (fmi2ValueReference *)malloc(n * sizeof *vr) : NULL;
+    if (n && !copy) return t;   /* not remembered, still a valid tuple */
+    if (n) memcpy(copy, vr, n * sizeof *vr);
+    free(c->vr);
+    c->vr = copy;
+    c->n = n;
+    Py_INCREF(t);
+    Py_XSETREF(c->tuple, t);
+    return t;
 }
 
 /* Call a getter; on success a sequence of exactly n items is returned (new reference). */
@@ -472,7 +513,7 @@ static PyObject *get_values(Instance *I, int method, const fmi2ValueReference vr
                             fmi2Status *s)
 {
     if (n && !vr) { emitf(&I->cb, I->name, fmi2Error, "%s: vr is NULL", fn); *s = fmi2Error; return NULL; }
-    PyObject *vrs = vr_list(vr, n);
+    PyObject *vrs = vr_tuple(I, method, vr, n);
     PyObject *r = vrs ? PyObject_CallOneArg(I->methods[method], vrs) : NULL;
     Py_XDECREF(vrs);
     if (!r) { *s = status_of(I, NULL, fn); return NULL; }
@@ -535,13 +576,14 @@ fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
             emitf(&I->cb, I->name, fmi2Error, "%s: vr or value is NULL", #fn);                     \
             s = fmi2Error;                                                                         \
         } else {                                                                                   \
-            PyObject *vrs = vr_list(vr, n), *vals = PyList_New((Py_ssize_t)n);                     \
+            PyObject *vrs = vr_tuple(I, method, vr, n), *vals = PyTuple_New((Py_ssize_t)n);        \
             for (size_t i = 0; vals && i < n; i++) {                                               \
                 PyObject *x = build;                                                               \
                 if (!x) { Py_CLEAR(vals); break; }                                                 \
-                PyList_SET_ITEM(vals, (Py_ssize_t)i, x);                                           \
+                PyTuple_SET_ITEM(vals, (Py_ssize_t)i, x);                                          \
             }                                                                                      \
-            s = status_of(I, (vrs && vals) ? PyObject_CallFunctionObjArgs(I->methods[method], vrs, vals, NULL) : NULL, #fn); \
+            PyObject *args[2] = {vrs, vals};                                                       \
+            s = status_of(I, (vrs && vals) ? PyObject_Vectorcall(I->methods[method], args, 2, NULL) : NULL, #fn); \
             Py_XDECREF(vrs);                                                                       \
             Py_XDECREF(vals);                                                                      \
         }                                                                                          \
@@ -674,8 +716,11 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte in[], size_t 
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp)
 {
     ENTER
-    s = status_of(I, PyObject_CallFunction(I->methods[M_DO_STEP], "ddO", t, h, nsp ? Py_True : Py_False),
+    PyObject *args[3] = {PyFloat_FromDouble(t), PyFloat_FromDouble(h), nsp ? Py_True : Py_False};
+    s = status_of(I, (args[0] && args[1]) ? PyObject_Vectorcall(I->methods[M_DO_STEP], args, 3, NULL) : NULL,
                   "fmi2DoStep");
+    Py_XDECREF(args[0]);
+    Py_XDECREF(args[1]);
     LEAVE
 }
 

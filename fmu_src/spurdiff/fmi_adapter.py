@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import json
 import math
+import operator
 from dataclasses import dataclass
 from typing import Any, Callable, Sequence
 
@@ -63,6 +64,20 @@ def _is_bad_number(v: Any) -> bool:
 def _time_tolerance(t: float, h: float) -> float:
     """How far a communication point may stand from the FMU's time: rounding of a sum of steps."""
     return 1e-9 * max(1.0, abs(t)) + 1e-6 * h
+
+
+def _getter(names: Sequence[str]) -> Callable[[dict], tuple]:
+    """A function of a dict returning the tuple of its values at ``names`` (one C-level call)."""
+    names = tuple(names)
+    if len(names) >= 2:
+        return operator.itemgetter(*names)
+    if len(names) == 1:
+        name = names[0]
+        return lambda d: (d[name],)
+    return lambda d: ()
+
+
+_CACHE_LIMIT = 256   # value-reference vectors remembered per FMU instance (a host uses a few)
 
 
 @dataclass
@@ -109,6 +124,15 @@ class ModelFmu(Fmi2Slave):
         self._inputs = [(v.name, -math.inf if v.min is None else v.min, math.inf if v.max is None else v.max)
                         for v in self.VARIABLES if v.causality == "input" and v.kind == "Real"]
         self._outputs = [v.name for v in self.VARIABLES if v.causality == "output" and v.kind == "Real"]
+        # the hot path's tables (see _step, fmi2_get_real, fmi2_set_real): the inputs' values, lower
+        # and upper bounds as parallel tuples, the Real outputs read in one C-level call, and per
+        # value-reference vector a compiled getter / the names with "any fixed parameter among them"
+        self._input_values = _getter([n for n, _, _ in self._inputs])
+        self._input_lo = tuple(lo for _, lo, _ in self._inputs)
+        self._input_hi = tuple(hi for _, _, hi in self._inputs)
+        self._output_values = _getter(self._outputs)
+        self._real_getters: dict[tuple, Callable[[dict], tuple]] = {}
+        self._real_setters: dict[tuple, tuple[tuple, bool]] = {}
         self.model = None
         self.phase = "instantiated"
         self.failure = ""
@@ -265,8 +289,23 @@ class ModelFmu(Fmi2Slave):
         self.phase = "terminated"
         return OK
 
-    def fmi2_get_real(self, vrs) -> list:
-        return self._read("Real", vrs)
+    def fmi2_get_real(self, vrs) -> Sequence[float]:
+        """The values at ``vrs`` (a tuple from our bridge, a list from pythonfmu's wrapper). The
+        getter of each value-reference vector is compiled once (the names looked up, unknown
+        references refused as in :meth:`_read`); the C side converts each value with
+        ``PyFloat_AsDouble``, so values are not cast here."""
+        key = vrs if vrs.__class__ is tuple else tuple(vrs)
+        getter = self._real_getters.get(key)
+        if getter is None:
+            getter = _getter(self._names("Real", key, settable=False))
+            if len(self._real_getters) >= _CACHE_LIMIT:
+                self._real_getters.clear()
+            self._real_getters[key] = getter
+        if self._dirty and self.phase == "initializing":
+            self._initial_outputs()
+        if self._bridged:
+            return getter(self.values)
+        return [float(x) for x in getter(self.values)]
 
     def fmi2_get_integer(self, vrs) -> list:
         return self._read("Integer", vrs)
@@ -278,7 +317,23 @@ class ModelFmu(Fmi2Slave):
         return self._read("String", vrs)
 
     def fmi2_set_real(self, vrs, xs) -> int:
-        return self._store(self._names("Real", vrs, True), xs)
+        """Store the values at ``vrs``; while stepping, a vector without fixed parameters goes
+        straight into the value table (the names looked up once per vector), anything else
+        through :meth:`_store` and its refusals."""
+        key = vrs if vrs.__class__ is tuple else tuple(vrs)
+        entry = self._real_setters.get(key)
+        if entry is None:
+            names = tuple(self._names("Real", key, True))
+            entry = (names, any(n in self._fixed for n in names))
+            if len(self._real_setters) >= _CACHE_LIMIT:
+                self._real_setters.clear()
+            self._real_setters[key] = entry
+        names, fixed = entry
+        if self.phase == "stepping" and not fixed:
+            self.values.update(zip(names, xs))
+            self._dirty = True
+            return OK
+        return self._store(names, xs)
 
     def fmi2_set_integer(self, vrs, xs) -> int:
         return self._store(self._names("Integer", vrs, True), xs)
@@ -295,13 +350,16 @@ class ModelFmu(Fmi2Slave):
         return status
 
     def _step(self, t: float, h: float) -> int:
+        # the checks below are the hot path of every communication step: each is one comparison
+        # or one C-level pass over a precomputed table; the messages are built only on refusal
         if self.phase != "stepping":
             why = f": {self.failure}" if self.failure else ""
             return self._refuse(ERROR, f"fmi2DoStep refused in state '{self.phase}'{why}")
-        if not (h > 0.0 and math.isfinite(h)):
+        if not 0.0 < h < math.inf:   # NaN too
             return self._refuse(DISCARD, f"fmi2DoStep at t = {t:g} s refused: communicationStepSize = {h} "
                                          "must be > 0 and finite")
-        if not (math.isfinite(t) and abs(t - self.time) <= _time_tolerance(t, h)):
+        at = t if t >= 0.0 else -t   # |t|; NaN fails the comparison below
+        if not abs(t - self.time) <= 1e-9 * (at if at > 1.0 else 1.0) + 1e-6 * h or at == math.inf:
             return self._refuse(DISCARD, f"fmi2DoStep refused: currentCommunicationPoint = {t!r} s is not the "
                                          f"FMU's time {self.time!r} s (no gaps, no going back: use fmi2SetFMUstate)")
         if self.stop_time is not None and t + h > self.stop_time + _time_tolerance(self.stop_time, h):
@@ -309,12 +367,13 @@ class ModelFmu(Fmi2Slave):
             return self._refuse(ERROR, f"fmi2DoStep refused: t + h = {t + h:g} s is past the stopTime "
                                        f"{self.stop_time:g} s set by fmi2SetupExperiment; state kept at t = {self.time:g} s")
         values = self.values
-        for name, lo, hi in self._inputs:
-            x = values[name]
-            if not lo <= x <= hi:   # NaN too
-                what = "is not a finite number" if not math.isfinite(x) else f"is outside [{lo:g}, {hi:g}]"
-                return self._refuse(DISCARD, f"fmi2DoStep at t = {t:g} s refused: input {name} = {x} {what}; "
-                                             f"state kept at t = {self.time:g} s")
+        xs = self._input_values(values)
+        if not (all(map(operator.le, self._input_lo, xs)) and all(map(operator.le, xs, self._input_hi))):
+            for (name, lo, hi), x in zip(self._inputs, xs):
+                if not lo <= x <= hi:   # NaN too
+                    what = "is not a finite number" if not math.isfinite(x) else f"is outside [{lo:g}, {hi:g}]"
+                    return self._refuse(DISCARD, f"fmi2DoStep at t = {t:g} s refused: input {name} = {x} {what}; "
+                                                 f"state kept at t = {self.time:g} s")
         model = self.model
         # the rollback point; a model whose do_step leaves itself as it was on any error and never
         # commits a non-finite state says so with ATOMIC_STEP (no snapshot on the hot path)
@@ -324,7 +383,12 @@ class ModelFmu(Fmi2Slave):
             self.push_inputs(model, values)
             model.do_step(t, h)
             self.pull_outputs(model, values)
-            bad = next((n for n in self._outputs if not math.isfinite(values[n])), None)
+            # all outputs finite if their sum is (a NaN or an infinity makes it so; a finite sum
+            # that overflows is told apart by the exact check)
+            if math.isfinite(sum(self._output_values(values))):
+                bad = None
+            else:
+                bad = next((n for n in self._outputs if not math.isfinite(values[n])), None)
             if bad is None:
                 self.time = t + h
                 return OK
