@@ -16,7 +16,10 @@ class SpurDifferential(ModelFmu):
     VARIABLES = interface.VARIABLES
 
     def build_model(self, values):
-        return interface.build_model(values)
+        model = interface.build_model(values)
+        if values["solver.kernelInUse"] != "none":      # which implementation runs the mesh level, and why
+            self.log(f"meshModel = {values['meshModel']}: {values['solver.kernelInUse']} implementation")
+        return model
 
     def push_inputs(self, model, values):
         interface.push_inputs(model, values)

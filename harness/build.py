@@ -137,6 +137,46 @@ def compile_native(out_dir: Path) -> tuple[Path, Path]:
     return loader, bridge
 
 
+# FMUs that ship the compiled kernel of the mesh levels (fmu_src/native/mesh_kernel.c), and its flags:
+# no contraction into fused multiply-adds, so it computes what the Python reference computes
+MESH_KERNEL_FMUS = ("SpurDifferential",)
+KERNEL_FLAGS = ["-shared", "-fPIC", "-O2", "-Wall", "-ffp-contract=off"]
+
+
+def compile_kernel(out: Path) -> Path:
+    """Compile ``fmu_src/native/mesh_kernel.c`` (libm only) into the file ``out``; BuildError with
+    the compiler's message when there is no compiler or the build fails."""
+    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        raise BuildError("no C compiler (cc/gcc) on PATH")
+    r = subprocess.run([cc, *KERNEL_FLAGS, str(NATIVE / "mesh_kernel.c"), "-o", str(out), "-lm"],
+                       capture_output=True, text=True)
+    if r.returncode != 0:
+        raise BuildError(f"compiling {NATIVE / 'mesh_kernel.c'} failed:\n{r.stderr.strip()}")
+    return out
+
+
+def kernel_library(dest: Path | None = None) -> Path:
+    """The mesh kernel for direct (non-FMU) runs, compiled once per source digest into the FMU
+    folder (``mesh_kernel-<digest>.so``) and put on the kernel's search path. BuildError if it
+    cannot be compiled (the models then run the Python reference and say why)."""
+    from spurdiff.mesh import kernel
+
+    dest = Path(dest) if dest else fmu_cache_dir()
+    dest.mkdir(parents=True, exist_ok=True)
+    out = dest / f"mesh_kernel-{kernel.source_digest(NATIVE / 'mesh_kernel.c')}.so"
+    with open(dest / ".mesh_kernel.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not out.is_file():
+            staged = dest / f".mesh_kernel.{os.getpid()}.so"
+            compile_kernel(staged)
+            os.replace(staged, out)
+    if dest not in kernel.SEARCH_PATH:
+        kernel.SEARCH_PATH.insert(0, dest)
+        kernel.reset()
+    return out
+
+
 def runtime_cfg(name: str, script: str, guid: str) -> str:
     """resources/python_runtime.cfg: the Python this FMU runs on (see fmu_src/native/runtime_cfg.h)."""
     lib = _libpython()
@@ -202,7 +242,14 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
                              "wrapper, which C hosts load only with LD_PRELOAD and PYTHONHOME")
         # bundle a clean copy of the package (no caches)
         pkg = tmp / "spurdiff"
-        shutil.copytree(PACKAGE, pkg, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        shutil.copytree(PACKAGE, pkg, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.so"))
+        if name in MESH_KERNEL_FMUS:   # the compiled mesh kernel beside its binding (spurdiff.mesh.kernel)
+            try:
+                compile_kernel(pkg / "mesh" / "mesh_kernel.so")
+                notes.append("mesh kernel compiled")
+            except BuildError as e:
+                notes.append(f"WARNING: the mesh kernel was not built ({e}); the mesh levels run the Python "
+                             "reference")
         raw = FmuBuilder.build_FMU(script, dest=tmp / "raw", project_files=[pkg],
                                    canGetAndSetFMUstate=True, canSerializeFMUstate=True)
         out = fmu_path(name, dest)
@@ -248,6 +295,11 @@ def build(names: list[str] | None = None, dest: Path | None = None, force: bool 
     paths = []
     dest = Path(dest) if dest else fmu_cache_dir()
     dest.mkdir(parents=True, exist_ok=True)
+    try:
+        kernel_library(dest)      # the mesh kernel for the direct runs beside the FMUs
+    except BuildError as e:
+        if not quiet:
+            print(f"mesh kernel not built ({e}): direct runs use the Python reference")
     for name in names or list(FMUS):
         if name not in FMUS:
             raise BuildError(f"unknown FMU {name!r}: allowed {', '.join(FMUS)}")

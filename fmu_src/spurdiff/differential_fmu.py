@@ -154,6 +154,12 @@ VARIABLES: list[Var] = [
         _M.tolerance),
     Var("maxInternalSteps", "parameter", "Internal steps allowed per communication step before doStep discards",
         None, None, _M.maxInternalSteps, kind="Integer"),
+    Var("solver.kernel", "parameter", "Implementation of the compliant/contact levels: auto (the compiled kernel "
+        "shipped in the FMU when it loads, else the Python reference, with the reason logged) | compiled (refuse "
+        "to start without it) | python (the pure-Python reference; same results, slower)", None, None,
+        _M.kernel, kind="String"),
+    Var("solver.kernelInUse", "calculatedParameter", "Implementation that runs the compliant/contact levels: "
+        "compiled | python (and why) | none (rigid)", None, None, "", kind="String"),
     Var("carrierDrive", "parameter", "How the carrier is driven: speed (carrier.w_ref) | torque (carrier.tau)",
         None, None, "speed", kind="String"),
     Var("shaftCoupling", "parameter",
@@ -274,7 +280,7 @@ def differential_params(values: dict) -> DifferentialParams:
 
 # FMU parameter name -> MeshParams field
 MESH_FIELDS: dict[str, str] = {
-    "meshModel": "level", "tolerance": "tolerance", "maxInternalSteps": "maxInternalSteps",
+    "meshModel": "level", "tolerance": "tolerance", "maxInternalSteps": "maxInternalSteps", "solver.kernel": "kernel",
     **{e: e for e in EFFECTS},
     "mesh.preload": "preload", "mesh.dampingRatio": "dampingRatio", "mesh.E": "youngsModulus",
     "mesh.contactExponent": "contactExponent", "mesh.contactDamping": "contactDamping",
@@ -366,6 +372,8 @@ def _set_calculated(model, values: dict) -> None:
     values["geometry.warnings"] = len(geo.warnings)
     values["nStates"] = int(getattr(model, "n_states", 2))
     values["activeEffects"] = ",".join(active_effects(model))
+    inner = getattr(model, "inner", model)
+    values["solver.kernelInUse"] = getattr(inner, "kernel_in_use", "none")
 
 
 def active_effects(model) -> tuple[str, ...]:

@@ -95,6 +95,11 @@ class Transformed(NamedTuple):
     Ginv: np.ndarray
     binterp: np.ndarray
     embedded_order: int
+    a_lists: list = None      # the same coefficients as Python floats, row i with i entries
+    c_lists: list = None
+    m_list: list = None
+    e_list: list = None
+    dmid_list: list = None
 
 
 def transform(tab: RosenbrockTableau) -> Transformed:
@@ -105,7 +110,9 @@ def transform(tab: RosenbrockTableau) -> Transformed:
     tr = Transformed(tab.gamma, s, [np.ascontiguousarray(a[i, :i]) for i in range(s)],
                      [np.ascontiguousarray(c[i, :i]) for i in range(s)], np.ascontiguousarray(tab.b @ Ginv),
                      np.ascontiguousarray((tab.b - tab.bhat) @ Ginv), None, Ginv, tab.binterp, tab.embedded_order)
-    return tr._replace(dmid=np.ascontiguousarray(dense_weights(0.5, tr)))
+    tr = tr._replace(dmid=np.ascontiguousarray(dense_weights(0.5, tr)))
+    return tr._replace(a_lists=[r.tolist() for r in tr.a_rows], c_lists=[r.tolist() for r in tr.c_rows],
+                       m_list=tr.m.tolist(), e_list=tr.e.tolist(), dmid_list=tr.dmid.tolist())
 
 
 def dense_weights(theta: float, tr: "Transformed | None" = None) -> np.ndarray:
@@ -142,6 +149,7 @@ class RosenbrockW:
         self.err = np.zeros(n)
         self.y_mid = np.zeros(n)
         self.eye = np.eye(n)
+        self.tmp = np.zeros(n)
 
     def step(self, y: np.ndarray, f0: np.ndarray, h: float) -> bool:
         """Attempt a step of size h from y (with f0 = f(y), self.J = J(y) already filled).
@@ -163,11 +171,10 @@ class RosenbrockW:
         U[0] = x
         ih = 1.0 / h
         for i in range(1, tr.stages):
-            Ui = U[:i]
-            np.dot(tr.a_rows[i], Ui, out=Ys)
+            _combine(tr.a_lists[i], U, Ys, self.tmp)
             Ys += y
             self.evaluate(Ys, F, None)
-            np.dot(tr.c_rows[i], Ui, out=rhs)
+            _combine(tr.c_lists[i], U, rhs, self.tmp)
             rhs *= ih
             rhs += F
             x, info = dgetrs(lu, piv, rhs)
@@ -175,28 +182,39 @@ class RosenbrockW:
                 return False
             U[i] = x
         yn = self.y_new
-        np.dot(tr.m, U, out=yn)
+        _combine(tr.m_list, U, yn, self.tmp)
         yn += y
-        np.dot(tr.e, U, out=self.err)
+        _combine(tr.e_list, U, self.err, self.tmp)
         return bool(np.isfinite(yn).all())
 
     def midpoint(self, y: np.ndarray) -> np.ndarray:
         """Dense output at the middle of the last step (order 3)."""
         ym = self.y_mid
-        np.dot(self.method.dmid, self.U, out=ym)
+        _combine(self.method.dmid_list, self.U, ym, self.tmp)
         ym += y
         return ym
 
 
+def _combine(coef: list, U: np.ndarray, out: np.ndarray, tmp: np.ndarray) -> None:
+    """out = sum_k coef[k] U[k], summed in the order of k (elementwise, so that the compiled
+    kernel, which sums in the same order, gives the same bits)."""
+    np.multiply(U[0], coef[0], out=out)
+    for k in range(1, len(coef)):
+        np.multiply(U[k], coef[k], out=tmp)
+        out += tmp
+
+
 def error_norm(err: np.ndarray, y: np.ndarray, y_new: np.ndarray, atol: np.ndarray, rtol: float,
                scratch: np.ndarray) -> float:
-    """RMS norm of err / (atol + rtol max(|y|, |y_new|)) (Hairer-Wanner)."""
+    """RMS norm of err / (atol + rtol max(|y|, |y_new|)) (Hairer-Wanner), summed in index order."""
     np.abs(y, out=scratch)
     scratch_max = np.maximum(scratch, np.abs(y_new), out=scratch)
     scratch_max *= rtol
     scratch_max += atol
-    q = err / scratch_max
-    return math.sqrt(float(q @ q) / q.size)
+    ss = 0.0
+    for q in (err / scratch_max).tolist():
+        ss += q * q
+    return math.sqrt(ss / err.size)
 
 
 def new_step_size(h: float, err: float, rejected: bool) -> float:

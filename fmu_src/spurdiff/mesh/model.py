@@ -30,11 +30,12 @@ The mesh laws and effects: :mod:`spurdiff.mesh.forces`; the driver over a commun
 """
 from __future__ import annotations
 
+import logging
 from functools import partial
 
 import numpy as np
 
-from ..errors import StepError, require_finite, require_positive
+from ..errors import ParameterError, StepError, require_finite, require_positive
 from ..geometry import DifferentialGeometry
 from ..inertia import MassProperties, mass_properties
 from ..locking import locking_coefficients, paper_locking_coefficient, pin_friction
@@ -43,12 +44,16 @@ from ..params import DifferentialParams
 from ..rigid import RigidDifferential
 from ..statics import MeshForces, kinematics
 from .events import contact_flags
-from .forces import BilateralSpring, ElastoBacklash, FlankFriction, Impact, MeshPhase, evaluate, gear_meshes, potential
+from . import kernel as compiled
+from .forces import (BilateralSpring, ElastoBacklash, FlankFriction, Impact, MeshPhase, SideValues, evaluate,
+                     gear_meshes, potential)
 from .integrator import RosenbrockW
 from .layout import D12, DA, DB, PSI, VA, VB, W1, W2, WC, constant_jacobian, mesh_data, relative_angles
 from .params import MeshParams
 from .stepper import advance
 from .stickslip import initial_forces, settle_modes
+
+log = logging.getLogger("spurdiff.mesh")
 
 
 class MeshDifferential(DifferentialModel):
@@ -165,8 +170,23 @@ class MeshDifferential(DifferentialModel):
                           [self.JA, self.JA, 0, 0, 0], [self.JB, 0, self.JB, 0, 0],
                           [n * self.J1, 0, 0, n * self.J1, 0], [n * self.J2, 0, 0, 0, n * self.J2]])
             self._Minv = np.linalg.inv(M)
+        self._kernel, self.kernel_in_use = self._choose_kernel()
         self._initial_state(t0)
         self._ready = True
+
+    def _choose_kernel(self):
+        """The compiled kernel (mesh.kernel auto or compiled) or None (python, or auto without a
+        loadable kernel: logged with the reason), and a note saying which one runs."""
+        want = self.mesh.kernel
+        if want == "python":
+            return None, "python (kernel = python)"
+        lib, where = compiled.load()
+        if lib is None:
+            if want == "compiled":
+                raise ParameterError("kernel", want, f"auto | python here: {where}")
+            log.info("mesh levels run the Python reference: %s", where)
+            return None, f"python ({where})"
+        return compiled.Kernel(lib, self), "compiled"
 
     def _check_inputs(self) -> None:
         names = self.input_names
@@ -252,6 +272,9 @@ class MeshDifferential(DifferentialModel):
         self._check_inputs()
         snapshot = self.get_state()
         try:
+            if self._kernel is not None:   # the whole step in C, outputs included
+                self._refresh_outputs(SideValues(*self._kernel.advance(self, t, h)))
+                return
             advance(self, t, h)
         except StepError:
             self.set_state(snapshot)

@@ -12,6 +12,7 @@ import numpy as np
 from ..errors import ParameterError, require_range
 
 LEVELS = ("compliant", "contact")
+KERNELS = ("auto", "compiled", "python")
 N_PER_MM15 = 1e3 ** 1.5  # 1 N/mm^1.5 in N/m^1.5
 SWITCHES = ("backlash", "meshStiffnessVariation", "pinFriction", "flankFriction", "preload")
 
@@ -52,11 +53,15 @@ class MeshParams:
     # numerics / start
     preload: bool = True                  # start with the meshes statically loaded
     maxInternalSteps: int = 100000        # per communication step, else StepError
+    # implementation: auto (the compiled kernel if it loads, else Python) | compiled | python
+    kernel: str = "auto"
 
     def validate(self) -> None:
         """Raise ParameterError naming the first invalid field (checked in the order of LIMITS)."""
         if self.level not in LEVELS:
             raise ParameterError("level", self.level, " | ".join(LEVELS))
+        if self.kernel not in KERNELS:
+            raise ParameterError("kernel", self.kernel, " | ".join(KERNELS))
         for name in SWITCHES:
             v = getattr(self, name)
             if not isinstance(v, (bool, np.bool_)) and v not in (0, 1):

@@ -1,0 +1,251 @@
+"""The compiled kernel of the mesh levels (``fmu_src/native/mesh_kernel.c``) through ctypes.
+
+The kernel does a whole communication step (the internal ROS34PW2 steps with their error control,
+events, loss quadrature, stick-slip and work accounting) in C, so Python is entered once per
+communication step. It transcribes the pure-Python reference (:mod:`spurdiff.mesh.stepper` and
+what it calls), which stays the specification and the fallback; the two agree to rounding
+(tests/test_mesh_kernel.py).
+
+Where the library is found (first hit): beside this module (``mesh_kernel.so``, as
+``harness/build.py`` ships it inside each SpurDifferential FMU), in the folders of
+:data:`SEARCH_PATH` (``harness.build.kernel_library`` adds the FMU folder, where it compiles
+``mesh_kernel-<digest>.so`` for the direct runs and the tests), ``$SPURDIFF_KERNEL_DIR``,
+``$SPURDIFF_FMU_DIR`` and a checkout's ``build/fmus``.
+A library in a checkout's folders must carry the digest of the C source beside it; one whose
+structure sizes or ABI version do not match is refused. :func:`load` says why a kernel is not
+available; the model then runs the Python reference.
+"""
+from __future__ import annotations
+
+import ctypes as C
+import hashlib
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import StepError
+
+ABI = 1
+LIB_NAME = "mesh_kernel.so"
+SEARCH_PATH: list[Path] = []
+_HERE = Path(__file__).resolve().parent
+_SOURCES = (_HERE.parent.parent / "native" / "mesh_kernel.c",             # checkout: fmu_src/native
+            _HERE.parent.parent / "spurdiff_fmus" / "native" / "mesh_kernel.c")   # installed wheel
+_d, _i = C.c_double, C.c_int64
+
+
+class MkMesh(C.Structure):
+    _fields_ = [(n, _d) for n in ("sigma", "rb1", "rb2", "k", "c", "K", "jn", "eps", "pb", "l1min", "galpha", "L",
+                                  "xi0", "xi0c", "xip", "a1", "a2")] + [(n, _i) for n in ("d", "g1", "g2")]
+
+
+class MkParams(C.Structure):
+    _fields_ = ([(n, _i) for n in ("N", "speed_drive", "law", "wave", "tracked", "flank", "pin", "bl", "contact",
+                                   "dissipative", "var", "max_steps", "n")]
+                + [(n, _d) for n in ("rbA", "rb1", "rbB", "rb2", "JA", "JB", "J1", "J2", "Jc", "Jtot", "lam", "e", "C",
+                                     "dmax", "mu_s", "mu_d", "v_s", "v_d", "c_pin", "M01", "M02")]
+                + [("pin_flat", _d * 8 * 2), ("Minv", _d * 5 * 5), ("atol", _d * 10), ("rtol", _d), ("w_stick", _d),
+                   ("gamma", _d), ("a", _d * 4 * 4), ("cc", _d * 4 * 4), ("m", _d * 4), ("ew", _d * 4), ("dmid", _d * 4),
+                   ("md", MkMesh * 3), ("getrf", _i), ("getrs", _i)])
+
+
+class MkState(C.Structure):
+    _fields_ = ([("y", _d * 10)]
+                + [(n, _d) for n in ("w_ref", "tau_c", "tau_L", "tau_R", "ac", "wc", "phic", "t", "h_next", "work_in",
+                                     "energy_loss", "parametric_work", "loss_last_step", "last_h", "dA0", "dB0",
+                                     "d120")]
+                + [("sv", _d * 13), ("s", _i * 2), ("flags", _i * 6), ("n_flags", _i)]
+                + [(n, _i) for n in ("n_internal_steps", "n_rejected_steps", "n_mode_switches",
+                                     "n_contact_transitions", "n_steps")]
+                + [("fail_t", _d), ("fail_h", _d)])
+
+
+# the model's attributes the state carries in and out (floats, then counters)
+_FLOATS = ("w_ref", "tau_c", "tau_L", "tau_R", "t", "h_next", "work_in", "energy_loss", "parametric_work",
+           "loss_last_step")
+_COUNTS = ("n_internal_steps", "n_rejected_steps", "n_mode_switches", "n_contact_transitions", "n_steps")
+
+
+def source_digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()[:16]
+
+
+def _candidates() -> list[Path]:
+    out = [_HERE / LIB_NAME]
+    src = next((p for p in _SOURCES if p.is_file()), None)
+    dirs = list(SEARCH_PATH) + [Path(os.environ[v]) for v in ("SPURDIFF_KERNEL_DIR", "SPURDIFF_FMU_DIR")
+                                if os.environ.get(v)]
+    if src is not None and src.parent.parent.name == "fmu_src":      # a checkout: its build/fmus
+        dirs.append(src.parent.parent.parent / "build" / "fmus")
+    if src is not None:
+        out += [Path(d) / f"mesh_kernel-{source_digest(src)}.so" for d in dirs]
+    else:
+        out += [Path(d) / LIB_NAME for d in dirs]
+    return out
+
+
+_LIB: tuple | None = None
+
+
+def load() -> tuple[C.CDLL | None, str]:
+    """(library, where it came from) or (None, why not). Cached per process."""
+    global _LIB
+    if _LIB is not None and _LIB[0] is not None:
+        return _LIB
+    reasons = []
+    for path in _candidates():
+        if not path.is_file():
+            continue
+        try:
+            lib = C.CDLL(str(path))
+        except OSError as e:
+            reasons.append(f"{path}: {e}")
+            continue
+        if lib.mk_abi() != ABI:
+            reasons.append(f"{path}: ABI {lib.mk_abi()} (this module needs {ABI})")
+            continue
+        lib.mk_sizeof_params.restype = lib.mk_sizeof_state.restype = C.c_int64
+        if (lib.mk_sizeof_params() != C.sizeof(MkParams) or lib.mk_sizeof_state() != C.sizeof(MkState)):
+            reasons.append(f"{path}: structure sizes differ from this module's")
+            continue
+        lib.mk_advance.argtypes = [C.POINTER(MkParams), C.POINTER(MkState), _d, _d]
+        lib.mk_advance.restype = C.c_int
+        lib.mk_evaluate.argtypes = [C.POINTER(MkParams), C.POINTER(MkState), C.c_void_p, C.c_void_p, C.c_void_p,
+                                    C.c_void_p]
+        lib.mk_evaluate.restype = None
+        _LIB = (lib, str(path))
+        return _LIB
+    why = "; ".join(reasons) if reasons else (
+        "no compiled mesh kernel found (build it with `spurdiff build`, which compiles "
+        "fmu_src/native/mesh_kernel.c)")
+    _LIB = (None, why)
+    return _LIB
+
+
+_LAPACK: tuple | None = None
+
+
+def _lapack() -> tuple[int, int]:
+    """Addresses of the dgetrf and dgetrs the Python reference calls (scipy's LAPACK, through its
+    Cython API capsules), so the kernel factors with the same routine; (0, 0) if unavailable."""
+    global _LAPACK
+    if _LAPACK is None:
+        try:
+            from scipy.linalg import cython_lapack
+            caps = cython_lapack.__pyx_capi__
+            name = C.pythonapi.PyCapsule_GetName
+            name.restype, name.argtypes = C.c_char_p, [C.py_object]
+            ptr = C.pythonapi.PyCapsule_GetPointer
+            ptr.restype, ptr.argtypes = C.c_void_p, [C.py_object, C.c_char_p]
+            _LAPACK = tuple(int(ptr(caps[f], name(caps[f])) or 0) for f in ("dgetrf", "dgetrs"))
+        except Exception:     # no scipy, or a scipy without the capsules: the kernel's own LU
+            _LAPACK = (0, 0)
+    return _LAPACK
+
+
+def reset() -> None:
+    """Forget the cached search result (after the search path changed)."""
+    global _LIB
+    _LIB = None
+
+
+class Kernel:
+    """The compiled kernel bound to one initialized :class:`spurdiff.mesh.MeshDifferential`."""
+
+    def __init__(self, lib: C.CDLL, model):
+        from .integrator import METHOD
+        self.lib = lib
+        c = model
+        P = self.params = MkParams()
+        P.N, P.speed_drive, P.n = c._N, int(c.speed_drive), int(c.n)
+        P.law = 2 if c._contact else (1 if c._bl else 0)
+        P.wave, P.tracked, P.flank, P.pin = int(c._var), int(c._need_phase), int(c._flank), int(c._pin)
+        P.bl, P.contact, P.dissipative, P.var = int(c._bl), int(c._contact), int(c._dissipative), int(c._var)
+        P.max_steps = int(c.mesh.maxInternalSteps)
+        for k in ("rbA", "rb1", "rbB", "rb2", "JA", "JB", "J1", "J2", "Jc", "Jtot", "lam", "c_pin"):
+            setattr(P, k, float(getattr(c, k)))
+        P.M01, P.M02 = float(c._M01), float(c._M02)
+        law, fl = c.law_obj, c.flank_obj
+        if c._contact:
+            P.e, P.C, P.dmax = law.e, law.C, law.dmax
+        m = c.mesh
+        P.mu_s, P.mu_d, P.v_s, P.v_d = ((fl.mu_s, fl.mu_d, fl.v_s, fl.v_d) if fl is not None else
+                                        (m.muStatic, m.muDynamic, m.vStiction, m.vTransition))
+        flat = c._pf.layout._flat
+        for i in (0, 1):
+            for j in range(8):
+                P.pin_flat[i][j] = flat[i][j]
+        if not c.speed_drive:
+            for i in range(5):
+                for j in range(5):
+                    P.Minv[i][j] = float(c._Minv[i, j])
+        for i in range(c._N):
+            P.atol[i] = float(c._atol[i])
+        P.rtol, P.w_stick = c._rtol, c._w_stick
+        tr = METHOD
+        P.gamma = tr.gamma
+        for i in range(4):
+            for k, v in enumerate(tr.a_rows[i]):
+                P.a[i][k] = float(v)
+            for k, v in enumerate(tr.c_rows[i]):
+                P.cc[i][k] = float(v)
+            P.m[i], P.ew[i], P.dmid[i] = float(tr.m[i]), float(tr.e[i]), float(tr.dmid[i])
+        for i, md in enumerate(c.md):
+            dst = P.md[i]
+            for f in ("sigma", "rb1", "rb2", "k", "c", "K", "jn", "eps", "pb", "l1min", "galpha", "L", "xi0", "xi0c",
+                      "xip", "a1", "a2"):
+                setattr(dst, f, float(getattr(md, f)))
+            dst.d, dst.g1, dst.g2 = md.d, md.g1, md.g2
+        P.getrf, P.getrs = _lapack()
+        self.state = MkState()
+        self._pP, self._pS = C.byref(self.params), C.byref(self.state)
+        self._y = np.frombuffer(self.state.y, dtype=np.float64)
+
+    def _pack(self, c) -> MkState:
+        S = self.state
+        N = c._N
+        self._y[:N] = c.y
+        for k in _FLOATS:
+            setattr(S, k, getattr(c, k))
+        for k in _COUNTS:
+            setattr(S, k, getattr(c, k))
+        S.ac, S.wc, S.phic, S.last_h = c._ac, c.wc, c.phic, c._last_h
+        S.dA0, S.dB0, S.d120 = c._dA0, c._dB0, c._d120
+        S.s[0], S.s[1] = c.s
+        fl = c._contact_flags
+        S.n_flags = len(fl)
+        for i, v in enumerate(fl):
+            S.flags[i] = v
+        return S
+
+    def advance(self, c, t: float, h: float) -> tuple:
+        """One communication step of model ``c`` in C; updates the model's state and returns the
+        side values of the outputs (spurdiff.mesh.forces.SideValues fields). Raises StepError
+        with the model unchanged."""
+        S = self._pack(c)
+        rc = self.lib.mk_advance(self._pP, self._pS, t, h)
+        if rc != 0:
+            if rc == 1:
+                raise StepError(f"more than {int(c.mesh.maxInternalSteps)} internal steps in the step at "
+                                f"t = {t:.9g} s (maxInternalSteps)")
+            raise StepError(f"internal step size {S.fail_h:.3g} s below 1e-13 s at t = {S.fail_t:.9g} s")
+        c.y[:] = self._y[:c._N]
+        for k in _FLOATS[4:]:
+            setattr(c, k, getattr(S, k))
+        for k in _COUNTS:
+            setattr(c, k, getattr(S, k))
+        c._ac, c.wc, c.phic, c._last_h = S.ac, S.wc, S.phic, S.last_h
+        c.s = [S.s[0], S.s[1]]
+        c._contact_flags = [S.flags[i] for i in range(S.n_flags)]
+        c._f0_key = None
+        return tuple(S.sv)
+
+    def evaluate(self, c, y: np.ndarray, f: np.ndarray, J: np.ndarray | None) -> tuple:
+        """The model evaluation in C at y (inputs, carrier acceleration and modes of ``c``)."""
+        S = self._pack(c)
+        y = np.ascontiguousarray(y, dtype=np.float64)
+        sv = (C.c_double * 13)()
+        self.lib.mk_evaluate(self._pP, self._pS, y.ctypes.data, f.ctypes.data,
+                             None if J is None else J.ctypes.data, C.addressof(sv))
+        return tuple(sv)
