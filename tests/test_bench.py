@@ -24,6 +24,14 @@ def test_fidelity_cost_and_fmi_overhead_measure_real_runs():
     assert o["step"] == 1e-3 and o["instances"] == 1
 
 
+def test_fmi_call_cost_measures_each_fmu_through_the_c_path():
+    c = bench.fmi_call_cost("paper-cornering", calls=50)
+    row = c["per_fmu"]["SpurDifferential"]
+    assert set(row) == {"fmi2GetReal", "fmi2SetReal", "refused"}
+    assert all(us > 0.0 and math.isfinite(us) for us, _ in row.values())
+    assert row["fmi2GetReal"][1] == 4 and 1 <= row["fmi2SetReal"][1] <= 4
+
+
 def test_step_control_comparison_measures_real_runs(monkeypatch):
     """The fixed and variable runs of section 5, on a 0.3 s tip-in-tip-out."""
     from dataclasses import replace
@@ -46,6 +54,9 @@ def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeyp
     monkeypatch.setattr(bench, "realtime_factors", lambda *a, **k: [
         {"scene": "vehicle-cornering", "simulated_s": 3.0, "wall_s": 1.5, "realtime_factor": 2.0,
          "fidelity": "meshModel=rigid", "ok": True}])
+    monkeypatch.setattr(bench, "fmi_call_cost", lambda *a, **k: {"per_fmu": {
+        "Vehicle": {"fmi2GetReal": (2.0, 4), "fmi2SetReal": (3.0, 2), "refused": (1.0, 4)},
+        "WheelLoad": {"fmi2GetReal": (4.0, 4), "fmi2SetReal": (5.0, 4), "refused": (1.0, 4)}}})
     monkeypatch.setattr(bench, "step_control_comparison", lambda *a, **k: [
         {"run": "fixed 5 ms (scene default)", "wall_s": 0.5, "steps": 700, "rejected": 0, "ok": True,
          "err_ratio": 1e-3, "err_lock": 7.0},
@@ -56,6 +67,11 @@ def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeyp
     # 15000 steps: 200 us (FMI) and 100 us (direct) per step, 25 us per instance and step
     assert "FMI 200 us, direct 100 us" in out and "= 25 us per instance and step" in out
     assert "leaves 10 us per step" in out
+    # the mean get (3 us) and set (4 us) call: 7 us per instance and step, 2 us in the host's ctypes calls
+    assert "Vehicle getReal(4) 2.0, setReal(2) 3.0, refused 1.0" in out
+    assert "the set and get calls cost 7.0 us (2.0 us of it in the host's ctypes calls)" in out
+    # 1.25 allows a quarter of the direct run's 100 us per step over 4 instances
+    assert "the FMI path at most 6 us per instance and step" in out
     lines = {ln.split("  ")[0]: ln for ln in out.splitlines()}
     assert lines["coupled / direct run, vehicle-cornering (step 0.2 ms)"].rstrip().endswith("NO")
     assert "variable (rtol 0.001, atol 0.001 J)" in lines and lines["variable (rtol 0.001, atol 0.001 J)"].split()[-4] == "3900"

@@ -45,6 +45,65 @@ def fmi_overhead(scene_name: str, duration: float | None = None, repeats: int = 
             "step": scene.step, "instances": len(scene.instances)}
 
 
+def fmi_call_cost(scene_name: str, calls: int = 2000) -> dict:
+    """Microseconds per FMI call through the whole path a master's step loop takes (fmpy's ctypes
+    call, our loader, the bridge, the adapter), per FMU of the scene, with one preallocated
+    value-reference array as a master keeps it: ``fmi2GetReal`` of up to 4 Real outputs,
+    ``fmi2SetReal`` of up to 4 Real inputs (their own values); and a call the loader refuses at
+    once (NULL instance: the host's ctypes call alone). Medians of 5 rounds."""
+    import ctypes
+
+    from fmpy import extract, read_model_description
+    from fmpy.fmi2 import FMU2Slave, fmi2Real, fmi2ValueReference
+    import shutil
+
+    scene = prepare_scene(scene_name)
+    files = fmu_files_for(scene)
+    out = {"per_fmu": {}}
+    for fmu_name, path in sorted(files.items()):
+        unzip = extract(str(path))
+        try:
+            md = read_model_description(unzip)
+            slave = FMU2Slave(guid=md.guid, unzipDirectory=unzip, modelIdentifier=md.coSimulation.modelIdentifier,
+                              instanceName="bench")
+            slave.instantiate()
+            slave.setupExperiment(startTime=0.0)
+            slave.enterInitializationMode()
+            slave.exitInitializationMode()
+            reals = [v for v in md.modelVariables if v.type == "Real"]
+            outs = [v.valueReference for v in reals if v.causality == "output"][:4]
+            ins = [v.valueReference for v in reals if v.causality == "input"][:4]
+            fns = {}
+            for name in ("fmi2GetReal", "fmi2SetReal"):
+                f = getattr(slave.dll, name)
+                f.argtypes = [ctypes.c_void_p, ctypes.POINTER(fmi2ValueReference), ctypes.c_size_t,
+                              ctypes.POINTER(fmi2Real)]
+                f.restype = ctypes.c_int
+                fns[name] = f
+            row = {}
+            for name, vrs in (("fmi2GetReal", outs), ("fmi2SetReal", ins), ("refused", outs)):
+                n = len(vrs)
+                vr, val = (fmi2ValueReference * n)(*vrs), (fmi2Real * n)()
+                fns["fmi2GetReal"](slave.component, vr, n, val)   # the inputs' own values for the setter
+                f = fns["fmi2SetReal" if name == "fmi2SetReal" else "fmi2GetReal"]
+                comp = None if name == "refused" else slave.component
+                rounds = []
+                for _ in range(5):
+                    t0 = time.perf_counter()
+                    for _ in range(calls):
+                        f(comp, vr, n, val)
+                    rounds.append(time.perf_counter() - t0)
+                if name != "refused" and f(comp, vr, n, val) != 0:
+                    raise RuntimeError(f"{fmu_name}: {name} failed in the call-cost measurement")
+                row[name] = (1e6 * statistics.median(rounds) / calls, n)
+            out["per_fmu"][fmu_name] = row
+            slave.terminate()
+            slave.freeInstance()
+        finally:
+            shutil.rmtree(unzip, ignore_errors=True)
+    return out
+
+
 # Fidelity settings whose cost `bench` compares (structural parameters of the differential).
 def _effect_sets() -> dict[str, dict]:
     """The fidelity settings of paper-straight's accuracy grid (harness/accuracy_grid.toml: every
@@ -212,6 +271,17 @@ def _solve_ivp_ratio(restarted_only: bool = False) -> float | None:
     return max(r) if r else None
 
 
+def _load() -> str:
+    """The machine's load when measuring (wall times on a shared machine grow with it)."""
+    import os
+
+    try:
+        one, five, _ = os.getloadavg()
+    except OSError:
+        return f"{os.cpu_count()} cores"
+    return f"load average {one:.1f} (1 min), {five:.1f} (5 min) on {os.cpu_count()} cores"
+
+
 class _Tee:
     def __init__(self, *streams):
         self.streams = streams
@@ -231,7 +301,7 @@ def _report(args) -> int:
 
     sets = {k: v for k, v in EFFECT_SETS.items() if not args.levels or k in args.levels or k == "rigid"}
     t0 = time.perf_counter()
-    print(f"spurdiff bench (medians of {args.repeats} interleaved runs, stepping time only)\n")
+    print(f"spurdiff bench (medians of {args.repeats} interleaved runs, stepping time only; {_load()})\n")
     o = fmi_overhead("vehicle-cornering" if "vehicle-cornering" in available() else "paper-cornering",
                      repeats=args.repeats)
     print("1. FMI-coupled versus direct physics, same scene and loop")
@@ -242,9 +312,26 @@ def _report(args) -> int:
     per_fmi, per_direct = 1e6 * o["fmi_s"] / n_steps, 1e6 * o["direct_s"] / n_steps
     print(f"   per communication step ({o['step']:g} s, {n_steps} steps): FMI {per_fmi:.0f} us, direct "
           f"{per_direct:.0f} us;\n   the difference, {per_fmi - per_direct:.0f} us, is {o['instances']} instances x "
-          f"(setReal + doStep + getReal through pythonfmu's C-to-Python path) = "
+          f"(setReal + doStep + getReal through our C bridge and the adapter, and the master's own step loop) = "
           f"{(per_fmi - per_direct) / o['instances']:.0f} us per instance and step.\n"
           f"   20x real time at this step leaves {1e6 * o['step'] / 20:.0f} us per step for everything.")
+    calls = fmi_call_cost(o["scene"]) if o["scene"] == "vehicle-cornering" else None
+    call_us = None
+    if calls:
+        parts = []
+        for fmu_name, row in calls["per_fmu"].items():
+            (g, ng), (st, ns), (rf, _) = row["fmi2GetReal"], row["fmi2SetReal"], row["refused"]
+            parts.append(f"{fmu_name} getReal({ng}) {g:.1f}, setReal({ns}) {st:.1f}, refused {rf:.1f}")
+        rows = list(calls["per_fmu"].values())
+        get_us = statistics.mean(r["fmi2GetReal"][0] for r in rows)
+        set_us = statistics.mean(r["fmi2SetReal"][0] for r in rows)
+        host_us = statistics.mean(r["refused"][0] for r in rows)
+        call_us = get_us + set_us
+        print(f"   one FMI call (us; 'refused': a call the loader refuses at once, i.e. the host's ctypes call "
+              f"alone): {'; '.join(parts)}.\n   Per instance and step the set and get calls cost {call_us:.1f} us "
+              f"({2 * host_us:.1f} us of it in the host's ctypes calls); the rest of the "
+              f"{(per_fmi - per_direct) / o['instances']:.0f} us is the master's step loop (its recording reads "
+              "included), fmi2DoStep's call and the adapter's checks.")
     b = step_cost_breakdown(o["scene"]) if o["scene"] == "vehicle-cornering" else None
     if b:
         parts = ", ".join(f"{k} {v:.0f} us" for k, v in b["us_per_step"].items())
@@ -252,8 +339,9 @@ def _report(args) -> int:
         for name, (ev, sub, jac) in b["evals_per_step"].items():
             us = b["us_per_step"][name]
             print(f"   {name} owns the half-shafts: {sub:.1f} sub-steps and {ev:.1f} inner-model steps per communication "
-                  f"step ({jac:.3f} Jacobians), {us / max(ev, 1e-9):.0f} us per inner step: the rigid model's "
-                  f"pin-load friction solve and its state copy bound the real-time factor.")
+                  f"step ({jac:.3f} Jacobians), {us / max(ev, 1e-9):.0f} us per inner step (the instance's time per "
+                  "step over its inner steps: the rigid model's pin-load solve and state copy, the shafts' Newton and "
+                  "the outputs).")
     print("\n2. Cost of each effect relative to rigid (paper-straight from unloaded meshes, mesh.preload = false:"
           "\n   the loads hit at t = 0, a transient with impacts and stick-slip; 0.3 s)")
     rows = fidelity_cost("paper-straight", sets, max(3, args.repeats // 2), extra={"mesh.preload": False})
@@ -285,19 +373,23 @@ def _report(args) -> int:
     print(render(["target", "wanted", "measured", "met"],
                  [[a, b, c, "yes" if ok else "NO"] for a, b, c, ok in targets]))
     if o["ratio"] > 1.25:
-        print(f"   coupled / direct is bounded by the FMI call path, {(per_fmi - per_direct) / o['instances']:.0f} us per "
-              f"instance and step, against {per_direct:.0f} us of physics per step: (physics + {o['instances']} x "
-              "call path) / physics; a larger step does not change it, cheaper physics makes it worse.")
+        what = (f" (the set and get calls {call_us:.1f} us of it, the rest the master's step loop and fmi2DoStep)"
+                if call_us is not None else "")
+        print(f"   coupled / direct is bounded by the FMI path, {(per_fmi - per_direct) / o['instances']:.0f} us per "
+              f"instance and step{what}, against {per_direct:.0f} us of physics per step: (physics + "
+              f"{o['instances']} x FMI path) / physics; a larger step does not change it, cheaper physics makes it "
+              f"worse: 1.25 needs the FMI path at most {0.25 * per_direct / o['instances']:.0f} us per instance and step.")
     if b and "vehicle-cornering" in rtf and rtf["vehicle-cornering"]["realtime_factor"] < 20.0:
         us = b["us_per_step"]
         print(f"   the real-time factor is bounded by the physics per {b['step'] * 1e3:g} ms step ("
               + ", ".join(f"{k} {v:.0f} us" for k, v in us.items())
               + f") plus the FMI path; 20x needs {1e6 * b['step'] / 20:.0f} us per step for everything.")
-        print("\n5. Fixed versus variable communication steps on tip-in-tip-out (errors: largest difference from a")
-        print("   fixed 0.2 ms run at its 1 ms recording instants; variable: harness/stepcontrol.py, power-bond residual)")
-        rows = step_control_comparison("tip-in-tip-out", max(3, args.repeats // 2))
-        print(render(["run", "wall s", "steps", "rejected", "ratio error", "locking torque error N m"],
-                     [[r["run"], f"{r['wall_s']:.3f}", str(r["steps"]), str(r["rejected"]),
-                       f"{r['err_ratio']:.2e}", f"{r['err_lock']:.3g}"] for r in rows]))
-    print(f"\n(bench took {time.perf_counter() - t0:.1f} s on {sys.platform}, python {sys.version.split()[0]})")
+    print("\n5. Fixed versus variable communication steps on tip-in-tip-out (errors: largest difference from a")
+    print("   fixed 0.2 ms run at its 1 ms recording instants; variable: harness/stepcontrol.py, power-bond residual)")
+    rows = step_control_comparison("tip-in-tip-out", max(3, args.repeats // 2))
+    print(render(["run", "wall s", "steps", "rejected", "ratio error", "locking torque error N m"],
+                 [[r["run"], f"{r['wall_s']:.3f}", str(r["steps"]), str(r["rejected"]),
+                   f"{r['err_ratio']:.2e}", f"{r['err_lock']:.3g}"] for r in rows]))
+    print(f"\n(bench took {time.perf_counter() - t0:.1f} s on {sys.platform}, python {sys.version.split()[0]}; "
+          f"{_load()})")
     return 0
