@@ -329,8 +329,9 @@ def _report(args) -> int:
         call_us = get_us + set_us
         print(f"   one FMI call (us; 'refused': a call the loader refuses at once, i.e. the host's ctypes call "
               f"alone): {'; '.join(parts)}.\n   Per instance and step the set and get calls cost {call_us:.1f} us "
-              f"({2 * host_us:.1f} us of it in the host's ctypes calls); the rest of the "
-              f"{(per_fmi - per_direct) / o['instances']:.0f} us is the master's step loop (its recording reads "
+              f"({2 * host_us:.1f} us of it in the host's ctypes calls); the rest, "
+              f"{(per_fmi - per_direct) / o['instances'] - call_us:.0f} us of the "
+              f"{(per_fmi - per_direct) / o['instances']:.0f} us, is the master's step loop (its recording reads "
               "included), fmi2DoStep's call and the adapter's checks.")
     b = step_cost_breakdown(o["scene"]) if o["scene"] == "vehicle-cornering" else None
     if b:
