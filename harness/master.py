@@ -317,11 +317,7 @@ class Master:
                 sink_time += time.perf_counter() - t0
 
         try:
-            self._instantiate()
-            self._compile()
-            self._initialize()
-            for name in self.instances:
-                self._read_outputs(name)
+            self._start()
             t_setup = time.perf_counter() - t_wall
             t_wall = time.perf_counter()
             rec_every = max(1, int(round(sc.output_interval / sc.step)))
@@ -338,12 +334,7 @@ class Master:
                     raise Interrupted(t)
                 self._communication_step(t, h, order, jacobi)
                 steps += 1
-                power = self._coupling_power()
-                for cname, (p_from, p_to) in power.items():
-                    e = energy[cname]
-                    e["work_from"] += 0.5 * (p_from + prev_power[cname][0]) * h
-                    e["work_to"] += 0.5 * (p_to + prev_power[cname][1]) * h
-                prev_power = power
+                prev_power = self._add_work(energy, prev_power, h)
                 if (k + 1) % rec_every == 0 or k + 1 == n_steps:
                     for name in order:
                         self._read_outputs(name)
@@ -359,9 +350,30 @@ class Master:
         if self.progress is not None and not isinstance(failure, Interrupted):
             self.progress(1.0)
         data = store[:rows].copy() if rows < len(store) // 2 else store[:rows]
-        msgs = [f"{n}: {m}" for n, inst in self.instances.items() for s, m in inst.messages if s >= 1]
         wall = time.perf_counter() - t_wall - sink_time
-        return Result(sc, list(sc.record), data, wall, steps, failure, energy, msgs, setup_time=t_setup)
+        return Result(sc, list(sc.record), data, wall, steps, failure, energy, self._messages(), setup_time=t_setup)
+
+    def _start(self) -> None:
+        """Load, wire and initialize every instance, and read all it publishes."""
+        self._instantiate()
+        self._compile()
+        self._initialize()
+        for name in self.instances:
+            self._read_outputs(name)
+
+    def _add_work(self, energy: dict[str, dict[str, float]], prev_power: dict, h: float) -> dict:
+        """Add a step of length ``h`` to the work over each coupling (trapezoidal rule, from the
+        power before it); returns the power now."""
+        power = self._coupling_power()
+        for cname, (p_from, p_to) in power.items():
+            e = energy[cname]
+            e["work_from"] += 0.5 * (p_from + prev_power[cname][0]) * h
+            e["work_to"] += 0.5 * (p_to + prev_power[cname][1]) * h
+        return power
+
+    def _messages(self) -> list[str]:
+        """What the FMUs logged at fmi2Warning or worse, as 'instance: message'."""
+        return [f"{n}: {m}" for n, inst in self.instances.items() for s, m in inst.messages if s >= 1]
 
     def _step(self, name: str, t: float, h: float) -> None:
         inst = self.instances[name]

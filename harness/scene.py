@@ -45,6 +45,7 @@ from typing import Any
 from harness.schema import (SceneError, is_safe_name, number as _number, parameter_value, positive as _positive,  # noqa: F401
                             read_toml, safe_name, strings as _strings, table as _table_of, tables as _tables,
                             text as _text, unknown as _unknown, window as _window)
+from harness.profiles import Profile, parse_profile
 
 SCENE_DIR = Path(__file__).resolve().parent / "scenes"
 
@@ -71,32 +72,6 @@ def refs_of(quantity: str) -> list[str]:
     if not isinstance(quantity, str):
         return []
     return [r.strip() for r in _REF.findall(quantity)] if "{" in quantity else [quantity]
-
-
-@dataclass
-class Profile:
-    """An input profile: constant, piecewise-linear table, or a step."""
-
-    kind: str
-    value: float = 0.0
-    times: tuple[float, ...] = ()
-    values: tuple[float, ...] = ()
-
-    def __call__(self, t: float) -> float:
-        if self.kind == "constant":
-            return self.value
-        ts, vs = self.times, self.values
-        if t <= ts[0]:
-            return vs[0]
-        if t >= ts[-1]:
-            return vs[-1]
-        for i in range(1, len(ts)):
-            if t <= ts[i]:
-                t0, t1 = ts[i - 1], ts[i]
-                if t1 == t0:
-                    return vs[i]
-                return vs[i - 1] + (vs[i] - vs[i - 1]) * (t - t0) / (t1 - t0)
-        return vs[-1]
 
 
 @dataclass
@@ -197,36 +172,6 @@ def divides(where: str, step: float, duration: float) -> None:
                          f"allowed: a step that divides it, e.g. {duration / k:.6g} s")
 
 
-def _profile(where: str, spec) -> Profile:
-    if isinstance(spec, bool):
-        raise SceneError(f"{where}: allowed a number, {{table = [[t, v], ...]}} or {{step = ...}}")
-    if isinstance(spec, (int, float)):
-        if not math.isfinite(float(spec)):
-            raise SceneError(f"{where} = {spec!r}: allowed a finite number")
-        return Profile("constant", float(spec))
-    if isinstance(spec, dict):
-        _unknown(where, spec, {"table", "step"})
-        if len(spec) != 1:
-            raise SceneError(f"{where}: give one of 'table' or 'step'")
-        if "table" in spec:
-            rows = spec["table"]
-            if not isinstance(rows, list) or not all(isinstance(r, list) and len(r) == 2 for r in rows):
-                raise SceneError(f"{where}.table: allowed a list of [time, value] pairs")
-            ts = tuple(_number(f"{where}.table time", r[0]) for r in rows)
-            vs = tuple(_number(f"{where}.table value", r[1]) for r in rows)
-            if not ts or any(b < a for a, b in zip(ts, ts[1:])):
-                raise SceneError(f"{where}.table: times must be finite and non-decreasing, values finite")
-            return Profile("table", times=ts, values=vs)
-        st = _table_of(f"{where}.step", spec["step"])
-        _unknown(f"{where}.step", st, {"time", "before", "after", "rise"})
-        t0 = _number(f"{where}.step.time", st.get("time", 0.0))
-        rise = _number(f"{where}.step.rise", st.get("rise", 0.0), minimum=0.0)
-        b = _number(f"{where}.step.before", st.get("before", 0.0))
-        a = _number(f"{where}.step.after", st.get("after", 0.0))
-        return Profile("table", times=(t0, t0 + rise), values=(b, a))
-    raise SceneError(f"{where}: allowed a number, {{table = [[t, v], ...]}} or {{step = {{time, before, after}}}}")
-
-
 def _split(where: str, ref: str, names: set[str]) -> tuple[str, str]:
     if not isinstance(ref, str) or "." not in ref:
         raise SceneError(f"{where}: {ref!r} is not of the form 'instance.variable'")
@@ -293,7 +238,7 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
     inputs = {}
     for ref, spec in _table_of(f"{where}: inputs", data.get("inputs", {})).items():
         _split(f"{where}: inputs", ref, names)
-        inputs[ref] = _profile(f"{where}: inputs.{ref!r}", spec)
+        inputs[ref] = parse_profile(f"{where}: inputs.{ref!r}", spec)
     connections = {}
     for to, frm in _table_of(f"{where}: connections", data.get("connections", {})).items():
         _split(f"{where}: connections", to, names)

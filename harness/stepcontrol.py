@@ -22,13 +22,14 @@ stepping loop differs. Recorded rows are those of the accepted steps (irregular 
 """
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
-from harness.master import Interrupted, Master, Result, RunFailure, STOP
+from harness.master import Interrupted, Master, RunFailure, STOP
+from harness.result import Result
+from harness.schema import positive
 from harness.scene import Scene, SceneError
 
 
@@ -50,9 +51,7 @@ class StepControl:
 
     def validate(self) -> None:
         for name in ("h_min", "h_max", "h_start", "rtol", "safety", "grow"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0.0):
-                raise SceneError(f"step control: {name} = {v!r}; allowed: a finite number > 0")
+            positive(f"step control: {name}", getattr(self, name))
         if not self.h_min <= self.h_start <= self.h_max:
             raise SceneError(f"step control: h_start = {self.h_start} must lie in [h_min, h_max] = "
                              f"[{self.h_min}, {self.h_max}]")
@@ -120,11 +119,7 @@ class VariableStepMaster(Master):
         t_wall = time.perf_counter()
         rows, failure, energy, t, steps = [], None, {}, 0.0, 0
         try:
-            self._instantiate()
-            self._compile()
-            self._initialize()
-            for name in self.instances:
-                self._read_outputs(name)
+            self._start()
             t_setup = time.perf_counter() - t_wall
             t_wall = time.perf_counter()
             rows.append(self._sample(0.0))
@@ -149,10 +144,7 @@ class VariableStepMaster(Master):
                 else:
                     raise RunFailure("step control", t, f"{ctl.max_rejects} rejected steps in a row")
                 self._free_states(saved)
-                power = self._coupling_power()
-                for cname, (p_from, p_to) in power.items():
-                    energy[cname]["work_from"] += 0.5 * (p_from + prev_power[cname][0]) * h
-                    energy[cname]["work_to"] += 0.5 * (p_to + prev_power[cname][1]) * h
+                self._add_work(energy, prev_power, h)
                 t += h
                 steps += 1
                 self.steps_taken.append(h)
@@ -168,9 +160,8 @@ class VariableStepMaster(Master):
             t_setup = locals().get("t_setup", 0.0)
         finally:
             self._free()
-        msgs = [f"{n}: {m}" for n, inst in self.instances.items() for s, m in inst.messages if s >= 1]
         return Result(sc, list(sc.record), np.array(rows), time.perf_counter() - t_wall, steps, failure, energy,
-                      msgs, setup_time=t_setup)
+                      self._messages(), setup_time=t_setup)
 
 
 def run_variable(scene: Scene, fmu_files, control: StepControl | None = None) -> tuple[Result, VariableStepMaster]:

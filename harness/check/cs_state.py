@@ -1,14 +1,7 @@
 """Co-simulation rules (kind ``cs``), worker side: independence of instances and the FMU state
 (two instances, get/set, free and serialize state), one function per rule.
 
-Each takes the :class:`~.driver.Session` and returns (status, reason) or (status, reason,
-severity) when a failure is milder than the rule's own severity (e.g. a step past the stop time
-refused with fmi2Discard where the standard says fmi2Error). A :class:`~.driver.CallFailed`
-raised by a call the rule needs to work is a FAIL of the rule naming that call.
-
-"Refused" means a status above fmi2Warning. After a refusal with fmi2Fatal no further call is
-made on that instance. Outputs are "the same" when numpy.isclose(rtol=1e-9, atol=1e-12,
-equal_nan=True) holds for every output at every sample.
+Conventions (what a rule returns, "refused", "the same") as in :mod:`.cs_lifecycle`.
 """
 from __future__ import annotations
 
@@ -134,17 +127,24 @@ def _first_half(s: Session, name: str):
     return a, m, t_k
 
 
+def _continue_from(a, state, t: float, m: int) -> list[list[float]]:
+    """fmi2SetFMUstate(``state``), ``m`` steps from ``t``, the state freed and the instance ended:
+    the output rows."""
+    a.call("fmi2SetFMUstate", a.slave.setFMUstate, state)
+    rows, _ = a.run(t, m)
+    a.call("fmi2FreeFMUstate", a.slave.freeFMUstate, state)
+    a.terminate()
+    a.free()
+    return rows
+
+
 def check_get_set_state(s: Session):
     if _not_observable(s):
         return _not_observable(s)
     a, m, t_k = _first_half(s, "state")
     state = a.call("fmi2GetFMUstate", a.slave.getFMUstate)
     first, _ = a.run(t_k, m)
-    a.call("fmi2SetFMUstate", a.slave.setFMUstate, state)
-    second, _ = a.run(t_k, m)
-    a.call("fmi2FreeFMUstate", a.slave.freeFMUstate, state)
-    a.terminate()
-    a.free()
+    second = _continue_from(a, state, t_k, m)
     diff = first_difference(s, second, first, "right after the state call")
     if diff:
         return FAIL, (f"after fmi2SetFMUstate to the state saved at t = {t_k:g} s the continuation differs: "
@@ -206,12 +206,7 @@ def check_serialize_state(s: Session):
     a.free()
     b = s.instance("deserialize")
     b.initialize()
-    restored = b.call("fmi2DeSerializeFMUstate", b.slave.deSerializeFMUstate, blob)
-    b.call("fmi2SetFMUstate", b.slave.setFMUstate, restored)
-    second, _ = b.run(t_k, m)
-    b.call("fmi2FreeFMUstate", b.slave.freeFMUstate, restored)
-    b.terminate()
-    b.free()
+    second = _continue_from(b, b.call("fmi2DeSerializeFMUstate", b.slave.deSerializeFMUstate, blob), t_k, m)
     diff = first_difference(s, second, first, "right after the state call")
     if diff:
         return FAIL, (f"a state serialized at t = {t_k:g} s ({len(blob)} bytes) and restored into a fresh "

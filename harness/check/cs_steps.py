@@ -2,14 +2,7 @@
 steps, input interpolation, output and directional derivatives, refused steps and settings, NaN
 inputs), one function per rule.
 
-Each takes the :class:`~.driver.Session` and returns (status, reason) or (status, reason,
-severity) when a failure is milder than the rule's own severity (e.g. a step past the stop time
-refused with fmi2Discard where the standard says fmi2Error). A :class:`~.driver.CallFailed`
-raised by a call the rule needs to work is a FAIL of the rule naming that call.
-
-"Refused" means a status above fmi2Warning. After a refusal with fmi2Fatal no further call is
-made on that instance. Outputs are "the same" when numpy.isclose(rtol=1e-9, atol=1e-12,
-equal_nan=True) holds for every output at every sample.
+Conventions (what a rule returns, "refused", "the same") as in :mod:`.cs_lifecycle`.
 """
 from __future__ import annotations
 

@@ -34,6 +34,15 @@ def _event_iteration(a) -> tuple[bool, float | None]:
     raise CallFailed(f"fmi2NewDiscreteStates (still needed after {MAX_EVENT_ITERATIONS} iterations)", a.name, 0)
 
 
+def _continuous_mode(a, x, nx: int, z, nz: int) -> None:
+    """fmi2EnterContinuousTimeMode, then the states into ``x`` and the event indicators into ``z``."""
+    a.call("fmi2EnterContinuousTimeMode", a.slave.enterContinuousTimeMode)
+    if nx:
+        a.call("fmi2GetContinuousStates", a.slave.getContinuousStates, x, nx)
+    if nz:
+        a.call("fmi2GetEventIndicators", a.slave.getEventIndicators, z, nz)
+
+
 def check_me_basic(s: Session, out_csv: str | None = None):
     from ctypes import c_double
     nx = len(s.md.derivatives)
@@ -47,11 +56,7 @@ def check_me_basic(s: Session, out_csv: str | None = None):
     rows = [[t] + a.outputs()]
     n_steps = n_events = 0
     if not terminated:
-        a.call("fmi2EnterContinuousTimeMode", a.slave.enterContinuousTimeMode)
-        if nx:
-            a.call("fmi2GetContinuousStates", a.slave.getContinuousStates, x, nx)
-        if nz:
-            a.call("fmi2GetEventIndicators", a.slave.getEventIndicators, z_prev, nz)
+        _continuous_mode(a, x, nx, z_prev, nz)
     while not terminated and t < s.t_stop:
         t_next = t + s.h
         time_event = t_event is not None and t_next >= t_event
@@ -82,11 +87,7 @@ def check_me_basic(s: Session, out_csv: str | None = None):
             a.call("fmi2EnterEventMode", a.slave.enterEventMode)
             terminated, t_event = _event_iteration(a)
             if not terminated:
-                a.call("fmi2EnterContinuousTimeMode", a.slave.enterContinuousTimeMode)
-                if nx:
-                    a.call("fmi2GetContinuousStates", a.slave.getContinuousStates, x, nx)
-                if nz:
-                    a.call("fmi2GetEventIndicators", a.slave.getEventIndicators, z, nz)
+                _continuous_mode(a, x, nx, z, nz)
         if nz:
             z_prev[:nz] = z[:nz]
         bad = [s.md.derivatives[i].variable.name for i in range(nx) if not math.isfinite(x[i])]

@@ -1,81 +1,75 @@
-"""The one FMU instance wrapper (harness/fmi/instance.py) on ChkGood, the compliance kit's small
-well-behaved test FMU: statuses as exceptions or as values, messages per instance, typed setting."""
-from __future__ import annotations
+"""The one FMU instance wrapper (harness/fmi/instance.py) on the differential FMU: statuses as
+exceptions or as values, messages per instance, typed setting, the C-array ports of the master.
 
-import sys
-from pathlib import Path
+(Our own FMU, not the compliance kit's pythonfmu ChkGood: a pythonfmu FMU loaded into the test
+process beside ours made a later fmi2Reset of ours crash; the kit runs ChkGood in its own processes.)"""
+from __future__ import annotations
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "broken_fmus"))
-import chk_build  # noqa: E402
+from harness.fmi.instance import CallFailed, Instance, RealPort, status_label
+from harness.schema import SceneError
 
-from harness.fmi.instance import CallFailed, Instance, RealPort, status_label  # noqa: E402
-from harness.schema import SceneError  # noqa: E402
-
-
-@pytest.fixture(scope="module")
-def good() -> Path:
-    return chk_build.pythonfmu_fmu("ChkGood", ["--handle-state", "--serialize-state"])
+INPUTS = {"carrier.w_ref": 1.389, "left.tau": -1050.0, "right.tau": -1040.0}
+H = 1e-3
 
 
-def _initialized(path: Path, name: str) -> Instance:
+def _initialized(path, name: str) -> Instance:
     inst = Instance(name, path)
     inst.slave.setupExperiment(startTime=0.0)
     inst.slave.enterInitializationMode()
+    for k, v in INPUTS.items():
+        inst.set_value(k, v)
     inst.slave.exitInitializationMode()
     return inst
 
 
-def test_a_refused_call_raises_naming_the_call_the_instance_and_the_status(good):
-    inst = Instance("early", good)   # instantiated, not initialized: ChkGood discards a step
+def test_a_refused_call_raises_naming_the_call_the_instance_and_the_status(differential_fmu):
+    inst = Instance("early", differential_fmu)   # instantiated, not initialized: a step is an error
     with pytest.raises(CallFailed) as e:
-        inst.do_step(0.0, 0.01)
-    assert e.value.status == 2 and "fmi2DoStep(t=0, h=0.01) [instance early] returned fmi2Discard" in str(e.value)
-    assert inst.step_status(0.0, 0.01) == 2                       # the same call, the status as a value
-    assert inst.c_function("fmi2DoStep")(inst.component, 0.0, 0.01, 1) == 2
+        inst.do_step(0.0, H)
+    assert e.value.status == 3 and "fmi2DoStep(t=0, h=0.001) [instance early] returned fmi2Error" in str(e.value)
+    assert inst.step_status(0.0, H) == 3                       # the same call, the status as a value
+    assert inst.c_function("fmi2DoStep")(inst.component, 0.0, H, 1) == 3
     inst.close()
 
 
-def test_values_are_set_by_type_and_read_back_in_order(good):
-    inst = _initialized(good, "typed")
-    inst.set_value("u", 3)                                        # an int for a Real is converted
-    inst.do_step(0.0, 0.01)
-    x, y = inst.read([inst.var("x"), inst.var("y")], "outputs")
-    assert y == pytest.approx(6.0) and x == pytest.approx(0.06)
-    with pytest.raises(SceneError, match=r"typed\.u = 'abc': allowed a number"):
-        inst.set_value("u", "abc")
-    with pytest.raises(SceneError, match="typed: FMU has no variable 'v'"):
-        inst.var("v")
+def test_values_are_set_by_type_and_read_back_in_order(differential_fmu):
+    inst = _initialized(differential_fmu, "typed")
+    inst.do_step(0.0, H)
+    tau, w = inst.read([inst.var("left.tau"), inst.var("carrier.w_ref")], "inputs")
+    assert (tau, w) == (-1050.0, 1.389)
+    with pytest.raises(SceneError, match=r"typed\.left\.tau = 'abc': allowed a number"):
+        inst.set_value("left.tau", "abc")
+    with pytest.raises(SceneError, match="typed: FMU has no variable 'left.tork'"):
+        inst.var("left.tork")
     inst.close()
 
 
-def test_messages_reach_their_own_instance(good):
-    a, b = _initialized(good, "a"), _initialized(good, "b")
-    assert a.set_status("k", 5.0) > 1                             # a fixed parameter after initialization
+def test_messages_reach_their_own_instance(differential_fmu):
+    a, b = _initialized(differential_fmu, "a"), _initialized(differential_fmu, "b")
+    assert a.set_status("mu_pin", 0.5) == 3                      # a fixed parameter after initialization
     assert any("fixed parameter" in m for m in a.errors()) and "fixed parameter" in a.last_message()
     assert b.errors() == [] and b.last_messages() == "no message logged"
     a.close()
     b.close()
 
 
-def test_a_real_port_reads_and_writes_through_the_c_functions_and_reports_a_refusal(good):
-    inst = _initialized(good, "port")
+def test_a_real_port_reads_and_writes_through_the_c_functions_and_reports_a_refusal(differential_fmu):
+    inst = _initialized(differential_fmu, "port")
     reasons = []
 
     def fail(reason, t):
         reasons.append((reason, t))
         raise RuntimeError(reason)
 
-    out = RealPort(inst, [inst.var("x").valueReference, inst.var("y").valueReference], False, fail)
-    assert out.get() == [0.0, 2.0]
-    RealPort(inst, [inst.var("u").valueReference], True, fail).set([0.5], 0.0)
-    inst.do_step(0.0, 0.1)
-    assert out.get() == pytest.approx([0.1, 1.0])
-    bad = RealPort(inst, [inst.var("k").valueReference], True, fail)   # refused: k is fixed now
-    with pytest.raises(RuntimeError):
-        bad.set([7.0], 0.1)
-    assert reasons and reasons[0][0].startswith("fmi2SetReal returned status") and reasons[0][1] == 0.1
+    tau = inst.var("left.tau").valueReference
+    RealPort(inst, [tau], True, fail).set([-900.0], 0.0)
+    assert RealPort(inst, [tau], False, fail).get() == [-900.0]
+    out = [v.valueReference for v in inst.vars.values() if v.causality == "output" and v.type == "Real"][:1]
+    with pytest.raises(RuntimeError):                           # an output is not settable: fmi2Error
+        RealPort(inst, out, True, fail).set([1.0], 0.002)
+    assert reasons[0][0].startswith("fmi2SetReal returned status 3") and reasons[0][1] == 0.002
     inst.close()
 
 

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
 
-HERE = Path(__file__).resolve().parent
+HERE = Path(__file__).resolve().parents[1]   # tests/
 HOSTS = HERE.parent.parent / "shared" / "hosts"
 BARE_ENV = {"PATH": "/usr/bin:/bin"}
 RUNS = 10

@@ -20,14 +20,14 @@ from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).parent / "broken_fmus"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "broken_fmus"))
 import chk_build  # noqa: E402
 
 from harness.check import LifecycleOptions, read_cross_check_csv, write_reference_results  # noqa: E402
 from harness.check.reference import default_experiment  # noqa: E402
 from harness.check.runner import run_checks  # noqa: E402
 
-HOSTS = Path(__file__).resolve().parents[2] / "shared" / "hosts"
+HOSTS = Path(__file__).resolve().parents[4] / "shared" / "hosts"
 REFERENCE_DIR = HOSTS / "reference-fmus"
 FMUCHECK = HOSTS / "fmuCheck.linux64"
 REFERENCE_FMUS = sorted(REFERENCE_DIR.glob("*.fmu")) if REFERENCE_DIR.is_dir() else []

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).parent / "broken_fmus"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "broken_fmus"))
 import chk_build  # noqa: E402
 
 from harness.check import LifecycleOptions, lifecycle_rules, run_lifecycle_checks_many  # noqa: E402

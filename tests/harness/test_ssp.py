@@ -273,7 +273,7 @@ def test_libcosim_runner_errors_are_one_line(tmp_path, chain_toml):
         run_ssp(ssp, record=["a.nope"])
 
 
-if __name__ == "__main__":   # the numbers in docs/interoperability.md: python tests/test_ssp.py
+if __name__ == "__main__":   # the numbers in docs/interoperability.md: python tests/harness/test_ssp.py
     import tempfile
 
     tmp = Path(tempfile.mkdtemp())

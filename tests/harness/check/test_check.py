@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).parent / "broken_fmus"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "broken_fmus"))
 import chk_build  # noqa: E402
 from chk_build import add_units_and_structure, rewrite_description  # noqa: E402
 
@@ -67,7 +67,7 @@ def test_every_rule_cites_a_section_and_has_a_severity():
 
 def test_the_docs_rule_table_is_the_rules_data():
     from harness.check.rules import rule_table_markdown
-    doc = (Path(__file__).resolve().parents[1] / "docs" / "compliance.md").read_text(encoding="utf-8")
+    doc = (Path(__file__).resolve().parents[3] / "docs" / "compliance.md").read_text(encoding="utf-8")
     assert rule_table_markdown() in doc
 
 
