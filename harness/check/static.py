@@ -182,35 +182,34 @@ def _outputs_without_dependencies(arc: FmuArchive) -> tuple[list[str], int]:
     return missing, len(outputs)
 
 
+def _every(missing: list[str], n: int, none: str, lacking: str, having: str, note: str = "") -> Outcome:
+    """SKIP (``none``) when there are no items, FAIL naming the ``missing`` of ``n``, else PASS."""
+    if not n:
+        return SKIP, none
+    if missing:
+        return FAIL, f"{len(missing)} of {n} {lacking}{note}: {_names_list(missing)}"
+    return PASS, f"all {n} {having}"
+
+
 def check_output_dependencies(arc: FmuArchive) -> Outcome:
     if not any(sv.get("causality") == "input" for sv in arc.variables()):
         return SKIP, "no inputs: an output can depend on nothing but time and states"
     missing, n = _outputs_without_dependencies(arc)
-    if not n:
-        return SKIP, "no outputs declared in ModelStructure/Outputs"
-    if missing:
-        return FAIL, (f"{len(missing)} of {n} outputs declare no dependencies (an importer must then "
-                      f"assume direct feedthrough from every input): {_names_list(missing)}")
-    return PASS, f"all {n} outputs declare their dependencies"
+    return _every(missing, n, "no outputs declared in ModelStructure/Outputs", "outputs declare no dependencies",
+                  "outputs declare their dependencies",
+                  " (an importer must then assume direct feedthrough from every input)")
 
 
 def check_all_output_dependencies(arc: FmuArchive) -> Outcome:
     missing, n = _outputs_without_dependencies(arc)
-    if not n:
-        return SKIP, "no outputs declared in ModelStructure/Outputs"
-    if missing:
-        return FAIL, f"{len(missing)} of {n} outputs declare no dependencies: {_names_list(missing)}"
-    return PASS, f"all {n} outputs declare their dependencies"
+    return _every(missing, n, "no outputs declared in ModelStructure/Outputs", "outputs declare no dependencies",
+                  "outputs declare their dependencies")
 
 
 def check_descriptions(arc: FmuArchive) -> Outcome:
     variables = arc.variables()
-    if not variables:
-        return SKIP, "no variables"
     missing = [sv.get("name", "?") for sv in variables if not (sv.get("description") or "").strip()]
-    if missing:
-        return FAIL, f"{len(missing)} of {len(variables)} variables have no description: {_names_list(missing)}"
-    return PASS, f"all {len(variables)} variables have a description"
+    return _every(missing, len(variables), "no variables", "variables have no description", "variables have a description")
 
 
 def check_names(arc: FmuArchive) -> Outcome:
