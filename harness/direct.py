@@ -13,7 +13,8 @@ import time
 
 import numpy as np
 
-from harness.master import Result, RunFailure
+from harness.master import RunFailure
+from harness.result import Result
 from harness.scene import Scene, SceneError
 
 # FMU name -> interface module (the FMU scripts in fmu_src/ delegate to these)

@@ -1,4 +1,4 @@
-"""Fixed-step co-simulation master on fmpy's FMU2Slave API.
+"""Fixed-step co-simulation master on the harness's FMU wrapper (:mod:`harness.fmi.instance`, fmpy's FMU2Slave).
 
 The master talks to the FMUs only through FMI: it instantiates every FMU instance of a scene,
 sets parameters, initializes, then at each communication step sets inputs (profiles and

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from harness.master import Result
+from harness.result import Result
 
 PANELS = [
     ("speeds", ("w",), "speed [rad/s]"),

@@ -11,7 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.master import Result, RunFailure
+from harness.master import RunFailure
+from harness.result import Result
 from harness.scene import SceneError
 from harness.expressions import compile_expression, is_expression
 

@@ -13,7 +13,7 @@ from types import SimpleNamespace
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 BASE_SCENE = ROOT / "harness" / "scenes" / "paper-cornering.toml"
 SPURDIFF = [sys.executable, "-m", "harness"]
 
