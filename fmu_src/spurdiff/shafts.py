@@ -13,7 +13,8 @@ Model (each side, Modelica signs, ``phi_s`` the sun flange angle, ``phi_w`` the 
     tau   = c theta + d dtheta/dt                 shaft torque ON THE WHEEL (drives it forward)
     sun flange torque (input of the inner model) = -tau
 
-Integration over a communication step ``h`` in ``n = ceil(h / h_max)`` sub-steps ``hs``. The wheel
+Integration over a communication step ``h`` in ``n = ceil(h / h_max)`` sub-steps ``hs`` (a sub-step
+whose Newton iteration below does not converge is done as two halves, down to 1/64). The wheel
 side moves over the step as the wheel's reported linear model predicts (the interface surrogate,
 :class:`WheelSurrogate`: wheel speed ``w`` and tyre torque deviation ``q`` about the communication
 point, the shaft torque ``tau`` on the wheel an input)::
@@ -63,7 +64,7 @@ SHAFT_COUPLINGS = ("torque", "wheel")
 _STATE_KEYS = (
     "t", "off_L", "off_R", "theta_L", "theta_R", "T_L", "T_R", "tau_mean_L", "tau_mean_R",
     "tau_end_L", "tau_end_R", "work_wheels", "work_suns", "shaft_loss", "PE0_shaft", "n_steps",
-    "n_substeps", "n_evals", "n_jacobians", "jac", "dw_pred_L", "dw_pred_R",
+    "n_substeps", "n_evals", "n_jacobians", "n_halvings", "jac", "dw_pred_L", "dw_pred_R",
 )
 
 
@@ -150,6 +151,10 @@ class WheelSurrogate:
         return w_c, w_t, q_c, q_t
 
 
+class _NotConverged(StepError):
+    """The sub-step's Newton iteration did not converge (the step is then halved)."""
+
+
 class ShaftedDifferential:
     """A differential model (rigid or mesh) with its two half-shafts; see the module docstring.
 
@@ -224,7 +229,7 @@ class ShaftedDifferential:
         self.t = float(t0)
         self.work_wheels = self.work_suns = self.shaft_loss = 0.0
         self.PE0_shaft = self.shaft_energy
-        self.n_steps = self.n_substeps = self.n_evals = self.n_jacobians = 0
+        self.n_steps = self.n_substeps = self.n_evals = self.n_jacobians = self.n_halvings = 0
         self.jac = {}   # mode key -> the inner model's normalized sun-angle sensitivity (see _substep)
         # how closely the residual can be solved: to rounding for the rigid model (exact
         # integration), to the integrator's relative tolerance for the mesh models
@@ -356,8 +361,8 @@ class ShaftedDifferential:
             # at 100 N m; the energy ledger stays exact, it books the torques actually applied) or
             # ten times the mesh tolerance, no more
             if not abs(r[0]) + abs(r[1]) <= self._accept * (1.0 + abs(TL) + abs(TR)):
-                raise StepError(f"shafts: the implicit sub-step at t = {t:.6g} s did not converge "
-                                f"(residual {abs(r[0]) + abs(r[1]):.3g} N m); reduce shafts.h_max")
+                raise _NotConverged(f"shafts: the implicit sub-step at t = {t:.6g} s did not converge (residual "
+                                    f"{abs(r[0]) + abs(r[1]):.3g} N m, sub-step halved 6 times); reduce shafts.h_max")
         if J is not None:
             cache[mode] = Sn_of(J)
         # the inner model now holds the converged sub-step (the last evaluation)
@@ -374,6 +379,27 @@ class ShaftedDifferential:
         self.theta_R += dthR
         self.T_L, self.T_R = TL, TR
         return TL, TR, dthL, dthR
+
+    def _advance(self, t: float, hs: float, wL: float, wR: float, xL: list, xR: list, acc: list,
+                 depth: int) -> None:
+        """One sub-step; where its Newton does not converge (a mesh model's impacts through the
+        backlash make its response non-smooth in the torques) two halves instead, down to 1/64."""
+        snap = self.inner.get_state()
+        jac = {k: list(v) for k, v in self.jac.items()}
+        try:
+            TL, TR, _, _ = self._substep(t, hs, wL, wR, xL, xR, self.wheelL_model, self.wheelR_model)
+        except _NotConverged:
+            if depth >= 6:
+                raise
+            self.inner.set_state(snap)
+            self.jac = jac
+            self.n_halvings += 1
+            self._advance(t, 0.5 * hs, wL, wR, xL, xR, acc, depth + 1)
+            self._advance(t + 0.5 * hs, 0.5 * hs, wL, wR, xL, xR, acc, depth + 1)
+            return
+        acc[0] += TL * hs
+        acc[1] += TR * hs
+        self.n_substeps += 1
 
     def do_step(self, t: float, h: float) -> None:
         """Advance from t to t + h; atomic (the state is unchanged when it raises)."""
@@ -408,15 +434,12 @@ class ShaftedDifferential:
         self.theta_L, self.theta_R = thL, thR
         n = max(1, math.ceil(h / sp.h_max - 1e-9))
         hs = h / n
-        sumL = sumR = 0.0
         xL, xR = [0.0, 0.0], [0.0, 0.0]
+        acc = [0.0, 0.0]   # the torques' integrals over the step (N m s)
         for i in range(n):
-            TL, TR, dthL, dthR = self._substep(t + i * hs, hs, wL, wR, xL, xR, self.wheelL_model, self.wheelR_model)
-            sumL -= TL
-            sumR -= TR
+            self._advance(t + i * hs, hs, wL, wR, xL, xR, acc, 0)
         self.dw_pred_L, self.dw_pred_R = xL[0], xR[0]
-        self.n_substeps += n
-        self.tau_mean_L, self.tau_mean_R = sumL / n, sumR / n
+        self.tau_mean_L, self.tau_mean_R = -acc[0] / h, -acc[1] / h
         self.tau_end_L, self.tau_end_R = -self.T_L, -self.T_R
         self.t = t + h
         self.n_steps += 1
