@@ -32,6 +32,12 @@ def test_fmi_call_cost_measures_each_fmu_through_the_c_path():
     assert row["fmi2GetReal"][1] == 4 and 1 <= row["fmi2SetReal"][1] <= 4
 
 
+def test_recording_cost_compares_runs_recording_every_step_and_once():
+    r = bench.recording_cost("paper-cornering", repeats=1)
+    assert r["recorded"] > 0 and r["every"] >= 1
+    assert math.isfinite(r["fmi_us"]) and math.isfinite(r["direct_us"])
+
+
 def test_step_control_comparison_measures_real_runs(monkeypatch):
     """The fixed and variable runs of section 5, on a 0.3 s tip-in-tip-out."""
     from dataclasses import replace
@@ -57,6 +63,8 @@ def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeyp
     monkeypatch.setattr(bench, "fmi_call_cost", lambda *a, **k: {"per_fmu": {
         "Vehicle": {"fmi2GetReal": (2.0, 4), "fmi2SetReal": (3.0, 2), "refused": (1.0, 4)},
         "WheelLoad": {"fmi2GetReal": (4.0, 4), "fmi2SetReal": (5.0, 4), "refused": (1.0, 4)}}})
+    monkeypatch.setattr(bench, "recording_cost", lambda *a, **k: {"fmi_us": 30.0, "direct_us": 2.0, "recorded": 22,
+                                                                   "every": 1})
     monkeypatch.setattr(bench, "step_control_comparison", lambda *a, **k: [
         {"run": "fixed 5 ms (scene default)", "wall_s": 0.5, "steps": 700, "rejected": 0, "ok": True,
          "err_ratio": 1e-3, "err_lock": 7.0},
@@ -70,6 +78,7 @@ def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeyp
     # the mean get (3 us) and set (4 us) call: 7 us per instance and step, 2 us in the host's ctypes calls
     assert "Vehicle getReal(4) 2.0, setReal(2) 3.0, refused 1.0" in out
     assert "the set and get calls cost 7.0 us (2.0 us of it in the host's ctypes calls); the rest, 18 us of the 25 us" in out
+    assert "Recording the scene's 22 variables every 1 step(s) costs the FMI run 30 us per step" in out
     # 1.25 allows a quarter of the direct run's 100 us per step over 4 instances
     assert "the FMI path at most 6 us per instance and step" in out
     lines = {ln.split("  ")[0]: ln for ln in out.splitlines()}

@@ -45,6 +45,26 @@ def fmi_overhead(scene_name: str, duration: float | None = None, repeats: int = 
             "step": scene.step, "instances": len(scene.instances)}
 
 
+def recording_cost(scene_name: str, repeats: int = 3) -> dict:
+    """Microseconds per communication step that recording every step costs, through FMI and
+    directly: each run with the scene's output interval against the same run recording only at
+    its end, interleaved (medians)."""
+    scene = prepare_scene(scene_name)
+    once = replace(scene, output_interval=scene.duration)
+    files = fmu_files_for(scene)
+    walls: dict[str, list[float]] = {"fmi": [], "fmi_once": [], "direct": [], "direct_once": []}
+    for _ in range(repeats):
+        walls["fmi"].append(run_scene(scene, files).wall_time)
+        walls["fmi_once"].append(run_scene(once, files).wall_time)
+        walls["direct"].append(run_direct(scene).wall_time)
+        walls["direct_once"].append(run_direct(once).wall_time)
+    n = round(scene.duration / scene.step)
+    med = {k: statistics.median(v) for k, v in walls.items()}
+    return {"fmi_us": 1e6 * (med["fmi"] - med["fmi_once"]) / n,
+            "direct_us": 1e6 * (med["direct"] - med["direct_once"]) / n,
+            "recorded": len(scene.record), "every": round(scene.output_interval / scene.step)}
+
+
 def fmi_call_cost(scene_name: str, calls: int = 2000) -> dict:
     """Microseconds per FMI call through the whole path a master's step loop takes (fmpy's ctypes
     call, our loader, the bridge, the adapter), per FMU of the scene, with one preallocated
@@ -264,6 +284,9 @@ def _solve_ivp_ratio(restarted_only: bool = False) -> float | None:
     except (OSError, ValueError):
         return None
     key = ivp_error_key(ivp)
+    # ours as the FMU runs it (harness.bench.mesh.OURS: a do_step per communication step, compiled)
+    ivp = [p for p in ivp if not p["integrator"].startswith("ours") or p["integrator"] == "ours, compiled (do_step loop)"
+           or p["integrator"] == "ours (ROS34PW2, do_step loop)"]
     if restarted_only:
         ivp = [p for p in ivp if "one call" not in p["integrator"]]
     r = [x["ratio"] for x in equal_accuracy_ratios(ivp, key)
@@ -333,6 +356,10 @@ def _report(args) -> int:
               f"{(per_fmi - per_direct) / o['instances'] - call_us:.0f} us of the "
               f"{(per_fmi - per_direct) / o['instances']:.0f} us, is the master's step loop (its recording reads "
               "included), fmi2DoStep's call and the adapter's checks.")
+        rec = recording_cost(o["scene"], args.repeats)
+        print(f"   Recording the scene's {rec['recorded']} variables every {rec['every']} step(s) costs the FMI run "
+              f"{rec['fmi_us']:.0f} us per step (the master's reads at the recording instants), the direct run "
+              f"{rec['direct_us']:.0f} us (measured against the same runs recording only at their end).")
     b = step_cost_breakdown(o["scene"]) if o["scene"] == "vehicle-cornering" else None
     if b:
         parts = ", ".join(f"{k} {v:.0f} us" for k, v in b["us_per_step"].items())
@@ -391,6 +418,10 @@ def _report(args) -> int:
     print(render(["run", "wall s", "steps", "rejected", "ratio error", "locking torque error N m"],
                  [[r["run"], f"{r['wall_s']:.3f}", str(r["steps"]), str(r["rejected"]),
                    f"{r['err_ratio']:.2e}", f"{r['err_lock']:.3g}"] for r in rows]))
+    print("\n6. The mesh levels' compiled kernel against the Python reference (harness/bench/mesh.py; the same "
+          "numbers bit for bit)")
+    from harness.bench.mesh import kernel_report
+    print("\n".join(kernel_report(args.repeats)))
     print(f"\n(bench took {time.perf_counter() - t0:.1f} s on {sys.platform}, python {sys.version.split()[0]}; "
           f"{_load()})")
     return 0
