@@ -235,3 +235,16 @@ def test_fmusim_runs_the_compiled_kernel_with_a_bare_environment(differential_fm
         got = rows[col][-len(ref):] if col in rows.dtype.names else None
         assert got is not None, rows.dtype.names
         assert np.allclose(got, ref[name], rtol=1e-12, atol=1e-9), name
+
+
+def test_the_kernel_bench_measures_both_implementations():
+    """The lines of `spurdiff bench` section 6 come from real runs (values printed, never asserted
+    against targets) and from the stored solve_ivp points of `spurdiff accuracy`."""
+    from harness.bench.mesh import OURS, solver_ratios, step_costs
+
+    c = step_costs(repeats=1)
+    assert all(c[k]["internal"] > 0 and c[k]["comm"] > 0 for k in ("python", "compiled"))
+    assert 0 < c["compiled"]["in_kernel"] and 1.0 <= c["compiled"]["steps_per_comm"] < 2.0
+    rows = solver_ratios()
+    assert {r["ours"] for r in rows} == set(OURS.values())
+    assert all(r["best"] > 0 for r in rows) and {r["against"] for r in rows} == {"any", "restarted"}

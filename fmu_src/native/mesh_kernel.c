@@ -825,3 +825,14 @@ int mk_advance(const MkParams *P, MkState *S0, double t, double h) {
 void mk_evaluate(const MkParams *P, const MkState *S, const double *y, double *f, double *J, double *sv) {
     evaluate(P, S, y, f, J, sv);
 }
+
+/* n communication steps of size h from t0 with the inputs held, the states after each written to
+ * ys (n x N): the same steps as n calls of mk_advance, without returning to the caller in between
+ * (the solver benchmark's "one call"). Returns the number of steps done; S holds the last state. */
+int64_t mk_run(const MkParams *P, MkState *S, double t0, double h, int64_t n, double *ys) {
+    for (int64_t k = 0; k < n; k++) {
+        if (mk_advance(P, S, t0 + k * h, h) != MK_OK) return k;
+        memcpy(ys + k * P->N, S->y, sizeof(double) * P->N);
+    }
+    return n;
+}

@@ -61,12 +61,6 @@ class MkState(C.Structure):
                 + [("fail_t", _d), ("fail_h", _d)])
 
 
-# the model's attributes the state carries in and out (floats, then counters)
-_FLOATS = ("w_ref", "tau_c", "tau_L", "tau_R", "t", "h_next", "work_in", "energy_loss", "parametric_work",
-           "loss_last_step")
-_COUNTS = ("n_internal_steps", "n_rejected_steps", "n_mode_switches", "n_contact_transitions", "n_steps")
-
-
 def source_digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()[:16]
 
@@ -114,6 +108,8 @@ def load() -> tuple[C.CDLL | None, str]:
         lib.mk_evaluate.argtypes = [C.POINTER(MkParams), C.POINTER(MkState), C.c_void_p, C.c_void_p, C.c_void_p,
                                     C.c_void_p]
         lib.mk_evaluate.restype = None
+        lib.mk_run.argtypes = [C.POINTER(MkParams), C.POINTER(MkState), _d, _d, C.c_int64, C.c_void_p]
+        lib.mk_run.restype = C.c_int64
         _LIB = (lib, str(path))
         return _LIB
     why = "; ".join(reasons) if reasons else (
@@ -200,26 +196,26 @@ class Kernel:
         P.getrf, P.getrs = _lapack()
         self.state = MkState()
         self._pP, self._pS = C.byref(self.params), C.byref(self.state)
-        self._y = np.frombuffer(self.state.y, dtype=np.float64)
+        # the state's doubles (y, w_ref ... d120, sv) and integers (s, flags, n_flags, counters) as arrays
+        self._D = np.frombuffer(self.state, dtype=np.float64, count=40)
+        self._I = np.frombuffer(self.state, dtype=np.int64, count=14, offset=MkState.s.offset)
+        assert MkState.y.offset == 0 and MkState.sv.offset == 27 * 8 and MkState.n_steps.offset == 53 * 8
 
     def _pack(self, c) -> MkState:
-        S = self.state
-        N = c._N
-        self._y[:N] = c.y
-        for k in _FLOATS:
-            setattr(S, k, getattr(c, k))
-        for k in _COUNTS:
-            setattr(S, k, getattr(c, k))
-        S.ac, S.wc, S.phic, S.last_h = c._ac, c.wc, c.phic, c._last_h
-        S.dA0, S.dB0, S.d120 = c._dA0, c._dB0, c._d120
-        S.s[0], S.s[1] = c.s
+        D, I = self._D, self._I
+        D[:c._N] = c.y
+        D[10:27] = (c.w_ref, c.tau_c, c.tau_L, c.tau_R, c._ac, c.wc, c.phic, c.t, c.h_next, c.work_in, c.energy_loss,
+                    c.parametric_work, c.loss_last_step, c._last_h, c._dA0, c._dB0, c._d120)
         fl = c._contact_flags
-        S.n_flags = len(fl)
-        for i, v in enumerate(fl):
-            S.flags[i] = v
-        return S
+        nf = len(fl)
+        I[0], I[1] = c.s
+        if nf:
+            I[2:2 + nf] = fl
+        I[8] = nf
+        I[9:14] = (c.n_internal_steps, c.n_rejected_steps, c.n_mode_switches, c.n_contact_transitions, c.n_steps)
+        return self.state
 
-    def advance(self, c, t: float, h: float) -> tuple:
+    def advance(self, c, t: float, h: float) -> list:
         """One communication step of model ``c`` in C; updates the model's state and returns the
         side values of the outputs (spurdiff.mesh.forces.SideValues fields). Raises StepError
         with the model unchanged."""
@@ -230,16 +226,36 @@ class Kernel:
                 raise StepError(f"more than {int(c.mesh.maxInternalSteps)} internal steps in the step at "
                                 f"t = {t:.9g} s (maxInternalSteps)")
             raise StepError(f"internal step size {S.fail_h:.3g} s below 1e-13 s at t = {S.fail_t:.9g} s")
-        c.y[:] = self._y[:c._N]
-        for k in _FLOATS[4:]:
-            setattr(c, k, getattr(S, k))
-        for k in _COUNTS:
-            setattr(c, k, getattr(S, k))
-        c._ac, c.wc, c.phic, c._last_h = S.ac, S.wc, S.phic, S.last_h
-        c.s = [S.s[0], S.s[1]]
-        c._contact_flags = [S.flags[i] for i in range(S.n_flags)]
+        D = self._D
+        c.y[:] = D[:c._N]
+        v = D[14:40].tolist()
+        (c._ac, c.wc, c.phic, c.t, c.h_next, c.work_in, c.energy_loss, c.parametric_work, c.loss_last_step,
+         c._last_h) = v[:10]
+        i = self._I.tolist()
+        c.s = i[:2]
+        c._contact_flags = i[2:2 + i[8]]
+        c.n_internal_steps, c.n_rejected_steps, c.n_mode_switches, c.n_contact_transitions, c.n_steps = i[9:14]
         c._f0_key = None
-        return tuple(S.sv)
+        return v[13:26]
+
+    def run(self, c, t0: float, h: float, n: int) -> np.ndarray:
+        """n communication steps with the inputs held, in one call (the states after each, rows);
+        the same steps as n calls of :meth:`advance`. The model ends at the last state (its
+        outputs are not refreshed); StepError if a step fails (the model then stays as it was)."""
+        ys = np.empty((n, c._N))
+        S = self._pack(c)
+        done = self.lib.mk_run(self._pP, self._pS, t0, h, n, ys.ctypes.data)
+        if done != n:
+            raise StepError(f"step {done + 1} of {n} at t = {t0 + done * h:.9g} s failed")
+        c.y[:] = self._D[:c._N]
+        v = self._D[14:24].tolist()
+        (c._ac, c.wc, c.phic, c.t, c.h_next, c.work_in, c.energy_loss, c.parametric_work, c.loss_last_step,
+         c._last_h) = v
+        i = self._I.tolist()
+        c.s, c._contact_flags = i[:2], i[2:2 + i[8]]
+        c.n_internal_steps, c.n_rejected_steps, c.n_mode_switches, c.n_contact_transitions, c.n_steps = i[9:14]
+        c._f0_key = None
+        return ys
 
     def evaluate(self, c, y: np.ndarray, f: np.ndarray, J: np.ndarray | None) -> tuple:
         """The model evaluation in C at y (inputs, carrier acceleration and modes of ``c``)."""

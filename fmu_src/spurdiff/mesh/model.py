@@ -31,6 +31,7 @@ The mesh laws and effects: :mod:`spurdiff.mesh.forces`; the driver over a commun
 from __future__ import annotations
 
 import logging
+import math
 from functools import partial
 
 import numpy as np
@@ -189,6 +190,8 @@ class MeshDifferential(DifferentialModel):
         return compiled.Kernel(lib, self), "compiled"
 
     def _check_inputs(self) -> None:
+        if math.isfinite(self.w_ref + self.tau_c + self.tau_L + self.tau_R):   # (a sum is cheaper than 4 checks)
+            return
         names = self.input_names
         for attr in ("w_ref", "tau_c", "tau_L", "tau_R"):
             require_finite(names[attr], getattr(self, attr))
@@ -239,16 +242,23 @@ class MeshDifferential(DifferentialModel):
 
     # ================================================================== solve_ivp interface
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
-        """Right-hand side for scipy's solve_ivp (current inputs and friction modes held)."""
+        """Right-hand side for scipy's solve_ivp (current inputs and friction modes held; the
+        compiled kernel's evaluation where it runs, the same numbers)."""
         f = np.zeros(self._N)
-        evaluate(self, np.asarray(y, dtype=float), f, None)
+        if self._kernel is not None:
+            self._kernel.evaluate(self, np.asarray(y, dtype=float), f, None)
+        else:
+            evaluate(self, np.asarray(y, dtype=float), f, None)
         return f
 
     def jac(self, t: float, y: np.ndarray) -> np.ndarray:
         """Analytic Jacobian for solve_ivp (Radau / BDF)."""
         J = np.zeros((self._N, self._N))
         constant_jacobian(J, self.rbA, self.rb1, self.rbB, self.rb2, self.speed_drive)
-        evaluate(self, np.asarray(y, dtype=float), self._fscratch, J)
+        if self._kernel is not None:
+            self._kernel.evaluate(self, np.asarray(y, dtype=float), self._fscratch, J)
+        else:
+            evaluate(self, np.asarray(y, dtype=float), self._fscratch, J)
         return J
 
     def state_vector(self) -> np.ndarray:
@@ -270,11 +280,11 @@ class MeshDifferential(DifferentialModel):
             raise StepError("do_step called before initialize")
         h = require_positive("communicationStepSize", h)
         self._check_inputs()
+        if self._kernel is not None:   # the whole step in C (which changes nothing on failure), outputs included
+            self._refresh_outputs(SideValues(*self._kernel.advance(self, t, h)))
+            return
         snapshot = self.get_state()
         try:
-            if self._kernel is not None:   # the whole step in C, outputs included
-                self._refresh_outputs(SideValues(*self._kernel.advance(self, t, h)))
-                return
             advance(self, t, h)
         except StepError:
             self.set_state(snapshot)
@@ -300,7 +310,7 @@ class MeshDifferential(DifferentialModel):
             self._ac = ac_keep
         self._out = sv
         self._V = None
-        self._psiB = relative_angles(self, self.y.tolist())[0]
+        self._psiB = None
 
     @property
     def w_L(self) -> float:
@@ -316,6 +326,8 @@ class MeshDifferential(DifferentialModel):
 
     @property
     def phi_R(self) -> float:
+        if self._psiB is None:
+            self._psiB = relative_angles(self, self.y.tolist())[0]
         return self.phic + self._psiB
 
     @property
