@@ -141,18 +141,19 @@ def compile_native(out_dir: Path) -> tuple[Path, Path]:
 # no contraction into fused multiply-adds, so it computes what the Python reference computes
 MESH_KERNEL_FMUS = ("SpurDifferential",)
 KERNEL_FLAGS = ["-shared", "-fPIC", "-O2", "-Wall", "-ffp-contract=off"]
+KERNEL_SOURCES = ("mesh_kernel.c", "mesh_kernel_model.c")
 
 
 def compile_kernel(out: Path) -> Path:
-    """Compile ``fmu_src/native/mesh_kernel.c`` (libm only) into the file ``out``; BuildError with
+    """Compile ``fmu_src/native/mesh_kernel*.c`` (libm only) into the file ``out``; BuildError with
     the compiler's message when there is no compiler or the build fails."""
     cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
     if cc is None:
         raise BuildError("no C compiler (cc/gcc) on PATH")
-    r = subprocess.run([cc, *KERNEL_FLAGS, str(NATIVE / "mesh_kernel.c"), "-o", str(out), "-lm"],
-                       capture_output=True, text=True)
+    r = subprocess.run([cc, *KERNEL_FLAGS, f"-I{NATIVE}", *(str(NATIVE / f) for f in KERNEL_SOURCES), "-o", str(out),
+                        "-lm"], capture_output=True, text=True)
     if r.returncode != 0:
-        raise BuildError(f"compiling {NATIVE / 'mesh_kernel.c'} failed:\n{r.stderr.strip()}")
+        raise BuildError(f"compiling the mesh kernel ({', '.join(KERNEL_SOURCES)}) failed:\n{r.stderr.strip()}")
     return out
 
 
@@ -164,7 +165,7 @@ def kernel_library(dest: Path | None = None) -> Path:
 
     dest = Path(dest) if dest else fmu_cache_dir()
     dest.mkdir(parents=True, exist_ok=True)
-    out = dest / f"mesh_kernel-{kernel.source_digest(NATIVE / 'mesh_kernel.c')}.so"
+    out = dest / f"mesh_kernel-{kernel.source_digest(NATIVE)}.so"
     with open(dest / ".mesh_kernel.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         if not out.is_file():

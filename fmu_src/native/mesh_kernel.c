@@ -7,8 +7,9 @@
  * A line-by-line transcription of the pure-Python reference, which stays the specification and the
  * fallback: fmu_src/spurdiff/mesh/{forces,events,stickslip,stepper,integrator}.py (the comments
  * name the Python function each C function mirrors). Called through ctypes
- * (fmu_src/spurdiff/mesh/kernel.py); the structs below are mirrored there field by field (doubles
- * and 64-bit integers only, so there is no padding). Depends on libm only.
+ * (fmu_src/spurdiff/mesh/kernel.py); the structures (mesh_kernel.h) are mirrored there field by
+ * field. The model evaluation is in mesh_kernel_model.c; this file holds the method, the events,
+ * stick-slip, the driver and the exported functions. Depends on libm only.
  *
  * Agreement with the reference: the same operations in the same order (sums in the order the
  * reference sums, no contraction into fused multiply-adds: build with -ffp-contract=off), the same
@@ -16,349 +17,11 @@
  * over by kernel.py; without them an own partial-pivoting LU, equal to rounding): the states agree
  * bit for bit where the reference's LAPACK is used (tests/test_mesh_kernel.py).
  */
-#include <math.h>
-#include <stdint.h>
-#include <string.h>
-
-#define MK_ABI 1
-#define NMAX 10
-enum { PSI, DA, DB, D12, VA, VB, W1, W2, WC, PHIC };
-enum { LAW_BILATERAL = 0, LAW_ELASTO = 1, LAW_IMPACT = 2 };
-enum { MK_OK = 0, MK_MAX_STEPS = 1, MK_HMIN = 2 };
-
-typedef struct {
-    double sigma, rb1, rb2, k, c, K, jn, eps, pb, l1min, galpha, L, xi0, xi0c, xip, a1, a2;
-    int64_t d, g1, g2;
-} MkMesh;
-
-typedef struct {
-    int64_t N, speed_drive, law, wave, tracked, flank, pin, bl, contact, dissipative, var, max_steps, n;
-    double rbA, rb1, rbB, rb2, JA, JB, J1, J2, Jc, Jtot, lam;
-    double e, C, dmax;                       /* IMPACT */
-    double mu_s, mu_d, v_s, v_d;             /* flank friction */
-    double c_pin, M01, M02;
-    double pin_flat[2][8];                   /* spurdiff.locking.PinLayout._flat */
-    double Minv[5][5];                       /* torque drive: inverse mass matrix (w_c, v_A, v_B, w_1, w_2) */
-    double atol[NMAX], rtol, w_stick;
-    double gamma, a[4][4], cc[4][4], m[4], ew[4], dmid[4];   /* transformed tableau */
-    MkMesh md[3];
-    int64_t getrf, getrs;    /* LAPACK dgetrf / dgetrs (Fortran ABI) of the reference (scipy), or 0: own LU */
-} MkParams;
-
-typedef struct {
-    double y[NMAX];
-    double w_ref, tau_c, tau_L, tau_R;
-    double ac, wc, phic, t, h_next, work_in, energy_loss, parametric_work, loss_last_step, last_h;
-    double dA0, dB0, d120;
-    double sv[13];            /* side values of the outputs at the end (spurdiff.mesh.forces.SideValues) */
-    int64_t s[2], flags[6], n_flags;
-    int64_t n_internal_steps, n_rejected_steps, n_mode_switches, n_contact_transitions, n_steps;
-    double fail_t, fail_h;    /* where a step failed */
-} MkState;
-
-typedef struct { double F, dF_dd, dF_dv, Fc, xi; } Force;
-typedef struct { double M1, M2, dM1F, dM2F, d11, d12, d22, P; } Moments;
-enum { SV_FA, SV_FB, SV_F12, SV_QA, SV_QB, SV_Q1, SV_Q2, SV_M1, SV_M2, SV_CAP1, SV_CAP2, SV_P, SV_AC };
+#include "mesh_kernel.h"
 
 int mk_abi(void) { return MK_ABI; }
 int64_t mk_sizeof_params(void) { return (int64_t)sizeof(MkParams); }
 int64_t mk_sizeof_state(void) { return (int64_t)sizeof(MkState); }
-
-/* Python's float % (result has the sign of the divisor) */
-static double pymod(double x, double w) {
-    double r = fmod(x, w);
-    if (r != 0.0) {
-        if ((w < 0.0) != (r < 0.0)) r += w;
-    } else {
-        r = copysign(0.0, w);
-    }
-    return r;
-}
-
-/* ------------------------------------------------------------ laws (spurdiff.mesh.laws) */
-static void impact(double p, double v, double K, double e, double C, double dmax, double *out) {
-    if (p <= 0.0) { out[0] = out[1] = out[2] = out[3] = 0.0; return; }
-    double pe1 = pow(p, e - 1.0);
-    double Fc = K * pe1 * p, cs, dcs;
-    if (p >= dmax) { cs = C; dcs = 0.0; }
-    else {
-        double s = p / dmax;
-        cs = C * s * s * (3.0 - 2.0 * s);
-        dcs = C * 6.0 * s * (1.0 - s) / dmax;
-    }
-    double F = Fc + cs * v;
-    if (F <= 0.0) { out[0] = out[1] = out[2] = 0.0; out[3] = Fc; return; }
-    out[0] = F; out[1] = e * K * pe1 + dcs * v; out[2] = cs; out[3] = Fc;
-}
-
-static double impact_potential(double p, double K, double e) {
-    return p > 0.0 ? K * pow(p, e + 1.0) / (e + 1.0) : 0.0;
-}
-
-static void elasto_backlash(double p, double v, double k, double c, double *out) {
-    if (p <= 0.0) { out[0] = out[1] = out[2] = out[3] = 0.0; return; }
-    double Fc = k * p, Fd = c * v;
-    if (Fc + Fd <= 0.0) { out[0] = out[1] = out[2] = 0.0; out[3] = Fc; return; }
-    if (Fd < Fc) { out[0] = Fc + Fd; out[1] = k; out[2] = c; out[3] = Fc; return; }
-    out[0] = 2.0 * Fc; out[1] = 2.0 * k; out[2] = 0.0; out[3] = Fc;
-}
-
-static void step_d(double x, double x0, double h0, double x1, double h1, double *v, double *dv) {
-    if (x <= x0) { *v = h0; *dv = 0.0; return; }
-    if (x >= x1) { *v = h1; *dv = 0.0; return; }
-    double w = x1 - x0, s = (x - x0) / w;
-    *v = h0 + (h1 - h0) * s * s * (3.0 - 2.0 * s);
-    *dv = (h1 - h0) * 6.0 * s * (1.0 - s) / w;
-}
-
-static void friction_coefficient(double v, double mu_s, double mu_d, double v_s, double v_d, double *mu, double *dmu) {
-    double a = v >= 0.0 ? v : -v;
-    if (a <= v_s) { step_d(v, -v_s, -mu_s, v_s, mu_s, mu, dmu); return; }
-    if (a < v_d) {
-        double m, dm;
-        step_d(a, v_s, mu_s, v_d, mu_d, &m, &dm);
-        *mu = v > 0.0 ? m : -m; *dmu = dm; return;
-    }
-    *mu = v > 0.0 ? mu_d : -mu_d; *dmu = 0.0;
-}
-
-/* ------------------------------------------------------------ effects (spurdiff.mesh.forces) */
-static double wave_factor(const MkParams *P, const MkMesh *m, double xi) {   /* MeshPhase.factor */
-    if (!P->wave) return 1.0;
-    return (xi < m->eps - 1.0 ? 2.0 : 1.0) / m->eps;
-}
-
-static void phase(const MkParams *P, const MkMesh *m, double u, double *xp, double *xn, double *kp, double *kn) {
-    if (!P->tracked) { *xp = m->xi0; *xn = m->xi0c; *kp = *kn = 1.0; return; }
-    double r = m->sigma * u / m->pb;
-    *xp = pymod(m->xi0 - r, 1.0);
-    *xn = pymod(m->xi0c + r, 1.0);
-    if (P->wave) {
-        double e1 = m->eps - 1.0;
-        *kp = (*xp < e1 ? 2.0 : 1.0) / m->eps;
-        *kn = (*xn < e1 ? 2.0 : 1.0) / m->eps;
-    } else {
-        *kp = *kn = 1.0;
-    }
-}
-
-static void flank_law(const MkParams *P, const MkMesh *m, double p, double v, double kf, double *out) {
-    if (P->law == LAW_IMPACT) impact(p, v, m->K * kf, P->e, P->C, P->dmax, out);
-    else elasto_backlash(p, v, m->k * kf, m->c, out);
-}
-
-static Force mesh_force(const MkParams *P, const MkMesh *m, double d, double dd, double u) {
-    double xp, xn, kp, kn, o[4];
-    Force f;
-    phase(P, m, u, &xp, &xn, &kp, &kn);
-    if (P->law == LAW_BILATERAL) {
-        double kk = d >= 0.0 ? m->k * kp : m->k * kn;
-        f.F = kk * d + m->c * dd; f.dF_dd = kk; f.dF_dv = m->c; f.Fc = kk * d; f.xi = d >= 0.0 ? xp : xn;
-        return f;
-    }
-    if (d > 0.0) {
-        flank_law(P, m, d, dd, kp, o);
-        f.F = o[0]; f.dF_dd = o[1]; f.dF_dv = o[2]; f.Fc = o[3]; f.xi = xp;
-        return f;
-    }
-    double pen = -(d + m->jn);
-    if (pen > 0.0) {
-        flank_law(P, m, pen, -dd, kn, o);
-        f.F = -o[0]; f.dF_dd = o[1]; f.dF_dv = o[2]; f.Fc = -o[3]; f.xi = xn;
-        return f;
-    }
-    f.F = f.dF_dd = f.dF_dv = f.Fc = 0.0; f.xi = xp;
-    return f;
-}
-
-static double law_potential(const MkParams *P, const MkMesh *m, double d, double kp, double kn) {
-    if (P->law == LAW_IMPACT) {
-        if (d > 0.0) return impact_potential(d, m->K * kp, P->e);
-        return impact_potential(-(d + m->jn), m->K * kn, P->e);
-    }
-    if (P->law == LAW_BILATERAL) return 0.5 * m->k * (d >= 0.0 ? kp : kn) * d * d;
-    if (d > 0.0) return 0.5 * m->k * kp * d * d;
-    double pen = -(d + m->jn);
-    return pen > 0.0 ? 0.5 * m->k * kn * pen * pen : 0.0;
-}
-
-static Moments flank_moments(const MkParams *P, const MkMesh *m, double F, double xi, double W1_, double W2_) {
-    Moments r = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
-    if (F == 0.0) return r;
-    double x0 = xi * m->pb;
-    int nc = x0 + m->pb <= m->galpha ? 2 : 1;
-    double aF = fabs(F), sF = F > 0.0 ? 1.0 : -1.0, share = aF / nc, x = x0;
-    for (int j = 0; j < nc; j++) {
-        double l1 = m->l1min + x, l2 = m->L - l1, v = W1_ * l1 + W2_ * l2, mu, dmu;
-        friction_coefficient(v, P->mu_s, P->mu_d, P->v_s, P->v_d, &mu, &dmu);
-        r.M1 -= mu * share * l1;
-        r.M2 -= mu * share * l2;
-        r.dM1F -= mu * sF / nc * l1;
-        r.dM2F -= mu * sF / nc * l2;
-        double g = dmu * share;
-        r.d11 -= g * l1 * l1;
-        r.d12 -= g * l1 * l2;
-        r.d22 -= g * l2 * l2;
-        r.P += mu * share * v;
-        x += m->pb;
-    }
-    return r;
-}
-
-static void pin_force(const MkParams *P, int i, double Fs, double F12, double *mag, double *dS, double *d12) {
-    const double *q = P->pin_flat[i];   /* tx, ty, rx, ry, ux, uy, qx, qy */
-    double aS = fabs(Fs), a12 = fabs(F12);
-    double fx = Fs * q[0] + aS * q[2] + F12 * q[4] + a12 * q[6];
-    double fy = Fs * q[1] + aS * q[3] + F12 * q[5] + a12 * q[7];
-    double mg = sqrt(fx * fx + fy * fy);
-    if (mg == 0.0) { *mag = *dS = *d12 = 0.0; return; }
-    double sgS = Fs >= 0.0 ? 1.0 : -1.0, sg12 = F12 >= 0.0 ? 1.0 : -1.0;
-    *mag = mg;
-    *dS = (fx * (q[0] + sgS * q[2]) + fy * (q[1] + sgS * q[3])) / mg;
-    *d12 = (fx * (q[4] + sg12 * q[6]) + fy * (q[5] + sg12 * q[7])) / mg;
-}
-
-static void relative_angles(const MkState *S, const MkParams *P, const double *y, double *psiB, double *th1, double *th2) {
-    double t1 = (S->dA0 - y[DA] - P->rbA * y[PSI]) / P->rb1;
-    double t2 = (y[D12] - S->d120 - P->rb1 * t1) / P->rb2;
-    *psiB = (S->dB0 - y[DB] - P->rb2 * t2) / P->rbB;
-    *th1 = t1;
-    *th2 = t2;
-}
-
-/* forces.evaluate: f = y'(y); J rows 4.. (and WC) if J != NULL (row-major NxN); side values sv */
-static void evaluate(const MkParams *P, const MkState *S, const double *y, double *f, double *J, double *sv) {
-    const int N = (int)P->N;
-    const int n = (int)P->n;
-    const double W[4] = {y[VA], y[VB], y[W1], y[W2]};
-    double us[3] = {0.0, 0.0, 0.0};
-    if (P->tracked) {
-        double psiB, th1, th2;
-        relative_angles(S, P, y, &psiB, &th1, &th2);
-        us[0] = P->rbA * y[PSI]; us[1] = P->rbB * psiB; us[2] = P->rb1 * th1;
-    }
-    double dds[3];
-    Force mf[3];
-    for (int i = 0; i < 3; i++) {
-        const MkMesh *m = &P->md[i];
-        dds[i] = m->a1 * W[m->g1] + m->a2 * W[m->g2];
-        mf[i] = mesh_force(P, m, y[m->d], dds[i], us[i]);
-    }
-    double FA = mf[0].F, FB = mf[1].F, F12 = mf[2].F;
-    double Pw = n * ((FA - mf[0].Fc) * dds[0] + (FB - mf[1].Fc) * dds[1] + (F12 - mf[2].Fc) * dds[2]);
-    const double rbA = P->rbA, rb1 = P->rb1, rbB = P->rbB, rb2 = P->rb2;
-    double Q[4] = {rbA * FA, rbB * FB, rb1 * (FA - F12), rb2 * (FB - F12)};
-    double C[4][3] = {{rbA, 0.0, 0.0}, {0.0, rbB, 0.0}, {rb1, 0.0, -rb1}, {0.0, rb2, -rb2}};
-    double G[4][4];
-    memset(G, 0, sizeof G);
-    if (P->flank) {
-        double Pf = 0.0;
-        for (int i = 0; i < 3; i++) {
-            const MkMesh *m = &P->md[i];
-            int g1 = (int)m->g1, g2 = (int)m->g2;
-            Moments fm = flank_moments(P, m, mf[i].F, mf[i].xi, W[g1], W[g2]);
-            Q[g1] += fm.M1;
-            Q[g2] += fm.M2;
-            C[g1][i] += fm.dM1F;
-            C[g2][i] += fm.dM2F;
-            G[g1][g1] += fm.d11;
-            G[g1][g2] += fm.d12;
-            G[g2][g1] += fm.d12;
-            G[g2][g2] += fm.d22;
-            Pf = i ? Pf + fm.P : fm.P;
-        }
-        Pw += n * Pf;
-    }
-    double QA = n * Q[0], QB = n * Q[1], Q1 = Q[2], Q2 = Q[3];
-    int s1 = (int)S->s[0], s2 = (int)S->s[1];
-    double cap1 = 0.0, cap2 = 0.0, cp = P->c_pin, dp1S = 0.0, dp112 = 0.0, dp2S = 0.0, dp212 = 0.0;
-    int stuck1 = 0, stuck2 = 0;
-    if (P->pin) {
-        double Fp1, Fp2;
-        pin_force(P, 0, FA, F12, &Fp1, &dp1S, &dp112);
-        pin_force(P, 1, FB, F12, &Fp2, &dp2S, &dp212);
-        cap1 = cp * Fp1 + P->M01;
-        cap2 = cp * Fp2 + P->M02;
-        stuck1 = s1 == 0;
-        stuck2 = s2 == 0;
-    }
-    double Q1nf = Q1, Q2nf = Q2, M1 = 0.0, M2 = 0.0;
-    if (P->pin) {
-        if (!stuck1) {
-            M1 = -s1 * cap1;
-            Q1 += M1;
-            C[2][0] -= s1 * cp * dp1S;
-            C[2][2] -= s1 * cp * dp112;
-            Pw += n * fabs(M1 * W[2]);
-        }
-        if (!stuck2) {
-            M2 = -s2 * cap2;
-            Q2 += M2;
-            C[3][1] -= s2 * cp * dp2S;
-            C[3][2] -= s2 * cp * dp212;
-            Pw += n * fabs(M2 * W[3]);
-        }
-    }
-    double ac, Jeff = 0.0;
-    if (P->speed_drive) {
-        ac = S->ac;
-    } else {
-        Jeff = P->Jc;
-        double Qs = QA + QB;
-        if (stuck1) Jeff += n * P->J1; else Qs += n * Q1;
-        if (stuck2) Jeff += n * P->J2; else Qs += n * Q2;
-        ac = (S->tau_c - Qs) / Jeff;
-    }
-    if (stuck1) { M1 = P->J1 * ac - Q1nf; Q1 = P->J1 * ac; }
-    if (stuck2) { M2 = P->J2 * ac - Q2nf; Q2 = P->J2 * ac; }
-    f[0] = W[0];
-    f[1] = dds[0];
-    f[2] = dds[1];
-    f[3] = dds[2];
-    f[4] = (S->tau_L + QA) / P->JA - ac;
-    f[5] = (S->tau_R + QB) / P->JB - ac;
-    f[6] = stuck1 ? 0.0 : Q1 / P->J1 - ac;
-    f[7] = stuck2 ? 0.0 : Q2 / P->J2 - ac;
-    if (!P->speed_drive) { f[8] = ac; f[9] = y[WC]; }
-    if (sv) {
-        sv[SV_FA] = FA; sv[SV_FB] = FB; sv[SV_F12] = F12; sv[SV_QA] = QA; sv[SV_QB] = QB; sv[SV_Q1] = Q1;
-        sv[SV_Q2] = Q2; sv[SV_M1] = M1; sv[SV_M2] = M2; sv[SV_CAP1] = cap1; sv[SV_CAP2] = cap2; sv[SV_P] = Pw;
-        sv[SV_AC] = ac;
-    }
-    if (!J) return;
-    double rows[4][7];
-    for (int g = 0; g < 4; g++) {
-        double sc = g < 2 ? (double)n : 1.0;
-        double *r = rows[g];
-        for (int k = 0; k < 7; k++) r[k] = 0.0;
-        for (int i = 0; i < 3; i++) {
-            const MkMesh *m = &P->md[i];
-            if (m->g1 != g && m->g2 != g) continue;
-            double coef = C[g][i], dv = mf[i].dF_dv;
-            r[m->d - 1] = sc * coef * mf[i].dF_dd;
-            r[m->g1 + 3] += coef * (dv * m->a1);
-            r[m->g2 + 3] += coef * (dv * m->a2);
-        }
-        for (int k = 3; k < 7; k++) r[k] = P->flank ? sc * (r[k] + G[g][k - 3]) : sc * r[k];
-    }
-    double gac[7] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
-    if (!P->speed_drive) {
-        for (int k = 0; k < 7; k++) {
-            double a = rows[0][k] + rows[1][k];
-            if (!stuck1) a += n * rows[2][k];
-            if (!stuck2) a += n * rows[3][k];
-            gac[k] = -a / Jeff;
-            J[WC * N + 1 + k] = gac[k];
-        }
-    }
-    double iA = 1.0 / P->JA, iB = 1.0 / P->JB, i1 = 1.0 / P->J1, i2 = 1.0 / P->J2;
-    for (int k = 0; k < 7; k++) {
-        J[VA * N + 1 + k] = rows[0][k] * iA - gac[k];
-        J[VB * N + 1 + k] = rows[1][k] * iB - gac[k];
-        J[W1 * N + 1 + k] = stuck1 ? 0.0 : rows[2][k] * i1 - gac[k];
-        J[W2 * N + 1 + k] = stuck2 ? 0.0 : rows[3][k] * i2 - gac[k];
-    }
-}
 
 /* ------------------------------------------------------------ the method (spurdiff.mesh.integrator) */
 typedef void (*getrf_t)(int *, int *, double *, int *, int *, int *);
@@ -454,7 +117,7 @@ static int ros_step(const MkParams *P, const MkState *S, const double *y, const 
     for (int i = 1; i < 4; i++) {
         combine(P->a[i], i, wk->U, N, wk->Ys);
         for (int j = 0; j < N; j++) wk->Ys[j] += y[j];
-        evaluate(P, S, wk->Ys, wk->F, NULL, NULL);
+        mk_eval(P, S, wk->Ys, wk->F, NULL, NULL);
         combine(P->cc[i], i, wk->U, N, wk->rhs);
         for (int j = 0; j < N; j++) wk->rhs[j] = wk->rhs[j] * ih + wk->F[j];
         if (!solve(P, wk, N, wk->rhs, wk->U[i])) return 0;
@@ -574,16 +237,16 @@ static double phase_limit(const MkParams *P, const MkState *S, const double *y) 
         if (rate == 0.0) continue;
         if (!have_us) {
             double psiB, th1, th2;
-            relative_angles(S, P, y, &psiB, &th1, &th2);
+            mk_relative_angles(S, P, y, &psiB, &th1, &th2);
             us[0] = P->rbA * y[PSI]; us[1] = P->rbB * psiB; us[2] = P->rb1 * th1;
             have_us = 1;
         }
-        double xi = pymod((sgn < 0.0 ? m->xi0 : m->xi0c) + sgn * m->sigma * us[mi] / m->pb, 1.0);
+        double xi = mk_pymod((sgn < 0.0 ? m->xi0 : m->xi0c) + sgn * m->sigma * us[mi] / m->pb, 1.0);
         double ar = fabs(rate);
         double bounds[3] = {0.0, m->eps - 1.0, m->xip};
         int nb = P->flank ? 3 : 2;
         for (int j = 0; j < nb; j++) {
-            double dist = rate > 0.0 ? pymod(bounds[j] - xi, 1.0) : pymod(xi - bounds[j], 1.0);
+            double dist = rate > 0.0 ? mk_pymod(bounds[j] - xi, 1.0) : mk_pymod(xi - bounds[j], 1.0);
             if (dist == 0.0) dist = 1.0;
             double dt = dist / ar;
             dt += 1e-7 * dt + 1e-12;
@@ -602,7 +265,7 @@ static int64_t settle_modes(const MkParams *P, MkState *S, const double *y, cons
     int64_t before[2] = {S->s[0], S->s[1]};
     for (int k = 0; k < nz; k++) S->s[zeroed[k]] = 0;
     for (int it = 0; it < 4; it++) {
-        evaluate(P, S, y, wk->f0, wk->J, sv);
+        mk_eval(P, S, y, wk->f0, wk->J, sv);
         int changed = 0;
         for (int i = 0; i < 2; i++) {
             if (S->s[i] == 0) {
@@ -646,16 +309,16 @@ static void stick_impulse(const MkParams *P, MkState *S, double *y, int i, doubl
 /* ------------------------------------------------------------ the driver (spurdiff.mesh.stepper) */
 static void book_parametric_work(const MkParams *P, MkState *S, const double *ya, const double *yb) {
     double psiBa, th1a, th2a, psiBb, th1b, th2b;
-    relative_angles(S, P, ya, &psiBa, &th1a, &th2a);
-    relative_angles(S, P, yb, &psiBb, &th1b, &th2b);
+    mk_relative_angles(S, P, ya, &psiBa, &th1a, &th2a);
+    mk_relative_angles(S, P, yb, &psiBb, &th1b, &th2b);
     double ua[3] = {P->rbA * ya[PSI], P->rbB * psiBa, P->rb1 * th1a};
     double ub[3] = {P->rbA * yb[PSI], P->rbB * psiBb, P->rb1 * th1b};
     for (int mi = 0; mi < 3; mi++) {
         const MkMesh *m = &P->md[mi];
         double d = yb[m->d];
         double ra = m->sigma * ua[mi] / m->pb, rb = m->sigma * ub[mi] / m->pb;
-        double Va = law_potential(P, m, d, wave_factor(P, m, pymod(m->xi0 - ra, 1.0)), wave_factor(P, m, pymod(m->xi0c + ra, 1.0)));
-        double Vb = law_potential(P, m, d, wave_factor(P, m, pymod(m->xi0 - rb, 1.0)), wave_factor(P, m, pymod(m->xi0c + rb, 1.0)));
+        double Va = mk_law_potential(P, m, d, mk_wave_factor(P, m, mk_pymod(m->xi0 - ra, 1.0)), mk_wave_factor(P, m, mk_pymod(m->xi0c + ra, 1.0)));
+        double Vb = mk_law_potential(P, m, d, mk_wave_factor(P, m, mk_pymod(m->xi0 - rb, 1.0)), mk_wave_factor(P, m, mk_pymod(m->xi0c + rb, 1.0)));
         if (Va != Vb) S->parametric_work += P->n * (Vb - Va);
     }
 }
@@ -679,7 +342,7 @@ int mk_advance(const MkParams *P, MkState *S0, double t, double h) {
     if (!speed) wk.J[PHIC * N + WC] = 1.0;
     memcpy(wk.J1, wk.J, sizeof wk.J);
     double *f0 = wk.f0, *f1 = wk.f1;
-    evaluate(P, S, y, f0, wk.J, sv0);
+    mk_eval(P, S, y, f0, wk.J, sv0);
     double loss0 = S->energy_loss, tin = 0.0, remaining = h, h_ctrl = S->h_next, wc_a = wc_start, phic = S->phic;
     double dloss = 0.0, hmin = 1e-13, wc_b = wc_start;
     int64_t n_here = 0, max_steps = P->max_steps;
@@ -715,10 +378,10 @@ int mk_advance(const MkParams *P, MkState *S0, double t, double h) {
                 hi = err == err ? new_step_size(hi, err, 1) : hi * 0.25;
                 continue;
             }
-            evaluate(P, S, yn, f1, wk.J1, sv1);
+            mk_eval(P, S, yn, f1, wk.J1, sv1);
             midpoint(P, y, &wk);
             if (P->dissipative) {
-                evaluate(P, S, wk.ym, wk.fs, NULL, svm);
+                mk_eval(P, S, wk.ym, wk.fs, NULL, svm);
                 dloss = hi / 6.0 * (sv0[SV_P] + 4.0 * svm[SV_P] + sv1[SV_P]);
                 double errE = fabs(dloss - 0.5 * hi * (sv0[SV_P] + sv1[SV_P])) / (P->rtol * (0.1 + dloss));
                 if (!(errE <= 1.0)) {
@@ -746,8 +409,8 @@ int mk_advance(const MkParams *P, MkState *S0, double t, double h) {
         h_ctrl = (truncated && !rejected) ? (h_ctrl > h_prop ? h_ctrl : h_prop) : h_prop;
         if (P->dissipative) S->energy_loss += dloss;
         double psiBa, th1a, th2a, psiBb, th1b, th2b;
-        relative_angles(S, P, y, &psiBa, &th1a, &th2a);
-        relative_angles(S, P, yn, &psiBb, &th1b, &th2b);
+        mk_relative_angles(S, P, y, &psiBa, &th1a, &th2a);
+        mk_relative_angles(S, P, yn, &psiBb, &th1b, &th2b);
         double dpsiA = yn[PSI] - y[PSI], dpsiB = psiBb - psiBa;
         if (speed) {
             double n = (double)P->n;
@@ -814,7 +477,7 @@ int mk_advance(const MkParams *P, MkState *S0, double t, double h) {
     } else {
         double keep = S->ac;
         S->ac = 0.0;
-        evaluate(P, S, y, wk.fs, NULL, S->sv);
+        mk_eval(P, S, y, wk.fs, NULL, S->sv);
         S->ac = keep;
     }
     *S0 = *S;
@@ -823,7 +486,7 @@ int mk_advance(const MkParams *P, MkState *S0, double t, double h) {
 
 /* the model evaluation alone (for the agreement test and solve_ivp): f, J (may be NULL), sv */
 void mk_evaluate(const MkParams *P, const MkState *S, const double *y, double *f, double *J, double *sv) {
-    evaluate(P, S, y, f, J, sv);
+    mk_eval(P, S, y, f, J, sv);
 }
 
 /* n communication steps of size h from t0 with the inputs held, the states after each written to

@@ -1,4 +1,4 @@
-"""The compiled kernel of the mesh levels (``fmu_src/native/mesh_kernel.c``) through ctypes.
+"""The compiled kernel of the mesh levels (``fmu_src/native/mesh_kernel*.c``) through ctypes.
 
 The kernel does a whole communication step (the internal ROS34PW2 steps with their error control,
 events, loss quadrature, stick-slip and work accounting) in C, so Python is entered once per
@@ -30,8 +30,8 @@ ABI = 1
 LIB_NAME = "mesh_kernel.so"
 SEARCH_PATH: list[Path] = []
 _HERE = Path(__file__).resolve().parent
-_SOURCES = (_HERE.parent.parent / "native" / "mesh_kernel.c",             # checkout: fmu_src/native
-            _HERE.parent.parent / "spurdiff_fmus" / "native" / "mesh_kernel.c")   # installed wheel
+_SOURCES = (_HERE.parent.parent / "native",                       # checkout: fmu_src/native
+            _HERE.parent.parent / "spurdiff_fmus" / "native")     # installed wheel
 _d, _i = C.c_double, C.c_int64
 
 
@@ -61,17 +61,22 @@ class MkState(C.Structure):
                 + [("fail_t", _d), ("fail_h", _d)])
 
 
-def source_digest(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()[:16]
+def source_digest(native: Path) -> str:
+    """Digest of the kernel's sources (``mesh_kernel*.c`` and ``.h`` in the folder ``native``)."""
+    h = hashlib.sha256()
+    for p in sorted(native.glob("mesh_kernel*.[ch]")):
+        h.update(p.name.encode())
+        h.update(p.read_bytes())
+    return h.hexdigest()[:16]
 
 
 def _candidates() -> list[Path]:
     out = [_HERE / LIB_NAME]
-    src = next((p for p in _SOURCES if p.is_file()), None)
+    src = next((p for p in _SOURCES if (p / "mesh_kernel.c").is_file()), None)
     dirs = list(SEARCH_PATH) + [Path(os.environ[v]) for v in ("SPURDIFF_KERNEL_DIR", "SPURDIFF_FMU_DIR")
                                 if os.environ.get(v)]
-    if src is not None and src.parent.parent.name == "fmu_src":      # a checkout: its build/fmus
-        dirs.append(src.parent.parent.parent / "build" / "fmus")
+    if src is not None and src.parent.name == "fmu_src":      # a checkout: its build/fmus
+        dirs.append(src.parent.parent / "build" / "fmus")
     if src is not None:
         out += [Path(d) / f"mesh_kernel-{source_digest(src)}.so" for d in dirs]
     else:
@@ -114,7 +119,7 @@ def load() -> tuple[C.CDLL | None, str]:
         return _LIB
     why = "; ".join(reasons) if reasons else (
         "no compiled mesh kernel found (build it with `spurdiff build`, which compiles "
-        "fmu_src/native/mesh_kernel.c)")
+        "fmu_src/native/mesh_kernel*.c)")
     _LIB = (None, why)
     return _LIB
 

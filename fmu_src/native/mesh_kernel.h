@@ -1,0 +1,61 @@
+/*
+ * Shared declarations of the compiled mesh kernel (mesh_kernel_model.c: the model evaluation;
+ * mesh_kernel.c: the method, events, stick-slip, the driver and the exported functions). The
+ * structures are mirrored by fmu_src/spurdiff/mesh/kernel.py field by field (doubles and 64-bit
+ * integers only, so there is no padding).
+ */
+#ifndef MESH_KERNEL_H
+#define MESH_KERNEL_H
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+
+#define MK_ABI 1
+#define NMAX 10
+enum { PSI, DA, DB, D12, VA, VB, W1, W2, WC, PHIC };
+enum { LAW_BILATERAL = 0, LAW_ELASTO = 1, LAW_IMPACT = 2 };
+enum { MK_OK = 0, MK_MAX_STEPS = 1, MK_HMIN = 2 };
+
+typedef struct {
+    double sigma, rb1, rb2, k, c, K, jn, eps, pb, l1min, galpha, L, xi0, xi0c, xip, a1, a2;
+    int64_t d, g1, g2;
+} MkMesh;
+
+typedef struct {
+    int64_t N, speed_drive, law, wave, tracked, flank, pin, bl, contact, dissipative, var, max_steps, n;
+    double rbA, rb1, rbB, rb2, JA, JB, J1, J2, Jc, Jtot, lam;
+    double e, C, dmax;                       /* IMPACT */
+    double mu_s, mu_d, v_s, v_d;             /* flank friction */
+    double c_pin, M01, M02;
+    double pin_flat[2][8];                   /* spurdiff.locking.PinLayout._flat */
+    double Minv[5][5];                       /* torque drive: inverse mass matrix (w_c, v_A, v_B, w_1, w_2) */
+    double atol[NMAX], rtol, w_stick;
+    double gamma, a[4][4], cc[4][4], m[4], ew[4], dmid[4];   /* transformed tableau */
+    MkMesh md[3];
+    int64_t getrf, getrs;    /* LAPACK dgetrf / dgetrs (Fortran ABI) of the reference (scipy), or 0: own LU */
+} MkParams;
+
+typedef struct {
+    double y[NMAX];
+    double w_ref, tau_c, tau_L, tau_R;
+    double ac, wc, phic, t, h_next, work_in, energy_loss, parametric_work, loss_last_step, last_h;
+    double dA0, dB0, d120;
+    double sv[13];            /* side values of the outputs at the end (spurdiff.mesh.forces.SideValues) */
+    int64_t s[2], flags[6], n_flags;
+    int64_t n_internal_steps, n_rejected_steps, n_mode_switches, n_contact_transitions, n_steps;
+    double fail_t, fail_h;    /* where a step failed */
+} MkState;
+
+typedef struct { double F, dF_dd, dF_dv, Fc, xi; } Force;
+typedef struct { double M1, M2, dM1F, dM2F, d11, d12, d22, P; } Moments;
+enum { SV_FA, SV_FB, SV_F12, SV_QA, SV_QB, SV_Q1, SV_Q2, SV_M1, SV_M2, SV_CAP1, SV_CAP2, SV_P, SV_AC };
+
+#define MK_HIDDEN __attribute__((visibility("hidden")))
+MK_HIDDEN double mk_pymod(double x, double w);
+MK_HIDDEN double mk_wave_factor(const MkParams *P, const MkMesh *m, double xi);
+MK_HIDDEN double mk_law_potential(const MkParams *P, const MkMesh *m, double d, double kp, double kn);
+MK_HIDDEN void mk_relative_angles(const MkState *S, const MkParams *P, const double *y, double *psiB, double *th1,
+                                  double *th2);
+MK_HIDDEN void mk_eval(const MkParams *P, const MkState *S, const double *y, double *f, double *J, double *sv);
+
+#endif
