@@ -94,7 +94,8 @@ def test_every_real_has_a_unit_and_every_variable_a_description(fmu_files, name)
 def test_interfaces_and_display_units(wheel_fmu, vehicle_fmu):
     w = {v.name: v for v in read_model_description(str(wheel_fmu)).modelVariables}
     c = {v.name: v for v in read_model_description(str(vehicle_fmu)).modelVariables}
-    assert {n for n, v in w.items() if v.causality == "input"} == {"flange.phi", "flange.w", "Fz", "mu", "vx", "shaftIn.tau"}
+    assert {n for n, v in w.items() if v.causality == "input"} == {"flange.phi", "flange.w", "Fz", "mu", "vx", "shaftIn.tau",
+                                                                     "shaftIn.dw"}
     assert {"flange.tau", "Fx", "wheel.w", "slip", "shaft.tau", "shaft.power", "workFlange", "energyLoss",
             "energyResidual"} <= {n for n, v in w.items() if v.causality == "output"}
     assert {n for n, v in c.items() if v.causality == "input"} == {
