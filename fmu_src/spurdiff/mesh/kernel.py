@@ -19,12 +19,13 @@ from __future__ import annotations
 
 import ctypes as C
 import hashlib
+import logging
 import os
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import StepError
+from ..errors import ParameterError, StepError
 
 ABI = 1
 LIB_NAME = "mesh_kernel.so"
@@ -143,6 +144,28 @@ def _lapack() -> tuple[int, int]:
         except Exception:     # no scipy, or a scipy without the capsules: the kernel's own LU
             _LAPACK = (0, 0)
     return _LAPACK
+
+
+log = logging.getLogger("spurdiff.mesh")
+_REPORTED: set[str] = set()
+
+
+def choose(model) -> tuple["Kernel | None", str]:
+    """The kernel for an initialized model (``MeshParams.kernel``: auto or compiled) or None
+    (python, or auto without a loadable library: logged once per reason), and a note saying which
+    implementation runs; ParameterError for ``compiled`` without a library."""
+    want = model.mesh.kernel
+    if want == "python":
+        return None, "python (kernel = python)"
+    lib, where = load()
+    if lib is None:
+        if want == "compiled":
+            raise ParameterError("kernel", want, f"auto | python here: {where}")
+        if where not in _REPORTED:
+            _REPORTED.add(where)
+            log.warning("the mesh levels run the Python reference (slower, same results): %s", where)
+        return None, f"python ({where})"
+    return Kernel(lib, model), "compiled"
 
 
 def reset() -> None:

@@ -30,31 +30,27 @@ The mesh laws and effects: :mod:`spurdiff.mesh.forces`; the driver over a commun
 """
 from __future__ import annotations
 
-import logging
 import math
 from functools import partial
 
 import numpy as np
 
-from ..errors import ParameterError, StepError, require_finite, require_positive
+from ..errors import StepError, require_finite, require_positive
 from ..geometry import DifferentialGeometry
 from ..inertia import MassProperties, mass_properties
 from ..locking import locking_coefficients, paper_locking_coefficient, pin_friction
 from ..model_base import DifferentialModel
 from ..params import DifferentialParams
-from ..rigid import RigidDifferential
 from ..statics import MeshForces, kinematics
-from .events import contact_flags
 from . import kernel as compiled
 from .forces import (BilateralSpring, ElastoBacklash, FlankFriction, Impact, MeshPhase, SideValues, evaluate,
                      gear_meshes, potential)
 from .integrator import RosenbrockW
-from .layout import D12, DA, DB, PSI, VA, VB, W1, W2, WC, constant_jacobian, mesh_data, relative_angles
+from .layout import D12, DA, DB, PSI, VA, VB, W1, W2, constant_jacobian, mesh_data, relative_angles
 from .params import MeshParams
 from .stepper import advance
-from .stickslip import initial_forces, settle_modes
+from .stickslip import initial_state
 
-log = logging.getLogger("spurdiff.mesh")
 
 
 class MeshDifferential(DifferentialModel):
@@ -171,23 +167,9 @@ class MeshDifferential(DifferentialModel):
                           [self.JA, self.JA, 0, 0, 0], [self.JB, 0, self.JB, 0, 0],
                           [n * self.J1, 0, 0, n * self.J1, 0], [n * self.J2, 0, 0, 0, n * self.J2]])
             self._Minv = np.linalg.inv(M)
-        self._kernel, self.kernel_in_use = self._choose_kernel()
-        self._initial_state(t0)
+        self._kernel, self.kernel_in_use = compiled.choose(self)
+        initial_state(self, t0)
         self._ready = True
-
-    def _choose_kernel(self):
-        """The compiled kernel (mesh.kernel auto or compiled) or None (python, or auto without a
-        loadable kernel: logged with the reason), and a note saying which one runs."""
-        want = self.mesh.kernel
-        if want == "python":
-            return None, "python (kernel = python)"
-        lib, where = compiled.load()
-        if lib is None:
-            if want == "compiled":
-                raise ParameterError("kernel", want, f"auto | python here: {where}")
-            log.info("mesh levels run the Python reference: %s", where)
-            return None, f"python ({where})"
-        return compiled.Kernel(lib, self), "compiled"
 
     def _check_inputs(self) -> None:
         if math.isfinite(self.w_ref + self.tau_c + self.tau_L + self.tau_R):   # (a sum is cheaper than 4 checks)
@@ -195,50 +177,6 @@ class MeshDifferential(DifferentialModel):
         names = self.input_names
         for attr in ("w_ref", "tau_c", "tau_L", "tau_R"):
             require_finite(names[attr], getattr(self, attr))
-
-    # ================================================================== initial state
-    def _initial_state(self, t0: float) -> None:
-        rig = RigidDifferential(self.params)
-        rig.w_ref, rig.tau_c, rig.tau_L, rig.tau_R = self.w_ref, self.tau_c, self.tau_L, self.tau_R
-        rig.w_start_carrier, rig.w_start_left = self.w_start_carrier, self.w_start_left
-        rig.initialize(t0)
-        wc0, wd0 = rig.wc, rig.wd
-        self.t = float(t0)
-        self.wc = float(wc0)
-        self.phic = 0.0
-        self._ac = 0.0
-        y = self.y
-        y[:] = 0.0
-        y[VA], y[VB], y[W1], y[W2] = wd0, self.lam * wd0, self.rho1 * wd0, self.rho2 * wd0
-        if not self.speed_drive:
-            y[WC] = wc0
-        ac = 0.0 if self.speed_drive else rig.ac
-        self.s = [0, 0]
-        FA, FB, F12, ac = initial_forces(self, ac, rig.ad, rig.slip_dir, wd0)
-        preload = self.mesh.preload
-        if not preload:
-            FA = FB = F12 = 0.0
-        for F, m in zip((FA, FB, F12), self.md):
-            y[m.d] = self._static_deflection(m, F) if preload else -0.5 * m.jn
-        self._dA0, self._dB0, self._d120 = float(y[DA]), float(y[DB]), float(y[D12])
-        self.work_in = self.energy_loss = self.loss_last_step = self.parametric_work = 0.0
-        self.n_mode_switches = self.n_contact_transitions = 0
-        self.n_internal_steps = self.n_rejected_steps = self.n_steps = 0
-        self.h_next = 1e-5
-        self._last_h = 0.0
-        self._contact_flags = contact_flags(self, y)
-        self._f0_key = None
-        if self._pin:
-            settle_modes(self, y, ())
-            self.n_mode_switches = 0
-        self._refresh_outputs()
-
-    def _static_deflection(self, m, F: float) -> float:
-        kf = self.phase_obj.factor(m, m.xi0 if F >= 0.0 else m.xi0c)
-        if F == 0.0:
-            return 0.0 if m.jn == 0.0 else -0.5 * m.jn
-        pen = self.law_obj.penetration(m, F, kf)
-        return pen if F > 0.0 else -(m.jn + pen)
 
     # ================================================================== solve_ivp interface
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:

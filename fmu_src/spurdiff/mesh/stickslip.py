@@ -1,14 +1,16 @@
 """Pin-friction modes of the two planets (exact stick, event based): the mode decision at a
-state, the inelastic impulse that zeroes a planet's slip speed, and the consistent start."""
+state, the inelastic impulse that zeroes a planet's slip speed, and the consistent start (initial
+state of the model: the rigid model's motion, the meshes statically preloaded or unloaded)."""
 from __future__ import annotations
 
 import math
 
 import numpy as np
 
-from .events import STICK_RTOL
+from ..rigid import RigidDifferential
+from .events import STICK_RTOL, contact_flags
 from .forces import evaluate
-from .layout import VA, VB, W1, W2, WC
+from .layout import D12, DA, DB, VA, VB, W1, W2, WC
 
 
 def settle_modes(c, y, zeroed) -> int:
@@ -124,3 +126,53 @@ def initial_forces(c, ac: float, ad: float, slip_dir: float, wd0: float):
     FB = (JB * (acc + c.lam * add) - tR) / (n * rbB)
     c.s = [int(s1), int(s2)]
     return FA, FB, F12, acc
+
+
+def initial_state(c, t0: float) -> None:
+    """Everything at the rigid model's start speeds, the meshes statically preloaded with the
+    forces consistent with the motion at t0 (or unloaded, centred in the backlash, with
+    ``preload = False``); bookkeeping zeroed, friction modes decided, outputs computed."""
+    rig = RigidDifferential(c.params)
+    rig.w_ref, rig.tau_c, rig.tau_L, rig.tau_R = c.w_ref, c.tau_c, c.tau_L, c.tau_R
+    rig.w_start_carrier, rig.w_start_left = c.w_start_carrier, c.w_start_left
+    rig.initialize(t0)
+    wc0, wd0 = rig.wc, rig.wd
+    c.t = float(t0)
+    c.wc = float(wc0)
+    c.phic = 0.0
+    c._ac = 0.0
+    y = c.y
+    y[:] = 0.0
+    y[VA], y[VB], y[W1], y[W2] = wd0, c.lam * wd0, c.rho1 * wd0, c.rho2 * wd0
+    if not c.speed_drive:
+        y[WC] = wc0
+    ac = 0.0 if c.speed_drive else rig.ac
+    c.s = [0, 0]
+    FA, FB, F12, ac = initial_forces(c, ac, rig.ad, rig.slip_dir, wd0)
+    preload = c.mesh.preload
+    if not preload:
+        FA = FB = F12 = 0.0
+    for F, m in zip((FA, FB, F12), c.md):
+        y[m.d] = static_deflection(c, m, F) if preload else -0.5 * m.jn
+    c._dA0, c._dB0, c._d120 = float(y[DA]), float(y[DB]), float(y[D12])
+    c.work_in = c.energy_loss = c.loss_last_step = c.parametric_work = 0.0
+    c.n_mode_switches = c.n_contact_transitions = 0
+    c.n_internal_steps = c.n_rejected_steps = c.n_steps = 0
+    c.h_next = 1e-5
+    c._last_h = 0.0
+    c._contact_flags = contact_flags(c, y)
+    c._f0_key = None
+    if c._pin:
+        settle_modes(c, y, ())
+        c.n_mode_switches = 0
+    c._refresh_outputs()
+
+
+def static_deflection(c, m, F: float) -> float:
+    """Deflection of mesh m under the normal force F per pair (its flank's stiffness factor at the
+    start phase)."""
+    kf = c.phase_obj.factor(m, m.xi0 if F >= 0.0 else m.xi0c)
+    if F == 0.0:
+        return 0.0 if m.jn == 0.0 else -0.5 * m.jn
+    pen = c.law_obj.penetration(m, F, kf)
+    return pen if F > 0.0 else -(m.jn + pen)
