@@ -228,10 +228,20 @@ class Kernel:
         self._D = np.frombuffer(self.state, dtype=np.float64, count=40)
         self._I = np.frombuffer(self.state, dtype=np.int64, count=14, offset=MkState.s.offset)
         assert MkState.y.offset == 0 and MkState.sv.offset == 27 * 8 and MkState.n_steps.offset == 53 * 8
+        # the model's continuous state lives here (the model's y is this view): never copied
+        self.y = self._D[:model._N]
 
     def _pack(self, c) -> MkState:
+        """The model's state into the structure: all of it after the model's state was set from
+        outside (``c._kernel_dirty``: initialize, set_state, load_state_vector), else only the
+        inputs (the rest is what the last step left)."""
         D, I = self._D, self._I
-        D[:c._N] = c.y
+        if not c._kernel_dirty:
+            D[10:14] = (c.w_ref, c.tau_c, c.tau_L, c.tau_R)
+            return self.state
+        c._kernel_dirty = False
+        if c.y is not self.y:
+            D[:c._N] = c.y
         D[10:27] = (c.w_ref, c.tau_c, c.tau_L, c.tau_R, c._ac, c.wc, c.phic, c.t, c.h_next, c.work_in, c.energy_loss,
                     c.parametric_work, c.loss_last_step, c._last_h, c._dA0, c._dB0, c._d120)
         fl = c._contact_flags
@@ -254,9 +264,7 @@ class Kernel:
                 raise StepError(f"more than {int(c.mesh.maxInternalSteps)} internal steps in the step at "
                                 f"t = {t:.9g} s (maxInternalSteps)")
             raise StepError(f"internal step size {S.fail_h:.3g} s below 1e-13 s at t = {S.fail_t:.9g} s")
-        D = self._D
-        c.y[:] = D[:c._N]
-        v = D[14:40].tolist()
+        v = self._D[14:40].tolist()
         (c._ac, c.wc, c.phic, c.t, c.h_next, c.work_in, c.energy_loss, c.parametric_work, c.loss_last_step,
          c._last_h) = v[:10]
         i = self._I.tolist()
@@ -275,7 +283,6 @@ class Kernel:
         done = self.lib.mk_run(self._pP, self._pS, t0, h, n, ys.ctypes.data)
         if done != n:
             raise StepError(f"step {done + 1} of {n} at t = {t0 + done * h:.9g} s failed")
-        c.y[:] = self._D[:c._N]
         v = self._D[14:24].tolist()
         (c._ac, c.wc, c.phic, c.t, c.h_next, c.work_in, c.energy_loss, c.parametric_work, c.loss_last_step,
          c._last_h) = v
@@ -287,6 +294,7 @@ class Kernel:
 
     def evaluate(self, c, y: np.ndarray, f: np.ndarray, J: np.ndarray | None) -> tuple:
         """The model evaluation in C at y (inputs, carrier acceleration and modes of ``c``)."""
+        c._kernel_dirty = True           # a full pack: the caller may have changed anything
         S = self._pack(c)
         y = np.ascontiguousarray(y, dtype=np.float64)
         sv = (C.c_double * 13)()

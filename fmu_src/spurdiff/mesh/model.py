@@ -168,6 +168,8 @@ class MeshDifferential(DifferentialModel):
                           [n * self.J1, 0, 0, n * self.J1, 0], [n * self.J2, 0, 0, 0, n * self.J2]])
             self._Minv = np.linalg.inv(M)
         self._kernel, self.kernel_in_use = compiled.choose(self)
+        if self._kernel is not None:
+            self.y = self._kernel.y       # the state lives in the kernel's structure
         initial_state(self, t0)
         self._ready = True
 
@@ -207,6 +209,7 @@ class MeshDifferential(DifferentialModel):
         """Put a continuous state (e.g. a point of a solve_ivp trajectory) in place and refresh the
         outputs at it; friction modes and inputs stay as they are."""
         self.y[:] = y
+        self._kernel_dirty = True
         self._refresh_outputs()
 
     # ================================================================== stepping
@@ -366,4 +369,5 @@ class MeshDifferential(DifferentialModel):
         self.s = [int(v) for v in state["modes"]]
         self._contact_flags = [int(v) for v in state["contact_flags"]]
         self._f0_key = None
+        self._kernel_dirty = True
         self._refresh_outputs()

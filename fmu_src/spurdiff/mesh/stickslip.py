@@ -162,6 +162,7 @@ def initial_state(c, t0: float) -> None:
     c._last_h = 0.0
     c._contact_flags = contact_flags(c, y)
     c._f0_key = None
+    c._kernel_dirty = True
     if c._pin:
         settle_modes(c, y, ())
         c.n_mode_switches = 0
