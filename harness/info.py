@@ -161,7 +161,9 @@ def breakaway_table(resolution: float = 1e-3) -> str:
                   rows)
 
 
-if __name__ == "__main__":   # python -m harness.info breakaway
+if __name__ == "__main__":   # python -m harness.info [breakaway]
     import sys
 
-    print(breakaway_table() if sys.argv[1:] == ["breakaway"] else info_text())
+    from harness.cli.info import main
+
+    sys.exit(main())

@@ -12,7 +12,7 @@
 * :mod:`.crosscheck`: the cross-check file formats (CSV, ``_ref.opt``);
 * :mod:`.reference`: writing reference results (parent side); :mod:`.compare`: per-column comparison;
 * :mod:`.report`: PASS/ERROR/WARN/INFO/SKIP lines, JUnit XML, exit code;
-* :mod:`.runner`: the command line, ``main(argv) -> int``.
+* :mod:`.runner`: every rule for several FMUs (the command line is :mod:`harness.cli.check`).
 
 Rules and CI recipes: docs/compliance.md.
 """
@@ -36,6 +36,6 @@ __all__ = [
 
 
 def main(argv=None) -> int:
-    """``spurdiff check`` (see :func:`harness.check.runner.main`)."""
-    from .runner import main as _main
+    """``spurdiff check`` (see :mod:`harness.cli.check`)."""
+    from harness.cli.check import main as _main
     return _main(argv)

@@ -44,7 +44,7 @@ from harness.sweep.table import FolderLock, TableWriter, fmt, read_table, table_
 
 def main(argv: list[str] | None = None) -> int:
     """``spurdiff sweep`` (see :mod:`harness.cli.sweep`)."""
-    from harness.sweep.command import main as _main
+    from harness.cli.sweep import main as _main
     return _main(argv)
 
 

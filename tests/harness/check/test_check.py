@@ -27,7 +27,7 @@ from harness.check.archive import ArchiveError, extract, member_name_problem  # 
 from harness.check.crosscheck import write_cross_check_csv  # noqa: E402
 from harness.check.reference import ReferenceUsageError  # noqa: E402
 from harness.check.report import exit_code, format_report  # noqa: E402
-from harness.check.runner import main  # noqa: E402
+from harness.cli.check import main  # noqa: E402
 
 STATIC = [r.id for r in rules("static")]
 STATIC_SPURDIFF = [r.id for r in rules("static", ("spurdiff",))]

@@ -125,7 +125,7 @@ def test_pythonfmu_limits_are_reported_not_hidden(tmp_path, capsys):
     and leaves fmi2FreeFMUstate's pointer set, so every pythonfmu FMU fails cs.guid and cs.free-state;
     it answers fmi2GetStatus with fmi2Error and refuses past the stop time with fmi2Discard (warnings)."""
     from harness.check.rules import rules
-    from harness.check.runner import main
+    from harness.cli.check import main
     import xml.etree.ElementTree as ET
     path = chk_build.pythonfmu_fmu("ChkGood", STATE_FLAGS)
     junit = tmp_path / "good.xml"

@@ -1,4 +1,5 @@
-"""``spurdiff sweep``: the command line."""
+"""``spurdiff sweep`` (= ``python -m harness.sweep``): run a design sweep (:mod:`harness.sweep`), list the
+sweeps, plot a table, or measure the sweep machinery (``--bench``)."""
 from __future__ import annotations
 
 import argparse
@@ -113,7 +114,3 @@ def _main(args) -> int:
         return _fail(f"{len(bad)} of {o.total} runs did not finish ok ({reasons}{' ...' if len(bad) > 3 else ''}); "
                      f"--resume --retry-failed reruns them", 1)
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,0 +1,63 @@
+"""The ``spurdiff`` command line, one module per command; the only place with argparse.
+
+``spurdiff COMMAND ...`` hands the arguments after the command to ``harness.cli.<command>.main``
+(each command parses its own options, ``spurdiff COMMAND -h`` shows them). The harness's
+library modules keep a ``main(argv)`` that delegates here, so ``python -m harness.sweep``,
+``python -m harness.accuracy``... stay the same commands.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+# command -> (module in this package, one line of help)
+COMMANDS = {
+    "build": ("build", "build the FMUs (build/fmus in a checkout, else the per-user cache; --out DIR, --force); "
+                       "prints where"),
+    "fmu": ("fmu", "print the path of a built FMU, building it if needed"),
+    "info": ("info", "derived geometry, design checks and the paper's theory table beside ours"),
+    "scenes": ("scenes", "list the scenes"),
+    "run": ("run", "run a scene: results table, checks, CSV and plots"),
+    "bench": ("bench", "measured cost ratios: FMI vs direct, each fidelity vs rigid, real-time factors"),
+    "check": ("check", "FMI 2.0 compliance checks of any co-simulation FMU, JUnit report (docs/compliance.md)"),
+    "export-ssp": ("export_ssp", "write a scene as an SSP file other masters run (docs/interoperability.md)"),
+    "accuracy": ("accuracy", "accuracy versus wall time over fidelities, steps and tolerances (docs/accuracy.md)"),
+    "sweep": ("sweep", "design sweep of a scene on a local or remote Dask cluster, resumable (docs/sweeps.md)"),
+}
+
+
+def fail(prog: str, msg: str, code: int = 2) -> int:
+    """One line on stderr, ``prog: msg``; returns ``code`` (the exit code)."""
+    print(f"{prog}: {msg}", file=sys.stderr)
+    return code
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from harness.paths import package_version
+
+    ap = argparse.ArgumentParser(prog="spurdiff", description="Spur-gear planetary differential FMUs and "
+                                                              "co-simulation harness")
+    ap.add_argument("--version", action="version", version=f"spurdiff {package_version()}")
+    sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name, (_, text) in COMMANDS.items():
+        sub.add_parser(name, help=text, add_help=False)
+    return ap
+
+
+def main(argv: list[str] | None = None) -> int:
+    from harness.master import RunFailure
+    from harness.schema import SceneError
+    from spurdiff.errors import ParameterError
+
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] not in COMMANDS:
+        build_parser().parse_args(argv)   # --version, -h, or a usage error (exit 2)
+        return 2
+    module = importlib.import_module(f"harness.cli.{COMMANDS[argv[0]][0]}")
+    try:
+        return module.main(argv[1:])
+    except (SceneError, ParameterError, RunFailure) as e:
+        return fail("spurdiff", str(e))
+    except KeyboardInterrupt:
+        return fail("spurdiff", "interrupted", 130)

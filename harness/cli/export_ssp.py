@@ -1,0 +1,45 @@
+"""``spurdiff export-ssp SCENE``: the coupled system as an SSP 1.0 file (SystemStructure.ssd and the FMUs)
+for other masters (:mod:`harness.ssp`)."""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from harness.schema import SceneError
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``spurdiff export-ssp SCENE [-o FILE] [--step H] [--duration T] [--mesh M] [--set I.P=V]``."""
+    from harness.runner import fmu_files_for, prepare_scene
+    from harness.ssp import SCENE_ANNOTATION, SspError, default_output, export_ssp_summary
+
+    ap = argparse.ArgumentParser(prog="spurdiff export-ssp",
+                                 description="Write a scene as an SSP 1.0 file (SystemStructure.ssd + FMUs) for other masters")
+    ap.add_argument("scene", help="scene name (see `spurdiff scenes`) or path to a .toml file")
+    ap.add_argument("-o", "--output", help="SSP file to write (default results/<scene>/<scene>.ssp)")
+    ap.add_argument("--step", type=float, help="communication step written to the SSP, s (default: the scene's)")
+    ap.add_argument("--duration", type=float, help="stop time written to the SSP, s (default: the scene's)")
+    ap.add_argument("--mesh", help="differential mesh model (overrides the scene's effects.meshModel)")
+    ap.add_argument("--set", action="append", default=[], metavar="INST.PARAM=VALUE",
+                    help="override a parameter, e.g. --set diff.mu_pin=0.1")
+    args = ap.parse_args(argv)
+    try:
+        scene = prepare_scene(args.scene, mesh=args.mesh, step=args.step, duration=args.duration, sets=args.set)
+        files = fmu_files_for(scene, build_missing=True)
+        out = Path(args.output) if args.output else default_output(scene)
+        s = export_ssp_summary(scene, files, out)
+    except (SceneError, SspError) as e:
+        print(f"spurdiff export-ssp: {e}", file=sys.stderr)
+        return 2
+    except ImportError as e:
+        print(f"spurdiff export-ssp: {e.name} is not installed (pip install pyssp-standard)", file=sys.stderr)
+        return 2
+    print(f"wrote {s.path}: {s.components} component(s), {s.connections} connection(s), {s.values} start value(s); "
+          f"stop time {scene.duration:g} s, step {scene.step:g} s (osp:FixedStepAlgorithm)")
+    for ref in s.tables:
+        print(f"note: input {ref} is a time table; the SSP binds its value at t = 0 "
+              f"(the table is kept only in the {SCENE_ANNOTATION} annotation)")
+    if scene.connections and scene.algorithm != "jacobi":
+        print(f"note: the scene's algorithm is {scene.algorithm}; SSP masters such as libcosim step Jacobi")
+    return 0

@@ -1,0 +1,23 @@
+"""``spurdiff fmu NAME``: the path of a built FMU (built first if needed), for scripts and other hosts."""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from harness.cli import fail
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="spurdiff fmu", description="print the path of a built FMU, building it if needed")
+    p.add_argument("name", help="SpurDifferential, WheelLoad or Vehicle")
+    p.add_argument("--out", type=Path, default=None, help="build into DIR instead of the default place")
+    args = p.parse_args(argv)
+    from harness.build import FMUS, BuildError, build
+    if args.name not in FMUS:
+        return fail("spurdiff", f"unknown FMU {args.name!r}; allowed: {', '.join(FMUS)}")
+    try:
+        (path,) = build([args.name], args.out, quiet=True)
+    except BuildError as e:
+        return fail("spurdiff", str(e))
+    print(path)
+    return 0
