@@ -411,9 +411,97 @@ class Vehicle:
         ]
 
     # ------------------------------------------------------------------ stepping
+    ATOMIC_STEP = True   # do_step commits nothing when it raises or when the result is not finite
+
+    def _make_rates(self):
+        """The rate function of :meth:`_rates` for the current step (inputs as cached by
+        :meth:`_load_inputs`): the same arithmetic in the same order, with every parameter and
+        every input-only term bound once per step, and none of the output bookkeeping. Used by
+        the RK4 stages of :meth:`do_step`; :meth:`_rates` stays the reference (and computes the
+        outputs)."""
+        p = self.params
+        b, lt, st, sc = p.vehicle, p.lateralTyre, p.steering, p.speedControl
+        m, L, lf = b.m, b.L, b.l_f
+        lr = L - lf
+        mu = self._mu
+        Wn = m * G * self._cos_g
+        Wn_lr_L = Wn * lr / L
+        h_cg = b.h_cg
+        B, C, E = lt.B, lt.C, lt.E
+        nfrr, v_rr = -b.f_rr, b.v_rr
+        FxL, FxR = self._FxL, self._FxR
+        Fxr = FxL + FxR
+        Fxr2 = Fxr * Fxr
+        k_aero = -0.5 * b.rho_air * b.CdA
+        F_grade = -m * G * self._sin_g
+        Mz_x = 0.5 * b.trackRear * (FxR - FxL)
+        G_sin = G * self._sin_g
+        Iz = b.Iz
+        vref, Kp, Ki = self._vref, sc.Kp, sc.Ki
+        umax, umin = sc.driveTorqueMax, sc.driveTorqueMin
+        inv_sig = 1.0 / lt.sigma
+        inv_tau = 1.0 / b.tau_load
+        dmax = st.delta_max
+        angle_mode = st.mode == STEER_ANGLE
+        dcmd = self._dcmd
+        delta_cmd = dmax if dcmd > dmax else (-dmax if dcmd < -dmax else dcmd)
+        kappa, delta_ff, K_r, K_ri = self._kappa, self._delta_ff, st.K_r, st.K_ri
+        sin, cos, tanh, atan, sqrt = math.sin, math.cos, math.tanh, math.atan, math.sqrt
+
+        def rates(s):
+            vx, vy, r, psi = s[0], s[1], s[2], s[3]
+            af, ar, axf, ayf, Iv, Ir = s[6], s[7], s[8], s[9], s[10], s[11]
+            if angle_mode:
+                dIr = 0.0
+                delta = delta_cmd
+            else:
+                e = (vx * kappa - r) * tanh(vx)
+                raw = delta_ff + K_r * e + Ir
+                if (raw >= dmax and e > 0.0) or (raw <= -dmax and e < 0.0):
+                    dIr = 0.0
+                else:
+                    dIr = K_ri * e
+                delta = dmax if raw > dmax else (-dmax if raw < -dmax else raw)
+            Fz_f = Wn_lr_L - m * axf * h_cg / L
+            Fz_f = 0.0 if Fz_f < 0.0 else (Wn if Fz_f > Wn else Fz_f)
+            Fz_r = Wn - Fz_f
+            cd, sd = cos(delta), sin(delta)
+            vfy = vy + lf * r
+            vwx_f = vx * cd + vfy * sd
+            vwy_f = -vx * sd + vfy * cd
+            x = B * af
+            Fyf = mu * Fz_f * sin(C * atan(x - E * (x - atan(x))))
+            Fxf = nfrr * Fz_f * tanh(vwx_f / v_rr)
+            D2 = (mu * Fz_r) ** 2 - Fxr2
+            x = B * ar
+            Fyr = (sqrt(D2) if D2 > 0.0 else 0.0) * sin(C * atan(x - E * (x - atan(x))))
+            Fyf_b = Fxf * sd + Fyf * cd
+            FX = Fxf * cd - Fyf * sd + Fxr + k_aero * vx * abs(vx) + F_grade
+            ax = FX / m
+            ay = (Fyf_b + Fyr) / m
+            eu = vref - vx
+            u = Kp * eu + Iv
+            cpsi, spsi = cos(psi), sin(psi)
+            return [
+                ax + vy * r,
+                ay - vx * r,
+                (lf * Fyf_b - lr * Fyr + Mz_x) / Iz,
+                r,
+                vx * cpsi - vy * spsi,
+                vx * spsi + vy * cpsi,
+                (-vwy_f - abs(vwx_f) * af) * inv_sig,
+                (-(vy - lr * r) - abs(vx) * ar) * inv_sig,
+                (ax + G_sin - axf) * inv_tau,
+                (ay - ayf) * inv_tau,
+                0.0 if ((u >= umax and eu > 0.0) or (u <= umin and eu < 0.0)) else Ki * eu,
+                dIr,
+            ]
+        return rates
+
     def do_step(self, t: float, h: float) -> None:
-        """Advance from t to t + h with the inputs held (RK4 sub-steps). Raises ParameterError for
-        bad inputs (state unchanged)."""
+        """Advance from t to t + h with the inputs held (RK4 sub-steps). Atomic: raises
+        ParameterError for bad inputs and StepError for a non-finite result, the state and the
+        outputs then as before the call."""
         if not self._ready:
             raise StepError("do_step called before initialize")
         h = require_positive("communicationStepSize", h)
@@ -425,48 +513,54 @@ class Vehicle:
             h_lim = p.lateralTyre.sigma / vx
         n = max(1, math.ceil(h / h_lim - 1e-9))
         hs = h / n
+        hh = 0.5 * hs
+        h6 = hs / 6.0
         amax = p.lateralTyre.alpha_max
         s = self.s
-        rates = self._rates
+        rates = self._make_rates()
         for _ in range(n):
             k1 = rates(s)
-            k2 = rates([x + 0.5 * hs * d for x, d in zip(s, k1)])
-            k3 = rates([x + 0.5 * hs * d for x, d in zip(s, k2)])
+            k2 = rates([x + hh * d for x, d in zip(s, k1)])
+            k3 = rates([x + hh * d for x, d in zip(s, k2)])
             k4 = rates([x + hs * d for x, d in zip(s, k3)])
-            s = [x + hs / 6.0 * (d1 + 2.0 * (d2 + d3) + d4) for x, d1, d2, d3, d4 in zip(s, k1, k2, k3, k4)]
-            s[6] = _clamp(s[6], amax)
-            s[7] = _clamp(s[7], amax)
+            s = [x + h6 * (d1 + 2.0 * (d2 + d3) + d4) for x, d1, d2, d3, d4 in zip(s, k1, k2, k3, k4)]
+            a = s[6]
+            s[6] = amax if a > amax else (-amax if a < -amax else a)
+            a = s[7]
+            s[7] = amax if a > amax else (-amax if a < -amax else a)
+        out = self._outputs(s)
+        if not math.isfinite(sum(s) + sum(out)) and not all(math.isfinite(x) for x in s + list(out)):
+            raise StepError(f"vehicle: the step at t = {t:.6g} s gave a non-finite state; state kept")
         self.s = s
         self.n_substeps += n
         self.t = t + h
         self.n_steps += 1
-        self._update_outputs()
+        self._set_outputs(out)
 
     def _update_outputs(self) -> None:
+        self._set_outputs(self._outputs(self.s))
+
+    def _outputs(self, s) -> tuple:
+        """The output values (in the order of ``_OUTPUT_KEYS``) for the state ``s``."""
         p = self.params
         b = p.vehicle
-        s = self.s
         self._rates(s)
         vx, vy, r = s[0], s[1], s[2]
         half_t = 0.5 * b.trackRear
-        self.rearLeft_vx = vx - r * half_t
-        self.rearRight_vx = vx + r * half_t
         Fz_r = self._Fz_r
         dFz = p.vehicle.rollStiffnessShareRear * b.m * s[9] * b.h_cg / b.trackRear
         half = 0.5 * Fz_r
         dFz = half if dFz > half else (-half if dFz < -half else dFz)
-        self.rearLeft_Fz = half - dFz
-        self.rearRight_Fz = half + dFz
-        self.frontAxle_Fz = self._Fz_f
-        self.rearAxle_Fz = Fz_r
-        self.speed = math.hypot(vx, vy)
-        self.yawRate = r
-        self.ax, self.ay = self._ax, self._ay
         sc = p.speedControl
-        u = self._u
-        self.driveTorque = min(max(u, sc.driveTorqueMin), sc.driveTorqueMax)
-        self.steering_angle = self._delta_now
-        self.Fy_front, self.Fy_rear = self._Fyf, self._Fyr
+        return (vx - r * half_t, vx + r * half_t, half - dFz, half + dFz, self._Fz_f, Fz_r,
+                math.hypot(vx, vy), r, self._ax, self._ay,
+                min(max(self._u, sc.driveTorqueMin), sc.driveTorqueMax),
+                self._delta_now, self._Fyf, self._Fyr)
+
+    def _set_outputs(self, out: tuple) -> None:
+        (self.rearLeft_vx, self.rearRight_vx, self.rearLeft_Fz, self.rearRight_Fz, self.frontAxle_Fz,
+         self.rearAxle_Fz, self.speed, self.yawRate, self.ax, self.ay, self.driveTorque,
+         self.steering_angle, self.Fy_front, self.Fy_rear) = out
 
     # ------------------------------------------------------------------ convenience
     @property
