@@ -41,6 +41,7 @@ DATA_FILE = Path(__file__).resolve().parent / "accuracy_data.csv"
 FACTS_FILE = Path(__file__).resolve().parent / "accuracy_facts.json"   # references, solve_ivp points
 STATS = ("mean", "max", "min")
 SANE_ERROR = 1.0   # fidelity auto ignores settings with any metric off by more than its scale
+REFERENCE_FRACTION = 0.25   # fidelity auto needs a reference converged to this fraction of the tolerance
 
 
 @dataclass(frozen=True)
@@ -144,7 +145,8 @@ def measure_scene(name: str, spec: dict, quick: bool = False, log=print) -> tupl
     check_scene = configure(name, fid_by_name[ref_fid], ref_spec.get("check_step", ref_spec["step"] * 2),
                             ref_spec.get("check_tolerance", ref_spec.get("tolerance")), duration)
     chk_res, _ = run_point(check_scene, 1)
-    conv = max(relative_errors(metric_values(chk_res, quantities), ref, scales).values()) if chk_res.ok else math.inf
+    conv_metrics = relative_errors(metric_values(chk_res, quantities), ref, scales) if chk_res.ok else {}
+    conv = max(conv_metrics.values()) if conv_metrics else math.inf
     log(f"{name}: reference {ref_fid}, step {ref_spec['step']:g} s, tolerance {ref_spec.get('tolerance')}: "
         f"{ref_res.wall_time:.2f} s; next-coarser differs by {conv:.2e} (its convergence)")
     points = []
@@ -165,7 +167,7 @@ def measure_scene(name: str, spec: dict, quick: bool = False, log=print) -> tupl
                     + ("" if p.ok else f"  FAILED: {p.reason[:80]}"))
     facts = {"reference": ref_fid, "ref_step": ref_spec["step"], "ref_tolerance": ref_spec.get("tolerance"),
              "ref_wall": ref_res.wall_time, "convergence": conv, "elapsed": time.perf_counter() - t0,
-             "duration": ref_scene.duration}
+             "duration": ref_scene.duration, "check_step": check_scene.step, "convergence_metrics": conv_metrics}
     return points, facts
 
 
@@ -383,7 +385,21 @@ def markdown_auto(data: list[Point]) -> list[str]:
     """What every `fidelity = "auto"` scene chooses from the stored data, and why."""
     from harness.scene import available, load_scene
 
-    lines = ["## `fidelity = \"auto\"`: what the scenes choose", ""]
+    lines = ["## `fidelity = \"auto\"`: what the scenes choose", "",
+             "The rule (`harness.accuracy.choose`; errors on the scene's requested outputs, relative to their "
+             "scales, against the grid's reference):", "",
+             f"1. The reference must resolve the tolerance: its difference from its own run one refinement coarser, "
+             f"on the requested outputs, must be at most {REFERENCE_FRACTION:g} of the tolerance, else the choice is "
+             "refused (`spurdiff run` exits non-zero with a one-line message naming the scene, the tolerance and the "
+             "reference's resolution). An error measured against the reference is known only to within the "
+             "reference's own error, which the next-coarser run bounds; with a quarter, a point accepted at the "
+             "tolerance is within 1.25 times it of the converged answer, while against a reference worse than the "
+             "tolerance a coarse step can land \"within the tolerance\" by chance.",
+             "2. A setting (fidelity, internal tolerance, step) qualifies only if its error and the errors of every "
+             "finer stored step of the same fidelity and internal tolerance meet the tolerance (every one of those "
+             f"runs succeeded, none with any metric off by more than {SANE_ERROR:g} times its scale): convergence shown, "
+             "not a cancellation of errors at one coarse step.",
+             "3. Of the qualifying settings, the one with the least stored wall time.", ""]
     for name in available():
         sc = load_scene(name)
         if sc.fidelity.get("mode") != "auto":
@@ -446,9 +462,47 @@ def _summary(points: list[Point], scene: str, duration: float) -> list[str]:
     return lines + [""]
 
 
-def choose(scene: Scene, data: list[Point] | None = None) -> tuple[Point, str]:
+def reference_resolution(facts: dict, keys: list[str]) -> float:
+    """How well the reference resolves the metrics ``keys``: the largest relative difference on
+    them between the reference and its run one refinement coarser (``convergence_metrics`` of the
+    stored facts; where a metric is missing there, the largest over all metrics, ``convergence``,
+    which is never smaller). Infinite when nothing is stored: unknown is not resolved."""
+    per = facts.get("convergence_metrics") or {}
+    whole = float(facts.get("convergence", math.inf))
+    vals = [float(per[k]) if k in per else whole for k in keys]
+    return max(vals) if vals else whole
+
+
+def _stored_facts(source: str) -> dict:
+    try:
+        return json.loads(FACTS_FILE.read_text()).get("facts", {}).get(source, {})
+    except (OSError, ValueError):
+        return {}
+
+
+def choose(scene: Scene, data: list[Point] | None = None, facts: dict | None = None) -> tuple[Point, str]:
     """Cheapest stored point of this scene whose error on the scene's requested outputs is within
-    the requested tolerance. Returns the point and a one-paragraph reason."""
+    the requested tolerance, with convergence shown. Returns the point and a one-paragraph reason.
+
+    The rule (errors are on the requested outputs, relative to their scales, against the grid's
+    reference run):
+
+    1. The reference must resolve the tolerance: its difference from its own run one refinement
+       coarser (:func:`reference_resolution`) must be at most ``REFERENCE_FRACTION`` (1/4) of the
+       tolerance, else the choice is refused (:class:`SceneError`, one line naming the scene, the
+       tolerance and the reference's resolution). Why: an error measured against the reference is
+       only known to within the reference's own error, which its next-coarser run bounds (for a
+       method converging at order p >= 1 the reference's own error is about conv / (2^p - 1) <= conv).
+       With a quarter, a point accepted at the tolerance is within 1.25 x the tolerance of the
+       converged answer; with a reference worse than the tolerance, "within the tolerance" means
+       "close to a reference that is itself off", and a coarse step can land there by chance.
+    2. A (fidelity, internal tolerance, step) qualifies only if its error AND the errors of every
+       finer stored step of the same fidelity and internal tolerance meet the tolerance (and every
+       one of those runs succeeded and is sane: no metric off by more than ``SANE_ERROR`` of its
+       scale). Why: errors of a convergent setting shrink as the step does; a coarse step that
+       meets the tolerance while finer ones miss it is a cancellation of errors at that step (a
+       peak sampled luckily), not accuracy the scene can rely on when its inputs change.
+    3. Of the qualifying points, the one with the least stored wall time."""
     fid = scene.fidelity
     outputs = fid.get("outputs")
     tol = float(fid.get("tolerance", 0.01))
@@ -456,10 +510,20 @@ def choose(scene: Scene, data: list[Point] | None = None) -> tuple[Point, str]:
         raise SceneError(f"{scene.name}: fidelity = auto needs 'outputs' (quantities) and 'tolerance'")
     data = read_csv() if data is None else data
     source = fid.get("data", scene.name)
-    rows = [p for p in data if p.scene == source and p.ok]
+    everything = [p for p in data if p.scene == source]
+    rows = [p for p in everything if p.ok]
     if not rows:
         raise SceneError(f"{scene.name}: no accuracy data stored for scene {source!r}; run `spurdiff accuracy {source}`")
     keys = [f"{k}({q})" for q in outputs for k in STATS]
+    facts = _stored_facts(source) if facts is None else facts
+    conv = reference_resolution(facts, keys)
+    if not conv <= REFERENCE_FRACTION * tol:
+        ref = (f"{facts.get('reference', '?')} at step {facts['ref_step']:g} s" if "ref_step" in facts
+               else "no stored reference")
+        raise SceneError(f"{scene.name}: fidelity = auto refused: tolerance {tol:g} on {', '.join(outputs)} is not "
+                         f"resolved by the reference of {source!r} ({ref}), which differs from its next-coarser run "
+                         f"by {conv:.2e} (at most {REFERENCE_FRACTION:g} x {tol:g} = {REFERENCE_FRACTION * tol:.2e} "
+                         f"needed); rerun `spurdiff accuracy {source}` with a finer reference (harness/accuracy_grid.toml)")
 
     def err(p: Point) -> float:
         vals = [p.metric_errors.get(k, math.inf) for k in keys]
@@ -468,16 +532,28 @@ def choose(scene: Scene, data: list[Point] | None = None) -> tuple[Point, str]:
     # the requested outputs within the tolerance, and nothing else off by more than its own scale:
     # a step at which the coupling misbehaves elsewhere (a torque spike through the backlash) is
     # not a valid choice even if the requested outputs happen to be fine
-    good = [p for p in rows if err(p) <= tol and p.error <= SANE_ERROR]
+    def meets(p: Point) -> bool:
+        return p.ok and err(p) <= tol and p.error <= SANE_ERROR
+
+    def finer(p: Point) -> list[Point]:
+        return [q for q in everything if q.fidelity == p.fidelity and q.tolerance == p.tolerance and q.step < p.step]
+
+    met = [p for p in rows if meets(p)]
+    good = [p for p in met if all(meets(q) for q in finer(p))]
+    lucky = [p for p in met if p not in good]
     if not good:
         best = min(rows, key=err)
         raise SceneError(f"{scene.name}: no stored fidelity meets tolerance {tol:g} on {', '.join(outputs)} "
-                         f"(best: {best.fidelity} at step {best.step:g} with {err(best):.2e})")
+                         f"with convergence shown (best: {best.fidelity} at step {best.step:g} with {err(best):.2e}"
+                         + (f"; {len(lucky)} coarse point(s) met it while a finer step of theirs did not" if lucky else "")
+                         + ")")
     pick = min(good, key=lambda p: p.wall)
     costliest = max(rows, key=lambda p: p.wall)
     reason = (f"fidelity auto: chose {pick.fidelity} at step {pick.step:g} s"
               + (f", tolerance {pick.tolerance:g}" if pick.tolerance else "")
-              + f": error {err(pick):.2e} <= {tol:g} on {', '.join(outputs)}, stored wall time {pick.wall:.4f} s, "
+              + f": error {err(pick):.2e} <= {tol:g} on {', '.join(outputs)}"
+              + (f" and at its {len(finer(pick))} finer step(s)" if finer(pick) else "")
+              + f", stored wall time {pick.wall:.4f} s, "
               f"{costliest.wall / pick.wall:.0f}x cheaper than the costliest stored setting "
               f"({costliest.fidelity} at step {costliest.step:g} s)")
     top = _highest_fidelity(source)
@@ -486,7 +562,12 @@ def choose(scene: Scene, data: list[Point] | None = None) -> tuple[Point, str]:
         f = min(full, key=lambda p: p.wall)
         reason += (f" and {f.wall / pick.wall:.1f}x cheaper than the highest fidelity ({top}) at the scene's step "
                    f"{scene.step:g} s")
-    return pick, reason + f"; {len(good)} of {len(rows)} stored settings met it"
+    reason += f"; {len(good)} of {len(rows)} stored settings met it with convergence shown"
+    if lucky:
+        cheapest_lucky = min(lucky, key=lambda p: p.wall)
+        reason += (f" ({len(lucky)} more met it only at a coarse step, a finer step of the same fidelity missing it, "
+                   f"e.g. {cheapest_lucky.fidelity} at {cheapest_lucky.step:g} s: {err(cheapest_lucky):.2e})")
+    return pick, reason + f"; reference resolved to {conv:.1e} on these outputs"
 
 
 def _highest_fidelity(scene_name: str) -> str | None:

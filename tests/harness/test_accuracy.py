@@ -130,3 +130,88 @@ def test_scene_metrics_of_a_trajectory_measure_its_distance_from_the_reference()
     bent = ys.copy()
     bent[-1, 1:4] *= 1.5   # the last state's mesh deflections: the forces there grow
     assert metric_error(output_metrics(m, bent), ref) > 1e-3
+
+
+# --- the chooser's rule on small synthetic grids (harness.accuracy.choose) ---------------------
+
+_FORCES = ("diff.mesh.F_A1",)
+_RESOLVED = {"reference": "fine", "ref_step": 1e-5, "convergence": 1e-6}
+
+
+def _grid_point(fidelity, step, error, ok=True, wall=None, tolerance=None):
+    errs = {f"{k}(diff.mesh.F_A1)": error for k in ("mean", "max", "min")} if ok else {}
+    return Point("paper-cornering", fidelity, {"meshModel": "rigid"}, step, tolerance,
+                 wall if wall is not None else 1e-3 / step, error if ok else math.nan, errs, ok,
+                 "" if ok else "diverged")
+
+
+def _forces_scene(tol=0.02):
+    return replace(prepare_scene("paper-cornering"),
+                   fidelity={"mode": "auto", "outputs": list(_FORCES), "tolerance": tol})
+
+
+def test_auto_rejects_a_lucky_coarse_point_whose_finer_steps_miss_the_tolerance():
+    """'cheap' meets 2e-2 only at its coarsest step (a cancellation: 4e-2 and 5e-2 at the finer
+    ones); 'costly' meets it at 1 ms and at every finer step: costly at 1 ms is chosen."""
+    data = [_grid_point("cheap", 1e-4, 0.04), _grid_point("cheap", 1e-3, 0.05), _grid_point("cheap", 2e-2, 0.017),
+            _grid_point("costly", 1e-4, 1e-3, wall=20.0), _grid_point("costly", 1e-3, 6e-3, wall=3.0),
+            _grid_point("costly", 1e-2, 0.03, wall=0.8)]
+    pick, why = choose(_forces_scene(), data, _RESOLVED)
+    assert (pick.fidelity, pick.step) == ("costly", 1e-3), why
+    assert "cheap at 0.02 s" in why and "finer step" in why
+    # with the finer steps of 'cheap' inside the tolerance, its coarse step is a valid choice
+    data[0], data[1] = _grid_point("cheap", 1e-4, 0.01), _grid_point("cheap", 1e-3, 0.012)
+    assert choose(_forces_scene(), data, _RESOLVED)[0].fidelity == "cheap"
+
+
+def test_auto_needs_every_finer_run_to_have_succeeded_and_groups_by_internal_tolerance():
+    data = [_grid_point("c", 1e-4, 1e-3, tolerance=1e-6), _grid_point("c", 1e-3, 0.0, ok=False, tolerance=1e-6),
+            _grid_point("c", 1e-2, 1e-3, tolerance=1e-6)]
+    pick, why = choose(_forces_scene(), data, _RESOLVED)
+    assert pick.step == 1e-4, why   # 1e-2 is cheaper and meets it, but the run at 1e-3 failed
+    with pytest.raises(SceneError, match="no stored fidelity meets tolerance 0.02 .* with convergence shown"):
+        choose(_forces_scene(), data[1:], _RESOLVED)
+    # another internal tolerance of the same fidelity is its own refinement sequence
+    data += [_grid_point("c", 1e-4, 1e-3, tolerance=1e-4), _grid_point("c", 1e-2, 2e-3, tolerance=1e-4)]
+    pick, _ = choose(_forces_scene(), data, _RESOLVED)
+    assert (pick.step, pick.tolerance) == (1e-2, 1e-4)
+
+
+def test_auto_refuses_when_the_reference_does_not_resolve_the_tolerance():
+    """Reference vs its next-coarser run 1e-2 on the forces: a 2e-2 tolerance is not resolved
+    (a quarter of it, 5e-3, is needed); a one-line error names the scene, the tolerance and the
+    reference's resolution. A reference unresolved only on other metrics does not refuse."""
+    data = [_grid_point("costly", 1e-4, 1e-3), _grid_point("costly", 1e-3, 6e-3)]
+    unresolved = {"reference": "costly", "ref_step": 1e-4, "convergence": 1e-2}
+    with pytest.raises(SceneError) as e:
+        choose(_forces_scene(), data, unresolved)
+    msg = str(e.value)
+    assert "\n" not in msg and msg.startswith("paper-cornering: fidelity = auto refused")
+    assert "tolerance 0.02" in msg and "1.00e-02" in msg and "step 0.0001 s" in msg
+    per_metric = {**unresolved, "convergence_metrics": {f"{k}(diff.mesh.F_A1)": 1e-3 for k in ("mean", "max", "min")}}
+    assert choose(_forces_scene(), data, per_metric)[0].step == 1e-3
+    assert choose(_forces_scene(tol=0.004), data, per_metric)[0].step == 1e-4   # 1e-3 <= 0.25 x 4e-3
+    with pytest.raises(SceneError, match="refused"):
+        choose(_forces_scene(tol=0.003), data, per_metric)   # 1e-3 > 0.25 x 3e-3
+    with pytest.raises(SceneError, match="no stored reference"):
+        choose(_forces_scene(), data, {})   # nothing known about the reference: refused
+
+
+def test_a_refused_auto_scene_run_exits_non_zero_with_one_line(tmp_path, monkeypatch, capsys):
+    """`spurdiff run` of a fidelity = auto scene whose stored reference does not resolve its
+    tolerance: one line, non-zero exit, nothing run."""
+    import json
+
+    import harness.accuracy as acc
+    from harness.cli import main
+
+    stored = json.loads(acc.FACTS_FILE.read_text())
+    stored["facts"]["tip-in-tip-out"] = {**stored["facts"]["tip-in-tip-out"], "convergence": 0.025,
+                                         "convergence_metrics": {}}
+    facts = tmp_path / "facts.json"
+    facts.write_text(json.dumps(stored))
+    monkeypatch.setattr(acc, "FACTS_FILE", facts)
+    assert main(["run", "tip-in-impacts-auto", "--out", str(tmp_path / "out")]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "tip-in-impacts-auto: fidelity = auto refused" in err[0] and "tolerance 0.02" in err[0]
+    assert "2.50e-02" in err[0]
