@@ -213,6 +213,12 @@ class Master:
                 vrs = sorted(vr for tt, vr in keys if tt == t)
                 by_type[t] = (vrs, [(t, vr) for vr in vrs])
             self._out_vrs[n] = by_type
+        # the reads of _read_outputs (everything published) and of a recording instant (what the
+        # step's own read did not just read), as ports with their C arrays allocated once
+        self._all_ports = {n: self._read_ports(n, keys) for n, keys in needed.items()}
+        self._rec_ports = {n: self._read_ports(n, keys if any(t != "Real" for t, _ in every_step[n])
+                                               else keys - every_step[n])
+                           for n, keys in needed.items()}
         self._values: dict[str, dict[tuple[str, int], float]] = {n: {} for n in self.instances}
         # per step: a Real port on exactly those outputs; None: nothing to read; "all": a coupling
         # quantity is not Real, read everything like at a recording instant
@@ -229,6 +235,24 @@ class Master:
                           for n, links in self._links.items()}
         self._profile_port = {n: self._port(n, [vr for vr, _ in profs], True) if profs else None
                               for n, profs in self._profiles.items()}
+        # Gauss-Seidel in scene order, per instance in one tuple: its input port with the sources
+        # of the values, its fmi2DoStep and component, its per-step read
+        self._order = [s.name for s in sc.instances]
+        self._plan = []
+        for n in self._order:
+            read = self._step_read[n]
+            self._plan.append((n, self._set_port[n], self._links[n][1], self._do_step[n],
+                               self.instances[n].component, read))
+
+    def _read_ports(self, name: str, keys) -> list:
+        """Ports reading the outputs ``keys`` of instance ``name``: (port, keys, as float)."""
+        ports = []
+        for t in ("Real", "Integer", "Boolean"):
+            vrs = sorted(vr for tt, vr in keys if tt == t)
+            if vrs:
+                port = self._port(name, vrs, False) if t == "Real" else _TypedGetPort(self.instances[name], t, vrs)
+                ports.append((port, [(t, vr) for vr in vrs], t != "Real"))
+        return ports
 
     def _port(self, name: str, vrs: list[int], write: bool) -> RealPort:
         """A RealPort on instance ``name`` whose refused call ends the run (:class:`RunFailure`)."""
@@ -252,6 +276,21 @@ class Master:
         (every instance sees the outputs of the last step) or Gauss-Seidel (in scene order, each
         sees the outputs its predecessors just computed)."""
         self._apply_profiles(t)
+        if not jacobi and order == self._order:
+            values = self._values   # (looked up per step: the variable-step master replaces its dicts)
+            for name, sport, srcs, do, comp, read in self._plan:
+                if sport is not None:
+                    sport.set([values[s][k] for s, k in srcs], t)
+                status = do(comp, t, h, 1)   # noSetFMUStatePriorToCurrentPoint
+                if status > 1:   # discard, error, fatal
+                    inst = self.instances[name]
+                    raise RunFailure(name, t, inst.last_messages() or f"fmi2DoStep returned status {status}")
+                if read is not None:
+                    if read == "all":
+                        self._read_outputs(name)
+                    else:
+                        values[name].update(zip(read[1], read[0].get(t)))
+            return
         if jacobi:
             for name in order:
                 self._apply_connections(name, t=t)
@@ -280,17 +319,12 @@ class Master:
         elif port is not None:
             self._values[name].update(zip(port[1], port[0].get(t)))
 
-    def _read_outputs(self, name: str) -> None:
-        by_type = self._out_vrs[name]
-        slave = self.instances[name].slave
+    def _read_outputs(self, name: str, ports: dict | None = None) -> None:
+        """Read every output of ``name`` the run needs (``ports``: the recording's ports instead)."""
         d = self._values[name]
-        vrs, keys = by_type["Real"]
-        if vrs:
-            d.update(zip(keys, slave.getReal(vrs)))
-        for t, getter in (("Integer", slave.getInteger), ("Boolean", slave.getBoolean)):
-            vrs, keys = by_type[t]
-            if vrs:
-                d.update(zip(keys, (float(x) for x in getter(vrs))))
+        for port, keys, conv in (ports or self._all_ports)[name]:
+            values = port.get()
+            d.update(zip(keys, map(float, values) if conv else values))
 
     # ------------------------------------------------------------------ run
     def run(self) -> Result:
@@ -337,7 +371,7 @@ class Master:
                 prev_power = self._add_work(energy, prev_power, h)
                 if (k + 1) % rec_every == 0 or k + 1 == n_steps:
                     for name in order:
-                        self._read_outputs(name)
+                        self._read_outputs(name, self._rec_ports)
                     record(self._sample((k + 1) * h))
                 if self.progress is not None and k % 200 == 0:
                     self.progress((k + 1) / n_steps)
@@ -398,6 +432,26 @@ class Master:
     def _free(self) -> None:
         for inst in self.instances.values():
             inst.close()
+
+
+class _TypedGetPort:
+    """fmi2GetInteger / fmi2GetBoolean on fixed value references with the C arrays allocated once
+    (as :class:`RealPort` for Reals); a refused call ends the run (:class:`RunFailure`)."""
+
+    def __init__(self, inst: Instance, type_: str, vrs: list[int]):
+        from fmpy.fmi2 import fmi2Boolean, fmi2Integer, fmi2ValueReference
+
+        self.inst, self.n, self.what = inst, len(vrs), f"fmi2Get{type_}"
+        self.vr = (fmi2ValueReference * self.n)(*vrs)
+        self.val = ((fmi2Integer if type_ == "Integer" else fmi2Boolean) * self.n)()
+        self.fn = inst.c_function(self.what)
+        self.component = inst.component
+
+    def get(self, t: float = math.nan) -> list:
+        status = self.fn(self.component, self.vr, self.n, self.val)
+        if status > 1:
+            raise RunFailure(self.inst.name, t, f"{self.what} returned status {status}: {self.inst.last_messages()}")
+        return self.val[:]
 
 
 def run_scene(scene: Scene, fmu_files: dict[str, Path], progress=None, sink=None) -> Result:

@@ -62,6 +62,7 @@ a small part of it is elastic (tread deflection) and comes back; over a run it i
 from __future__ import annotations
 
 import math
+import operator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -85,6 +86,7 @@ _WHEEL_STEP_KEYS = ("theta", "w_anchor", "w", "k", "phi", "t", "n_steps", "n_sub
                     "work_road", "loss_slip", "loss_rolling", "flange_tau", "Fx", "wheel_w", "slip",
                     "shaft_tau", "shaft_power", "sur_a", "sur_invJ", "sur_dadw", "sur_qrate", "sur_ct",
                     "sur_rt")
+_get_step_values = operator.attrgetter(*_WHEEL_STEP_KEYS)
 
 
 @dataclass
@@ -252,9 +254,7 @@ class WheelLoad:
                 self.theta = th0 + dphi
                 self.work_flange += 0.5 * c * (self.theta * self.theta - th0 * th0)
         n = max(1, math.ceil(h / p.h_max - 1e-9))
-        hs = h / n
-        for _ in range(n):
-            self._substep(hs, w_in, v, Fz, mu)
+        self._substeps(h / n, n, w_in, 0.0, v, Fz, mu)
         self.n_substeps += n
         self.phi_ref = phi_in + w_in * h
         self.t = t + h
@@ -268,7 +268,7 @@ class WheelLoad:
         tau_in = require_finite("shaftIn.tau", self.tau_in)
         dw_in = require_finite("shaftIn.dw", self.dw_in)
         p = self.params
-        saved = [getattr(self, k) for k in _WHEEL_STEP_KEYS]   # what a step changes (cheap)
+        saved = _get_step_values(self)   # what a step changes (cheap)
         try:
             # interface stiffness: the differential computed tau_in with the wheel side moving at
             # the speed it had at the start of the step plus the change dw_in it predicted (a linear
@@ -279,10 +279,8 @@ class WheelLoad:
             k = 1.0 if p.interfaceStiffness else 0.0
             c, d = k * p.halfShaft.c, k * p.halfShaft.d
             n = max(1, math.ceil(h / p.h_max - 1e-9))
-            hs = h / n
-            for i in range(n):
-                # the anchor speed at the sub-step's midpoint (the midpoint rule integrates the ramp)
-                self._substep(hs, w0 + dw_in * (i + 0.5) / n, v, Fz, mu, c, d, tau_in)
+            # the anchor speed at each sub-step's midpoint (the midpoint rule integrates the ramp)
+            self._substeps(h / n, n, w0, dw_in, v, Fz, mu, c, d, tau_in)
             self.n_substeps += n
             self.t = t + h
             self.n_steps += 1
@@ -300,11 +298,14 @@ class WheelLoad:
         and never commits a non-finite state (the FMU adapter then takes no snapshot)."""
         return getattr(self, "wheel_mode", False)
 
-    def _substep(self, hs: float, w_in: float, v: float, Fz: float, mu: float,
-                 c: float | None = None, d: float | None = None, tau0: float | None = None) -> None:
-        """One implicit-midpoint step of length hs; updates the state and the energy ledger.
-        tau0 given (shaftCoupling = "wheel"): shaft torque tau0 + c theta + d (w_in - w), the
-        twist-like theta measured from the anchor motion w_in; work booked at the wheel speed."""
+    def _substeps(self, hs: float, n: int, w_in: float, dw_in: float, v: float, Fz: float, mu: float,
+                  c: float | None = None, d: float | None = None, tau0: float | None = None) -> None:
+        """n implicit-midpoint steps of length hs; updates the state and the energy ledger.
+        tau0 None (shaftCoupling = "torque"): the flange speed w_in held (dw_in unused).
+        tau0 given (shaftCoupling = "wheel"): shaft torque tau0 + c theta + d (w_a - w), the
+        twist-like theta measured from the anchor motion, whose speed at sub-step i's midpoint is
+        w_a = w_in + dw_in (i + 1/2) / n; work booked at the wheel speed. The state is worked on in
+        locals and stored at the end (a StepError leaves it as it was)."""
         p = self.params
         torque_in = tau0 is not None
         if not torque_in:
@@ -313,6 +314,7 @@ class WheelLoad:
         J, R = p.wheel.J, p.wheel.R
         ty = p.tyre
         B, C, E = ty.B, ty.C, ty.E
+        kmax = ty.k_max
         D = mu * Fz
         Mrr0 = ty.f_rr * Fz * R
         inv_weps = 1.0 / ty.w_eps
@@ -320,57 +322,64 @@ class WheelLoad:
         b = a / ty.sigma
         q = 1.0 + b * abs(v)
         dk_dw = b * R / q
-        th0, w0, k0 = self.theta, self.w, self.k
-        # midpoint values as functions of the midpoint wheel speed wm (linear in wm):
-        #   theta_m = th0 + a (w_in - wm),  k_m = (k0 + b (R wm - v)) / q
-        # residual g(wm) = J (wm - w0) - a (tau_m - R F_m - M_m) = 0, solved by Newton
         gs = J + a * (c * a + d)          # the linear part of g'
-        th_c = th0 + a * w_in             # theta_m = th_c - a wm
-        k_c = (k0 - b * v) / q            # k_m = k_c + dk_dw wm
-        wm = w0
-        for _ in range(30):
+        bv = b * v
+        atan, sin, cos, tanh = math.atan, math.sin, math.cos, math.tanh
+        th0, w0, k0, phi_w = self.theta, self.w, self.k, self.phi
+        work_flange, loss_damping = self.work_flange, self.loss_damping
+        work_road, loss_slip, loss_rolling = self.work_road, self.loss_slip, self.loss_rolling
+        wa = w_in
+        for i in range(n):
+            if torque_in:
+                wa = w_in + dw_in * (i + 0.5) / n
+            # midpoint values as functions of the midpoint wheel speed wm (linear in wm):
+            #   theta_m = th0 + a (wa - wm),  k_m = (k0 + b (R wm - v)) / q
+            # residual g(wm) = J (wm - w0) - a (tau_m - R F_m - M_m) = 0, solved by Newton
+            th_c = th0 + a * wa             # theta_m = th_c - a wm
+            k_c = (k0 - bv) / q             # k_m = k_c + dk_dw wm
+            wm = w0
+            for _ in range(30):
+                k = k_c + dk_dw * wm
+                x = B * k
+                phi = x - E * (x - atan(x))
+                cat = C * atan(phi)
+                F = D * sin(cat)
+                dF = D * cos(cat) * C / (1.0 + phi * phi) * B * (1.0 - E + E / (1.0 + x * x))
+                tnh = tanh(wm * inv_weps)
+                tau = tau0 + c * (th_c - a * wm) + d * (wa - wm)
+                g = J * (wm - w0) - a * (tau - R * F - Mrr0 * tnh)
+                dg = gs + a * (R * dF * dk_dw + Mrr0 * (1.0 - tnh * tnh) * inv_weps)
+                if not dg > 0.0:
+                    raise StepError(f"wheel: implicit step not solvable (slope {dg!r}); reduce wheelLoad.h_max")
+                dw = g / dg
+                wm -= dw
+                if abs(dw) <= 1e-13 * (1.0 + abs(wm)):
+                    break
+            else:
+                raise StepError("wheel: Newton iteration did not converge; reduce wheelLoad.h_max")
+            # final midpoint values at the converged wm
             th = th_c - a * wm
             k = k_c + dk_dw * wm
             x = B * k
-            at = math.atan(x)
-            phi = x - E * (x - at)
-            cat = C * math.atan(phi)
-            F = D * math.sin(cat)
-            dF = D * math.cos(cat) * C / (1.0 + phi * phi) * B * (1.0 - E + E / (1.0 + x * x))
-            tnh = math.tanh(wm * inv_weps)
-            M = Mrr0 * tnh
-            tau = tau0 + c * th + d * (w_in - wm)
-            g = J * (wm - w0) - a * (tau - R * F - M)
-            dg = gs + a * (R * dF * dk_dw + Mrr0 * (1.0 - tnh * tnh) * inv_weps)
-            if not dg > 0.0:
-                raise StepError(f"wheel: implicit step not solvable (slope {dg!r}); reduce wheelLoad.h_max")
-            dw = g / dg
-            wm -= dw
-            if abs(dw) <= 1e-13 * (1.0 + abs(wm)):
-                break
-        else:
-            raise StepError("wheel: Newton iteration did not converge; reduce wheelLoad.h_max")
-        # final midpoint values at the converged wm
-        th = th_c - a * wm
-        k = k_c + dk_dw * wm
-        F = D * _mf(k, B, C, E)
-        M = Mrr0 * math.tanh(wm * inv_weps)
-        tau = tau0 + c * th + d * (w_in - wm)
-        slip_v = R * wm - v
-        if torque_in:   # no shaft in this model: the work is done at the wheel
-            self.work_flange += hs * tau * wm
-            self.phi += hs * wm
-        else:
-            self.work_flange += hs * tau * w_in
-            self.loss_damping += hs * d * (w_in - wm) * (w_in - wm)
-        self.work_road += hs * F * v
-        self.loss_slip += hs * F * slip_v
-        self.loss_rolling += hs * M * wm
-        self.theta = 2.0 * th - th0
-        self.w = 2.0 * wm - w0
-        k1 = 2.0 * k - k0
-        kmax = ty.k_max
-        self.k = kmax if k1 > kmax else (-kmax if k1 < -kmax else k1)
+            F = D * sin(C * atan(x - E * (x - atan(x))))
+            M = Mrr0 * tanh(wm * inv_weps)
+            tau = tau0 + c * th + d * (wa - wm)
+            if torque_in:   # no shaft in this model: the work is done at the wheel
+                work_flange += hs * tau * wm
+                phi_w += hs * wm
+            else:
+                work_flange += hs * tau * wa
+                loss_damping += hs * d * (wa - wm) * (wa - wm)
+            work_road += hs * F * v
+            loss_slip += hs * F * (R * wm - v)
+            loss_rolling += hs * M * wm
+            th0 = 2.0 * th - th0
+            w0 = 2.0 * wm - w0
+            k1 = 2.0 * k - k0
+            k0 = kmax if k1 > kmax else (-kmax if k1 < -kmax else k1)
+        self.theta, self.w, self.k, self.phi = th0, w0, k0, phi_w
+        self.work_flange, self.loss_damping = work_flange, loss_damping
+        self.work_road, self.loss_slip, self.loss_rolling = work_road, loss_slip, loss_rolling
 
     def _update_outputs(self, w_in: float, v: float, Fz: float, mu: float) -> None:
         p = self.params
