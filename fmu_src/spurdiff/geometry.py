@@ -55,6 +55,7 @@ from dataclasses import dataclass, field, replace
 
 from scipy.optimize import brentq
 
+from .datafile import differential_default as _d
 from .errors import ParameterError, require_finite, require_positive
 from .generating import ISO53_TOOL_ADDENDUM, ISO53_TOOL_TIP_RADIUS, form_radius, straight_flank_reach
 
@@ -91,19 +92,20 @@ class Gear:
 
 @dataclass(frozen=True)
 class GearTable:
-    """The differential's gear table (inputs). Lengths in m, angles in rad."""
+    """The differential's gear table (inputs). Lengths in m, angles in rad. Defaults: the paper's
+    gear table, from ``spurdiff/data/differential.toml`` (sections ``[gearing]``, ``[sunA]``...)."""
 
-    m: float = 3.0 * MM
-    alpha: float = math.radians(20.0)
-    ha: float = 1.0      # addendum coefficient of the basic rack
-    hf: float = 1.25     # dedendum coefficient of the basic rack
-    haP0: float = ISO53_TOOL_ADDENDUM      # addendum coefficient of the generating tool (ISO 53 A)
-    rhoaP0: float = ISO53_TOOL_TIP_RADIUS  # tip radius coefficient of the generating tool (ISO 53 A)
-    sunA: Gear = Gear(z=36, x=-1.0099, b=22 * MM, da=107.20 * MM)
-    planet1: Gear = Gear(z=13, x=0.3, b=22 * MM, da=46.059 * MM)
-    sunB: Gear = Gear(z=36, x=1.2296, b=22 * MM, da=120.80 * MM)
-    planet2: Gear = Gear(z=13, x=-0.3, b=40 * MM, da=42.662 * MM)
-    nPairs: int = 3
+    m: float = _d("gearing.m")
+    alpha: float = _d("gearing.alpha")
+    ha: float = _d("gearing.ha")          # addendum coefficient of the basic rack
+    hf: float = _d("gearing.hf")          # dedendum coefficient of the basic rack
+    haP0: float = _d("gearing.haP0")      # addendum coefficient of the generating tool (ISO 53 A)
+    rhoaP0: float = _d("gearing.rhoaP0")  # tip radius coefficient of the generating tool (ISO 53 A)
+    sunA: Gear = Gear(**_d("sunA"))
+    planet1: Gear = Gear(**_d("planet1"))
+    sunB: Gear = Gear(**_d("sunB"))
+    planet2: Gear = Gear(**_d("planet2"))
+    nPairs: int = _d("nPairs")
 
     @classmethod
     def paper(cls) -> "GearTable":

@@ -1,9 +1,11 @@
-"""Parameters of the differential model, with the paper's values as defaults (SI units)."""
+"""Parameters of the differential model, SI units; defaults (the paper's values) from
+``spurdiff/data/differential.toml``."""
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
 
+from .datafile import differential_default as _d
 from .errors import ParameterError, require_finite, require_nonnegative, require_positive
 from .geometry import DifferentialGeometry, GearTable, derive
 
@@ -19,17 +21,17 @@ class DifferentialParams:
     """
 
     table: GearTable = field(default_factory=GearTable)
-    mu_pin: float = 0.26          # pin-bushing sliding friction coefficient (paper)
-    r_collar: float = 0.012       # thrust-collar radius r_d of the pinion shaft, m (paper)
-    lockingLaw: str = "pinFriction"  # "pinFriction": from the pin loads | "paper": the paper's K
-    lockingPreload: float = 0.0   # N m, spring preload of the locking friction (0: none)
-    density: float = 7850.0       # steel, kg/m^3 (paper: 7.85e-6 kg/mm^3)
-    carrierDrive: str = "speed"   # "speed": carrier.w_ref imposed; "torque": carrier.tau drives it
-    J_carrier: float = 0.0        # kg m^2, carrier (with everything rigidly on it), 0 = estimate
-    J_sunA: float = 0.0           # kg m^2, 0 = from geometry
-    J_sunB: float = 0.0
-    J_planet1: float = 0.0        # kg m^2, one planet about its own axis, 0 = from geometry
-    J_planet2: float = 0.0
+    mu_pin: float = _d("mu_pin")          # pin-bushing sliding friction coefficient (paper)
+    r_collar: float = _d("r_collar")      # thrust-collar radius r_d of the pinion shaft, m (paper)
+    lockingLaw: str = _d("lockingLaw")    # "pinFriction": from the pin loads | "paper": the paper's K
+    lockingPreload: float = _d("lockingPreload")   # N m, spring preload of the locking friction (0: none)
+    density: float = _d("density")        # steel, kg/m^3 (paper: 7.85e-6 kg/mm^3)
+    carrierDrive: str = _d("carrierDrive")   # "speed": carrier.w_ref imposed; "torque": carrier.tau drives it
+    J_carrier: float = _d("J_carrier")    # kg m^2, carrier (with everything rigidly on it), 0 = estimate
+    J_sunA: float = _d("J_sunA")          # kg m^2, 0 = from geometry
+    J_sunB: float = _d("J_sunB")
+    J_planet1: float = _d("J_planet1")    # kg m^2, one planet about its own axis, 0 = from geometry
+    J_planet2: float = _d("J_planet2")
     m_planet1: float = 0.0        # kg, one planet, 0 = from geometry (orbit inertia on the carrier)
     m_planet2: float = 0.0
 

@@ -57,6 +57,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from .datafile import differential_default as _d
 from .errors import ParameterError, StepError, require_finite, require_nonnegative, require_positive
 
 SHAFT_COUPLINGS = ("torque", "wheel")
@@ -73,9 +74,9 @@ class ShaftParams:
     """One half-shaft: c torsional stiffness (N m/rad), d damping (N m s/rad), phi_rel_start twist
     at the start (rad)."""
 
-    c: float = 8000.0
-    d: float = 10.0
-    phi_rel_start: float = 0.0
+    c: float = _d("leftShaft.c")      # defaults: spurdiff/data/differential.toml
+    d: float = _d("leftShaft.d")
+    phi_rel_start: float = _d("leftShaft.phi_rel_start")
 
     def validate(self, name: str) -> None:
         c = require_positive(f"{name}.c", self.c)
@@ -94,9 +95,9 @@ class ShaftsParams:
     """Both half-shafts and the largest sub-step h_max (s) of the implicit shaft integration
     (5 ms: one sub-step at the vehicle scenes' step; measured: the steady results as with 0.25 ms)."""
 
-    left: ShaftParams = field(default_factory=ShaftParams)
-    right: ShaftParams = field(default_factory=ShaftParams)
-    h_max: float = 5e-3
+    left: ShaftParams = field(default_factory=lambda: ShaftParams(**_d("leftShaft")))
+    right: ShaftParams = field(default_factory=lambda: ShaftParams(**_d("rightShaft")))
+    h_max: float = _d("shafts.h_max")
 
     def validate(self) -> None:
         self.left.validate("leftShaft")

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..datafile import differential_default as _d
 from ..errors import ParameterError, require_range
 
 LEVELS = ("compliant", "contact")
@@ -26,35 +27,36 @@ class MeshParams:
     meshStiffnessVariation: bool = False
     pinFriction: bool = True
     flankFriction: bool = False
-    tolerance: float = 1e-6               # relative accuracy of the internal integrator
+    tolerance: float = _d("solver.tolerance")   # relative accuracy of the internal integrator
+    # data: spurdiff/data/differential.toml (with their sources)
     # circumferential backlash at the operating pitch circle (m); ISO/TR 10064-2 minimum for
     # this gear set: j_bn = 2/3 (0.06 + 0.0005 a + 0.03 m) mm, j_t = j_bn / cos(alpha_w)
-    backlashA1: float = 0.127e-3
-    backlashB2: float = 0.138e-3
-    backlash12: float = 0.120e-3
+    backlashA1: float = _d("meshA1.backlash")
+    backlashB2: float = _d("meshB2.backlash")
+    backlash12: float = _d("mesh12.backlash")
     # compliant law: mesh stiffness per pair (N/m), 0 = ISO 6336-1 c_gamma_alpha * b
-    stiffnessA1: float = 0.0
-    stiffnessB2: float = 0.0
-    stiffness12: float = 0.0
-    dampingRatio: float = 0.07
-    youngsModulus: float = 2.06e11        # Pa, the paper's 40CrNi2Mo (used for the ISO stiffness)
+    stiffnessA1: float = _d("meshA1.c")
+    stiffnessB2: float = _d("meshB2.c")
+    stiffness12: float = _d("mesh12.c")
+    dampingRatio: float = _d("mesh.dampingRatio")
+    youngsModulus: float = _d("mesh.E")   # Pa, the paper's 40CrNi2Mo (used for the ISO stiffness)
     # contact law (ADAMS IMPACT), the paper's values
-    contactStiffnessA1: float = 3.9e5 * N_PER_MM15   # N/m^1.5
-    contactStiffnessB2: float = 3.31e5 * N_PER_MM15
-    contactStiffness12: float = 3.63e5 * N_PER_MM15
-    contactExponent: float = 1.5
-    contactDamping: float = 50e3          # N s/m (50 N s/mm)
-    contactDepth: float = 1e-4            # m, penetration of full damping (0.1 mm)
+    contactStiffnessA1: float = _d("meshA1.contactStiffness")   # N/m^1.5
+    contactStiffnessB2: float = _d("meshB2.contactStiffness")
+    contactStiffness12: float = _d("mesh12.contactStiffness")
+    contactExponent: float = _d("mesh.contactExponent")
+    contactDamping: float = _d("mesh.contactDamping")   # N s/m (50 N s/mm)
+    contactDepth: float = _d("mesh.contactDepth")       # m, penetration of full damping (0.1 mm)
     # flank friction (paper: static 0.05, dynamic 0.03)
-    muStatic: float = 0.05
-    muDynamic: float = 0.03
-    vStiction: float = 1e-4               # m/s
-    vTransition: float = 1e-2             # m/s
+    muStatic: float = _d("flank.muStatic")
+    muDynamic: float = _d("flank.muDynamic")
+    vStiction: float = _d("flank.vStiction")            # m/s
+    vTransition: float = _d("flank.vTransition")        # m/s
     # numerics / start
-    preload: bool = True                  # start with the meshes statically loaded
-    maxInternalSteps: int = 100000        # per communication step, else StepError
+    preload: bool = _d("mesh.preload")                  # start with the meshes statically loaded
+    maxInternalSteps: int = _d("solver.maxInternalSteps")   # per communication step, else StepError
     # implementation: auto (the compiled kernel if it loads, else Python) | compiled | python
-    kernel: str = "auto"
+    kernel: str = _d("solver.kernel")
 
     def validate(self) -> None:
         """Raise ParameterError naming the first invalid field (checked in the order of LIMITS)."""
