@@ -1,3 +1,5 @@
-"""The FMU sources as package data (``spurdiff_fmus``): one script per FMU (a thin pythonfmu class
-over the ``spurdiff`` physics package) and ``native/``, the C sources of the FMUs' binary. The
-build (:mod:`harness.build`) reads them from here, in a checkout and in an installed wheel."""
+"""The FMU sources as package data (``spurdiff_fmus``): ``native/``, the C sources of the FMUs'
+binary. The FMUs themselves are declared in the ``spurdiff`` physics package
+(``spurdiff.differential_fmu``, ``wheel_fmu``, ``vehicle_fmu``), from which the build
+(:mod:`harness.build`) generates each FMU's pythonfmu script; it reads the C sources from here, in
+a checkout and in an installed wheel."""

@@ -1,9 +1,10 @@
 """Run a scene with the physics called directly in Python, without FMI.
 
 Same scene, same coupling loop (Gauss-Seidel or Jacobi, same step, same recording) and the same
-interface modules the FMUs use (``spurdiff.<name>_fmu``: VARIABLES, build_model, push_inputs,
-pull_outputs), so the only difference from :mod:`harness.master` is the FMI layer (pythonfmu's C
-wrapper, fmpy's ctypes calls, value references). Used by the benchmark to measure what FMI
+interface modules the FMUs use (``spurdiff.<name>_fmu``: VARIABLES and build_model), with the same
+compiled bindings (:mod:`spurdiff.binding`: push the inputs, step, pull the outputs), so the only
+difference from :mod:`harness.master` is the FMI layer (our C bridge and the adapter's checks,
+fmpy's ctypes calls, value references). Used by the benchmark to measure what FMI
 costs; scene runs for users go through the FMUs.
 """
 from __future__ import annotations
@@ -13,16 +14,12 @@ import time
 
 import numpy as np
 
+from spurdiff.binding import bindings
+
+from harness.build import FMUS as INTERFACES   # FMU name -> interface module (the FMUs' declarations)
 from harness.master import RunFailure
 from harness.result import Result
 from harness.scene import Scene, SceneError
-
-# FMU name -> interface module (the FMU scripts in fmu_src/ delegate to these)
-INTERFACES = {
-    "SpurDifferential": "spurdiff.differential_fmu",
-    "WheelLoad": "spurdiff.wheel_fmu",
-    "Vehicle": "spurdiff.vehicle_fmu",
-}
 
 
 class DirectInstance:
@@ -37,16 +34,19 @@ class DirectInstance:
             if k not in self.vars:
                 raise SceneError(f"{name}: FMU has no variable {k!r}")
             self.values[k] = val
+        self.io = bindings(self.iface.VARIABLES)
         self.model = None
 
     def initialize(self) -> None:
         self.model = self.iface.build_model(self.values)
-        self.iface.pull_outputs(self.model, self.values)
+        self.io.pull(self.model, self.values)
 
     def step(self, t: float, h: float) -> None:
-        self.iface.push_inputs(self.model, self.values)
-        self.model.do_step(t, h)
-        self.iface.pull_outputs(self.model, self.values)
+        model, values = self.model, self.values
+        push, pull = self.io.io_of.get(model.__class__) or self.io.io(model)
+        push(model, values)
+        model.do_step(t, h)
+        pull(model, values)
 
 
 def run_direct(scene: Scene) -> Result:

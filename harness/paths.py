@@ -1,7 +1,7 @@
 """Where things are read from and written to: one place for every folder the commands use.
 
 * **Read** (shipped in the package, found beside the modules; in a wheel install they are in
-  site-packages, and nothing is ever written there): the FMU scripts and the C sources of their
+  site-packages, and nothing is ever written there): the C sources of the FMUs'
   binary (:func:`fmu_sources`), the physics package bundled into each FMU (:func:`physics_package`),
   scenes, sweeps, the accuracy grid and its stored data (beside their harness modules).
 * **Results** go under the current folder: ``./results/<scene>/`` (or the command's ``--out``).
@@ -36,7 +36,7 @@ def physics_package() -> Path:
 
 
 def fmu_sources() -> Path:
-    """The folder with the FMU scripts (``SpurDifferential.py``...) and ``native/`` (C sources):
+    """The folder with ``native/`` (the C sources of the FMUs' binary):
     the installed package ``spurdiff_fmus``, or ``fmu_src/`` of a checkout run without installing
     (``python build_fmu.py``)."""
     try:

@@ -1,4 +1,12 @@
-"""Declaration of an FMU's variables, readable without pythonfmu (used by the build step)."""
+"""Declaration of an FMU's variables, readable without pythonfmu (used by the build step).
+
+Each :class:`Var` binds to what it stands for (``bind``), as PythonFMU binds a variable name to
+an attribute: an input to the model attribute it sets, an output or calculated parameter to the
+model attribute it reads (a dotted path: ``mesh_forces.F_A1``), a parameter to its field in the
+parameter objects (``diff.table.sunA.z``, ``mesh.contactExponent``, ``shafts.left.c``). The
+copying between the FMU's value table and the model follows from these bindings
+(:mod:`spurdiff.binding`); nothing is written per variable.
+"""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -21,6 +29,8 @@ class Var:
     #                                those at the end of the last step)
     min: float | None = None       # inputs: the physical range a step accepts (modelDescription
     max: float | None = None       # min/max; a value outside is refused with fmi2Discard)
+    bind: str | None = None        # what the variable stands for (see the module docstring);
+    #                                None: set by the interface module's build_model itself
 
     @property
     def fmi_variability(self) -> str:

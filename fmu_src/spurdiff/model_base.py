@@ -32,7 +32,9 @@ class DifferentialModel:
     ``tau_drive`` (what the carrier drive delivers), ``tau_mesh_L``, ``tau_mesh_R`` (what the
     gears deliver to the suns), ``mesh_forces`` (:class:`spurdiff.statics.MeshForces`, per
     planet pair), ``locking_torque`` and ``locking_capacity`` (pin friction on the differential
-    coordinate), ``stuck``; counters ``n_steps``, ``n_mode_switches``. Calculated parameters:
+    coordinate), ``stuck`` (``stuck_indicator`` as 1.0 / 0.0); counters ``n_steps``, ``n_mode_switches``,
+    ``n_internal_steps``, ``n_contact_transitions``; the half-shaft outputs ``tau_mean_L/R``,
+    ``tau_end_L/R``, ``theta_L/R``, ``dw_pred_L/R`` (defaults below). Calculated parameters:
     ``geometry``, ``K``, ``K_coast`` (locking coefficients), ``Mcc``, ``Mdd`` (inertias of the
     carrier and differential modes), ``mesh_model`` (the level's name).
 
@@ -51,6 +53,32 @@ class DifferentialModel:
     mesh_model = ""
     ATOMIC_STEP = False
     INPUT_NAMES = {"w_ref": "w_ref", "tau_c": "tau_c", "tau_L": "tau_L", "tau_R": "tau_R"}
+
+    # Outputs every coupling answers (the FMU's outputs bind to them): the shaft-owning coupling
+    # (spurdiff.shafts.ShaftedDifferential) computes the half-shafts' torques, twists and the
+    # wheels' predicted speed changes; with the torque coupling the flange torques are the shaft
+    # torques, there is no twist and no prediction. Levels without contacts or springs count no
+    # contact transitions and store no elastic energy.
+    theta_L = theta_R = 0.0
+    dw_pred_L = dw_pred_R = 0.0
+    n_contact_transitions = 0
+    potential_energy = 0.0
+
+    @property
+    def tau_mean_L(self) -> float:
+        return -self.tau_L
+
+    @property
+    def tau_mean_R(self) -> float:
+        return -self.tau_R
+
+    tau_end_L = tau_mean_L
+    tau_end_R = tau_mean_R
+
+    @property
+    def stuck_indicator(self) -> float:
+        """``stuck`` as a Real: 1 while locked by friction, else 0."""
+        return 1.0 if self.stuck else 0.0
 
     def initialize(self, t0: float = 0.0) -> None:
         raise NotImplementedError

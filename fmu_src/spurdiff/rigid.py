@@ -537,6 +537,11 @@ class RigidDifferential(DifferentialModel):
     def stuck(self) -> bool:
         return self.wd == 0.0 and self.ad == 0.0
 
+    @property
+    def n_internal_steps(self) -> int:
+        """Internal steps: one per communication step (the rigid level integrates exactly)."""
+        return self.n_steps
+
     # ------------------------------------------------------------------ state
     # the state is plain attributes (no properties among them): read and written through the
     # instance dictionary in one C-level call each (the shafted differential copies it per inner step)

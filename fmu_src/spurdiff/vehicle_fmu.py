@@ -1,4 +1,6 @@
-"""FMI interface of Vehicle.fmu: the variable list and its mapping onto :mod:`spurdiff.vehicle`.
+"""FMI interface of Vehicle.fmu, declared once: name, description, the variables bound to
+:mod:`spurdiff.vehicle` (inputs and outputs to the model's attributes, parameters to the fields of
+:class:`spurdiff.vehicle.VehicleParams`; see :mod:`spurdiff.fmi_vars`), and ``build_model``.
 
 Kept free of pythonfmu so the build step, the direct runner and the tests can read it. A planar
 rear-wheel-drive car: the rear tyre forces come in from the two WheelLoad FMUs, the wheel-centre
@@ -12,67 +14,69 @@ with the FMI values.
 """
 from __future__ import annotations
 
+from .binding import bindings, build_params
 from .datafile import read_data
 from .fmi_vars import Var
 from .vehicle import Vehicle, VehicleParams
+
+FMU_NAME = "Vehicle"
+DESCRIPTION = ("Planar rear-wheel-drive vehicle: body, axle lateral tyres, load transfer, "
+               "speed and path-following steering control")
+DEFAULT_EXPERIMENT = {"startTime": 0.0, "stopTime": 10.0, "stepSize": 1e-3}
+REQUIRES = ("numpy",)      # packages the FMU imports at instantiate (named in the log if missing)
 
 _DATA = read_data()                             # the bundled TOML data
 _D = VehicleParams.from_data(_DATA)
 ROAD_MU = float(_DATA.get("road", {}).get("mu", 1.0))   # start value of the mu input
 
-# parameter name -> (group attribute of VehicleParams, field)
-_PARAM_FIELDS: dict[str, tuple[str, str]] = {}
-
-
 def _p(group: str, field: str, description: str, unit: str | None, display: str | None = None,
        kind: str = "Real") -> Var:
-    name = f"{group}.{field}"
-    _PARAM_FIELDS[name] = (group, field)
+    """The parameter bound to ``group.field`` of VehicleParams, its start value from the data file."""
     start = getattr(getattr(_D, group), field)
     start = int(start) if kind == "Integer" else float(start)
-    return Var(name, "parameter", description, unit, display, start, kind=kind)
+    return Var(f"{group}.{field}", "parameter", description, unit, display, start, kind=kind, bind=f"{group}.{field}")
 
 
 VARIABLES: list[Var] = [
     # --- inputs
     Var("rearLeft.Fx", "input", "Longitudinal tyre force of the rear left wheel on the body (its WheelLoad Fx)",
-        "N", None, 0.0, min=-1e6, max=1e6),
+        "N", None, 0.0, min=-1e6, max=1e6, bind="rearLeft_Fx"),
     Var("rearRight.Fx", "input", "Longitudinal tyre force of the rear right wheel on the body (its WheelLoad Fx)",
-        "N", None, 0.0, min=-1e6, max=1e6),
-    Var("speedTarget", "input", "Target of the speed controller (longitudinal speed v_x)", "m/s", "km/h", 0.0, min=-1e3, max=1e3),
+        "N", None, 0.0, min=-1e6, max=1e6, bind="rearRight_Fx"),
+    Var("speedTarget", "input", "Target of the speed controller (longitudinal speed v_x)", "m/s", "km/h", 0.0, min=-1e3, max=1e3, bind="speedTarget"),
     Var("pathRadius", "input", "Path radius the steering controller follows (steering.mode = 0); "
-        "positive: left turn; 0: straight", "m", None, 0.0),
+        "positive: left turn; 0: straight", "m", None, 0.0, bind="pathRadius"),
     Var("steeringAngleCommand", "input", "Road-wheel steering angle command (steering.mode = 1), positive left",
-        "rad", "deg", 0.0, min=-3.15, max=3.15),
-    Var("grade", "input", "Road grade angle, uphill positive (|grade| <= pi/4)", "rad", "deg", 0.0, min=-0.786, max=0.786),
-    Var("mu", "input", "Road friction coefficient for the lateral tyres (>= 0)", "1", None, ROAD_MU, min=0.0, max=10.0),
+        "rad", "deg", 0.0, min=-3.15, max=3.15, bind="steering_angle_cmd"),
+    Var("grade", "input", "Road grade angle, uphill positive (|grade| <= pi/4)", "rad", "deg", 0.0, min=-0.786, max=0.786, bind="grade"),
+    Var("mu", "input", "Road friction coefficient for the lateral tyres (>= 0)", "1", None, ROAD_MU, min=0.0, max=10.0, bind="mu"),
     # --- outputs (values at the end of the last step; no direct feedthrough)
     Var("rearLeft.vx", "output", "Velocity of the rear left wheel centre along the wheel (v_x - r t_r / 2)",
-        "m/s", "km/h"),
+        "m/s", "km/h", bind="rearLeft_vx"),
     Var("rearRight.vx", "output", "Velocity of the rear right wheel centre along the wheel (v_x + r t_r / 2)",
-        "m/s", "km/h"),
-    Var("rearLeft.Fz", "output", "Normal load of the rear left wheel (>= 0)", "N"),
-    Var("rearRight.Fz", "output", "Normal load of the rear right wheel (>= 0)", "N"),
-    Var("frontAxle.Fz", "output", "Normal load of the front axle", "N"),
-    Var("rearAxle.Fz", "output", "Normal load of the rear axle", "N"),
-    Var("frontAxle.Fy", "output", "Side force of the front axle in its wheel frame", "N"),
-    Var("rearAxle.Fy", "output", "Side force of the rear axle", "N"),
-    Var("speed", "output", "Magnitude of the centre-of-gravity velocity", "m/s", "km/h"),
+        "m/s", "km/h", bind="rearRight_vx"),
+    Var("rearLeft.Fz", "output", "Normal load of the rear left wheel (>= 0)", "N", bind="rearLeft_Fz"),
+    Var("rearRight.Fz", "output", "Normal load of the rear right wheel (>= 0)", "N", bind="rearRight_Fz"),
+    Var("frontAxle.Fz", "output", "Normal load of the front axle", "N", bind="frontAxle_Fz"),
+    Var("rearAxle.Fz", "output", "Normal load of the rear axle", "N", bind="rearAxle_Fz"),
+    Var("frontAxle.Fy", "output", "Side force of the front axle in its wheel frame", "N", bind="Fy_front"),
+    Var("rearAxle.Fy", "output", "Side force of the rear axle", "N", bind="Fy_rear"),
+    Var("speed", "output", "Magnitude of the centre-of-gravity velocity", "m/s", "km/h", bind="speed"),
     Var("vx", "output", "Longitudinal velocity of the body (body frame, also that of the rear axle centre)",
-        "m/s", "km/h"),
-    Var("vy", "output", "Lateral velocity of the centre of gravity (body frame, positive left)", "m/s", "km/h"),
-    Var("yawRate", "output", "Yaw rate, positive to the left", "rad/s", "deg/s"),
-    Var("ax", "output", "Longitudinal acceleration of the centre of gravity (body frame)", "m/s2"),
-    Var("ay", "output", "Lateral acceleration of the centre of gravity (body frame, positive left)", "m/s2"),
+        "m/s", "km/h", bind="vx"),
+    Var("vy", "output", "Lateral velocity of the centre of gravity (body frame, positive left)", "m/s", "km/h", bind="vy"),
+    Var("yawRate", "output", "Yaw rate, positive to the left", "rad/s", "deg/s", bind="yawRate"),
+    Var("ax", "output", "Longitudinal acceleration of the centre of gravity (body frame)", "m/s2", bind="ax"),
+    Var("ay", "output", "Lateral acceleration of the centre of gravity (body frame, positive left)", "m/s2", bind="ay"),
     Var("driveTorque", "output", "Axle drive torque the speed controller demands, at the differential carrier",
-        "N.m", "N.mm"),
-    Var("x", "output", "Position of the centre of gravity, ground x", "m"),
-    Var("y", "output", "Position of the centre of gravity, ground y", "m"),
-    Var("psi", "output", "Heading (yaw angle)", "rad", "deg"),
-    Var("steeringAngle", "output", "Road-wheel steering angle applied (positive left)", "rad", "deg"),
-    Var("kineticEnergy", "output", "Translational and yaw kinetic energy of the body", "J", "kJ"),
+        "N.m", "N.mm", bind="driveTorque"),
+    Var("x", "output", "Position of the centre of gravity, ground x", "m", bind="x"),
+    Var("y", "output", "Position of the centre of gravity, ground y", "m", bind="y"),
+    Var("psi", "output", "Heading (yaw angle)", "rad", "deg", bind="psi"),
+    Var("steeringAngle", "output", "Road-wheel steering angle applied (positive left)", "rad", "deg", bind="steering_angle"),
+    Var("kineticEnergy", "output", "Translational and yaw kinetic energy of the body", "J", "kJ", bind="kinetic_energy"),
     Var("internalSteps", "output", "Number of internal (Runge-Kutta) sub-steps since the start",
-        None, None, 0, kind="Integer"),
+        None, None, 0, kind="Integer", bind="n_substeps"),
     # --- parameters (start values: spurdiff/data/passenger_car.toml)
     _p("vehicle", "m", "Vehicle mass", "kg"),
     _p("vehicle", "Iz", "Yaw moment of inertia", "kg.m2"),
@@ -110,52 +114,13 @@ VARIABLES: list[Var] = [
 
 
 def vehicle_params(values: dict) -> VehicleParams:
-    """VehicleParams from the bundled data file, overridden by the FMI parameter values."""
-    p = VehicleParams.defaults()   # reads spurdiff/data/passenger_car.toml (inside the FMU too)
-    for name, (group, field) in _PARAM_FIELDS.items():
-        value = values[name]
-        value = int(value) if field == "mode" else float(value)
-        setattr(getattr(p, group), field, value)
-    return p
+    """VehicleParams from the bundled data file, overridden by the FMI parameter values (by their bindings)."""
+    return build_params(VARIABLES, values, VehicleParams.defaults())   # reads spurdiff/data/passenger_car.toml
 
 
 def build_model(values: dict) -> Vehicle:
     """Build and initialize the vehicle model from FMI variable values (ParameterError if invalid)."""
     model = Vehicle(vehicle_params(values))
-    push_inputs(model, values)
+    bindings(VARIABLES).push(model, values)
     model.initialize(0.0)
     return model
-
-
-def push_inputs(model: Vehicle, values: dict) -> None:
-    model.rearLeft_Fx = values["rearLeft.Fx"]
-    model.rearRight_Fx = values["rearRight.Fx"]
-    model.speedTarget = values["speedTarget"]
-    model.pathRadius = values["pathRadius"]
-    model.steering_angle_cmd = values["steeringAngleCommand"]
-    model.grade = values["grade"]
-    model.mu = values["mu"]
-
-
-def pull_outputs(model: Vehicle, values: dict) -> None:
-    values["rearLeft.vx"] = model.rearLeft_vx
-    values["rearRight.vx"] = model.rearRight_vx
-    values["rearLeft.Fz"] = model.rearLeft_Fz
-    values["rearRight.Fz"] = model.rearRight_Fz
-    values["frontAxle.Fz"] = model.frontAxle_Fz
-    values["rearAxle.Fz"] = model.rearAxle_Fz
-    values["frontAxle.Fy"] = model.Fy_front
-    values["rearAxle.Fy"] = model.Fy_rear
-    values["speed"] = model.speed
-    values["vx"] = model.vx
-    values["vy"] = model.vy
-    values["yawRate"] = model.yawRate
-    values["ax"] = model.ax
-    values["ay"] = model.ay
-    values["driveTorque"] = model.driveTorque
-    values["x"] = model.x
-    values["y"] = model.y
-    values["psi"] = model.psi
-    values["steeringAngle"] = model.steering_angle
-    values["kineticEnergy"] = model.kinetic_energy
-    values["internalSteps"] = int(model.n_substeps)

@@ -1,4 +1,6 @@
-"""FMI interface of WheelLoad.fmu: the variable list and its mapping onto :mod:`spurdiff.wheel`.
+"""FMI interface of WheelLoad.fmu, declared once: name, description, the variables bound to
+:mod:`spurdiff.wheel` (inputs and outputs to the model's attributes, parameters to the fields of
+:class:`spurdiff.wheel.WheelLoadParams`; see :mod:`spurdiff.fmi_vars`), and ``build_model``.
 
 Kept free of pythonfmu so the build step, the direct runner and the tests can read it. One
 instance per driven wheel: compliant half-shaft, wheel inertia and transient-slip longitudinal
@@ -17,9 +19,16 @@ from __future__ import annotations
 
 import math
 
+from .binding import bindings, build_params
 from .datafile import read_data
 from .fmi_vars import Var
 from .wheel import WheelLoad, WheelLoadParams
+
+FMU_NAME = "WheelLoad"
+DESCRIPTION = ("Wheel load of one driven wheel: compliant half-shaft, wheel inertia and transient-slip "
+               "Magic Formula longitudinal tyre")
+DEFAULT_EXPERIMENT = {"startTime": 0.0, "stopTime": 1.0, "stepSize": 1e-3}
+REQUIRES = ("numpy",)      # packages the FMU imports at instantiate (named in the log if missing)
 
 _DATA = read_data()                            # the bundled TOML data
 _D = WheelLoadParams.from_data(_DATA)
@@ -30,78 +39,75 @@ def _num(x: float) -> float:
     return 0.0 if math.isnan(x) else float(x)
 
 
-# parameter name -> (group attribute of WheelLoadParams or None, field)
-_PARAM_FIELDS: dict[str, tuple[str | None, str]] = {}
-
-
 def _p(group: str | None, field: str, description: str, unit: str | None, display: str | None = None,
        kind: str = "Real") -> Var:
+    """The parameter bound to ``group.field`` of WheelLoadParams (named ``wheelLoad.field`` without
+    a group), its start value from the data file."""
     obj = getattr(_D, group) if group else _D
-    name = f"{group or 'wheelLoad'}.{field}"
-    _PARAM_FIELDS[name] = (group, field)
     start = getattr(obj, field)
     start = bool(start) if kind == "Boolean" else _num(start)
-    return Var(name, "parameter", description, unit, display, start, kind=kind)
+    return Var(f"{group or 'wheelLoad'}.{field}", "parameter", description, unit, display, start, kind=kind,
+               bind=f"{group}.{field}" if group else field)
 
 
 VARIABLES: list[Var] = [
     # --- inputs
     Var("flange.phi", "input", "Angle of the differential's sun flange driving this half-shaft (its left.phi / right.phi)",
-        "rad", "deg", 0.0),
+        "rad", "deg", 0.0, bind="flange_phi"),
     Var("flange.w", "input", "Speed of the differential's sun flange driving this half-shaft (its left.w / right.w)",
-        "rad/s", "rpm", 0.0, min=-1e4, max=1e4),
-    Var("Fz", "input", "Normal load on the wheel (negative is treated as 0: a lifted wheel)", "N", None, 0.0, min=-1e6, max=1e6),
-    Var("mu", "input", "Road friction coefficient (>= 0)", "1", None, ROAD_MU, min=0.0, max=10.0),
+        "rad/s", "rpm", 0.0, min=-1e4, max=1e4, bind="flange_w"),
+    Var("Fz", "input", "Normal load on the wheel (negative is treated as 0: a lifted wheel)", "N", None, 0.0, min=-1e6, max=1e6, bind="Fz"),
+    Var("mu", "input", "Road friction coefficient (>= 0)", "1", None, ROAD_MU, min=0.0, max=10.0, bind="mu"),
     Var("shaftIn.tau", "input",
         "shaftCoupling = wheel: torque of the differential's half-shaft on this wheel, positive drives it forward "
         "(connect the differential's leftShaft.tau / rightShaft.tau); ignored with shaftCoupling = torque",
-        "N.m", "N.mm", 0.0, min=-1e6, max=1e6),
+        "N.m", "N.mm", 0.0, min=-1e6, max=1e6, bind="tau_in"),
     Var("shaftIn.dw", "input",
         "shaftCoupling = wheel: change of the wheel speed over the step that the differential predicted when it "
         "computed shaftIn.tau (connect the differential's leftShaft.dwWheel / rightShaft.dwWheel; 0: the wheel "
         "speed held, the linear extrapolation); the interface stiffness acts on the deviation from that motion",
-        "rad/s", "rpm", 0.0, min=-1e4, max=1e4),
-    Var("vx", "input", "Longitudinal velocity of the wheel centre along the wheel heading", "m/s", "km/h", 0.0, min=-1e3, max=1e3),
+        "rad/s", "rpm", 0.0, min=-1e4, max=1e4, bind="dw_in"),
+    Var("vx", "input", "Longitudinal velocity of the wheel centre along the wheel heading", "m/s", "km/h", 0.0, min=-1e3, max=1e3, bind="vx"),
     # --- outputs (values at the end of the last step; no direct feedthrough)
     Var("flange.tau", "output",
         "Torque of the half-shaft on the differential's flange, Modelica sign (negative while driving): "
-        "connect to the differential's left.tau / right.tau", "N.m", "N.mm"),
-    Var("Fx", "output", "Longitudinal tyre force on the vehicle (positive forward)", "N"),
-    Var("wheel.w", "output", "Wheel spin speed", "rad/s", "rpm"),
+        "connect to the differential's left.tau / right.tau", "N.m", "N.mm", bind="flange_tau"),
+    Var("Fx", "output", "Longitudinal tyre force on the vehicle (positive forward)", "N", bind="Fx"),
+    Var("wheel.w", "output", "Wheel spin speed", "rad/s", "rpm", bind="wheel_w"),
     Var("wheel.phi", "output",
         "Wheel angle since the start (shaftCoupling = wheel: connect to the differential's leftWheel.phi / "
-        "rightWheel.phi; 0 with shaftCoupling = torque)", "rad", "deg"),
+        "rightWheel.phi; 0 with shaftCoupling = torque)", "rad", "deg", bind="phi"),
     # the wheel side's linear model for the coming step (shaftCoupling = wheel; spurdiff.shafts.WheelSurrogate)
     Var("wheel.aFree", "output", "Interface model: wheel acceleration without the shaft torque (tyre and rolling "
         "resistance at the present state; connect to the differential's leftWheel.aFree / rightWheel.aFree)",
-        "rad/s2"),
+        "rad/s2", bind="sur_a"),
     Var("wheel.invJ", "output", "Interface model: change of the wheel acceleration per N m of shaft torque, 1 / wheel.J",
-        "1/(kg.m2)"),
+        "1/(kg.m2)", bind="sur_invJ"),
     Var("wheel.dadw", "output", "Interface model: change of the wheel acceleration per rad/s of wheel speed "
-        "(rolling resistance; <= 0)", "1/s"),
+        "(rolling resistance; <= 0)", "1/s", bind="sur_dadw"),
     Var("tyre.torqueRate", "output", "Interface model: rate of the tyre torque R Fx at the present state (relaxation)",
-        "N.m/s"),
+        "N.m/s", bind="sur_qrate"),
     Var("tyre.torqueStiffness", "output", "Interface model: change of the tyre torque's rate per rad/s of wheel "
-        "speed, R^2 dFx/dk / sigma (>= 0)", "N.m/rad"),
-    Var("tyre.relaxationRate", "output", "Interface model: relaxation rate of the tyre torque, |vx| / sigma", "1/s"),
-    Var("slip", "output", "Transient longitudinal slip ratio k (steady state: (R w - vx) / |vx|)", "1", "%"),
-    Var("shaft.tau", "output", "Half-shaft torque on the wheel, c theta + d (flange.w - wheel.w)", "N.m", "N.mm"),
+        "speed, R^2 dFx/dk / sigma (>= 0)", "N.m/rad", bind="sur_ct"),
+    Var("tyre.relaxationRate", "output", "Interface model: relaxation rate of the tyre torque, |vx| / sigma", "1/s", bind="sur_rt"),
+    Var("slip", "output", "Transient longitudinal slip ratio k (steady state: (R w - vx) / |vx|)", "1", "%", bind="slip"),
+    Var("shaft.tau", "output", "Half-shaft torque on the wheel, c theta + d (flange.w - wheel.w)", "N.m", "N.mm", bind="shaft_tau"),
     Var("shaft.power", "output", "Power the differential's flange delivers into the half-shaft (shaft.tau * flange.w)",
-        "W", "kW"),
-    Var("shaft.phi_rel", "output", "Half-shaft twist theta = flange angle - wheel angle", "rad", "deg"),
-    Var("workFlange", "output", "Work done on this model at the flange since the start", "J", "kJ"),
-    Var("workRoad", "output", "Work delivered to the vehicle, integral of Fx vx, since the start", "J", "kJ"),
-    Var("lossDamping", "output", "Energy dissipated by the half-shaft damping since the start", "J", "kJ"),
-    Var("lossSlip", "output", "Energy dissipated by tyre slip, integral of Fx (R w - vx), since the start", "J", "kJ"),
-    Var("lossRolling", "output", "Energy dissipated by rolling resistance since the start", "J", "kJ"),
-    Var("energyLoss", "output", "Total energy dissipated since the start (damping + slip + rolling)", "J", "kJ"),
-    Var("kineticEnergy", "output", "Spin kinetic energy of the wheel", "J", "kJ"),
-    Var("potentialEnergy", "output", "Elastic energy of the half-shaft twist", "J", "kJ"),
+        "W", "kW", bind="shaft_power"),
+    Var("shaft.phi_rel", "output", "Half-shaft twist theta = flange angle - wheel angle", "rad", "deg", bind="theta"),
+    Var("workFlange", "output", "Work done on this model at the flange since the start", "J", "kJ", bind="work_flange"),
+    Var("workRoad", "output", "Work delivered to the vehicle, integral of Fx vx, since the start", "J", "kJ", bind="work_road"),
+    Var("lossDamping", "output", "Energy dissipated by the half-shaft damping since the start", "J", "kJ", bind="loss_damping"),
+    Var("lossSlip", "output", "Energy dissipated by tyre slip, integral of Fx (R w - vx), since the start", "J", "kJ", bind="loss_slip"),
+    Var("lossRolling", "output", "Energy dissipated by rolling resistance since the start", "J", "kJ", bind="loss_rolling"),
+    Var("energyLoss", "output", "Total energy dissipated since the start (damping + slip + rolling)", "J", "kJ", bind="energy_dissipated"),
+    Var("kineticEnergy", "output", "Spin kinetic energy of the wheel", "J", "kJ", bind="kinetic_energy"),
+    Var("potentialEnergy", "output", "Elastic energy of the half-shaft twist", "J", "kJ", bind="potential_energy"),
     Var("energyResidual", "output",
         "Energy balance workFlange - workRoad - (change of kinetic + potential energy) - energyLoss (rounding level)",
-        "J"),
+        "J", bind="energy_residual"),
     Var("internalSteps", "output", "Number of internal (implicit midpoint) sub-steps since the start",
-        None, None, 0, kind="Integer"),
+        None, None, 0, kind="Integer", bind="n_substeps"),
     # --- parameters (start values: spurdiff/data/passenger_car.toml)
     _p("halfShaft", "c", "Torsional stiffness of the half-shaft", "N.m/rad"),
     _p("halfShaft", "d", "Torsional damping of the half-shaft", "N.m.s/rad"),
@@ -127,12 +133,12 @@ VARIABLES: list[Var] = [
         "Who owns the half-shaft: torque = this model (flange angle and speed in, flange torque out; stable "
         "step about 0.45 ms with the differential) | wheel = the differential (shaftIn.tau in, wheel.phi and "
         "wheel.w out; pairs with the differential's shaftCoupling = wheel, stable to 20 ms and beyond)",
-        None, None, _D.shaftCoupling, kind="String"),
+        None, None, _D.shaftCoupling, kind="String", bind="shaftCoupling"),
     Var("wheelLoad.interfaceStiffness", "parameter",
         "shaftCoupling = wheel: the shaft's c and d (halfShaft.c, halfShaft.d, equal to the differential's "
         "leftShaft/rightShaft values) act inside the step on the wheel's deviation from the motion the "
         "differential extrapolated (implicit wheel mode); false: shaftIn.tau is held as given",
-        None, None, bool(_D.interfaceStiffness), kind="Boolean"),
+        None, None, bool(_D.interfaceStiffness), kind="Boolean", bind="interfaceStiffness"),
     _p(None, "h_max", "Largest internal step of the implicit-midpoint integrator", "s", "ms"),
     _p(None, "followFlangeAngle",
        "true: the half-shaft twist follows the flange angle input (no drift); false: integrate flange.w only",
@@ -141,17 +147,9 @@ VARIABLES: list[Var] = [
 
 
 def wheel_params(values: dict) -> WheelLoadParams:
-    """WheelLoadParams from the bundled data file, overridden by the FMI parameter values."""
-    p = WheelLoadParams.defaults()   # reads spurdiff/data/passenger_car.toml (inside the FMU too)
-    for name, (group, field) in _PARAM_FIELDS.items():
-        value = values[name]
-        if field == "followFlangeAngle":
-            value = 1 if value else 0
-        else:
-            value = float(value)
-        setattr(getattr(p, group) if group else p, field, value)
-    p.shaftCoupling = str(values["shaftCoupling"])
-    p.interfaceStiffness = 1 if values["wheelLoad.interfaceStiffness"] else 0
+    """WheelLoadParams from the bundled data file, overridden by the FMI parameter values (by their
+    bindings); the two "automatic start" switches stand for the data file's NaN."""
+    p = build_params(VARIABLES, values, WheelLoadParams.defaults())   # reads spurdiff/data/passenger_car.toml
     if values["wheel.w_startFromFlange"]:
         p.wheel.w_start = math.nan
     if values["tyre.k_startSteady"]:
@@ -162,43 +160,6 @@ def wheel_params(values: dict) -> WheelLoadParams:
 def build_model(values: dict) -> WheelLoad:
     """Build and initialize the wheel-load model from FMI variable values (ParameterError if invalid)."""
     model = WheelLoad(wheel_params(values))
-    push_inputs(model, values)
+    bindings(VARIABLES).push(model, values)
     model.initialize(0.0)
     return model
-
-
-def push_inputs(model: WheelLoad, values: dict) -> None:
-    model.flange_phi = values["flange.phi"]
-    model.flange_w = values["flange.w"]
-    model.Fz = values["Fz"]
-    model.mu = values["mu"]
-    model.vx = values["vx"]
-    model.tau_in = values["shaftIn.tau"]
-    model.dw_in = values["shaftIn.dw"]
-
-
-def pull_outputs(model: WheelLoad, values: dict) -> None:
-    values["flange.tau"] = model.flange_tau
-    values["Fx"] = model.Fx
-    values["wheel.w"] = model.wheel_w
-    values["wheel.phi"] = model.phi
-    values["slip"] = model.slip
-    values["wheel.aFree"] = model.sur_a
-    values["wheel.invJ"] = model.sur_invJ
-    values["wheel.dadw"] = model.sur_dadw
-    values["tyre.torqueRate"] = model.sur_qrate
-    values["tyre.torqueStiffness"] = model.sur_ct
-    values["tyre.relaxationRate"] = model.sur_rt
-    values["shaft.tau"] = model.shaft_tau
-    values["shaft.power"] = model.shaft_power
-    values["shaft.phi_rel"] = model.theta
-    values["workFlange"] = model.work_flange
-    values["workRoad"] = model.work_road
-    values["lossDamping"] = model.loss_damping
-    values["lossSlip"] = model.loss_slip
-    values["lossRolling"] = model.loss_rolling
-    values["energyLoss"] = model.energy_dissipated
-    values["kineticEnergy"] = model.kinetic_energy
-    values["potentialEnergy"] = model.potential_energy
-    values["energyResidual"] = model.energy_residual
-    values["internalSteps"] = int(model.n_substeps)
