@@ -448,9 +448,8 @@ class Vehicle:
         kappa, delta_ff, K_r, K_ri = self._kappa, self._delta_ff, st.K_r, st.K_ri
         sin, cos, tanh, atan, sqrt = math.sin, math.cos, math.tanh, math.atan, math.sqrt
 
-        def rates(s):
-            vx, vy, r, psi = s[0], s[1], s[2], s[3]
-            af, ar, axf, ayf, Iv, Ir = s[6], s[7], s[8], s[9], s[10], s[11]
+        def rates(vx, vy, r, psi, af, ar, axf, ayf, Iv, Ir):
+            # the state without the position (x, y), which no rate depends on
             if angle_mode:
                 dIr = 0.0
                 delta = delta_cmd
@@ -482,7 +481,7 @@ class Vehicle:
             eu = vref - vx
             u = Kp * eu + Iv
             cpsi, spsi = cos(psi), sin(psi)
-            return [
+            return (
                 ax + vy * r,
                 ay - vx * r,
                 (lf * Fyf_b - lr * Fyr + Mz_x) / Iz,
@@ -495,7 +494,7 @@ class Vehicle:
                 (ay - ayf) * inv_tau,
                 0.0 if ((u >= umax and eu > 0.0) or (u <= umin and eu < 0.0)) else Ki * eu,
                 dIr,
-            ]
+            )
         return rates
 
     def do_step(self, t: float, h: float) -> None:
@@ -519,10 +518,14 @@ class Vehicle:
         s = self.s
         rates = self._make_rates()
         for _ in range(n):
-            k1 = rates(s)
-            k2 = rates([x + hh * d for x, d in zip(s, k1)])
-            k3 = rates([x + hh * d for x, d in zip(s, k2)])
-            k4 = rates([x + hs * d for x, d in zip(s, k3)])
+            vx, vy, r, psi, _x, _y, af, ar, axf, ayf, Iv, Ir = s
+            k1 = rates(vx, vy, r, psi, af, ar, axf, ayf, Iv, Ir)
+            k2 = rates(vx + hh * k1[0], vy + hh * k1[1], r + hh * k1[2], psi + hh * k1[3], af + hh * k1[6],
+                       ar + hh * k1[7], axf + hh * k1[8], ayf + hh * k1[9], Iv + hh * k1[10], Ir + hh * k1[11])
+            k3 = rates(vx + hh * k2[0], vy + hh * k2[1], r + hh * k2[2], psi + hh * k2[3], af + hh * k2[6],
+                       ar + hh * k2[7], axf + hh * k2[8], ayf + hh * k2[9], Iv + hh * k2[10], Ir + hh * k2[11])
+            k4 = rates(vx + hs * k3[0], vy + hs * k3[1], r + hs * k3[2], psi + hs * k3[3], af + hs * k3[6],
+                       ar + hs * k3[7], axf + hs * k3[8], ayf + hs * k3[9], Iv + hs * k3[10], Ir + hs * k3[11])
             s = [x + h6 * (d1 + 2.0 * (d2 + d3) + d4) for x, d1, d2, d3, d4 in zip(s, k1, k2, k3, k4)]
             a = s[6]
             s[6] = amax if a > amax else (-amax if a < -amax else a)
