@@ -68,6 +68,7 @@ _STATE_KEYS = (
     "tau_end_L", "tau_end_R", "work_wheels", "work_suns", "shaft_loss", "PE0_shaft", "n_steps",
     "n_substeps", "n_evals", "n_jacobians", "n_halvings", "jac", "dw_pred_L", "dw_pred_R",
 )
+_get_own_values = operator.attrgetter(*_STATE_KEYS)
 
 
 @dataclass
@@ -127,6 +128,10 @@ class WheelSurrogate:
     FIELDS = ("a_free", "inv_J", "dadw", "q_rate", "c_t", "r_t")
 
     def checked(self, side: str) -> "WheelSurrogate":
+        # the usual case in one expression (a NaN fails every comparison, an infinity the sum)
+        if (math.isfinite(self.a_free + self.inv_J + self.dadw + self.q_rate + self.c_t + self.r_t)
+                and self.inv_J >= 0.0 and self.c_t >= 0.0 and self.r_t >= 0.0 and self.dadw <= 0.0):
+            return self
         names = ("aFree", "invJ", "dadw", "tyreTorqueRate", "tyreStiffness", "tyreRelaxation")
         for f, n in zip(self.FIELDS, names):
             require_finite(f"{side}Wheel.{n}", getattr(self, f))
@@ -181,8 +186,7 @@ class ShaftedDifferential:
         self.wheelR_model = WheelSurrogate()
         self._ready = False
 
-    # inputs of the inner model pass through; every other unknown attribute (parameters, geometry)
-    # is the inner model's (the outputs are explicit: INNER_OUTPUTS below)
+    # inputs of the inner model pass through; every other unknown attribute is the inner model's
     def __getattr__(self, name):
         return getattr(self.__dict__["inner"], name)
 
@@ -233,6 +237,7 @@ class ShaftedDifferential:
         self.work_wheels = self.work_suns = self.shaft_loss = 0.0
         self.PE0_shaft = self.shaft_energy
         self.n_steps = self.n_substeps = self.n_evals = self.n_jacobians = self.n_halvings = 0
+        self._lr = (sp.left, sp.right)
         self.jac = {}   # mode key -> the inner model's normalized sun-angle sensitivity (see _substep)
         # how closely the residual can be solved: to rounding for the rigid model (exact
         # integration), to the integrator's relative tolerance for the mesh models
@@ -251,11 +256,11 @@ class ShaftedDifferential:
         inner.tau_L, inner.tau_R = TL, TR
         inner.do_step(t, hs)
         self.n_evals += 1
-        sp = self.shafts
+        left, right = self._lr
         dthL = inner.phi_L - phiL0 - (dwL - sL * TL)
         dthR = inner.phi_R - phiR0 - (dwR - sR * TR)
-        rL = TL + sp.left.c * (self.theta_L + dthL) + sp.left.d * dthL / hs
-        rR = TR + sp.right.c * (self.theta_R + dthR) + sp.right.d * dthR / hs
+        rL = TL + left.c * (self.theta_L + dthL) + left.d * dthL / hs
+        rR = TR + right.c * (self.theta_R + dthR) + right.d * dthR / hs
         return rL, rR, dthL, dthR
 
     def _jacobian(self, snap, t, hs, TL, TR, r, args, mode) -> list[float]:
@@ -285,11 +290,11 @@ class ShaftedDifferential:
         return f"{sd:+.0f}{'x' if switched else ''}"
 
     def _substep(self, t: float, hs: float, wL: float, wR: float, xL: tuple, xR: tuple,
-                 mL: WheelSurrogate, mR: WheelSurrogate) -> tuple[float, float, float, float]:
-        """One sub-step; wL, wR the wheel-side speeds at the communication point, xL, xR the wheel
-        sides' deviations (dw, q) from it at the start of the sub-step (updated in place)."""
+                 mL: WheelSurrogate, mR: WheelSurrogate, snap: dict) -> tuple[float, float, float, float]:
+        """One sub-step from the inner model's state ``snap`` (its present state); wL, wR the
+        wheel-side speeds at the communication point, xL, xR the wheel sides' deviations (dw, q)
+        from it at the start of the sub-step (updated in place)."""
         inner = self.inner
-        snap = inner.get_state()
         phiL0, phiR0 = inner.phi_L, inner.phi_R
         # wheel-side angle change, trapezoidal in the midpoint rule's speeds: affine in its torque
         pL = mL.midpoint(hs, xL)
@@ -384,13 +389,15 @@ class ShaftedDifferential:
         return TL, TR, dthL, dthR
 
     def _advance(self, t: float, hs: float, wL: float, wR: float, xL: list, xR: list, acc: list,
-                 depth: int) -> None:
+                 depth: int, snap: dict | None = None) -> None:
         """One sub-step; where its Newton does not converge (a mesh model's impacts through the
-        backlash make its response non-smooth in the torques) two halves instead, down to 1/64."""
-        snap = self.inner.get_state()
+        backlash make its response non-smooth in the torques) two halves instead, down to 1/64.
+        ``snap``: the inner model's present state if the caller has it (else taken here)."""
+        if snap is None:
+            snap = self.inner.get_state()
         jac = {k: list(v) for k, v in self.jac.items()}
         try:
-            TL, TR, _, _ = self._substep(t, hs, wL, wR, xL, xR, self.wheelL_model, self.wheelR_model)
+            TL, TR, _, _ = self._substep(t, hs, wL, wR, xL, xR, self.wheelL_model, self.wheelR_model, snap)
         except _NotConverged:
             if depth >= 6:
                 raise
@@ -416,7 +423,7 @@ class ShaftedDifferential:
         saved_inner = inner.get_state()
         saved = self.get_own_state()
         try:
-            self._do_step(t, h, pL, wL, pR, wR)
+            self._do_step(t, h, pL, wL, pR, wR, saved_inner)
             if not all(math.isfinite(x) for x in (self.theta_L, self.theta_R, self.T_L, self.T_R,
                                                   inner.w_L, inner.w_R)):
                 raise StepError(f"shafts: the step at t = {t:.6g} s gave a non-finite state")
@@ -425,9 +432,11 @@ class ShaftedDifferential:
             self.set_own_state(saved)
             raise
 
-    def _do_step(self, t, h, pL, wL, pR, wR) -> None:
+    def _do_step(self, t, h, pL, wL, pR, wR, snap: dict | None = None) -> None:
+        """The step; ``snap`` the inner model's present state if the caller has it."""
         inner = self.inner
         sp = self.shafts
+        self._lr = (sp.left, sp.right)
         cL, cR = sp.left.c, sp.right.c
         # re-anchor the twists on the wheel-side angles (no drift); book the spring-energy change
         thL = inner.phi_L - pL - self.off_L
@@ -440,7 +449,7 @@ class ShaftedDifferential:
         xL, xR = [0.0, 0.0], [0.0, 0.0]
         acc = [0.0, 0.0]   # the torques' integrals over the step (N m s)
         for i in range(n):
-            self._advance(t + i * hs, hs, wL, wR, xL, xR, acc, 0)
+            self._advance(t + i * hs, hs, wL, wR, xL, xR, acc, 0, snap if i == 0 else None)
         self.dw_pred_L, self.dw_pred_R = xL[0], xR[0]
         self.tau_mean_L, self.tau_mean_R = -acc[0] / h, -acc[1] / h
         self.tau_end_L, self.tau_end_R = -self.T_L, -self.T_R
@@ -470,7 +479,7 @@ class ShaftedDifferential:
 
     # ------------------------------------------------------------------ state
     def get_own_state(self) -> dict:
-        s = {k: getattr(self, k) for k in _STATE_KEYS}
+        s = dict(zip(_STATE_KEYS, _get_own_values(self)))
         s["jac"] = {k: list(v) for k, v in self.jac.items()}
         return s
 
@@ -488,25 +497,4 @@ class ShaftedDifferential:
         self.set_own_state(state["shafts"])
 
 
-# The outputs an FMU binds to (spurdiff.differential_fmu) are this class's own attributes, never
-# reached through __getattr__ (about 1 us per read): its own results are instance attributes
-# (tau_mean_L, tau_end_L, theta_L, dw_pred_L...) and properties (potential_energy, energy_loss,
-# work_in), the inner model's outputs are forwarded by C-level getters, the same names the
-# torque-coupled models answer (spurdiff.model_base.DifferentialModel).
-INNER_OUTPUTS = ("wc", "phic", "w_L", "phi_L", "w_R", "phi_R", "tau_drive", "tau_mesh_L", "tau_mesh_R",
-                 "mesh_forces", "locking_torque", "locking_capacity", "power_loss", "kinetic_energy", "stuck",
-                 "stuck_indicator", "n_mode_switches", "n_contact_transitions")
-for _name in INNER_OUTPUTS:
-    setattr(ShaftedDifferential, _name,
-            property(operator.attrgetter("inner." + _name), doc=f"The inner model's ``{_name}``."))
-
-
-def _n_internal_steps(self) -> int:
-    """The mesh levels' internal steps; with the rigid level, this model's steps."""
-    inner = self.inner
-    return self.n_steps if inner.mesh_model == "rigid" else inner.n_internal_steps
-
-
-ShaftedDifferential.n_internal_steps = property(_n_internal_steps)
-
-__all__ = ["ShaftedDifferential", "ShaftParams", "ShaftsParams", "WheelSurrogate", "SHAFT_COUPLINGS", "INNER_OUTPUTS"]
+__all__ = ["ShaftedDifferential", "ShaftParams", "ShaftsParams", "WheelSurrogate", "SHAFT_COUPLINGS"]
