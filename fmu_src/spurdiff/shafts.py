@@ -186,7 +186,8 @@ class ShaftedDifferential:
         self.wheelR_model = WheelSurrogate()
         self._ready = False
 
-    # inputs of the inner model pass through; every other unknown attribute is the inner model's
+    # inputs of the inner model pass through; every other unknown attribute (parameters, geometry)
+    # is the inner model's (the outputs are explicit: INNER_OUTPUTS below)
     def __getattr__(self, name):
         return getattr(self.__dict__["inner"], name)
 
@@ -497,4 +498,25 @@ class ShaftedDifferential:
         self.set_own_state(state["shafts"])
 
 
-__all__ = ["ShaftedDifferential", "ShaftParams", "ShaftsParams", "WheelSurrogate", "SHAFT_COUPLINGS"]
+# The outputs an FMU binds to (spurdiff.differential_fmu) are this class's own attributes, never
+# reached through __getattr__ (about 1 us per read): its own results are instance attributes
+# (tau_mean_L, tau_end_L, theta_L, dw_pred_L...) and properties (potential_energy, energy_loss,
+# work_in), the inner model's outputs are forwarded by C-level getters, the same names the
+# torque-coupled models answer (spurdiff.model_base.DifferentialModel).
+INNER_OUTPUTS = ("wc", "phic", "w_L", "phi_L", "w_R", "phi_R", "tau_drive", "tau_mesh_L", "tau_mesh_R",
+                 "mesh_forces", "locking_torque", "locking_capacity", "power_loss", "kinetic_energy", "stuck",
+                 "stuck_indicator", "n_mode_switches", "n_contact_transitions")
+for _name in INNER_OUTPUTS:
+    setattr(ShaftedDifferential, _name,
+            property(operator.attrgetter("inner." + _name), doc=f"The inner model's ``{_name}``."))
+
+
+def _n_internal_steps(self) -> int:
+    """The mesh levels' internal steps; with the rigid level, this model's steps."""
+    inner = self.inner
+    return self.n_steps if inner.mesh_model == "rigid" else inner.n_internal_steps
+
+
+ShaftedDifferential.n_internal_steps = property(_n_internal_steps)
+
+__all__ = ["ShaftedDifferential", "ShaftParams", "ShaftsParams", "WheelSurrogate", "SHAFT_COUPLINGS", "INNER_OUTPUTS"]
