@@ -1,6 +1,9 @@
 """The FMI 2.0 co-simulation contract, one suite over our three FMUs (through fmpy).
 
-Misuse sequences a careless or hostile host can send, each answered with the status the standard
+What every FMU must do: pass fmpy's validation, declare a unit for every Real and a description
+for every variable, run two instances independently, reproduce a run after fmi2Reset and a
+continuation from a (serialized) state, refuse a step before initialization, name an invalid
+parameter and a non-finite input in the log. Misuse sequences a careless or hostile host can send, each answered with the status the standard
 asks for and a logged reason, never fmi2Fatal and never a crash, the instance staying usable:
 Initialization Mode entered again after stepping, a communication point that is not the FMU's
 time, a step past the stop time, inputs so large the result is not finite, tampered and foreign
@@ -17,31 +20,45 @@ import pytest
 from fmpy import read_model_description
 from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
+from fmpy.validation import validate_fmu
 
 from harness.master import Instance, _make_logger
 
 # a case per FMU: the inputs of a normal run, an input that can be driven to overflow, a
-# parameter whose tampered value is out of range, and a fixed (structural) parameter
+# parameter whose tampered value is out of range, and a fixed (structural) parameter; a second
+# configuration (other parameters and inputs) for the independence of two instances
 CASES = {
     "SpurDifferential": dict(inputs={"carrier.w_ref": 1.389, "left.tau": -1050.0, "right.tau": -1040.0},
-                             huge=("left.tau", 1e308), bad_param=("mu_pin", -5.0), output="left.w"),
+                             huge=("left.tau", 1e308), bad_param=("mu_pin", -5.0), output="left.w",
+                             other=dict(params={"lockingLaw": "paper"},
+                                        inputs={"carrier.w_ref": 1.389, "left.tau": -1110.201, "right.tau": -989.799})),
     "WheelLoad": dict(inputs={"flange.w": 30.0, "Fz": 4000.0, "mu": 0.9, "vx": 10.0},
-                      huge=("Fz", 1e300), bad_param=("halfShaft.c", -1.0), output="wheel.w"),
+                      huge=("Fz", 1e300), bad_param=("halfShaft.c", -1.0), output="wheel.w",
+                      other=dict(params={"halfShaft.c": 4000.0},
+                                 inputs={"flange.w": 40.0, "Fz": 2000.0, "mu": 0.3, "vx": 10.0})),
     "Vehicle": dict(inputs={"rearLeft.Fx": 500.0, "rearRight.Fx": 480.0, "speedTarget": 10.0, "pathRadius": 20.0},
-                    huge=("rearLeft.Fx", 1e300), bad_param=("vehicle.m", -1.0), output="vx"),
+                    huge=("rearLeft.Fx", 1e300), bad_param=("vehicle.m", -1.0), output="vx",
+                    other=dict(params={"vehicle.m": 1500.0, "vehicle.vx_start": 5.0},
+                               inputs={"rearLeft.Fx": 800.0, "rearRight.Fx": 700.0, "speedTarget": 12.0})),
 }
 H = 1e-3
 
 
-def start(fmu, name, case, stop=None):
+def start(fmu, name, case, stop=None, params=None):
     inst = Instance(name, fmu)
     s = inst.slave
     s.setupExperiment(startTime=0.0, stopTime=stop)
     s.enterInitializationMode()
-    for k, v in case["inputs"].items():
+    for k, v in {**(params or {}), **case["inputs"]}.items():
         inst.set_value(k, v)
     s.exitInitializationMode()
     return inst
+
+
+def outputs(inst) -> list[float]:
+    """Every Real output of ``inst`` now."""
+    return inst.slave.getReal([v.valueReference for v in inst.vars.values()
+                               if v.causality == "output" and v.type == "Real"])
 
 
 def get(inst, name):
@@ -69,6 +86,141 @@ def last(inst) -> str:
 @pytest.fixture(params=list(CASES))
 def fmu(request, fmu_files):
     return request.param, fmu_files[request.param], CASES[request.param]
+
+
+def test_fmpy_validate_finds_no_problem(fmu):
+    name, path, case = fmu
+    assert validate_fmu(str(path)) == []
+
+
+def test_every_real_has_a_unit_and_every_variable_a_description(fmu):
+    name, path, case = fmu
+    md = read_model_description(str(path))
+    assert md.modelName == name and md.coSimulation.modelIdentifier == name
+    assert all(v.unit for v in md.modelVariables if v.type == "Real")
+    assert all(v.description for v in md.modelVariables)
+    assert all(u.variable.causality in ("output", "calculatedParameter") for u in md.initialUnknowns)
+
+
+def test_two_instances_are_independent(fmu):
+    """Two instances stepped in turn with different parameters and inputs give exactly what each
+    gives alone."""
+    name, path, case = fmu
+    configs = (case, case["other"])
+
+    def run(insts, n=50):
+        for k in range(n):
+            for inst in insts:
+                inst.slave.doStep(k * H, H)
+        return [outputs(inst) for inst in insts]
+
+    a, b = (start(path, n, c, params=c.get("params")) for n, c in zip("ab", configs))
+    together = run([a, b])
+    alone = []
+    for n, c in zip("ab", configs):
+        inst = start(path, n, c, params=c.get("params"))
+        alone += run([inst])
+        inst.slave.freeInstance()
+    a.slave.freeInstance()
+    b.slave.freeInstance()
+    assert together == alone
+    assert together[0] != together[1]
+
+
+def test_reset_gives_the_same_run(fmu):
+    name, path, case = fmu
+    inst = start(path, "reset", case)
+    steps(inst, 30)
+    first = outputs(inst)
+    s = inst.slave
+    s.reset()
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    for k, v in case["inputs"].items():
+        inst.set_value(k, v)
+    s.exitInitializationMode()
+    steps(inst, 30)
+    assert outputs(inst) == first
+    s.freeInstance()
+
+
+@pytest.mark.parametrize("serialize", [False, True])
+def test_state_restore_reproduces_the_continuation(fmu, serialize):
+    name, path, case = fmu
+    inst = start(path, "st", case)
+    t = steps(inst, 20)
+    state = inst.slave.getFMUstate()
+    if serialize:
+        blob = inst.slave.serializeFMUstate(state)
+        inst.slave.freeFMUstate(state)
+        state = inst.slave.deSerializeFMUstate(blob)
+    steps(inst, 40, t)
+    first = outputs(inst)
+    inst.slave.setFMUstate(state)
+    steps(inst, 40, t)
+    assert outputs(inst) == first
+    inst.slave.freeInstance()
+
+
+def test_a_step_before_initialization_is_refused(fmu):
+    name, path, case = fmu
+    inst = Instance("early", path)
+    inst.slave.setupExperiment(startTime=0.0)
+    assert status_of(lambda: inst.slave.doStep(0.0, H)) == 3
+    assert "refused in state 'instantiated'" in last(inst)
+    inst.slave.freeInstance()
+
+
+@pytest.mark.parametrize("name,params,param,allowed", [
+    ("SpurDifferential", {"mu_pin": -0.5}, "mu_pin", ">= 0"),
+    ("WheelLoad", {"halfShaft.c": -8000.0}, "halfShaft.c", "> 0"),
+    ("WheelLoad", {"tyre.C": 2.5}, "tyre.C", "0 < C <= 2"),
+    ("WheelLoad", {"wheelLoad.h_max": 0.5}, "wheelLoad.h_max", "between 0 and 0.1"),
+    ("Vehicle", {"vehicle.l_f": 3.0}, "vehicle.l_f", "0 < l_f < L"),
+    ("Vehicle", {"steering.mode": 2}, "steering.mode", "0 (path radius) or 1"),
+    ("Vehicle", {"speedControl.driveTorqueMin": 100.0}, "speedControl.driveTorqueMin", "<= 0"),
+])
+def test_a_bad_parameter_is_logged_by_name_and_steps_refused(fmu_files, name, params, param, allowed):
+    inst = Instance("bad", fmu_files[name])
+    s = inst.slave
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    for k, v in {**params, **CASES[name]["inputs"]}.items():
+        inst.set_value(k, v)
+    assert status_of(s.exitInitializationMode) == 3
+    errs = inst.errors()
+    assert errs and param in errs[0] and allowed in errs[0]
+    assert status_of(lambda: s.doStep(0.0, H)) == 3   # the instance is in the error state
+    assert any(param in m for m in inst.errors()[1:])   # the refusal repeats the reason
+    s.freeInstance()
+
+
+@pytest.mark.parametrize("name,bad", [
+    ("SpurDifferential", "left.tau"),
+    ("WheelLoad", "Fz"),
+    ("WheelLoad", "flange.w"),
+    ("Vehicle", "steeringAngleCommand"),
+    ("Vehicle", "rearLeft.Fx"),
+])
+def test_a_nan_input_discards_the_step_names_it_and_keeps_the_state(fmu_files, name, bad):
+    case = CASES[name]
+    inst = start(fmu_files[name], "nan", case)
+    ref = start(fmu_files[name], "ref", case)
+    t = steps(inst, 5)
+    steps(ref, 5)
+    good = inst.slave.getReal([inst.var(bad).valueReference])[0]
+    inst.slave.setReal([inst.var(bad).valueReference], [float("nan")])   # past the harness's own check
+    assert status_of(lambda: inst.slave.doStep(t, H)) == 2               # fmi2Discard
+    # fmpy's logger proxy (addLoggerProxy) keeps one static logger per process, so the message
+    # reaches the callback of the instance instantiated last: look in both instances' logs
+    errs = [m for st, m in inst.messages + ref.messages if st >= 2]
+    assert len(errs) == 1 and bad in errs[0] and "finite" in errs[0]
+    inst.set_value(bad, good)
+    steps(inst, 5, t)          # recovers from the last successful state
+    steps(ref, 5, t)
+    assert outputs(inst) == outputs(ref)
+    inst.slave.freeInstance()
+    ref.slave.freeInstance()
 
 
 def test_initialization_mode_cannot_be_entered_again_after_stepping(fmu):
@@ -283,3 +435,4 @@ def test_a_reused_value_reference_buffer_is_read_for_what_it_holds_now(fmu):
     assert s.getReal([fixed])[0] == before
     steps(inst, 2, t)
     s.freeInstance()
+
