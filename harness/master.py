@@ -206,6 +206,12 @@ class Master:
             key = self._key(i, v)
             self._record.append((i, key))
             needed[i].add(key)
+        if int(round(sc.output_interval / sc.step)) <= 1:
+            # recording every step: the step's own read takes the recorded Reals too (one fmi2GetReal
+            # per instance and step, not two; the recording instant then reads only other types)
+            for n, keys in every_step.items():
+                if all(t == "Real" for t, _ in keys):
+                    keys |= {k for k in needed[n] if k[0] == "Real"}
         self._out_vrs = {}
         for n, keys in needed.items():
             by_type = {}
