@@ -39,6 +39,10 @@ initialization that failed (only fmi2Reset and fmi2FreeInstance help then).
 
 pythonfmu's own protocol (``do_step`` returning a bool, ``exit_initialization_mode``...) is kept
 on top, for an FMU built without a C compiler, which then runs on pythonfmu's wrapper.
+
+(The module is longer than the project's 400 lines because it is one state machine: one class,
+one method per FMI function, which the bridge calls one to one; the model side, the bindings, is
+:mod:`spurdiff.binding`.)
 """
 from __future__ import annotations
 
