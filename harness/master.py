@@ -15,11 +15,7 @@ when the communication step is too coarse.
 """
 from __future__ import annotations
 
-import contextlib
 import math
-import os
-import signal
-import threading
 import time
 from pathlib import Path
 from typing import Callable
@@ -27,7 +23,9 @@ from typing import Callable
 import numpy as np
 from fmpy.fmi1 import FMICallException
 
-from harness.fmi.instance import FmuCache, Instance, RealPort, fmu_cache, make_logger as _make_logger  # noqa: F401
+from harness.fmi.instance import FmuCache, Instance, Port, RealPort, fmu_cache, make_logger as _make_logger  # noqa: F401
+from harness.interrupt import STOP, Interrupted, stop_on_sigint  # noqa: F401
+from harness.recording import check_recording, recording_size  # noqa: F401
 from harness.result import Result
 from harness.scene import Scene, SceneError
 
@@ -38,82 +36,6 @@ class RunFailure(RuntimeError):
     def __init__(self, instance: str, time_: float, reason: str):
         self.instance, self.time, self.reason = instance, time_, reason
         super().__init__(f"{instance} failed at t = {time_:.6g} s: {reason}")
-
-
-class Interrupted(KeyboardInterrupt):
-    """The user interrupted the run (Ctrl-C) at ``time``; what was recorded before is kept."""
-
-    def __init__(self, time_: float):
-        self.instance, self.time, self.reason = "master", time_, "interrupted"
-        super().__init__(f"interrupted at t = {time_:.6g} s")
-
-
-STOP = threading.Event()   # set by the SIGINT handler of stop_on_sigint; runs stop at the next step
-
-
-@contextlib.contextmanager
-def stop_on_sigint():
-    """While active, Ctrl-C (SIGINT) sets :data:`STOP` instead of raising KeyboardInterrupt wherever
-    the interpreter happens to be (inside an FMU's own Python code, which would turn it into an FMU
-    error): the master stops at the next communication step and raises :class:`Interrupted`.
-    A second Ctrl-C raises KeyboardInterrupt at once. An inherited 'ignore SIGINT' is respected."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    old = signal.getsignal(signal.SIGINT)
-    if old is signal.SIG_IGN:
-        yield
-        return
-
-    def handler(signum, frame):
-        if STOP.is_set():
-            raise KeyboardInterrupt
-        STOP.set()
-
-    STOP.clear()
-    signal.signal(signal.SIGINT, handler)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, old)
-        STOP.clear()
-
-
-def _available_memory() -> float:
-    """Bytes of memory available to new allocations (MemAvailable), or the physical memory."""
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return float(line.split()[1]) * 1024.0
-    except OSError:
-        pass
-    try:
-        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
-    except (ValueError, OSError, AttributeError):
-        return 8e9
-
-
-MEMORY_SHARE = 0.5   # recorded samples may take at most this share of the available memory
-
-
-def recording_size(scene: Scene) -> tuple[int, int, int]:
-    """(communication steps, recorded samples, values per sample) of a run of ``scene``."""
-    n_steps = int(round(scene.duration / scene.step))
-    rec_every = max(1, int(round(scene.output_interval / scene.step)))
-    return n_steps, n_steps // rec_every + 2, 1 + len(scene.record)
-
-
-def check_recording(scene: Scene, where: str = "") -> None:
-    """Refuse a run whose recorded samples would not fit in memory (``duration = 1e300``)."""
-    n_steps, n_samples, width = recording_size(scene)
-    need, avail = 8.0 * n_samples * width, _available_memory()
-    if need > MEMORY_SHARE * avail:
-        most = MEMORY_SHARE * avail / (8.0 * width)
-        raise SceneError(f"{where or 'scene ' + scene.name}: duration = {scene.duration:g} s at output_interval = "
-                         f"{scene.output_interval:g} s records {n_samples:.3g} samples of {width} values "
-                         f"({need / 1e9:.3g} GB); allowed: at most {most:.3g} samples ({100 * MEMORY_SHARE:g} % of "
-                         f"the {avail / 1e9:.3g} GB available): shorten the duration or lengthen output_interval")
 
 
 class Master:
@@ -228,7 +150,7 @@ class Master:
         self._values: dict[str, dict[tuple[str, int], float]] = {n: {} for n in self.instances}
         # per step: a Real port on exactly those outputs; None: nothing to read; "all": a coupling
         # quantity is not Real, read everything like at a recording instant
-        self._step_read: dict[str, tuple[RealPort, list] | str | None] = {}
+        self._step_read: dict[str, tuple[Port, list] | str | None] = {}
         for n, keys in every_step.items():
             if any(t != "Real" for t, _ in keys):
                 self._step_read[n] = "all"
@@ -256,15 +178,15 @@ class Master:
         for t in ("Real", "Integer", "Boolean"):
             vrs = sorted(vr for tt, vr in keys if tt == t)
             if vrs:
-                port = self._port(name, vrs, False) if t == "Real" else _TypedGetPort(self.instances[name], t, vrs)
+                port = self._port(name, vrs, False, t)
                 ports.append((port, [(t, vr) for vr in vrs], t != "Real"))
         return ports
 
-    def _port(self, name: str, vrs: list[int], write: bool) -> RealPort:
-        """A RealPort on instance ``name`` whose refused call ends the run (:class:`RunFailure`)."""
+    def _port(self, name: str, vrs: list[int], write: bool, kind: str = "Real") -> Port:
+        """A port on instance ``name`` whose refused call ends the run (:class:`RunFailure`)."""
         def fail(reason: str, t: float):
             raise RunFailure(name, t, reason)
-        return RealPort(self.instances[name], vrs, write, fail)
+        return Port(self.instances[name], vrs, write, fail, kind)
 
     def _key(self, inst: str, var: str) -> tuple[str, int]:
         v = self.instances[inst].var(var)
@@ -438,26 +360,6 @@ class Master:
     def _free(self) -> None:
         for inst in self.instances.values():
             inst.close()
-
-
-class _TypedGetPort:
-    """fmi2GetInteger / fmi2GetBoolean on fixed value references with the C arrays allocated once
-    (as :class:`RealPort` for Reals); a refused call ends the run (:class:`RunFailure`)."""
-
-    def __init__(self, inst: Instance, type_: str, vrs: list[int]):
-        from fmpy.fmi2 import fmi2Boolean, fmi2Integer, fmi2ValueReference
-
-        self.inst, self.n, self.what = inst, len(vrs), f"fmi2Get{type_}"
-        self.vr = (fmi2ValueReference * self.n)(*vrs)
-        self.val = ((fmi2Integer if type_ == "Integer" else fmi2Boolean) * self.n)()
-        self.fn = inst.c_function(self.what)
-        self.component = inst.component
-
-    def get(self, t: float = math.nan) -> list:
-        status = self.fn(self.component, self.vr, self.n, self.val)
-        if status > 1:
-            raise RunFailure(self.inst.name, t, f"{self.what} returned status {status}: {self.inst.last_messages()}")
-        return self.val[:]
 
 
 def run_scene(scene: Scene, fmu_files: dict[str, Path], progress=None, sink=None) -> Result:

@@ -290,18 +290,20 @@ class Instance:
         return " ".join(text.split())[:300]
 
 
-class RealPort:
-    """fmi2GetReal / fmi2SetReal on a fixed list of value references, with the C arrays allocated
-    once: a stepping loop calls the FMU's C function directly (fmpy's wrappers convert lists to
-    new arrays on every call). A status above warning calls ``fail(reason, t)``, which raises."""
+class Port:
+    """fmi2Get/fmi2Set of one type (Real, Integer, Boolean) on a fixed list of value references,
+    with the C arrays allocated once: a stepping loop calls the FMU's C function directly (fmpy's
+    wrappers convert lists to new arrays on every call). A status above warning calls
+    ``fail(reason, t)``, which raises."""
 
-    def __init__(self, inst: Instance, vrs: list[int], write: bool, fail: Callable[[str, float], None]):
-        from fmpy.fmi2 import fmi2Real, fmi2ValueReference
+    def __init__(self, inst: Instance, vrs: list[int], write: bool, fail: Callable[[str, float], None],
+                 kind: str = "Real"):
+        from fmpy.fmi2 import fmi2Boolean, fmi2Integer, fmi2Real, fmi2ValueReference
 
         self.inst, self.n, self.fail = inst, len(vrs), fail
         self.vr = (fmi2ValueReference * self.n)(*vrs)
-        self.val = (fmi2Real * self.n)()
-        self.what = "fmi2SetReal" if write else "fmi2GetReal"
+        self.val = ({"Real": fmi2Real, "Integer": fmi2Integer, "Boolean": fmi2Boolean}[kind] * self.n)()
+        self.what = f"fmi2{'Set' if write else 'Get'}{kind}"
         self.fn = inst.c_function(self.what)
         self.component = inst.component
         self.last = None   # values of the last set: inputs keep their values, an unchanged set is skipped
@@ -320,6 +322,9 @@ class RealPort:
     def forget(self) -> None:
         self.last = None
 
-    def get(self, t: float = math.nan) -> list[float]:
+    def get(self, t: float = math.nan) -> list:
         self._check(self.fn(self.component, self.vr, self.n, self.val), t)
         return self.val[:]
+
+
+RealPort = Port   # the master's name for its ports on Reals
