@@ -209,6 +209,9 @@ class ShaftedDifferential:
 
     # ------------------------------------------------------------------ setup
     def _wheel_inputs(self) -> tuple[float, float, float, float]:
+        pL, wL, pR, wR = self.wheelL_phi, self.wheelL_w, self.wheelR_phi, self.wheelR_w
+        if math.isfinite(pL + wL + pR + wR) and pL.__class__ is wL.__class__ is pR.__class__ is wR.__class__ is float:
+            return pL, wL, pR, wR   # the usual case; otherwise the checks below name the bad input
         return (require_finite("leftWheel.phi", self.wheelL_phi), require_finite("leftWheel.w", self.wheelL_w),
                 require_finite("rightWheel.phi", self.wheelR_phi), require_finite("rightWheel.w", self.wheelR_w))
 
@@ -288,7 +291,9 @@ class ShaftedDifferential:
         if sd is None:
             return "m"
         switched = inner.n_mode_switches != snap.get("n_mode_switches", inner.n_mode_switches)
-        return f"{sd:+.0f}{'x' if switched else ''}"
+        # the key f"{sd:+.0f}" plus "x" if switched; the usual directions without formatting
+        key = "+1" if sd == 1.0 else ("-1" if sd == -1.0 else f"{sd:+.0f}")
+        return key + "x" if switched else key
 
     def _substep(self, t: float, hs: float, wL: float, wR: float, xL: tuple, xR: tuple,
                  mL: WheelSurrogate, mR: WheelSurrogate, snap: dict) -> tuple[float, float, float, float]:
@@ -425,8 +430,9 @@ class ShaftedDifferential:
         saved = self.get_own_state()
         try:
             self._do_step(t, h, pL, wL, pR, wR, saved_inner)
-            if not all(math.isfinite(x) for x in (self.theta_L, self.theta_R, self.T_L, self.T_R,
-                                                  inner.w_L, inner.w_R)):
+            if not (math.isfinite(self.theta_L + self.theta_R + self.T_L + self.T_R + inner.w_L + inner.w_R)
+                    or all(math.isfinite(x) for x in (self.theta_L, self.theta_R, self.T_L, self.T_R,
+                                                      inner.w_L, inner.w_R))):
                 raise StepError(f"shafts: the step at t = {t:.6g} s gave a non-finite state")
         except BaseException:
             inner.set_state(saved_inner)
