@@ -266,3 +266,24 @@ def test_straight_path_radius_can_be_zero_or_infinite():
         v.initialize()
         run(v, 200)
         assert v.steering_angle == 0.0 and v.yawRate == 0.0
+
+
+def test_a_step_with_a_non_finite_result_is_refused_and_leaves_state_and_outputs_unchanged():
+    # ATOMIC_STEP: the FMU adapter takes no snapshot, so do_step itself must commit nothing when
+    # its result is not finite (a finite but absurd tyre force overflows the body speed)
+    from spurdiff.errors import StepError
+
+    v = Vehicle(params(vehicle__vx_start=5.0))
+    v.initialize()
+    run(v, 10)
+    assert Vehicle.ATOMIC_STEP
+    before = v.get_state()
+    v.rearLeft_Fx = v.rearRight_Fx = 1e306
+    with pytest.raises(StepError, match="non-finite"):
+        v.do_step(0.01, 0.1)
+    after = v.get_state()
+    after["rearLeft_Fx"], after["rearRight_Fx"] = before["rearLeft_Fx"], before["rearRight_Fx"]
+    assert after == before
+    v.rearLeft_Fx = v.rearRight_Fx = 0.0
+    v.do_step(0.01, H)                        # and it steps on from the kept state
+    assert math.isfinite(v.vx) and v.t == pytest.approx(0.01 + H)
