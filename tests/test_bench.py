@@ -85,3 +85,25 @@ def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeyp
     assert lines["coupled / direct run, vehicle-cornering (step 0.2 ms)"].rstrip().endswith("NO")
     assert "variable (rtol 0.001, atol 0.001 J)" in lines and lines["variable (rtol 0.001, atol 0.001 J)"].split()[-4] == "3900"
     assert lines["real-time factor, paper-straight at contact (unloaded start)"].rstrip().endswith("yes")
+
+
+def test_step_cost_breakdown_splits_each_instance_and_the_differentials_inner_model():
+    b = bench.step_cost_breakdown("vehicle-cornering", repeats=1)
+    names = {"car", "diff", "wheelL", "wheelR"}
+    assert set(b["us_per_step"]) == names and set(b["model_us"]) == names
+    for name in names:   # the model's do_step is a part of the instance's step
+        assert 0.0 < b["model_us"][name] <= b["us_per_step"][name]
+    step_us, state_us = b["inner_us"]["diff"]
+    assert step_us > 0.0 and state_us > 0.0 and step_us + state_us < b["model_us"]["diff"]
+    evals, substeps, _ = b["evals_per_step"]["diff"]
+    assert substeps >= 1.0 and evals >= 2.0 * substeps   # at least a first evaluation and one correction
+
+
+def test_write_keeps_the_sections_after_the_generated_block(monkeypatch, tmp_path):
+    page = tmp_path / "performance.md"
+    page.write_text("# Performance\n\n```\nold numbers\n```\n\n## Kept section\n\ntext by hand\n")
+    monkeypatch.setattr(bench, "_report", lambda args: print("new numbers") or 0)
+    assert bench.main(["--write", str(page)]) == 0
+    text = page.read_text()
+    assert "new numbers" in text and "old numbers" not in text
+    assert text.endswith("```\n\n## Kept section\n\ntext by hand\n")
