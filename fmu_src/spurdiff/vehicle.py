@@ -260,7 +260,7 @@ class Vehicle:
         if r != 0.0 and vx > 0.0:
             s[1], s[11] = self._steady_turn_start(vx, r)
         # steady slip angles for the start velocities and steering
-        delta = self._delta(vx, r, s[11])
+        delta = self._rates_full(s)[1][0]
         cd, sd = math.cos(delta), math.sin(delta)
         vfy = s[1] + b.l_f * r
         vwx_f, vwy_f = vx * cd + vfy * sd, -vx * sd + vfy * cd
@@ -270,17 +270,17 @@ class Vehicle:
         s[7] = _clamp(-vwy_r / abs(vx), amax) if vx != 0.0 else 0.0
         # load-transfer filters at their fixed point
         for _ in range(100):
-            self._rates(s)
-            axs, ay = self._axs, self._ay
+            ex = self._rates_full(s)[1]
+            axs, ay = ex[5], ex[4]
             change = abs(axs - s[8]) + abs(ay - s[9])
             s[8], s[9] = axs, ay
             if change <= 1e-12 * (1.0 + abs(axs) + abs(ay)):
                 break
         # speed integrator: the axle torque that holds v_x now
-        self._rates(s)
-        F_other = b.m * self._ax - self._Fxr          # body-x forces other than the rear drive
+        ex = self._rates_full(s)[1]
+        F_other = b.m * ex[3] - ex[6]                  # body-x forces other than the rear drive
         Fxr_hold = -F_other - b.m * s[1] * s[2]        # rear drive force giving dv_x/dt = 0
-        rr_rear = b.f_rr * self._Fz_r * math.tanh(vx / b.v_rr)
+        rr_rear = b.f_rr * ex[2] * math.tanh(vx / b.v_rr)
         sc = p.speedControl
         s[10] = min(max(b.R_wheel * (Fxr_hold + rr_rear), sc.driveTorqueMin), sc.driveTorqueMax)
         self.s = s
@@ -330,95 +330,18 @@ class Vehicle:
         self._sin_g, self._cos_g = math.sin(gr), math.cos(gr)
         self._delta_ff = math.atan(self.params.vehicle.L * self._kappa)
 
-    # ------------------------------------------------------------------ model
-    def _delta(self, vx: float, r: float, I_r: float) -> float:
-        """Steering angle (rad) for the current mode; also sets ``self._e_r`` and ``self._dIr``."""
-        st = self.params.steering
-        dmax = st.delta_max
-        if st.mode == STEER_ANGLE:
-            self._dIr = 0.0
-            return _clamp(self._dcmd, dmax)
-        e = (vx * self._kappa - r) * math.tanh(vx)
-        raw = self._delta_ff + st.K_r * e + I_r
-        if (raw >= dmax and e > 0.0) or (raw <= -dmax and e < 0.0):
-            self._dIr = 0.0
-        else:
-            self._dIr = st.K_ri * e
-        return _clamp(raw, dmax)
-
-    def _rates(self, s) -> list[float]:
-        """Time derivatives of the state list ``s``; stores forces and accelerations as attributes."""
-        p = self.params
-        b = p.vehicle
-        lt = p.lateralTyre
-        vx, vy, r, psi = s[0], s[1], s[2], s[3]
-        af, ar, axf, ayf, Iv, Ir = s[6], s[7], s[8], s[9], s[10], s[11]
-        m, L, lf = b.m, b.L, b.l_f
-        lr = L - lf
-        mu = self._mu
-        delta = self._delta(vx, r, Ir)
-        # axle loads, never negative
-        Wn = m * G * self._cos_g
-        shift = m * axf * b.h_cg / L
-        Fz_f = Wn * lr / L - shift
-        Fz_f = 0.0 if Fz_f < 0.0 else (Wn if Fz_f > Wn else Fz_f)
-        Fz_r = Wn - Fz_f
-        # tyre forces
-        cd, sd = math.cos(delta), math.sin(delta)
-        vfy = vy + lf * r
-        vwx_f = vx * cd + vfy * sd
-        vwy_f = -vx * sd + vfy * cd
-        Fyf = mu * Fz_f * _mf(af, lt.B, lt.C, lt.E)
-        Fxf = -b.f_rr * Fz_f * math.tanh(vwx_f / b.v_rr)
-        FxL, FxR = self._FxL, self._FxR
-        Fxr = FxL + FxR
-        D2 = (mu * Fz_r) ** 2 - Fxr * Fxr
-        Fyr = (math.sqrt(D2) if D2 > 0.0 else 0.0) * _mf(ar, lt.B, lt.C, lt.E)
-        F_aero = -0.5 * b.rho_air * b.CdA * vx * abs(vx)
-        F_grade = -m * G * self._sin_g
-        Fyf_b = Fxf * sd + Fyf * cd
-        FX = Fxf * cd - Fyf * sd + Fxr + F_aero + F_grade
-        FY = Fyf_b + Fyr
-        MZ = lf * Fyf_b - lr * Fyr + 0.5 * b.trackRear * (FxR - FxL)
-        ax = FX / m
-        ay = FY / m
-        axs = ax + G * self._sin_g
-        # speed controller
-        sc = p.speedControl
-        e = self._vref - vx
-        u = sc.Kp * e + Iv
-        dIv = 0.0 if ((u >= sc.driveTorqueMax and e > 0.0) or (u <= sc.driveTorqueMin and e < 0.0)) else sc.Ki * e
-        cpsi, spsi = math.cos(psi), math.sin(psi)
-        inv_sig = 1.0 / lt.sigma
-        inv_tau = 1.0 / b.tau_load
-        # keep what the outputs need
-        self._delta_now, self._Fz_f, self._Fz_r = delta, Fz_f, Fz_r
-        self._ax, self._ay, self._axs, self._Fxr = ax, ay, axs, Fxr
-        self._Fyf, self._Fyr, self._u = Fyf, Fyr, u
-        return [
-            ax + vy * r,
-            ay - vx * r,
-            MZ / b.Iz,
-            r,
-            vx * cpsi - vy * spsi,
-            vx * spsi + vy * cpsi,
-            (-vwy_f - abs(vwx_f) * af) * inv_sig,
-            (-(vy - lr * r) - abs(vx) * ar) * inv_sig,
-            (axs - axf) * inv_tau,
-            (ay - ayf) * inv_tau,
-            dIv,
-            self._dIr,
-        ]
-
     # ------------------------------------------------------------------ stepping
     ATOMIC_STEP = True   # do_step commits nothing when it raises or when the result is not finite
 
     def _make_rates(self):
-        """The rate function of :meth:`_rates` for the current step (inputs as cached by
-        :meth:`_load_inputs`): the same arithmetic in the same order, with every parameter and
-        every input-only term bound once per step, and none of the output bookkeeping. Used by
-        the RK4 stages of :meth:`do_step`; :meth:`_rates` stays the reference (and computes the
-        outputs)."""
+        """The model's equations (module docstring) as a rate function for the inputs cached by
+        :meth:`_load_inputs`, every parameter and input-only term bound once (per step).
+
+        ``rates(vx, vy, r, psi, alpha_f, alpha_r, axs_f, ay_f, I_v, I_r)`` (the state without the
+        position, which no rate depends on) returns the 12 time derivatives in state order; with
+        ``full=True`` it returns ``(derivatives, (delta, Fz_f, Fz_r, a_x, a_y, a_xs, Fx_rear, Fy_f,
+        Fy_r, u))``, what the outputs and the initialization need (u: the speed controller's
+        unlimited torque)."""
         p = self.params
         b, lt, st, sc = p.vehicle, p.lateralTyre, p.steering, p.speedControl
         m, L, lf = b.m, b.L, b.l_f
@@ -448,8 +371,7 @@ class Vehicle:
         kappa, delta_ff, K_r, K_ri = self._kappa, self._delta_ff, st.K_r, st.K_ri
         sin, cos, tanh, atan, sqrt = math.sin, math.cos, math.tanh, math.atan, math.sqrt
 
-        def rates(vx, vy, r, psi, af, ar, axf, ayf, Iv, Ir):
-            # the state without the position (x, y), which no rate depends on
+        def rates(vx, vy, r, psi, af, ar, axf, ayf, Iv, Ir, full=False):
             if angle_mode:
                 dIr = 0.0
                 delta = delta_cmd
@@ -481,7 +403,7 @@ class Vehicle:
             eu = vref - vx
             u = Kp * eu + Iv
             cpsi, spsi = cos(psi), sin(psi)
-            return (
+            d = (
                 ax + vy * r,
                 ay - vx * r,
                 (lf * Fyf_b - lr * Fyr + Mz_x) / Iz,
@@ -495,7 +417,16 @@ class Vehicle:
                 0.0 if ((u >= umax and eu > 0.0) or (u <= umin and eu < 0.0)) else Ki * eu,
                 dIr,
             )
+            if full:
+                return d, (delta, Fz_f, Fz_r, ax, ay, ax + G_sin, Fxr, Fyf, Fyr, u)
+            return d
         return rates
+
+    def _rates_full(self, s, rates=None) -> tuple:
+        """The derivatives and the force/acceleration values of ``rates(..., full=True)`` at the
+        state list ``s`` (``rates``: the step's rate function, else one for the cached inputs)."""
+        rates = rates or self._make_rates()
+        return rates(s[0], s[1], s[2], s[3], s[6], s[7], s[8], s[9], s[10], s[11], full=True)
 
     def do_step(self, t: float, h: float) -> None:
         """Advance from t to t + h with the inputs held (RK4 sub-steps). Atomic: raises
@@ -531,7 +462,7 @@ class Vehicle:
             s[6] = amax if a > amax else (-amax if a < -amax else a)
             a = s[7]
             s[7] = amax if a > amax else (-amax if a < -amax else a)
-        out = self._outputs(s)
+        out = self._outputs(s, rates)
         if not math.isfinite(sum(s) + sum(out)) and not all(math.isfinite(x) for x in s + list(out)):
             raise StepError(f"vehicle: the step at t = {t:.6g} s gave a non-finite state; state kept")
         self.s = s
@@ -543,22 +474,20 @@ class Vehicle:
     def _update_outputs(self) -> None:
         self._set_outputs(self._outputs(self.s))
 
-    def _outputs(self, s) -> tuple:
+    def _outputs(self, s, rates=None) -> tuple:
         """The output values (in the order of ``_OUTPUT_KEYS``) for the state ``s``."""
         p = self.params
         b = p.vehicle
-        self._rates(s)
+        delta, Fz_f, Fz_r, ax, ay, _, _, Fyf, Fyr, u = self._rates_full(s, rates)[1]
         vx, vy, r = s[0], s[1], s[2]
         half_t = 0.5 * b.trackRear
-        Fz_r = self._Fz_r
         dFz = p.vehicle.rollStiffnessShareRear * b.m * s[9] * b.h_cg / b.trackRear
         half = 0.5 * Fz_r
         dFz = half if dFz > half else (-half if dFz < -half else dFz)
         sc = p.speedControl
-        return (vx - r * half_t, vx + r * half_t, half - dFz, half + dFz, self._Fz_f, Fz_r,
-                math.hypot(vx, vy), r, self._ax, self._ay,
-                min(max(self._u, sc.driveTorqueMin), sc.driveTorqueMax),
-                self._delta_now, self._Fyf, self._Fyr)
+        return (vx - r * half_t, vx + r * half_t, half - dFz, half + dFz, Fz_f, Fz_r,
+                math.hypot(vx, vy), r, ax, ay, min(max(u, sc.driveTorqueMin), sc.driveTorqueMax),
+                delta, Fyf, Fyr)
 
     def _set_outputs(self, out: tuple) -> None:
         (self.rearLeft_vx, self.rearRight_vx, self.rearLeft_Fz, self.rearRight_Fz, self.frontAxle_Fz,
