@@ -69,7 +69,6 @@ from pathlib import Path
 from .datafile import read_data, section
 from .errors import ParameterError, StepError, require_finite, require_nonnegative, require_positive
 from .tyre import TyreParams
-from .tyre import magic_formula as _mf
 
 _STATE_KEYS = (
     "t", "theta", "w", "k", "phi_ref", "n_steps", "n_substeps",
@@ -227,6 +226,10 @@ class WheelLoad:
         self._ready = True
 
     def _inputs(self) -> tuple[float, float, float, float, float]:
+        phi, w, Fz, mu, v = self.flange_phi, self.flange_w, self.Fz, self.mu, self.vx
+        if (math.isfinite(phi + w + Fz + mu + v) and mu >= 0.0
+                and phi.__class__ is w.__class__ is Fz.__class__ is mu.__class__ is v.__class__ is float):
+            return phi, w, (Fz if Fz > 0.0 else 0.0), mu, v   # the usual case; else the checks name the bad one
         phi = require_finite("flange.phi", self.flange_phi)
         w = require_finite("flange.w", self.flange_w)
         Fz = require_finite("Fz", self.Fz)
@@ -285,7 +288,8 @@ class WheelLoad:
             self.t = t + h
             self.n_steps += 1
             self._update_outputs(w0 + dw_in, v, Fz, mu)
-            if not all(math.isfinite(x) for x in (self.w, self.k, self.phi, self.shaft_tau, self.Fx)):
+            if not (math.isfinite(self.w + self.k + self.phi + self.shaft_tau + self.Fx)
+                    or all(math.isfinite(x) for x in (self.w, self.k, self.phi, self.shaft_tau, self.Fx))):
                 raise StepError(f"wheel: the step at t = {t:.6g} s gave a non-finite state")
         except BaseException:
             for k, x in zip(_WHEEL_STEP_KEYS, saved):
@@ -391,23 +395,25 @@ class WheelLoad:
         else:
             self.shaft_tau = p.halfShaft.c * self.theta + p.halfShaft.d * (w_in - self.w)
             self.flange_tau = -self.shaft_tau
-        self.Fx = mu * Fz * _mf(self.k, ty.B, ty.C, ty.E)
+        B, C, E = ty.B, ty.C, ty.E
+        x = B * self.k
+        phi = x - E * (x - math.atan(x))
+        cat = C * math.atan(phi)
+        self.Fx = mu * Fz * math.sin(cat)
         self.wheel_w = self.w
         self.slip = self.k
         self.shaft_power = self.shaft_tau * w_in
-        self._update_surrogate(v, Fz, mu)
+        self._update_surrogate(v, Fz, mu, x, phi, cat)
 
-    def _update_surrogate(self, v: float, Fz: float, mu: float) -> None:
+    def _update_surrogate(self, v: float, Fz: float, mu: float, x: float, phi: float, cat: float) -> None:
         """The wheel side's linear model about the present state for the coming step, with the
         inputs v, Fz, mu as held over the last step (see spurdiff.shafts.WheelSurrogate): the wheel
-        speed w and the tyre torque R Fx(k) linearized, the shaft torque the input."""
+        speed w and the tyre torque R Fx(k) linearized, the shaft torque the input. x, phi, cat:
+        the Magic Formula's B k, phi and C atan(phi) at the present slip (from _update_outputs)."""
         p = self.params
         ty, R, J = p.tyre, p.wheel.R, p.wheel.J
         B, C, E = ty.B, ty.C, ty.E
         D = mu * Fz
-        x = B * self.k
-        phi = x - E * (x - math.atan(x))
-        cat = C * math.atan(phi)
         dF = D * math.cos(cat) * C / (1.0 + phi * phi) * B * (1.0 - E + E / (1.0 + x * x))
         Mrr0 = ty.f_rr * Fz * R
         tnh = math.tanh(self.w / ty.w_eps)
