@@ -194,11 +194,6 @@ def build_params(variables: Sequence[Var], values: dict, root: Any) -> Any:
     return root
 
 
-def start_values(variables: Sequence[Var], root: Any) -> dict[str, Any]:
-    """The bound parameters' values in ``root`` (the defaults), by variable name."""
-    return {v.name: resolve(root, v.bind) for v in bindings(variables).parameters}
-
-
 def renamed(error: ParameterError, variables: Sequence[Var], prefix: str) -> ParameterError:
     """``error`` naming the FMU variable bound to field ``prefix.<error.name>`` (unchanged if none)."""
     names = {v.bind[len(prefix) + 1:]: v.name for v in bindings(variables).parameters
@@ -206,5 +201,4 @@ def renamed(error: ParameterError, variables: Sequence[Var], prefix: str) -> Par
     return ParameterError(names.get(error.name, error.name), error.value, error.allowed, error.hint)
 
 
-__all__ = ["Bindings", "bindings", "build_params", "compile_pull", "compile_push", "renamed", "resolve",
-           "start_values"]
+__all__ = ["Bindings", "bindings", "build_params", "compile_pull", "compile_push", "renamed", "resolve"]
