@@ -177,6 +177,7 @@ class ShaftedDifferential:
     """
 
     ATOMIC_STEP = True
+    _rigid = False   # the inner model is the rigid one (set by initialize)
 
     def __init__(self, inner, params: ShaftsParams | None = None):
         self.__dict__["inner"] = inner
@@ -242,6 +243,7 @@ class ShaftedDifferential:
         self.PE0_shaft = self.shaft_energy
         self.n_steps = self.n_substeps = self.n_evals = self.n_jacobians = self.n_halvings = 0
         self._lr = (sp.left, sp.right)
+        self._rigid = getattr(inner, "mesh_model", None) == "rigid"
         self.jac = {}   # mode key -> the inner model's normalized sun-angle sensitivity (see _substep)
         # how closely the residual can be solved: to rounding for the rigid model (exact
         # integration), to the integrator's relative tolerance for the mesh models
@@ -252,11 +254,13 @@ class ShaftedDifferential:
     # ------------------------------------------------------------------ stepping
     def _eval(self, snap: dict, t: float, hs: float, TL: float, TR: float,
               phiL0: float, phiR0: float, dwL: float, dwR: float, sL: float = 0.0,
-              sR: float = 0.0) -> tuple[float, float, float, float]:
+              sR: float = 0.0, restore: bool = True) -> tuple[float, float, float, float]:
         """Residuals (N m) and twist changes for sun torques (TL, TR) held over one sub-step; the
-        wheel-side angle changes are dwL + sL (-TL) and dwR + sR (-TR) (affine in the torque)."""
+        wheel-side angle changes are dwL + sL (-TL) and dwR + sR (-TR) (affine in the torque).
+        restore False: the inner model is in the state ``snap`` already (not restored)."""
         inner = self.inner
-        inner.set_state(snap)
+        if restore:
+            inner.set_state(snap)
         inner.tau_L, inner.tau_R = TL, TR
         inner.do_step(t, hs)
         self.n_evals += 1
@@ -325,7 +329,9 @@ class ShaftedDifferential:
 
         cache = self.jac
         TL, TR = self.T_L, self.T_R
-        r = self._eval(snap, t, hs, TL, TR, *args)
+        # the first evaluation starts from the present state: a rigid inner model is not restored
+        # (its set_state of its own get_state changes nothing)
+        r = self._eval(snap, t, hs, TL, TR, *args, restore=not self._rigid)
         mode = self._mode(snap)
         J = J_of(cache[mode]) if mode in cache else None
         # the torque-twist law to 1e-10 relative: the result is then a smooth function of the
@@ -427,7 +433,7 @@ class ShaftedDifferential:
         self.wheelR_model.checked("right")
         inner = self.inner
         saved_inner = inner.get_state()
-        saved = self.get_own_state()
+        saved = _get_own_values(self), {k: list(v) for k, v in self.jac.items()}   # the rollback point
         try:
             self._do_step(t, h, pL, wL, pR, wR, saved_inner)
             if not (math.isfinite(self.theta_L + self.theta_R + self.T_L + self.T_R + inner.w_L + inner.w_R)
@@ -436,7 +442,9 @@ class ShaftedDifferential:
                 raise StepError(f"shafts: the step at t = {t:.6g} s gave a non-finite state")
         except BaseException:
             inner.set_state(saved_inner)
-            self.set_own_state(saved)
+            for k, v in zip(_STATE_KEYS, saved[0]):
+                object.__setattr__(self, k, v)
+            self.jac = saved[1]
             raise
 
     def _do_step(self, t, h, pL, wL, pR, wR, snap: dict | None = None) -> None:
