@@ -71,6 +71,8 @@ from .tyre import slip_for_force_ratio, validate_shape
 
 G = 9.80665  # standard gravity, m/s^2
 
+_GRADE_MIN, _GRADE_MAX = -0.25 * math.pi, 0.25 * math.pi   # allowed road grade (rad)
+
 STEER_PATH = 0
 STEER_ANGLE = 1
 
@@ -239,6 +241,7 @@ class Vehicle:
         for k in _OUTPUT_KEYS:
             setattr(self, k, 0.0)
         self.s = [0.0] * _N
+        self._geo_key = None   # (pathRadius, grade, its sign, L) of the cached terms of _set_geometry
         self._ready = False
 
     # ------------------------------------------------------------------ setup
@@ -316,6 +319,19 @@ class Vehicle:
     def _load_inputs(self) -> None:
         """Validate the inputs (all before changing anything) and cache what the rate function
         needs, constant over a step."""
+        FxL, FxR, vref, R, dcmd, gr, mu = (self.rearLeft_Fx, self.rearRight_Fx, self.speedTarget, self.pathRadius,
+                                           self.steering_angle_cmd, self.grade, self.mu)
+        if (math.isfinite(FxL + FxR + vref + dcmd + gr + mu) and R == R and mu >= 0.0 and _GRADE_MIN <= gr <= _GRADE_MAX
+                and FxL.__class__ is FxR.__class__ is vref.__class__ is R.__class__ is dcmd.__class__ is gr.__class__
+                is mu.__class__ is float):
+            # the usual case: all valid floats (else the checks below name the bad one); the terms of
+            # path radius and grade computed again only when they change
+            self._FxL, self._FxR, self._vref, self._dcmd, self._mu = FxL, FxR, vref, dcmd, mu
+            key = (R, gr, math.copysign(1.0, gr), self.params.vehicle.L)   # (the sign of a zero grade too)
+            if key != self._geo_key:
+                self._set_geometry(R, gr)
+                self._geo_key = key
+            return
         FxL = require_finite("rearLeft.Fx", self.rearLeft_Fx)
         FxR = require_finite("rearRight.Fx", self.rearRight_Fx)
         vref = require_finite("speedTarget", self.speedTarget)
@@ -323,9 +339,14 @@ class Vehicle:
         if R != R:
             raise ParameterError("pathRadius", self.pathRadius, "a number (0 or +-inf: straight)")
         dcmd = require_finite("steeringAngleCommand", self.steering_angle_cmd)
-        gr = require_range("grade", self.grade, -0.25 * math.pi, 0.25 * math.pi)
+        gr = require_range("grade", self.grade, _GRADE_MIN, _GRADE_MAX)
         mu = require_nonnegative("mu", self.mu)
         self._FxL, self._FxR, self._vref, self._dcmd, self._mu = FxL, FxR, vref, dcmd, mu
+        self._set_geometry(R, gr)
+        self._geo_key = None
+
+    def _set_geometry(self, R: float, gr: float) -> None:
+        """The terms of the path radius R and the grade gr the rate function uses."""
         self._kappa = 0.0 if (R == 0.0 or math.isinf(R)) else 1.0 / R
         self._sin_g, self._cos_g = math.sin(gr), math.cos(gr)
         self._delta_ff = math.atan(self.params.vehicle.L * self._kappa)
