@@ -320,15 +320,9 @@ def differential_params(values: dict) -> DifferentialParams:
     return setup(values).diff
 
 
-def mesh_params(values: dict) -> MeshParams:
-    """Mesh effects and data for the compliant and contact levels, validated; errors name the FMU
-    parameter (``mesh.contactExponent``, ``meshA1.backlash``)."""
-    mp = setup(values).mesh
-    _validated_mesh(mp)
-    return mp
-
-
 def _validated_mesh(mp: MeshParams) -> None:
+    """Validate the mesh parameters; an error names the FMU parameter (``mesh.contactExponent``,
+    ``meshA1.backlash``), not the field."""
     try:
         mp.validate()
     except ParameterError as e:
