@@ -5,40 +5,20 @@ import math
 
 import pytest
 
-from harness.master import Instance
+import fmu_session
+from fmu_session import free, get
 
 LOADS = {"carrier.w_ref": 1.389, "left.tau": -1050.0, "right.tau": -1050.0}
 
 
 def start(fmu, name="diff", params=None, inputs=LOADS, expect_error=False):
-    inst = Instance(name, fmu)
-    s = inst.slave
-    s.setupExperiment(startTime=0.0)
-    s.enterInitializationMode()
-    for k, v in {**(params or {}), **inputs}.items():
-        inst.set_value(k, v)
-    if expect_error:   # invalid parameters: fmi2ExitInitializationMode returns fmi2Error
-        from fmpy.fmi1 import FMICallException
-        with pytest.raises(FMICallException, match="status 3"):
-            s.exitInitializationMode()
-    else:
-        s.exitInitializationMode()
-    return inst
-
-
-def get(inst, *names):
-    return inst.slave.getReal([inst.var(n).valueReference for n in names])
+    return fmu_session.start(fmu, name, params, inputs, expect_error)
 
 
 def steps(inst, n, h=1e-3, t0=0.0):
     for k in range(n):
         inst.slave.doStep(t0 + k * h, h)
     return t0 + n * h
-
-
-def free(inst):
-    inst.slave.terminate()
-    inst.slave.freeInstance()
 
 
 def test_model_description_has_units_display_units_and_descriptions(differential_fmu):

@@ -12,7 +12,7 @@ import textwrap
 import pytest
 from fmpy import read_model_description
 
-from harness.master import Instance
+from fmu_session import free, get, start
 from spurdiff.datafile import read_data
 from spurdiff.tyre import magic_formula
 
@@ -28,31 +28,6 @@ def wheel_fmu(fmu_files):
 @pytest.fixture(scope="module")
 def vehicle_fmu(fmu_files):
     return fmu_files["Vehicle"]
-
-
-def start(fmu, name, params=None, inputs=None, expect_error=False):
-    inst = Instance(name, fmu)
-    s = inst.slave
-    s.setupExperiment(startTime=0.0)
-    s.enterInitializationMode()
-    for k, v in {**(params or {}), **(inputs or {})}.items():
-        inst.set_value(k, v)
-    if expect_error:   # invalid parameters: fmi2ExitInitializationMode returns fmi2Error
-        from fmpy.fmi1 import FMICallException
-        with pytest.raises(FMICallException, match="status 3"):
-            s.exitInitializationMode()
-    else:
-        s.exitInitializationMode()
-    return inst
-
-
-def get(inst, *names):
-    return inst.slave.getReal([inst.var(n).valueReference for n in names])
-
-
-def free(inst):
-    inst.slave.terminate()
-    inst.slave.freeInstance()
 
 
 WHEEL_IN = {"flange.w": 31.0, "Fz": 3000.0, "mu": 1.0, "vx": 10.0}
