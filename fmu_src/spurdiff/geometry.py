@@ -57,7 +57,7 @@ from scipy.optimize import brentq
 
 from .datafile import differential_default as _d
 from .errors import ParameterError, require_finite, require_positive
-from .generating import ISO53_TOOL_ADDENDUM, ISO53_TOOL_TIP_RADIUS, form_radius, straight_flank_reach
+from .generating import form_radius, straight_flank_reach
 
 MM = 1e-3  # metres per millimetre
 MIN_TIP_CLEARANCE = 0.1  # smallest tip-to-root clearance, in modules (basic rack: 0.25)
