@@ -455,7 +455,8 @@ class Vehicle:
         outputs then as before the call."""
         if not self._ready:
             raise StepError("do_step called before initialize")
-        h = require_positive("communicationStepSize", h)
+        if not (h.__class__ is float and 0.0 < h < math.inf):
+            h = require_positive("communicationStepSize", h)
         self._load_inputs()
         p = self.params
         h_lim = p.vehicle.h_max
@@ -478,11 +479,21 @@ class Vehicle:
                        ar + hh * k2[7], axf + hh * k2[8], ayf + hh * k2[9], Iv + hh * k2[10], Ir + hh * k2[11])
             k4 = rates(vx + hs * k3[0], vy + hs * k3[1], r + hs * k3[2], psi + hs * k3[3], af + hs * k3[6],
                        ar + hs * k3[7], axf + hs * k3[8], ayf + hs * k3[9], Iv + hs * k3[10], Ir + hs * k3[11])
-            s = [x + h6 * (d1 + 2.0 * (d2 + d3) + d4) for x, d1, d2, d3, d4 in zip(s, k1, k2, k3, k4)]
-            a = s[6]
-            s[6] = amax if a > amax else (-amax if a < -amax else a)
-            a = s[7]
-            s[7] = amax if a > amax else (-amax if a < -amax else a)
+            # s + h/6 (k1 + 2 (k2 + k3) + k4), the slip angles limited to +-alpha_max
+            af = af + h6 * (k1[6] + 2.0 * (k2[6] + k3[6]) + k4[6])
+            ar = ar + h6 * (k1[7] + 2.0 * (k2[7] + k3[7]) + k4[7])
+            s = [vx + h6 * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0]),
+                 vy + h6 * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1]),
+                 r + h6 * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2]),
+                 psi + h6 * (k1[3] + 2.0 * (k2[3] + k3[3]) + k4[3]),
+                 _x + h6 * (k1[4] + 2.0 * (k2[4] + k3[4]) + k4[4]),
+                 _y + h6 * (k1[5] + 2.0 * (k2[5] + k3[5]) + k4[5]),
+                 amax if af > amax else (-amax if af < -amax else af),
+                 amax if ar > amax else (-amax if ar < -amax else ar),
+                 axf + h6 * (k1[8] + 2.0 * (k2[8] + k3[8]) + k4[8]),
+                 ayf + h6 * (k1[9] + 2.0 * (k2[9] + k3[9]) + k4[9]),
+                 Iv + h6 * (k1[10] + 2.0 * (k2[10] + k3[10]) + k4[10]),
+                 Ir + h6 * (k1[11] + 2.0 * (k2[11] + k3[11]) + k4[11])]
         out = self._outputs(s, rates)
         if not math.isfinite(sum(s) + sum(out)) and not all(math.isfinite(x) for x in s + list(out)):
             raise StepError(f"vehicle: the step at t = {t:.6g} s gave a non-finite state; state kept")
