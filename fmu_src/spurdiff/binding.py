@@ -157,15 +157,15 @@ class Bindings:
             values[v.name] = _CAST[v.kind](resolve(model, v.bind))
 
 
-_BINDINGS: dict[int, Bindings] = {}
+_BINDINGS: dict[int, tuple[Sequence[Var], Bindings]] = {}   # id -> (the list, kept alive; its Bindings)
 
 
 def bindings(variables: Sequence[Var]) -> Bindings:
     """The one :class:`Bindings` of a declared variable list (shared by every instance)."""
-    b = _BINDINGS.get(id(variables))
-    if b is None or b.variables != tuple(variables):
-        b = _BINDINGS[id(variables)] = Bindings(variables)
-    return b
+    entry = _BINDINGS.get(id(variables))
+    if entry is None or entry[0] is not variables:
+        entry = _BINDINGS[id(variables)] = (variables, Bindings(variables))
+    return entry[1]
 
 
 def _cast(v: Var, x: Any, current: Any) -> Any:
