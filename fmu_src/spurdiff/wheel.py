@@ -243,7 +243,8 @@ class WheelLoad:
         (the state is then unchanged) and StepError if the implicit equation cannot be solved."""
         if not self._ready:
             raise StepError("do_step called before initialize")
-        h = require_positive("communicationStepSize", h)
+        if not (h.__class__ is float and 0.0 < h < math.inf):
+            h = require_positive("communicationStepSize", h)
         if self.wheel_mode:
             self._do_step_wheel(t, h)
             return
@@ -268,8 +269,10 @@ class WheelLoad:
         """shaftCoupling = "wheel": the shaft torque is an input (the differential owns the shaft).
         Atomic: on an error or a non-finite result the state is as before the call."""
         _, _, Fz, mu, v = self._inputs()
-        tau_in = require_finite("shaftIn.tau", self.tau_in)
-        dw_in = require_finite("shaftIn.dw", self.dw_in)
+        tau_in, dw_in = self.tau_in, self.dw_in
+        if not (math.isfinite(tau_in + dw_in) and tau_in.__class__ is dw_in.__class__ is float):
+            tau_in = require_finite("shaftIn.tau", self.tau_in)
+            dw_in = require_finite("shaftIn.dw", self.dw_in)
         p = self.params
         saved = _get_step_values(self)   # what a step changes (cheap)
         try:
