@@ -427,7 +427,8 @@ class ShaftedDifferential:
         """Advance from t to t + h; atomic (the state is unchanged when it raises)."""
         if not self._ready:
             raise StepError("do_step called before initialize")
-        h = require_positive("communicationStepSize", h)
+        if not (h.__class__ is float and 0.0 < h < math.inf):
+            h = require_positive("communicationStepSize", h)
         pL, wL, pR, wR = self._wheel_inputs()
         self.wheelL_model.checked("left")
         self.wheelR_model.checked("right")
