@@ -67,13 +67,13 @@ class Point:
 
 
 def load_grid(path: Path = GRID_FILE) -> dict:
-    data = tomllib.loads(path.read_text())
+    from harness.schema import read_toml, unknown
+
+    data = read_toml(path)
     allowed = {"scene", "fidelities", "steps", "tolerances", "reference", "duration", "repeats", "repeat_budget",
                "quick"}
     for s in data.get("scene", []):
-        bad = set(s) - allowed
-        if bad:
-            raise SceneError(f"{path.name}: unknown key(s) {', '.join(sorted(bad))}; allowed: {', '.join(sorted(allowed))}")
+        unknown(path.name, s, allowed)
     return {s["scene"]: s for s in data.get("scene", [])}
 
 
@@ -585,26 +585,24 @@ def apply_choice(scene: Scene, pick: Point) -> Scene:
     return replace(scene, effects=effects, step=pick.step, output_interval=max(pick.step, scene.output_interval))
 
 
-def main(argv: list[str] | None = None) -> int:
-    import argparse
-
-    ap = argparse.ArgumentParser(prog="spurdiff accuracy", description="accuracy versus wall time, measured")
-    ap.add_argument("scenes", nargs="*", help="scenes (default: all in the grid file)")
-    ap.add_argument("--quick", action="store_true", help="the grid's small 'quick' subset (for tests)")
-    ap.add_argument("--out", type=Path, default=None,
-                    help="where accuracy.md and accuracy.png go (default: docs/ in a checkout, else ./results/docs)")
-    # the stored data live in the package; an installed package is never written: there a run's
-    # data go to ./results/accuracy/ (fidelity = auto keeps reading the shipped data)
+def stored_files() -> tuple[Path, Path]:
+    """The stored data and facts a run writes: the package's own in a checkout; an installed
+    package is never written, there a run's data go to ./results/accuracy/ (fidelity = auto keeps
+    reading the shipped data)."""
     installed = checkout_root() is None
-    data_file = results_dir("accuracy", DATA_FILE.name) if installed else DATA_FILE
-    facts_file = results_dir("accuracy", FACTS_FILE.name) if installed else FACTS_FILE
-    ap.add_argument("--data", type=Path, default=data_file, help="stored data for fidelity = auto")
-    ap.add_argument("--no-ivp", action="store_true", help="skip the solve_ivp baseline (a few minutes)")
-    ap.add_argument("--only-ivp", action="store_true",
-                    help="run only the solve_ivp baseline; the stored scene data stay as they are")
-    ap.add_argument("--render", action="store_true",
-                    help="only rewrite docs/accuracy.md and .png from the stored data (no runs)")
-    args = ap.parse_args(argv)
+    return (results_dir("accuracy", DATA_FILE.name) if installed else DATA_FILE,
+            results_dir("accuracy", FACTS_FILE.name) if installed else FACTS_FILE)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``spurdiff accuracy`` (see :mod:`harness.cli.accuracy`)."""
+    from harness.cli.accuracy import main as _main
+    return _main(argv)
+
+
+def run(args) -> int:
+    """``spurdiff accuracy`` with its parsed options (:mod:`harness.cli.accuracy`)."""
+    data_file, facts_file = stored_files()
     args.out = args.out or docs_dir()
     if args.render:
         stored = json.loads((facts_file if facts_file.exists() else FACTS_FILE).read_text())

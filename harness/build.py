@@ -344,18 +344,6 @@ def _build_in_subprocess(name: str, dest: Path) -> Path:
 
 
 def main(argv: list[str] | None = None) -> int:
-    import argparse
-
-    ap = argparse.ArgumentParser(prog="spurdiff build", description="Build the project's FMUs")
-    ap.add_argument("names", nargs="*", help=f"FMUs to build (default: all of {', '.join(FMUS)})")
-    ap.add_argument("--out", "--dest", dest="dest", type=Path, default=None,
-                    help="output directory (default: build/fmus in a checkout, else the per-user cache)")
-    ap.add_argument("--force", action="store_true", help="rebuild even if up to date")
-    args = ap.parse_args(argv)
-    try:
-        paths = build(args.names or None, args.dest, args.force)
-        print(f"FMUs in {paths[0].parent}" if paths else "nothing to build")
-    except BuildError as e:
-        print(f"spurdiff build: {e}", file=sys.stderr)
-        return 2
-    return 0
+    """``spurdiff build`` (see :mod:`harness.cli.build`)."""
+    from harness.cli.build import main as _main
+    return _main(argv)

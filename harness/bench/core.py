@@ -310,15 +310,14 @@ def step_control_comparison(scene_name: str = "tip-in-tip-out", repeats: int = 3
 
 
 def main(argv: list[str] | None = None) -> int:
-    import argparse
+    """``spurdiff bench`` (see :mod:`harness.cli.bench`)."""
+    from harness.cli.bench import main as _main
+    return _main(argv)
 
-    ap = argparse.ArgumentParser(prog="spurdiff bench", description=__doc__.splitlines()[0])
-    ap.add_argument("--repeats", type=int, default=5)
-    ap.add_argument("--levels", nargs="*", default=None, choices=list(EFFECT_SETS), metavar="SETTING",
-                    help=f"fidelity settings to compare (default: all: {', '.join(EFFECT_SETS)})")
-    ap.add_argument("--write", type=str, default=None, metavar="FILE.md",
-                    help="also write the report as Markdown (e.g. docs/performance.md)")
-    args = ap.parse_args(argv)
+
+def run(args) -> int:
+    """``spurdiff bench`` with its parsed options (:mod:`harness.cli.bench`): the report, printed,
+    and with ``--write`` also as Markdown."""
     import contextlib
     import io
     buf = io.StringIO()

@@ -8,7 +8,6 @@ locking law, duration, step). Wall times are measured here and printed, never as
 """
 from __future__ import annotations
 
-import argparse
 import time
 
 import numpy as np
@@ -378,22 +377,20 @@ def kernel_report(repeats: int = 3) -> list[str]:
     return lines
 
 
-def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__)
-    ap.add_argument("--full", action="store_true", help="also cornering with all effects (slow: tens of s)")
-    ap.add_argument("--section", choices=("paper", "tolerance", "ivp", "kernel"), action="append")
-    ap.add_argument("--repeats", type=int, default=3)
-    a = ap.parse_args(argv)
-    sections = a.section or ["paper", "tolerance", "ivp", "kernel"]
+def run(full: bool, sections, repeats: int = 3) -> None:
+    """The ``sections`` ("kernel", "paper", "tolerance", "ivp"), printed; ``full``: also cornering
+    with all effects; ``repeats``: timing repeats of the kernel section."""
     if "kernel" in sections:
-        print("\n".join(kernel_report(a.repeats)))
+        print("\n".join(kernel_report(repeats)))
     if "paper" in sections:
-        paper(a.full)
+        paper(full)
     if "tolerance" in sections:
         tolerance()
     if "ivp" in sections:
         ivp()
 
 
-if __name__ == "__main__":
+if __name__ == "__main__":   # the command line is harness/cli/mesh_bench.py
+    from harness.cli.mesh_bench import main
+
     main()

@@ -1,7 +1,22 @@
-"""``spurdiff bench``: measured cost ratios, printed (:mod:`harness.bench`)."""
+"""``spurdiff bench``: measured cost ratios (FMI versus direct physics, each effect versus rigid,
+real-time factors), printed, never asserted (:mod:`harness.bench`)."""
 from __future__ import annotations
+
+import argparse
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from harness.bench import core
+
+    ap = argparse.ArgumentParser(prog="spurdiff bench", description=core.__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--levels", nargs="*", default=None, choices=list(core.EFFECT_SETS), metavar="SETTING",
+                    help=f"fidelity settings to compare (default: all: {', '.join(core.EFFECT_SETS)})")
+    ap.add_argument("--write", type=str, default=None, metavar="FILE.md",
+                    help="also write the report as Markdown (e.g. docs/performance.md)")
+    return ap
 
 
 def main(argv: list[str] | None = None) -> int:
-    from harness.bench import main as _main
-    return _main(argv)
+    from harness.bench.core import run
+    return run(build_parser().parse_args(argv))

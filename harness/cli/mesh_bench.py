@@ -1,0 +1,20 @@
+"""``python -m harness.bench.mesh``: the measurements behind docs/mesh-dynamics.md (the compiled
+kernel against the Python reference, the paper's two cases at each mesh level, the tolerance
+sweep, the comparison with scipy's solve_ivp; :mod:`harness.bench.mesh`)."""
+from __future__ import annotations
+
+import argparse
+
+SECTIONS = ("paper", "tolerance", "ivp", "kernel")
+
+
+def main(argv: list[str] | None = None) -> int:
+    from harness.bench import mesh
+
+    ap = argparse.ArgumentParser(prog="python -m harness.bench.mesh", description=mesh.__doc__)
+    ap.add_argument("--full", action="store_true", help="also cornering with all effects (slow: tens of s)")
+    ap.add_argument("--section", choices=SECTIONS, action="append")
+    ap.add_argument("--repeats", type=int, default=3)
+    a = ap.parse_args(argv)
+    mesh.run(a.full, a.section or ["paper", "tolerance", "ivp", "kernel"], a.repeats)
+    return 0
