@@ -259,6 +259,104 @@ static int start_python(const RuntimeCfg *cfg, char *err, size_t errsize)
     return 0;
 }
 
+/* ------------------------------------------------------------------------------ one copy of a package
+ * A process runs one interpreter and one copy of each package. When the host process has already
+ * imported a package this FMU carries in resources/ (a Python host that imported spurdiff, or another
+ * FMU built from other sources), importing the FMU's module would silently run that copy. Before the
+ * import, every module file the FMU carries is compared with the copy already loaded; a difference
+ * refuses the instantiation with the reason (equal copies, e.g. FMUs built from the checkout the host
+ * runs, go on). The comparison runs once per (package, loaded copy, FMU copy) and process. */
+static const char *IDENTITY_CHECK_SOURCE =
+"import hashlib, os, sys\n"
+"_pairs = {}     # (loaded copy, FMU copy) -> the first difference or None\n"
+"_digests = {}   # FMU copy -> digest of its module files (an FMU's extraction folder may be gone later)\n"
+"def _files(root):\n"
+"    if os.path.isfile(root):\n"
+"        yield os.path.basename(root), root\n"
+"        return\n"
+"    for d, dirs, names in os.walk(root):\n"
+"        dirs[:] = sorted(x for x in dirs if x != '__pycache__')\n"
+"        for n in sorted(names):\n"
+"            if n.endswith('.py'):\n"
+"                full = os.path.join(d, n)\n"
+"                yield os.path.relpath(full, root), full\n"
+"def _digest(root):\n"
+"    h = hashlib.sha256()\n"
+"    for rel, full in _files(root):\n"
+"        with open(full, 'rb') as f:\n"
+"            h.update(rel.encode() + b'\\0' + f.read() + b'\\0')\n"
+"    return h.hexdigest()\n"
+"def _first_difference(mine, theirs):\n"
+"    for rel, a in _files(mine):\n"
+"        b = theirs if os.path.isfile(mine) else os.path.join(theirs, rel)\n"
+"        try:\n"
+"            with open(a, 'rb') as f, open(b, 'rb') as g:\n"
+"                if f.read() != g.read():\n"
+"                    return rel + ' differs'\n"
+"        except OSError:\n"
+"            return rel + ' is missing in the loaded copy'\n"
+"    return None\n"
+"def check(resources):\n"
+"    res = os.path.realpath(resources)\n"
+"    carried = []\n"
+"    for entry in sorted(os.listdir(res)):\n"
+"        mine = os.path.join(res, entry)\n"
+"        if entry.endswith('.py') and os.path.isfile(mine):\n"
+"            carried.append((entry[:-3], False, mine))\n"
+"        elif os.path.isfile(os.path.join(mine, '__init__.py')):\n"
+"            carried.append((entry, True, mine))\n"
+"    for name, package, mine in carried:\n"
+"        m = sys.modules.get(name)\n"
+"        origin = getattr(m, '__file__', None) if m is not None else None\n"
+"        if not origin:\n"
+"            continue\n"
+"        theirs = os.path.realpath(origin)\n"
+"        if package:\n"
+"            theirs = os.path.dirname(theirs)\n"
+"        if theirs == mine:\n"
+"            continue\n"
+"        if theirs in _digests:   # loaded from another FMU's copy: compare with what that copy held\n"
+"            if mine not in _digests:\n"
+"                _digests[mine] = _digest(mine)\n"
+"            why = None if _digests[mine] == _digests[theirs] else 'its module files differ'\n"
+"        else:                    # the host's own copy: compare the files\n"
+"            if (theirs, mine) not in _pairs:\n"
+"                _pairs[(theirs, mine)] = _first_difference(mine, theirs)\n"
+"            why = _pairs[(theirs, mine)]\n"
+"        if why:\n"
+"            return ('this process already imported the Python %s %r from %s, which is not the copy this FMU '\n"
+"                    'carries (%s); one interpreter holds one copy of a package, so the FMU would run '\n"
+"                    'that code, not its own. Load the FMU in a process that has not imported another %r, or '\n"
+"                    'rebuild it from that version (spurdiff build)'\n"
+"                    % ('package' if package else 'module', name, theirs, why, name))\n"
+"    for name, package, mine in carried:\n"
+"        if mine not in _digests:\n"
+"            _digests[mine] = _digest(mine)\n"
+"    return None\n";
+
+/* None when the FMU may import its module, else the reason (new reference), NULL with an error set. */
+static PyObject *identity_check(const char *resources)
+{
+    /* One module per process, whichever FMU's bridge came first: each FMU loads its own copy of this
+     * library, and the record of what each FMU copy held must be shared by all of them. */
+    static const char *NAME = "_spurdiff_fmu_identity_1";
+    PyObject *modules = PyImport_GetModuleDict();   /* borrowed */
+    PyObject *mod = PyDict_GetItemString(modules, NAME);   /* borrowed */
+    if (!mod) {
+        PyObject *m = PyModule_New(NAME);
+        if (!m) return NULL;
+        PyObject *globals = PyModule_GetDict(m);   /* borrowed */
+        if (PyDict_SetItemString(globals, "__builtins__", PyEval_GetBuiltins()) != 0) { Py_DECREF(m); return NULL; }
+        PyObject *r = PyRun_String(IDENTITY_CHECK_SOURCE, Py_file_input, globals, globals);
+        if (!r) { Py_DECREF(m); return NULL; }
+        Py_DECREF(r);
+        if (PyDict_SetItemString(modules, NAME, m) != 0) { Py_DECREF(m); return NULL; }
+        Py_DECREF(m);
+        mod = m;
+    }
+    return PyObject_CallMethod(mod, "check", "s", resources);
+}
+
 /* ------------------------------------------------------------------------------ instances */
 static Instance *valid(fmi2Component c)
 {
@@ -383,6 +481,17 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     int present = (res && sys_path) ? PySequence_Contains(sys_path, res) : -1;
     if (present < 0 || (!present && PyList_Insert(sys_path, 0, res) != 0)) { stage = "sys.path"; goto pyfail; }
     Py_CLEAR(res);
+    PyObject *why = identity_check(resources);
+    if (!why) { stage = "comparing the FMU's packages with those already imported"; goto pyfail; }
+    if (why != Py_None) {
+        const char *text = PyUnicode_AsUTF8(why);
+        emitf(functions, instanceName, fmi2Error, "fmi2Instantiate: %s", text ? text : "(no text)");
+        PyErr_Clear();
+        Py_DECREF(why);
+        PyGILState_Release(g);
+        goto fail;
+    }
+    Py_DECREF(why);
     PyObject *mod = PyImport_ImportModule(cfg.module);
     if (!mod) { stage = "importing the FMU's module"; goto pyfail; }
     I->klass = PyObject_GetAttrString(mod, cfg.klass);
