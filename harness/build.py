@@ -260,8 +260,16 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
             except BuildError as e:
                 notes.append(f"WARNING: the mesh kernel was not built ({e}); the mesh levels run the Python "
                              "reference")
-        raw = FmuBuilder.build_FMU(script, dest=tmp / "raw", project_files=[pkg],
-                                   canGetAndSetFMUstate=True, canSerializeFMUstate=True)
+        try:
+            raw = FmuBuilder.build_FMU(script, dest=tmp / "raw", project_files=[pkg],
+                                       canGetAndSetFMUstate=True, canSerializeFMUstate=True)
+        finally:
+            # pythonfmu imported the generated script to find the class: forget that module, whose
+            # file goes with this folder, so the FMUs this process loads import their own copy
+            # (the bridge refuses an FMU whose module is already imported from another file)
+            loaded = sys.modules.get(script.stem)
+            if loaded is not None and str(getattr(loaded, "__file__", "")).startswith(str(tmp)):
+                del sys.modules[script.stem]
         out = fmu_path(name, dest)
         part = tmp / f"{name}.fmu"
         with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as zout:
