@@ -19,7 +19,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT / "tests" / "harness"))   # test_vehicle_scenes.py
 
 # scene -> window (s) of the means: the scene's own results window (or its driven part)
 WINDOWS = {

@@ -1,12 +1,12 @@
 """Issue 19 item 3 (cost): inner-model evaluations per shaft sub-step of spurdiff.shafts (the
-Newton on the sun torques), the differential with two WheelLoads in plain Python (tests/test_shafts.py
+Newton on the sun torques), the differential with two WheelLoads in plain Python (tests/physics/test_shafts.py
 Loop, the interface model connected) at 1, 5 and 20 ms, 0.8 s of each case.
 
     .venv/bin/python tests/shaft_newton_cost.py
 """
 import sys, math, time
 from pathlib import Path
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent / "physics"))   # tests/physics/test_shafts.py
 from test_shafts import make, Loop, start, R_WHEEL
 cases = {
  "steady 300 N m, split mu": dict(tau_c=lambda t: 300.0, mu=lambda t: (0.6, 1.0), vx=lambda t: 10.0),

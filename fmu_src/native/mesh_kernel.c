@@ -15,7 +15,7 @@
  * reference sums, no contraction into fused multiply-adds: build with -ffp-contract=off), the same
  * libm, and the LU of the same LAPACK the reference calls (dgetrf/dgetrs pointers from scipy, handed
  * over by kernel.py; without them an own partial-pivoting LU, equal to rounding): the states agree
- * bit for bit where the reference's LAPACK is used (tests/test_mesh_kernel.py).
+ * bit for bit where the reference's LAPACK is used (tests/physics/mesh/test_mesh_kernel.py).
  */
 #include "mesh_kernel.h"
 

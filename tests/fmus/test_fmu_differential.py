@@ -1,6 +1,6 @@
 """SpurDifferential.fmu through FMI (fmpy): model description, t = 0 outputs, locking law, preload, its
 own parameter errors, calculated geometry (the FMI contract every FMU meets, validation, state, reset,
-errors, independent instances, is tests/test_fmu_contract.py)."""
+errors, independent instances, is tests/fmus/test_fmu_contract.py)."""
 import math
 
 import pytest

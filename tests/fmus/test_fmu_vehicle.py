@@ -1,6 +1,6 @@
 """WheelLoad.fmu and Vehicle.fmu through FMI (fmpy): interfaces, data, t = 0 outputs, start switches,
 the wheel's energy balance, and the bundled data file loading inside the FMU (the FMI contract
-every FMU meets, validation, state, errors, independent instances, is tests/test_fmu_contract.py)."""
+every FMU meets, validation, state, errors, independent instances, is tests/fmus/test_fmu_contract.py)."""
 from __future__ import annotations
 
 import json

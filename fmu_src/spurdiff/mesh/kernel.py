@@ -4,7 +4,7 @@ The kernel does a whole communication step (the internal ROS34PW2 steps with the
 events, loss quadrature, stick-slip and work accounting) in C, so Python is entered once per
 communication step. It transcribes the pure-Python reference (:mod:`spurdiff.mesh.stepper` and
 what it calls), which stays the specification and the fallback; the two agree to rounding
-(tests/test_mesh_kernel.py).
+(tests/physics/mesh/test_mesh_kernel.py).
 
 Where the library is found (first hit): beside this module (``mesh_kernel.so``, as
 ``harness/build.py`` ships it inside each SpurDifferential FMU), in the folders of

@@ -206,7 +206,7 @@ def test_the_fmu_runs_the_kernel_with_the_reference_results(differential_fmu):
     assert any("compiled implementation" in s for s in logs) and any("python (kernel = python)" in s for s in logs)
 
 
-HOSTS = Path(__file__).resolve().parents[2] / "shared" / "hosts"
+HOSTS = Path(__file__).resolve().parents[4] / "shared" / "hosts"   # ../shared/hosts beside the checkout
 
 
 @pytest.mark.skipif(not (HOSTS / "fmusim").is_file(), reason=f"{HOSTS} is absent (third-party FMI hosts)")
