@@ -148,18 +148,21 @@ def compile_native(out_dir: Path) -> tuple[Path, Path]:
 MESH_KERNEL_FMUS = ("SpurDifferential",)
 KERNEL_FLAGS = ["-shared", "-fPIC", "-O2", "-Wall", "-ffp-contract=off"]
 KERNEL_SOURCES = ("mesh_kernel.c", "mesh_kernel_model.c")
+# the compiled pin-load solve of the rigid level (fmu_src/native/rigid_kernel.c), same flags, same FMUs
+RIGID_KERNEL_SOURCES = ("rigid_kernel.c",)
 
 
-def compile_kernel(out: Path) -> Path:
-    """Compile ``fmu_src/native/mesh_kernel*.c`` (libm only) into the file ``out``; BuildError with
-    the compiler's message when there is no compiler or the build fails."""
+def compile_kernel(out: Path, sources: tuple[str, ...] = KERNEL_SOURCES) -> Path:
+    """Compile ``fmu_src/native/mesh_kernel*.c`` (or ``sources``, e.g. :data:`RIGID_KERNEL_SOURCES`;
+    libm only) into the file ``out``; BuildError with the compiler's message when there is no
+    compiler or the build fails."""
     cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
     if cc is None:
         raise BuildError("no C compiler (cc/gcc) on PATH")
-    r = subprocess.run([cc, *KERNEL_FLAGS, f"-I{NATIVE}", *(str(NATIVE / f) for f in KERNEL_SOURCES), "-o", str(out),
+    r = subprocess.run([cc, *KERNEL_FLAGS, f"-I{NATIVE}", *(str(NATIVE / f) for f in sources), "-o", str(out),
                         "-lm"], capture_output=True, text=True)
     if r.returncode != 0:
-        raise BuildError(f"compiling the mesh kernel ({', '.join(KERNEL_SOURCES)}) failed:\n{r.stderr.strip()}")
+        raise BuildError(f"compiling the kernel ({', '.join(sources)}) failed:\n{r.stderr.strip()}")
     return out
 
 
@@ -181,6 +184,27 @@ def kernel_library(dest: Path | None = None) -> Path:
     if dest not in kernel.SEARCH_PATH:
         kernel.SEARCH_PATH.insert(0, dest)
         kernel.reset()
+    rigid_kernel_library(dest)
+    return out
+
+
+def rigid_kernel_library(dest: Path | None = None) -> Path:
+    """The rigid level's pin-load kernel for direct runs, as :func:`kernel_library` does the mesh
+    kernel: ``rigid_kernel-<digest>.so`` in the FMU folder, put on its search path."""
+    from spurdiff import rigid_kernel
+
+    dest = Path(dest) if dest else fmu_cache_dir()
+    dest.mkdir(parents=True, exist_ok=True)
+    out = dest / f"rigid_kernel-{rigid_kernel.source_digest(NATIVE)}.so"
+    with open(dest / ".rigid_kernel.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not out.is_file():
+            staged = dest / f".rigid_kernel.{os.getpid()}.so"
+            compile_kernel(staged, RIGID_KERNEL_SOURCES)
+            os.replace(staged, out)
+    if dest not in rigid_kernel.SEARCH_PATH:
+        rigid_kernel.SEARCH_PATH.insert(0, dest)
+        rigid_kernel.reset()
     return out
 
 
@@ -259,6 +283,12 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
                 notes.append("mesh kernel compiled")
             except BuildError as e:
                 notes.append(f"WARNING: the mesh kernel was not built ({e}); the mesh levels run the Python "
+                             "reference")
+            try:             # the rigid level's pin-load kernel beside spurdiff.rigid_kernel
+                compile_kernel(pkg / "librigid_kernel.so", RIGID_KERNEL_SOURCES)
+                notes.append("rigid kernel compiled")
+            except BuildError as e:
+                notes.append(f"WARNING: the rigid kernel was not built ({e}); the rigid level runs the Python "
                              "reference")
         try:
             raw = FmuBuilder.build_FMU(script, dest=tmp / "raw", project_files=[pkg],

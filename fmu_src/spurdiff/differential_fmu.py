@@ -205,9 +205,10 @@ VARIABLES: list[Var] = [
     _p("tolerance", "mesh.tolerance", "Relative accuracy of the internal integrator (compliant/contact)", "1"),
     _p("maxInternalSteps", "mesh.maxInternalSteps",
        "Internal steps allowed per communication step before doStep discards", None, kind="Integer"),
-    _p("solver.kernel", "mesh.kernel", "Implementation of the compliant/contact levels: auto (the compiled kernel "
-       "shipped in the FMU when it loads, else the Python reference, with the reason logged) | compiled (refuse "
-       "to start without it) | python (the pure-Python reference; same results, slower)", kind="String"),
+    _p("solver.kernel", "mesh.kernel", "Implementation of the compliant/contact levels and of the rigid level's "
+       "pin-load solve: auto (the compiled kernel shipped in the FMU when it loads, else the Python reference, "
+       "with the reason logged) | compiled (refuse to start without it) | python (the pure-Python reference; "
+       "same results, slower)", kind="String"),
     Var("solver.kernelInUse", "calculatedParameter", "Implementation that runs the compliant/contact levels: "
         "compiled | python (and why) | none (rigid)", None, None, "", kind="String"),
     Var("carrierDrive", "parameter", "How the carrier is driven: speed (carrier.w_ref) | torque (carrier.tau)",
@@ -340,6 +341,7 @@ def build_model(values: dict):
         if not s.mesh.pinFriction:
             params = replace(params, mu_pin=0.0, lockingPreload=0.0)
         model = RigidDifferential(params)
+        model.kernel = s.mesh.kernel     # the pin-load solve's implementation (spurdiff.rigid_kernel)
     else:
         _validated_mesh(s.mesh)
         model = MeshDifferential(params, s.mesh)

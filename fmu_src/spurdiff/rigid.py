@@ -48,6 +48,7 @@ from __future__ import annotations
 import math
 import operator
 
+from . import rigid_kernel
 from .errors import StepError, require_finite, require_positive
 from .geometry import DifferentialGeometry
 from .inertia import MassProperties, mass_properties
@@ -85,6 +86,9 @@ class RigidDifferential(DifferentialModel):
         # start values
         self.w_start_carrier = 0.0
         self.w_start_left = float("nan")  # nan: same as the carrier
+        # implementation of the pin-load solve (``solver.kernel``): auto (the compiled kernel,
+        # spurdiff.rigid_kernel, if it loads, else the Python reference) | compiled | python
+        self.kernel = "auto"
         self._ready = False
 
     # ------------------------------------------------------------------ setup
@@ -119,6 +123,8 @@ class RigidDifferential(DifferentialModel):
         # the exact pin law (pinFriction with friction or preload), else the paper's linear capacity
         self._exact = self.law == "pinFriction" and (self.pf.c > 0.0 or self.preload > 0.0)
         self._pin_constants()
+        self._rk, self.kernel_note = (rigid_kernel.choose(self) if self._exact
+                                      else (None, "none (no pin-load solve)"))
         self.F12 = float("nan")
         self.cap = 0.0
         self.speed_drive = p.carrierDrive == "speed"
@@ -208,7 +214,21 @@ class RigidDifferential(DifferentialModel):
         The hot path of the rigid level (one solve per inner step): the sun forces
         (:meth:`_sun_forces`) and the pin capacities (:meth:`spurdiff.locking.PinFriction.capacity`)
         are written out here with the constants of :meth:`_pin_constants`, the same arithmetic in
-        the same order, so the result is bit for bit that of the two calls."""
+        the same order, so the result is bit for bit that of the two calls. With the compiled
+        kernel (:mod:`spurdiff.rigid_kernel`) the same solve runs in C, bit for bit."""
+        rk = self._rk
+        if rk is not None:
+            io = rk.io
+            ad0 = self._ad_guess
+            if ac_given is None:
+                io[0:8] = (s, 0.0, 0.0, self.tau_c, self.tau_L, self.tau_R, 0.0 if ad0 is None else ad0, self.F12)
+            else:
+                io[0:8] = (s, 1.0, ac_given, self.tau_c, self.tau_L, self.tau_R, 0.0 if ad0 is None else ad0,
+                           self.F12)
+            rk.fn(rk.const, io)
+            ac, ad, self.F12, cap = io[8:12]
+            self.cap = cap
+            return ac, ad, -s * cap
         pf = self.pf
         n = pf.n
         _, rb1, _, rb2 = pf.rb

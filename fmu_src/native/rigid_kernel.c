@@ -1,0 +1,117 @@
+/* The compiled pin-load solve of the rigid level (spurdiff.rigid.RigidDifferential._slip_exact).
+ *
+ * Slipping in direction s with the pin-load locking law: Newton on the planets' moment balances for
+ * (a_d, F_12). A transcription of the Python reference, which stays the specification and the
+ * fallback: the same operations in the same order (compiled with -ffp-contract=off, no fused
+ * multiply-adds), so the two agree bit for bit (tests/test_rigid_kernel.py).
+ *
+ * Constants (rk_nconst() doubles, set once per initialized model; see spurdiff/rigid_kernel.py):
+ *   0 rb1, 1 rb2, 2 n rbA, 3 n rbB, 4 c (pin friction lever), 5 M01, 6 M02, 7 J_A, 8 J_B, 9 lam,
+ *   10 J_1, 11 J_2, 12 rho1, 13 rho2, 14 Mcd, 15 Mcc, 16 n, 17..32 planet 1's pin constants,
+ *   33..48 planet 2's (tx ty rx ry ux uy qx qy, then the sums and differences, as _pin_constants).
+ * io (rk_nio() doubles): in 0 s, 1 given (1: carrier acceleration given), 2 ac_given, 3 tau_c,
+ *   4 tau_L, 5 tau_R, 6 a_d start, 7 F_12 start (NaN: from the sun forces);
+ *   out 8 ac, 9 ad, 10 F12, 11 cap (n sum_i |rho_i| M_i,max).
+ */
+#include <math.h>
+#include <stdint.h>
+
+#define RK_ABI 1
+#define RK_NCONST 49
+#define RK_NIO 12
+
+int64_t rk_abi(void) { return RK_ABI; }
+int64_t rk_nconst(void) { return RK_NCONST; }
+int64_t rk_nio(void) { return RK_NIO; }
+
+/* returns the number of Newton iterations (51: the iteration limit was reached) */
+int64_t rk_slip(const double *k, double *io)
+{
+    const double rb1 = k[0], rb2 = k[1], nrbA = k[2], nrbB = k[3], cpin = k[4], M01 = k[5], M02 = k[6];
+    const double J_A = k[7], J_B = k[8], lam = k[9], J1 = k[10], J2 = k[11], rho1 = k[12], rho2 = k[13];
+    const double Mcd = k[14], Mcc = k[15], n = k[16];
+    const double *p1 = k + 17, *p2 = k + 33;
+    const double t1x = p1[0], t1y = p1[1], r1x = p1[2], r1y = p1[3], u1x = p1[4], u1y = p1[5], q1x = p1[6],
+                 q1y = p1[7], p1x = p1[8], p1y = p1[9], m1x = p1[10], m1y = p1[11], P1x = p1[12], P1y = p1[13],
+                 N1x = p1[14], N1y = p1[15];
+    const double t2x = p2[0], t2y = p2[1], r2x = p2[2], r2y = p2[3], u2x = p2[4], u2y = p2[5], q2x = p2[6],
+                 q2y = p2[7], p2x = p2[8], p2y = p2[9], m2x = p2[10], m2y = p2[11], P2x = p2[12], P2y = p2[13],
+                 N2x = p2[14], N2y = p2[15];
+    const double s = io[0];
+    const int given = io[1] != 0.0;
+    const double ac_given = io[2], tau_c = io[3], tau_L = io[4], tau_R = io[5];
+    const double sg1 = copysign(1.0, rho1) * s;
+    const double sg2 = copysign(1.0, rho2) * s;
+    const double Qc = tau_c + tau_L + tau_R;
+    const double g = given ? 0.0 : -Mcd / Mcc;
+    double ad = io[6], F12 = io[7], ac, FA, FB, aA, aB, a12, f1x, f1y, f2x, f2y, mag1, mag2, c1 = 0.0, c2 = 0.0;
+    int64_t it;
+
+    if (isnan(F12)) {
+        ac = given ? ac_given : (Qc - Mcd * ad) / Mcc;
+        F12 = 0.5 * ((J_A * (ac + ad) - tau_L) / nrbA + (J_B * (ac + lam * ad) - tau_R) / nrbB);
+    }
+    const double dFA = J_A * (g + 1.0) / nrbA;
+    const double dFB = J_B * (g + lam) / nrbB;
+    const double a11_0 = J1 * (g + rho1);
+    const double a21_0 = J2 * (g + rho2);
+    for (it = 1; it <= 50; it++) {
+        ac = given ? ac_given : (Qc - Mcd * ad) / Mcc;
+        FA = (J_A * (ac + ad) - tau_L) / nrbA;
+        FB = (J_B * (ac + lam * ad) - tau_R) / nrbB;
+        aA = fabs(FA); aB = fabs(FB); a12 = fabs(F12);
+        f1x = FA * t1x + aA * r1x + F12 * u1x + a12 * q1x;
+        f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y;
+        f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x;
+        f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y;
+        mag1 = sqrt(f1x * f1x + f1y * f1y);
+        mag2 = sqrt(f2x * f2x + f2y * f2y);
+        c1 = cpin * mag1 + M01;
+        c2 = cpin * mag2 + M02;
+        const double r1 = rb1 * (FA - F12) - sg1 * c1 - J1 * (ac + rho1 * ad);
+        const double r2 = rb2 * (FB - F12) - sg2 * c2 - J2 * (ac + rho2 * ad);
+        if (fabs(r1) + fabs(r2) <= 1e-14 * (rb1 * (aA + a12) + rb2 * (aB + a12)) + 1e-300)
+            break;
+        double c1S, c112, c2S, c212;
+        if (mag1 == 0.0) {
+            c1S = c112 = 0.0;
+        } else {
+            c1S = cpin * (FA >= 0.0 ? (f1x * p1x + f1y * p1y) / mag1 : (f1x * m1x + f1y * m1y) / mag1);
+            c112 = cpin * (F12 >= 0.0 ? (f1x * P1x + f1y * P1y) / mag1 : (f1x * N1x + f1y * N1y) / mag1);
+        }
+        if (mag2 == 0.0) {
+            c2S = c212 = 0.0;
+        } else {
+            c2S = cpin * (FB >= 0.0 ? (f2x * p2x + f2y * p2y) / mag2 : (f2x * m2x + f2y * m2y) / mag2);
+            c212 = cpin * (F12 >= 0.0 ? (f2x * P2x + f2y * P2y) / mag2 : (f2x * N2x + f2y * N2y) / mag2);
+        }
+        const double a11 = (rb1 - sg1 * c1S) * dFA - a11_0;
+        const double a12_ = -rb1 - sg1 * c112;
+        const double a21 = (rb2 - sg2 * c2S) * dFB - a21_0;
+        const double a22 = -rb2 - sg2 * c212;
+        const double det = a11 * a22 - a12_ * a21;
+        const double d_ad = (r1 * a22 - a12_ * r2) / det;
+        const double d_F = (a11 * r2 - a21 * r1) / det;
+        ad -= d_ad;
+        F12 -= d_F;
+        const double scale = aA + aB + fabs(F12) + 1e-300;
+        if (fabs(d_F) <= 1e-15 * scale && fabs(d_ad) * (fabs(dFA) + fabs(dFB)) <= 1e-15 * scale) {
+            ac = given ? ac_given : (Qc - Mcd * ad) / Mcc;
+            FA = (J_A * (ac + ad) - tau_L) / nrbA;
+            FB = (J_B * (ac + lam * ad) - tau_R) / nrbB;
+            aA = fabs(FA); aB = fabs(FB); a12 = fabs(F12);
+            f1x = FA * t1x + aA * r1x + F12 * u1x + a12 * q1x;
+            f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y;
+            f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x;
+            f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y;
+            c1 = cpin * sqrt(f1x * f1x + f1y * f1y) + M01;
+            c2 = cpin * sqrt(f2x * f2x + f2y * f2y) + M02;
+            break;
+        }
+    }
+    io[8] = ac;
+    io[9] = ad;
+    io[10] = F12;
+    io[11] = n * (fabs(rho1) * c1 + fabs(rho2) * c2);
+    return it;
+}

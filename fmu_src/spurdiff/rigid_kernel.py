@@ -1,0 +1,135 @@
+"""The compiled pin-load solve of the rigid level (``fmu_src/native/rigid_kernel.c``) through ctypes.
+
+The rigid level's hot path is the Newton solve of the planets' moment balances while the
+differential slips with the pin-load locking law (:meth:`spurdiff.rigid.RigidDifferential._slip_exact`,
+one per inner step of a differential owning its half-shafts). The C function transcribes it (same
+operations, same order, no fused multiply-adds), so the two agree bit for bit
+(tests/test_rigid_kernel.py); the Python code stays the reference and the fallback.
+
+The library is found as the mesh kernel's (:mod:`spurdiff.mesh.kernel`): beside this module
+(``librigid_kernel.so``, as ``harness/build.py`` ships it inside each SpurDifferential FMU), else in
+the folders of :data:`SEARCH_PATH`, ``$SPURDIFF_KERNEL_DIR``, ``$SPURDIFF_FMU_DIR`` and a checkout's
+``build/fmus`` as ``rigid_kernel-<digest>.so``, the digest of the C source beside it (a stale
+library is not used). Selected by the same switch, ``solver.kernel`` (auto | compiled | python).
+"""
+from __future__ import annotations
+
+import ctypes as C
+import hashlib
+import logging
+import os
+from pathlib import Path
+
+from .errors import ParameterError
+
+ABI = 1
+NCONST = 49
+NIO = 12
+LIB_NAME = "librigid_kernel.so"   # not rigid_kernel.so: Python would import that for this module
+KERNELS = ("auto", "compiled", "python")
+SEARCH_PATH: list[Path] = []
+_HERE = Path(__file__).resolve().parent
+_SOURCES = (_HERE.parent / "native",                         # checkout: fmu_src/native
+            _HERE.parent / "spurdiff_fmus" / "native")       # installed wheel
+_DP = C.POINTER(C.c_double)
+
+log = logging.getLogger("spurdiff.rigid")
+_REPORTED: set[str] = set()
+_LIB: tuple | None = None
+
+
+def source_digest(native: Path) -> str:
+    """Digest of the kernel's sources (``rigid_kernel*.c`` in the folder ``native``)."""
+    h = hashlib.sha256()
+    for p in sorted(native.glob("rigid_kernel*.[ch]")):
+        h.update(p.name.encode())
+        h.update(p.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def _candidates() -> list[Path]:
+    out = [_HERE / LIB_NAME]
+    src = next((p for p in _SOURCES if (p / "rigid_kernel.c").is_file()), None)
+    dirs = list(SEARCH_PATH) + [Path(os.environ[v]) for v in ("SPURDIFF_KERNEL_DIR", "SPURDIFF_FMU_DIR")
+                                if os.environ.get(v)]
+    if src is not None and src.parent.name == "fmu_src":      # a checkout: its build/fmus
+        dirs.append(src.parent.parent / "build" / "fmus")
+    if src is not None:
+        out += [Path(d) / f"rigid_kernel-{source_digest(src)}.so" for d in dirs]
+    else:
+        out += [Path(d) / LIB_NAME for d in dirs]
+    return out
+
+
+def load() -> tuple[C.CDLL | None, str]:
+    """(library, where it came from) or (None, why not). Cached per process."""
+    global _LIB
+    if _LIB is not None and _LIB[0] is not None:
+        return _LIB
+    reasons = []
+    for path in _candidates():
+        if not path.is_file():
+            continue
+        try:
+            lib = C.CDLL(str(path))
+            lib.rk_abi.restype = lib.rk_nconst.restype = lib.rk_nio.restype = C.c_int64
+        except (OSError, AttributeError) as e:
+            reasons.append(f"{path}: {e}")
+            continue
+        if lib.rk_abi() != ABI or lib.rk_nconst() != NCONST or lib.rk_nio() != NIO:
+            reasons.append(f"{path}: ABI {lib.rk_abi()} with {lib.rk_nconst()} constants, {lib.rk_nio()} "
+                           f"values (this module needs ABI {ABI}, {NCONST}, {NIO})")
+            continue
+        lib.rk_slip.argtypes = [_DP, _DP]
+        lib.rk_slip.restype = C.c_int64
+        _LIB = (lib, str(path))
+        return _LIB
+    why = "; ".join(reasons) if reasons else (
+        "no compiled rigid kernel found (build it with `spurdiff build`, which compiles "
+        "fmu_src/native/rigid_kernel.c)")
+    _LIB = (None, why)
+    return _LIB
+
+
+def reset() -> None:
+    """Forget the cached search result (after the search path changed)."""
+    global _LIB
+    _LIB = None
+
+
+def choose(model) -> tuple["Kernel | None", str]:
+    """The kernel for an initialized rigid model with the pin-load law (``model.kernel``: auto or
+    compiled) or None (python, or auto without a loadable library: logged once per reason), and a
+    note saying which implementation runs; ParameterError for an unknown value or for
+    ``compiled`` without a library."""
+    want = model.kernel
+    if want not in KERNELS:
+        raise ParameterError("solver.kernel", want, " | ".join(KERNELS))
+    if want == "python":
+        return None, "python (kernel = python)"
+    lib, where = load()
+    if lib is None:
+        if want == "compiled":
+            raise ParameterError("solver.kernel", want, f"auto | python here: {where}")
+        if where not in _REPORTED:
+            _REPORTED.add(where)
+            log.warning("the rigid level runs the Python reference of the pin-load solve (slower, same "
+                        "results): %s", where)
+        return None, f"python ({where})"
+    return Kernel(lib, model), "compiled"
+
+
+class Kernel:
+    """The compiled solve bound to one initialized :class:`spurdiff.rigid.RigidDifferential`:
+    its constants, set once, and the array of the inputs and results of one call."""
+
+    def __init__(self, lib: C.CDLL, m):
+        pf = m.pf
+        _, rb1, _, rb2 = pf.rb
+        M01, M02 = pf.M0
+        const = (rb1, rb2, m._nrbA, m._nrbB, pf.c, M01, M02, m.J_A, m.J_B, m.lam, m.J_1, m.J_2, m.rho1, m.rho2,
+                 m.Mcd, m.Mcc, pf.n) + tuple(m._pin1) + tuple(m._pin2)
+        assert len(const) == NCONST
+        self.const = (C.c_double * NCONST)(*(float(v) for v in const))
+        self.io = (C.c_double * NIO)()
+        self.fn = lib.rk_slip

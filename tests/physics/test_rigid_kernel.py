@@ -1,0 +1,182 @@
+"""The compiled pin-load solve of the rigid level (fmu_src/native/rigid_kernel.c through
+spurdiff.rigid_kernel) against its Python reference (RigidDifferential._slip_exact): every solve of
+the rigid scenes run both ways from the same state, bit for bit; whole runs with solver.kernel =
+compiled and python identical; the switch and the fallback."""
+from __future__ import annotations
+
+import logging
+import math
+
+import numpy as np
+import pytest
+
+from harness.build import BuildError, rigid_kernel_library
+from harness.direct import run_direct
+from harness.runner import prepare_scene
+from spurdiff import rigid_kernel
+from spurdiff.errors import ParameterError
+from spurdiff.params import DifferentialParams
+from spurdiff.rigid import RigidDifferential
+
+
+@pytest.fixture(scope="module")
+def library():
+    try:
+        return rigid_kernel_library()
+    except BuildError as e:          # no compiler here: nothing to compare
+        pytest.skip(f"the rigid kernel cannot be compiled here: {e}")
+
+
+@pytest.fixture
+def both_ways(library, monkeypatch):
+    """Every _slip_exact call runs the Python reference and then the kernel from the same state;
+    returns the record (count, largest relative difference, modes seen)."""
+    orig = RigidDifferential._slip_exact
+    rec = {"n": 0, "compiled": 0, "maxrel": 0.0, "modes": set()}
+
+    def both(self, ac_given, s):
+        rk = self._rk
+        before = (self.F12, self.cap, self._ad_guess)
+        self._rk = None
+        try:
+            ref = orig(self, ac_given, s) + (self.F12, self.cap)
+        finally:
+            self._rk = rk
+        self.F12, self.cap, self._ad_guess = before
+        out = orig(self, ac_given, s)
+        got = out + (self.F12, self.cap)
+        rec["n"] += 1
+        rec["compiled"] += rk is not None
+        rec["modes"].add((ac_given is not None, s))
+        for a, b in zip(ref, got):
+            if not (a == b or (math.isnan(a) and math.isnan(b))):
+                rec["maxrel"] = max(rec["maxrel"], abs(a - b) / max(abs(a), abs(b), 1e-300))
+        return out
+
+    monkeypatch.setattr(RigidDifferential, "_slip_exact", both)
+    return rec
+
+
+# the rigid scenes (the vehicle scenes: carrier torque-driven, drive and coast, stick and slip),
+# one with a preload; the paper's scenes with the pin-load law stay stuck (its capacity holds
+# their loads: no solve; with their own lockingLaw = paper there is none either). The speed
+# drive (carrier acceleration given) while slipping: test_speed_drive_stick_and_slip.
+SCENES = [
+    ("vehicle-cornering", []),
+    ("split-mu-launch", []),
+    ("tip-in-tip-out", []),
+    ("tip-in-tip-out", ["diff.lockingPreload=40.0"]),
+    ("wheel-lift", []),
+    ("standstill-launch", []),
+    ("paper-straight", ["diff.lockingLaw=pinFriction"]),
+    ("paper-cornering", ["diff.lockingLaw=pinFriction"]),
+    ("paper-cornering", []),
+]
+STUCK = ("paper-straight", "paper-cornering")
+
+
+@pytest.mark.parametrize("name,sets", SCENES, ids=[f"{n}{''.join(s)}" for n, s in SCENES])
+def test_every_solve_agrees_bit_for_bit(both_ways, name, sets):
+    scene = prepare_scene(name, mesh="rigid", sets=sets)
+    r = run_direct(scene)
+    assert r.failure is None
+    assert (both_ways["n"] > 0) == (name not in STUCK) and both_ways["compiled"] == both_ways["n"]
+    assert both_ways["maxrel"] == 0.0
+
+
+def test_the_vehicle_scenes_slip_both_ways(both_ways):
+    for name in ("split-mu-launch", "wheel-lift"):
+        assert run_direct(prepare_scene(name, mesh="rigid")).failure is None
+    assert both_ways["modes"] == {(False, 1.0), (False, -1.0)}
+
+
+def _same(a: dict, b: dict) -> bool:
+    return a.keys() == b.keys() and all(x == y or (x != x and y != y) for x, y in zip(a.values(), b.values()))
+
+
+@pytest.mark.parametrize("w_ref,preload", [(10.0, 0.0), (10.0, 5.0), (-10.0, 5.0)])
+def test_speed_drive_stick_and_slip(both_ways, w_ref, preload):
+    """Carrier speed-driven (its acceleration given) from stuck through slip either way: every
+    solve agrees, and the compiled and the Python model's states are equal after every step."""
+    models = []
+    for kernel in ("compiled", "python"):
+        m = RigidDifferential(DifferentialParams(carrierDrive="speed", lockingPreload=preload))
+        m.kernel = kernel
+        m.w_ref = w_ref
+        m.initialize()
+        models.append(m)
+    assert models[0]._rk is not None and models[1]._rk is None
+    slips = set()
+    for k in range(200):
+        t = k * 1e-3
+        for m in models:
+            d = 300.0 * math.sin(2.0 * math.pi * 5.0 * t)
+            m.tau_L, m.tau_R = -200.0 + d, -200.0 - d
+            m.do_step(t, 1e-3)
+        assert _same(models[0].get_state(), models[1].get_state())
+        slips.add(models[0].slip_dir)
+    assert slips == {-1.0, 0.0, 1.0}
+    assert {(True, 1.0), (True, -1.0)} <= both_ways["modes"] and both_ways["maxrel"] == 0.0
+
+
+def test_whole_runs_identical(library):
+    out = {}
+    for kernel in ("compiled", "python"):
+        scene = prepare_scene("vehicle-cornering", sets=[f"diff.solver.kernel={kernel}"])
+        out[kernel] = run_direct(scene)
+    assert out["compiled"].failure is None and out["python"].failure is None
+    assert np.array_equal(out["compiled"].data, out["python"].data)
+
+
+def test_switch_and_fallback(library, monkeypatch, caplog):
+    def model(kernel, **kw):
+        m = RigidDifferential(DifferentialParams(**kw))
+        m.kernel = kernel
+        m.initialize()
+        return m
+
+    assert model("python")._rk is None and model("python").kernel_note == "python (kernel = python)"
+    assert model("auto")._rk is not None and model("auto").kernel_note == "compiled"
+    assert model("auto", lockingLaw="paper")._rk is None          # no pin-load solve to run
+    with pytest.raises(ParameterError, match="solver.kernel"):
+        model("fast")
+    # no library: auto falls back with the reason logged, compiled refuses
+    monkeypatch.setattr(rigid_kernel, "_candidates", lambda: [])
+    monkeypatch.setattr(rigid_kernel, "_REPORTED", set())
+    rigid_kernel.reset()
+    try:
+        with caplog.at_level(logging.WARNING, logger="spurdiff.rigid"):
+            m = model("auto")
+        assert m._rk is None and m.kernel_note.startswith("python (no compiled rigid kernel found")
+        assert "Python reference" in caplog.text
+        with pytest.raises(ParameterError, match="solver.kernel"):
+            model("compiled")
+    finally:
+        rigid_kernel.reset()
+
+
+def test_stale_library_not_used(library, tmp_path, monkeypatch):
+    """A library is looked up under the digest of the C source: another source digest finds none."""
+    names = {p.name for p in rigid_kernel._candidates()}
+    assert library.name in names
+    monkeypatch.setattr(rigid_kernel, "source_digest", lambda native: "0" * 16)
+    assert library.name not in {p.name for p in rigid_kernel._candidates()}
+
+
+def test_the_fmu_ships_the_kernel(differential_fmu):
+    """The SpurDifferential FMU carries the library beside its binding (solver.kernel = compiled
+    refuses to start without it) and gives the Python reference's results bit for bit."""
+    import zipfile
+
+    from fmpy import simulate_fmu
+
+    with zipfile.ZipFile(differential_fmu) as z:
+        assert "resources/spurdiff/librigid_kernel.so" in z.namelist()
+    start = {"meshModel": "rigid", "carrierDrive": "speed", "carrier.w_ref": 1.389, "left.tau": -1500.0,
+             "right.tau": -600.0}
+    runs = {k: simulate_fmu(str(differential_fmu), stop_time=0.05, output_interval=1e-3,
+                            start_values={**start, "solver.kernel": k})
+            for k in ("python", "compiled")}
+    assert np.any(runs["compiled"]["left.w"] != runs["compiled"]["right.w"])     # it slips
+    for name in ("carrier.tauDrive", "left.tauMesh", "left.w", "energyLoss"):
+        assert np.array_equal(runs["python"][name], runs["compiled"][name]), name
