@@ -16,15 +16,58 @@
 #include <math.h>
 #include <stdint.h>
 
-#define RK_ABI 1
+#define RK_ABI 2
 #define RK_NCONST 49
 #define RK_NIO 12
 
 int64_t rk_abi(void) { return RK_ABI; }
 int64_t rk_nconst(void) { return RK_NCONST; }
 int64_t rk_nio(void) { return RK_NIO; }
+int64_t rk_nio_step(void) { return 24; }
 
 /* returns the number of Newton iterations (51: the iteration limit was reached) */
+int64_t rk_slip(const double *k, double *io);
+
+/* One communication step of a carrier torque-driven model slipping in direction s (w_d != 0) when
+ * it stays in that mode over the whole step (RigidDifferential.do_step's path then: one solve, one
+ * exact advance, the end-of-step accelerations those of the solve).
+ * io: in 0 s, 1 tau_c, 2 tau_L, 3 tau_R, 4 a_d start, 5 F_12 start, 6 wc, 7 wd, 8 phic, 9 phid,
+ *   10 work_in, 11 energy_loss, 12 h; out 13 ac, 14 ad, 15 F12, 16 cap, 17 Q_f, 18 wc, 19 wd,
+ *   20 phic, 21 phid, 22 work_in, 23 energy_loss.
+ * Returns 0, or 1 when the step is not of that kind (w_d reaches 0 within it): io's outputs are
+ * then meaningless and the caller runs the Python reference from its unchanged state. */
+int64_t rk_step_slip(const double *k, double *io)
+{
+    double sv[RK_NIO];
+    const double s = io[0], tau_c = io[1], tau_L = io[2], tau_R = io[3], wc0 = io[6], wd0 = io[7], dt = io[12];
+    const double lam = k[9];
+    sv[0] = s; sv[1] = 0.0; sv[2] = 0.0; sv[3] = tau_c; sv[4] = tau_L; sv[5] = tau_R; sv[6] = io[4];
+    sv[7] = io[5];
+    rk_slip(k, sv);
+    const double ac = sv[8], ad = sv[9], cap = sv[11];
+    const double Qf = -s * cap;
+    if (wd0 != 0.0 && ad * wd0 < 0.0) {
+        const double t_cross = -wd0 / ad;
+        if (t_cross < dt)
+            return 1;
+    }
+    if (!(dt > 0.0))
+        return 1;
+    const double wc1 = wc0 + ac * dt, wd1 = wd0 + ad * dt;
+    if (wd1 == 0.0 || copysign(1.0, wd1) != s)
+        return 1;
+    io[13] = ac; io[14] = ad; io[15] = sv[10]; io[16] = cap; io[17] = Qf;
+    io[20] = io[8] + 0.5 * (wc0 + wc1) * dt;
+    io[21] = io[9] + 0.5 * (wd0 + wd1) * dt;
+    const double tau_drive = tau_c;
+    const double mean_wc = 0.5 * (wc0 + wc1), mean_wd = 0.5 * (wd0 + wd1);
+    io[22] = io[10] + dt * (tau_drive * mean_wc + tau_L * (mean_wc + mean_wd) + tau_R * (mean_wc + lam * mean_wd));
+    io[23] = io[11] + dt * fabs(Qf * mean_wd);
+    io[18] = wc1;
+    io[19] = wd1;
+    return 0;
+}
+
 int64_t rk_slip(const double *k, double *io)
 {
     const double rb1 = k[0], rb2 = k[1], nrbA = k[2], nrbB = k[3], cpin = k[4], M01 = k[5], M02 = k[6];

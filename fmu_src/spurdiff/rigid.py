@@ -443,6 +443,9 @@ class RigidDifferential(DifferentialModel):
         if not (h.__class__ is float and 0.0 < h < math.inf):
             h = require_positive("communicationStepSize", h)
         self._check_inputs()
+        rk = self._rk
+        if rk is not None and self.wd != 0.0 and not self.speed_drive and self._step_compiled(rk, t, h):
+            return
         ac_given = (self.w_ref - self.wc) / h if self.speed_drive else None
         remaining = h
         loss0 = self.energy_loss
@@ -474,6 +477,37 @@ class RigidDifferential(DifferentialModel):
         # accelerations at the end of the step, for the outputs
         self.ac, self.ad, self.Qf, self.slip_dir = self._accelerations(0.0 if self.speed_drive else None)
         self._last_h = h
+
+    def _step_compiled(self, rk, t: float, h: float) -> bool:
+        """The step in C (:mod:`spurdiff.rigid_kernel`) when it is the usual one of a carrier
+        torque-driven model slipping throughout: a new solve (inputs other than the cached ones),
+        no mode switch. The same operations as :meth:`do_step`'s loop, one pass, and its
+        end-of-step accelerations (those of the solve: the same key). False: not that kind of
+        step, nothing changed (the Python path runs it)."""
+        s = math.copysign(1.0, self.wd)
+        tau_c, tau_L, tau_R = self.tau_c, self.tau_L, self.tau_R
+        key = (s, None, tau_c, tau_L, tau_R)
+        if key == self._slip_key:
+            return False
+        io = rk.sio
+        ad0 = self._ad_guess
+        loss0 = self.energy_loss
+        io[0:13] = (s, tau_c, tau_L, tau_R, 0.0 if ad0 is None else ad0, self.F12, self.wc, self.wd, self.phic,
+                    self.phid, self.work_in, loss0, h)
+        if rk.step(rk.const, io):
+            return False
+        ac, ad, F12, cap, Qf, self.wc, self.wd, self.phic, self.phid, self.work_in, loss = io[13:24]
+        self.energy_loss = loss
+        self.F12, self.cap, self._ad_guess = F12, cap, ad
+        self._slip_key, self._slip_val = key, (ac, ad, Qf, s, F12, cap)
+        if self.slip_dir == 0.0:
+            self.n_mode_switches += 1
+        self.t = t + h
+        self.loss_last_step = loss - loss0
+        self.n_steps += 1
+        self.ac, self.ad, self.Qf, self.slip_dir = ac, ad, Qf, s
+        self._last_h = h
+        return True
 
     def _advance(self, dt: float, ac: float, ad: float, Qf: float) -> None:
         if dt <= 0.0:

@@ -22,9 +22,10 @@ from pathlib import Path
 
 from .errors import ParameterError
 
-ABI = 1
+ABI = 2
 NCONST = 49
 NIO = 12
+NIO_STEP = 24
 LIB_NAME = "librigid_kernel.so"   # not rigid_kernel.so: Python would import that for this module
 KERNELS = ("auto", "compiled", "python")
 SEARCH_PATH: list[Path] = []
@@ -72,17 +73,18 @@ def load() -> tuple[C.CDLL | None, str]:
         try:
             lib = C.CDLL(str(path))
             lib.rk_abi.restype = lib.rk_nconst.restype = lib.rk_nio.restype = C.c_int64
+            lib.rk_nio_step.restype = C.c_int64
         except (OSError, AttributeError) as e:
             reasons.append(f"{path}: {e}")
             continue
-        if lib.rk_abi() != ABI or lib.rk_nconst() != NCONST or lib.rk_nio() != NIO:
+        if lib.rk_abi() != ABI or lib.rk_nconst() != NCONST or lib.rk_nio() != NIO or lib.rk_nio_step() != NIO_STEP:
             reasons.append(f"{path}: ABI {lib.rk_abi()} with {lib.rk_nconst()} constants, {lib.rk_nio()} "
                            f"values (this module needs ABI {ABI}, {NCONST}, {NIO})")
             continue
         # no argtypes: the two arguments are always the Kernel's c_double arrays, which ctypes passes
         # as pointers as they are (declared argtypes would convert them at each call: 0.6 us more)
-        lib.rk_slip.argtypes = None
-        lib.rk_slip.restype = C.c_int64
+        lib.rk_slip.argtypes = lib.rk_step_slip.argtypes = None
+        lib.rk_slip.restype = lib.rk_step_slip.restype = C.c_int64
         _LIB = (lib, str(path))
         return _LIB
     why = "; ".join(reasons) if reasons else (
@@ -134,3 +136,6 @@ class Kernel:
         self.const = (C.c_double * NCONST)(*(float(v) for v in const))
         self.io = (C.c_double * NIO)()
         self.fn = lib.rk_slip          # fn(const, io): the arrays above only
+        # a whole step of a carrier torque-driven model that slips throughout (rigid.py's do_step)
+        self.sio = (C.c_double * NIO_STEP)()
+        self.step = lib.rk_step_slip   # step(const, sio): 0 done, 1 not that kind of step
