@@ -1,10 +1,12 @@
-"""The compiled pin-load solve of the rigid level (``fmu_src/native/rigid_kernel.c``) through ctypes.
+"""The compiled kernel of the rigid level (``fmu_src/native/rigid_kernel.c``) through ctypes.
 
 The rigid level's hot path is the Newton solve of the planets' moment balances while the
 differential slips with the pin-load locking law (:meth:`spurdiff.rigid.RigidDifferential._slip_exact`,
-one per inner step of a differential owning its half-shafts). The C function transcribes it (same
+one per inner step of a differential owning its half-shafts): ``rk_slip`` does that solve, and
+``rk_step_slip`` the whole usual step of a carrier torque-driven model slipping throughout
+(:meth:`spurdiff.rigid.RigidDifferential._step_compiled`). Both transcribe the Python code (same
 operations, same order, no fused multiply-adds), so the two agree bit for bit
-(tests/test_rigid_kernel.py); the Python code stays the reference and the fallback.
+(tests/physics/test_rigid_kernel.py); the Python code stays the reference and the fallback.
 
 The library is found as the mesh kernel's (:mod:`spurdiff.mesh.kernel`): beside this module
 (``librigid_kernel.so``, as ``harness/build.py`` ships it inside each SpurDifferential FMU), else in
