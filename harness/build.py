@@ -118,12 +118,26 @@ def _fmi2_headers() -> Path:
     return Path(fmpy.__file__).parent / "c-code"
 
 
+def c_compiler() -> str:
+    """The C compiler: ``$CC`` (a command on PATH or a path), else ``cc`` or ``gcc`` on PATH;
+    BuildError naming what was looked for when there is none."""
+    given = os.environ.get("CC")
+    if given:
+        found = shutil.which(given.split()[0])
+        if found is None:
+            raise BuildError(f"CC = {given!r} is not an executable on PATH or a path to one "
+                             "(unset CC to use cc or gcc)")
+        return found
+    found = shutil.which("cc") or shutil.which("gcc")
+    if found is None:
+        raise BuildError("no C compiler (cc/gcc) on PATH")
+    return found
+
+
 def compile_native(out_dir: Path) -> tuple[Path, Path]:
     """Compile the loader and the bridge into ``out_dir``; raises BuildError with the compiler's
     message when there is no compiler or a build fails."""
-    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
-    if cc is None:
-        raise BuildError("no C compiler (cc/gcc) on PATH")
+    cc = c_compiler()
     include = sysconfig.get_paths()["include"]
     if not (Path(include) / "Python.h").is_file():
         raise BuildError(f"no Python.h in {include} (install this Python's development headers)")
@@ -156,9 +170,7 @@ def compile_kernel(out: Path, sources: tuple[str, ...] = KERNEL_SOURCES) -> Path
     """Compile ``fmu_src/native/mesh_kernel*.c`` (or ``sources``, e.g. :data:`RIGID_KERNEL_SOURCES`;
     libm only) into the file ``out``; BuildError with the compiler's message when there is no
     compiler or the build fails."""
-    cc = os.environ.get("CC") or shutil.which("cc") or shutil.which("gcc")
-    if cc is None:
-        raise BuildError("no C compiler (cc/gcc) on PATH")
+    cc = c_compiler()
     r = subprocess.run([cc, *KERNEL_FLAGS, f"-I{NATIVE}", *(str(NATIVE / f) for f in sources), "-o", str(out),
                         "-lm"], capture_output=True, text=True)
     if r.returncode != 0:
