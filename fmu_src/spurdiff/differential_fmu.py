@@ -209,8 +209,9 @@ VARIABLES: list[Var] = [
        "pin-load solve: auto (the compiled kernel shipped in the FMU when it loads, else the Python reference, "
        "with the reason logged) | compiled (refuse to start without it) | python (the pure-Python reference; "
        "same results, slower)", kind="String"),
-    Var("solver.kernelInUse", "calculatedParameter", "Implementation that runs the compliant/contact levels: "
-        "compiled | python (and why) | none (rigid)", None, None, "", kind="String"),
+    Var("solver.kernelInUse", "calculatedParameter", "Implementation that runs the compliant/contact levels, "
+        "or the rigid level's pin-load solve: compiled | python (and why) | none (rigid without a pin-load "
+        "solve: lockingLaw = paper, or no pin friction)", None, None, "", kind="String"),
     Var("carrierDrive", "parameter", "How the carrier is driven: speed (carrier.w_ref) | torque (carrier.tau)",
         None, None, "speed", kind="String", bind="diff.carrierDrive"),
     Var("shaftCoupling", "parameter",
@@ -362,8 +363,9 @@ def build_model(values: dict):
 
 
 def build_message(values: dict) -> str | None:
-    """What the FMU logs once the model is built: which implementation runs the mesh level, and why."""
-    if values["solver.kernelInUse"] == "none":
+    """What the FMU logs once the model is built: which implementation runs the mesh level or the rigid
+    level's pin-load solve, and why."""
+    if values["solver.kernelInUse"].startswith("none"):
         return None
     return f"meshModel = {values['meshModel']}: {values['solver.kernelInUse']} implementation"
 
@@ -382,7 +384,7 @@ def _set_calculated(model, values: dict) -> None:
     values["nStates"] = int(getattr(model, "n_states", 2))
     values["activeEffects"] = ",".join(active_effects(model))
     inner = getattr(model, "inner", model)
-    values["solver.kernelInUse"] = getattr(inner, "kernel_in_use", "none")
+    values["solver.kernelInUse"] = getattr(inner, "kernel_in_use", None) or getattr(inner, "kernel_note", "none")
 
 
 def active_effects(model) -> tuple[str, ...]:

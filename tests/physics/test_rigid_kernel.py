@@ -217,3 +217,23 @@ def test_the_fmu_ships_the_kernel(differential_fmu):
     assert np.any(runs["compiled"]["left.w"] != runs["compiled"]["right.w"])     # it slips
     for name in ("carrier.tauDrive", "left.tauMesh", "left.w", "energyLoss"):
         assert np.array_equal(runs["python"][name], runs["compiled"][name]), name
+
+
+def test_the_fmu_reports_which_implementation_runs_the_rigid_solve(differential_fmu):
+    """solver.kernelInUse names the rigid level's implementation too (it said 'none' at rigid)."""
+    import shutil
+
+    from harness.fmi.instance import Instance
+
+    seen = {}
+    for kernel in ("python", "auto"):
+        inst = Instance(f"k{kernel}", differential_fmu)
+        inst.slave.setupExperiment(startTime=0.0)
+        inst.slave.enterInitializationMode()
+        inst.set_value("solver.kernel", kernel)
+        inst.slave.exitInitializationMode()
+        seen[kernel] = inst.slave.getString([inst.var("solver.kernelInUse").valueReference])[0].decode()
+        inst.close()
+    assert seen["python"] == "python (kernel = python)", seen
+    if shutil.which("cc") or shutil.which("gcc"):   # the build shipped the library
+        assert seen["auto"] == "compiled", seen
