@@ -91,6 +91,7 @@ def test_a_per_scene_run_keeps_the_other_scenes_and_the_solve_ivp_points(tmp_pat
     import json
 
     import harness.accuracy as acc
+    from harness.accuracy import command, data as stored_data
 
     data, facts = tmp_path / "data.csv", tmp_path / "facts.json"
     old = _pts()
@@ -100,11 +101,11 @@ def test_a_per_scene_run_keeps_the_other_scenes_and_the_solve_ivp_points(tmp_pat
                                  "ivp_command": "spurdiff accuracy --only-ivp",
                                  "facts": {"paper-straight": {"reference": "old"}, "paper-cornering": {"reference": "old"}}}))
     new = replace(old[0], fidelity="new", wall=0.02)
-    monkeypatch.setattr(acc, "DATA_FILE", data)
-    monkeypatch.setattr(acc, "FACTS_FILE", facts)
+    monkeypatch.setattr(stored_data, "DATA_FILE", data)   # each name patched where it is looked up
+    monkeypatch.setattr(stored_data, "FACTS_FILE", facts)
     monkeypatch.chdir(tmp_path)   # results/accuracy/ goes under the current folder
-    monkeypatch.setattr(acc, "measure_scene", lambda n, spec, quick=False: ([new], {"reference": "new"}))
-    monkeypatch.setattr(acc, "_write_docs", lambda *a, **k: 0)
+    monkeypatch.setattr(command, "measure_scene", lambda n, spec, quick=False: ([new], {"reference": "new"}))
+    monkeypatch.setattr(command, "_write_docs", lambda *a, **k: 0)
     assert acc.main(["paper-cornering", "--no-ivp"]) == 0
     rows = read_csv(data)
     assert {(p.scene, p.fidelity) for p in rows} == {("paper-straight", "rigid"), ("paper-cornering", "new")}
@@ -206,15 +207,15 @@ def test_a_refused_auto_scene_run_exits_non_zero_with_one_line(tmp_path, monkeyp
     tolerance: one line, non-zero exit, nothing run."""
     import json
 
-    import harness.accuracy as acc
+    from harness.accuracy import data as stored_data
     from harness.cli import main
 
-    stored = json.loads(acc.FACTS_FILE.read_text())
+    stored = json.loads(stored_data.FACTS_FILE.read_text())
     stored["facts"]["tip-in-tip-out"] = {**stored["facts"]["tip-in-tip-out"], "convergence": 0.025,
                                          "convergence_metrics": {}}
     facts = tmp_path / "facts.json"
     facts.write_text(json.dumps(stored))
-    monkeypatch.setattr(acc, "FACTS_FILE", facts)
+    monkeypatch.setattr(stored_data, "FACTS_FILE", facts)
     assert main(["run", "tip-in-impacts-auto", "--out", str(tmp_path / "out")]) != 0
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "tip-in-impacts-auto: fidelity = auto refused" in err[0] and "tolerance 0.02" in err[0]

@@ -1,0 +1,231 @@
+"""``docs/accuracy.md`` and its figures (``accuracy.png``, ``accuracy_solvers.png``) from the
+measured or stored points."""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from harness.accuracy.auto import REFERENCE_FRACTION, SANE_ERROR, choose
+from harness.accuracy.data import Point
+from harness.accuracy.ivp import equal_accuracy_ratios, ivp_error_key
+from harness.scene import SceneError
+
+
+def _legend_outside(ax, n: int) -> None:
+    """The legend to the right of the panel, so it never hides a curve."""
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
+              ncol=2 if n > 12 else 1, frameon=False)
+
+
+def plot(points: list[Point], path: Path, ivp: list[dict] | None = None) -> list[Path]:
+    """Work-precision figures: ``path`` has one panel per scene (two columns, legends outside
+    the data); the solver comparison against solve_ivp is its own figure beside it
+    (``<stem>_solvers.png``), one panel per case. Returns the files written."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    written = []
+    scenes = sorted({p.scene for p in points})
+    if scenes:
+        ncol = 2 if len(scenes) > 1 else 1
+        nrow = -(-len(scenes) // ncol)
+        fig, axes = plt.subplots(nrow, ncol, figsize=(7.2 * ncol, 3.9 * nrow), squeeze=False)
+        styles = [(m, ls) for ls in ("-", "--", ":") for m in ("o", "s", "^", "v", "D")]
+        for ax, sc in zip(axes.flat, scenes):
+            curves: dict[str, list[Point]] = {}
+            for p in points:
+                if p.scene == sc and p.ok and math.isfinite(p.error) and p.wall > 0:
+                    curves.setdefault(p.fidelity, []).append(p)
+            for i, (fname, ps) in enumerate(curves.items()):
+                ps.sort(key=lambda p: p.wall)
+                m, ls = styles[i % len(styles)]
+                ax.loglog([p.wall for p in ps], [max(p.error, 1e-16) for p in ps], marker=m, ls=ls, label=fname, ms=4)
+            failed = sorted({p.step for p in points if p.scene == sc and not p.ok})
+            if failed:
+                ax.text(0.02, 0.02, "coupled run fails at steps " + ", ".join(f"{h:g}" for h in failed) + " s",
+                        transform=ax.transAxes, fontsize=7)
+            ax.set_xlabel("wall time [s]")
+            ax.set_ylabel("max relative error of the metrics")
+            ax.set_title(sc, fontsize=10)
+            ax.grid(True, which="both", alpha=0.3)
+            _legend_outside(ax, len(curves))
+        for ax in list(axes.flat)[len(scenes):]:
+            ax.set_visible(False)
+        fig.tight_layout()
+        fig.savefig(path, dpi=100)
+        plt.close(fig)
+        written.append(path)
+    cases = list(dict.fromkeys(p["case"] for p in ivp or []))
+    if cases:
+        key = ivp_error_key(ivp)
+        fig, axes = plt.subplots(1, len(cases), figsize=(7.2 * len(cases), 4.2), squeeze=False)
+        for ax, case in zip(axes[0], cases):
+            curves: dict[str, list[dict]] = {}
+            for p in ivp:
+                if p["case"] == case and math.isfinite(p.get(key, math.nan)):
+                    curves.setdefault(p["integrator"], []).append(p)
+            for name, ps in curves.items():
+                ps.sort(key=lambda p: p["wall"])
+                ours = name.startswith("ours")
+                style = (("*-" if "one call" in name else "o-" if "compiled" in name else "D-.") if ours
+                         else ("s--" if "restarted" in name else "^:"))
+                ax.loglog([p["wall"] for p in ps], [max(p[key], 1e-16) for p in ps], style,
+                          label=name, ms=5 if ours else 4, lw=2.5 if ours else 1)
+            ax.set_xlabel("wall time [s]")
+            ax.set_ylabel("max relative error of the paper scenes' metrics" if key == "metric_error"
+                          else "max scaled state error at 1 ms outputs")
+            ax.set_title(f"differential ODE, {case}: ours vs solve_ivp", fontsize=10)
+            ax.grid(True, which="both", alpha=0.3)
+            _legend_outside(ax, len(curves))
+        fig.tight_layout()
+        solvers = path.with_name(f"{path.stem}_solvers.png")
+        fig.savefig(solvers, dpi=100)
+        plt.close(fig)
+        written.append(solvers)
+    return written
+
+
+def markdown_ivp(ivp: list[dict], command: str = "spurdiff accuracy") -> list[str]:
+    has_metrics = ivp_error_key(ivp) == "metric_error"
+    lines = ["## Our internal solver against scipy's solve_ivp", "", f"Measured by `{command}`.", "",
+             "The same differential ODE (`MeshDifferential.rhs`/`.jac`, pin friction off so no mode switches), "
+             "0.3 s, 1 ms communication points, compared with a tolerance-1e-11 run of ours "
+             "(`harness.bench.mesh.ivp_points`) on two errors: the paper scenes' metrics (mean, max and min of the "
+             "carrier and sun torques and the three mesh forces along the trajectory, each relative to its "
+             "quantity's scale, as the scenes above are measured; plotted) and the scaled states at the "
+             "communication points (stricter). solve_ivp runs once over the whole interval (\"one call\") and, "
+             "as a co-simulation slave whose inputs may change at every communication point must, restarted every "
+             "1 ms. Ours: the compiled kernel and the Python reference (the same numbers, so the same errors: the "
+             "horizontal distance between their curves is what the interpreter costs), each as the FMU runs it, a "
+             "do_step per communication step, and the compiled kernel over the whole run in one call. "
+             "Ratio: wall time the best solve_ivp variant needs for our error (log-log interpolation along its "
+             "tolerance curve) over ours; above 1 we are faster.", ""]
+
+    def ratio_table(title: str, pts: list[dict], key: str, who: str) -> list[str]:
+        out = [title, "", f"| case | ours | tolerance | our error | our wall s | best {who} at equal error | its wall s "
+               "| ratio |", "|---|---|---|---|---|---|---|---|"]
+        for r in equal_accuracy_ratios(pts, key):
+            bw = "" if r["best_wall"] is None else f"{r['best_wall']:.4f}"
+            ra = "" if r["ratio"] is None else f"{r['ratio']:.2f}"
+            out.append(f"| {r['case']} | {r.get('ours', 'ours')} | {r['tolerance']:g} | {r['error']:.2e} | {r['wall']:.4f} | "
+                       f"{r['best'] or 'none in range'} | {bw} | {ra} |")
+        return out + [""]
+
+    restarted = [p for p in ivp if "one call" not in p["integrator"]]
+    for key, what in ((("metric_error", "the scenes' metrics"),) if has_metrics else ()) + (("error", "the states"),):
+        lines += ratio_table(f"Error on {what}, against every solve_ivp variant:", ivp, key, "solve_ivp")
+        lines += ratio_table(f"Error on {what}, against solve_ivp restarted at every communication point "
+                             "(what an FMU must do):", restarted, key, "restarted solve_ivp")
+    lines += ["All points:", "", "| case | integrator | tolerance | metrics error | state error | wall s |",
+              "|---|---|---|---|---|---|"]
+    for p in ivp:
+        me = f"{p['metric_error']:.2e}" if "metric_error" in p else ""
+        lines.append(f"| {p['case']} | {p['integrator']} | {p['tolerance']:g} | {me} | {p['error']:.2e} | {p['wall']:.4f} |")
+    return lines + [""]
+
+
+def _convergence_text(f: dict, points: list[Point], scene: str) -> str:
+    errs = [p.error for p in points if p.scene == scene and p.ok and p.fidelity != f["reference"]]
+    conv = f["convergence"]
+    text = f"The same fidelity one refinement coarser differs from it by {conv:.2e} (relative): "
+    if conv < 1e-9:
+        return text + "converged (below 1e-9)."
+    if not errs or conv <= 0.1 * min(errs):
+        return text + "converged, well below the errors of the other fidelities."
+    return text + (f"NOT converged below that level: errors of {conv:.1e} or less in the table below are not "
+                   "resolved by this reference.")
+
+
+def markdown_auto(data: list[Point]) -> list[str]:
+    """What every `fidelity = "auto"` scene chooses from the stored data, and why."""
+    from harness.scene import available, load_scene
+
+    lines = ["## `fidelity = \"auto\"`: what the scenes choose", "",
+             "The rule (`harness.accuracy.choose`; errors on the scene's requested outputs, relative to their "
+             "scales, against the grid's reference):", "",
+             f"1. The reference must resolve the tolerance: its difference from its own run one refinement coarser, "
+             f"on the requested outputs, must be at most {REFERENCE_FRACTION:g} of the tolerance, else the choice is "
+             "refused (`spurdiff run` exits non-zero with a one-line message naming the scene, the tolerance and the "
+             "reference's resolution). An error measured against the reference is known only to within the "
+             "reference's own error, which the next-coarser run bounds; with a quarter, a point accepted at the "
+             "tolerance is within 1.25 times it of the converged answer, while against a reference worse than the "
+             "tolerance a coarse step can land \"within the tolerance\" by chance.",
+             "2. A setting (fidelity, internal tolerance, step) qualifies only if its error and the errors of every "
+             "finer stored step of the same fidelity and internal tolerance meet the tolerance (every one of those "
+             f"runs succeeded, none with any metric off by more than {SANE_ERROR:g} times its scale): convergence shown, "
+             "not a cancellation of errors at one coarse step.",
+             "3. Of the qualifying settings, the one with the least stored wall time.", ""]
+    for name in available():
+        sc = load_scene(name)
+        if sc.fidelity.get("mode") != "auto":
+            continue
+        try:
+            _, why = choose(sc, data)
+        except SceneError as e:
+            why = f"no choice: {e}"
+        lines += [f"* `{name}` (outputs {', '.join(sc.fidelity['outputs'])}, tolerance {sc.fidelity.get('tolerance', 0.01):g}): "
+                  + why, ""]
+    return lines
+
+
+def markdown(points: list[Point], facts: dict[str, dict], command: str) -> str:
+    lines = ["# Accuracy versus cost", "",
+             f"Generated by `{command}`; do not edit by hand. Errors are the largest relative error over "
+             "the scene's metrics (mean, max and min of every results-table quantity, over the row's window) against the "
+             "reference run, each relative to the quantity's scale (its largest reference magnitude); wall time is the median stepping time of repeated runs (fewer for runs of tens of seconds, see the grid file) on the machine that ran "
+             "the command.", "", "![work-precision](accuracy.png)", ""]
+    for sc, f in facts.items():
+        lines += [f"## {sc}", "", f"Measured by `{f.get('command', command)}`.", "",
+                  f"Reference: `{f['reference']}`, step {f['ref_step']:g} s, tolerance {f['ref_tolerance']}, "
+                  f"{f['duration']:g} s simulated in {f['ref_wall']:.2f} s. " + _convergence_text(f, points, sc), ""]
+        lines += _summary(points, sc, f["duration"])
+        lines += ["All points:", "",
+                  "| fidelity | step s | tolerance | wall s | real-time factor | max rel. error |",
+                  "|---|---|---|---|---|---|"]
+        for p in points:
+            if p.scene != sc:
+                continue
+            rtf = f["duration"] / p.wall if p.ok and p.wall > 0 else math.nan
+            err = f"{p.error:.2e}" if p.ok else f"failed: {p.reason[:60]}"
+            lines.append(f"| {p.fidelity} | {p.step:g} | {'' if p.tolerance is None else f'{p.tolerance:g}'} | "
+                         f"{p.wall:.4f} | {rtf:.1f} | {err} |")
+        lines.append("")
+    return "\n".join(lines) + "\n"
+
+
+def _summary(points: list[Point], scene: str, duration: float) -> list[str]:
+    """Per fidelity: its fastest run, its most accurate run, and the steps at which it failed."""
+    by_fid: dict[str, list[Point]] = {}
+    for p in points:
+        if p.scene == scene:
+            by_fid.setdefault(p.fidelity, []).append(p)
+    lines = ["Per fidelity (the fastest and the most accurate of its runs; steps where the coupled run failed):", "",
+             "| fidelity | fastest: step s, tolerance | wall s | error | most accurate: step s, tolerance | wall s | error | failed at steps s |",
+             "|---|---|---|---|---|---|---|---|"]
+    for fid, ps in by_fid.items():
+        ok = [p for p in ps if p.ok]
+        failed = sorted({p.step for p in ps if not p.ok})
+        if not ok:
+            lines.append(f"| {fid} | | | | | | | {', '.join(f'{h:g}' for h in failed)} |")
+            continue
+        fast, best = min(ok, key=lambda p: p.wall), min(ok, key=lambda p: (p.error, p.wall))
+
+        def setting(p: Point) -> str:
+            return f"{p.step:g}" + ("" if p.tolerance is None else f", {p.tolerance:g}")
+        lines.append(f"| {fid} | {setting(fast)} | {fast.wall:.4f} | {fast.error:.2e} | {setting(best)} | "
+                     f"{best.wall:.4f} | {best.error:.2e} | {', '.join(f'{h:g}' for h in failed) or 'none'} |")
+    return lines + [""]
+
+
+def _write_docs(points, facts, ivp, out: Path, cmd: str, data, ivp_cmd: str | None = None) -> int:
+    out.mkdir(parents=True, exist_ok=True)
+    figures = plot(data, out / "accuracy.png", ivp)
+    text = markdown(points, facts, cmd)
+    if ivp:
+        text += "\n".join(markdown_ivp(ivp, ivp_cmd or cmd) + ["", "![ours against solve_ivp](accuracy_solvers.png)", "", ""])
+    text += "\n".join(markdown_auto(data))
+    (out / "accuracy.md").write_text(text)
+    print(f"wrote {out / 'accuracy.md'}, " + ", ".join(str(f) for f in figures))
+    return 0
