@@ -63,12 +63,8 @@ from __future__ import annotations
 
 import math
 import operator
-from dataclasses import dataclass, field
-from pathlib import Path
-
-from .datafile import read_data, section
-from .errors import ParameterError, StepError, require_finite, require_nonnegative, require_positive
-from .tyre import TyreParams
+from .errors import StepError, require_finite, require_nonnegative, require_positive
+from .wheel_params import SHAFT_COUPLINGS, HalfShaftParams, WheelLoadParams, WheelParams  # noqa: F401 (re-exported)
 
 _STATE_KEYS = (
     "t", "theta", "w", "k", "phi_ref", "n_steps", "n_substeps",
@@ -80,88 +76,11 @@ _STATE_KEYS = (
     # differential's predicted speed change over the step, the linear model reported for the next
     "phi", "tau_in", "w_anchor", "dw_in", "sur_a", "sur_invJ", "sur_dadw", "sur_qrate", "sur_ct", "sur_rt",
 )
-SHAFT_COUPLINGS = ("torque", "wheel")
 _WHEEL_STEP_KEYS = ("theta", "w_anchor", "w", "k", "phi", "t", "n_steps", "n_substeps", "work_flange",
                     "work_road", "loss_slip", "loss_rolling", "flange_tau", "Fx", "wheel_w", "slip",
                     "shaft_tau", "shaft_power", "sur_a", "sur_invJ", "sur_dadw", "sur_qrate", "sur_ct",
                     "sur_rt")
 _get_step_values = operator.attrgetter(*_WHEEL_STEP_KEYS)
-
-
-@dataclass
-class HalfShaftParams:
-    """c: torsional stiffness (N m/rad); d: torsional damping (N m s/rad);
-    phi_rel_start: twist at the start (rad)."""
-
-    c: float = 8000.0
-    d: float = 10.0
-    phi_rel_start: float = 0.0
-
-    def validate(self) -> None:
-        require_positive("halfShaft.c", self.c)
-        require_nonnegative("halfShaft.d", self.d)
-        require_finite("halfShaft.phi_rel_start", self.phi_rel_start)
-
-
-@dataclass
-class WheelParams:
-    """J: spin inertia of wheel and tyre (kg m^2); R: rolling radius (m);
-    w_start: wheel speed at the start (rad/s), NaN = the flange speed."""
-
-    J: float = 0.779
-    R: float = 0.3266
-    w_start: float = math.nan
-
-    def validate(self) -> None:
-        require_positive("wheel.J", self.J)
-        require_positive("wheel.R", self.R)
-        if not math.isnan(self.w_start):
-            require_finite("wheel.w_start", self.w_start)
-
-
-@dataclass
-class WheelLoadParams:
-    """All parameters of :class:`WheelLoad`. h_max: largest internal step (s);
-    followFlangeAngle: 1 = the twist follows the flange angle input, 0 = flange speed only."""
-
-    halfShaft: HalfShaftParams = field(default_factory=HalfShaftParams)
-    wheel: WheelParams = field(default_factory=WheelParams)
-    tyre: TyreParams = field(default_factory=TyreParams)
-    h_max: float = 1e-3
-    followFlangeAngle: int = 1
-    shaftCoupling: str = "torque"
-    interfaceStiffness: int = 1
-
-    @classmethod
-    def from_data(cls, data: dict) -> "WheelLoadParams":
-        solver = dict(data.get("wheelLoad", {}))
-        for key in solver:
-            if key not in ("h_max", "followFlangeAngle", "shaftCoupling", "interfaceStiffness"):
-                raise ParameterError(f"wheelLoad.{key}", solver[key],
-                                     "h_max, followFlangeAngle, shaftCoupling or interfaceStiffness",
-                                     "unknown parameter")
-        return cls(halfShaft=section(HalfShaftParams, data, "halfShaft"),
-                   wheel=section(WheelParams, data, "wheel"),
-                   tyre=section(TyreParams, data, "tyre"), **solver)
-
-    @classmethod
-    def defaults(cls, path: str | Path | None = None) -> "WheelLoadParams":
-        """Parameters from the passenger-car TOML data (or the TOML file at ``path``)."""
-        return cls.from_data(read_data(path))
-
-    def validate(self) -> None:
-        self.halfShaft.validate()
-        self.wheel.validate()
-        self.tyre.validate("tyre")
-        h = require_positive("wheelLoad.h_max", self.h_max)
-        if h > 0.1:
-            raise ParameterError("wheelLoad.h_max", self.h_max, "between 0 and 0.1 s")
-        if self.followFlangeAngle not in (0, 1):
-            raise ParameterError("wheelLoad.followFlangeAngle", self.followFlangeAngle, "0 or 1")
-        if self.shaftCoupling not in SHAFT_COUPLINGS:
-            raise ParameterError("shaftCoupling", self.shaftCoupling, " or ".join(SHAFT_COUPLINGS))
-        if self.interfaceStiffness not in (0, 1):
-            raise ParameterError("wheelLoad.interfaceStiffness", self.interfaceStiffness, "0 or 1")
 
 
 class WheelLoad:
