@@ -8,44 +8,10 @@ Frames and signs (ISO 8855): body x forward, y left, z up; yaw rate ``r`` and st
 ``delta`` positive to the left; ``pathRadius > 0`` is a left turn. States: body-frame velocities
 ``v_x``, ``v_y``, yaw rate ``r``, heading ``psi``, position ``x``, ``y``; axle slip angles
 ``alpha_f``, ``alpha_r``; the filtered accelerations that drive load transfer ``a_xs_f``,
-``a_y_f``; the controller integrators ``I_v`` (speed) and ``I_r`` (yaw rate). Equations::
-
-    m (dv_x/dt - v_y r) = F_xf cos(delta) - F_yf sin(delta) + Fx_L + Fx_R + F_aero + F_grade
-    m (dv_y/dt + v_x r) = F_xf sin(delta) + F_yf cos(delta) + F_yr
-    Iz dr/dt            = l_f (F_xf sin(delta) + F_yf cos(delta)) - l_r F_yr + (t_r/2)(Fx_R - Fx_L)
-    F_aero = -1/2 rho CdA v_x |v_x|,   F_grade = -m g sin(grade)
-
-Lateral tyres (single-track, one Magic Formula per axle, tyre.py): ``F_yf = mu Fz_f f(alpha_f)``,
-``F_yr = D_r f(alpha_r)`` with the rear friction circle ``D_r = sqrt((mu Fz_r)^2 - (Fx_L + Fx_R)^2)``
-(0 if negative). Slip angles by relaxation length ``sigma`` (no division by the speed, defined at
-standstill, as the longitudinal slip in tyre.py)::
-
-    sigma dalpha/dt + |v_wx| alpha = -v_wy
-
-with ``(v_wx, v_wy)`` the axle-centre velocity in the wheel frame: front ``v_wx = v_x cos delta +
-(v_y + l_f r) sin delta``, ``v_wy = -v_x sin delta + (v_y + l_f r) cos delta``; rear ``v_wx = v_x``,
-``v_wy = v_y - l_r r``. In steady state this is the single-track slip angle
-``alpha_f = delta - (v_y + l_f r)/v_x``, ``alpha_r = -(v_y - l_r r)/v_x``. ``|alpha| <= alpha_max``.
-Front rolling resistance ``F_xf = -f_rr Fz_f tanh(v_wx / v_rr)``.
-
-Loads (never negative; a lifted wheel carries 0)::
-
-    Fz_f = m g cos(grade) l_r / L - m a_xs_f h / L,   Fz_r = m g cos(grade) l_f / L + m a_xs_f h / L
-    Fz_RL,RR = Fz_r / 2 -+ s_r m a_y_f h / t_r      (clamped to [0, Fz_r])
-
-``a_xs = a_x + g sin(grade)`` is the longitudinal specific force (ground and aero forces over m,
-what shifts load); ``s_r`` is the rear share of the roll stiffness. ``a_xs_f``, ``a_y_f`` follow
-``a_xs``, ``a_y`` with a first-order lag ``tau_load`` (the body's pitch/roll response); the lag also
-breaks the algebraic loop load -> force -> acceleration -> load.
-
-Steering (``steering.mode = 0``): ``delta = atan(L / R) + K_r e + I_r``, ``dI_r/dt = K_ri e``,
-``e = (v_x / R - r) tanh(v_x / 1 m/s)`` (the factor keeps the feedback sign right when reversing
-and fades it at standstill), limited to ``+-delta_max`` with conditional-integration anti-windup;
-``R = 0`` or ``inf`` means straight. ``mode = 1``: ``delta`` = the steering-angle input (limited).
-Speed control: ``driveTorque = Kp (speedTarget - v_x) + I_v``, ``dI_v/dt = Ki (speedTarget - v_x)``,
-limited to ``[driveTorqueMin, driveTorqueMax]`` with conditional-integration anti-windup. It is the
-axle torque (at the differential carrier) the powertrain should deliver; this model only
-computes it.
+``a_y_f``; the controller integrators ``I_v`` (speed) and ``I_r`` (yaw rate).
+The equations (body, lateral tyres, loads, steering and speed control) are in
+:mod:`spurdiff.vehicle_rates`, beside the rate function that evaluates them; the parameters
+in :mod:`spurdiff.vehicle_params`.
 
 Integration: classical 4th-order Runge-Kutta in plain floats, sub-stepped so that each internal
 step is at most ``h_max`` and at most ``sigma / |v_x|`` (the fastest mode is the slip-angle
@@ -61,20 +27,14 @@ combined slip on the driven axle; parameter values and their sources in
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from pathlib import Path
 
-from .datafile import read_data, section
 from .errors import ParameterError, StepError, require_finite, require_nonnegative, require_positive, require_range
-from .tyre import magic_formula as _mf
-from .tyre import slip_for_force_ratio, validate_shape
-
-G = 9.80665  # standard gravity, m/s^2
+from .tyre import slip_for_force_ratio
+from .vehicle_params import (G, STEER_ANGLE, STEER_PATH, BodyParams, LateralTyreParams,  # noqa: F401 (re-exported)
+                             SpeedControlParams, SteeringParams, VehicleParams)
+from .vehicle_rates import make_rates
 
 _GRADE_MIN, _GRADE_MAX = -0.25 * math.pi, 0.25 * math.pi   # allowed road grade (rad)
-
-STEER_PATH = 0
-STEER_ANGLE = 1
 
 _N = 12  # number of continuous states
 _STATE_NAMES = ("vx", "vy", "r", "psi", "x", "y", "alpha_f", "alpha_r", "axs_f", "ay_f", "I_v", "I_r")
@@ -85,135 +45,8 @@ _OUTPUT_KEYS = (
 _INPUT_KEYS = ("rearLeft_Fx", "rearRight_Fx", "speedTarget", "pathRadius", "steering_angle_cmd", "grade", "mu")
 
 
-@dataclass
-class BodyParams:
-    """Section ``[vehicle]``. m (kg), Iz (kg m^2), L wheelbase (m), l_f CG to front axle (m),
-    trackFront / trackRear (m), h_cg CG height (m), CdA (m^2), rho_air (kg/m^3), f_rr front rolling
-    resistance (1), v_rr its fade-in speed (m/s), rollStiffnessShareRear (1), tau_load (s),
-    vx_start (m/s), h_max largest internal step (s), R_wheel rear rolling radius (m; default: the
-    ``[wheel] R`` of the same data, used only to start the speed controller at the holding torque).
-    """
-
-    m: float = 1250.0
-    Iz: float = 1053.5
-    L: float = 2.776
-    l_f: float = 1.388
-    trackFront: float = 1.5958
-    trackRear: float = 1.6
-    h_cg: float = 0.40
-    CdA: float = 0.66
-    rho_air: float = 1.225
-    f_rr: float = 0.015
-    v_rr: float = 0.1
-    rollStiffnessShareRear: float = 0.5
-    tau_load: float = 0.05
-    vx_start: float = 0.0
-    h_max: float = 0.002
-    R_wheel: float = 0.3266
-
-    def validate(self) -> None:
-        for name in ("m", "Iz", "L", "trackFront", "trackRear", "v_rr", "tau_load", "R_wheel"):
-            require_positive(f"vehicle.{name}", getattr(self, name))
-        for name in ("h_cg", "CdA", "rho_air", "f_rr"):
-            require_nonnegative(f"vehicle.{name}", getattr(self, name))
-        lf = require_finite("vehicle.l_f", self.l_f)
-        if not 0.0 < lf < self.L:
-            raise ParameterError("vehicle.l_f", self.l_f, f"0 < l_f < L = {self.L:g} m")
-        require_range("vehicle.rollStiffnessShareRear", self.rollStiffnessShareRear, 0.0, 1.0)
-        require_finite("vehicle.vx_start", self.vx_start)
-        h = require_positive("vehicle.h_max", self.h_max)
-        if h > 0.1:
-            raise ParameterError("vehicle.h_max", self.h_max, "between 0 and 0.1 s")
-
-
-@dataclass
-class LateralTyreParams:
-    """Section ``[lateralTyre]``: axle Magic Formula B, C, E; relaxation length sigma (m);
-    alpha_max largest |slip angle| (rad)."""
-
-    B: float = 11.0
-    C: float = 1.37
-    E: float = 0.0
-    sigma: float = 0.10
-    alpha_max: float = 1.0
-
-    def validate(self) -> None:
-        validate_shape("lateralTyre", self.B, self.C, self.E)
-        require_positive("lateralTyre.sigma", self.sigma)
-        require_range("lateralTyre.alpha_max", self.alpha_max, 1e-6, 0.5 * math.pi)
-
-
-@dataclass
-class SteeringParams:
-    """Section ``[steering]``: mode (0 = path radius, 1 = steering-angle input); K_r (rad per
-    rad/s), K_ri (rad per rad): yaw-rate PI gains; delta_max (rad)."""
-
-    mode: int = STEER_PATH
-    K_r: float = 0.1
-    K_ri: float = 0.5
-    delta_max: float = 0.6
-
-    def validate(self) -> None:
-        if self.mode not in (STEER_PATH, STEER_ANGLE):
-            raise ParameterError("steering.mode", self.mode, "0 (path radius) or 1 (steering angle)")
-        require_nonnegative("steering.K_r", self.K_r)
-        require_nonnegative("steering.K_ri", self.K_ri)
-        require_range("steering.delta_max", self.delta_max, 1e-6, 1.2)
-
-
-@dataclass
-class SpeedControlParams:
-    """Section ``[speedControl]``: Kp (N m per m/s), Ki (N m per m), driveTorqueMax (N m, > 0),
-    driveTorqueMin (N m, <= 0: engine braking)."""
-
-    Kp: float = 400.0
-    Ki: float = 200.0
-    driveTorqueMax: float = 2000.0
-    driveTorqueMin: float = -600.0
-
-    def validate(self) -> None:
-        require_nonnegative("speedControl.Kp", self.Kp)
-        require_nonnegative("speedControl.Ki", self.Ki)
-        require_positive("speedControl.driveTorqueMax", self.driveTorqueMax)
-        tmin = require_finite("speedControl.driveTorqueMin", self.driveTorqueMin)
-        if not tmin <= 0.0:
-            raise ParameterError("speedControl.driveTorqueMin", self.driveTorqueMin, "<= 0")
-
-
-@dataclass
-class VehicleParams:
-    vehicle: BodyParams = field(default_factory=BodyParams)
-    lateralTyre: LateralTyreParams = field(default_factory=LateralTyreParams)
-    steering: SteeringParams = field(default_factory=SteeringParams)
-    speedControl: SpeedControlParams = field(default_factory=SpeedControlParams)
-
-    @classmethod
-    def from_data(cls, data: dict) -> "VehicleParams":
-        body = dict(data.get("vehicle", {}))
-        if "R_wheel" not in body and "R" in data.get("wheel", {}):
-            body["R_wheel"] = data["wheel"]["R"]
-        return cls(vehicle=section(BodyParams, {"vehicle": body}, "vehicle"),
-                   lateralTyre=section(LateralTyreParams, data, "lateralTyre"),
-                   steering=section(SteeringParams, data, "steering"),
-                   speedControl=section(SpeedControlParams, data, "speedControl"))
-
-    @classmethod
-    def defaults(cls, path: str | Path | None = None) -> "VehicleParams":
-        """Parameters from the passenger-car TOML data (or the TOML file at ``path``)."""
-        return cls.from_data(read_data(path))
-
-    def validate(self) -> None:
-        self.vehicle.validate()
-        self.lateralTyre.validate()
-        self.steering.validate()
-        self.speedControl.validate()
-        sc = self.speedControl
-        if sc.driveTorqueMin > sc.driveTorqueMax:
-            raise ParameterError("speedControl.driveTorqueMin", sc.driveTorqueMin, "<= driveTorqueMax")
-
-
 class Vehicle:
-    """Planar rear-wheel-drive vehicle; equations in the module docstring.
+    """Planar rear-wheel-drive vehicle; equations in :mod:`spurdiff.vehicle_rates`.
 
     Inputs (attributes, SI): ``rearLeft_Fx``, ``rearRight_Fx`` (N, rear tyre forces on the body),
     ``speedTarget`` (m/s), ``pathRadius`` (m, signed, 0 or inf = straight), ``steering_angle_cmd``
@@ -355,93 +188,9 @@ class Vehicle:
     ATOMIC_STEP = True   # do_step commits nothing when it raises or when the result is not finite
 
     def _make_rates(self):
-        """The model's equations (module docstring) as a rate function for the inputs cached by
-        :meth:`_load_inputs`, every parameter and input-only term bound once (per step).
-
-        ``rates(vx, vy, r, psi, alpha_f, alpha_r, axs_f, ay_f, I_v, I_r)`` (the state without the
-        position, which no rate depends on) returns the 12 time derivatives in state order; with
-        ``full=True`` it returns ``(derivatives, (delta, Fz_f, Fz_r, a_x, a_y, a_xs, Fx_rear, Fy_f,
-        Fy_r, u))``, what the outputs and the initialization need (u: the speed controller's
-        unlimited torque)."""
-        p = self.params
-        b, lt, st, sc = p.vehicle, p.lateralTyre, p.steering, p.speedControl
-        m, L, lf = b.m, b.L, b.l_f
-        lr = L - lf
-        mu = self._mu
-        Wn = m * G * self._cos_g
-        Wn_lr_L = Wn * lr / L
-        h_cg = b.h_cg
-        B, C, E = lt.B, lt.C, lt.E
-        nfrr, v_rr = -b.f_rr, b.v_rr
-        FxL, FxR = self._FxL, self._FxR
-        Fxr = FxL + FxR
-        Fxr2 = Fxr * Fxr
-        k_aero = -0.5 * b.rho_air * b.CdA
-        F_grade = -m * G * self._sin_g
-        Mz_x = 0.5 * b.trackRear * (FxR - FxL)
-        G_sin = G * self._sin_g
-        Iz = b.Iz
-        vref, Kp, Ki = self._vref, sc.Kp, sc.Ki
-        umax, umin = sc.driveTorqueMax, sc.driveTorqueMin
-        inv_sig = 1.0 / lt.sigma
-        inv_tau = 1.0 / b.tau_load
-        dmax = st.delta_max
-        angle_mode = st.mode == STEER_ANGLE
-        dcmd = self._dcmd
-        delta_cmd = dmax if dcmd > dmax else (-dmax if dcmd < -dmax else dcmd)
-        kappa, delta_ff, K_r, K_ri = self._kappa, self._delta_ff, st.K_r, st.K_ri
-        sin, cos, tanh, atan, sqrt = math.sin, math.cos, math.tanh, math.atan, math.sqrt
-
-        def rates(vx, vy, r, psi, af, ar, axf, ayf, Iv, Ir, full=False):
-            if angle_mode:
-                dIr = 0.0
-                delta = delta_cmd
-            else:
-                e = (vx * kappa - r) * tanh(vx)
-                raw = delta_ff + K_r * e + Ir
-                if (raw >= dmax and e > 0.0) or (raw <= -dmax and e < 0.0):
-                    dIr = 0.0
-                else:
-                    dIr = K_ri * e
-                delta = dmax if raw > dmax else (-dmax if raw < -dmax else raw)
-            Fz_f = Wn_lr_L - m * axf * h_cg / L
-            Fz_f = 0.0 if Fz_f < 0.0 else (Wn if Fz_f > Wn else Fz_f)
-            Fz_r = Wn - Fz_f
-            cd, sd = cos(delta), sin(delta)
-            vfy = vy + lf * r
-            vwx_f = vx * cd + vfy * sd
-            vwy_f = -vx * sd + vfy * cd
-            x = B * af
-            Fyf = mu * Fz_f * sin(C * atan(x - E * (x - atan(x))))
-            Fxf = nfrr * Fz_f * tanh(vwx_f / v_rr)
-            D2 = (mu * Fz_r) ** 2 - Fxr2
-            x = B * ar
-            Fyr = (sqrt(D2) if D2 > 0.0 else 0.0) * sin(C * atan(x - E * (x - atan(x))))
-            Fyf_b = Fxf * sd + Fyf * cd
-            FX = Fxf * cd - Fyf * sd + Fxr + k_aero * vx * abs(vx) + F_grade
-            ax = FX / m
-            ay = (Fyf_b + Fyr) / m
-            eu = vref - vx
-            u = Kp * eu + Iv
-            cpsi, spsi = cos(psi), sin(psi)
-            d = (
-                ax + vy * r,
-                ay - vx * r,
-                (lf * Fyf_b - lr * Fyr + Mz_x) / Iz,
-                r,
-                vx * cpsi - vy * spsi,
-                vx * spsi + vy * cpsi,
-                (-vwy_f - abs(vwx_f) * af) * inv_sig,
-                (-(vy - lr * r) - abs(vx) * ar) * inv_sig,
-                (ax + G_sin - axf) * inv_tau,
-                (ay - ayf) * inv_tau,
-                0.0 if ((u >= umax and eu > 0.0) or (u <= umin and eu < 0.0)) else Ki * eu,
-                dIr,
-            )
-            if full:
-                return d, (delta, Fz_f, Fz_r, ax, ay, ax + G_sin, Fxr, Fyf, Fyr, u)
-            return d
-        return rates
+        """The model's rate function for the inputs cached by :meth:`_load_inputs`
+        (:func:`spurdiff.vehicle_rates.make_rates`)."""
+        return make_rates(self)
 
     def _rates_full(self, s, rates=None) -> tuple:
         """The derivatives and the force/acceleration values of ``rates(..., full=True)`` at the
