@@ -21,7 +21,7 @@ Top-level keys::
     checks                        [[checks]] physical checks (name, stat, var, window, expect/rtol/atol/below/above,
                                   fidelity: the mesh models it holds at, others report it as not checked)
     fidelity                      "fixed" (default) | {mode = "auto", outputs = ["inst.var", ...], tolerance = 0.01,
-                                  data = "scene"}: pick the cheapest measured fidelity and step (harness/accuracy.py)
+                                  data = "scene"}: pick the cheapest measured fidelity and step (harness/accuracy/auto.py)
     extends                       name of a scene this one starts from: its tables are merged key by key,
                                   every other value (lists included) is replaced
 

@@ -18,5 +18,5 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from harness.bench.core import run
+    from harness.bench.report import run
     return run(build_parser().parse_args(argv))

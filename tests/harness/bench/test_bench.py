@@ -4,6 +4,7 @@ import argparse
 import math
 
 import harness.bench.core as bench
+import harness.bench.report as report
 from harness.accuracy import load_grid
 
 
@@ -51,26 +52,26 @@ def test_step_control_comparison_measures_real_runs(monkeypatch):
 
 
 def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeypatch, capsys):
-    monkeypatch.setattr(bench, "fmi_overhead", lambda *a, **k: {
+    monkeypatch.setattr(report, "fmi_overhead", lambda *a, **k: {
         "scene": "vehicle-cornering", "simulated_s": 3.0, "fmi_s": 3.0, "direct_s": 1.5, "ratio": 2.0,
         "step": 2e-4, "instances": 4})
-    monkeypatch.setattr(bench, "fidelity_cost", lambda *a, **k: [
+    monkeypatch.setattr(report, "fidelity_cost", lambda *a, **k: [
         {"level": "rigid", "wall_s": 0.01, "relative": 1.0, "realtime_factor": 30.0, "ok": True},
         {"level": "contact", "wall_s": 0.1, "relative": 10.0, "realtime_factor": 3.0, "ok": True}])
-    monkeypatch.setattr(bench, "realtime_factors", lambda *a, **k: [
+    monkeypatch.setattr(report, "realtime_factors", lambda *a, **k: [
         {"scene": "vehicle-cornering", "simulated_s": 3.0, "wall_s": 1.5, "realtime_factor": 2.0,
          "fidelity": "meshModel=rigid", "ok": True}])
-    monkeypatch.setattr(bench, "fmi_call_cost", lambda *a, **k: {"per_fmu": {
+    monkeypatch.setattr(report, "fmi_call_cost", lambda *a, **k: {"per_fmu": {
         "Vehicle": {"fmi2GetReal": (2.0, 4), "fmi2SetReal": (3.0, 2), "refused": (1.0, 4)},
         "WheelLoad": {"fmi2GetReal": (4.0, 4), "fmi2SetReal": (5.0, 4), "refused": (1.0, 4)}}})
-    monkeypatch.setattr(bench, "recording_cost", lambda *a, **k: {"fmi_us": 30.0, "direct_us": 2.0, "recorded": 22,
-                                                                   "every": 1})
-    monkeypatch.setattr(bench, "step_control_comparison", lambda *a, **k: [
+    monkeypatch.setattr(report, "recording_cost", lambda *a, **k: {"fmi_us": 30.0, "direct_us": 2.0, "recorded": 22,
+                                                                    "every": 1})
+    monkeypatch.setattr(report, "step_control_comparison", lambda *a, **k: [
         {"run": "fixed 5 ms (scene default)", "wall_s": 0.5, "steps": 700, "rejected": 0, "ok": True,
          "err_ratio": 1e-3, "err_lock": 7.0},
         {"run": "variable (rtol 0.001, atol 0.001 J)", "wall_s": 4.0, "steps": 3900, "rejected": 99, "ok": True,
          "err_ratio": 6e-4, "err_lock": 2.9}])
-    assert bench._report(argparse.Namespace(levels=None, repeats=1)) == 0
+    assert report._report(argparse.Namespace(levels=None, repeats=1)) == 0
     out = capsys.readouterr().out
     # 15000 steps: 200 us (FMI) and 100 us (direct) per step, 25 us per instance and step
     assert "FMI 200 us, direct 100 us" in out and "= 25 us per instance and step" in out
@@ -102,7 +103,7 @@ def test_step_cost_breakdown_splits_each_instance_and_the_differentials_inner_mo
 def test_write_keeps_the_sections_after_the_generated_block(monkeypatch, tmp_path):
     page = tmp_path / "performance.md"
     page.write_text("# Performance\n\n```\nold numbers\n```\n\n## Kept section\n\ntext by hand\n")
-    monkeypatch.setattr(bench, "_report", lambda args: print("new numbers") or 0)
+    monkeypatch.setattr(report, "_report", lambda args: print("new numbers") or 0)
     assert bench.main(["--write", str(page)]) == 0
     text = page.read_text()
     assert "new numbers" in text and "old numbers" not in text
