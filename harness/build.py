@@ -178,46 +178,40 @@ def compile_kernel(out: Path, sources: tuple[str, ...] = KERNEL_SOURCES) -> Path
     return out
 
 
-def kernel_library(dest: Path | None = None) -> Path:
-    """The mesh kernel for direct (non-FMU) runs, compiled once per source digest into the FMU
-    folder (``mesh_kernel-<digest>.so``) and put on the kernel's search path. BuildError if it
-    cannot be compiled (the models then run the Python reference and say why)."""
-    from spurdiff.mesh import kernel
-
+def _direct_kernel(binding, stem: str, sources: tuple[str, ...], dest: Path | None) -> Path:
+    """A kernel for direct (non-FMU) runs: ``<stem>-<digest>.so`` compiled once per source digest into
+    the FMU folder (under a lock: parallel test workers share it) and put on ``binding``'s search path."""
     dest = Path(dest) if dest else fmu_cache_dir()
     dest.mkdir(parents=True, exist_ok=True)
-    out = dest / f"mesh_kernel-{kernel.source_digest(NATIVE)}.so"
-    with open(dest / ".mesh_kernel.lock", "w") as lock:
+    out = dest / f"{stem}-{binding.source_digest(NATIVE)}.so"
+    with open(dest / f".{stem}.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         if not out.is_file():
-            staged = dest / f".mesh_kernel.{os.getpid()}.so"
-            compile_kernel(staged)
+            staged = dest / f".{stem}.{os.getpid()}.so"
+            compile_kernel(staged, sources)
             os.replace(staged, out)
-    if dest not in kernel.SEARCH_PATH:
-        kernel.SEARCH_PATH.insert(0, dest)
-        kernel.reset()
+    if dest not in binding.SEARCH_PATH:
+        binding.SEARCH_PATH.insert(0, dest)
+        binding.reset()
+    return out
+
+
+def kernel_library(dest: Path | None = None) -> Path:
+    """The mesh kernel for direct (non-FMU) runs (``mesh_kernel-<digest>.so`` in the FMU folder), and
+    the rigid one with it. BuildError if it cannot be compiled (the models then run the Python
+    reference and say why)."""
+    from spurdiff.mesh import kernel
+
+    out = _direct_kernel(kernel, "mesh_kernel", KERNEL_SOURCES, dest)
     rigid_kernel_library(dest)
     return out
 
 
 def rigid_kernel_library(dest: Path | None = None) -> Path:
-    """The rigid level's pin-load kernel for direct runs, as :func:`kernel_library` does the mesh
-    kernel: ``rigid_kernel-<digest>.so`` in the FMU folder, put on its search path."""
+    """The rigid level's pin-load kernel for direct runs: ``rigid_kernel-<digest>.so`` in the FMU folder."""
     from spurdiff import rigid_kernel
 
-    dest = Path(dest) if dest else fmu_cache_dir()
-    dest.mkdir(parents=True, exist_ok=True)
-    out = dest / f"rigid_kernel-{rigid_kernel.source_digest(NATIVE)}.so"
-    with open(dest / ".rigid_kernel.lock", "w") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        if not out.is_file():
-            staged = dest / f".rigid_kernel.{os.getpid()}.so"
-            compile_kernel(staged, RIGID_KERNEL_SOURCES)
-            os.replace(staged, out)
-    if dest not in rigid_kernel.SEARCH_PATH:
-        rigid_kernel.SEARCH_PATH.insert(0, dest)
-        rigid_kernel.reset()
-    return out
+    return _direct_kernel(rigid_kernel, "rigid_kernel", RIGID_KERNEL_SOURCES, dest)
 
 
 def runtime_cfg(name: str, script: str, guid: str) -> str:

@@ -17,11 +17,10 @@ library is not used). Selected by the same switch, ``solver.kernel`` (auto | com
 from __future__ import annotations
 
 import ctypes as C
-import hashlib
 import logging
-import os
 from pathlib import Path
 
+from . import native_library
 from .errors import ParameterError
 
 ABI = 2
@@ -32,8 +31,6 @@ LIB_NAME = "librigid_kernel.so"   # not rigid_kernel.so: Python would import tha
 KERNELS = ("auto", "compiled", "python")
 SEARCH_PATH: list[Path] = []
 _HERE = Path(__file__).resolve().parent
-_SOURCES = (_HERE.parent / "native",                         # checkout: fmu_src/native
-            _HERE.parent / "spurdiff_fmus" / "native")       # installed wheel
 
 log = logging.getLogger("spurdiff.rigid")
 _REPORTED: set[str] = set()
@@ -42,25 +39,25 @@ _LIB: tuple | None = None
 
 def source_digest(native: Path) -> str:
     """Digest of the kernel's sources (``rigid_kernel*.c`` in the folder ``native``)."""
-    h = hashlib.sha256()
-    for p in sorted(native.glob("rigid_kernel*.[ch]")):
-        h.update(p.name.encode())
-        h.update(p.read_bytes())
-    return h.hexdigest()[:16]
+    return native_library.source_digest(native, "rigid_kernel")
+
+
+def _check(lib: C.CDLL) -> str | None:
+    """None if ``lib`` is the kernel this module speaks to (its function types then declared), else why not."""
+    lib.rk_abi.restype = lib.rk_nconst.restype = lib.rk_nio.restype = C.c_int64
+    lib.rk_nio_step.restype = C.c_int64
+    if lib.rk_abi() != ABI or lib.rk_nconst() != NCONST or lib.rk_nio() != NIO or lib.rk_nio_step() != NIO_STEP:
+        return (f"ABI {lib.rk_abi()} with {lib.rk_nconst()} constants, {lib.rk_nio()} values (this module "
+                f"needs ABI {ABI}, {NCONST}, {NIO})")
+    # no argtypes: the two arguments are always the Kernel's c_double arrays, which ctypes passes
+    # as pointers as they are (declared argtypes would convert them at each call: 0.6 us more)
+    lib.rk_slip.argtypes = lib.rk_step_slip.argtypes = None
+    lib.rk_slip.restype = lib.rk_step_slip.restype = C.c_int64
+    return None
 
 
 def _candidates() -> list[Path]:
-    out = [_HERE / LIB_NAME]
-    src = next((p for p in _SOURCES if (p / "rigid_kernel.c").is_file()), None)
-    dirs = list(SEARCH_PATH) + [Path(os.environ[v]) for v in ("SPURDIFF_KERNEL_DIR", "SPURDIFF_FMU_DIR")
-                                if os.environ.get(v)]
-    if src is not None and src.parent.name == "fmu_src":      # a checkout: its build/fmus
-        dirs.append(src.parent.parent / "build" / "fmus")
-    if src is not None:
-        out += [Path(d) / f"rigid_kernel-{source_digest(src)}.so" for d in dirs]
-    else:
-        out += [Path(d) / LIB_NAME for d in dirs]
-    return out
+    return native_library.candidates("rigid_kernel", _HERE / LIB_NAME, SEARCH_PATH)
 
 
 def load() -> tuple[C.CDLL | None, str]:
@@ -68,31 +65,10 @@ def load() -> tuple[C.CDLL | None, str]:
     global _LIB
     if _LIB is not None and _LIB[0] is not None:
         return _LIB
-    reasons = []
-    for path in _candidates():
-        if not path.is_file():
-            continue
-        try:
-            lib = C.CDLL(str(path))
-            lib.rk_abi.restype = lib.rk_nconst.restype = lib.rk_nio.restype = C.c_int64
-            lib.rk_nio_step.restype = C.c_int64
-        except (OSError, AttributeError) as e:
-            reasons.append(f"{path}: {e}")
-            continue
-        if lib.rk_abi() != ABI or lib.rk_nconst() != NCONST or lib.rk_nio() != NIO or lib.rk_nio_step() != NIO_STEP:
-            reasons.append(f"{path}: ABI {lib.rk_abi()} with {lib.rk_nconst()} constants, {lib.rk_nio()} "
-                           f"values (this module needs ABI {ABI}, {NCONST}, {NIO})")
-            continue
-        # no argtypes: the two arguments are always the Kernel's c_double arrays, which ctypes passes
-        # as pointers as they are (declared argtypes would convert them at each call: 0.6 us more)
-        lib.rk_slip.argtypes = lib.rk_step_slip.argtypes = None
-        lib.rk_slip.restype = lib.rk_step_slip.restype = C.c_int64
-        _LIB = (lib, str(path))
-        return _LIB
-    why = "; ".join(reasons) if reasons else (
+    _LIB = native_library.load_first(
+        _candidates(), _check,
         "no compiled rigid kernel found (build it with `spurdiff build`, which compiles "
         "fmu_src/native/rigid_kernel.c)")
-    _LIB = (None, why)
     return _LIB
 
 

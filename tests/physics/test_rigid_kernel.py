@@ -196,7 +196,7 @@ def test_stale_library_not_used(library, tmp_path, monkeypatch):
     """A library is looked up under the digest of the C source: another source digest finds none."""
     names = {p.name for p in rigid_kernel._candidates()}
     assert library.name in names
-    monkeypatch.setattr(rigid_kernel, "source_digest", lambda native: "0" * 16)
+    monkeypatch.setattr(rigid_kernel.native_library, "source_digest", lambda native, stem: "0" * 16)
     assert library.name not in {p.name for p in rigid_kernel._candidates()}
 
 

@@ -18,21 +18,18 @@ available; the model then runs the Python reference.
 from __future__ import annotations
 
 import ctypes as C
-import hashlib
 import logging
-import os
 from pathlib import Path
 
 import numpy as np
 
+from .. import native_library
 from ..errors import ParameterError, StepError
 
 ABI = 1
 LIB_NAME = "mesh_kernel.so"
 SEARCH_PATH: list[Path] = []
 _HERE = Path(__file__).resolve().parent
-_SOURCES = (_HERE.parent.parent / "native",                       # checkout: fmu_src/native
-            _HERE.parent.parent / "spurdiff_fmus" / "native")     # installed wheel
 _d, _i = C.c_double, C.c_int64
 
 
@@ -64,28 +61,31 @@ class MkState(C.Structure):
 
 def source_digest(native: Path) -> str:
     """Digest of the kernel's sources (``mesh_kernel*.c`` and ``.h`` in the folder ``native``)."""
-    h = hashlib.sha256()
-    for p in sorted(native.glob("mesh_kernel*.[ch]")):
-        h.update(p.name.encode())
-        h.update(p.read_bytes())
-    return h.hexdigest()[:16]
+    return native_library.source_digest(native, "mesh_kernel")
 
 
-def _candidates() -> list[Path]:
-    out = [_HERE / LIB_NAME]
-    src = next((p for p in _SOURCES if (p / "mesh_kernel.c").is_file()), None)
-    dirs = list(SEARCH_PATH) + [Path(os.environ[v]) for v in ("SPURDIFF_KERNEL_DIR", "SPURDIFF_FMU_DIR")
-                                if os.environ.get(v)]
-    if src is not None and src.parent.name == "fmu_src":      # a checkout: its build/fmus
-        dirs.append(src.parent.parent / "build" / "fmus")
-    if src is not None:
-        out += [Path(d) / f"mesh_kernel-{source_digest(src)}.so" for d in dirs]
-    else:
-        out += [Path(d) / LIB_NAME for d in dirs]
-    return out
+def _check(lib: C.CDLL) -> str | None:
+    """None if ``lib`` is the kernel this module speaks to (its function types then declared), else why not."""
+    if lib.mk_abi() != ABI:
+        return f"ABI {lib.mk_abi()} (this module needs {ABI})"
+    lib.mk_sizeof_params.restype = lib.mk_sizeof_state.restype = C.c_int64
+    if lib.mk_sizeof_params() != C.sizeof(MkParams) or lib.mk_sizeof_state() != C.sizeof(MkState):
+        return "structure sizes differ from this module's"
+    lib.mk_advance.argtypes = [C.POINTER(MkParams), C.POINTER(MkState), _d, _d]
+    lib.mk_advance.restype = C.c_int
+    lib.mk_evaluate.argtypes = [C.POINTER(MkParams), C.POINTER(MkState), C.c_void_p, C.c_void_p, C.c_void_p,
+                                C.c_void_p]
+    lib.mk_evaluate.restype = None
+    lib.mk_run.argtypes = [C.POINTER(MkParams), C.POINTER(MkState), _d, _d, C.c_int64, C.c_void_p]
+    lib.mk_run.restype = C.c_int64
+    return None
 
 
 _LIB: tuple | None = None
+
+
+def _candidates() -> list[Path]:
+    return native_library.candidates("mesh_kernel", _HERE / LIB_NAME, SEARCH_PATH)
 
 
 def load() -> tuple[C.CDLL | None, str]:
@@ -93,35 +93,10 @@ def load() -> tuple[C.CDLL | None, str]:
     global _LIB
     if _LIB is not None and _LIB[0] is not None:
         return _LIB
-    reasons = []
-    for path in _candidates():
-        if not path.is_file():
-            continue
-        try:
-            lib = C.CDLL(str(path))
-        except OSError as e:
-            reasons.append(f"{path}: {e}")
-            continue
-        if lib.mk_abi() != ABI:
-            reasons.append(f"{path}: ABI {lib.mk_abi()} (this module needs {ABI})")
-            continue
-        lib.mk_sizeof_params.restype = lib.mk_sizeof_state.restype = C.c_int64
-        if (lib.mk_sizeof_params() != C.sizeof(MkParams) or lib.mk_sizeof_state() != C.sizeof(MkState)):
-            reasons.append(f"{path}: structure sizes differ from this module's")
-            continue
-        lib.mk_advance.argtypes = [C.POINTER(MkParams), C.POINTER(MkState), _d, _d]
-        lib.mk_advance.restype = C.c_int
-        lib.mk_evaluate.argtypes = [C.POINTER(MkParams), C.POINTER(MkState), C.c_void_p, C.c_void_p, C.c_void_p,
-                                    C.c_void_p]
-        lib.mk_evaluate.restype = None
-        lib.mk_run.argtypes = [C.POINTER(MkParams), C.POINTER(MkState), _d, _d, C.c_int64, C.c_void_p]
-        lib.mk_run.restype = C.c_int64
-        _LIB = (lib, str(path))
-        return _LIB
-    why = "; ".join(reasons) if reasons else (
+    _LIB = native_library.load_first(
+        _candidates(), _check,
         "no compiled mesh kernel found (build it with `spurdiff build`, which compiles "
         "fmu_src/native/mesh_kernel*.c)")
-    _LIB = (None, why)
     return _LIB
 
 
