@@ -442,17 +442,16 @@ class ModelFmu(Fmi2Slave):
     def fmi2_set_state(self, state: FmuState) -> int:
         if not isinstance(state, FmuState) or state.kind != type(self).__name__:
             return self._refuse(ERROR, "fmi2SetFMUstate: not a state of this FMU")
-        if self.phase not in ("instantiated", "initializing"):
-            differ = next((n for n in sorted(self._fixed) if n in state.values
-                           and state.values[n] != self.values[n]), None)
-            if differ is not None:
-                return self._refuse(ERROR, f"fmi2SetFMUstate: the state has {differ} = {state.values[differ]!r}, "
-                                           f"this instance {self.values[differ]!r} (another configuration "
-                                           "or fidelity): fmi2Reset first")
+        # a fixed parameter that differs: refused once initialized, else the model is rebuilt from the state
+        differ = next((n for n in sorted(self._fixed) if n not in state.values
+                       or state.values[n] != self.values[n]), None)
+        if differ is not None and self.phase not in ("instantiated", "initializing"):
+            return self._refuse(ERROR, f"fmi2SetFMUstate: the state has {differ} = {state.values.get(differ)!r}, "
+                                       f"this instance {self.values[differ]!r} (another configuration "
+                                       "or fidelity): fmi2Reset first")
         try:
             model = self.model
-            if state.model is not None and (model is None or any(
-                    state.values[n] != self.values[n] for n in self._fixed)):
+            if state.model is not None and (model is None or differ is not None):
                 model = self.build_model(dict(state.values))
             if state.model is not None:
                 model.set_state(state.model)
