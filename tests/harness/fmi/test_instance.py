@@ -50,7 +50,8 @@ def test_messages_reach_their_own_instance(differential_fmu):
     a, b = _initialized(differential_fmu, "a"), _initialized(differential_fmu, "b")
     assert a.set_status("mu_pin", 0.5) == 3                      # a fixed parameter after initialization
     assert any("fixed parameter" in m for m in a.errors()) and "fixed parameter" in a.last_message()
-    assert b.errors() == [] and b.last_messages() == "no message logged"
+    # b logged only its own build note (which implementation runs), none of a's refusal
+    assert b.errors() == [] and "fixed parameter" not in b.last_messages()
     a.close()
     b.close()
 
