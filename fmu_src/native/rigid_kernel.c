@@ -68,6 +68,21 @@ int64_t rk_step_slip(const double *k, double *io)
     return 0;
 }
 
+/* The accelerations, the sun mesh forces and the two pins' force vectors at the iterate (ad, F12):
+ * evaluated in the Newton loop and once more at convergence (the same operations as the Python
+ * reference, spurdiff/rigid_pinload.py, which writes them out twice on its hot path). */
+#define PIN_FORCES()                                                     \
+    do {                                                                 \
+        ac = given ? ac_given : (Qc - Mcd * ad) / Mcc;                   \
+        FA = (J_A * (ac + ad) - tau_L) / nrbA;                           \
+        FB = (J_B * (ac + lam * ad) - tau_R) / nrbB;                     \
+        aA = fabs(FA); aB = fabs(FB); a12 = fabs(F12);                   \
+        f1x = FA * t1x + aA * r1x + F12 * u1x + a12 * q1x;               \
+        f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y;               \
+        f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x;               \
+        f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y;               \
+    } while (0)
+
 int64_t rk_slip(const double *k, double *io)
 {
     const double rb1 = k[0], rb2 = k[1], nrbA = k[2], nrbB = k[3], cpin = k[4], M01 = k[5], M02 = k[6];
@@ -99,14 +114,7 @@ int64_t rk_slip(const double *k, double *io)
     const double a11_0 = J1 * (g + rho1);
     const double a21_0 = J2 * (g + rho2);
     for (it = 1; it <= 50; it++) {
-        ac = given ? ac_given : (Qc - Mcd * ad) / Mcc;
-        FA = (J_A * (ac + ad) - tau_L) / nrbA;
-        FB = (J_B * (ac + lam * ad) - tau_R) / nrbB;
-        aA = fabs(FA); aB = fabs(FB); a12 = fabs(F12);
-        f1x = FA * t1x + aA * r1x + F12 * u1x + a12 * q1x;
-        f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y;
-        f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x;
-        f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y;
+        PIN_FORCES();
         mag1 = sqrt(f1x * f1x + f1y * f1y);
         mag2 = sqrt(f2x * f2x + f2y * f2y);
         c1 = cpin * mag1 + M01;
@@ -139,14 +147,7 @@ int64_t rk_slip(const double *k, double *io)
         F12 -= d_F;
         const double scale = aA + aB + fabs(F12) + 1e-300;
         if (fabs(d_F) <= 1e-15 * scale && fabs(d_ad) * (fabs(dFA) + fabs(dFB)) <= 1e-15 * scale) {
-            ac = given ? ac_given : (Qc - Mcd * ad) / Mcc;
-            FA = (J_A * (ac + ad) - tau_L) / nrbA;
-            FB = (J_B * (ac + lam * ad) - tau_R) / nrbB;
-            aA = fabs(FA); aB = fabs(FB); a12 = fabs(F12);
-            f1x = FA * t1x + aA * r1x + F12 * u1x + a12 * q1x;
-            f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y;
-            f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x;
-            f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y;
+            PIN_FORCES();
             c1 = cpin * sqrt(f1x * f1x + f1y * f1y) + M01;
             c2 = cpin * sqrt(f2x * f2x + f2y * f2y) + M02;
             break;
