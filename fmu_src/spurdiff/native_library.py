@@ -68,3 +68,12 @@ def load_first(paths: Sequence[Path], check: Callable[[C.CDLL], str | None],
             continue
         return lib, str(path)
     return None, "; ".join(reasons) if reasons else missing
+
+
+def load_cached(binding) -> tuple[C.CDLL | None, str]:
+    """A binding module's ``load()``: its cached ``_LIB`` when a library was found, else the first of
+    its ``_candidates()`` that its ``_check`` accepts (``MISSING``: the reason when none is there)."""
+    if binding._LIB is not None and binding._LIB[0] is not None:
+        return binding._LIB
+    binding._LIB = load_first(binding._candidates(), binding._check, binding.MISSING)
+    return binding._LIB

@@ -17,6 +17,7 @@ library is not used). Selected by the same switch, ``solver.kernel`` (auto | com
 from __future__ import annotations
 
 import ctypes as C
+import sys
 import logging
 from pathlib import Path
 
@@ -60,16 +61,13 @@ def _candidates() -> list[Path]:
     return native_library.candidates("rigid_kernel", _HERE / LIB_NAME, SEARCH_PATH)
 
 
+MISSING = ("no compiled rigid kernel found (build it with `spurdiff build`, which compiles "
+           "fmu_src/native/rigid_kernel.c)")
+
+
 def load() -> tuple[C.CDLL | None, str]:
     """(library, where it came from) or (None, why not). Cached per process."""
-    global _LIB
-    if _LIB is not None and _LIB[0] is not None:
-        return _LIB
-    _LIB = native_library.load_first(
-        _candidates(), _check,
-        "no compiled rigid kernel found (build it with `spurdiff build`, which compiles "
-        "fmu_src/native/rigid_kernel.c)")
-    return _LIB
+    return native_library.load_cached(sys.modules[__name__])
 
 
 def reset() -> None:

@@ -132,6 +132,9 @@ class PinLoadLaw:
             F12 -= d_F
             scale = aA + aB + abs(F12) + 1e-300
             if abs(d_F) <= 1e-15 * scale and abs(d_ad) * (abs(dFA) + abs(dFB)) <= 1e-15 * scale:
+                # the loop's first lines again, at the converged iterate: written out rather than a
+                # function because a call per Newton iteration costs more than its arithmetic here
+                # (the C kernel writes them once, as the macro PIN_FORCES)
                 ac = ac_given if given else (Qc - Mcd * ad) / Mcc
                 FA = (J_A * (ac + ad) - tau_L) / nrbA
                 FB = (J_B * (ac + lam * ad) - tau_R) / nrbB

@@ -18,6 +18,7 @@ available; the model then runs the Python reference.
 from __future__ import annotations
 
 import ctypes as C
+import sys
 import logging
 from pathlib import Path
 
@@ -88,16 +89,13 @@ def _candidates() -> list[Path]:
     return native_library.candidates("mesh_kernel", _HERE / LIB_NAME, SEARCH_PATH)
 
 
+MISSING = ("no compiled mesh kernel found (build it with `spurdiff build`, which compiles "
+           "fmu_src/native/mesh_kernel*.c)")
+
+
 def load() -> tuple[C.CDLL | None, str]:
     """(library, where it came from) or (None, why not). Cached per process."""
-    global _LIB
-    if _LIB is not None and _LIB[0] is not None:
-        return _LIB
-    _LIB = native_library.load_first(
-        _candidates(), _check,
-        "no compiled mesh kernel found (build it with `spurdiff build`, which compiles "
-        "fmu_src/native/mesh_kernel*.c)")
-    return _LIB
+    return native_library.load_cached(sys.modules[__name__])
 
 
 _LAPACK: tuple | None = None
