@@ -34,3 +34,17 @@ def test_argparse_lives_only_in_the_cli_package():
     users = sorted(str(p.relative_to(HARNESS)) for p in HARNESS.rglob("*.py")
                    if re.search(r"^\s*(import argparse|from argparse import)", p.read_text(), re.M))
     assert users and all(u.startswith("cli/") for u in users), users
+
+
+@pytest.mark.parametrize("module", ["mesh_bench", "rigid_kernel_bench"])
+def test_bench_modules_answer_help(module, capsys):
+    """The benchmark modules' command lines (``python -m harness.bench.<name>``) answer -h."""
+    with pytest.raises(SystemExit) as e:
+        importlib.import_module(f"harness.cli.{module}").main(["-h"])
+    assert e.value.code == 0 and "python -m harness.bench." in capsys.readouterr().out
+
+
+def test_rigid_kernel_bench_rejects_zero_rounds(capsys):
+    with pytest.raises(SystemExit) as e:
+        importlib.import_module("harness.cli.rigid_kernel_bench").main(["--rounds", "0"])
+    assert e.value.code == 2 and "--rounds must be >= 1, got 0" in capsys.readouterr().err
