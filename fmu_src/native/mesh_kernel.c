@@ -28,8 +28,7 @@ typedef void (*getrf_t)(int *, int *, double *, int *, int *, int *);
 typedef void (*getrs_t)(char *, int *, int *, double *, int *, int *, double *, int *, int *);
 
 typedef struct {
-    double J[NMAX * NMAX], J1[NMAX * NMAX], W[NMAX * NMAX];
-    int piv[NMAX];
+    double J1[NMAX * NMAX], W[NMAX * NMAX];
     double U[4][NMAX], ynew[NMAX], err[NMAX], ym[NMAX], Ys[NMAX], F[NMAX], rhs[NMAX];
     double f0[NMAX], f1[NMAX], fs[NMAX];
 } Work;
@@ -70,30 +69,29 @@ static void lu_solve(const double *A, int N, const int *piv, const double *b, do
     }
 }
 
-/* RosenbrockW.step: with f0 = f(y) and wk->J = J(y); fills ynew, err, U. 0: singular / not finite */
-/* the factorization of W and the solves with it: the reference's LAPACK (column-major) or own */
-static int factor(const MkParams *P, Work *wk, int N) {
+/* the factorization of W (row-major) into LU and the solves with it: the reference's LAPACK
+ * (column-major) or own */
+static int factor(const MkParams *P, const double *W, double *LU, int *piv, int N) {
     if (P->getrf) {
-        double cm[NMAX * NMAX];
         for (int i = 0; i < N; i++)
-            for (int j = 0; j < N; j++) cm[j * N + i] = wk->W[i * N + j];
-        memcpy(wk->W, cm, sizeof(double) * N * N);
+            for (int j = 0; j < N; j++) LU[j * N + i] = W[i * N + j];
         int n = N, info = 0;
-        ((getrf_t)(intptr_t)P->getrf)(&n, &n, wk->W, &n, wk->piv, &info);
+        ((getrf_t)(intptr_t)P->getrf)(&n, &n, LU, &n, piv, &info);
         return info == 0;
     }
-    return lu(wk->W, N, wk->piv);
+    memcpy(LU, W, sizeof(double) * N * N);
+    return lu(LU, N, piv);
 }
 
-static int solve(const MkParams *P, Work *wk, int N, const double *b, double *x) {
+static int solve(const MkParams *P, const double *LU, const int *piv, int N, const double *b, double *x) {
     if (P->getrs) {
         for (int i = 0; i < N; i++) x[i] = b[i];
         char tr = 'N';
         int n = N, one = 1, info = 0;
-        ((getrs_t)(intptr_t)P->getrs)(&tr, &n, &one, wk->W, &n, wk->piv, x, &n, &info);
+        ((getrs_t)(intptr_t)P->getrs)(&tr, &n, &one, (double *)LU, &n, (int *)piv, x, &n, &info);
         return info == 0;
     }
-    lu_solve(wk->W, N, wk->piv, b, x);
+    lu_solve(LU, N, piv, b, x);
     return 1;
 }
 
@@ -106,13 +104,20 @@ static void combine(const double *c, int nk, double U[4][NMAX], int N, double *o
     }
 }
 
-static int ros_step(const MkParams *P, const MkState *S, const double *y, const double *f0, double h, Work *wk) {
+/* RosenbrockW.step: with f0 = f(y) and S->Jf an approximation of J(y) (a W-method); W factored
+ * unless S->LU is for Jf and h (S->lu_h); fills ynew, err, U. 0: singular / not finite */
+static int ros_step(const MkParams *P, MkState *S, const double *y, const double *f0, double h, Work *wk) {
     const int N = (int)P->N;
-    double d = 1.0 / (P->gamma * h);
-    for (int i = 0; i < N; i++)
-        for (int j = 0; j < N; j++) wk->W[i * N + j] = (i == j ? d : 0.0) - wk->J[i * N + j];
-    if (!factor(P, wk, N)) return 0;
-    if (!solve(P, wk, N, f0, wk->U[0])) return 0;
+    int *piv = (int *)S->piv;
+    if (h != S->lu_h) {
+        S->lu_h = 0.0;
+        double d = 1.0 / (P->gamma * h);
+        for (int i = 0; i < N; i++)
+            for (int j = 0; j < N; j++) wk->W[i * N + j] = (i == j ? d : 0.0) - S->Jf[i * N + j];
+        if (!factor(P, wk->W, S->LU, piv, N)) return 0;
+        S->lu_h = h;
+    }
+    if (!solve(P, S->LU, piv, N, f0, wk->U[0])) return 0;
     double ih = 1.0 / h;
     for (int i = 1; i < 4; i++) {
         combine(P->a[i], i, wk->U, N, wk->Ys);
@@ -120,7 +125,7 @@ static int ros_step(const MkParams *P, const MkState *S, const double *y, const 
         mk_eval(P, S, wk->Ys, wk->F, NULL, NULL);
         combine(P->cc[i], i, wk->U, N, wk->rhs);
         for (int j = 0; j < N; j++) wk->rhs[j] = wk->rhs[j] * ih + wk->F[j];
-        if (!solve(P, wk, N, wk->rhs, wk->U[i])) return 0;
+        if (!solve(P, S->LU, piv, N, wk->rhs, wk->U[i])) return 0;
     }
     int finite = 1;
     combine(P->m, 4, wk->U, N, wk->ynew);
@@ -158,6 +163,8 @@ static double new_step_size(double h, double err, int rejected) {
 }
 
 /* ------------------------------------------------------------ events (spurdiff.mesh.events) */
+#define JAC_AGE_MAX 10     /* stepper.JAC_AGE_MAX */
+#define H_KEEP 1.2         /* stepper.H_KEEP */
 #define STICK_RTOL 1e-9
 
 static void contact_flags(const MkParams *P, const double *y, int64_t *fl) {
@@ -265,7 +272,9 @@ static int64_t settle_modes(const MkParams *P, MkState *S, const double *y, cons
     int64_t before[2] = {S->s[0], S->s[1]};
     for (int k = 0; k < nz; k++) S->s[zeroed[k]] = 0;
     for (int it = 0; it < 4; it++) {
-        mk_eval(P, S, y, wk->f0, wk->J, sv);
+        mk_eval(P, S, y, wk->f0, S->Jf, sv);
+        S->jac_age = 0;
+        S->lu_h = 0.0;
         int changed = 0;
         for (int i = 0; i < 2; i++) {
             if (S->s[i] == 0) {
@@ -333,16 +342,19 @@ int mk_advance(const MkParams *P, MkState *S0, double t, double h) {
     double wc_start = S->wc;
     if (speed) S->ac = (S->w_ref - wc_start) / h;
     double ac = S->ac;
-    /* the constant rows of the Jacobian (layout.constant_jacobian) */
-    memset(wk.J, 0, sizeof wk.J);
-    wk.J[PSI * N + VA] = 1.0;
-    wk.J[DA * N + VA] = -P->rbA; wk.J[DA * N + W1] = -P->rb1;
-    wk.J[DB * N + VB] = -P->rbB; wk.J[DB * N + W2] = -P->rb2;
-    wk.J[D12 * N + W1] = P->rb1; wk.J[D12 * N + W2] = P->rb2;
-    if (!speed) wk.J[PHIC * N + WC] = 1.0;
-    memcpy(wk.J1, wk.J, sizeof wk.J);
+    memcpy(wk.J1, S->Jf, sizeof(double) * N * N);     /* its constant rows (layout.constant_jacobian) */
     double *f0 = wk.f0, *f1 = wk.f1;
-    mk_eval(P, S, y, f0, wk.J, sv0);
+    if (S->cache_ok && S->key[0] == S->tau_L && S->key[1] == S->tau_R && S->key[2] == S->tau_c
+        && (!speed || S->key[3] == ac) && S->key_s[0] == S->s[0] && S->key_s[1] == S->s[1]) {
+        memcpy(f0, S->f0c, sizeof(double) * N);        /* f0 and the side values at y: the last step's */
+        memcpy(sv0, S->sv0c, sizeof sv0);
+    } else if (S->jac_age < 0) {                       /* no Jacobian yet */
+        mk_eval(P, S, y, f0, S->Jf, sv0);
+        S->jac_age = 0;
+        S->lu_h = 0.0;
+    } else {                                           /* the Jacobian depends on the state only */
+        mk_eval(P, S, y, f0, NULL, sv0);
+    }
     double loss0 = S->energy_loss, tin = 0.0, remaining = h, h_ctrl = S->h_next, wc_a = wc_start, phic = S->phic;
     double dloss = 0.0, hmin = 1e-13, wc_b = wc_start;
     int64_t n_here = 0, max_steps = P->max_steps;
@@ -354,12 +366,17 @@ int mk_advance(const MkParams *P, MkState *S0, double t, double h) {
             if (lim < hi) hi = lim;
         }
         if (remaining - hi < 1e-9 * h) hi = remaining;
-        int truncated = hi < h_ctrl, located = 0, rejected = 0;
+        int truncated = hi < h_ctrl, located = 0, rejected = 0, fresh = 0;
         double err;
         for (;;) {
             n_here++;
             if (n_here > max_steps) { S0->fail_t = t; S0->fail_h = hi; return MK_MAX_STEPS; }
             if (hi < hmin) { S0->fail_t = t + tin; S0->fail_h = hi; return MK_HMIN; }
+            if (rejected && S->jac_age > 0) {           /* retried with a Jacobian at y */
+                mk_eval(P, S, y, wk.fs, S->Jf, NULL);
+                S->jac_age = 0;
+                S->lu_h = 0.0;
+            }
             if (!ros_step(P, S, y, f0, hi, &wk)) {
                 S->n_rejected_steps++;
                 rejected = truncated = 1;
@@ -378,7 +395,14 @@ int mk_advance(const MkParams *P, MkState *S0, double t, double h) {
                 hi = err == err ? new_step_size(hi, err, 1) : hi * 0.25;
                 continue;
             }
-            mk_eval(P, S, yn, f1, wk.J1, sv1);
+            fresh = located > 0 || S->jac_age + 1 >= JAC_AGE_MAX;   /* a new Jacobian at y_new? */
+            if (!fresh && (P->bl || P->contact)) {                 /* also where a contact changed */
+                int64_t fl[6];
+                contact_flags(P, yn, fl);
+                for (int k = 0; k < 6; k++)
+                    if (fl[k] != S->flags[k]) fresh = 1;
+            }
+            mk_eval(P, S, yn, f1, fresh ? wk.J1 : NULL, sv1);
             midpoint(P, y, &wk);
             if (P->dissipative) {
                 mk_eval(P, S, wk.ym, wk.fs, NULL, svm);
@@ -406,6 +430,7 @@ int mk_advance(const MkParams *P, MkState *S0, double t, double h) {
         /* ---- accept */
         S->n_internal_steps++;
         double h_prop = new_step_size(hi, err, rejected);
+        if (!fresh && h_prop >= hi && h_prop <= H_KEEP * hi) h_prop = hi;
         h_ctrl = (truncated && !rejected) ? (h_ctrl > h_prop ? h_ctrl : h_prop) : h_prop;
         if (P->dissipative) S->energy_loss += dloss;
         double psiBa, th1a, th2a, psiBb, th1b, th2b;
@@ -457,14 +482,24 @@ int mk_advance(const MkParams *P, MkState *S0, double t, double h) {
         }
         if (!switched) {
             double *t_ = f0; f0 = f1; f1 = t_;
-            double Jt[NMAX * NMAX];
-            memcpy(Jt, wk.J, sizeof Jt); memcpy(wk.J, wk.J1, sizeof Jt); memcpy(wk.J1, Jt, sizeof Jt);
+            if (fresh) {
+                memcpy(S->Jf, wk.J1, sizeof(double) * N * N);
+                S->jac_age = 0;
+                S->lu_h = 0.0;
+            } else {
+                S->jac_age++;
+            }
             memcpy(sv0, sv1, sizeof sv0);
         } else {
             f0 = wk.f0; f1 = wk.f1;   /* settle_modes evaluated f0, J and sv0 at y */
         }
     }
     S->h_next = h_ctrl;
+    memcpy(S->f0c, f0, sizeof(double) * N);            /* stepper: c._f0_key, c._sv0 */
+    memcpy(S->sv0c, sv0, sizeof sv0);
+    S->key[0] = S->tau_L; S->key[1] = S->tau_R; S->key[2] = S->tau_c; S->key[3] = ac;
+    S->key_s[0] = S->s[0]; S->key_s[1] = S->s[1];
+    S->cache_ok = 1;
     if (speed) { S->wc = S->w_ref; S->phic = phic; }
     else { S->wc = y[WC]; S->phic = y[PHIC]; }
     S->t = t + h;

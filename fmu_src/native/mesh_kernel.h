@@ -10,7 +10,7 @@
 #include <stdint.h>
 #include <string.h>
 
-#define MK_ABI 1
+#define MK_ABI 2
 #define NMAX 10
 enum { PSI, DA, DB, D12, VA, VB, W1, W2, WC, PHIC };
 enum { LAW_BILATERAL = 0, LAW_ELASTO = 1, LAW_IMPACT = 2 };
@@ -44,6 +44,13 @@ typedef struct {
     int64_t s[2], flags[6], n_flags;
     int64_t n_internal_steps, n_rejected_steps, n_mode_switches, n_contact_transitions, n_steps;
     double fail_t, fail_h;    /* where a step failed */
+    /* the integrator's memory between communication steps (spurdiff.mesh.stepper, .integrator) */
+    double Jf[NMAX * NMAX];   /* the Jacobian the steps use (c._integ.J), row-major N x N */
+    double LU[NMAX * NMAX];   /* W = I/(gamma lu_h) - Jf factored (column-major as LAPACK's) */
+    double f0c[NMAX], sv0c[13], key[4];   /* f and side values at y for the inputs in key, key_s */
+    double lu_h;              /* step size of LU; 0: none */
+    int32_t piv[NMAX];
+    int64_t key_s[2], cache_ok, jac_age;  /* jac_age: accepted steps since Jf was evaluated, -1: none */
 } MkState;
 
 typedef struct { double F, dF_dd, dF_dv, Fc, xi; } Force;

@@ -19,7 +19,7 @@ MK_HIDDEN double mk_pymod(double x, double w) {
 /* ------------------------------------------------------------ laws (spurdiff.mesh.laws) */
 static void impact(double p, double v, double K, double e, double C, double dmax, double *out) {
     if (p <= 0.0) { out[0] = out[1] = out[2] = out[3] = 0.0; return; }
-    double pe1 = pow(p, e - 1.0);
+    double pe1 = e == 1.5 ? sqrt(p) : pow(p, e - 1.0);
     double Fc = K * pe1 * p, cs, dcs;
     if (p >= dmax) { cs = C; dcs = 0.0; }
     else {

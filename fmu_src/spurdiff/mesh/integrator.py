@@ -22,8 +22,9 @@ Why ROS34PW2 (J. Rang, L. Angermann, BIT 45 (2005) 761-787; tableau as registere
   a communication step of 1e-2 s is as stable as one of 1e-5 s.
 * a W-method: order 3 holds for any approximation of the Jacobian, so the analytic Jacobian of the
   small system only has to be good for stability, not exact (friction laws, clipped forces).
-* linearly implicit: one LU of an 8x8 (10x10) matrix and four right-hand sides per step, no Newton
-  iteration that can fail to converge at contact onset.
+* linearly implicit: at most one LU of an 8x8 (10x10) matrix and four solves per step, no Newton
+  iteration that can fail to converge at contact onset; the LU serves on while the Jacobian and
+  the step size are unchanged (:mod:`spurdiff.mesh.stepper`).
 * embedded order 2 for step-size control, and a dense output of order 3 (PETSc ``binterpt``), used
   for the Simpson quadrature of the dissipated power.
 """
@@ -150,21 +151,29 @@ class RosenbrockW:
         self.y_mid = np.zeros(n)
         self.eye = np.eye(n)
         self.tmp = np.zeros(n)
+        self.lu = self.piv = None
+        self.lu_h = 0.0           # the step size the factored W = I/(gamma h) - J is for; 0: none
 
     def step(self, y: np.ndarray, f0: np.ndarray, h: float) -> bool:
-        """Attempt a step of size h from y (with f0 = f(y), self.J = J(y) already filled).
+        """Attempt a step of size h from y (with f0 = f(y) and self.J, an approximation of J(y),
+        already filled: a W-method keeps its order for any J). W is factored unless the last
+        factorization was for the same J (``lu_h`` is reset to 0 whenever J changes) and the same h.
 
         Fills ``y_new`` and ``err`` (the raw error estimate vector). Returns False if the linear
         system is singular or a stage is not finite.
         """
         U, F, rhs, Ys = self.U, self.F, self.rhs, self.Ys
         tr = self.method
-        W = self.W
-        np.multiply(self.eye, 1.0 / (tr.gamma * h), out=W)
-        W -= self.J
-        lu, piv, info = dgetrf(W, overwrite_a=1)
-        if info != 0:
-            return False
+        if h != self.lu_h:
+            self.lu_h = 0.0
+            W = self.W
+            np.multiply(self.eye, 1.0 / (tr.gamma * h), out=W)
+            W -= self.J
+            self.lu, self.piv, info = dgetrf(W, overwrite_a=1)
+            if info != 0:
+                return False
+            self.lu_h = h
+        lu, piv = self.lu, self.piv
         x, info = dgetrs(lu, piv, f0)
         if info != 0:
             return False

@@ -27,7 +27,7 @@ import numpy as np
 from .. import native_library
 from ..errors import ParameterError, StepError
 
-ABI = 1
+ABI = 2
 LIB_NAME = "mesh_kernel.so"
 SEARCH_PATH: list[Path] = []
 _HERE = Path(__file__).resolve().parent
@@ -57,7 +57,11 @@ class MkState(C.Structure):
                 + [("sv", _d * 13), ("s", _i * 2), ("flags", _i * 6), ("n_flags", _i)]
                 + [(n, _i) for n in ("n_internal_steps", "n_rejected_steps", "n_mode_switches",
                                      "n_contact_transitions", "n_steps")]
-                + [("fail_t", _d), ("fail_h", _d)])
+                + [("fail_t", _d), ("fail_h", _d)]
+                # the integrator's memory between communication steps (the Jacobian in use, its
+                # factored W, the cached f and side values at y with their inputs, the Jacobian's age)
+                + [("Jf", _d * 100), ("LU", _d * 100), ("f0c", _d * 10), ("sv0c", _d * 13), ("key", _d * 4),
+                   ("lu_h", _d), ("piv", C.c_int32 * 10), ("key_s", _i * 2), ("cache_ok", _i), ("jac_age", _i)])
 
 
 def source_digest(native: Path) -> str:
@@ -203,6 +207,8 @@ class Kernel:
         assert MkState.y.offset == 0 and MkState.sv.offset == 27 * 8 and MkState.n_steps.offset == 53 * 8
         # the model's continuous state lives here (the model's y is this view): never copied
         self.y = self._D[:model._N]
+        N = model._N
+        self.J = np.frombuffer(self.state, dtype=np.float64, count=N * N, offset=MkState.Jf.offset).reshape(N, N)
 
     def _pack(self, c) -> MkState:
         """The model's state into the structure: all of it after the model's state was set from
@@ -213,6 +219,12 @@ class Kernel:
             D[10:14] = (c.w_ref, c.tau_c, c.tau_L, c.tau_R)
             return self.state
         c._kernel_dirty = False
+        S = self.state
+        S.cache_ok = 0
+        if c._jac_dirty:               # the Jacobian in use set in Python (initialize, set_state)
+            c._jac_dirty = False
+            self.J[:] = c._integ.J
+            S.jac_age, S.lu_h = c._jac_age, 0.0
         if c.y is not self.y:
             D[:c._N] = c.y
         D[10:27] = (c.w_ref, c.tau_c, c.tau_L, c.tau_R, c._ac, c.wc, c.phic, c.t, c.h_next, c.work_in, c.energy_loss,
@@ -224,7 +236,7 @@ class Kernel:
             I[2:2 + nf] = fl
         I[8] = nf
         I[9:14] = (c.n_internal_steps, c.n_rejected_steps, c.n_mode_switches, c.n_contact_transitions, c.n_steps)
-        return self.state
+        return S
 
     def advance(self, c, t: float, h: float) -> list:
         """One communication step of model ``c`` in C; updates the model's state and returns the

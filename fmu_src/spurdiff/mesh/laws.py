@@ -20,6 +20,8 @@ Sources (see docs/mesh-dynamics.md for the numbers):
 """
 from __future__ import annotations
 
+import math
+
 
 def step(x: float, x0: float, h0: float, x1: float, h1: float) -> float:
     """ADAMS STEP: cubic blend from h0 at x0 to h1 at x1, constant outside."""
@@ -50,7 +52,7 @@ def impact(p: float, v: float, K: float, e: float, C: float, dmax: float) -> tup
     """
     if p <= 0.0:
         return 0.0, 0.0, 0.0, 0.0
-    pe1 = p ** (e - 1.0)
+    pe1 = math.sqrt(p) if e == 1.5 else p ** (e - 1.0)     # Hertz's 1.5: a square root is 5x cheaper than pow
     Fc = K * pe1 * p
     if p >= dmax:
         cs, dcs = C, 0.0

@@ -360,6 +360,10 @@ class MeshDifferential(DifferentialModel):
         s["y"] = self.y.tolist()
         s["modes"] = list(self.s)
         s["contact_flags"] = list(self._contact_flags)
+        # the integrator's Jacobian in use and its age (a W-method's memory, as h_next is)
+        k = self._kernel is not None and not self._jac_dirty
+        s["jacobian"] = (self._kernel.J if k else self._integ.J).ravel().tolist()
+        s["jac_age"] = int(self._kernel.state.jac_age) if k else self._jac_age
         return s
 
     def set_state(self, state: dict) -> None:
@@ -368,6 +372,12 @@ class MeshDifferential(DifferentialModel):
         self.y[:] = state["y"]
         self.s = [int(v) for v in state["modes"]]
         self._contact_flags = [int(v) for v in state["contact_flags"]]
+        if "jacobian" in state:
+            self._integ.J.ravel()[:] = state["jacobian"]
+            self._jac_age = int(state["jac_age"])
+        else:
+            self._jac_age = -1
+        self._integ.lu_h = 0.0
         self._f0_key = None
-        self._kernel_dirty = True
+        self._kernel_dirty = self._jac_dirty = True
         self._refresh_outputs()

@@ -9,6 +9,15 @@ boundary; rejected (smaller step) when the state error or the loss-quadrature er
 tolerance, or when an event lies inside it (the step is cut to land just past the event, up to
 four times); accepted: work and loss booked, contact transitions counted, planets that reached
 zero slip speed stuck, the friction modes decided again where needed.
+
+The Jacobian and the factored W are reused (ROS34PW2 is a W-method: order 3, and its embedded
+order 2, for any Jacobian; the W-order conditions hold to rounding): a new Jacobian is evaluated
+at the end of a step only every JAC_AGE_MAX accepted steps, after an event was located in the
+step or where a contact opened or closed in it, and at the start of a step that is retried after a
+rejection; the friction modes' decision evaluates one too. The Jacobian depends on the state
+only, so it serves on across communication steps with new inputs. W is factored again only when
+the Jacobian or the step size changed, and a proposed growth of the step below H_KEEP keeps the
+step (and so the factorization).
 """
 from __future__ import annotations
 
@@ -22,6 +31,8 @@ from ..errors import StepError
 
 E_REF = 0.1       # J, energy scale of the loss-quadrature error control
 H_MIN = 1e-13     # s, smallest internal step
+JAC_AGE_MAX = 10  # accepted steps one Jacobian serves (a W-method keeps its order with any J)
+H_KEEP = 1.2      # a proposed step growth up to this factor keeps the step, and so the factored W
 
 
 def loss_quadrature(P0: float, Pm: float, P1: float, h: float, rtol: float) -> tuple[float, float]:
@@ -84,9 +95,12 @@ def advance(c, t: float, h: float) -> None:
     f0, f1 = c._f0, c._f1
     key = (c.tau_L, c.tau_R, c.tau_c, ac if speed else None, c.s[0], c.s[1])
     if key == c._f0_key:
-        sv0 = c._sv0               # f0, J and side values at y are still those of the last step
-    else:
+        sv0 = c._sv0               # f0 and the side values at y are still those of the last step
+    elif c._jac_age < 0:           # no Jacobian yet
         sv0 = evaluate(c, y, f0, integ.J)
+        c._jac_age, integ.lu_h = 0, 0.0
+    else:                          # the Jacobian depends on the state only: it serves on
+        sv0 = evaluate(c, y, f0, None)
     loss0 = c.energy_loss
     max_steps = int(c.mesh.maxInternalSteps)
     n_here = 0
@@ -114,6 +128,9 @@ def advance(c, t: float, h: float) -> None:
                                 f"(maxInternalSteps)")
             if hi < H_MIN:
                 raise StepError(f"internal step size {hi:.3g} s below {H_MIN:g} s at t = {t + tin:.9g} s")
+            if rejected and c._jac_age > 0:                # retried with a Jacobian at y
+                evaluate(c, y, c._fscratch, integ.J)
+                c._jac_age, integ.lu_h = 0, 0.0
             if not integ.step(y, f0, hi):
                 c.n_rejected_steps += 1
                 rejected = truncated = True
@@ -131,7 +148,10 @@ def advance(c, t: float, h: float) -> None:
                 rejected = truncated = True
                 hi = new_step_size(hi, err, True) if err == err else hi * 0.25
                 continue
-            sv1 = evaluate(c, yn, f1, c._J1)
+            fresh = located > 0 or c._jac_age + 1 >= JAC_AGE_MAX    # a new Jacobian at y_new?
+            if not fresh and (c._bl or c._contact):                  # also where a contact changed
+                fresh = contact_flags(c, yn) != c._contact_flags
+            sv1 = evaluate(c, yn, f1, c._J1 if fresh else None)
             ym = integ.midpoint(y)
             if c._dissipative:
                 svm = evaluate(c, ym, c._fscratch, None)
@@ -159,6 +179,8 @@ def advance(c, t: float, h: float) -> None:
         # ---- accept
         c.n_internal_steps += 1
         h_prop = new_step_size(hi, err, rejected)
+        if not fresh and hi <= h_prop <= H_KEEP * hi:
+            h_prop = hi
         h_ctrl = max(h_ctrl, h_prop) if truncated and not rejected else h_prop
         if c._dissipative:
             c.energy_loss += dloss
@@ -196,12 +218,16 @@ def advance(c, t: float, h: float) -> None:
                 switched = True
         if not switched:
             f0, f1 = f1, f0
-            integ.J, c._J1 = c._J1, integ.J
+            if fresh:
+                integ.J, c._J1 = c._J1, integ.J
+                c._jac_age, integ.lu_h = 0, 0.0
+            else:
+                c._jac_age += 1
             c._f0, c._f1 = f0, f1
             sv0 = sv1
         else:
             f0, f1 = c._f0, c._f1
-            sv0 = c._sv
+            sv0 = c._sv                                # (and J: settle_modes)
     c.h_next = h_ctrl
     c._f0_key = (c.tau_L, c.tau_R, c.tau_c, ac if speed else None, c.s[0], c.s[1])
     c._sv0 = sv0

@@ -178,8 +178,8 @@ def test_a_stale_or_foreign_library_is_refused(tmp_path, monkeypatch):
     """A library whose structures do not match (another source) is not loaded, and says why."""
     lib = tmp_path / "mesh_kernel-stale.so"
     src = tmp_path / "k.c"
-    src.write_text("int mk_abi(void) { return 1; }\nlong mk_sizeof_params(void) { return 8; }\n"
-                   "long mk_sizeof_state(void) { return 8; }\n")
+    src.write_text(f"int mk_abi(void) {{ return {kernel.ABI}; }}\nlong mk_sizeof_params(void) {{ return 8; }}\n"
+                   "long mk_sizeof_state(void) {{ return 8; }}\n")
     subprocess.run(["cc", "-shared", "-fPIC", str(src), "-o", str(lib)], check=True)
     monkeypatch.setattr(kernel, "SEARCH_PATH", [tmp_path])
     monkeypatch.setattr(kernel, "_candidates", lambda: [lib])
