@@ -171,6 +171,9 @@ class Master:
             read = self._step_read[n]
             self._plan.append((n, self._set_port[n], self._links[n][1], self._do_step[n],
                                self.instances[n].component, read))
+        # the same for the fixed-step loop of run(): fmi2DoStep with its arguments converted once
+        # (the time and step as c_double objects set once per step, see Instance.fast_function)
+        self._fast_do = {n: (inst.fast_function("fmi2DoStep"), inst.c_component) for n, inst in self.instances.items()}
 
     def _read_ports(self, name: str, keys) -> list:
         """Ports reading the outputs ``keys`` of instance ``name``: (port, keys, as float)."""
@@ -290,7 +293,13 @@ class Master:
             jacobi = sc.algorithm == "jacobi"
             h = sc.step
             t = 0.0
-            for k in range(n_steps):
+            if not jacobi:   # Gauss-Seidel in scene order: the loop below, the same calls
+                done = [0]
+                try:
+                    self._gauss_seidel(n_steps, h, rec_every, energy, prev_power, record, done)
+                finally:
+                    steps = done[0]
+            for k in range(n_steps if jacobi else 0):
                 t = k * h
                 if STOP.is_set():
                     raise Interrupted(t)
@@ -314,6 +323,72 @@ class Master:
         data = store[:rows].copy() if rows < len(store) // 2 else store[:rows]
         wall = time.perf_counter() - t_wall - sink_time
         return Result(sc, list(sc.record), data, wall, steps, failure, energy, self._messages(), setup_time=t_setup)
+
+    def _gauss_seidel(self, n_steps: int, h: float, rec_every: int, energy: dict, prev_power: dict,
+                      record: Callable[[list], None], done: list) -> None:
+        """The fixed-step Gauss-Seidel loop of :meth:`run` (what :meth:`_communication_step`,
+        :meth:`_add_work`, the recording reads and :meth:`_sample` do, in the same order with the
+        same arithmetic), with every lookup made once: per instance its input port with the
+        value tables and keys of its sources, its fmi2DoStep with converted arguments, its
+        per-step read port with the keys and value table it fills. (The value tables are the master's own dicts, which this loop
+        never replaces.) ``record`` takes each recorded row, ``done[0]`` counts the steps done."""
+        from ctypes import c_double
+
+        values = self._values
+        tt, hh = c_double(0.0), c_double(h)
+        profiles = [(self._profile_port[n], tuple(p for _, p in profs)) for n, profs in self._profiles.items() if profs]
+        plan = []
+        for name, sport, srcs, _, _, read in self._plan:
+            do, comp = self._fast_do[name]
+            src = tuple((values[s], k) for s, k in srcs)
+            if read is None or read == "all":
+                plan.append((name, sport, src, do, comp, None, None, None, read == "all"))
+            else:
+                port = read[0]
+                plan.append((name, sport, src, do, comp, port.fn, port.args, (tuple(read[1]), port.val, values[name]), False))
+        couplings = [(energy[cname], values[ti], tv, sign, values[fi], fv, values[oi], ov)
+                     for cname, ((ti, tv), (fi, fv), (oi, ov)), sign in self._couplings]
+        prev = [prev_power[c[0]] for c in self._couplings]
+        rec_reads = [(n, self._rec_ports[n]) for n in self._order if self._rec_ports[n]]
+        recorded = [(values[i], key) for i, key in self._record]
+        progress, is_set = self.progress, STOP.is_set
+        for k in range(n_steps):
+            t = k * h
+            if is_set():
+                raise Interrupted(t)
+            tt.value = t
+            for port, profs in profiles:
+                port.set([p(t) for p in profs], t)
+            for name, sport, src, do, comp, rfn, rargs, rto, read_all in plan:
+                if sport is not None:
+                    sport.set([d[key] for d, key in src], t)
+                status = do(comp, tt, hh, 1)   # noSetFMUStatePriorToCurrentPoint
+                if status > 1:   # discard, error, fatal
+                    raise RunFailure(name, t, self.instances[name].last_messages() or f"fmi2DoStep returned status {status}")
+                if rfn is not None:
+                    status = rfn(*rargs)
+                    if status > 1:
+                        raise RunFailure(name, t, f"fmi2GetReal returned status {status}: {self.instances[name].last_messages()}")
+                    rto[2].update(zip(rto[0], rto[1]))
+                elif read_all:
+                    self._read_outputs(name)
+            done[0] = k + 1
+            # the work over each coupling (trapezoidal rule), as _add_work computes it
+            for i, (e, dt, kt, sign, df, kf, do_, ko) in enumerate(couplings):
+                tau = sign * dt[kt]
+                p_from, p_to = tau * df[kf], tau * do_[ko]
+                p0 = prev[i]
+                e["work_from"] += 0.5 * (p_from + p0[0]) * h
+                e["work_to"] += 0.5 * (p_to + p0[1]) * h
+                prev[i] = (p_from, p_to)
+            if (k + 1) % rec_every == 0 or k + 1 == n_steps:
+                for name, ports in rec_reads:
+                    self._read_outputs(name, self._rec_ports)
+                row = [(k + 1) * h]
+                row += [d[key] for d, key in recorded]
+                record(row)
+            if progress is not None and k % 200 == 0:
+                progress((k + 1) / n_steps)
 
     def _start(self) -> None:
         """Load, wire and initialize every instance, and read all it publishes."""

@@ -83,13 +83,23 @@ static const char *METHOD_NAMES[N_METHODS] = {
     "fmi2_do_step", "fmi2_cancel_step", "fmi2_get_status",
 };
 
-/* The last value-reference vector a getter or setter was called with, and the Python tuple made
- * of it: a master calls with the same few vectors every step, so the tuple is made once and the
- * slave's caches keyed on it (fmi_adapter.py) hit. */
+/* The last value-reference vectors (VR_SLOTS per method) a getter or setter was called with, the
+ * Python tuple made of each, and for fmi2GetReal / fmi2SetReal the slave's plan of the fast path
+ * (fmi2_real_plan: the names of the variables in the slave's value table, for a setter the range
+ * of each value): a master calls with the same few vectors every step, so the tuple and the plan
+ * are made once and the slave's caches keyed on the tuple (fmi_adapter.py) hit. */
+#define VR_SLOTS 4
 typedef struct {
     fmi2ValueReference *vr;
     size_t n;
     PyObject *tuple;
+    PyObject *names;          /* fast path: tuple of str; Py_None: none; NULL: not asked yet */
+    double *lo, *hi;          /* setter: the accepted range of each value */
+} VrEntry;
+
+typedef struct {
+    VrEntry e[VR_SLOTS];
+    int next;                 /* the slot a new vector replaces */
 } VrCache;
 
 typedef struct {
@@ -401,14 +411,22 @@ static int make_slave(Instance *I)
 }
 
 /* (GIL held) */
+static void drop_entry(VrEntry *e)
+{
+    Py_CLEAR(e->tuple);
+    Py_CLEAR(e->names);
+    free(e->vr);
+    free(e->lo);
+    free(e->hi);
+    e->vr = NULL;
+    e->lo = e->hi = NULL;
+    e->n = 0;
+}
+
 static void drop_vr_caches(Instance *I)
 {
-    for (int i = 0; i < N_METHODS; i++) {
-        Py_CLEAR(I->vrc[i].tuple);
-        free(I->vrc[i].vr);
-        I->vrc[i].vr = NULL;
-        I->vrc[i].n = 0;
-    }
+    for (int i = 0; i < N_METHODS; i++)
+        for (int k = 0; k < VR_SLOTS; k++) drop_entry(&I->vrc[i].e[k]);
 }
 
 static void free_instance(Instance *I)
@@ -585,19 +603,19 @@ SIMPLE_CALL(fmi2CancelStep, M_CANCEL_STEP)
 fmi2Status fmi2Reset(fmi2Component c)
 {
     ENTER
-    if (make_slave(I) == 0) s = fmi2OK;
+    if (make_slave(I) == 0) { drop_vr_caches(I); s = fmi2OK; }   /* the plans were the old slave's */
     else s = status_of(I, NULL, "fmi2Reset");   /* the old slave stays */
     LEAVE
 }
 
-/* The tuple of the value references (new reference), the cached one when the host passes the same
- * vector as last time to this method (GIL held). */
-static PyObject *vr_tuple(Instance *I, int method, const fmi2ValueReference vr[], size_t n)
+/* The cache entry of the value-reference vector (its tuple made), the cached one when the host
+ * passes a vector it passed to this method lately (GIL held); NULL with a Python error set. */
+static VrEntry *vr_entry(Instance *I, int method, const fmi2ValueReference vr[], size_t n)
 {
     VrCache *c = &I->vrc[method];
-    if (c->tuple && c->n == n && (n == 0 || memcmp(c->vr, vr, n * sizeof *vr) == 0)) {
-        Py_INCREF(c->tuple);
-        return c->tuple;
+    for (int k = 0; k < VR_SLOTS; k++) {
+        VrEntry *e = &c->e[k];
+        if (e->tuple && e->n == n && (n == 0 || memcmp(e->vr, vr, n * sizeof *vr) == 0)) return e;
     }
     PyObject *t = PyTuple_New((Py_ssize_t)n);
     for (size_t i = 0; t && i < n; i++) {
@@ -606,15 +624,145 @@ static PyObject *vr_tuple(Instance *I, int method, const fmi2ValueReference vr[]
         PyTuple_SET_ITEM(t, (Py_ssize_t)i, x);
     }
     if (!t) return NULL;
-    fmi2ValueReference *copy = n ? (fmi2ValueReference *)malloc(n * sizeof *vr) : NULL;
-    if (n && !copy) return t;   /* not remembered, still a valid tuple */
+    fmi2ValueReference *copy = (fmi2ValueReference *)malloc((n ? n : 1) * sizeof *vr);
+    if (!copy) { Py_DECREF(t); PyErr_NoMemory(); return NULL; }
     if (n) memcpy(copy, vr, n * sizeof *vr);
-    free(c->vr);
-    c->vr = copy;
-    c->n = n;
-    Py_INCREF(t);
-    Py_XSETREF(c->tuple, t);
-    return t;
+    VrEntry *e = &c->e[c->next];
+    c->next = (c->next + 1) % VR_SLOTS;
+    drop_entry(e);
+    e->vr = copy;
+    e->n = n;
+    e->tuple = t;
+    return e;
+}
+
+/* The tuple of the value references (new reference), see vr_entry. */
+static PyObject *vr_tuple(Instance *I, int method, const fmi2ValueReference vr[], size_t n)
+{
+    VrEntry *e = vr_entry(I, method, vr, n);
+    if (!e) return NULL;
+    Py_INCREF(e->tuple);
+    return e->tuple;
+}
+
+/* ------------------------------------------------------------------------------ fast Real get/set
+ * While the slave steps (its `phase` is "stepping"), fmi2GetReal and fmi2SetReal read and store
+ * the slave's value table (`values`, a dict) here, by the names its fmi2_real_plan gave once per
+ * value-reference vector, as its fmi2_get_real and fmi2_set_real do in that phase (no Python call
+ * per value vector). A setter checks each value against its range (an input's declared range)
+ * and for one outside it (NaN too) clears the slave's `_inputs_ok`: its next fmi2DoStep then
+ * checks every input and refuses naming the bad one. Anything else (another phase, a vector
+ * without a plan, a value table that is not a dict) takes the slave's methods. */
+static PyObject *S_phase, *S_stepping, *S_values, *S_inputs_ok, *S_plan;
+
+static int fast_strings(void)
+{
+    if (S_plan) return 0;
+    S_phase = PyUnicode_InternFromString("phase");
+    S_stepping = PyUnicode_InternFromString("stepping");
+    S_values = PyUnicode_InternFromString("values");
+    S_inputs_ok = PyUnicode_InternFromString("_inputs_ok");
+    PyObject *plan = PyUnicode_InternFromString("fmi2_real_plan");
+    if (!S_phase || !S_stepping || !S_values || !S_inputs_ok || !plan) { Py_XDECREF(plan); return -1; }
+    S_plan = plan;
+    return 0;
+}
+
+/* The slave's value table when it steps (new reference), else NULL (no error set). */
+static PyObject *stepping_values(Instance *I)
+{
+    if (fast_strings() != 0) { PyErr_Clear(); return NULL; }
+    PyObject *phase = PyObject_GetAttr(I->slave, S_phase);
+    int stepping = phase && (phase == S_stepping ||
+                             (PyUnicode_CheckExact(phase) && PyUnicode_Compare(phase, S_stepping) == 0));
+    Py_XDECREF(phase);
+    PyObject *values = stepping ? PyObject_GetAttr(I->slave, S_values) : NULL;
+    if (values && !PyDict_CheckExact(values)) Py_CLEAR(values);
+    if (PyErr_Occurred()) PyErr_Clear();
+    return values;
+}
+
+/* Ask the slave for the plan of entry e once: e->names a tuple of n str (and for a setter the
+ * ranges filled), or Py_None. 1 when there is a fast path. */
+static int plan_of(Instance *I, VrEntry *e, int write)
+{
+    if (e->names) return e->names != Py_None;
+    PyObject *r = fast_strings() == 0 ? PyObject_CallMethodObjArgs(I->slave, S_plan, e->tuple,
+                                                                    write ? Py_True : Py_False, NULL) : NULL;
+    PyObject *names = NULL;
+    size_t n = e->n;
+    if (r && PyTuple_Check(r) && PyTuple_GET_SIZE(r) == 3) {
+        PyObject *nm = PyTuple_GET_ITEM(r, 0), *lo = PyTuple_GET_ITEM(r, 1), *hi = PyTuple_GET_ITEM(r, 2);
+        int ok = PyTuple_CheckExact(nm) && (size_t)PyTuple_GET_SIZE(nm) == n;
+        for (size_t i = 0; ok && i < n; i++) ok = PyUnicode_CheckExact(PyTuple_GET_ITEM(nm, (Py_ssize_t)i));
+        if (ok && write) {
+            ok = PyTuple_Check(lo) && PyTuple_Check(hi) && (size_t)PyTuple_GET_SIZE(lo) == n
+                 && (size_t)PyTuple_GET_SIZE(hi) == n;
+            double *l = ok ? (double *)malloc((n ? n : 1) * sizeof *l) : NULL;
+            double *h = ok ? (double *)malloc((n ? n : 1) * sizeof *h) : NULL;
+            ok = l && h;
+            for (size_t i = 0; ok && i < n; i++) {
+                l[i] = PyFloat_AsDouble(PyTuple_GET_ITEM(lo, (Py_ssize_t)i));
+                h[i] = PyFloat_AsDouble(PyTuple_GET_ITEM(hi, (Py_ssize_t)i));
+                ok = !PyErr_Occurred();
+            }
+            if (ok) { free(e->lo); free(e->hi); e->lo = l; e->hi = h; }
+            else { free(l); free(h); }
+        }
+        if (ok) { names = nm; Py_INCREF(names); }
+    }
+    if (PyErr_Occurred()) PyErr_Clear();   /* an unknown reference: the slave's method reports it */
+    Py_XDECREF(r);
+    if (!names) { names = Py_None; Py_INCREF(names); }
+    e->names = names;
+    return names != Py_None;
+}
+
+/* fmi2GetReal by the plan: 1 done, 0 take the slave's method (no error set). */
+static int fast_get_real(Instance *I, const fmi2ValueReference vr[], size_t n, fmi2Real v[])
+{
+    PyObject *values = stepping_values(I);
+    if (!values) return 0;
+    VrEntry *e = vr_entry(I, M_GET_REAL, vr, n);
+    int done = e && plan_of(I, e, 0);
+    for (size_t i = 0; done && i < n; i++) {
+        PyObject *x = PyDict_GetItemWithError(values, PyTuple_GET_ITEM(e->names, (Py_ssize_t)i));   /* borrowed */
+        if (!x) { done = 0; break; }
+        double d = PyFloat_CheckExact(x) ? PyFloat_AS_DOUBLE(x) : PyFloat_AsDouble(x);
+        if (d == -1.0 && PyErr_Occurred()) { done = 0; break; }
+        v[i] = d;
+    }
+    if (PyErr_Occurred()) PyErr_Clear();
+    Py_DECREF(values);
+    return done;
+}
+
+/* fmi2SetReal by the plan: 1 done (status in *s), 0 take the slave's method (nothing stored). */
+static int fast_set_real(Instance *I, const fmi2ValueReference vr[], size_t n, const fmi2Real v[], fmi2Status *s)
+{
+    PyObject *values = stepping_values(I);
+    if (!values) return 0;
+    VrEntry *e = vr_entry(I, M_SET_REAL, vr, n);
+    if (!e || !plan_of(I, e, 1)) {
+        if (PyErr_Occurred()) PyErr_Clear();
+        Py_DECREF(values);
+        return 0;
+    }
+    int in_range = 1, failed = 0;
+    for (size_t i = 0; i < n; i++) {
+        PyObject *x = PyFloat_FromDouble(v[i]);
+        if (!x || PyDict_SetItem(values, PyTuple_GET_ITEM(e->names, (Py_ssize_t)i), x) != 0) {
+            Py_XDECREF(x);
+            failed = 1;
+            break;
+        }
+        Py_DECREF(x);
+        if (!(e->lo[i] <= v[i] && v[i] <= e->hi[i])) in_range = 0;   /* NaN too */
+    }
+    Py_DECREF(values);
+    if (!failed && !in_range && PyObject_SetAttr(I->slave, S_inputs_ok, Py_False) != 0) failed = 1;
+    *s = failed ? status_of(I, NULL, "fmi2SetReal") : fmi2OK;
+    return 1;
 }
 
 /* Call a getter; on success a sequence of exactly n items is returned (new reference). */
@@ -654,7 +802,11 @@ static PyObject *get_values(Instance *I, int method, const fmi2ValueReference vr
         }                                                                                          \
         LEAVE                                                                                      \
     }
-GETTER(fmi2GetReal, fmi2Real, M_GET_REAL, PyFloat_AsDouble(x))
+#undef fmi2GetReal   /* the slave's method, the path of every call the fast one does not take */
+#define fmi2GetReal slow_fmi2GetReal
+static GETTER(fmi2GetReal, fmi2Real, M_GET_REAL, PyFloat_AsDouble(x))
+#undef fmi2GetReal
+#define fmi2GetReal spurdiff_bridge_fmi2GetReal
 GETTER(fmi2GetInteger, fmi2Integer, M_GET_INTEGER, (fmi2Integer)PyLong_AsLong(x))
 GETTER(fmi2GetBoolean, fmi2Boolean, M_GET_BOOLEAN, PyObject_IsTrue(x) > 0 ? fmi2True : fmi2False)
 
@@ -698,7 +850,36 @@ fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
         }                                                                                          \
         LEAVE                                                                                      \
     }
-SETTER(fmi2SetReal, fmi2Real, M_SET_REAL, PyFloat_FromDouble(v[i]))
+#undef fmi2SetReal
+#define fmi2SetReal slow_fmi2SetReal
+static SETTER(fmi2SetReal, fmi2Real, M_SET_REAL, PyFloat_FromDouble(v[i]))
+#undef fmi2SetReal
+#define fmi2SetReal spurdiff_bridge_fmi2SetReal
+
+fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[])
+{
+    Instance *I = valid(c);
+    if (!I) return fmi2Error;
+    if (n && (!vr || !v)) return slow_fmi2GetReal(c, vr, n, v);
+    PyGILState_STATE g = PyGILState_Ensure();
+    int done = fast_get_real(I, vr, n, v);
+    if (done) flush_log(I);
+    PyGILState_Release(g);
+    return done ? fmi2OK : slow_fmi2GetReal(c, vr, n, v);
+}
+
+fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real v[])
+{
+    Instance *I = valid(c);
+    if (!I) return fmi2Error;
+    if (n && (!vr || !v)) return slow_fmi2SetReal(c, vr, n, v);
+    PyGILState_STATE g = PyGILState_Ensure();
+    fmi2Status s = fmi2OK;
+    int done = fast_set_real(I, vr, n, v, &s);
+    if (done) flush_log(I);
+    PyGILState_Release(g);
+    return done ? s : slow_fmi2SetReal(c, vr, n, v);
+}
 SETTER(fmi2SetInteger, fmi2Integer, M_SET_INTEGER, PyLong_FromLong(v[i]))
 SETTER(fmi2SetBoolean, fmi2Boolean, M_SET_BOOLEAN, PyBool_FromLong(v[i]))
 SETTER(fmi2SetString, fmi2String, M_SET_STRING, PyUnicode_FromString(v[i] ? v[i] : ""))

@@ -144,12 +144,17 @@ class ModelFmu(Fmi2Slave):
         self._real_getters: dict[tuple, Callable[[dict], tuple]] = {}
         self._real_setters: dict[tuple, tuple[tuple, bool]] = {}
         self._io = bindings(self.VARIABLES)   # push / pull per model class (spurdiff.binding)
-        self._io_of = self._io.io_of
         self.model = None
         self.phase = "instantiated"
         self.failure = ""
         self.time = 0.0
         self.stop_time: float | None = None
+        self._stop, self._stop_tol = math.inf, 0.0   # stop_time (inf: none) and its tolerance's first term
+        # the inputs were checked against their ranges since the last store into the value table
+        # (every store clears it but the bridge's fast fmi2SetReal, which checks what it stores)
+        self._inputs_ok = False
+        self._step_model = None          # the model the step's tables below are of
+        self._step_io = None             # (push, pull, ATOMIC_STEP) of _step_model
         self.terminated = False          # fmi2Terminated: the FMU cannot go on (stop time reached)
         self.last_step_status = OK
         self._dirty = True               # values changed since the model was built
@@ -218,6 +223,7 @@ class ModelFmu(Fmi2Slave):
         for name, x in zip(names, xs):
             table[name] = x
         self._dirty = True
+        self._inputs_ok = False
         return OK
 
     def _names(self, kind: str, vrs, settable: bool) -> list[str]:
@@ -270,6 +276,9 @@ class ModelFmu(Fmi2Slave):
                                        f"startTime = {start}")
         self.time = start
         self.stop_time = stop if stop_defined else None
+        # the step's stop-time check, t + h > stop + _time_tolerance(stop, h), with its h-free term once
+        self._stop = stop if stop_defined else math.inf
+        self._stop_tol = 1e-9 * max(1.0, abs(stop)) if stop_defined else 0.0
         return OK
 
     def fmi2_enter_initialization_mode(self) -> int:
@@ -344,8 +353,30 @@ class ModelFmu(Fmi2Slave):
         if self.phase == "stepping" and not fixed:
             self.values.update(zip(names, xs))
             self._dirty = True
+            self._inputs_ok = False
             return OK
         return self._store(names, xs)
+
+    def fmi2_real_plan(self, vrs, write: bool):
+        """For the bridge's fast fmi2GetReal / fmi2SetReal while stepping (``phase`` is
+        "stepping"; the bridge checks it at every call): the names of the Real variables at
+        ``vrs`` (the keys of ``values``) and, for a setter, each value's accepted range (an
+        input's declared range, else everything but NaN). The bridge then reads or stores the
+        value table itself, as :meth:`fmi2_get_real` and :meth:`fmi2_set_real` do while stepping,
+        and for a value outside its range clears ``_inputs_ok`` (the next step checks every input
+        and refuses naming the bad one). None: no fast path (a fixed parameter among the
+        references: the bridge calls the methods, which refuse); ValueError for an unknown
+        reference (the bridge calls the methods, which report it)."""
+        key = tuple(vrs)
+        names = tuple(self._names("Real", key, settable=write))
+        if not write:
+            return names, None, None
+        if any(n in self._fixed for n in names):
+            return None
+        ranges = {n: (lo, hi) for n, lo, hi in self._inputs}
+        lo = tuple(ranges.get(n, (-math.inf, math.inf))[0] for n in names)
+        hi = tuple(ranges.get(n, (-math.inf, math.inf))[1] for n in names)
+        return names, lo, hi
 
     def fmi2_set_integer(self, vrs, xs) -> int:
         return self._store(self._names("Integer", vrs, True), xs)
@@ -363,7 +394,9 @@ class ModelFmu(Fmi2Slave):
 
     def _step(self, t: float, h: float) -> int:
         # the checks below are the hot path of every communication step: each is one comparison
-        # or one C-level pass over a precomputed table; the messages are built only on refusal
+        # or one C-level pass over a precomputed table; the messages are built only on refusal.
+        # The inputs are checked when something was stored since their last check (_inputs_ok;
+        # the bridge's fast setter checks the values it stores and clears it for a bad one).
         if self.phase != "stepping":
             why = f": {self.failure}" if self.failure else ""
             return self._refuse(ERROR, f"fmi2DoStep refused in state '{self.phase}'{why}")
@@ -374,23 +407,28 @@ class ModelFmu(Fmi2Slave):
         if not abs(t - self.time) <= 1e-9 * (at if at > 1.0 else 1.0) + 1e-6 * h or at == math.inf:
             return self._refuse(DISCARD, f"fmi2DoStep refused: currentCommunicationPoint = {t!r} s is not the "
                                          f"FMU's time {self.time!r} s (no gaps, no going back: use fmi2SetFMUstate)")
-        if self.stop_time is not None and t + h > self.stop_time + _time_tolerance(self.stop_time, h):
+        if t + h > self._stop + (self._stop_tol + 1e-6 * h):   # t + h > stop_time + _time_tolerance(stop_time, h)
             self.terminated = True   # FMI 2.0 section 2.1.6: computing past a defined stopTime is fmi2Error
             return self._refuse(ERROR, f"fmi2DoStep refused: t + h = {t + h:g} s is past the stopTime "
                                        f"{self.stop_time:g} s set by fmi2SetupExperiment; state kept at t = {self.time:g} s")
         values = self.values
-        xs = self._input_values(values)
-        if not (all(map(operator.le, self._input_lo, xs)) and all(map(operator.le, xs, self._input_hi))):
-            for (name, lo, hi), x in zip(self._inputs, xs):
-                if not lo <= x <= hi:   # NaN too
-                    what = "is not a finite number" if not math.isfinite(x) else f"is outside [{lo:g}, {hi:g}]"
-                    return self._refuse(DISCARD, f"fmi2DoStep at t = {t:g} s refused: input {name} = {x} {what}; "
-                                                 f"state kept at t = {self.time:g} s")
+        if not self._inputs_ok:
+            xs = self._input_values(values)
+            if not (all(map(operator.le, self._input_lo, xs)) and all(map(operator.le, xs, self._input_hi))):
+                for (name, lo, hi), x in zip(self._inputs, xs):
+                    if not lo <= x <= hi:   # NaN too
+                        what = "is not a finite number" if not math.isfinite(x) else f"is outside [{lo:g}, {hi:g}]"
+                        return self._refuse(DISCARD, f"fmi2DoStep at t = {t:g} s refused: input {name} = {x} {what}; "
+                                                     f"state kept at t = {self.time:g} s")
+            self._inputs_ok = True
         model = self.model
-        push, pull = self._io_of.get(model.__class__) or self._io.io(model)
-        # the rollback point; a model whose do_step leaves itself as it was on any error and never
-        # commits a non-finite state says so with ATOMIC_STEP (no snapshot on the hot path)
-        atomic = getattr(model, "ATOMIC_STEP", False)
+        if model is not self._step_model:
+            # the rollback point; a model whose do_step leaves itself as it was on any error and
+            # never commits a non-finite state says so with ATOMIC_STEP (no snapshot on the hot
+            # path), a declaration of the model object, read once per model
+            self._step_io = (*self._io.io(model), bool(getattr(model, "ATOMIC_STEP", False)))
+            self._step_model = model
+        push, pull, atomic = self._step_io
         saved = None if atomic else model.get_state()
         try:
             push(model, values)
@@ -463,6 +501,7 @@ class ModelFmu(Fmi2Slave):
         self.phase, self.failure, self.time = state.phase, state.failure, state.time
         self.terminated = False
         self._dirty = False
+        self._inputs_ok = False
         return OK
 
     def fmi2_serialize_state(self, state: FmuState) -> bytes:

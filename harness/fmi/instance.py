@@ -9,8 +9,9 @@ The master, the compliance checks, the sweep pool and the tests use it.
 * Status: :meth:`Instance.call` turns a refused call (a status above fmi2Warning, fmpy's
   :class:`~fmpy.fmi1.FMICallException`) into :class:`CallFailed` naming the call, the instance and
   the FMU's last message; :meth:`Instance.status` calls a function and returns its status instead.
-  :meth:`Instance.c_function` is the C function itself (ctypes, argument types set by fmpy), for
-  loops that call it many times (:class:`RealPort`).
+  :meth:`Instance.c_function` is the C function itself (ctypes, argument types set by fmpy);
+  :meth:`Instance.fast_function` the same C function for loops that call it many times
+  (:class:`Port`, the master's fmi2DoStep), with its arguments converted once by the caller.
 * Tracing: ``trace`` (a callable taking one line) sees every call before it is made, so a crash
   report can name the call the FMU died in.
 """
@@ -200,9 +201,30 @@ class Instance:
         status and never raises; the first argument is :attr:`component`."""
         return getattr(self.slave.dll, name)
 
+    def fast_function(self, name: str):
+        """The FMU's C function ``name`` for a stepping loop: the same function as
+        :meth:`c_function`, called with arguments the caller converted once (``c_component``, a
+        ``c_size_t``, C arrays, ``c_double`` objects; plain ``int`` for ``fmi2Boolean``), so ctypes
+        converts nothing per call (fmpy's argument types cost about 0.5 us per call), and without
+        releasing the GIL around the call (a Python FMU takes it back at once; the host's other
+        threads still run while the FMU runs Python). Returns the status (never raises)."""
+        from ctypes import PYFUNCTYPE, c_int, cast, c_void_p
+
+        fn = PYFUNCTYPE(c_int)(cast(self.c_function(name), c_void_p).value)
+        fn.argtypes = None
+        fn._keep = self.slave.dll   # the library stays loaded as long as the function is used
+        return fn
+
     @property
     def component(self):
         return self.slave.component
+
+    @property
+    def c_component(self):
+        """The component pointer as a ``c_void_p`` (for :meth:`fast_function`)."""
+        from ctypes import c_void_p
+
+        return c_void_p(self.slave.component)
 
     def step_status(self, t: float, h: float) -> int:
         """fmi2DoStep (noSetFMUStatePriorToCurrentPoint) returning its status instead of raising."""
@@ -292,38 +314,45 @@ class Instance:
 
 class Port:
     """fmi2Get/fmi2Set of one type (Real, Integer, Boolean) on a fixed list of value references,
-    with the C arrays allocated once: a stepping loop calls the FMU's C function directly (fmpy's
-    wrappers convert lists to new arrays on every call). A status above warning calls
-    ``fail(reason, t)``, which raises."""
+    with the C arrays and every other argument converted once: a stepping loop calls the FMU's C
+    function directly (:meth:`Instance.fast_function`; fmpy's wrappers convert lists to new arrays
+    on every call). A status above warning calls ``fail(reason, t)``, which raises."""
 
     def __init__(self, inst: Instance, vrs: list[int], write: bool, fail: Callable[[str, float], None],
                  kind: str = "Real"):
+        from ctypes import c_size_t
+
         from fmpy.fmi2 import fmi2Boolean, fmi2Integer, fmi2Real, fmi2ValueReference
 
         self.inst, self.n, self.fail = inst, len(vrs), fail
         self.vr = (fmi2ValueReference * self.n)(*vrs)
         self.val = ({"Real": fmi2Real, "Integer": fmi2Integer, "Boolean": fmi2Boolean}[kind] * self.n)()
         self.what = f"fmi2{'Set' if write else 'Get'}{kind}"
-        self.fn = inst.c_function(self.what)
-        self.component = inst.component
+        self.fn = inst.fast_function(self.what)
+        self.component = inst.c_component
+        self.args = (self.component, self.vr, c_size_t(self.n), self.val)   # the call's arguments, converted once
         self.last = None   # values of the last set: inputs keep their values, an unchanged set is skipped
 
-    def _check(self, status: int, t: float) -> None:
-        if status > 1:
-            self.fail(f"{self.what} returned status {status}: {self.inst.last_messages()}", t)
+    def _failed(self, status: int, t: float) -> None:
+        self.fail(f"{self.what} returned status {status}: {self.inst.last_messages()}", t)
 
-    def set(self, values: list[float], t: float = math.nan) -> None:
+    def set(self, values, t: float = math.nan) -> None:
+        """Set ``values`` (a list or tuple, compared with the last set by value)."""
         if values == self.last:   # (call forget() after fmi2SetFMUstate, which restores old inputs)
             return
         self.val[:] = values
-        self._check(self.fn(self.component, self.vr, self.n, self.val), t)
+        status = self.fn(*self.args)
+        if status > 1:
+            self._failed(status, t)
         self.last = values
 
     def forget(self) -> None:
         self.last = None
 
     def get(self, t: float = math.nan) -> list:
-        self._check(self.fn(self.component, self.vr, self.n, self.val), t)
+        status = self.fn(*self.args)
+        if status > 1:
+            self._failed(status, t)
         return self.val[:]
 
 
