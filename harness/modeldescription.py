@@ -41,6 +41,7 @@ UNITS: dict[str, tuple[dict[str, int] | None, dict[str, tuple[float, float]]]] =
     "Pa": ({"kg": 1, "m": -1, "s": -2}, {"MPa": (1e-6, 0.0)}),
     "1/s": ({"s": -1}, {}),
     "N.m/s": ({"kg": 1, "m": 2, "s": -3}, {}),
+    "N/s": ({"kg": 1, "m": 1, "s": -3}, {}),
     "1/(kg.m2)": ({"kg": -1, "m": -2}, {}),
     # IMPACT stiffness for e = 1.5: the base unit has a fractional exponent (kg m^-0.5 s^-2), which
     # FMI's integer BaseUnit cannot express, so it is declared without one

@@ -17,7 +17,15 @@ Integration: classical 4th-order Runge-Kutta in plain floats, sub-stepped so tha
 step is at most ``h_max`` and at most ``sigma / |v_x|`` (the fastest mode is the slip-angle
 relaxation, rate ``|v_x| / sigma``; the standstill tyre spring and the body modes are slower, about
 40 rad/s), which keeps every mode well inside the RK4 stability region for any communication step.
-Inputs are held over a step (zero-order hold).
+Inputs are held over a step (zero-order hold), except that the command inputs ``speedTarget`` and
+``pathRadius`` ramp from their values at the rates ``speedTargetRate``, ``pathRadiusRate`` (0, the
+default: held; a scene gives the rate of its input table, sampled at the step's start as the input
+is). The outputs include the rates of the rear wheel loads and wheel-centre speeds
+(``rearLeft_dFz``, ``rearLeft_dvx``, ...): after a step their mean over it, ``(end - start) / h``
+(at initialization the derivatives), so that a WheelLoad stepped after the car ramps its inputs
+from the car's outputs at the start of the step to those at its end (first-order hold, continuous;
+:mod:`spurdiff.wheel`, ``rampAnchor = "end"``); a host that steps the car after the wheels gives
+them the linear extrapolation of the last step instead (``rampAnchor = "start"``).
 
 Sources: the single-track (bicycle) equations and slip angles of shared/docs/model-references.md,
 extended to a planar body with both axles' longitudinal forces; the friction circle (Kamm) for
@@ -41,8 +49,10 @@ _STATE_NAMES = ("vx", "vy", "r", "psi", "x", "y", "alpha_f", "alpha_r", "axs_f",
 _OUTPUT_KEYS = (
     "rearLeft_vx", "rearRight_vx", "rearLeft_Fz", "rearRight_Fz", "frontAxle_Fz", "rearAxle_Fz",
     "speed", "yawRate", "ax", "ay", "driveTorque", "steering_angle", "Fy_front", "Fy_rear",
+    "rearLeft_dvx", "rearRight_dvx", "rearLeft_dFz", "rearRight_dFz",
 )
-_INPUT_KEYS = ("rearLeft_Fx", "rearRight_Fx", "speedTarget", "pathRadius", "steering_angle_cmd", "grade", "mu")
+_INPUT_KEYS = ("rearLeft_Fx", "rearRight_Fx", "speedTarget", "pathRadius", "steering_angle_cmd", "grade", "mu",
+               "speedTargetRate", "pathRadiusRate")
 
 
 class Vehicle:
@@ -57,7 +67,12 @@ class Vehicle:
     ``frontAxle_Fz``, ``rearAxle_Fz`` (N), ``speed`` (m/s, magnitude of the CG velocity), ``vx``,
     ``vy`` (m/s), ``yawRate`` (rad/s), ``ax``, ``ay`` (m/s^2, CG acceleration in the body frame),
     ``driveTorque`` (N m, at the axle), ``x``, ``y`` (m), ``psi`` (rad), ``steering_angle`` (rad),
-    ``Fy_front``, ``Fy_rear`` (N, axle side forces in their wheel frames).
+    ``Fy_front``, ``Fy_rear`` (N, axle side forces in their wheel frames); ``rearLeft_dvx``,
+    ``rearRight_dvx`` (m/s^2), ``rearLeft_dFz``, ``rearRight_dFz`` (N/s): the mean rates of the
+    wheel-side outputs over the last step (at initialization their derivatives).
+
+    Command-input rates (attributes): ``speedTargetRate`` (m/s^2), ``pathRadiusRate`` (m/s); the
+    input ramps from its value at the step's start at this rate (0: held).
     """
 
     n_states = _N
@@ -68,6 +83,8 @@ class Vehicle:
         self.rearRight_Fx = 0.0
         self.speedTarget = 0.0
         self.pathRadius = 0.0
+        self.speedTargetRate = 0.0
+        self.pathRadiusRate = 0.0
         self.steering_angle_cmd = 0.0
         self.grade = 0.0
         self.mu = 1.0
@@ -151,7 +168,7 @@ class Vehicle:
 
     def _load_inputs(self) -> None:
         """Validate the inputs (all before changing anything) and cache what the rate function
-        needs, constant over a step."""
+        needs over a step (held, or ramping at the command inputs' rates)."""
         FxL, FxR, vref, R, dcmd, gr, mu = (self.rearLeft_Fx, self.rearRight_Fx, self.speedTarget, self.pathRadius,
                                            self.steering_angle_cmd, self.grade, self.mu)
         if (math.isfinite(FxL + FxR + vref + dcmd + gr + mu) and R == R and mu >= 0.0 and _GRADE_MIN <= gr <= _GRADE_MAX
@@ -159,6 +176,7 @@ class Vehicle:
                 is mu.__class__ is float):
             # the usual case: all valid floats (else the checks below name the bad one); the terms of
             # path radius and grade computed again only when they change
+            self._dvref, self._dR = self._input_rates()   # (checked before anything is stored)
             self._FxL, self._FxR, self._vref, self._dcmd, self._mu = FxL, FxR, vref, dcmd, mu
             key = (R, gr, math.copysign(1.0, gr), self.params.vehicle.L)   # (the sign of a zero grade too)
             if key != self._geo_key:
@@ -174,12 +192,23 @@ class Vehicle:
         dcmd = require_finite("steeringAngleCommand", self.steering_angle_cmd)
         gr = require_range("grade", self.grade, _GRADE_MIN, _GRADE_MAX)
         mu = require_nonnegative("mu", self.mu)
+        rates = self._input_rates()
         self._FxL, self._FxR, self._vref, self._dcmd, self._mu = FxL, FxR, vref, dcmd, mu
+        self._dvref, self._dR = rates
         self._set_geometry(R, gr)
         self._geo_key = None
 
+    def _input_rates(self) -> tuple[float, float]:
+        """The rates of the command inputs over the coming step (speedTargetRate, pathRadiusRate;
+        0: held), validated."""
+        dv, dR = self.speedTargetRate, self.pathRadiusRate
+        if math.isfinite(dv + dR) and dv.__class__ is dR.__class__ is float:
+            return dv, dR
+        return require_finite("speedTargetRate", dv), require_finite("pathRadiusRate", dR)
+
     def _set_geometry(self, R: float, gr: float) -> None:
         """The terms of the path radius R and the grade gr the rate function uses."""
+        self._R = R
         self._kappa = 0.0 if (R == 0.0 or math.isinf(R)) else 1.0 / R
         self._sin_g, self._cos_g = math.sin(gr), math.cos(gr)
         self._delta_ff = math.atan(self.params.vehicle.L * self._kappa)
@@ -192,11 +221,12 @@ class Vehicle:
         (:func:`spurdiff.vehicle_rates.make_rates`)."""
         return make_rates(self)
 
-    def _rates_full(self, s, rates=None) -> tuple:
+    def _rates_full(self, s, rates=None, tau: float = 0.0) -> tuple:
         """The derivatives and the force/acceleration values of ``rates(..., full=True)`` at the
-        state list ``s`` (``rates``: the step's rate function, else one for the cached inputs)."""
+        state list ``s``, ``tau`` into the step (``rates``: the step's rate function, else one for
+        the cached inputs)."""
         rates = rates or self._make_rates()
-        return rates(s[0], s[1], s[2], s[3], s[6], s[7], s[8], s[9], s[10], s[11], full=True)
+        return rates(s[0], s[1], s[2], s[3], s[6], s[7], s[8], s[9], s[10], s[11], tau, full=True)
 
     def do_step(self, t: float, h: float) -> None:
         """Advance from t to t + h with the inputs held (RK4 sub-steps). Atomic: raises
@@ -219,15 +249,19 @@ class Vehicle:
         amax = p.lateralTyre.alpha_max
         s = self.s
         rates = self._make_rates()
-        for _ in range(n):
+        for j in range(n):
             vx, vy, r, psi, _x, _y, af, ar, axf, ayf, Iv, Ir = s
-            k1 = rates(vx, vy, r, psi, af, ar, axf, ayf, Iv, Ir)
+            tj = j * hs            # the sub-step's time into the step (the command inputs' ramps)
+            k1 = rates(vx, vy, r, psi, af, ar, axf, ayf, Iv, Ir, tj)
             k2 = rates(vx + hh * k1[0], vy + hh * k1[1], r + hh * k1[2], psi + hh * k1[3], af + hh * k1[6],
-                       ar + hh * k1[7], axf + hh * k1[8], ayf + hh * k1[9], Iv + hh * k1[10], Ir + hh * k1[11])
+                       ar + hh * k1[7], axf + hh * k1[8], ayf + hh * k1[9], Iv + hh * k1[10], Ir + hh * k1[11],
+                       tj + hh)
             k3 = rates(vx + hh * k2[0], vy + hh * k2[1], r + hh * k2[2], psi + hh * k2[3], af + hh * k2[6],
-                       ar + hh * k2[7], axf + hh * k2[8], ayf + hh * k2[9], Iv + hh * k2[10], Ir + hh * k2[11])
+                       ar + hh * k2[7], axf + hh * k2[8], ayf + hh * k2[9], Iv + hh * k2[10], Ir + hh * k2[11],
+                       tj + hh)
             k4 = rates(vx + hs * k3[0], vy + hs * k3[1], r + hs * k3[2], psi + hs * k3[3], af + hs * k3[6],
-                       ar + hs * k3[7], axf + hs * k3[8], ayf + hs * k3[9], Iv + hs * k3[10], Ir + hs * k3[11])
+                       ar + hs * k3[7], axf + hs * k3[8], ayf + hs * k3[9], Iv + hs * k3[10], Ir + hs * k3[11],
+                       tj + hs)
             # s + h/6 (k1 + 2 (k2 + k3) + k4), the slip angles limited to +-alpha_max
             af = af + h6 * (k1[6] + 2.0 * (k2[6] + k3[6]) + k4[6])
             ar = ar + h6 * (k1[7] + 2.0 * (k2[7] + k3[7]) + k4[7])
@@ -243,37 +277,53 @@ class Vehicle:
                  ayf + h6 * (k1[9] + 2.0 * (k2[9] + k3[9]) + k4[9]),
                  Iv + h6 * (k1[10] + 2.0 * (k2[10] + k3[10]) + k4[10]),
                  Ir + h6 * (k1[11] + 2.0 * (k2[11] + k3[11]) + k4[11])]
-        out = self._outputs(s, rates)
+        out = self._outputs(s, rates, h)
         if not math.isfinite(sum(s) + sum(out)) and not all(math.isfinite(x) for x in s + list(out)):
             raise StepError(f"vehicle: the step at t = {t:.6g} s gave a non-finite state; state kept")
         self.s = s
         self.n_substeps += n
         self.t = t + h
         self.n_steps += 1
+        # the rates of the wheel-side outputs: their mean over this step (a WheelLoad stepped after
+        # the car then ramps its inputs from the car's outputs at the step's start to those at its end)
+        out = out[:-4] + ((out[0] - self.rearLeft_vx) / h, (out[1] - self.rearRight_vx) / h,
+                          (out[2] - self.rearLeft_Fz) / h, (out[3] - self.rearRight_Fz) / h)
         self._set_outputs(out)
 
     def _update_outputs(self) -> None:
         self._set_outputs(self._outputs(self.s))
 
-    def _outputs(self, s, rates=None) -> tuple:
-        """The output values (in the order of ``_OUTPUT_KEYS``) for the state ``s``."""
+    def _outputs(self, s, rates=None, tau: float = 0.0) -> tuple:
+        """The output values (in the order of ``_OUTPUT_KEYS``) for the state ``s``, ``tau`` into
+        the step of ``rates``."""
         p = self.params
         b = p.vehicle
-        delta, Fz_f, Fz_r, ax, ay, _, _, Fyf, Fyr, u = self._rates_full(s, rates)[1]
+        d, (delta, Fz_f, Fz_r, ax, ay, _, _, Fyf, Fyr, u) = self._rates_full(s, rates, tau)
         vx, vy, r = s[0], s[1], s[2]
         half_t = 0.5 * b.trackRear
         dFz = p.vehicle.rollStiffnessShareRear * b.m * s[9] * b.h_cg / b.trackRear
+        k_y = p.vehicle.rollStiffnessShareRear * b.m * b.h_cg / b.trackRear   # d(dFz) / d(a_y_f)
         half = 0.5 * Fz_r
-        dFz = half if dFz > half else (-half if dFz < -half else dFz)
+        # rates of the rear wheel loads (from the load-transfer filters; 0 while a limit holds): the
+        # outputs at initialization; after a step do_step replaces them by the step's mean rates
+        Wn = b.m * G * self._cos_g
+        dhalf = 0.0 if Fz_f <= 0.0 or Fz_f >= Wn else 0.5 * b.m * d[8] * b.h_cg / b.L
+        if dFz >= half:
+            dFz, dFz_L, dFz_R = half, 0.0, 2.0 * dhalf
+        elif dFz <= -half:
+            dFz, dFz_L, dFz_R = -half, 2.0 * dhalf, 0.0
+        else:
+            dFz_L, dFz_R = dhalf - k_y * d[9], dhalf + k_y * d[9]
         sc = p.speedControl
         return (vx - r * half_t, vx + r * half_t, half - dFz, half + dFz, Fz_f, Fz_r,
                 math.hypot(vx, vy), r, ax, ay, min(max(u, sc.driveTorqueMin), sc.driveTorqueMax),
-                delta, Fyf, Fyr)
+                delta, Fyf, Fyr, d[0] - d[2] * half_t, d[0] + d[2] * half_t, dFz_L, dFz_R)
 
     def _set_outputs(self, out: tuple) -> None:
         (self.rearLeft_vx, self.rearRight_vx, self.rearLeft_Fz, self.rearRight_Fz, self.frontAxle_Fz,
          self.rearAxle_Fz, self.speed, self.yawRate, self.ax, self.ay, self.driveTorque,
-         self.steering_angle, self.Fy_front, self.Fy_rear) = out
+         self.steering_angle, self.Fy_front, self.Fy_rear, self.rearLeft_dvx, self.rearRight_dvx,
+         self.rearLeft_dFz, self.rearRight_dFz) = out
 
     # ------------------------------------------------------------------ convenience
     @property

@@ -47,6 +47,12 @@ VARIABLES: list[Var] = [
         min=-1e3, max=1e3, bind="speedTarget"),
     Var("pathRadius", "input", "Path radius the steering controller follows (steering.mode = 0); "
         "positive: left turn; 0: straight", "m", None, 0.0, bind="pathRadius"),
+    Var("speedTargetRate", "input", "Rate of speedTarget over the step: the target ramps from its input value at "
+        "this rate (the input's own rate at the step's start; 0: held)", "m/s2", None, 0.0, min=-1e4, max=1e4,
+        bind="speedTargetRate"),
+    Var("pathRadiusRate", "input", "Rate of pathRadius over the step: the radius ramps from its input value at "
+        "this rate (the input's own rate at the step's start; 0: held; no ramp from a straight path)", "m/s",
+        None, 0.0, min=-1e6, max=1e6, bind="pathRadiusRate"),
     Var("steeringAngleCommand", "input", "Road-wheel steering angle command (steering.mode = 1), positive left",
         "rad", "deg", 0.0, min=-3.15, max=3.15, bind="steering_angle_cmd"),
     Var("grade", "input", "Road grade angle, uphill positive (|grade| <= pi/4)", "rad", "deg", 0.0,
@@ -60,6 +66,15 @@ VARIABLES: list[Var] = [
         "m/s", "km/h", bind="rearRight_vx"),
     Var("rearLeft.Fz", "output", "Normal load of the rear left wheel (>= 0)", "N", bind="rearLeft_Fz"),
     Var("rearRight.Fz", "output", "Normal load of the rear right wheel (>= 0)", "N", bind="rearRight_Fz"),
+    # their rates (connect to the WheelLoads' vxRate / FzRate: first-order hold over the step)
+    Var("rearLeft.vxRate", "output", "Mean rate of change of rearLeft.vx over the last step ((end - start) / step; "
+        "at initialization its derivative)", "m/s2", bind="rearLeft_dvx"),
+    Var("rearRight.vxRate", "output", "Mean rate of change of rearRight.vx over the last step ((end - start) / step; "
+        "at initialization its derivative)", "m/s2", bind="rearRight_dvx"),
+    Var("rearLeft.FzRate", "output", "Mean rate of change of rearLeft.Fz over the last step ((end - start) / step; "
+        "at initialization its derivative)", "N/s", bind="rearLeft_dFz"),
+    Var("rearRight.FzRate", "output", "Mean rate of change of rearRight.Fz over the last step ((end - start) / step; "
+        "at initialization its derivative)", "N/s", bind="rearRight_dFz"),
     Var("frontAxle.Fz", "output", "Normal load of the front axle", "N", bind="frontAxle_Fz"),
     Var("rearAxle.Fz", "output", "Normal load of the rear axle", "N", bind="rearAxle_Fz"),
     Var("frontAxle.Fy", "output", "Side force of the front axle in its wheel frame", "N", bind="Fy_front"),

@@ -51,11 +51,13 @@ def make_rates(self) -> Callable:
     ``self`` (:class:`spurdiff.vehicle.Vehicle`) cached by its ``_load_inputs``, every parameter
     and input-only term bound once (per step).
 
-    ``rates(vx, vy, r, psi, alpha_f, alpha_r, axs_f, ay_f, I_v, I_r)`` (the state without the
-    position, which no rate depends on) returns the 12 time derivatives in state order; with
-    ``full=True`` it returns ``(derivatives, (delta, Fz_f, Fz_r, a_x, a_y, a_xs, Fx_rear, Fy_f,
-    Fy_r, u))``, what the outputs and the initialization need (u: the speed controller's
-    unlimited torque)."""
+    ``rates(vx, vy, r, psi, alpha_f, alpha_r, axs_f, ay_f, I_v, I_r, tau)`` (the state without the
+    position, which no rate depends on; ``tau`` the time since the start of the step, default 0)
+    returns the 12 time derivatives in state order; with ``full=True`` it returns ``(derivatives,
+    (delta, Fz_f, Fz_r, a_x, a_y, a_xs, Fx_rear, Fy_f, Fy_r, u))``, what the outputs and the
+    initialization need (u: the speed controller's unlimited torque). The command inputs ramp over
+    the step at their rates (``pathRadiusRate``, ``speedTargetRate``; 0: held):
+    ``R(tau) = R + dR tau`` (not from a straight path, R = 0 or inf), ``v_ref(tau) = v_ref + dv tau``."""
     p = self.params
     b, lt, st, sc = p.vehicle, p.lateralTyre, p.steering, p.speedControl
     m, L, lf = b.m, b.L, b.l_f
@@ -84,14 +86,29 @@ def make_rates(self) -> Callable:
     delta_cmd = dmax if dcmd > dmax else (-dmax if dcmd < -dmax else dcmd)
     kappa, delta_ff, K_r, K_ri = self._kappa, self._delta_ff, st.K_r, st.K_ri
     sin, cos, tanh, atan, sqrt = math.sin, math.cos, math.tanh, math.atan, math.sqrt
+    dvref = self._dvref
+    dR = self._dR if kappa != 0.0 else 0.0     # a straight path (R = 0 or inf) does not ramp
+    R0 = self._R
+    ramp = dvref != 0.0 or dR != 0.0
+    inf = math.inf
 
-    def rates(vx, vy, r, psi, af, ar, axf, ayf, Iv, Ir, full=False):
+    def rates(vx, vy, r, psi, af, ar, axf, ayf, Iv, Ir, tau=0.0, full=False):
+        if ramp:   # the command inputs at tau into the step (first-order hold)
+            vr = vref + dvref * tau
+            if dR != 0.0:
+                R = R0 + dR * tau
+                kap = 0.0 if (R == 0.0 or R == inf or R == -inf) else 1.0 / R
+                dff = atan(L * kap)
+            else:
+                kap, dff = kappa, delta_ff
+        else:
+            vr, kap, dff = vref, kappa, delta_ff
         if angle_mode:
             dIr = 0.0
             delta = delta_cmd
         else:
-            e = (vx * kappa - r) * tanh(vx)
-            raw = delta_ff + K_r * e + Ir
+            e = (vx * kap - r) * tanh(vx)
+            raw = dff + K_r * e + Ir
             if (raw >= dmax and e > 0.0) or (raw <= -dmax and e < 0.0):
                 dIr = 0.0
             else:
@@ -114,7 +131,7 @@ def make_rates(self) -> Callable:
         FX = Fxf * cd - Fyf * sd + Fxr + k_aero * vx * abs(vx) + F_grade
         ax = FX / m
         ay = (Fyf_b + Fyr) / m
-        eu = vref - vx
+        eu = vr - vx
         u = Kp * eu + Iv
         cpsi, spsi = cos(psi), sin(psi)
         d = (

@@ -74,7 +74,7 @@ _STATE_KEYS = (
     "flange_tau", "Fx", "wheel_w", "slip", "shaft_tau", "shaft_power",
     # shaftCoupling = "wheel": wheel angle, shaft torque input and the anchor of the step, the
     # differential's predicted speed change over the step, the linear model reported for the next
-    "phi", "tau_in", "w_anchor", "dw_in", "sur_a", "sur_invJ", "sur_dadw", "sur_qrate", "sur_ct", "sur_rt",
+    "phi", "tau_in", "w_anchor", "dw_in", "dFz", "dvx", "sur_a", "sur_invJ", "sur_dadw", "sur_qrate", "sur_ct", "sur_rt",
 )
 _WHEEL_STEP_KEYS = ("theta", "w_anchor", "w", "k", "phi", "t", "n_steps", "n_substeps", "work_flange",
                     "work_road", "loss_slip", "loss_rolling", "flange_tau", "Fx", "wheel_w", "slip",
@@ -110,6 +110,8 @@ class WheelLoad:
         self.vx = 0.0
         self.tau_in = 0.0
         self.dw_in = 0.0
+        self.dFz = 0.0
+        self.dvx = 0.0
         self.flange_tau = self.Fx = self.wheel_w = self.slip = self.shaft_tau = self.shaft_power = 0.0
         self._ready = False
 
@@ -156,6 +158,24 @@ class WheelLoad:
         v = require_finite("vx", self.vx)
         return phi, w, (Fz if Fz > 0.0 else 0.0), mu, v
 
+    def _input_rates(self) -> tuple[float, float]:
+        """The rates of the load and the wheel-centre speed over the coming step (``dFz``,
+        ``dvx``; 0: held), validated."""
+        dFz, dv = self.dFz, self.dvx
+        if math.isfinite(dFz + dv) and dFz.__class__ is dv.__class__ is float:
+            return dFz, dv
+        return require_finite("dFz", self.dFz), require_finite("dvx", self.dvx)
+
+    def _ramp(self, Fz: float, v: float, dFz: float, dv: float, h: float) -> tuple[float, float, float, float]:
+        """The load and the wheel-centre speed at the start and at the end of a step of length h
+        over which they ramp at the rates dFz, dv, the inputs Fz (>= 0), v being the values at
+        the step's start or end (``rampAnchor``); the load at the end not below 0 (at the start it
+        may be: the sub-steps take the ramp's values, not below 0, at their midpoints)."""
+        if self.params.rampAnchor == "end":
+            return Fz - dFz * h, v - dv * h, Fz, v
+        Fz1 = Fz + dFz * h
+        return Fz, v, (Fz1 if Fz1 > 0.0 else 0.0), v + dv * h
+
     # ------------------------------------------------------------------ stepping
     def do_step(self, t: float, h: float) -> None:
         """Advance from t to t + h with the inputs held. Raises ParameterError for bad inputs
@@ -176,8 +196,12 @@ class WheelLoad:
                 th0 = self.theta
                 self.theta = th0 + dphi
                 self.work_flange += 0.5 * c * (self.theta * self.theta - th0 * th0)
+        dFz, dv = self._input_rates()
+        Fz0, v0 = Fz, v
+        if dFz != 0.0 or dv != 0.0:
+            Fz0, v0, Fz, v = self._ramp(Fz, v, dFz, dv, h)
         n = max(1, math.ceil(h / p.h_max - 1e-9))
-        self._substeps(h / n, n, w_in, 0.0, v, Fz, mu)
+        self._substeps(h / n, n, w_in, 0.0, v0, Fz0, mu, dFz=dFz, dv=dv)
         self.n_substeps += n
         self.phi_ref = phi_in + w_in * h
         self.t = t + h
@@ -192,6 +216,10 @@ class WheelLoad:
         if not (math.isfinite(tau_in + dw_in) and tau_in.__class__ is dw_in.__class__ is float):
             tau_in = require_finite("shaftIn.tau", self.tau_in)
             dw_in = require_finite("shaftIn.dw", self.dw_in)
+        dFz, dv = self._input_rates()
+        Fz0, v0 = Fz, v
+        if dFz != 0.0 or dv != 0.0:
+            Fz0, v0, Fz, v = self._ramp(Fz, v, dFz, dv, h)
         p = self.params
         saved = _get_step_values(self)   # what a step changes (cheap)
         try:
@@ -205,7 +233,7 @@ class WheelLoad:
             c, d = k * p.halfShaft.c, k * p.halfShaft.d
             n = max(1, math.ceil(h / p.h_max - 1e-9))
             # the anchor speed at each sub-step's midpoint (the midpoint rule integrates the ramp)
-            self._substeps(h / n, n, w0, dw_in, v, Fz, mu, c, d, tau_in)
+            self._substeps(h / n, n, w0, dw_in, v0, Fz0, mu, c, d, tau_in, dFz, dv)
             self.n_substeps += n
             self.t = t + h
             self.n_steps += 1
@@ -225,13 +253,16 @@ class WheelLoad:
         return getattr(self, "wheel_mode", False)
 
     def _substeps(self, hs: float, n: int, w_in: float, dw_in: float, v: float, Fz: float, mu: float,
-                  c: float | None = None, d: float | None = None, tau0: float | None = None) -> None:
+                  c: float | None = None, d: float | None = None, tau0: float | None = None,
+                  dFz: float = 0.0, dv: float = 0.0) -> None:
         """n implicit-midpoint steps of length hs; updates the state and the energy ledger.
         tau0 None (shaftCoupling = "torque"): the flange speed w_in held (dw_in unused).
         tau0 given (shaftCoupling = "wheel"): shaft torque tau0 + c theta + d (w_a - w), the
         twist-like theta measured from the anchor motion, whose speed at sub-step i's midpoint is
-        w_a = w_in + dw_in (i + 1/2) / n; work booked at the wheel speed. The state is worked on in
-        locals and stored at the end (a StepError leaves it as it was)."""
+        w_a = w_in + dw_in (i + 1/2) / n; work booked at the wheel speed. dFz, dv (not both 0): the
+        load and the wheel-centre speed ramp over the step from Fz, v at its start, taken at each
+        sub-step's midpoint (the load not below 0). The state is worked on in locals and stored at
+        the end (a StepError leaves it as it was)."""
         p = self.params
         torque_in = tau0 is not None
         if not torque_in:
@@ -255,9 +286,21 @@ class WheelLoad:
         work_flange, loss_damping = self.work_flange, self.loss_damping
         work_road, loss_slip, loss_rolling = self.work_road, self.loss_slip, self.loss_rolling
         wa = w_in
+        ramp = dFz != 0.0 or dv != 0.0
+        v0, Fz0 = v, Fz
         for i in range(n):
             if torque_in:
                 wa = w_in + dw_in * (i + 0.5) / n
+            if ramp:   # the inputs at this sub-step's midpoint (first-order hold)
+                tm = (i + 0.5) * hs
+                v = v0 + dv * tm
+                Fz = Fz0 + dFz * tm
+                Fz = Fz if Fz > 0.0 else 0.0
+                D = mu * Fz
+                Mrr0 = ty.f_rr * Fz * R
+                q = 1.0 + b * abs(v)
+                dk_dw = b * R / q
+                bv = b * v
             # midpoint values as functions of the midpoint wheel speed wm (linear in wm):
             #   theta_m = th0 + a (wa - wm),  k_m = (k0 + b (R wm - v)) / q
             # residual g(wm) = J (wm - w0) - a (tau_m - R F_m - M_m) = 0, solved by Newton

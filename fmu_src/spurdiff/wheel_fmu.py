@@ -70,6 +70,12 @@ VARIABLES: list[Var] = [
         "rad/s", "rpm", 0.0, min=-1e4, max=1e4, bind="dw_in"),
     Var("vx", "input", "Longitudinal velocity of the wheel centre along the wheel heading", "m/s", "km/h", 0.0,
         min=-1e3, max=1e3, bind="vx"),
+    Var("FzRate", "input", "Rate of the normal load over the step: Fz ramps at this rate, from the Fz input "
+        "(wheelLoad.rampAnchor = start) or to it (= end); connect the vehicle's rearLeft.FzRate / rearRight.FzRate; "
+        "0: Fz held", "N/s", None, 0.0, min=-1e8, max=1e8, bind="dFz"),
+    Var("vxRate", "input", "Rate of the wheel-centre velocity over the step: vx ramps at this rate, from the vx "
+        "input (wheelLoad.rampAnchor = start) or to it (= end); connect the vehicle's rearLeft.vxRate / "
+        "rearRight.vxRate; 0: vx held", "m/s2", None, 0.0, min=-1e4, max=1e4, bind="dvx"),
     # --- outputs (values at the end of the last step; no direct feedthrough)
     Var("flange.tau", "output",
         "Torque of the half-shaft on the differential's flange, Modelica sign (negative while driving): "
@@ -149,6 +155,11 @@ VARIABLES: list[Var] = [
         "leftShaft/rightShaft values) act inside the step on the wheel's deviation from the motion the "
         "differential extrapolated (implicit wheel mode); false: shaftIn.tau is held as given",
         None, None, bool(_D.interfaceStiffness), kind="Boolean", bind="interfaceStiffness"),
+    Var("wheelLoad.rampAnchor", "parameter",
+        "Where the Fz and vx inputs lie on their ramps (FzRate, vxRate) over the step: start = the values at the "
+        "step's start (Jacobi, or the vehicle stepped after this wheel) | end = the values at its end "
+        "(Gauss-Seidel with the vehicle stepped before this wheel, as the vehicle scenes do)",
+        None, None, _D.rampAnchor, kind="String", bind="rampAnchor"),
     _p(None, "h_max", "Largest internal step of the implicit-midpoint integrator", "s", "ms"),
     _p(None, "followFlangeAngle",
        "true: the half-shaft twist follows the flange angle input (no drift); false: integrate flange.w only",

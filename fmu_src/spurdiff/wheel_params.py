@@ -14,6 +14,7 @@ from .errors import ParameterError, require_finite, require_nonnegative, require
 from .tyre import TyreParams
 
 SHAFT_COUPLINGS = ("torque", "wheel")
+RAMP_ANCHORS = ("start", "end")   # where the Fz, vx inputs lie on their ramps over the step
 
 @dataclass
 class HalfShaftParams:
@@ -49,7 +50,9 @@ class WheelParams:
 @dataclass
 class WheelLoadParams:
     """All parameters of :class:`WheelLoad`. h_max: largest internal step (s);
-    followFlangeAngle: 1 = the twist follows the flange angle input, 0 = flange speed only."""
+    followFlangeAngle: 1 = the twist follows the flange angle input, 0 = flange speed only;
+    rampAnchor: the Fz and vx inputs are the values at the step's "start" or "end" of their ramps
+    (rates FzRate, vxRate)."""
 
     halfShaft: HalfShaftParams = field(default_factory=HalfShaftParams)
     wheel: WheelParams = field(default_factory=WheelParams)
@@ -58,14 +61,15 @@ class WheelLoadParams:
     followFlangeAngle: int = 1
     shaftCoupling: str = "torque"
     interfaceStiffness: int = 1
+    rampAnchor: str = "start"
 
     @classmethod
     def from_data(cls, data: dict) -> "WheelLoadParams":
         solver = dict(data.get("wheelLoad", {}))
         for key in solver:
-            if key not in ("h_max", "followFlangeAngle", "shaftCoupling", "interfaceStiffness"):
+            if key not in ("h_max", "followFlangeAngle", "shaftCoupling", "interfaceStiffness", "rampAnchor"):
                 raise ParameterError(f"wheelLoad.{key}", solver[key],
-                                     "h_max, followFlangeAngle, shaftCoupling or interfaceStiffness",
+                                     "h_max, followFlangeAngle, shaftCoupling, interfaceStiffness or rampAnchor",
                                      "unknown parameter")
         return cls(halfShaft=section(HalfShaftParams, data, "halfShaft"),
                    wheel=section(WheelParams, data, "wheel"),
@@ -89,6 +93,8 @@ class WheelLoadParams:
             raise ParameterError("shaftCoupling", self.shaftCoupling, " or ".join(SHAFT_COUPLINGS))
         if self.interfaceStiffness not in (0, 1):
             raise ParameterError("wheelLoad.interfaceStiffness", self.interfaceStiffness, "0 or 1")
+        if self.rampAnchor not in RAMP_ANCHORS:
+            raise ParameterError("wheelLoad.rampAnchor", self.rampAnchor, " or ".join(RAMP_ANCHORS))
 
 
-__all__ = ["SHAFT_COUPLINGS", "WheelLoadParams", "HalfShaftParams", "WheelParams"]
+__all__ = ["RAMP_ANCHORS", "SHAFT_COUPLINGS", "WheelLoadParams", "HalfShaftParams", "WheelParams"]

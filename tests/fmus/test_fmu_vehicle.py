@@ -48,13 +48,16 @@ def test_interfaces_and_display_units(wheel_fmu, vehicle_fmu):
     w = {v.name: v for v in read_model_description(str(wheel_fmu)).modelVariables}
     c = {v.name: v for v in read_model_description(str(vehicle_fmu)).modelVariables}
     assert {n for n, v in w.items() if v.causality == "input"} == {"flange.phi", "flange.w", "Fz", "mu", "vx", "shaftIn.tau",
-                                                                     "shaftIn.dw"}
+                                                                     "shaftIn.dw", "FzRate", "vxRate"}
     assert {"flange.tau", "Fx", "wheel.w", "slip", "shaft.tau", "shaft.power", "workFlange", "energyLoss",
             "energyResidual"} <= {n for n, v in w.items() if v.causality == "output"}
     assert {n for n, v in c.items() if v.causality == "input"} == {
-        "rearLeft.Fx", "rearRight.Fx", "speedTarget", "pathRadius", "steeringAngleCommand", "grade", "mu"}
+        "rearLeft.Fx", "rearRight.Fx", "speedTarget", "pathRadius", "steeringAngleCommand", "grade", "mu",
+        "speedTargetRate", "pathRadiusRate"}
     assert {"rearLeft.vx", "rearRight.vx", "rearLeft.Fz", "rearRight.Fz", "speed", "yawRate", "ax", "ay",
-            "driveTorque", "x", "y", "psi", "steeringAngle"} <= {n for n, v in c.items() if v.causality == "output"}
+            "driveTorque", "x", "y", "psi", "steeringAngle", "rearLeft.FzRate", "rearRight.FzRate", "rearLeft.vxRate",
+            "rearRight.vxRate"} <= {n for n, v in c.items() if v.causality == "output"}
+    assert (w["FzRate"].unit, c["rearLeft.FzRate"].unit, w["vxRate"].unit) == ("N/s", "N/s", "m/s2")
     assert (w["flange.tau"].unit, w["flange.tau"].displayUnit) == ("N.m", "N.mm")
     assert (w["wheel.w"].unit, w["wheel.w"].displayUnit) == ("rad/s", "rpm")
     assert (w["vx"].unit, w["vx"].displayUnit) == ("m/s", "km/h")
