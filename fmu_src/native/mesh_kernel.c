@@ -332,8 +332,34 @@ static void book_parametric_work(const MkParams *P, MkState *S, const double *ya
     }
 }
 
-/* stepper.advance: one communication step t -> t + h; the state S is changed only on MK_OK */
-int mk_advance(const MkParams *P, MkState *S0, double t, double h) {
+/* stepper.dense_output: the states at the output times tq[k] (into the step) in (tin, tin + hi] of
+ * an accepted step from y to yn, by the method's dense output (order 3); returns the next k */
+static int64_t dense_output(const MkParams *P, const Work *wk, const double *y, const double *yn, double tin,
+                            double hi, int64_t k, int64_t nq, const double *tq, double *yq) {
+    const int N = (int)P->N;
+    while (k < nq && tq[k] <= tin + hi) {
+        double *out = yq + k * N, th = (tq[k] - tin) / hi;
+        if (th >= 1.0) {
+            memcpy(out, yn, sizeof(double) * N);
+        } else {
+            double th2 = th * th, th3 = th2 * th, B[4], d[4];
+            for (int i = 0; i < 4; i++) B[i] = P->bint[i][0] * th + P->bint[i][1] * th2 + P->bint[i][2] * th3;
+            for (int j = 0; j < 4; j++) {
+                double sj = B[0] * P->ginv[0][j];
+                for (int i = 1; i < 4; i++) sj += B[i] * P->ginv[i][j];
+                d[j] = sj;
+            }
+            combine(d, 4, (double (*)[NMAX])wk->U, N, out);
+            for (int j = 0; j < N; j++) out[j] += y[j];
+        }
+        k++;
+    }
+    return k;
+}
+
+/* stepper.advance: one communication step t -> t + h; the state S is changed only on MK_OK; with
+ * nq > 0 also the states at the times tq (into the step, increasing, in (0, h]) into yq (nq x N) */
+static int advance(const MkParams *P, MkState *S0, double t, double h, int64_t nq, const double *tq, double *yq) {
     static __thread Work wk;      /* per thread: FMU instances may step in parallel */
     MkState S1 = *S0, *S = &S1;
     const int N = (int)P->N;
@@ -357,7 +383,7 @@ int mk_advance(const MkParams *P, MkState *S0, double t, double h) {
     }
     double loss0 = S->energy_loss, tin = 0.0, remaining = h, h_ctrl = S->h_next, wc_a = wc_start, phic = S->phic;
     double dloss = 0.0, hmin = 1e-13, wc_b = wc_start;
-    int64_t n_here = 0, max_steps = P->max_steps;
+    int64_t n_here = 0, max_steps = P->max_steps, kq = 0;
     double yn[NMAX];
     while (remaining > 1e-12 * h) {
         double hi = h_ctrl < remaining ? h_ctrl : remaining;
@@ -456,6 +482,7 @@ int mk_advance(const MkParams *P, MkState *S0, double t, double h) {
             wc_b = yn[WC];
         }
         if (P->var) book_parametric_work(P, S, y, yn);
+        if (kq < nq) kq = dense_output(P, &wk, y, yn, tin, hi, kq, nq, tq, yq);
         memcpy(y, yn, N * sizeof(double));
         tin += hi;
         remaining = h - tin;
@@ -517,6 +544,14 @@ int mk_advance(const MkParams *P, MkState *S0, double t, double h) {
     }
     *S0 = *S;
     return MK_OK;
+}
+
+int mk_advance(const MkParams *P, MkState *S0, double t, double h) { return advance(P, S0, t, h, 0, NULL, NULL); }
+
+/* one step t -> t + h (the whole run) with the states at the nq times tq (into the step) written to
+ * yq by the dense output: an integration over the run with outputs, as solve_ivp's t_eval */
+int mk_advance_dense(const MkParams *P, MkState *S0, double t, double h, int64_t nq, const double *tq, double *yq) {
+    return advance(P, S0, t, h, nq, tq, yq);
 }
 
 /* the model evaluation alone (for the agreement test and solve_ivp): f, J (may be NULL), sv */

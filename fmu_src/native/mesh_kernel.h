@@ -33,6 +33,7 @@ typedef struct {
     double gamma, a[4][4], cc[4][4], m[4], ew[4], dmid[4];   /* transformed tableau */
     MkMesh md[3];
     int64_t getrf, getrs;    /* LAPACK dgetrf / dgetrs (Fortran ABI) of the reference (scipy), or 0: own LU */
+    double bint[4][3], ginv[4][4];           /* dense output: the tableau's binterp and Gamma^-1 */
 } MkParams;
 
 typedef struct {

@@ -101,6 +101,8 @@ class Transformed(NamedTuple):
     m_list: list = None
     e_list: list = None
     dmid_list: list = None
+    binterp_lists: list = None
+    Ginv_lists: list = None
 
 
 def transform(tab: RosenbrockTableau) -> Transformed:
@@ -113,7 +115,8 @@ def transform(tab: RosenbrockTableau) -> Transformed:
                      np.ascontiguousarray((tab.b - tab.bhat) @ Ginv), None, Ginv, tab.binterp, tab.embedded_order)
     tr = tr._replace(dmid=np.ascontiguousarray(dense_weights(0.5, tr)))
     return tr._replace(a_lists=[r.tolist() for r in tr.a_rows], c_lists=[r.tolist() for r in tr.c_rows],
-                       m_list=tr.m.tolist(), e_list=tr.e.tolist(), dmid_list=tr.dmid.tolist())
+                       m_list=tr.m.tolist(), e_list=tr.e.tolist(), dmid_list=tr.dmid.tolist(),
+                       binterp_lists=tab.binterp.tolist(), Ginv_lists=Ginv.tolist())
 
 
 def dense_weights(theta: float, tr: "Transformed | None" = None) -> np.ndarray:

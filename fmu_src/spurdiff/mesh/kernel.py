@@ -46,7 +46,7 @@ class MkParams(C.Structure):
                                      "dmax", "mu_s", "mu_d", "v_s", "v_d", "c_pin", "M01", "M02")]
                 + [("pin_flat", _d * 8 * 2), ("Minv", _d * 5 * 5), ("atol", _d * 10), ("rtol", _d), ("w_stick", _d),
                    ("gamma", _d), ("a", _d * 4 * 4), ("cc", _d * 4 * 4), ("m", _d * 4), ("ew", _d * 4), ("dmid", _d * 4),
-                   ("md", MkMesh * 3), ("getrf", _i), ("getrs", _i)])
+                   ("md", MkMesh * 3), ("getrf", _i), ("getrs", _i), ("bint", _d * 3 * 4), ("ginv", _d * 4 * 4)])
 
 
 class MkState(C.Structure):
@@ -81,6 +81,9 @@ def _check(lib: C.CDLL) -> str | None:
     lib.mk_evaluate.argtypes = [C.POINTER(MkParams), C.POINTER(MkState), C.c_void_p, C.c_void_p, C.c_void_p,
                                 C.c_void_p]
     lib.mk_evaluate.restype = None
+    lib.mk_advance_dense.argtypes = [C.POINTER(MkParams), C.POINTER(MkState), _d, _d, C.c_int64, C.c_void_p,
+                                     C.c_void_p]
+    lib.mk_advance_dense.restype = C.c_int
     lib.mk_run.argtypes = [C.POINTER(MkParams), C.POINTER(MkState), _d, _d, C.c_int64, C.c_void_p]
     lib.mk_run.restype = C.c_int64
     return None
@@ -192,6 +195,10 @@ class Kernel:
             for k, v in enumerate(tr.c_rows[i]):
                 P.cc[i][k] = float(v)
             P.m[i], P.ew[i], P.dmid[i] = float(tr.m[i]), float(tr.e[i]), float(tr.dmid[i])
+            for k in range(3):
+                P.bint[i][k] = tr.binterp_lists[i][k]
+            for k in range(4):
+                P.ginv[i][k] = tr.Ginv_lists[i][k]
         for i, md in enumerate(c.md):
             dst = P.md[i]
             for f in ("sigma", "rb1", "rb2", "k", "c", "K", "jn", "eps", "pb", "l1min", "galpha", "L", "xi0", "xi0c",
@@ -258,6 +265,27 @@ class Kernel:
         c.n_internal_steps, c.n_rejected_steps, c.n_mode_switches, c.n_contact_transitions, c.n_steps = i[9:14]
         c._f0_key = None
         return v[13:26]
+
+    def advance_dense(self, c, t: float, h: float, times: np.ndarray) -> np.ndarray:
+        """One step t -> t + h in C with the states at ``times`` (into the step) by the dense
+        output (:meth:`spurdiff.mesh.MeshDifferential.run_dense`); the model ends at t + h."""
+        tq = np.ascontiguousarray(times, dtype=np.float64)
+        ys = np.zeros((tq.size, c._N))
+        S = self._pack(c)
+        rc = self.lib.mk_advance_dense(self._pP, self._pS, t, h, tq.size, tq.ctypes.data, ys.ctypes.data)
+        if rc != 0:
+            raise StepError(f"the run from t = {t:.9g} s failed at t = {S.fail_t:.9g} s (code {rc})")
+        self._unpack(c)
+        return ys
+
+    def _unpack(self, c) -> None:
+        v = self._D[14:24].tolist()
+        (c._ac, c.wc, c.phic, c.t, c.h_next, c.work_in, c.energy_loss, c.parametric_work, c.loss_last_step,
+         c._last_h) = v
+        i = self._I.tolist()
+        c.s, c._contact_flags = i[:2], i[2:2 + i[8]]
+        c.n_internal_steps, c.n_rejected_steps, c.n_mode_switches, c.n_contact_transitions, c.n_steps = i[9:14]
+        c._f0_key = None
 
     def run(self, c, t0: float, h: float, n: int) -> np.ndarray:
         """n communication steps with the inputs held, in one call (the states after each, rows);

@@ -35,7 +35,7 @@ from functools import partial
 
 import numpy as np
 
-from ..errors import StepError, require_finite, require_positive
+from ..errors import ParameterError, StepError, require_finite, require_positive
 from ..geometry import DifferentialGeometry
 from ..inertia import MassProperties, mass_properties
 from ..locking import locking_coefficients, paper_locking_coefficient, pin_friction
@@ -237,6 +237,28 @@ class MeshDifferential(DifferentialModel):
             self.set_state(snapshot)
             raise
         self._refresh_outputs(self._sv0 if (not self.speed_drive or self._ac == 0.0) else None)
+
+    def run_dense(self, t_end: float, times) -> np.ndarray:
+        """An integration over a whole run from the current time with the inputs held, as
+        solve_ivp's one call with ``t_eval``: one step of length ``t_end`` (the internal steps are
+        not cut at communication points) with the states at ``times`` (from the current time,
+        increasing, in (0, t_end]) by the method's dense output, rows; the model ends at the end.
+        For the solver comparison (harness.bench.mesh); a co-simulation steps with do_step."""
+        if not self._ready:
+            raise StepError("run_dense called before initialize")
+        t_end = require_positive("t_end", t_end)
+        self._check_inputs()
+        tq = np.asarray(times, dtype=float)
+        if tq.ndim != 1 or tq.size == 0 or tq[0] <= 0.0 or tq[-1] > t_end or np.any(np.diff(tq) <= 0.0):
+            raise ParameterError("times", list(tq[:3]), f"increasing, in (0, {t_end:g}]")
+        t = self.t
+        if self._kernel is not None:
+            ys = self._kernel.advance_dense(self, t, t_end, tq)
+        else:
+            ys = np.zeros((tq.size, self._N))
+            advance(self, t, t_end, dense=(tq.tolist(), ys))
+        self._refresh_outputs()
+        return ys
 
     # ================================================================== outputs
     def _refresh_outputs(self, sv=None) -> None:

@@ -24,7 +24,7 @@ from __future__ import annotations
 from .events import (STICK_RTOL, breakaway, contact_flags, friction_margins, phase_limit,
                      state_events)
 from .forces import evaluate
-from .integrator import error_norm, new_step_size
+from .integrator import _combine, error_norm, new_step_size
 from .layout import PHIC, PSI, VA, VB, W1, W2, WC, relative_angles
 from .stickslip import settle_modes, slip_speed_reached_zero, stick_impulse
 from ..errors import StepError
@@ -83,8 +83,36 @@ def book_parametric_work(c, ya, yb) -> None:
             c.parametric_work += c.n * (Vb - Va)
 
 
-def advance(c, t: float, h: float) -> None:
-    """Advance the model ``c`` from t to t + h (inputs held); raises StepError."""
+def dense_output(tr, U, y, yn, tin: float, hi: float, k: int, tq: list, yq, tmp) -> int:
+    """The states at the output times ``tq[k], ...`` (into the communication step) that lie in
+    (tin, tin + hi], an accepted step from y to yn, by the method's dense output (order 3) into the
+    rows of ``yq``; returns the next k. The weights in the kernel's order of operations."""
+    G = tr.Ginv_lists
+    while k < len(tq) and tq[k] <= tin + hi:
+        th = (tq[k] - tin) / hi
+        if th >= 1.0:
+            yq[k] = yn
+        else:
+            th2 = th * th
+            th3 = th2 * th
+            B = [b[0] * th + b[1] * th2 + b[2] * th3 for b in tr.binterp_lists]
+            d = []
+            for j in range(4):
+                sj = B[0] * G[0][j]
+                for i in range(1, 4):
+                    sj += B[i] * G[i][j]
+                d.append(sj)
+            out = yq[k]
+            _combine(d, U, out, tmp)
+            out += y
+        k += 1
+    return k
+
+
+def advance(c, t: float, h: float, dense=None) -> None:
+    """Advance the model ``c`` from t to t + h (inputs held); raises StepError. ``dense``: None or
+    (times into the step, increasing, in (0, h]; an array with a row per time) for the states
+    there by the dense output."""
     integ = c._integ
     y = c.y
     speed = c.speed_drive
@@ -110,6 +138,7 @@ def advance(c, t: float, h: float) -> None:
     wc_a = wc_start
     phic = c.phic
     dloss = 0.0
+    kq, tq, yq = (0, dense[0], dense[1]) if dense is not None else (0, (), None)
     while remaining > 1e-12 * h:
         hi = h_ctrl if h_ctrl < remaining else remaining
         if c._need_phase:
@@ -197,6 +226,8 @@ def advance(c, t: float, h: float) -> None:
             wc_b = yb[WC]
         if c._var:
             book_parametric_work(c, ya, yb)
+        if kq < len(tq):
+            kq = dense_output(integ.method, integ.U, y, yn, tin, hi, kq, tq, yq, c._scr)
         y[:] = yn
         tin += hi
         remaining = h - tin
