@@ -326,69 +326,93 @@ class Master:
 
     def _gauss_seidel(self, n_steps: int, h: float, rec_every: int, energy: dict, prev_power: dict,
                       record: Callable[[list], None], done: list) -> None:
-        """The fixed-step Gauss-Seidel loop of :meth:`run` (what :meth:`_communication_step`,
-        :meth:`_add_work`, the recording reads and :meth:`_sample` do, in the same order with the
-        same arithmetic), with every lookup made once: per instance its input port with the
-        value tables and keys of its sources, its fmi2DoStep with converted arguments, its
-        per-step read port with the keys and value table it fills. (The value tables are the master's own dicts, which this loop
-        never replaces.) ``record`` takes each recorded row, ``done[0]`` counts the steps done."""
+        """The fixed-step Gauss-Seidel loop of :meth:`run`: what :meth:`_communication_step`,
+        :meth:`_add_work`, the recording reads and :meth:`_sample` do, the same FMI calls in the
+        same order and the same arithmetic, with every lookup made once. Per instance: its input
+        port with where its sources' values are, its fmi2DoStep with converted arguments, its
+        per-step read port. The values a step read publishes live in one list per instance for the
+        loop (copied out of the port's C array in one call, read by index; the value tables keyed
+        by (type, value reference) cost a tuple hash per value), written back into the master's
+        tables when the loop ends. ``record`` takes each recorded row, ``done[0]`` counts the
+        steps done."""
         from ctypes import c_double
 
         values = self._values
         tt, hh = c_double(0.0), c_double(h)
+        # the step reads: instance -> (keys, the list of their values, key -> index)
+        step_lists: dict[str, tuple[tuple, list, dict]] = {}
+        for name, _, _, _, _, read in self._plan:
+            if read is not None and read != "all":
+                keys = tuple(read[1])
+                step_lists[name] = (keys, [values[name][k] for k in keys], {k: i for i, k in enumerate(keys)})
+
+        def where(inst: str, key) -> tuple:
+            """(container, index) of a published value: its step list, else the instance's table."""
+            sl = step_lists.get(inst)
+            if sl is not None and key in sl[2]:
+                return sl[1], sl[2][key]
+            return values[inst], key
+
         profiles = [(self._profile_port[n], tuple(p for _, p in profs)) for n, profs in self._profiles.items() if profs]
         plan = []
         for name, sport, srcs, _, _, read in self._plan:
             do, comp = self._fast_do[name]
-            src = tuple((values[s], k) for s, k in srcs)
-            if read is None or read == "all":
-                plan.append((name, sport, src, do, comp, None, None, None, read == "all"))
-            else:
+            src = tuple(where(s, k) for s, k in srcs)
+            if name in step_lists:
                 port = read[0]
-                plan.append((name, sport, src, do, comp, port.fn, port.args, (tuple(read[1]), port.val, values[name]), False))
-        couplings = [(energy[cname], values[ti], tv, sign, values[fi], fv, values[oi], ov)
+                view = memoryview(port.val).cast("B").cast("d")   # the C array's doubles, as floats in one call
+                plan.append((name, sport, src, do, comp, port.fn, port.args, view, step_lists[name][1], False))
+            else:
+                plan.append((name, sport, src, do, comp, None, None, None, None, read == "all"))
+        couplings = [(energy[cname], *where(ti, tv), sign, *where(fi, fv), *where(oi, ov))
                      for cname, ((ti, tv), (fi, fv), (oi, ov)), sign in self._couplings]
         prev = [prev_power[c[0]] for c in self._couplings]
-        rec_reads = [(n, self._rec_ports[n]) for n in self._order if self._rec_ports[n]]
-        recorded = [(values[i], key) for i, key in self._record]
+        rec_reads = [n for n in self._order if self._rec_ports[n]]
+        recorded = [where(i, key) for i, key in self._record]
         progress, is_set = self.progress, STOP.is_set
-        for k in range(n_steps):
-            t = k * h
-            if is_set():
-                raise Interrupted(t)
-            tt.value = t
-            for port, profs in profiles:
-                port.set([p(t) for p in profs], t)
-            for name, sport, src, do, comp, rfn, rargs, rto, read_all in plan:
-                if sport is not None:
-                    sport.set([d[key] for d, key in src], t)
-                status = do(comp, tt, hh, 1)   # noSetFMUStatePriorToCurrentPoint
-                if status > 1:   # discard, error, fatal
-                    raise RunFailure(name, t, self.instances[name].last_messages() or f"fmi2DoStep returned status {status}")
-                if rfn is not None:
-                    status = rfn(*rargs)
-                    if status > 1:
-                        raise RunFailure(name, t, f"fmi2GetReal returned status {status}: {self.instances[name].last_messages()}")
-                    rto[2].update(zip(rto[0], rto[1]))
-                elif read_all:
-                    self._read_outputs(name)
-            done[0] = k + 1
-            # the work over each coupling (trapezoidal rule), as _add_work computes it
-            for i, (e, dt, kt, sign, df, kf, do_, ko) in enumerate(couplings):
-                tau = sign * dt[kt]
-                p_from, p_to = tau * df[kf], tau * do_[ko]
-                p0 = prev[i]
-                e["work_from"] += 0.5 * (p_from + p0[0]) * h
-                e["work_to"] += 0.5 * (p_to + p0[1]) * h
-                prev[i] = (p_from, p_to)
-            if (k + 1) % rec_every == 0 or k + 1 == n_steps:
-                for name, ports in rec_reads:
-                    self._read_outputs(name, self._rec_ports)
-                row = [(k + 1) * h]
-                row += [d[key] for d, key in recorded]
-                record(row)
-            if progress is not None and k % 200 == 0:
-                progress((k + 1) / n_steps)
+        try:
+            for k in range(n_steps):
+                t = k * h
+                if is_set():
+                    raise Interrupted(t)
+                tt.value = t
+                for port, profs in profiles:
+                    port.set([p(t) for p in profs], t)
+                for name, sport, src, do, comp, rfn, rargs, view, out, read_all in plan:
+                    if sport is not None:
+                        sport.set([c[i] for c, i in src], t)
+                    status = do(comp, tt, hh, 1)   # noSetFMUStatePriorToCurrentPoint
+                    if status > 1:   # discard, error, fatal
+                        raise RunFailure(name, t, self.instances[name].last_messages()
+                                         or f"fmi2DoStep returned status {status}")
+                    if rfn is not None:
+                        status = rfn(*rargs)
+                        if status > 1:
+                            raise RunFailure(name, t, f"fmi2GetReal returned status {status}: "
+                                                      f"{self.instances[name].last_messages()}")
+                        out[:] = view.tolist()
+                    elif read_all:
+                        self._read_outputs(name)
+                done[0] = k + 1
+                # the work over each coupling (trapezoidal rule), as _add_work computes it
+                for j, (e, ct, it, sign, cf, i_f, co, io) in enumerate(couplings):
+                    tau = sign * ct[it]
+                    p_from, p_to = tau * cf[i_f], tau * co[io]
+                    p0 = prev[j]
+                    e["work_from"] += 0.5 * (p_from + p0[0]) * h
+                    e["work_to"] += 0.5 * (p_to + p0[1]) * h
+                    prev[j] = (p_from, p_to)
+                if (k + 1) % rec_every == 0 or k + 1 == n_steps:
+                    for name in rec_reads:
+                        self._read_outputs(name, self._rec_ports)
+                    row = [(k + 1) * h]
+                    row += [c[i] for c, i in recorded]
+                    record(row)
+                if progress is not None and k % 200 == 0:
+                    progress((k + 1) / n_steps)
+        finally:
+            for name, (keys, out, _) in step_lists.items():
+                values[name].update(zip(keys, out))
 
     def _start(self) -> None:
         """Load, wire and initialize every instance, and read all it publishes."""
