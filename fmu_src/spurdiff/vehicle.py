@@ -22,7 +22,7 @@ Inputs are held over a step (zero-order hold), except that the command inputs ``
 default: held; a scene gives the rate of its input table, sampled at the step's start as the input
 is). The outputs include the rates of the rear wheel loads and wheel-centre speeds
 (``rearLeft_dFz``, ``rearLeft_dvx``, ...): after a step their mean over it, ``(end - start) / h``
-(at initialization the derivatives), so that a WheelLoad stepped after the car ramps its inputs
+(at initialization the derivatives, 0 for the loads: the load transfer starts at its fixed point), so that a WheelLoad stepped after the car ramps its inputs
 from the car's outputs at the start of the step to those at its end (first-order hold, continuous;
 :mod:`spurdiff.wheel`, ``rampAnchor = "end"``); a host that steps the car after the wheels gives
 them the linear extrapolation of the last step instead (``rampAnchor = "start"``).
@@ -69,7 +69,7 @@ class Vehicle:
     ``driveTorque`` (N m, at the axle), ``x``, ``y`` (m), ``psi`` (rad), ``steering_angle`` (rad),
     ``Fy_front``, ``Fy_rear`` (N, axle side forces in their wheel frames); ``rearLeft_dvx``,
     ``rearRight_dvx`` (m/s^2), ``rearLeft_dFz``, ``rearRight_dFz`` (N/s): the mean rates of the
-    wheel-side outputs over the last step (at initialization their derivatives).
+    wheel-side outputs over the last step (at initialization their derivatives, 0 for the loads).
 
     Command-input rates (attributes): ``speedTargetRate`` (m/s^2), ``pathRadiusRate`` (m/s); the
     input ramps from its value at the step's start at this rate (0: held).
@@ -295,29 +295,21 @@ class Vehicle:
 
     def _outputs(self, s, rates=None, tau: float = 0.0) -> tuple:
         """The output values (in the order of ``_OUTPUT_KEYS``) for the state ``s``, ``tau`` into
-        the step of ``rates``."""
+        the step of ``rates``. The rates of the wheel-side outputs are their derivatives for the
+        initialization (the load-transfer filters start at their fixed point: the loads' are 0);
+        after a step :meth:`do_step` replaces them by the step's mean rates."""
         p = self.params
         b = p.vehicle
         d, (delta, Fz_f, Fz_r, ax, ay, _, _, Fyf, Fyr, u) = self._rates_full(s, rates, tau)
         vx, vy, r = s[0], s[1], s[2]
         half_t = 0.5 * b.trackRear
         dFz = p.vehicle.rollStiffnessShareRear * b.m * s[9] * b.h_cg / b.trackRear
-        k_y = p.vehicle.rollStiffnessShareRear * b.m * b.h_cg / b.trackRear   # d(dFz) / d(a_y_f)
         half = 0.5 * Fz_r
-        # rates of the rear wheel loads (from the load-transfer filters; 0 while a limit holds): the
-        # outputs at initialization; after a step do_step replaces them by the step's mean rates
-        Wn = b.m * G * self._cos_g
-        dhalf = 0.0 if Fz_f <= 0.0 or Fz_f >= Wn else 0.5 * b.m * d[8] * b.h_cg / b.L
-        if dFz >= half:
-            dFz, dFz_L, dFz_R = half, 0.0, 2.0 * dhalf
-        elif dFz <= -half:
-            dFz, dFz_L, dFz_R = -half, 2.0 * dhalf, 0.0
-        else:
-            dFz_L, dFz_R = dhalf - k_y * d[9], dhalf + k_y * d[9]
+        dFz = half if dFz > half else (-half if dFz < -half else dFz)
         sc = p.speedControl
         return (vx - r * half_t, vx + r * half_t, half - dFz, half + dFz, Fz_f, Fz_r,
                 math.hypot(vx, vy), r, ax, ay, min(max(u, sc.driveTorqueMin), sc.driveTorqueMax),
-                delta, Fyf, Fyr, d[0] - d[2] * half_t, d[0] + d[2] * half_t, dFz_L, dFz_R)
+                delta, Fyf, Fyr, d[0] - d[2] * half_t, d[0] + d[2] * half_t, 0.0, 0.0)
 
     def _set_outputs(self, out: tuple) -> None:
         (self.rearLeft_vx, self.rearRight_vx, self.rearLeft_Fz, self.rearRight_Fz, self.frontAxle_Fz,

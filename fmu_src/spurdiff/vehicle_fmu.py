@@ -72,9 +72,9 @@ VARIABLES: list[Var] = [
     Var("rearRight.vxRate", "output", "Mean rate of change of rearRight.vx over the last step ((end - start) / step; "
         "at initialization its derivative)", "m/s2", bind="rearRight_dvx"),
     Var("rearLeft.FzRate", "output", "Mean rate of change of rearLeft.Fz over the last step ((end - start) / step; "
-        "at initialization its derivative)", "N/s", bind="rearLeft_dFz"),
+        "0 at initialization, the load transfer at its fixed point)", "N/s", bind="rearLeft_dFz"),
     Var("rearRight.FzRate", "output", "Mean rate of change of rearRight.Fz over the last step ((end - start) / step; "
-        "at initialization its derivative)", "N/s", bind="rearRight_dFz"),
+        "0 at initialization, the load transfer at its fixed point)", "N/s", bind="rearRight_dFz"),
     Var("frontAxle.Fz", "output", "Normal load of the front axle", "N", bind="frontAxle_Fz"),
     Var("rearAxle.Fz", "output", "Normal load of the rear axle", "N", bind="rearAxle_Fz"),
     Var("frontAxle.Fy", "output", "Side force of the front axle in its wheel frame", "N", bind="Fy_front"),

@@ -159,12 +159,12 @@ class WheelLoad:
         return phi, w, (Fz if Fz > 0.0 else 0.0), mu, v
 
     def _input_rates(self) -> tuple[float, float]:
-        """The rates of the load and the wheel-centre speed over the coming step (``dFz``,
-        ``dvx``; 0: held), validated."""
+        """The rates of the load and the wheel-centre speed over the coming step (attributes
+        ``dFz``, ``dvx``, FMI ``FzRate``, ``vxRate``; 0: held), validated."""
         dFz, dv = self.dFz, self.dvx
         if math.isfinite(dFz + dv) and dFz.__class__ is dv.__class__ is float:
             return dFz, dv
-        return require_finite("dFz", self.dFz), require_finite("dvx", self.dvx)
+        return require_finite("FzRate", self.dFz), require_finite("vxRate", self.dvx)
 
     def _ramp(self, Fz: float, v: float, dFz: float, dv: float, h: float) -> tuple[float, float, float, float]:
         """The load and the wheel-centre speed at the start and at the end of a step of length h
