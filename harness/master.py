@@ -272,10 +272,20 @@ class Master:
         t = 0.0
         sink_time = 0.0   # s spent in the sink (writing results), not counted as stepping
 
+        pending: list[list[float]] = []   # rows recorded, not yet in the store (written in blocks)
+
+        def flush() -> None:
+            nonlocal rows
+            if pending:
+                store[rows:rows + len(pending)] = pending   # one numpy conversion per block
+                rows += len(pending)
+                pending.clear()
+
         def record(row: list[float]) -> None:
-            nonlocal rows, sink_time
-            store[rows] = row
-            rows += 1
+            nonlocal sink_time
+            pending.append(row)
+            if len(pending) >= 64:
+                flush()
             if self.sink is not None:
                 t0 = time.perf_counter()
                 self.sink(row)
@@ -317,6 +327,7 @@ class Master:
         except Interrupted as e:   # Ctrl-C under stop_on_sigint: stopped between two steps
             failure = e
         finally:
+            flush()
             self._free()
         if self.progress is not None and not isinstance(failure, Interrupted):
             self.progress(1.0)

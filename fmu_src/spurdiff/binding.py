@@ -9,7 +9,8 @@ field in the parameter objects. From these, once per model class, :class:`Bindin
   not pushed), one attribute store per input;
 * ``pull(model, values)``: every output (each must be answered by the model), one attribute read
   per output, a dotted path's shared prefix read once (``mesh_forces.F_A1``, ``.F_B2``...),
-  Integer outputs as ``int``;
+  Integer outputs as ``int``; ``pull_total`` the same returning the sum of the Real outputs
+  (what the FMU adapter tests for a non-finite result);
 
 as straight-line Python functions (generated source, as :mod:`dataclasses` writes its
 ``__init__``: no loop, no lookup table on the per-step path; the bindings are checked to be dotted
@@ -109,6 +110,27 @@ def compile_pull(outputs: Sequence[Var], model: Any) -> Callable[[Any, dict], No
     return _compile("pull", lines)
 
 
+def compile_pull_total(outputs: Sequence[Var], model: Any) -> Callable[[Any, dict], Any]:
+    """``pull`` (:func:`compile_pull`) that also returns the sum of the Real outputs it stored
+    (0 when none), left to right: what an FMU adapter tests for a non-finite result (a NaN or an
+    infinity makes the sum so) without reading the values back."""
+    lines: list[str] = []
+    prefixes: dict[str, str] = {}
+    reals: list[str] = []
+    for v in outputs:
+        path = _checked(v)
+        if not _has(model, path):
+            raise AttributeError(f"output {v.name}: {type(model).__name__} has no attribute {path!r}")
+        expr = _target(path, prefixes, lines)
+        if v.kind == "Real":
+            reals.append(f"_r{len(reals)}")
+            lines.append(f"values[{v.name!r}] = {reals[-1]} = {expr}")
+        else:
+            lines.append(f"values[{v.name!r}] = " + (f"int({expr})" if v.kind == "Integer" else expr))
+    lines.append("return " + (" + ".join(reals) if reals else "0"))
+    return _compile("pull_total", lines)
+
+
 class Bindings:
     """The compiled push and pull of one variable list, per model class."""
 
@@ -123,6 +145,8 @@ class Bindings:
         self.io_of: dict[type, tuple[Callable, Callable]] = {}   # model class -> (push, pull)
         self._push_of: dict[type, Callable] = {}
         self._pull_of: dict[type, Callable] = {}
+        self._pull_total_of: dict[type, Callable] = {}
+        self.real_outputs = [v.name for v in self.outputs if v.kind == "Real"]   # what pull_total sums
 
     def io(self, model: Any) -> tuple[Callable[[Any, dict], None], Callable[[Any, dict], None]]:
         """(push, pull) for an initialized ``model`` (compiled at the first model of its class)."""
@@ -141,6 +165,13 @@ class Bindings:
         f = self._pull_of.get(model.__class__)
         if f is None:
             f = self._pull_of[model.__class__] = compile_pull(self.outputs, model)
+        return f
+
+    def pull_total(self, model: Any) -> Callable[[Any, dict], Any]:
+        """:func:`compile_pull_total` for ``model``'s class (compiled at its first model)."""
+        f = self._pull_total_of.get(model.__class__)
+        if f is None:
+            f = self._pull_total_of[model.__class__] = compile_pull_total(self.outputs, model)
         return f
 
     def push(self, model: Any, values: dict) -> None:
@@ -201,4 +232,5 @@ def renamed(error: ParameterError, variables: Sequence[Var], prefix: str) -> Par
     return ParameterError(names.get(error.name, error.name), error.value, error.allowed, error.hint)
 
 
-__all__ = ["Bindings", "bindings", "build_params", "compile_pull", "compile_push", "renamed", "resolve"]
+__all__ = ["Bindings", "bindings", "build_params", "compile_pull", "compile_pull_total", "compile_push", "renamed",
+           "resolve"]

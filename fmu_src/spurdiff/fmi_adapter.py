@@ -140,7 +140,6 @@ class ModelFmu(Fmi2Slave):
         self._input_values = _getter([n for n, _, _ in self._inputs])
         self._input_lo = tuple(lo for _, lo, _ in self._inputs)
         self._input_hi = tuple(hi for _, _, hi in self._inputs)
-        self._output_values = _getter(self._outputs)
         self._real_getters: dict[tuple, Callable[[dict], tuple]] = {}
         self._real_setters: dict[tuple, tuple[tuple, bool]] = {}
         self._io = bindings(self.VARIABLES)   # push / pull per model class (spurdiff.binding)
@@ -154,7 +153,10 @@ class ModelFmu(Fmi2Slave):
         # (every store clears it but the bridge's fast fmi2SetReal, which checks what it stores)
         self._inputs_ok = False
         self._step_model = None          # the model the step's tables below are of
-        self._step_io = None             # (push, pull, ATOMIC_STEP) of _step_model
+        self._step_io = None             # (push, pull, pull_total, ATOMIC_STEP) of _step_model
+        # the Real outputs pull_total does not sum (no binding: their values stay as they are)
+        pulled = set(self._io.real_outputs)
+        self._unpulled_values = _getter([n for n in self._outputs if n not in pulled])
         self.terminated = False          # fmi2Terminated: the FMU cannot go on (stop time reached)
         self.last_step_status = OK
         self._dirty = True               # values changed since the model was built
@@ -387,30 +389,29 @@ class ModelFmu(Fmi2Slave):
     def fmi2_set_string(self, vrs, xs) -> int:
         return self._store(self._names("String", vrs, True), xs)
 
-    def fmi2_do_step(self, t: float, h: float, no_set_prior: bool = False) -> int:
-        status = self._step(t, h)
+    def _step_refused(self, status: int, msg: str) -> int:
         self.last_step_status = status
-        return status
+        return self._refuse(status, msg)
 
-    def _step(self, t: float, h: float) -> int:
+    def fmi2_do_step(self, t: float, h: float, no_set_prior: bool = False) -> int:
         # the checks below are the hot path of every communication step: each is one comparison
         # or one C-level pass over a precomputed table; the messages are built only on refusal.
         # The inputs are checked when something was stored since their last check (_inputs_ok;
         # the bridge's fast setter checks the values it stores and clears it for a bad one).
         if self.phase != "stepping":
             why = f": {self.failure}" if self.failure else ""
-            return self._refuse(ERROR, f"fmi2DoStep refused in state '{self.phase}'{why}")
+            return self._step_refused(ERROR, f"fmi2DoStep refused in state '{self.phase}'{why}")
         if not 0.0 < h < math.inf:   # NaN too
-            return self._refuse(DISCARD, f"fmi2DoStep at t = {t:g} s refused: communicationStepSize = {h} "
-                                         "must be > 0 and finite")
+            return self._step_refused(DISCARD, f"fmi2DoStep at t = {t:g} s refused: communicationStepSize = {h} "
+                                               "must be > 0 and finite")
         at = t if t >= 0.0 else -t   # |t|; NaN fails the comparison below
         if not abs(t - self.time) <= 1e-9 * (at if at > 1.0 else 1.0) + 1e-6 * h or at == math.inf:
-            return self._refuse(DISCARD, f"fmi2DoStep refused: currentCommunicationPoint = {t!r} s is not the "
-                                         f"FMU's time {self.time!r} s (no gaps, no going back: use fmi2SetFMUstate)")
+            return self._step_refused(DISCARD, f"fmi2DoStep refused: currentCommunicationPoint = {t!r} s is not the "
+                                               f"FMU's time {self.time!r} s (no gaps, no going back: use fmi2SetFMUstate)")
         if t + h > self._stop + (self._stop_tol + 1e-6 * h):   # t + h > stop_time + _time_tolerance(stop_time, h)
             self.terminated = True   # FMI 2.0 section 2.1.6: computing past a defined stopTime is fmi2Error
-            return self._refuse(ERROR, f"fmi2DoStep refused: t + h = {t + h:g} s is past the stopTime "
-                                       f"{self.stop_time:g} s set by fmi2SetupExperiment; state kept at t = {self.time:g} s")
+            return self._step_refused(ERROR, f"fmi2DoStep refused: t + h = {t + h:g} s is past the stopTime "
+                                             f"{self.stop_time:g} s set by fmi2SetupExperiment; state kept at t = {self.time:g} s")
         values = self.values
         if not self._inputs_ok:
             xs = self._input_values(values)
@@ -418,30 +419,30 @@ class ModelFmu(Fmi2Slave):
                 for (name, lo, hi), x in zip(self._inputs, xs):
                     if not lo <= x <= hi:   # NaN too
                         what = "is not a finite number" if not math.isfinite(x) else f"is outside [{lo:g}, {hi:g}]"
-                        return self._refuse(DISCARD, f"fmi2DoStep at t = {t:g} s refused: input {name} = {x} {what}; "
-                                                     f"state kept at t = {self.time:g} s")
+                        return self._step_refused(DISCARD, f"fmi2DoStep at t = {t:g} s refused: input {name} = {x} {what}; "
+                                                           f"state kept at t = {self.time:g} s")
             self._inputs_ok = True
         model = self.model
         if model is not self._step_model:
             # the rollback point; a model whose do_step leaves itself as it was on any error and
             # never commits a non-finite state says so with ATOMIC_STEP (no snapshot on the hot
             # path), a declaration of the model object, read once per model
-            self._step_io = (*self._io.io(model), bool(getattr(model, "ATOMIC_STEP", False)))
+            self._step_io = (*self._io.io(model), self._io.pull_total(model), bool(getattr(model, "ATOMIC_STEP", False)))
             self._step_model = model
-        push, pull, atomic = self._step_io
+        push, pull, pull_total, atomic = self._step_io
         saved = None if atomic else model.get_state()
         try:
             push(model, values)
             model.do_step(t, h)
-            pull(model, values)
             # all outputs finite if their sum is (a NaN or an infinity makes it so; a finite sum
-            # that overflows is told apart by the exact check)
-            if math.isfinite(sum(self._output_values(values))):
+            # that overflows is told apart by the exact check): the pulled ones summed as pulled
+            if math.isfinite(pull_total(model, values) + sum(self._unpulled_values(values))):
                 bad = None
             else:
                 bad = next((n for n in self._outputs if not math.isfinite(values[n])), None)
             if bad is None:
                 self.time = t + h
+                self.last_step_status = OK
                 return OK
             msg = f"fmi2DoStep at t = {t:g} s refused: its result is not finite ({bad} = {values[bad]})"
         except ParameterError as e:
@@ -454,8 +455,8 @@ class ModelFmu(Fmi2Slave):
             pull(model, values)
         except Exception as e:
             self.phase, self.failure = "error", f"state lost after a failed step: {e}"
-            return self._refuse(ERROR, msg + "; " + self.failure)
-        return self._refuse(DISCARD, msg + f"; state kept at t = {self.time:g} s")
+            return self._step_refused(ERROR, msg + "; " + self.failure)
+        return self._step_refused(DISCARD, msg + f"; state kept at t = {self.time:g} s")
 
     def fmi2_cancel_step(self) -> int:
         return self._refuse(ERROR, "fmi2CancelStep: no asynchronous step is pending (fmi2DoStep never "
