@@ -114,6 +114,7 @@ static int ros_step(const MkParams *P, MkState *S, const double *y, const double
         double d = 1.0 / (P->gamma * h);
         for (int i = 0; i < N; i++)
             for (int j = 0; j < N; j++) wk->W[i * N + j] = (i == j ? d : 0.0) - S->Jf[i * N + j];
+        S->n_lu++;
         if (!factor(P, wk->W, S->LU, piv, N)) return 0;
         S->lu_h = h;
     }
@@ -273,6 +274,7 @@ static int64_t settle_modes(const MkParams *P, MkState *S, const double *y, cons
     for (int k = 0; k < nz; k++) S->s[zeroed[k]] = 0;
     for (int it = 0; it < 4; it++) {
         mk_eval(P, S, y, wk->f0, S->Jf, sv);
+        S->n_jac++;
         S->jac_age = 0;
         S->lu_h = 0.0;
         int changed = 0;
@@ -376,6 +378,7 @@ static int advance(const MkParams *P, MkState *S0, double t, double h, int64_t n
         memcpy(sv0, S->sv0c, sizeof sv0);
     } else if (S->jac_age < 0) {                       /* no Jacobian yet */
         mk_eval(P, S, y, f0, S->Jf, sv0);
+        S->n_jac++;
         S->jac_age = 0;
         S->lu_h = 0.0;
     } else {                                           /* the Jacobian depends on the state only */
@@ -400,6 +403,7 @@ static int advance(const MkParams *P, MkState *S0, double t, double h, int64_t n
             if (hi < hmin) { S0->fail_t = t + tin; S0->fail_h = hi; return MK_HMIN; }
             if (rejected && S->jac_age > 0) {           /* retried with a Jacobian at y */
                 mk_eval(P, S, y, wk.fs, S->Jf, NULL);
+                S->n_jac++;
                 S->jac_age = 0;
                 S->lu_h = 0.0;
             }
@@ -429,6 +433,7 @@ static int advance(const MkParams *P, MkState *S0, double t, double h, int64_t n
                     if (fl[k] != S->flags[k]) fresh = 1;
             }
             mk_eval(P, S, yn, f1, fresh ? wk.J1 : NULL, sv1);
+            S->n_jac += fresh;
             midpoint(P, y, &wk);
             if (P->dissipative) {
                 mk_eval(P, S, wk.ym, wk.fs, NULL, svm);

@@ -52,6 +52,7 @@ typedef struct {
     double lu_h;              /* step size of LU; 0: none */
     int32_t piv[NMAX];
     int64_t key_s[2], cache_ok, jac_age;  /* jac_age: accepted steps since Jf was evaluated, -1: none */
+    int64_t n_jac, n_lu;      /* Jacobian evaluations and factorizations of W (diagnostics) */
 } MkState;
 
 typedef struct { double F, dF_dd, dF_dv, Fc, xi; } Force;

@@ -156,6 +156,7 @@ class RosenbrockW:
         self.tmp = np.zeros(n)
         self.lu = self.piv = None
         self.lu_h = 0.0           # the step size the factored W = I/(gamma h) - J is for; 0: none
+        self.n_factorizations = 0
 
     def step(self, y: np.ndarray, f0: np.ndarray, h: float) -> bool:
         """Attempt a step of size h from y (with f0 = f(y) and self.J, an approximation of J(y),
@@ -169,6 +170,7 @@ class RosenbrockW:
         tr = self.method
         if h != self.lu_h:
             self.lu_h = 0.0
+            self.n_factorizations += 1
             W = self.W
             np.multiply(self.eye, 1.0 / (tr.gamma * h), out=W)
             W -= self.J

@@ -61,7 +61,8 @@ class MkState(C.Structure):
                 # the integrator's memory between communication steps (the Jacobian in use, its
                 # factored W, the cached f and side values at y with their inputs, the Jacobian's age)
                 + [("Jf", _d * 100), ("LU", _d * 100), ("f0c", _d * 10), ("sv0c", _d * 13), ("key", _d * 4),
-                   ("lu_h", _d), ("piv", C.c_int32 * 10), ("key_s", _i * 2), ("cache_ok", _i), ("jac_age", _i)])
+                   ("lu_h", _d), ("piv", C.c_int32 * 10), ("key_s", _i * 2), ("cache_ok", _i), ("jac_age", _i),
+                   ("n_jac", _i), ("n_lu", _i)])
 
 
 def source_digest(native: Path) -> str:
@@ -232,6 +233,7 @@ class Kernel:
             c._jac_dirty = False
             self.J[:] = c._integ.J
             S.jac_age, S.lu_h = c._jac_age, 0.0
+            S.n_jac, S.n_lu = c.n_jacobians, c._integ.n_factorizations
         if c.y is not self.y:
             D[:c._N] = c.y
         D[10:27] = (c.w_ref, c.tau_c, c.tau_L, c.tau_R, c._ac, c.wc, c.phic, c.t, c.h_next, c.work_in, c.energy_loss,

@@ -238,6 +238,25 @@ class MeshDifferential(DifferentialModel):
             raise
         self._refresh_outputs(self._sv0 if (not self.speed_drive or self._ac == 0.0) else None)
 
+    def solver_counts(self) -> dict[str, int]:
+        """The internal solver's work since initialize: accepted and rejected internal steps,
+        Jacobian evaluations and factorizations of W (diagnostics; not part of the FMU state)."""
+        k = self._kernel is not None and not self._jac_dirty
+        S = self._kernel.state if k else None
+        return {"steps": self.n_internal_steps, "rejected": self.n_rejected_steps,
+                "jacobians": int(S.n_jac) if k else self.n_jacobians,
+                "factorizations": int(S.n_lu) if k else self._integ.n_factorizations}
+
+    def states_only(self) -> None:
+        """From now on integrate the states alone: no loss quadrature (the dissipated energy is
+        not booked), as an ODE integrator without a quadrature does (the solver comparison). Not
+        with pin friction (its break-away test uses the quadrature's midpoint evaluation)."""
+        if self._pin:
+            raise ParameterError("mesh.pinFriction", True, "false for a states-only run")
+        self._dissipative = False
+        if self._kernel is not None:
+            self._kernel.params.dissipative = 0
+
     def run_dense(self, t_end: float, times) -> np.ndarray:
         """An integration over a whole run from the current time with the inputs held, as
         solve_ivp's one call with ``t_eval``: one step of length ``t_end`` (the internal steps are

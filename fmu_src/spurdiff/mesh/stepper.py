@@ -127,6 +127,7 @@ def advance(c, t: float, h: float, dense=None) -> None:
     elif c._jac_age < 0:           # no Jacobian yet
         sv0 = evaluate(c, y, f0, integ.J)
         c._jac_age, integ.lu_h = 0, 0.0
+        c.n_jacobians += 1
     else:                          # the Jacobian depends on the state only: it serves on
         sv0 = evaluate(c, y, f0, None)
     loss0 = c.energy_loss
@@ -160,6 +161,7 @@ def advance(c, t: float, h: float, dense=None) -> None:
             if rejected and c._jac_age > 0:                # retried with a Jacobian at y
                 evaluate(c, y, c._fscratch, integ.J)
                 c._jac_age, integ.lu_h = 0, 0.0
+                c.n_jacobians += 1
             if not integ.step(y, f0, hi):
                 c.n_rejected_steps += 1
                 rejected = truncated = True
@@ -181,6 +183,7 @@ def advance(c, t: float, h: float, dense=None) -> None:
             if not fresh and (c._bl or c._contact):                  # also where a contact changed
                 fresh = contact_flags(c, yn) != c._contact_flags
             sv1 = evaluate(c, yn, f1, c._J1 if fresh else None)
+            c.n_jacobians += fresh
             ym = integ.midpoint(y)
             if c._dissipative:
                 svm = evaluate(c, ym, c._fscratch, None)

@@ -24,6 +24,7 @@ def settle_modes(c, y, zeroed) -> int:
     for _ in range(4):
         sv = c._sv = evaluate(c, y, c._f0, c._integ.J)
         c._jac_age, c._integ.lu_h = 0, 0.0
+        c.n_jacobians += 1
         changed = False
         for i in (0, 1):
             if c.s[i] == 0:
@@ -161,6 +162,7 @@ def initial_state(c, t0: float) -> None:
     c.n_internal_steps = c.n_rejected_steps = c.n_steps = 0
     c.h_next = 1e-5
     c._jac_age, c._integ.lu_h = -1, 0.0       # no Jacobian yet (spurdiff.mesh.stepper)
+    c.n_jacobians = c._integ.n_factorizations = 0
     c._jac_dirty = True                       # (for the compiled kernel: set here)
     c._last_h = 0.0
     c._contact_flags = contact_flags(c, y)

@@ -71,6 +71,7 @@ def step_both(a, b, n, h, t0=0.0, inputs=None) -> float:
         assert abs(va - vb) <= RTOL * max(abs(va), 1.0), f"{name}: {va!r} vs {vb!r}"
     for name in ("n_internal_steps", "n_rejected_steps", "n_mode_switches", "n_contact_transitions", "s"):
         assert getattr(a, name) == getattr(b, name), name
+    assert a.solver_counts() == b.solver_counts()      # the same Jacobians and factorizations reused
     return worst
 
 
