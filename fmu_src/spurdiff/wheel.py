@@ -16,7 +16,13 @@ Equations (SI; Modelica sign conventions)::
     flange.tau = -tau_shaft                                 torque ON the differential's flange
 
 Inputs are held over a communication step (zero-order hold); the flange angle is
-``phi(t) = phi_in + w_in (t - t_step)``. With ``followFlangeAngle = 1`` the twist is corrected at
+``phi(t) = phi_in + w_in (t - t_step)``. The load and the wheel-centre speed may ramp instead
+(first-order hold): ``Fz(t) = Fz_in + dFz (t - t_a)``, ``v_x(t) = v_in + dv (t - t_a)`` with the
+rates ``FzRate``, ``vxRate`` (0, the default: held) anchored at ``t_a`` = the step's start
+(``rampAnchor = "start"``) or its end (``"end"``: the vehicle stepped first and handed over its
+outputs at the end of the step with their mean rates over it, so the ramp joins the vehicle's
+outputs at both ends); each sub-step takes the ramp at its midpoint (the load not below 0, so a
+wheel lifts inside the step), the outputs the values at the end. With ``followFlangeAngle = 1`` the twist is corrected at
 the start of each step by the difference between the flange angle input and the angle this
 model extrapolated to at the end of the previous step, so the twist follows the differential's
 actual angle and does not drift; the correction's change of spring energy is booked as work done
@@ -88,7 +94,8 @@ class WheelLoad:
 
     Inputs (attributes, SI): ``flange_phi`` (rad), ``flange_w`` (rad/s) of the differential's sun
     flange; ``Fz`` normal load (N, negative is treated as 0); ``mu`` road friction (>= 0);
-    ``vx`` longitudinal velocity of the wheel centre in the wheel frame (m/s).
+    ``vx`` longitudinal velocity of the wheel centre in the wheel frame (m/s); ``dFz`` (N/s),
+    ``dvx`` (m/s^2): their rates over the step (FMI ``FzRate``, ``vxRate``; 0: held).
 
     Outputs (attributes, values at the end of the last step with the inputs held over it):
     ``flange_tau`` (N m, torque on the differential's flange, Modelica sign: negative when the
