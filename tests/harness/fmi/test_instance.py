@@ -74,6 +74,24 @@ def test_a_real_port_reads_and_writes_through_the_c_functions_and_reports_a_refu
     inst.close()
 
 
+def test_the_fast_function_is_the_fmus_c_function_with_arguments_converted_by_the_caller(differential_fmu):
+    from ctypes import c_double
+
+    inst = _initialized(differential_fmu, "fast")
+    ref = _initialized(differential_fmu, "fast-ref")
+    do = inst.fast_function("fmi2DoStep")
+    t, h = c_double(0.0), c_double(H)
+    assert do(inst.c_component, t, h, 1) == 0                    # a step, as fmpy's call makes it
+    ref.do_step(0.0, H)
+    assert do(None, t, h, 1) == 3                                # refused by the loader: a status, no raise
+    t.value = 5 * H
+    assert do(inst.c_component, t, h, 1) == 2                   # not the FMU's time: fmi2Discard
+    w = inst.var("left.w").valueReference
+    assert inst.slave.getReal([w]) == ref.slave.getReal([w])
+    inst.close()
+    ref.close()
+
+
 def test_status_labels():
     assert [status_label(s) for s in (0, 2, 4, None, 9)] == ["fmi2OK", "fmi2Discard", "fmi2Fatal", "no status",
                                                             "illegal status 9"]
