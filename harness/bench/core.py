@@ -90,62 +90,122 @@ def recording_cost(scene_name: str, repeats: int = 3) -> dict:
 
 
 def fmi_call_cost(scene_name: str, calls: int = 2000) -> dict:
-    """Microseconds per FMI call through the whole path a master's step loop takes (fmpy's ctypes
-    call, our loader, the bridge, the adapter), per FMU of the scene, with one preallocated
-    value-reference array as a master keeps it: ``fmi2GetReal`` of up to 4 Real outputs,
-    ``fmi2SetReal`` of up to 4 Real inputs (their own values); and a call the loader refuses at
-    once (NULL instance: the host's ctypes call alone). Medians of 5 rounds."""
-    import ctypes
-
-    from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave, fmi2Real, fmi2ValueReference
-    import shutil
+    """Microseconds per FMI call as the master's step loop makes it (:class:`harness.fmi.instance.Port`:
+    the FMU's C function through ctypes with its arguments converted once; then our loader, the
+    bridge, the adapter's value table), per FMU of the scene, initialized and stepping:
+    ``fmi2GetReal`` of up to 4 Real outputs, ``fmi2SetReal`` of up to 4 Real inputs (their own
+    values); and a call the loader refuses at once (NULL instance: the host's ctypes call alone).
+    Medians of 5 rounds."""
+    from harness.fmi.instance import Instance, Port
 
     scene = prepare_scene(scene_name)
     files = fmu_files_for(scene)
     out = {"per_fmu": {}}
+
+    def fail(reason: str, t: float):
+        raise RuntimeError(reason)
+
     for fmu_name, path in sorted(files.items()):
-        unzip = extract(str(path))
+        inst = Instance("bench", path)
         try:
-            md = read_model_description(unzip)
-            slave = FMU2Slave(guid=md.guid, unzipDirectory=unzip, modelIdentifier=md.coSimulation.modelIdentifier,
-                              instanceName="bench")
-            slave.instantiate()
-            slave.setupExperiment(startTime=0.0)
-            slave.enterInitializationMode()
-            slave.exitInitializationMode()
-            reals = [v for v in md.modelVariables if v.type == "Real"]
+            inst.slave.setupExperiment(startTime=0.0)
+            inst.slave.enterInitializationMode()
+            inst.slave.exitInitializationMode()
+            reals = [v for v in inst.md.modelVariables if v.type == "Real"]
             outs = [v.valueReference for v in reals if v.causality == "output"][:4]
             ins = [v.valueReference for v in reals if v.causality == "input"][:4]
-            fns = {}
-            for name in ("fmi2GetReal", "fmi2SetReal"):
-                f = getattr(slave.dll, name)
-                f.argtypes = [ctypes.c_void_p, ctypes.POINTER(fmi2ValueReference), ctypes.c_size_t,
-                              ctypes.POINTER(fmi2Real)]
-                f.restype = ctypes.c_int
-                fns[name] = f
+            getter, setter = Port(inst, outs, False, fail), Port(inst, ins, True, fail)
+            setter.val[:] = Port(inst, ins, False, fail).get()   # the inputs' own values for the setter
             row = {}
-            for name, vrs in (("fmi2GetReal", outs), ("fmi2SetReal", ins), ("refused", outs)):
-                n = len(vrs)
-                vr, val = (fmi2ValueReference * n)(*vrs), (fmi2Real * n)()
-                fns["fmi2GetReal"](slave.component, vr, n, val)   # the inputs' own values for the setter
-                f = fns["fmi2SetReal" if name == "fmi2SetReal" else "fmi2GetReal"]
-                comp = None if name == "refused" else slave.component
+            for name, port in (("fmi2GetReal", getter), ("fmi2SetReal", setter), ("refused", getter)):
+                fn, args = port.fn, port.args
+                if name == "refused":
+                    args = (None,) + args[1:]
                 rounds = []
                 for _ in range(5):
                     t0 = time.perf_counter()
                     for _ in range(calls):
-                        f(comp, vr, n, val)
+                        fn(*args)
                     rounds.append(time.perf_counter() - t0)
-                if name != "refused" and f(comp, vr, n, val) != 0:
+                if name != "refused" and fn(*args) != 0:
                     raise RuntimeError(f"{fmu_name}: {name} failed in the call-cost measurement")
-                row[name] = (1e6 * statistics.median(rounds) / calls, n)
+                row[name] = (1e6 * statistics.median(rounds) / calls, port.n)
             out["per_fmu"][fmu_name] = row
-            slave.terminate()
-            slave.freeInstance()
         finally:
-            shutil.rmtree(unzip, ignore_errors=True)
+            inst.close()
     return out
+
+
+def fmi_path_cost(scene_name: str = "vehicle-cornering", repeats: int = 5) -> dict:
+    """The FMI path without the physics: the scene through FMI and directly, interleaved, with
+    every model's ``do_step`` a no-op (the models' classes patched for the measurement; the FMUs
+    run the same classes in this process), in CPU time of this thread, the fastest of
+    ``repeats`` each. What is left is what both runs do around the physics (the interface modules'
+    copies, the loops, the recording) and, in the FMI run only, fmi2DoStep's way through ctypes,
+    the loader, the bridge and the adapter, the getReal calls and the master's Python. The
+    outputs do not change, so the master skips the setReal of unchanged inputs (only the
+    profiles' remain): ``setreal_calls_per_step`` counts those of the real run, for the
+    difference. Microseconds per communication step."""
+    import harness.direct as hd
+    import harness.fmi.instance as hi
+    import harness.master as hm
+
+    scene = prepare_scene(scene_name)
+    files = fmu_files_for(scene)
+    classes = set()
+    for spec in scene.instances:   # the model classes the scene builds
+        d = hd.DirectInstance(spec.name, spec.fmu, scene.parameters_of(spec.name))
+        d.initialize()
+        classes.add(type(d.model))
+    calls = [0]
+
+    def no_step(self, t, h):
+        calls[0] += 1
+
+    # the setReal calls the real run makes per step (the ports skip unchanged values)
+    sets, orig_set = [0], hi.Port.set
+
+    def counted(self, values, t=math.nan):
+        if values != self.last:
+            sets[0] += 1
+        return orig_set(self, values, t)
+
+    def start(self):   # the calls of the stepping loop only
+        orig_start(self)
+        sets[0] = 0
+
+    orig_start = hm.Master._start
+    hi.Port.set, hm.Master._start = counted, start
+    try:
+        real = run_scene(scene, files)
+    finally:
+        hi.Port.set, hm.Master._start = orig_set, orig_start
+    saved = {c: c.__dict__.get("do_step") for c in classes}
+    fmi, direct = [], []
+    try:
+        for c in classes:
+            c.do_step = no_step
+        run_scene(scene, files)
+        for _ in range(repeats):
+            with cpu_clock():
+                calls[0] = 0
+                r = run_scene(scene, files)
+                if calls[0] != r.steps * len(scene.instances):   # the FMUs ran the patched classes
+                    raise RuntimeError(f"fmi_path_cost: {calls[0]} no-op steps in {r.steps} steps of "
+                                       f"{len(scene.instances)} FMUs: the FMUs do not run this process's models")
+                fmi.append(r.wall_time / r.steps)
+                r = run_direct(scene)
+                direct.append(r.wall_time / r.steps)
+    finally:
+        for c, f in saved.items():
+            if f is None:
+                del c.do_step
+            else:
+                c.do_step = f
+    f, d = 1e6 * min(fmi), 1e6 * min(direct)
+    return {"fmi_us": f, "direct_us": d, "instances": len(scene.instances),
+            "per_instance_us": (f - d) / len(scene.instances),
+            "setreal_calls_per_step": sets[0] / max(1, real.steps)}
 
 
 # Fidelity settings whose cost `bench` compares (structural parameters of the differential).

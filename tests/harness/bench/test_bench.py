@@ -3,6 +3,8 @@ numbers (the bench's ratios are printed, never asserted against wall-clock targe
 import argparse
 import math
 
+import pytest
+
 import harness.bench.core as bench
 import harness.bench.report as report
 from harness.accuracy import load_grid
@@ -31,6 +33,17 @@ def test_fmi_call_cost_measures_each_fmu_through_the_c_path():
     assert set(row) == {"fmi2GetReal", "fmi2SetReal", "refused"}
     assert all(us > 0.0 and math.isfinite(us) for us, _ in row.values())
     assert row["fmi2GetReal"][1] == 4 and 1 <= row["fmi2SetReal"][1] <= 4
+
+
+def test_fmi_path_cost_runs_both_loops_without_the_physics_and_restores_the_models():
+    from spurdiff.vehicle import Vehicle
+
+    step = Vehicle.do_step
+    c = bench.fmi_path_cost("vehicle-cornering", repeats=1)
+    assert Vehicle.do_step is step                      # the models step again afterwards
+    assert 0.0 < c["direct_us"] < c["fmi_us"] < 1000.0 and c["instances"] == 4
+    assert c["per_instance_us"] == pytest.approx((c["fmi_us"] - c["direct_us"]) / 4)
+    assert 1.0 <= c["setreal_calls_per_step"] <= 8.0   # the connections' inputs change every step
 
 
 def test_recording_cost_compares_runs_recording_every_step_and_once():
@@ -64,6 +77,8 @@ def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeyp
     monkeypatch.setattr(report, "fmi_call_cost", lambda *a, **k: {"per_fmu": {
         "Vehicle": {"fmi2GetReal": (2.0, 4), "fmi2SetReal": (3.0, 2), "refused": (1.0, 4)},
         "WheelLoad": {"fmi2GetReal": (4.0, 4), "fmi2SetReal": (5.0, 4), "refused": (1.0, 4)}}})
+    monkeypatch.setattr(report, "fmi_path_cost", lambda *a, **k: {
+        "fmi_us": 50.0, "direct_us": 30.0, "instances": 4, "per_instance_us": 5.0, "setreal_calls_per_step": 4.0})
     monkeypatch.setattr(report, "recording_cost", lambda *a, **k: {"fmi_us": 30.0, "direct_us": 2.0, "recorded": 22,
                                                                     "every": 1})
     monkeypatch.setattr(report, "step_control_comparison", lambda *a, **k: [
@@ -74,11 +89,15 @@ def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeyp
     assert report._report(argparse.Namespace(levels=None, repeats=1)) == 0
     out = capsys.readouterr().out
     # 15000 steps: 200 us (FMI) and 100 us (direct) per step, 25 us per instance and step
-    assert "FMI 200 us, direct 100 us" in out and "= 25 us per instance and step" in out
+    assert "FMI 200 us, direct 100 us" in out and "= 25.0 us per instance and step" in out
     assert "leaves 10 us per step" in out
-    # the mean get (3 us) and set (4 us) call: 7 us per instance and step, 2 us in the host's ctypes calls
     assert "Vehicle getReal(4) 2.0, setReal(2) 3.0, refused 1.0" in out
-    assert "the set and get calls cost 7.0 us (2.0 us of it in the host's ctypes calls); the rest, 18 us of the 25 us" in out
+    # without the physics 5 us per instance and step, the mean get call 3 us (1 us of it ctypes); the real
+    # run's 4 set calls per step at 4 us add 4 us per instance: 9 us, against the 25 us of the whole runs
+    assert "FMI 50.0 us, direct 30.0 us per step, so 5.0 us per instance and step" in out
+    assert "the step's getReal (3.0 us, 1.0 us of it the host's ctypes call)" in out
+    assert "4.0 setReal calls per step (4.0 us each" in out
+    assert "add 4.0 us per instance: 9.0 us per instance and step, against 25.0 us measured above in wall time" in out
     assert "Recording the scene's 22 variables every 1 step(s) costs the FMI run 30 us per step" in out
     # 1.25 allows a quarter of the direct run's 100 us per step over 4 instances
     assert "the FMI path at most 6 us per instance and step" in out
