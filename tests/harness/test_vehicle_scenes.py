@@ -7,6 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from harness.bench.coupling import torque_coupled
 from harness.master import run_scene
 from harness.report import evaluate_checks, series, stat
 from harness.runner import prepare_scene
@@ -118,36 +119,6 @@ def test_vehicle_cornering(fmu_files):
     assert all(o.passed for o in checks_within(r, 1.6)), [o for o in checks_within(r, 1.6) if not o.passed]
 
 
-def torque_coupled(name: str, **changes) -> dict:
-    """The scene's data with the old interface: the wheels own the half-shafts (flange angle and
-    speed in, flange torque out), the differential gets the flange torques; every input held over
-    the step (no FzRate / vxRate from the car, no speedTargetRate / pathRadiusRate): the reference
-    of issue 19 as it was measured."""
-    from harness.scene import read_scene_data
-
-    data = read_scene_data(name)
-    for k in [k for k in data.get("inputs", {}) if k.endswith("Rate")]:
-        del data["inputs"][k]
-    for k in [k for k in data["connections"] if k.endswith(("FzRate", "vxRate"))]:
-        del data["connections"][k]
-    dp = data["fmus"]["diff"]["parameters"]
-    dp.pop("shaftCoupling")
-    for side, w in (("left", "wheelL"), ("right", "wheelR")):
-        twist = dp.pop(f"{side}Shaft.phi_rel_start", 0.0)
-        data["fmus"][w]["parameters"] = {"halfShaft.phi_rel_start": twist}
-        con = data["connections"]
-        for k in [k for k, v in con.items() if k.startswith((f"diff.{side}Wheel.", f"{w}.shaftIn."))]:
-            del con[k]
-        con[f"diff.{side}.tau"] = f"{w}.flange.tau"
-        con[f"{w}.flange.phi"] = f"diff.{side}.phi"
-        con[f"{w}.flange.w"] = f"diff.{side}.w"
-        for c in data["couplings"]:
-            if c["torque"] == f"diff.{side}Shaft.tau":
-                c["torque"] = f"{w}.shaft.tau"
-    data.update(changes)
-    return data
-
-
 def test_old_coupling_step_above_the_stability_limit_diverges(fmu_files):
     """With the old interface (the wheels own the shafts) 0.5 ms is beyond the Gauss-Seidel limit
     (0.49 ms) for the slipping differential (the paper's locking law; the pin-load law's six times
@@ -204,7 +175,7 @@ def old_reference(fmu_files, name, duration):
 
 
 # (scene, window of the means): issue 19's 1e-3 on the wheel-speed ratio and 1 % on the locking
-# torque, met at 1 to 10 ms (measured with python tests/coupling_accuracy.py: wheel-lift 1.2e-4
+# torque, met at 1 to 10 ms (measured with python -m harness.bench.coupling: wheel-lift 1.2e-4
 # and 1.0e-3 at 10 ms, split-mu-launch 6.3e-4 and 2.7e-4; wheel-lift's ratio was 1.4e-3 before
 # its path radius and the car's wheel loads and speeds ramped over the step)
 TRANSIENT_CASES = [("split-mu-launch", (1.0, 2.0)), ("wheel-lift", (1.1, 2.2))]
