@@ -12,7 +12,6 @@ coupling's physics). Wall times are printed, never asserted.
 """
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import sys
@@ -71,7 +70,8 @@ def measures(result, window) -> dict[str, float]:
             "lock_absmean": stat(result, "abs({diff.lockingTorque})", "mean", list(window))}
 
 
-def _steps(text: str) -> list[float]:
+def parse_steps(text: str) -> list[float]:
+    """The steps of ``--steps`` (comma-separated seconds); ValueError naming the allowed range."""
     try:
         steps = [float(x) for x in text.split(",")]
     except ValueError:
@@ -81,38 +81,27 @@ def _steps(text: str) -> list[float]:
     return steps
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m harness.bench.coupling", description=__doc__.splitlines()[0])
-    ap.add_argument("scenes", nargs="*", default=list(WINDOWS))
-    ap.add_argument("--steps", default="1e-3,5e-3,1e-2,2e-2")
-    ap.add_argument("--fresh", action="store_true", help="recompute the reference runs")
-    ap.add_argument("--cache", type=Path, default=None,
-                    help="file of the reference means (JSON; default ./results/coupling_refs.json)")
-    args = ap.parse_args(argv)
-    for s in args.scenes:
+def run(scenes: list[str], steps: list[float], fresh: bool = False, cache_path: Path | None = None) -> int:
+    """Measure and print the table (the command line: :mod:`harness.cli.coupling_bench`); the exit
+    code: 0, 1 if a reference run failed, 2 for a bad scene or step (one line on stderr)."""
+    for s in scenes:
         if s not in WINDOWS:
             print(f"error: scene {s!r} not one of {', '.join(WINDOWS)}", file=sys.stderr)
             return 2
-    try:
-        steps = _steps(args.steps)
-    except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
-
     from harness.build import FMUS, build
     from harness.master import run_scene
     from harness.runner import prepare_scene
     from harness.scene import SceneError, parse_scene
 
     fmu_files = dict(zip(FMUS, build(list(FMUS), quiet=True)))
-    cache_path = args.cache or results_dir("coupling_refs.json")
+    cache_path = cache_path or results_dir("coupling_refs.json")
     try:
-        cache = {} if args.fresh or not cache_path.exists() else json.loads(cache_path.read_text())
+        cache = {} if fresh or not cache_path.exists() else json.loads(cache_path.read_text())
     except (OSError, ValueError) as e:
         print(f"error: --cache {cache_path}: not a readable JSON file ({e}); rerun with --fresh", file=sys.stderr)
         return 2
     rows = []
-    for name in args.scenes:
+    for name in scenes:
         win = WINDOWS[name]
         key = f"{name} {win}"
         if key not in cache:
@@ -150,5 +139,7 @@ def main(argv=None) -> int:
     return 0
 
 
-if __name__ == "__main__":
+if __name__ == "__main__":   # the command line is harness/cli/coupling_bench.py
+    from harness.cli.coupling_bench import main
+
     raise SystemExit(main())
