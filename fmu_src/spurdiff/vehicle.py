@@ -22,10 +22,11 @@ Inputs are held over a step (zero-order hold), except that the command inputs ``
 default: held; a scene gives the rate of its input table, sampled at the step's start as the input
 is). The outputs include the rates of the rear wheel loads and wheel-centre speeds
 (``rearLeft_dFz``, ``rearLeft_dvx``, ...): after a step their mean over it, ``(end - start) / h``
-(at initialization the derivatives, 0 for the loads: the load transfer starts at its fixed point), so that a WheelLoad stepped after the car ramps its inputs
-from the car's outputs at the start of the step to those at its end (first-order hold, continuous;
-:mod:`spurdiff.wheel`, ``rampAnchor = "end"``); a host that steps the car after the wheels gives
-them the linear extrapolation of the last step instead (``rampAnchor = "start"``).
+(at initialization the derivatives, 0 for the loads: the load transfer starts at its fixed
+point), so that a WheelLoad stepped after the car ramps its inputs from the car's outputs at the
+start of the step to those at its end (first-order hold, continuous; :mod:`spurdiff.wheel`,
+``rampAnchor = "end"``); a host that steps the car after the wheels gives them the linear
+extrapolation of the last step instead (``rampAnchor = "start"``).
 
 Sources: the single-track (bicycle) equations and slip angles of shared/docs/model-references.md,
 extended to a planar body with both axles' longitudinal forces; the friction circle (Kamm) for

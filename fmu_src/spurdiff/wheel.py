@@ -22,12 +22,14 @@ rates ``FzRate``, ``vxRate`` (0, the default: held) anchored at ``t_a`` = the st
 (``rampAnchor = "start"``) or its end (``"end"``: the vehicle stepped first and handed over its
 outputs at the end of the step with their mean rates over it, so the ramp joins the vehicle's
 outputs at both ends); each sub-step takes the ramp at its midpoint (the load not below 0, so a
-wheel lifts inside the step), the outputs the values at the end. With ``followFlangeAngle = 1`` the twist is corrected at
-the start of each step by the difference between the flange angle input and the angle this
-model extrapolated to at the end of the previous step, so the twist follows the differential's
-actual angle and does not drift; the correction's change of spring energy is booked as work done
-at the flange. Only the twist is a state (absolute angles grow without bound). The angle
-reference is taken from the flange angle input of the first step (the twist then is
+wheel lifts inside the step), the outputs the values at the end.
+
+With ``followFlangeAngle = 1`` the twist is corrected at the start of each step by the
+difference between the flange angle input and the angle this model extrapolated to at the end
+of the previous step, so the twist follows the differential's actual angle and does not drift;
+the correction's change of spring energy is booked as work done at the flange. Only the twist
+is a state (absolute angles grow without bound). The angle reference is taken from the flange
+angle input of the first step (the twist then is
 ``phi_rel_start``): a Gauss-Seidel master that steps the differential first hands this model the
 angle at the end of the first step, ``w h`` ahead of the angle at initialization, which would
 otherwise twist the shaft by ``w h`` at once (a torque pulse ``c w h``: 47 N m at 30 rad/s and
@@ -80,7 +82,9 @@ _STATE_KEYS = (
     "flange_tau", "Fx", "wheel_w", "slip", "shaft_tau", "shaft_power",
     # shaftCoupling = "wheel": wheel angle, shaft torque input and the anchor of the step, the
     # differential's predicted speed change over the step, the linear model reported for the next
-    "phi", "tau_in", "w_anchor", "dw_in", "dFz", "dvx", "sur_a", "sur_invJ", "sur_dadw", "sur_qrate", "sur_ct", "sur_rt",
+    "phi", "tau_in", "w_anchor", "dw_in", "sur_a", "sur_invJ", "sur_dadw", "sur_qrate", "sur_ct", "sur_rt",
+    # the rates of the load and the wheel-centre speed over the step (FzRate, vxRate)
+    "dFz", "dvx",
 )
 _WHEEL_STEP_KEYS = ("theta", "w_anchor", "w", "k", "phi", "t", "n_steps", "n_substeps", "work_flange",
                     "work_road", "loss_slip", "loss_rolling", "flange_tau", "Fx", "wheel_w", "slip",
@@ -185,8 +189,9 @@ class WheelLoad:
 
     # ------------------------------------------------------------------ stepping
     def do_step(self, t: float, h: float) -> None:
-        """Advance from t to t + h with the inputs held. Raises ParameterError for bad inputs
-        (the state is then unchanged) and StepError if the implicit equation cannot be solved."""
+        """Advance from t to t + h with the inputs held (Fz and vx ramping at their rates). Raises
+        ParameterError for bad inputs (the state is then unchanged) and StepError if the implicit
+        equation cannot be solved."""
         if not self._ready:
             raise StepError("do_step called before initialize")
         if not (h.__class__ is float and 0.0 < h < math.inf):

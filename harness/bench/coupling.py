@@ -129,13 +129,16 @@ def run(scenes: list[str], steps: list[float], fresh: bool = False, cache_path: 
                 continue
             m = measures(r, win)
             dl = m["lock"] - ref["lock"]
-            rows.append((name, h, f"{abs(m['ratio'] - ref['ratio']):.2e}", f"{abs(dl) / max(abs(ref['lock']), 1e-12):.2e}",
-                         f"{abs(dl):.2e}", f"{ref['lock']:.4g}", wall))
+            rel = abs(dl) / max(abs(ref["lock"]), 1e-12)
+            rows.append((name, h, f"{abs(m['ratio'] - ref['ratio']):.2e}", f"{rel:.2e}", f"{abs(dl):.2e}",
+                         f"{ref['lock']:.4g}", wall))
             print(f"# {name} {h * 1e3:g} ms done ({wall:.1f} s)", flush=True)
-    print("\n| scene | step ms | window s | ratio diff (abs) | locking torque diff (rel) | (N m) | ref. locking torque N m | wall s |")
+    print("\n| scene | step ms | window s | ratio diff (abs) | locking torque diff (rel) | (N m) "
+          "| ref. locking torque N m | wall s |")
     print("|---|---|---|---|---|---|---|---|")
     for name, h, a, b, c, ref_lock, wall in rows:
-        print(f"| {name} | {h * 1e3:g} | {WINDOWS[name][0]:g}-{WINDOWS[name][1]:g} | {a} | {b} | {c} | {ref_lock} | {wall:.1f} |")
+        w0, w1 = WINDOWS[name]
+        print(f"| {name} | {h * 1e3:g} | {w0:g}-{w1:g} | {a} | {b} | {c} | {ref_lock} | {wall:.1f} |")
     return 0
 
 
