@@ -134,17 +134,17 @@ def _report(args) -> int:
             measured = 1e6 * (o["fmi_cpu_s"] - o["direct_cpu_s"]) / n_steps / o["instances"], "in CPU time"
         else:
             measured = (per_fmi - per_direct) / o["instances"], "in wall time"
-        sets = path["setreal_calls_per_step"]
+        n_sets = path["setreal_calls_per_step"]
         print(f"   The FMI path without the physics (every model's do_step a no-op; CPU time, fastest of "
               f"{max(5, args.repeats)} interleaved runs): FMI {path['fmi_us']:.1f} us, direct {path['direct_us']:.1f} us "
               f"per step, so {path['per_instance_us']:.1f} us per instance and step: fmi2DoStep's way through ctypes, "
               f"the loader, the bridge and the adapter's checks, the step's getReal ({get_us:.1f} us, "
               f"{host_us:.1f} us of it the host's ctypes call) and the master's loop around them;\n   the real run's "
-              f"{sets:.1f} setReal calls per step ({set_us:.1f} us each; unchanged inputs are not sent, and without "
-              f"physics only the profiles change) add {sets * set_us / o['instances']:.1f} us per instance: "
-              f"{path['per_instance_us'] + sets * set_us / o['instances']:.1f} us per instance and step, against "
+              f"{n_sets:.1f} setReal calls per step ({set_us:.1f} us each; unchanged inputs are not sent, and without "
+              f"physics only the profiles change) add {n_sets * set_us / o['instances']:.1f} us per instance: "
+              f"{path['per_instance_us'] + n_sets * set_us / o['instances']:.1f} us per instance and step, against "
               f"{measured[0]:.1f} us measured above {measured[1]}.")
-        call_us = path["per_instance_us"] + sets * set_us / o["instances"]
+        call_us = path["per_instance_us"] + n_sets * set_us / o["instances"]
         rec = recording_cost(o["scene"], max(5, args.repeats))
         print(f"   Recording the scene's {rec['recorded']} variables every {rec['every']} step(s) costs the FMI run "
               f"{rec['fmi_us']:.0f} us per step (the master's reads at the recording instants), the direct run "

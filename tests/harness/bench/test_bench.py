@@ -68,7 +68,8 @@ def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeyp
     monkeypatch.setattr(report, "fmi_overhead", lambda *a, **k: {
         "scene": "vehicle-cornering", "simulated_s": 3.0, "fmi_s": 3.0, "direct_s": 1.5, "ratio": 2.0,
         "step": 2e-4, "instances": 4})
-    monkeypatch.setattr(report, "fidelity_cost", lambda *a, **k: [
+    seen = {}
+    monkeypatch.setattr(report, "fidelity_cost", lambda scene, sets, *a, **k: seen.setdefault("sets", sets) and [
         {"level": "rigid", "wall_s": 0.01, "relative": 1.0, "realtime_factor": 30.0, "ok": True},
         {"level": "contact", "wall_s": 0.1, "relative": 10.0, "realtime_factor": 3.0, "ok": True}])
     monkeypatch.setattr(report, "realtime_factors", lambda *a, **k: [
@@ -88,6 +89,7 @@ def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeyp
          "err_ratio": 6e-4, "err_lock": 2.9}])
     assert report._report(argparse.Namespace(levels=None, repeats=1)) == 0
     out = capsys.readouterr().out
+    assert set(seen["sets"]) == set(bench.EFFECT_SETS)   # the fidelity settings reach section 2
     # 15000 steps: 200 us (FMI) and 100 us (direct) per step, 25 us per instance and step
     assert "FMI 200 us, direct 100 us" in out and "= 25.0 us per instance and step" in out
     assert "leaves 10 us per step" in out
