@@ -10,7 +10,7 @@
 #include <stdint.h>
 #include <string.h>
 
-#define MK_ABI 2
+#define MK_ABI 3
 #define NMAX 10
 enum { PSI, DA, DB, D12, VA, VB, W1, W2, WC, PHIC };
 enum { LAW_BILATERAL = 0, LAW_ELASTO = 1, LAW_IMPACT = 2 };
@@ -32,7 +32,6 @@ typedef struct {
     double atol[NMAX], rtol, w_stick;
     double gamma, a[4][4], cc[4][4], m[4], ew[4], dmid[4];   /* transformed tableau */
     MkMesh md[3];
-    int64_t getrf, getrs;    /* LAPACK dgetrf / dgetrs (Fortran ABI) of the reference (scipy), or 0: own LU */
     double bint[4][3], ginv[4][4];           /* dense output: the tableau's binterp and Gamma^-1 */
 } MkParams;
 
@@ -47,7 +46,7 @@ typedef struct {
     double fail_t, fail_h;    /* where a step failed */
     /* the integrator's memory between communication steps (spurdiff.mesh.stepper, .integrator) */
     double Jf[NMAX * NMAX];   /* the Jacobian the steps use (c._integ.J), row-major N x N */
-    double LU[NMAX * NMAX];   /* W = I/(gamma lu_h) - Jf factored (column-major as LAPACK's) */
+    double LU[NMAX * NMAX];   /* W = I/(gamma lu_h) - Jf factored (row-major, L and U in one) */
     double f0c[NMAX], sv0c[13], key[4];   /* f and side values at y for the inputs in key, key_s */
     double lu_h;              /* step size of LU; 0: none */
     int32_t piv[NMAX];

@@ -34,7 +34,6 @@ import math
 from typing import NamedTuple
 
 import numpy as np
-from scipy.linalg.lapack import dgetrf, dgetrs
 
 class RosenbrockTableau(NamedTuple):
     """Coefficients of a Rosenbrock(-W) method in the form of Hairer-Wanner: ``alpha``,
@@ -174,15 +173,12 @@ class RosenbrockW:
             W = self.W
             np.multiply(self.eye, 1.0 / (tr.gamma * h), out=W)
             W -= self.J
-            self.lu, self.piv, info = dgetrf(W, overwrite_a=1)
-            if info != 0:
+            self.lu, self.piv = lu_factor(W.tolist())
+            if self.lu is None:
                 return False
             self.lu_h = h
         lu, piv = self.lu, self.piv
-        x, info = dgetrs(lu, piv, f0)
-        if info != 0:
-            return False
-        U[0] = x
+        U[0] = lu_solve(lu, piv, f0.tolist())
         ih = 1.0 / h
         for i in range(1, tr.stages):
             _combine(tr.a_lists[i], U, Ys, self.tmp)
@@ -191,10 +187,7 @@ class RosenbrockW:
             _combine(tr.c_lists[i], U, rhs, self.tmp)
             rhs *= ih
             rhs += F
-            x, info = dgetrs(lu, piv, rhs)
-            if info != 0:
-                return False
-            U[i] = x
+            U[i] = lu_solve(lu, piv, rhs.tolist())
         yn = self.y_new
         _combine(tr.m_list, U, yn, self.tmp)
         yn += y
@@ -207,6 +200,60 @@ class RosenbrockW:
         _combine(self.method.dmid_list, self.U, ym, self.tmp)
         ym += y
         return ym
+
+
+def lu_factor(A: list) -> tuple:
+    """LU factorization with partial pivoting of the rows ``A`` (a list of lists, changed in
+    place): (A holding L below the diagonal (unit diagonal) and U, the pivot rows), or (None, None)
+    for an exactly singular matrix. Plain floats in a fixed order of operations, the compiled
+    kernel's ``lu`` operation for operation (so the two agree bit for bit; a LAPACK call costs
+    more in call overhead than the about 170 operations of an 8x8)."""
+    N = len(A)
+    piv = [0] * N
+    for j in range(N):
+        p, amax = j, abs(A[j][j])
+        for i in range(j + 1, N):
+            a = abs(A[i][j])
+            if a > amax:
+                p, amax = i, a
+        piv[j] = p
+        if A[p][j] == 0.0:
+            return None, None
+        if p != j:
+            A[j], A[p] = A[p], A[j]
+        Aj = A[j]
+        inv = 1.0 / Aj[j]
+        for i in range(j + 1, N):
+            Ai = A[i]
+            lij = Ai[j] * inv
+            Ai[j] = lij
+            if lij != 0.0:
+                for k in range(j + 1, N):
+                    Ai[k] -= lij * Aj[k]
+    return A, piv
+
+
+def lu_solve(A: list, piv: list, b: list) -> list:
+    """x with (P L U) x = b from :func:`lu_factor` (the kernel's ``lu_solve``, the same order)."""
+    N = len(A)
+    x = list(b)
+    for j in range(N):
+        p = piv[j]
+        if p != j:
+            x[j], x[p] = x[p], x[j]
+    for i in range(1, N):
+        Ai = A[i]
+        s = x[i]
+        for k in range(i):
+            s -= Ai[k] * x[k]
+        x[i] = s
+    for i in range(N - 1, -1, -1):
+        Ai = A[i]
+        s = x[i]
+        for k in range(i + 1, N):
+            s -= Ai[k] * x[k]
+        x[i] = s / Ai[i]
+    return x
 
 
 def _combine(coef: list, U: np.ndarray, out: np.ndarray, tmp: np.ndarray) -> None:

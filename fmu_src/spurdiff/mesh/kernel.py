@@ -27,7 +27,7 @@ import numpy as np
 from .. import native_library
 from ..errors import ParameterError, StepError
 
-ABI = 2
+ABI = 3
 LIB_NAME = "mesh_kernel.so"
 SEARCH_PATH: list[Path] = []
 _HERE = Path(__file__).resolve().parent
@@ -46,7 +46,7 @@ class MkParams(C.Structure):
                                      "dmax", "mu_s", "mu_d", "v_s", "v_d", "c_pin", "M01", "M02")]
                 + [("pin_flat", _d * 8 * 2), ("Minv", _d * 5 * 5), ("atol", _d * 10), ("rtol", _d), ("w_stick", _d),
                    ("gamma", _d), ("a", _d * 4 * 4), ("cc", _d * 4 * 4), ("m", _d * 4), ("ew", _d * 4), ("dmid", _d * 4),
-                   ("md", MkMesh * 3), ("getrf", _i), ("getrs", _i), ("bint", _d * 3 * 4), ("ginv", _d * 4 * 4)])
+                   ("md", MkMesh * 3), ("bint", _d * 3 * 4), ("ginv", _d * 4 * 4)])
 
 
 class MkState(C.Structure):
@@ -104,27 +104,6 @@ MISSING = ("no compiled mesh kernel found (build it with `spurdiff build`, which
 def load() -> tuple[C.CDLL | None, str]:
     """(library, where it came from) or (None, why not). Cached per process."""
     return native_library.load_cached(sys.modules[__name__])
-
-
-_LAPACK: tuple | None = None
-
-
-def _lapack() -> tuple[int, int]:
-    """Addresses of the dgetrf and dgetrs the Python reference calls (scipy's LAPACK, through its
-    Cython API capsules), so the kernel factors with the same routine; (0, 0) if unavailable."""
-    global _LAPACK
-    if _LAPACK is None:
-        try:
-            from scipy.linalg import cython_lapack
-            caps = cython_lapack.__pyx_capi__
-            name = C.pythonapi.PyCapsule_GetName
-            name.restype, name.argtypes = C.c_char_p, [C.py_object]
-            ptr = C.pythonapi.PyCapsule_GetPointer
-            ptr.restype, ptr.argtypes = C.c_void_p, [C.py_object, C.c_char_p]
-            _LAPACK = tuple(int(ptr(caps[f], name(caps[f])) or 0) for f in ("dgetrf", "dgetrs"))
-        except Exception:     # no scipy, or a scipy without the capsules: the kernel's own LU
-            _LAPACK = (0, 0)
-    return _LAPACK
 
 
 log = logging.getLogger("spurdiff.mesh")
@@ -206,7 +185,6 @@ class Kernel:
                       "xip", "a1", "a2"):
                 setattr(dst, f, float(getattr(md, f)))
             dst.d, dst.g1, dst.g2 = md.d, md.g1, md.g2
-        P.getrf, P.getrs = _lapack()
         self.state = MkState()
         self._pP, self._pS = C.byref(self.params), C.byref(self.state)
         # the state's doubles (y, w_ref ... d120, sv) and integers (s, flags, n_flags, counters) as arrays

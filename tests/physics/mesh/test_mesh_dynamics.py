@@ -577,3 +577,17 @@ def test_contact_level_pin_friction_power_balance_while_slipping(sign):
     assert abs(m.locking_torque * m.wd) == pytest.approx(P, rel=1e-3)
     # the 2 % excess accelerates suns and planets: their inertia torques are in T_B - T_A
     assert (m.tau_mesh_R - m.tau_mesh_L) * m.wd == pytest.approx(P, rel=0.01)
+
+
+def test_the_integrators_lu_solves_with_partial_pivoting_and_refuses_a_singular_matrix():
+    from spurdiff.mesh.integrator import lu_factor, lu_solve
+
+    rng = np.random.default_rng(3)
+    for n in (1, 8, 10):
+        A = rng.standard_normal((n, n))
+        A[0, 0] = 0.0 if n > 1 else 2.0    # needs a row exchange
+        b = rng.standard_normal(n)
+        lu, piv = lu_factor(A.tolist())
+        assert np.allclose(lu_solve(lu, piv, b.tolist()), np.linalg.solve(A, b), rtol=1e-10, atol=1e-12)
+    S = np.ones((3, 3))
+    assert lu_factor(S.tolist()) == (None, None)

@@ -1,6 +1,6 @@
 """The compiled kernel of the mesh levels (fmu_src/native/mesh_kernel.c) against the pure-Python
 reference: the same states after every communication step (to 1e-12 relative; they are in fact
-equal bit for bit where both factor with scipy's LAPACK) over the paper scenes' loads and the hard
+equal bit for bit: both factor with the same LU, integrator.lu_factor) over the paper scenes' loads and the hard
 cases, at every level and effect; the choice of implementation (solver.kernel); the FMU runs it,
 also in a C host with a bare environment."""
 from __future__ import annotations
