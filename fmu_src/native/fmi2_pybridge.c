@@ -15,8 +15,11 @@
  * instance_name, resources, visible, logging_on; each FMI function calls one method named
  * fmi2_<function> whose return value is the status (None = fmi2OK) or, for getters, the values.
  * Getters and setters get the value references as a tuple (the same tuple object while the host
- * passes the same vector again: a master's step loop makes no new objects for them) and setters
- * the values as a tuple; a getter returns any sequence of numbers (converted here).
+ * passes one of the last few vectors again: a master's step loop makes no new objects for them)
+ * and setters the values as a tuple; a getter returns any sequence of numbers (converted here).
+ * While the slave steps, fmi2GetReal and fmi2SetReal read and store its value table here instead
+ * (the fast Real get/set below: the slave's fmi2_real_plan once per vector, its `phase` at every
+ * call).
  * A Python exception becomes fmi2Error with the exception logged; the instance stays usable.
  * After each call the slave's `log_queue` (pythonfmu LogMsg objects) is passed to the host's
  * logger (see emit: '%' escaped, so the slave's text is never taken as a format).
