@@ -8,6 +8,7 @@ locking law, duration, step). Wall times are measured here and printed, never as
 """
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -318,6 +319,129 @@ def ivp() -> None:
             print(f"| {case} | {p['integrator']} | {p['tolerance']:g} | {p['error']:.1e} | {p['wall']:.3f} "
                   f"| {'-' if p['nfev'] is None else p['nfev']} |")
     print()
+
+
+def step_bound(tols=(1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8), case: str = "contact, unloaded start",
+               quadrature_state: str | None = None, t_end: float = 0.3, h: float = 1e-3,
+               ref_tol: float = 1e-11) -> list[dict]:
+    """Which error estimate sets the step of our solver over ``case`` in one call (run_dense, the
+    states at the 1 ms points), measured on the Python reference (the kernel's arithmetic bit for
+    bit) by wrapping the driver's two tests: per trial step, the state error norm (rejects if > 1)
+    and then the loss quadrature's (rejects if > 1); of the trials that pass both, ``loss_limited``
+    counts those where the loss estimate is the larger (it then sets the next step size). With
+    ``quadrature_state``, an experiment: the loss integrated as a quadrature state ``E' = P(y)``
+    inside the Rosenbrock method instead of Simpson over the dense output, with the stage powers
+    ``u_E,i = gamma h (P(Y_i) + g . u_i + sum_j c_ij u_E,j / h)`` (``u_i`` the states' transformed
+    stages; the order-3 weights for the loss, the embedded difference for its error, scaled as the
+    Simpson estimate's); ``"zero row"``: g = 0 (a W-method keeps its order with any Jacobian row),
+    ``"gradient"``: g = dP/dy at the step's start by central differences (8 extra evaluations per
+    step: a measurement of the step counts and the accuracy, not of the cost). ``loss_error``:
+    against a run at ``ref_tol`` with the Simpson loss (compiled kernel where it loads). Printed and
+    returned. Command: ``python -c "from harness.bench.mesh import step_bound as s; s();
+    s(quadrature_state='zero row'); s(quadrature_state='gradient')"``."""
+    if quadrature_state not in (None, "zero row", "gradient"):
+        raise ValueError(f"quadrature_state = {quadrature_state!r}: allowed None, 'zero row', 'gradient'")
+    import statistics
+
+    import spurdiff.mesh.stepper as stepper
+    from spurdiff.mesh.integrator import METHOD, RosenbrockW
+
+    times = np.arange(1, int(round(t_end / h)) + 1) * h
+    ref = ivp_model(case, ref_tol)
+    ref.run_dense(t_end, times)
+    trials: list[tuple[str, float]] = []
+    stage_P: list[float] = []
+    grad: list = [None]
+    keep = stepper.error_norm, stepper.loss_quadrature, RosenbrockW.step
+
+    def error_norm(*a):
+        e = keep[0](*a)
+        trials.append(("state", e))
+        return e
+
+    def step(self, y, f0, hs):
+        ev = self.evaluate
+
+        def ev_p(Y, F, J):
+            sv = ev(Y, F, J)
+            stage_P.append(sv.P)
+            return sv
+        stage_P.clear()
+        self.evaluate = ev_p
+        try:
+            ok = keep[2](self, y, f0, hs)
+        finally:
+            self.evaluate = ev
+        if quadrature_state == "gradient":
+            g, F = np.zeros(y.size), np.zeros(y.size)
+            for k in range(y.size):
+                d = 1e-6 * max(abs(y[k]), SCALE[k] if k < SCALE.size else 1.0)
+                yp, ym = y.copy(), y.copy()
+                yp[k] += d
+                ym[k] -= d
+                g[k] = (ev(yp, F, None).P - ev(ym, F, None).P) / (2.0 * d)
+            grad[0] = (g, self.U)
+        return ok
+
+    def loss_quadrature(P0, Pm, P1, hs, rtol):
+        if quadrature_state:
+            u: list[float] = []
+            for i, Pi in enumerate([P0] + stage_P):
+                s = Pi + (float(grad[0][0] @ grad[0][1][i]) if quadrature_state == "gradient" else 0.0)
+                for j in range(i):
+                    s += METHOD.c_lists[i][j] / hs * u[j]
+                u.append(METHOD.gamma * hs * s)
+            d = sum(w * x for w, x in zip(METHOD.m_list, u))
+            e = abs(sum(w * x for w, x in zip(METHOD.e_list, u))) / (rtol * (stepper.E_REF + abs(d)))
+        else:
+            d, e = keep[1](P0, Pm, P1, hs, rtol)
+        trials.append(("loss", e))
+        return d, e
+
+    rows = []
+    stepper.error_norm, stepper.loss_quadrature, RosenbrockW.step = error_norm, loss_quadrature, step
+    try:
+        for tol in tols:
+            trials.clear()
+            m = ivp_model(case, tol, "python")
+            m.run_dense(t_end, times)
+            rej_s = rej_l = lim_l = lim_s = 0
+            ratios = []
+            for k, (kind, e) in enumerate(trials):
+                if kind != "state":
+                    continue
+                if not e <= 1.0:
+                    rej_s += 1
+                elif k + 1 < len(trials) and trials[k + 1][0] == "loss":
+                    el = trials[k + 1][1]
+                    if not el <= 1.0:
+                        rej_l += 1
+                    else:
+                        lim_l += el > e
+                        lim_s += el <= e
+                        ratios.append((e, el))
+                else:
+                    lim_s += 1
+            cnt = m.solver_counts()
+            how = f"state, {quadrature_state}" if quadrature_state else "Simpson"
+            rows.append({"tolerance": tol, "quadrature": how,
+                         "steps": cnt["steps"], "rejected_state": rej_s, "rejected_loss": rej_l,
+                         "loss_limited": lim_l, "state_limited": lim_s,
+                         "median_state_err": statistics.median(r[0] for r in ratios) if ratios else math.nan,
+                         "median_loss_err": statistics.median(r[1] for r in ratios) if ratios else math.nan,
+                         "loss_error": abs(m.energy_loss - ref.energy_loss)})
+    finally:
+        stepper.error_norm, stepper.loss_quadrature, RosenbrockW.step = keep
+    print(f"## Which error estimate sets the step ({case}, one call over {t_end:g} s, Python reference)\n")
+    print("| loss by | tol | steps | rejected: state / loss | passing both: loss-limited / state-limited | "
+          "median error norm: state / loss | loss error (J) |")
+    print("|---|---|---|---|---|---|---|")
+    for r in rows:
+        print(f"| {r['quadrature']} | {r['tolerance']:g} | {r['steps']} | {r['rejected_state']} / {r['rejected_loss']} "
+              f"| {r['loss_limited']} / {r['state_limited']} | {r['median_state_err']:.2f} / "
+              f"{r['median_loss_err']:.2f} | {r['loss_error']:.1e} |")
+    print()
+    return rows
 
 
 # ---------------------------------------------------------------- the compiled kernel (issue 17)
