@@ -337,8 +337,7 @@ def step_bound(tols=(1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8), case: str = "contact, 
     ``"gradient"``: g = dP/dy at the step's start by central differences (8 extra evaluations per
     step: a measurement of the step counts and the accuracy, not of the cost). ``loss_error``:
     against a run at ``ref_tol`` with the Simpson loss (compiled kernel where it loads). Printed and
-    returned. Command: ``python -c "from harness.bench.mesh import step_bound as s; s();
-    s(quadrature_state='zero row'); s(quadrature_state='gradient')"``."""
+    returned. Command: ``python -m harness.bench.mesh --section step-bound`` (all three)."""
     if quadrature_state not in (None, "zero row", "gradient"):
         raise ValueError(f"quadrature_state = {quadrature_state!r}: allowed None, 'zero row', 'gradient'")
     import statistics
@@ -565,8 +564,9 @@ def kernel_report(repeats: int = 3) -> list[str]:
 
 
 def run(full: bool, sections, repeats: int = 3) -> None:
-    """The ``sections`` ("kernel", "paper", "tolerance", "ivp"), printed; ``full``: also cornering
-    with all effects; ``repeats``: timing repeats of the kernel section."""
+    """The ``sections`` ("kernel", "paper", "tolerance", "ivp", "step-bound"), printed; ``full``: also
+    cornering with all effects; ``repeats``: timing repeats of the kernel section. "step-bound" is
+    :func:`step_bound` as built and with both quadrature-state experiments."""
     if "kernel" in sections:
         print("\n".join(kernel_report(repeats)))
     if "paper" in sections:
@@ -575,6 +575,9 @@ def run(full: bool, sections, repeats: int = 3) -> None:
         tolerance()
     if "ivp" in sections:
         ivp()
+    if "step-bound" in sections:
+        for variant in (None, "zero row", "gradient"):
+            step_bound(quadrature_state=variant)
 
 
 if __name__ == "__main__":   # the command line is harness/cli/mesh_bench.py
