@@ -116,16 +116,19 @@ class ShaftSolver:
         # inputs down to that level (another host feeding the same inputs to the last bits gets the
         # same trajectory to 1e-9; at 1e-8 the iteration count flips and it does not)
         scale = 1e-10 * (1.0 + abs(TL) + abs(TR))
-        fresh = switched = False
+        fresh = switched = updated = False
         for it in range(40):
             if abs(r[0]) + abs(r[1]) <= scale:
                 break
             if J is None or (it >= 2 and not fresh):
                 J = self._jacobian(snap, t, hs, TL, TR, r, args, mode)
-                fresh = True
+                fresh, updated = True, False
             det = J[0] * J[3] - J[1] * J[2]
             if not (det != 0.0 and math.isfinite(det)):
-                if fresh:
+                # singular as differenced: no solution to step to. A kept or Broyden-updated J
+                # (secants at the mesh model's noise floor, steps of 1e-17 N m against residual
+                # jumps of 1e-8, can blow it up) is replaced by a fresh difference instead
+                if fresh and not updated:
                     raise StepError("shafts: the sun-torque Jacobian is singular")
                 J = None
                 continue
@@ -149,6 +152,7 @@ class ShaftSolver:
                     yL = r_new[0] - r[0] - (J[0] * dTL + J[1] * dTR)
                     yR = r_new[1] - r[1] - (J[2] * dTL + J[3] * dTR)
                     J = [J[0] + yL * dTL / n2, J[1] + yL * dTR / n2, J[2] + yR * dTL / n2, J[3] + yR * dTR / n2]
+                    updated = True
             mode = mode_new
             r = r_new
             scale = 1e-10 * (1.0 + abs(TL) + abs(TR))
