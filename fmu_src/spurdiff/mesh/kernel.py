@@ -276,13 +276,7 @@ class Kernel:
         done = self.lib.mk_run(self._pP, self._pS, t0, h, n, ys.ctypes.data)
         if done != n:
             raise StepError(f"step {done + 1} of {n} at t = {t0 + done * h:.9g} s failed")
-        v = self._D[14:24].tolist()
-        (c._ac, c.wc, c.phic, c.t, c.h_next, c.work_in, c.energy_loss, c.parametric_work, c.loss_last_step,
-         c._last_h) = v
-        i = self._I.tolist()
-        c.s, c._contact_flags = i[:2], i[2:2 + i[8]]
-        c.n_internal_steps, c.n_rejected_steps, c.n_mode_switches, c.n_contact_transitions, c.n_steps = i[9:14]
-        c._f0_key = None
+        self._unpack(c)
         return ys
 
     def evaluate(self, c, y: np.ndarray, f: np.ndarray, J: np.ndarray | None) -> tuple:
