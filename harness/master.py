@@ -171,9 +171,6 @@ class Master:
             read = self._step_read[n]
             self._plan.append((n, self._set_port[n], self._links[n][1], self._do_step[n],
                                self.instances[n].component, read))
-        # the same for the fixed-step loop of run(): fmi2DoStep with its arguments converted once
-        # (the time and step as c_double objects set once per step, see Instance.fast_function)
-        self._fast_do = {n: (inst.fast_function("fmi2DoStep"), inst.c_component) for n, inst in self.instances.items()}
 
     def _read_ports(self, name: str, keys) -> list:
         """Ports reading the outputs ``keys`` of instance ``name``: (port, keys, as float)."""
@@ -367,14 +364,17 @@ class Master:
         profiles = [(self._profile_port[n], tuple(p for _, p in profs)) for n, profs in self._profiles.items() if profs]
         plan = []
         for name, sport, srcs, _, _, read in self._plan:
-            do, comp = self._fast_do[name]
+            # fmi2DoStep with its arguments converted once (the time and step as c_double objects
+            # set once per step, see Instance.fast_function)
+            do, comp = self.instances[name].fast_function("fmi2DoStep"), self.instances[name].c_component
             src = tuple(where(s, k) for s, k in srcs)
             if name in step_lists:
                 port = read[0]
                 view = memoryview(port.val).cast("B").cast("d")   # the C array's doubles, as floats in one call
-                plan.append((name, sport, src, do, comp, port.fn, port.args, view, step_lists[name][1], False))
+                plan.append((name, sport, src, do, comp, port.fn, port.args, port._failed, view, step_lists[name][1],
+                             False))
             else:
-                plan.append((name, sport, src, do, comp, None, None, None, None, read == "all"))
+                plan.append((name, sport, src, do, comp, None, None, None, None, None, read == "all"))
         couplings = [(energy[cname], *where(ti, tv), sign, *where(fi, fv), *where(oi, ov))
                      for cname, ((ti, tv), (fi, fv), (oi, ov)), sign in self._couplings]
         prev = [prev_power[c[0]] for c in self._couplings]
@@ -389,7 +389,7 @@ class Master:
                 tt.value = t
                 for port, profs in profiles:
                     port.set([p(t) for p in profs], t)
-                for name, sport, src, do, comp, rfn, rargs, view, out, read_all in plan:
+                for name, sport, src, do, comp, rfn, rargs, rfail, view, out, read_all in plan:
                     if sport is not None:
                         sport.set([c[i] for c, i in src], t)
                     status = do(comp, tt, hh, 1)   # noSetFMUStatePriorToCurrentPoint
@@ -399,8 +399,7 @@ class Master:
                     if rfn is not None:
                         status = rfn(*rargs)
                         if status > 1:
-                            raise RunFailure(name, t, f"fmi2GetReal returned status {status}: "
-                                                      f"{self.instances[name].last_messages()}")
+                            rfail(status, t)   # raises RunFailure(name, t, ...)
                         out[:] = view.tolist()
                     elif read_all:
                         self._read_outputs(name)

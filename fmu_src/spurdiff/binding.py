@@ -96,24 +96,9 @@ def compile_push(inputs: Sequence[Var], model: Any) -> Callable[[Any, dict], Non
     return _compile("push", lines)
 
 
-def compile_pull(outputs: Sequence[Var], model: Any) -> Callable[[Any, dict], None]:
-    """``pull(model, values)`` reading every output; AttributeError naming the first output the
-    model does not answer."""
-    lines: list[str] = []
-    prefixes: dict[str, str] = {}
-    for v in outputs:
-        path = _checked(v)
-        if not _has(model, path):
-            raise AttributeError(f"output {v.name}: {type(model).__name__} has no attribute {path!r}")
-        expr = _target(path, prefixes, lines)
-        lines.append(f"values[{v.name!r}] = " + (f"int({expr})" if v.kind == "Integer" else expr))
-    return _compile("pull", lines)
-
-
-def compile_pull_total(outputs: Sequence[Var], model: Any) -> Callable[[Any, dict], Any]:
-    """``pull`` (:func:`compile_pull`) that also returns the sum of the Real outputs it stored
-    (0 when none), left to right: what an FMU adapter tests for a non-finite result (a NaN or an
-    infinity makes the sum so) without reading the values back."""
+def _pull_lines(outputs: Sequence[Var], model: Any, total: bool) -> list[str]:
+    """The lines of a pull; with ``total`` the Real outputs are also named ``_r0, _r1...`` and the
+    last line returns their sum (0 when none)."""
     lines: list[str] = []
     prefixes: dict[str, str] = {}
     reals: list[str] = []
@@ -122,13 +107,27 @@ def compile_pull_total(outputs: Sequence[Var], model: Any) -> Callable[[Any, dic
         if not _has(model, path):
             raise AttributeError(f"output {v.name}: {type(model).__name__} has no attribute {path!r}")
         expr = _target(path, prefixes, lines)
-        if v.kind == "Real":
+        if total and v.kind == "Real":
             reals.append(f"_r{len(reals)}")
             lines.append(f"values[{v.name!r}] = {reals[-1]} = {expr}")
         else:
             lines.append(f"values[{v.name!r}] = " + (f"int({expr})" if v.kind == "Integer" else expr))
-    lines.append("return " + (" + ".join(reals) if reals else "0"))
-    return _compile("pull_total", lines)
+    if total:
+        lines.append("return " + (" + ".join(reals) if reals else "0"))
+    return lines
+
+
+def compile_pull(outputs: Sequence[Var], model: Any) -> Callable[[Any, dict], None]:
+    """``pull(model, values)`` reading every output; AttributeError naming the first output the
+    model does not answer."""
+    return _compile("pull", _pull_lines(outputs, model, total=False))
+
+
+def compile_pull_total(outputs: Sequence[Var], model: Any) -> Callable[[Any, dict], Any]:
+    """``pull`` (:func:`compile_pull`) that also returns the sum of the Real outputs it stored
+    (0 when none), left to right: what an FMU adapter tests for a non-finite result (a NaN or an
+    infinity makes the sum so) without reading the values back."""
+    return _compile("pull_total", _pull_lines(outputs, model, total=True))
 
 
 class Bindings:

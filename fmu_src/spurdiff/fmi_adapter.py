@@ -280,7 +280,7 @@ class ModelFmu(Fmi2Slave):
         self.stop_time = stop if stop_defined else None
         # the step's stop-time check, t + h > stop + _time_tolerance(stop, h), with its h-free term once
         self._stop = stop if stop_defined else math.inf
-        self._stop_tol = 1e-9 * max(1.0, abs(stop)) if stop_defined else 0.0
+        self._stop_tol = _time_tolerance(stop, 0.0) if stop_defined else 0.0
         return OK
 
     def fmi2_enter_initialization_mode(self) -> int:

@@ -16,6 +16,7 @@ from harness.bench.core import cpu_clock, step_cost_breakdown
 from harness.build import rigid_kernel_library
 from harness.direct import run_direct
 from harness.master import run_scene
+from harness.recording import recording_size
 from harness.runner import fmu_files_for, prepare_scene
 from spurdiff import rigid_kernel
 
@@ -56,7 +57,7 @@ def scene_cost(rounds: int) -> tuple[dict, float, int]:
                 walls[(k, "FMI")].append(run_scene(s, files).wall_time)
                 walls[(k, "direct")].append(run_direct(s).wall_time)
     sc = scenes["compiled"]
-    return {key: min(v) for key, v in walls.items()}, sc.duration, round(sc.duration / sc.step)
+    return {key: min(v) for key, v in walls.items()}, sc.duration, recording_size(sc)[0]
 
 
 def run(rounds: int = 5) -> int:

@@ -211,7 +211,6 @@ class Instance:
         from ctypes import PYFUNCTYPE, c_int, cast, c_void_p
 
         fn = PYFUNCTYPE(c_int)(cast(self.c_function(name), c_void_p).value)
-        fn.argtypes = None
         fn._keep = self.slave.dll   # the library stays loaded as long as the function is used
         return fn
 
