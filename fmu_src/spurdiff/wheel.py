@@ -177,15 +177,19 @@ class WheelLoad:
             return dFz, dv
         return require_finite("FzRate", self.dFz), require_finite("vxRate", self.dvx)
 
-    def _ramp(self, Fz: float, v: float, dFz: float, dv: float, h: float) -> tuple[float, float, float, float]:
-        """The load and the wheel-centre speed at the start and at the end of a step of length h
-        over which they ramp at the rates dFz, dv, the inputs Fz (>= 0), v being the values at
-        the step's start or end (``rampAnchor``); the load at the end not below 0 (at the start it
-        may be: the sub-steps take the ramp's values, not below 0, at their midpoints)."""
+    def _ramp(self, Fz: float, v: float, h: float) -> tuple[float, float, float, float, float, float]:
+        """(Fz0, v0, Fz1, v1, dFz, dv): the load and the wheel-centre speed at the start and at the
+        end of a step of length h over which they ramp at the input rates dFz, dv (checked), the
+        inputs Fz (>= 0), v being the values at the step's start or end (``rampAnchor``); the load
+        at the end not below 0 (at the start it may be: the sub-steps take the ramp's values, not
+        below 0, at their midpoints). Rates 0: the inputs held."""
+        dFz, dv = self._input_rates()
+        if dFz == 0.0 and dv == 0.0:
+            return Fz, v, Fz, v, dFz, dv
         if self.params.rampAnchor == "end":
-            return Fz - dFz * h, v - dv * h, Fz, v
+            return Fz - dFz * h, v - dv * h, Fz, v, dFz, dv
         Fz1 = Fz + dFz * h
-        return Fz, v, (Fz1 if Fz1 > 0.0 else 0.0), v + dv * h
+        return Fz, v, (Fz1 if Fz1 > 0.0 else 0.0), v + dv * h, dFz, dv
 
     # ------------------------------------------------------------------ stepping
     def do_step(self, t: float, h: float) -> None:
@@ -200,6 +204,7 @@ class WheelLoad:
             self._do_step_wheel(t, h)
             return
         phi_in, w_in, Fz, mu, v = self._inputs()
+        Fz0, v0, Fz, v, dFz, dv = self._ramp(Fz, v, h)   # checks the rates before the state changes
         p = self.params
         c = p.halfShaft.c
         if p.followFlangeAngle and self.n_steps > 0:
@@ -208,10 +213,6 @@ class WheelLoad:
                 th0 = self.theta
                 self.theta = th0 + dphi
                 self.work_flange += 0.5 * c * (self.theta * self.theta - th0 * th0)
-        dFz, dv = self._input_rates()
-        Fz0, v0 = Fz, v
-        if dFz != 0.0 or dv != 0.0:
-            Fz0, v0, Fz, v = self._ramp(Fz, v, dFz, dv, h)
         n = max(1, math.ceil(h / p.h_max - 1e-9))
         self._substeps(h / n, n, w_in, 0.0, v0, Fz0, mu, dFz=dFz, dv=dv)
         self.n_substeps += n
@@ -228,10 +229,7 @@ class WheelLoad:
         if not (math.isfinite(tau_in + dw_in) and tau_in.__class__ is dw_in.__class__ is float):
             tau_in = require_finite("shaftIn.tau", self.tau_in)
             dw_in = require_finite("shaftIn.dw", self.dw_in)
-        dFz, dv = self._input_rates()
-        Fz0, v0 = Fz, v
-        if dFz != 0.0 or dv != 0.0:
-            Fz0, v0, Fz, v = self._ramp(Fz, v, dFz, dv, h)
+        Fz0, v0, Fz, v, dFz, dv = self._ramp(Fz, v, h)
         p = self.params
         saved = _get_step_values(self)   # what a step changes (cheap)
         try:
