@@ -27,7 +27,7 @@ int64_t mk_sizeof_state(void) { return (int64_t)sizeof(MkState); }
 
 typedef struct {
     double J1[NMAX * NMAX], W[NMAX * NMAX];
-    double U[4][NMAX], ynew[NMAX], err[NMAX], ym[NMAX], Ys[NMAX], F[NMAX], rhs[NMAX];
+    double U[SMAX][NMAX], ynew[NMAX], err[NMAX], ym[NMAX], yq[NMAX], Ys[NMAX], F[NMAX], rhs[NMAX];
     double f0[NMAX], f1[NMAX], fs[NMAX];
 } Work;
 
@@ -81,7 +81,7 @@ static int solve(const MkParams *P, const double *LU, const int *piv, int N, con
 }
 
 /* out = sum_k c[k] U[k] in the order of k (integrator._combine) */
-static void combine(const double *c, int nk, double U[4][NMAX], int N, double *out) {
+static void combine(const double *c, int nk, double U[SMAX][NMAX], int N, double *out) {
     for (int j = 0; j < N; j++) {
         double s = U[0][j] * c[0];
         for (int k = 1; k < nk; k++) s += U[k][j] * c[k];
@@ -89,7 +89,7 @@ static void combine(const double *c, int nk, double U[4][NMAX], int N, double *o
     }
 }
 
-/* RosenbrockW.step: with f0 = f(y) and S->Jf an approximation of J(y) (a W-method); W factored
+/* RosenbrockW.step: with f0 = f(y) and S->Jf an approximation of J(y) (a W-method; else J(y)); W factored
  * unless S->LU is for Jf and h (S->lu_h); fills ynew, err, U. 0: singular / not finite */
 static int ros_step(const MkParams *P, MkState *S, const double *y, const double *f0, double h, Work *wk) {
     const int N = (int)P->N;
@@ -105,7 +105,8 @@ static int ros_step(const MkParams *P, MkState *S, const double *y, const double
     }
     if (!solve(P, S->LU, piv, N, f0, wk->U[0])) return 0;
     double ih = 1.0 / h;
-    for (int i = 1; i < 4; i++) {
+    const int ns = (int)P->stages;
+    for (int i = 1; i < ns; i++) {
         combine(P->a[i], i, wk->U, N, wk->Ys);
         for (int j = 0; j < N; j++) wk->Ys[j] += y[j];
         mk_eval(P, S, wk->Ys, wk->F, NULL, NULL);
@@ -114,8 +115,8 @@ static int ros_step(const MkParams *P, MkState *S, const double *y, const double
         if (!solve(P, S->LU, piv, N, wk->rhs, wk->U[i])) return 0;
     }
     int finite = 1;
-    combine(P->m, 4, wk->U, N, wk->ynew);
-    combine(P->ew, 4, wk->U, N, wk->err);
+    combine(P->m, ns, wk->U, N, wk->ynew);
+    combine(P->ew, ns, wk->U, N, wk->err);
     for (int j = 0; j < N; j++) {
         wk->ynew[j] += y[j];
         if (!isfinite(wk->ynew[j])) finite = 0;
@@ -124,8 +125,15 @@ static int ros_step(const MkParams *P, MkState *S, const double *y, const double
 }
 
 static void midpoint(const MkParams *P, const double *y, Work *wk) {
-    combine(P->dmid, 4, wk->U, (int)P->N, wk->ym);
+    combine(P->dmid, (int)P->stages, wk->U, (int)P->N, wk->ym);
     for (int j = 0; j < (int)P->N; j++) wk->ym[j] += y[j];
+}
+
+/* RosenbrockW.dense_at: the dense output with the weights w into wk->yq */
+static const double *dense_at(const MkParams *P, const double *w, const double *y, Work *wk) {
+    combine(w, (int)P->stages, wk->U, (int)P->N, wk->yq);
+    for (int j = 0; j < (int)P->N; j++) wk->yq[j] += y[j];
+    return wk->yq;
 }
 
 static double error_norm(const MkParams *P, const double *err, const double *y, const double *yn) {
@@ -140,8 +148,8 @@ static double error_norm(const MkParams *P, const double *err, const double *y, 
     return sqrt(ss / N);
 }
 
-static double new_step_size(double h, double err, int rejected) {
-    double fac = err <= 0.0 ? 5.0 : 0.9 * pow(err, -1.0 / 3.0);
+static double new_step_size(const MkParams *P, double h, double err, int rejected) {
+    double fac = err <= 0.0 ? 5.0 : 0.9 * pow(err, P->err_exp);
     double hi = rejected ? 1.0 : 5.0;
     if (fac < 0.2) fac = 0.2;
     if (fac > hi) fac = hi;
@@ -329,14 +337,17 @@ static int64_t dense_output(const MkParams *P, const Work *wk, const double *y, 
         if (th >= 1.0) {
             memcpy(out, yn, sizeof(double) * N);
         } else {
-            double th2 = th * th, th3 = th2 * th, B[4], d[4];
-            for (int i = 0; i < 4; i++) B[i] = P->bint[i][0] * th + P->bint[i][1] * th2 + P->bint[i][2] * th3;
-            for (int j = 0; j < 4; j++) {
+            /* (a three-power dense output has bint[i][3] = 0: the fourth term adds 0, no bit changes) */
+            const int ns = (int)P->stages;
+            double th2 = th * th, th3 = th2 * th, th4 = th3 * th, B[SMAX], d[SMAX];
+            for (int i = 0; i < ns; i++)
+                B[i] = P->bint[i][0] * th + P->bint[i][1] * th2 + P->bint[i][2] * th3 + P->bint[i][3] * th4;
+            for (int j = 0; j < ns; j++) {
                 double sj = B[0] * P->ginv[0][j];
-                for (int i = 1; i < 4; i++) sj += B[i] * P->ginv[i][j];
+                for (int i = 1; i < ns; i++) sj += B[i] * P->ginv[i][j];
                 d[j] = sj;
             }
-            combine(d, 4, (double (*)[NMAX])wk->U, N, out);
+            combine(d, ns, (double (*)[NMAX])wk->U, N, out);
             for (int j = 0; j < N; j++) out[j] += y[j];
         }
         k++;
@@ -407,10 +418,10 @@ static int advance(const MkParams *P, MkState *S0, double t, double h, int64_t n
             if (!(err <= 1.0)) {
                 S->n_rejected_steps++;
                 rejected = truncated = 1;
-                hi = err == err ? new_step_size(hi, err, 1) : hi * 0.25;
+                hi = err == err ? new_step_size(P, hi, err, 1) : hi * 0.25;
                 continue;
             }
-            fresh = located > 0 || S->jac_age + 1 >= JAC_AGE_MAX;   /* a new Jacobian at y_new? */
+            fresh = !P->w_method || located > 0 || S->jac_age + 1 >= JAC_AGE_MAX;   /* a new Jacobian at y_new? */
             if (!fresh && (P->bl || P->contact)) {                 /* also where a contact changed */
                 int64_t fl[6];
                 contact_flags(P, yn, fl);
@@ -422,12 +433,24 @@ static int advance(const MkParams *P, MkState *S0, double t, double h, int64_t n
             midpoint(P, y, &wk);
             if (P->dissipative) {
                 mk_eval(P, S, wk.ym, wk.fs, NULL, svm);
-                dloss = hi / 6.0 * (sv0[SV_P] + 4.0 * svm[SV_P] + sv1[SV_P]);
-                double errE = fabs(dloss - 0.5 * hi * (sv0[SV_P] + sv1[SV_P])) / (P->rtol * (0.1 + dloss));
+                double errE;
+                if (!P->loss5) {                               /* stepper.loss_quadrature */
+                    dloss = hi / 6.0 * (sv0[SV_P] + 4.0 * svm[SV_P] + sv1[SV_P]);
+                    errE = fabs(dloss - 0.5 * hi * (sv0[SV_P] + sv1[SV_P])) / (P->rtol * (0.1 + dloss));
+                } else {                                       /* stepper.loss_quadrature5 */
+                    double sva[13], svb[13];
+                    mk_eval(P, S, dense_at(P, P->dq[0], y, &wk), wk.fs, NULL, sva);
+                    mk_eval(P, S, dense_at(P, P->dq[1], y, &wk), wk.fs, NULL, svb);
+                    double P0 = sv0[SV_P], P1 = sv1[SV_P];
+                    double s1 = hi / 6.0 * (P0 + 4.0 * svm[SV_P] + P1);
+                    double s2 = hi / 12.0 * (P0 + 4.0 * sva[SV_P] + 2.0 * svm[SV_P] + 4.0 * svb[SV_P] + P1);
+                    dloss = s2 + (s2 - s1) / 15.0;
+                    errE = fabs(s2 - s1) / (P->rtol * (0.1 + dloss));
+                }
                 if (!(errE <= 1.0)) {
                     S->n_rejected_steps++;
                     rejected = truncated = 1;
-                    hi = errE == errE ? new_step_size(hi, errE, 1) : hi * 0.25;
+                    hi = errE == errE ? new_step_size(P, hi, errE, 1) : hi * 0.25;
                     continue;
                 }
                 if (errE > err) err = errE;
@@ -445,7 +468,7 @@ static int advance(const MkParams *P, MkState *S0, double t, double h, int64_t n
         }
         /* ---- accept */
         S->n_internal_steps++;
-        double h_prop = new_step_size(hi, err, rejected);
+        double h_prop = new_step_size(P, hi, err, rejected);
         if (!fresh && h_prop >= hi && h_prop <= H_KEEP * hi) h_prop = hi;
         h_ctrl = (truncated && !rejected) ? (h_ctrl > h_prop ? h_ctrl : h_prop) : h_prop;
         if (P->dissipative) S->energy_loss += dloss;

@@ -10,8 +10,9 @@
 #include <stdint.h>
 #include <string.h>
 
-#define MK_ABI 3
+#define MK_ABI 4
 #define NMAX 10
+#define SMAX 8        /* the most stages of a method (spurdiff.mesh.integrator.SMAX) */
 enum { PSI, DA, DB, D12, VA, VB, W1, W2, WC, PHIC };
 enum { LAW_BILATERAL = 0, LAW_ELASTO = 1, LAW_IMPACT = 2 };
 enum { MK_OK = 0, MK_MAX_STEPS = 1, MK_HMIN = 2 };
@@ -23,6 +24,7 @@ typedef struct {
 
 typedef struct {
     int64_t N, speed_drive, law, wave, tracked, flank, pin, bl, contact, dissipative, var, max_steps, n;
+    int64_t stages, w_method, loss5;        /* the method: stages, a W-method?, five-point loss quadrature? */
     double rbA, rb1, rbB, rb2, JA, JB, J1, J2, Jc, Jtot, lam;
     double e, C, dmax;                       /* IMPACT */
     double mu_s, mu_d, v_s, v_d;             /* flank friction */
@@ -30,9 +32,10 @@ typedef struct {
     double pin_flat[2][8];                   /* spurdiff.locking.PinLayout._flat */
     double Minv[5][5];                       /* torque drive: inverse mass matrix (w_c, v_A, v_B, w_1, w_2) */
     double atol[NMAX], rtol, w_stick;
-    double gamma, a[4][4], cc[4][4], m[4], ew[4], dmid[4];   /* transformed tableau */
+    double gamma, err_exp, a[SMAX][SMAX], cc[SMAX][SMAX], m[SMAX], ew[SMAX], dmid[SMAX];   /* transformed tableau */
+    double dq[2][SMAX];                      /* dense output at theta = 1/4, 3/4 (loss5) */
     MkMesh md[3];
-    double bint[4][3], ginv[4][4];           /* dense output: the tableau's binterp and Gamma^-1 */
+    double bint[SMAX][4], ginv[SMAX][SMAX];  /* dense output: the tableau's binterp and Gamma^-1 */
 } MkParams;
 
 typedef struct {

@@ -55,7 +55,7 @@ def test_the_differentials_start_values_are_its_data_file():
         else:
             flat[key] = value
     solver = {"solver.tolerance": "tolerance", "solver.maxInternalSteps": "maxInternalSteps",
-              "solver.kernel": "solver.kernel"}
+              "solver.kernel": "solver.kernel", "solver.method": "solver.method"}
     starts = {v.name: v.start for v in d.VARIABLES}
     for key, value in flat.items():
         name = solver.get(key, key)

@@ -27,6 +27,16 @@ Why ROS34PW2 (J. Rang, L. Angermann, BIT 45 (2005) 761-787; tableau as registere
   the step size are unchanged (:mod:`spurdiff.mesh.stepper`).
 * embedded order 2 for step-size control, and a dense output of order 3 (PETSc ``binterpt``), used
   for the Simpson quadrature of the dissipated power.
+
+The second method, RODAS5P (G. Steinebach, "Construction of Rosenbrock-Wanner method Rodas5P and
+numerical benchmarks within the Julia Differential Equations package", BIT Numer. Math. 63 (2023)
+27; the coefficients as published there and registered in OrdinaryDiffEq.jl's
+``Rodas5PTableau``, given directly in the transformed variables): 8 stages, order 5 with an
+embedded order 4 (the error estimate is the last stage, ``e = e_8``), L-stable and stiffly
+accurate, dense output of order 4. It is not a W-method: it needs the exact Jacobian at the start of
+every step, which the driver then evaluates at the end of every accepted step. It costs about twice
+a ROS34PW2 step and needs several times fewer steps from tolerance 1e-4 down (the contact level's
+impact transient, docs/accuracy.md). Selected by the structural parameter ``solver.method``.
 """
 from __future__ import annotations
 
@@ -39,7 +49,7 @@ class RosenbrockTableau(NamedTuple):
     """Coefficients of a Rosenbrock(-W) method in the form of Hairer-Wanner: ``alpha``,
     ``Gamma`` (lower triangular, constant diagonal ``gamma``), weights ``b`` and the embedded
     ``bhat``, and the dense output ``y(t + theta h) = y + sum_i B_i(theta) k_i`` with
-    ``B_i(theta) = sum_j binterp[i, j] theta^(j+1)``."""
+    ``B_i(theta) = sum_j binterp[i, j] theta^(j+1)`` (three or four powers)."""
 
     name: str
     gamma: float
@@ -83,7 +93,13 @@ ROS34PW2 = RosenbrockTableau(
 class Transformed(NamedTuple):
     """A tableau in the transformed variables ``u_i = sum_j Gamma_ij k_j``: ``a`` (stage
     arguments), ``c`` (strictly lower, stage right-hand sides), ``m`` (solution weights), ``e``
-    (error weights), ``dmid`` (dense output at theta = 1/2); rows as contiguous arrays."""
+    (error weights), ``dmid`` (dense output at theta = 1/2); rows as contiguous arrays. The dense
+    output ``y + sum_j d_j(theta) u_j`` with ``d = B(theta) Ginv``, ``B_i = sum_p binterp[i, p]
+    theta^(p+1)`` (Ginv the identity for a method given in the transformed variables).
+    ``w_method``: the order holds for any Jacobian (else the driver needs J at every step's start);
+    ``err_exp``: the step-size controller's exponent, -1 / (embedded order + 1); ``dquarter``:
+    the dense output's weights at theta = 1/4 and 3/4 (rows) for the five-point loss quadrature of
+    a method of order above 3 (None: the three-point one)."""
 
     gamma: float
     stages: int
@@ -95,6 +111,11 @@ class Transformed(NamedTuple):
     Ginv: np.ndarray
     binterp: np.ndarray
     embedded_order: int
+    name: str = ""
+    order: int = 0
+    w_method: bool = True
+    err_exp: float = -1.0 / 3.0
+    dquarter: list = None
     a_lists: list = None      # the same coefficients as Python floats, row i with i entries
     c_lists: list = None
     m_list: list = None
@@ -105,34 +126,85 @@ class Transformed(NamedTuple):
 
 
 def transform(tab: RosenbrockTableau) -> Transformed:
+    """A Hairer-Wanner tableau in the transformed variables (a W-method: ROS34PW2)."""
     Ginv = np.linalg.inv(tab.Gamma)
     a = tab.alpha @ Ginv
     c = np.diag(1.0 / np.diag(tab.Gamma)) - Ginv
-    s = len(tab.b)
-    tr = Transformed(tab.gamma, s, [np.ascontiguousarray(a[i, :i]) for i in range(s)],
-                     [np.ascontiguousarray(c[i, :i]) for i in range(s)], np.ascontiguousarray(tab.b @ Ginv),
-                     np.ascontiguousarray((tab.b - tab.bhat) @ Ginv), None, Ginv, tab.binterp, tab.embedded_order)
+    return _finish(tab.name, tab.gamma, a, c, tab.b @ Ginv, (tab.b - tab.bhat) @ Ginv, Ginv, tab.binterp,
+                   tab.order, tab.embedded_order, True)
+
+
+def _finish(name, gamma, a, c, m, e, Ginv, binterp, order, embedded_order, w_method) -> Transformed:
+    s = len(m)
+    tr = Transformed(gamma, s, [np.ascontiguousarray(a[i, :i]) for i in range(s)],
+                     [np.ascontiguousarray(c[i, :i]) for i in range(s)], np.ascontiguousarray(m),
+                     np.ascontiguousarray(e), None, Ginv, binterp, embedded_order, name=name, order=order,
+                     w_method=w_method, err_exp=-1.0 / (embedded_order + 1))
     tr = tr._replace(dmid=np.ascontiguousarray(dense_weights(0.5, tr)))
+    if order > 3:
+        tr = tr._replace(dquarter=[dense_weights(0.25, tr).tolist(), dense_weights(0.75, tr).tolist()])
     return tr._replace(a_lists=[r.tolist() for r in tr.a_rows], c_lists=[r.tolist() for r in tr.c_rows],
                        m_list=tr.m.tolist(), e_list=tr.e.tolist(), dmid_list=tr.dmid.tolist(),
-                       binterp_lists=tab.binterp.tolist(), Ginv_lists=Ginv.tolist())
+                       binterp_lists=np.asarray(binterp).tolist(), Ginv_lists=Ginv.tolist())
 
 
 def dense_weights(theta: float, tr: "Transformed | None" = None) -> np.ndarray:
     """Weights d_i with y(t + theta h) = y + sum_i d_i u_i (transformed stages)."""
     tr = tr or METHOD
-    Bt = tr.binterp @ np.array([theta, theta ** 2, theta ** 3])
+    Bt = tr.binterp @ np.array([theta, theta ** 2, theta ** 3, theta ** 4][:tr.binterp.shape[1]])
     return Bt @ tr.Ginv
 
 
+def _rodas5p() -> Transformed:
+    """RODAS5P (Steinebach 2023) in the transformed variables: ``a`` and ``c`` as published
+    (``c`` with our sign: ``W u_i = f(Y_i) + sum_j c_ij / h u_j``, ``W = I/(gamma h) - J``);
+    stages 7 and 8 evaluate at ``Y_6 + u_6`` and ``Y_6 + u_6 + u_7``, the solution is
+    ``Y_6 + u_6 + u_7 + u_8`` (stiffly accurate) and the error estimate ``u_8``. Dense output
+    ``y0 (1 - t) + t (y1 + (1 - t)(H1 u + t (H2 u + t H3 u)))`` expanded in powers of t."""
+    a = np.zeros((8, 8))
+    a[1, :1] = [3.0]
+    a[2, :2] = [2.849394379747939, 0.45842242204463923]
+    a[3, :3] = [-6.954028509809101, 2.489845061869568, -10.358996098473584]
+    a[4, :4] = [2.8029986275628964, 0.5072464736228206, -0.3988312541770524, -0.04721187230404641]
+    a[5, :5] = [-7.502846399306121, 2.561846144803919, -11.627539656261098, -0.18268767659942256,
+                0.030198172008377946]
+    a[6, :6] = [*a[5, :5], 1.0]
+    a[7, :7] = [*a[5, :5], 1.0, 1.0]
+    c = np.zeros((8, 8))
+    c[1, :1] = [-14.155112264123755]
+    c[2, :2] = [-17.97296035885952, -2.859693295451294]
+    c[3, :3] = [147.12150275711716, -1.41221402718213, 71.68940251302358]
+    c[4, :4] = [165.43517024871676, -0.4592823456491126, 42.90938336958603, -5.961986721573306]
+    c[5, :5] = [24.854864614690072, -3.0009227002832186, 47.4931110020768, 5.5814197821558125, -0.6610691825249471]
+    c[6, :6] = [30.91273214028599, -3.1208243349937974, 77.79954646070892, 34.28646028294783, -19.097331116725623,
+                -28.087943162872662]
+    c[7, :7] = [37.80277123390563, -3.2571969029072276, 112.26918849496327, 66.9347231244047, -40.06618937091002,
+                -54.66780262877968, -9.48861652309627]
+    m = np.array([*a[5, :5], 1.0, 1.0, 1.0])
+    e = np.zeros(8)
+    e[7] = 1.0
+    H = np.array([
+        [25.948786856663858, -2.5579724845846235, 10.433815404888879, -2.3679251022685204, 0.524948541321073,
+         1.1241088310450404, 0.4272876194431874, -0.17202221070155493],
+        [-9.91568850695171, -0.9689944594115154, 3.0438037242978453, -24.495224566215796, 20.176138334709044,
+         15.98066361424651, -6.789040303419874, -6.710236069923372],
+        [11.419903575922262, 2.8879645146136994, 72.92137995996029, 80.12511834622643, -52.072871366152654,
+         -59.78993625266729, -0.15582684282751913, 4.883087185713722]])
+    binterp = np.stack([m + H[0], H[1] - H[0], H[2] - H[1], -H[2]], axis=1)
+    return _finish("RODAS5P", 0.21193756319429014, a, c, m, e, np.eye(8), binterp, 5, 4, False)
+
+
 METHOD = transform(ROS34PW2)
+RODAS5P = _rodas5p()
+METHODS = {"ros34pw2": METHOD, "rodas5p": RODAS5P}   # solver.method
+SMAX = 8                                              # the most stages (the compiled kernel's arrays)
 GAMMA = METHOD.gamma
 STAGES = METHOD.stages
 ORDER, EMBEDDED_ORDER = ROS34PW2.order, ROS34PW2.embedded_order
 
 
 class RosenbrockW:
-    """One step of a Rosenbrock-W method (default ROS34PW2) on a system given by ``evaluate(y, f_out, J_out)``.
+    """One step of a Rosenbrock(-W) method (default ROS34PW2; RODAS5P) on a system given by ``evaluate(y, f_out, J_out)``.
 
     All work arrays are allocated once. ``evaluate`` fills ``f_out`` (and ``J_out`` if not None)
     and returns nothing; it must not keep references to ``y``.
@@ -194,8 +266,14 @@ class RosenbrockW:
         _combine(tr.e_list, U, self.err, self.tmp)
         return bool(np.isfinite(yn).all())
 
+    def dense_at(self, weights: list, y: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """Dense output of the last step with the weights of one point (``dquarter``'s rows)."""
+        _combine(weights, self.U, out, self.tmp)
+        out += y
+        return out
+
     def midpoint(self, y: np.ndarray) -> np.ndarray:
-        """Dense output at the middle of the last step (order 3)."""
+        """Dense output at the middle of the last step (order 3; RODAS5P 4)."""
         ym = self.y_mid
         _combine(self.method.dmid_list, self.U, ym, self.tmp)
         ym += y
@@ -278,11 +356,12 @@ def error_norm(err: np.ndarray, y: np.ndarray, y_new: np.ndarray, atol: np.ndarr
     return math.sqrt(ss / err.size)
 
 
-def new_step_size(h: float, err: float, rejected: bool) -> float:
-    """Elementary controller h_new = h * clamp(0.9 err^(-1/3), 0.2, 5) (1 after a rejection)."""
+def new_step_size(h: float, err: float, rejected: bool, exponent: float = METHOD.err_exp) -> float:
+    """Elementary controller h_new = h * clamp(0.9 err^exponent, 0.2, 5) (1 after a rejection);
+    the exponent -1 / (embedded order + 1): -1/3 for ROS34PW2, -1/5 for RODAS5P."""
     if err <= 0.0:
         fac = 5.0
     else:
-        fac = 0.9 * err ** (-1.0 / (EMBEDDED_ORDER + 1))
+        fac = 0.9 * err ** exponent
     fac = min(5.0 if not rejected else 1.0, max(0.2, fac))
     return h * fac

@@ -27,7 +27,8 @@ import numpy as np
 from .. import native_library
 from ..errors import ParameterError, StepError
 
-ABI = 3
+ABI = 4
+SMAX = 8           # mesh_kernel.h SMAX (spurdiff.mesh.integrator.SMAX)
 LIB_NAME = "mesh_kernel.so"
 SEARCH_PATH: list[Path] = []
 _HERE = Path(__file__).resolve().parent
@@ -41,12 +42,13 @@ class MkMesh(C.Structure):
 
 class MkParams(C.Structure):
     _fields_ = ([(n, _i) for n in ("N", "speed_drive", "law", "wave", "tracked", "flank", "pin", "bl", "contact",
-                                   "dissipative", "var", "max_steps", "n")]
+                                   "dissipative", "var", "max_steps", "n", "stages", "w_method", "loss5")]
                 + [(n, _d) for n in ("rbA", "rb1", "rbB", "rb2", "JA", "JB", "J1", "J2", "Jc", "Jtot", "lam", "e", "C",
                                      "dmax", "mu_s", "mu_d", "v_s", "v_d", "c_pin", "M01", "M02")]
                 + [("pin_flat", _d * 8 * 2), ("Minv", _d * 5 * 5), ("atol", _d * 10), ("rtol", _d), ("w_stick", _d),
-                   ("gamma", _d), ("a", _d * 4 * 4), ("cc", _d * 4 * 4), ("m", _d * 4), ("ew", _d * 4), ("dmid", _d * 4),
-                   ("md", MkMesh * 3), ("bint", _d * 3 * 4), ("ginv", _d * 4 * 4)])
+                   ("gamma", _d), ("err_exp", _d), ("a", _d * SMAX * SMAX), ("cc", _d * SMAX * SMAX), ("m", _d * SMAX),
+                   ("ew", _d * SMAX), ("dmid", _d * SMAX), ("dq", _d * SMAX * 2),
+                   ("md", MkMesh * 3), ("bint", _d * 4 * SMAX), ("ginv", _d * SMAX * SMAX)])
 
 
 class MkState(C.Structure):
@@ -138,7 +140,6 @@ class Kernel:
     """The compiled kernel bound to one initialized :class:`spurdiff.mesh.MeshDifferential`."""
 
     def __init__(self, lib: C.CDLL, model):
-        from .integrator import METHOD
         self.lib = lib
         c = model
         P = self.params = MkParams()
@@ -167,18 +168,21 @@ class Kernel:
         for i in range(c._N):
             P.atol[i] = float(c._atol[i])
         P.rtol, P.w_stick = c._rtol, c._w_stick
-        tr = METHOD
-        P.gamma = tr.gamma
-        for i in range(4):
+        tr = c._integ.method
+        P.stages, P.w_method, P.loss5 = tr.stages, int(tr.w_method), int(tr.dquarter is not None)
+        P.gamma, P.err_exp = tr.gamma, tr.err_exp
+        for i in range(tr.stages):
             for k, v in enumerate(tr.a_rows[i]):
                 P.a[i][k] = float(v)
             for k, v in enumerate(tr.c_rows[i]):
                 P.cc[i][k] = float(v)
             P.m[i], P.ew[i], P.dmid[i] = float(tr.m[i]), float(tr.e[i]), float(tr.dmid[i])
-            for k in range(3):
-                P.bint[i][k] = tr.binterp_lists[i][k]
-            for k in range(4):
+            for k, v in enumerate(tr.binterp_lists[i]):     # three or four powers (the rest 0)
+                P.bint[i][k] = v
+            for k in range(tr.stages):
                 P.ginv[i][k] = tr.Ginv_lists[i][k]
+            if tr.dquarter is not None:
+                P.dq[0][i], P.dq[1][i] = tr.dquarter[0][i], tr.dquarter[1][i]
         for i, md in enumerate(c.md):
             dst = P.md[i]
             for f in ("sigma", "rb1", "rb2", "k", "c", "K", "jn", "eps", "pb", "l1min", "galpha", "L", "xi0", "xi0c",

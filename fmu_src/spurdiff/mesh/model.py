@@ -45,7 +45,7 @@ from ..statics import MeshForces, kinematics
 from . import kernel as compiled
 from .forces import (BilateralSpring, ElastoBacklash, FlankFriction, Impact, MeshPhase, SideValues, evaluate,
                      gear_meshes, potential)
-from .integrator import RosenbrockW
+from .integrator import METHODS, RosenbrockW
 from .layout import D12, DA, DB, PSI, VA, VB, W1, W2, constant_jacobian, mesh_data, relative_angles
 from .params import MeshParams
 from .stepper import advance
@@ -146,12 +146,13 @@ class MeshDifferential(DifferentialModel):
         N = self.n_states = 8 if self.speed_drive else 10
         self._N = N
         self.y = np.zeros(N)
-        self._integ = RosenbrockW(N, partial(evaluate, self))
+        self._integ = RosenbrockW(N, partial(evaluate, self), METHODS[mp_.method])
         self._f0 = np.zeros(N)
         self._f1 = np.zeros(N)
         self._J1 = np.zeros((N, N))
         self._fscratch = np.zeros(N)
         self._scr = np.zeros(N)
+        self._yq = np.zeros(N)
         atol = np.ones(N)
         atol[[DA, DB, D12]] = 1e-5  # deflection scale: 10 um
         self._atol = atol * float(mp_.tolerance)

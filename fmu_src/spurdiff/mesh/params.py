@@ -14,6 +14,7 @@ from ..errors import ParameterError, require_range
 
 LEVELS = ("compliant", "contact")
 KERNELS = ("auto", "compiled", "python")
+METHODS = ("ros34pw2", "rodas5p")     # spurdiff.mesh.integrator.METHODS
 N_PER_MM15 = 1e3 ** 1.5  # 1 N/mm^1.5 in N/m^1.5
 SWITCHES = ("backlash", "meshStiffnessVariation", "pinFriction", "flankFriction", "preload")
 
@@ -57,6 +58,9 @@ class MeshParams:
     maxInternalSteps: int = _d("solver.maxInternalSteps")   # per communication step, else StepError
     # implementation: auto (the compiled kernel if it loads, else Python) | compiled | python
     kernel: str = _d("solver.kernel")
+    # integration method: ros34pw2 (order 3, a W-method: Jacobian reused) | rodas5p (order 5,
+    # a Jacobian every step; fewer steps from tolerance 1e-4 down, docs/accuracy.md)
+    method: str = _d("solver.method")
 
     def validate(self) -> None:
         """Raise ParameterError naming the first invalid field (checked in the order of LIMITS)."""
@@ -64,6 +68,8 @@ class MeshParams:
             raise ParameterError("level", self.level, " | ".join(LEVELS))
         if self.kernel not in KERNELS:
             raise ParameterError("kernel", self.kernel, " | ".join(KERNELS))
+        if self.method not in METHODS:
+            raise ParameterError("method", self.method, " | ".join(METHODS))
         for name in SWITCHES:
             v = getattr(self, name)
             if not isinstance(v, (bool, np.bool_)) and v not in (0, 1):

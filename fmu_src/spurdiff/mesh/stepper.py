@@ -11,7 +11,8 @@ four times); accepted: work and loss booked, contact transitions counted, planet
 zero slip speed stuck, the friction modes decided again where needed.
 
 The Jacobian and the factored W are reused (ROS34PW2 is a W-method: order 3, and its embedded
-order 2, for any Jacobian; the W-order conditions hold to rounding): a new Jacobian is evaluated
+order 2, for any Jacobian; the W-order conditions hold to rounding; RODAS5P is not, and gets a new
+Jacobian at the end of every accepted step): a new Jacobian is evaluated
 at the end of a step only every JAC_AGE_MAX accepted steps, after an event was located in the
 step or where a contact opened or closed in it, and at the start of a step that is retried after a
 rejection; the friction modes' decision evaluates one too. The Jacobian depends on the state
@@ -41,6 +42,17 @@ def loss_quadrature(P0: float, Pm: float, P1: float, h: float, rtol: float) -> t
     power is not smooth where forces clip, so the state error alone does not see it)."""
     dloss = h / 6.0 * (P0 + 4.0 * Pm + P1)
     return dloss, abs(dloss - 0.5 * h * (P0 + P1)) / (rtol * (E_REF + dloss))
+
+
+def loss_quadrature5(P0: float, Pa: float, Pm: float, Pb: float, P1: float, h: float,
+                     rtol: float) -> tuple[float, float]:
+    """The same for a method of order 5 (RODAS5P), with the dense output also at the quarter points
+    (Pa, Pb): Boole's rule (Simpson on two halves extrapolated, order 6) and as the error estimate
+    the difference of Simpson on the two halves and on the whole step (order 5, as the method's)."""
+    s1 = h / 6.0 * (P0 + 4.0 * Pm + P1)
+    s2 = h / 12.0 * (P0 + 4.0 * Pa + 2.0 * Pm + 4.0 * Pb + P1)
+    dloss = s2 + (s2 - s1) / 15.0
+    return dloss, abs(s2 - s1) / (rtol * (E_REF + dloss))
 
 
 def work_speed_drive(c, ya, yb, hi: float, ac: float, wc_a: float, wc_b: float, dphic: float) -> float:
@@ -86,7 +98,8 @@ def book_parametric_work(c, ya, yb) -> None:
 def dense_output(tr, U, y, yn, tin: float, hi: float, k: int, tq: list, yq, tmp) -> int:
     """The states at the output times ``tq[k], ...`` (into the communication step) that lie in
     (tin, tin + hi], an accepted step from y to yn, by the method's dense output (order 3) into the
-    rows of ``yq``; returns the next k. The weights in the kernel's order of operations."""
+    rows of ``yq``; returns the next k. The weights in the kernel's order of operations (its
+    fourth power adds 0 for a three-power dense output, which changes no bit)."""
     G = tr.Ginv_lists
     while k < len(tq) and tq[k] <= tin + hi:
         th = (tq[k] - tin) / hi
@@ -95,11 +108,16 @@ def dense_output(tr, U, y, yn, tin: float, hi: float, k: int, tq: list, yq, tmp)
         else:
             th2 = th * th
             th3 = th2 * th
-            B = [b[0] * th + b[1] * th2 + b[2] * th3 for b in tr.binterp_lists]
+            if len(tr.binterp_lists[0]) == 3:
+                B = [b[0] * th + b[1] * th2 + b[2] * th3 for b in tr.binterp_lists]
+            else:
+                th4 = th3 * th
+                B = [b[0] * th + b[1] * th2 + b[2] * th3 + b[3] * th4 for b in tr.binterp_lists]
             d = []
-            for j in range(4):
+            ns = tr.stages
+            for j in range(ns):
                 sj = B[0] * G[0][j]
-                for i in range(1, 4):
+                for i in range(1, ns):
                     sj += B[i] * G[i][j]
                 d.append(sj)
             out = yq[k]
@@ -114,6 +132,9 @@ def advance(c, t: float, h: float, dense=None) -> None:
     (times into the step, increasing, in (0, h]; an array with a row per time) for the states
     there by the dense output."""
     integ = c._integ
+    exponent = integ.method.err_exp
+    every_step = not integ.method.w_method    # not a W-method: a Jacobian at every step's start
+    dq = integ.method.dquarter                 # the five-point loss quadrature's dense weights
     y = c.y
     speed = c.speed_drive
     wc_start = c.wc
@@ -177,9 +198,9 @@ def advance(c, t: float, h: float, dense=None) -> None:
             if not err <= 1.0:  # also catches nan
                 c.n_rejected_steps += 1
                 rejected = truncated = True
-                hi = new_step_size(hi, err, True) if err == err else hi * 0.25
+                hi = new_step_size(hi, err, True, exponent) if err == err else hi * 0.25
                 continue
-            fresh = located > 0 or c._jac_age + 1 >= JAC_AGE_MAX    # a new Jacobian at y_new?
+            fresh = every_step or located > 0 or c._jac_age + 1 >= JAC_AGE_MAX    # a new Jacobian at y_new?
             if not fresh and (c._bl or c._contact):                  # also where a contact changed
                 fresh = contact_flags(c, yn) != c._contact_flags
             sv1 = evaluate(c, yn, f1, c._J1 if fresh else None)
@@ -187,11 +208,17 @@ def advance(c, t: float, h: float, dense=None) -> None:
             ym = integ.midpoint(y)
             if c._dissipative:
                 svm = evaluate(c, ym, c._fscratch, None)
-                dloss, errE = loss_quadrature(sv0.P, svm.P, sv1.P, hi, c._rtol)
+                if dq is None:
+                    dloss, errE = loss_quadrature(sv0.P, svm.P, sv1.P, hi, c._rtol)
+                else:
+                    Pm = svm.P
+                    Pa = evaluate(c, integ.dense_at(dq[0], y, c._yq), c._fscratch, None).P
+                    Pb = evaluate(c, integ.dense_at(dq[1], y, c._yq), c._fscratch, None).P
+                    dloss, errE = loss_quadrature5(sv0.P, Pa, Pm, Pb, sv1.P, hi, c._rtol)
                 if not errE <= 1.0:
                     c.n_rejected_steps += 1
                     rejected = truncated = True
-                    hi = new_step_size(hi, errE, True) if errE == errE else hi * 0.25
+                    hi = new_step_size(hi, errE, True, exponent) if errE == errE else hi * 0.25
                     continue
                 if errE > err:
                     err = errE
@@ -210,7 +237,7 @@ def advance(c, t: float, h: float, dense=None) -> None:
             break
         # ---- accept
         c.n_internal_steps += 1
-        h_prop = new_step_size(hi, err, rejected)
+        h_prop = new_step_size(hi, err, rejected, exponent)
         if not fresh and hi <= h_prop <= H_KEEP * hi:
             h_prop = hi
         h_ctrl = max(h_ctrl, h_prop) if truncated and not rejected else h_prop

@@ -447,6 +447,45 @@ def test_rosenbrock_w_method_has_order_3_even_with_a_wrong_jacobian():
         assert all(2.9 < p < 3.1 for p in orders), (wrong, orders)
 
 
+def test_rodas5p_has_order_5_and_its_estimate_and_dense_output_order_4():
+    """RODAS5P with the exact Jacobian (it is not a W-method) on the same problem: global order 5;
+    over one step from the exact solution, the embedded estimate and the dense output at the
+    midpoint and the quarter points have local errors of order 5 (methods of order 4)."""
+    from spurdiff.mesh.integrator import RODAS5P, RosenbrockW
+
+    def f(y, out, J):
+        out[0], out[1], out[2] = -y[1], y[0], -1e4 * (y[2] - math.sin(y[0]))
+        if J is not None:
+            J[:] = 0.0
+            J[0, 1], J[1, 0], J[2, 2], J[2, 0] = -1.0, 1.0, -1e4, 1e4 * math.cos(y[0])
+
+    errs = []
+    for n in (5, 10, 20, 40):     # (at 80 steps the error, 1e-14, is rounding)
+        r = RosenbrockW(3, f, RODAS5P)
+        y, h, f0 = np.array([1.0, 0.0, math.sin(1.0)]), 2.0 / n, np.zeros(3)
+        for _ in range(n):
+            f(y, f0, r.J)
+            assert r.step(y, f0, h)
+            y = r.y_new.copy()
+        errs.append(np.max(np.abs(y[:2] - [math.cos(2.0), math.sin(2.0)])))
+    orders = [math.log2(a / b) for a, b in zip(errs, errs[1:])]
+    assert all(4.7 < p < 6.5 for p in orders), orders     # (about 6 here: 6.0, 5.9, 5.9)
+    est, dense = [], []
+    for h in (0.2, 0.1, 0.05):
+        r = RosenbrockW(3, f, RODAS5P)
+        y, f0 = np.array([1.0, 0.0, math.sin(1.0)]), np.zeros(3)
+        f(y, f0, r.J)
+        assert r.step(y, f0, h)
+        est.append(np.max(np.abs(r.err[:2])))
+        exact = lambda th: np.array([math.cos(th * h), math.sin(th * h)])   # noqa: E731
+        pts = [(0.5, r.midpoint(y)), (0.25, r.dense_at(RODAS5P.dquarter[0], y, np.zeros(3))),
+               (0.75, r.dense_at(RODAS5P.dquarter[1], y, np.zeros(3)))]
+        dense.append(max(np.max(np.abs(v[:2] - exact(th))) for th, v in pts))
+    for e in (est, dense):
+        rates = [math.log2(a / b) for a, b in zip(e, e[1:])]
+        assert all(4.5 < p < 5.7 for p in rates), (e, rates)
+
+
 def test_rhs_is_the_integrated_ode():
     # the same ODE integrated by scipy's Radau (analytic Jacobian) gives the same state
     from scipy.integrate import solve_ivp

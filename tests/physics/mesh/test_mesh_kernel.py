@@ -1,8 +1,8 @@
 """The compiled kernel of the mesh levels (fmu_src/native/mesh_kernel.c) against the pure-Python
 reference: the same states after every communication step (to 1e-12 relative; they are in fact
 equal bit for bit: both factor with the same LU, integrator.lu_factor) over the paper scenes' loads and the hard
-cases, at every level and effect; the choice of implementation (solver.kernel); the FMU runs it,
-also in a C host with a bare environment."""
+cases, at every level and effect, with each integration method (solver.method); the choice of
+implementation (solver.kernel); the FMU runs it, also in a C host with a bare environment."""
 from __future__ import annotations
 
 import json
@@ -75,27 +75,34 @@ def step_both(a, b, n, h, t0=0.0, inputs=None) -> float:
     return worst
 
 
+METHODS = ("ros34pw2", "rodas5p")
+
+
+@pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("effects", list(EFFECTS))
 @pytest.mark.parametrize("level", ["compliant", "contact"])
 @pytest.mark.parametrize("scene", ["paper-straight", "paper-cornering"])
-def test_kernel_agrees_with_the_reference_on_the_paper_scenes(scene, level, effects):
+def test_kernel_agrees_with_the_reference_on_the_paper_scenes(scene, level, effects, method):
     """From unloaded meshes (the start transient: impacts, stick-slip, ringing) and preloaded."""
     case = paper_case(scene)
     for preload, n in ((False, 6), (True, 3)):
-        a, b = pair(level, case, preload=preload, **EFFECTS[effects])
+        a, b = pair(level, case, preload=preload, method=method, **EFFECTS[effects])
         step_both(a, b, n, case["step"])
 
 
+@pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("level,effects", [("compliant", "backlash"), ("contact", "all"), ("contact", "none")])
-def test_kernel_agrees_with_the_torque_drive(level, effects):
-    a, b = pair(level, paper_case("paper-cornering"), drive="torque", preload=False, **EFFECTS[effects])
+def test_kernel_agrees_with_the_torque_drive(level, effects, method):
+    a, b = pair(level, paper_case("paper-cornering"), drive="torque", preload=False, method=method,
+                **EFFECTS[effects])
     step_both(a, b, 6, 1e-3)
 
 
+@pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("level", ["compliant", "contact"])
-def test_kernel_agrees_through_a_torque_reversal_in_the_backlash(level):
+def test_kernel_agrees_through_a_torque_reversal_in_the_backlash(level, method):
     case = paper_case("paper-straight")
-    a, b = pair(level, case, law="pinFriction", backlash=True, pinFriction=False)
+    a, b = pair(level, case, law="pinFriction", backlash=True, pinFriction=False, method=method)
 
     def reverse(m, k):
         if k == 2:
@@ -104,10 +111,11 @@ def test_kernel_agrees_through_a_torque_reversal_in_the_backlash(level):
     assert a.n_contact_transitions > 0
 
 
-def test_kernel_agrees_through_break_away_and_re_stick():
+@pytest.mark.parametrize("method", METHODS)
+def test_kernel_agrees_through_break_away_and_re_stick(method):
     """Pin-load law: the load difference ramps through the capacity and back."""
     case = dict(paper_case("paper-straight"), lockingLaw="pinFriction")
-    a, b = pair("contact", case)
+    a, b = pair("contact", case, method=method)
     KT0 = a.K * 2100.0
 
     def ramp(m, k):
@@ -117,9 +125,10 @@ def test_kernel_agrees_through_break_away_and_re_stick():
     assert a.n_mode_switches > 0
 
 
+@pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("h,n", [(1e-2, 3), (1e-5, 30)])
-def test_kernel_agrees_at_coarse_and_tiny_steps(h, n):
-    a, b = pair("contact", paper_case("paper-cornering"), preload=False, backlash=True)
+def test_kernel_agrees_at_coarse_and_tiny_steps(h, n, method):
+    a, b = pair("contact", paper_case("paper-cornering"), preload=False, backlash=True, method=method)
     step_both(a, b, n, h)
 
 
@@ -128,11 +137,12 @@ def test_kernel_agrees_with_a_ten_times_rated_torque_step():
     step_both(a, b, 4, 1e-3, inputs=lambda m, k: setattr(m, "tau_L", -10500.0) if k == 1 else None)
 
 
+@pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("level,effects", [("contact", "none"), ("compliant", "backlash")])
-def test_kernel_agrees_over_a_run_with_dense_output(level, effects):
+def test_kernel_agrees_over_a_run_with_dense_output(level, effects, method):
     """The solver comparison's one call (run_dense: one step over the run, the states at the
     output times by the dense output) from unloaded meshes, the same in C as in Python."""
-    a, b = pair(level, paper_case("paper-straight"), preload=False, **EFFECTS[effects])
+    a, b = pair(level, paper_case("paper-straight"), preload=False, method=method, **EFFECTS[effects])
     times = np.linspace(0.0, 0.02, 21)[1:]
     ya, yb = a.run_dense(0.02, times), b.run_dense(0.02, times)
     sc = np.maximum(np.abs(ya), SCALE[:ya.shape[1]])
@@ -142,7 +152,7 @@ def test_kernel_agrees_over_a_run_with_dense_output(level, effects):
     # do_step loop at the same tolerance), against 1 ms steps of a tight tolerance (the rattle of
     # the backlash case is sensitive: both errors about 0.25 rad/s there, 7e-7 in the contact case)
     _, c = pair(level, paper_case("paper-straight"), preload=False, tolerance=1e-10, **EFFECTS[effects])
-    _, d = pair(level, paper_case("paper-straight"), preload=False, **EFFECTS[effects])
+    _, d = pair(level, paper_case("paper-straight"), preload=False, method=method, **EFFECTS[effects])
     ref, loop = [], []
     for k in range(20):
         c.do_step(k * 1e-3, 1e-3)
