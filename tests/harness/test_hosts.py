@@ -168,7 +168,7 @@ def _ecos() -> str | None:
     """The ecos command line from the ecospy wheel, if it runs here (it needs Debian's libtbb12)."""
     try:
         import ecospy
-    except ImportError:
+    except (ImportError, OSError):   # OSError: its library is there but libtbb.so.12 is not
         return None
     exe = Path(ecospy.__file__).parent / "binaries" / "ecos"
     if not exe.is_file():
