@@ -52,6 +52,7 @@ def run(args) -> int:
     ivp = None if args.no_ivp or args.quick else ivp_baseline()
     if ivp:
         path = results_dir("accuracy", "ivp.csv")
+        path.parent.mkdir(parents=True, exist_ok=True)   # (--only-ivp in a fresh folder: nothing made it yet)
         with open(path, "w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=list(ivp[0]))
             w.writeheader()

@@ -118,6 +118,30 @@ def test_a_per_scene_run_keeps_the_other_scenes_and_the_solve_ivp_points(tmp_pat
         acc.main(["paper-cornering", "--only-ivp"])
 
 
+def test_only_ivp_in_a_fresh_folder_keeps_its_points(tmp_path, monkeypatch):
+    """--only-ivp where nothing made results/accuracy/ yet: the solve_ivp points reach ivp.csv and
+    the stored facts (the folder was not made: a 2-minute measurement ended in FileNotFoundError
+    and was lost)."""
+    import json
+
+    import harness.accuracy as acc
+    from harness.accuracy import command, data as stored_data
+
+    data, facts = tmp_path / "data.csv", tmp_path / "facts.json"
+    write_csv(_pts(), data)
+    facts.write_text(json.dumps({"command": "spurdiff accuracy", "ivp": None, "facts": {}}))
+    monkeypatch.setattr(stored_data, "DATA_FILE", data)
+    monkeypatch.setattr(stored_data, "FACTS_FILE", facts)
+    monkeypatch.chdir(tmp_path)
+    pts = [{"case": "c", "integrator": "ours", "tolerance": 1e-6, "error": 1e-7}]
+    monkeypatch.setattr(command, "ivp_baseline", lambda: pts)
+    monkeypatch.setattr(command, "_write_docs", lambda *a, **k: 0)
+    assert acc.main(["--only-ivp"]) == 0
+    assert (tmp_path / "results" / "accuracy" / "ivp.csv").read_text().splitlines()[0] == \
+        "case,integrator,tolerance,error"
+    assert json.loads(facts.read_text())["ivp"] == pts
+
+
 def test_scene_metrics_of_a_trajectory_measure_its_distance_from_the_reference():
     """The solve_ivp comparison's scene-metric error: zero for the reference itself, and the
     relative change of a peak when one output sample is perturbed."""
