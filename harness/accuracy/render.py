@@ -17,6 +17,23 @@ def _legend_outside(ax, n: int) -> None:
               ncol=2 if n > 12 else 1, frameon=False)
 
 
+_METHOD_COLOURS = {"ROS34PW2": "tab:blue", "RODAS5P": "tab:red", "Radau": "tab:olive", "BDF": "tab:purple",
+                   "LSODA": "tab:green"}
+
+
+def _solver_style(name: str) -> dict:
+    """Line style of a curve of the solver comparison: the colour names the method (ours: ROS34PW2
+    blue, RODAS5P red), the marker how ours runs (do_step loop compiled o, Python D, one call *,
+    states only P), the line solve_ivp's kind (dotted: one call, dashed: restarted every 1 ms)."""
+    colour = next((c for m, c in _METHOD_COLOURS.items() if m in name), "black")
+    if name.startswith("ours"):
+        marker = "P" if "states only" in name else "*" if "one call" in name else "o" if "compiled" in name else "D"
+        return {"color": colour, "marker": marker, "ls": ":" if "Python" in name else "-", "lw": 2.0, "ms": 6,
+                "label": name}
+    return {"color": colour, "marker": "s" if "restarted" in name else "^", "ls": "--" if "restarted" in name else ":",
+            "lw": 1.0, "ms": 4, "alpha": 0.8, "label": name}
+
+
 def plot(points: list[Point], path: Path, ivp: list[dict] | None = None) -> list[Path]:
     """Work-precision figures: ``path`` has one panel per scene (two columns, legends outside
     the data); the solver comparison against solve_ivp is its own figure beside it
@@ -60,8 +77,11 @@ def plot(points: list[Point], path: Path, ivp: list[dict] | None = None) -> list
     cases = list(dict.fromkeys(p["case"] for p in ivp or []))
     if cases:
         key = ivp_error_key(ivp)
-        fig, axes = plt.subplots(1, len(cases), figsize=(7.2 * len(cases), 4.2), squeeze=False)
-        for ax, case in zip(axes[0], cases):
+        # one wide panel per case, one legend for all beside them; ours: colour by method, marker
+        # by how it runs; solve_ivp: colour by method, dotted in one call, dashed restarted
+        fig, axes = plt.subplots(len(cases), 1, figsize=(9.0, 4.4 * len(cases)), squeeze=False)
+        handles: dict[str, object] = {}
+        for ax, case in zip(axes[:, 0], cases):
             curves: dict[str, list[dict]] = {}
             for p in ivp:
                 if p["case"] == case and math.isfinite(p.get(key, math.nan)) and p.get(key, 0.0) > 0.0:
@@ -71,19 +91,18 @@ def plot(points: list[Point], path: Path, ivp: list[dict] | None = None) -> list
                 if not ours:     # the front over its rtol/atol settings (what the ratios use)
                     ps = front([{**p, "error": p[key]} for p in ps])
                 ps.sort(key=lambda p: p["wall"])
-                style = (("P-" if "states only" in name else "*-" if "one call" in name else "o-" if "compiled" in name else "D-.") if ours
-                         else ("s--" if "restarted" in name else "^:"))
-                ax.loglog([p["wall"] for p in ps], [max(p[key], 1e-16) for p in ps], style,
-                          label=name, ms=5 if ours else 4, lw=2.5 if ours else 1)
+                (line,) = ax.loglog([p["wall"] for p in ps], [max(p[key], 1e-16) for p in ps], **_solver_style(name))
+                handles.setdefault(name, line)
             ax.set_xlabel("wall time [s]")
-            ax.set_ylabel("max relative error of the paper scenes' metrics" if key == "metric_error"
+            ax.set_ylabel("max relative error of the metrics" if key == "metric_error"
                           else "max scaled state error at 1 ms outputs")
-            ax.set_title(f"differential ODE, {case}: ours vs solve_ivp", fontsize=10)
+            ax.set_title(f"{case}: ours against solve_ivp (same ODE, 0.3 s)", fontsize=10)
             ax.grid(True, which="both", alpha=0.3)
-            _legend_outside(ax, len(curves))
+        fig.legend(list(handles.values()), list(handles), loc="center left", bbox_to_anchor=(1.0, 0.5),
+                   fontsize=8, frameon=False)
         fig.tight_layout()
         solvers = path.with_name(f"{path.stem}_solvers.png")
-        fig.savefig(solvers, dpi=100)
+        fig.savefig(solvers, dpi=100, bbox_inches="tight")
         plt.close(fig)
         written.append(solvers)
     return written
@@ -103,7 +122,8 @@ def markdown_ivp(ivp: list[dict], command: str = "spurdiff accuracy") -> list[st
              "slave whose inputs may change at every communication point must, restarted every 1 ms; rtol = tol, "
              "atol = tol times the state scale, LSODA also with atol 100 times smaller and larger and down to "
              "tol 1e-10, and each variant is taken at the front of its settings (the cheapest setting that reaches "
-             "an error). Ours: the compiled kernel and the Python reference as the FMU runs them, a do_step per "
+             "an error). Ours, with each of its two methods (`solver.method`: ROS34PW2, order 3, the default; "
+             "RODAS5P, order 5): the compiled kernel and the Python reference as the FMU runs them, a do_step per "
              "1 ms communication step (the same numbers, so the same errors: the horizontal distance between their "
              "curves is what the interpreter costs), and the compiled kernel over the whole run in one call as "
              "solve_ivp's one call (`MeshDifferential.run_dense`: internal steps not cut at the 1 ms points, the "

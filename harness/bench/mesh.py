@@ -16,6 +16,7 @@ import numpy as np
 from harness.metrics import metric_error
 from harness.scene import load_scene
 from spurdiff.mesh import MeshDifferential, MeshParams
+from spurdiff.mesh.params import METHODS
 from spurdiff.params import DifferentialParams
 from spurdiff.rigid import RigidDifferential
 
@@ -102,6 +103,50 @@ def tolerance() -> None:
     print()
 
 
+# the cases of the method comparison: (scene, level and effects), all from unloaded meshes but the first
+METHOD_CASES = (
+    ("paper-straight", dict(level="contact")),
+    ("paper-straight", dict(level="contact", preload=False)),
+    ("paper-cornering", dict(level="contact", preload=False)),
+    ("paper-straight", dict(level="contact", preload=False, backlash=True, meshStiffnessVariation=True,
+                            flankFriction=True)),
+    ("paper-cornering", dict(level="compliant", preload=False, backlash=True)),
+)
+
+
+def methods(tols=(1e-4, 1e-6, 1e-8), repeats: int = 3) -> list[dict]:
+    """The two integration methods (solver.method) as the FMU runs them: a do_step per 1 ms over
+    0.3 s of the paper scenes (METHOD_CASES), per tolerance: internal steps, wall (fastest of
+    ``repeats``), the largest scaled state error at the end and the loss error against a
+    tolerance-1e-10 ROS34PW2 run. Printed and returned. Command:
+    ``python -m harness.bench.mesh --section methods``."""
+    rows = []
+    for scene, mesh in METHOD_CASES:
+        spec = paper_case(scene)
+        ref = make(mesh["level"], spec, **{k: v for k, v in mesh.items() if k != "level"}, tolerance=1e-10)
+        simulate(ref, 0.3)
+        scale = np.maximum(np.abs(ref.y), SCALE)
+        for tol in tols:
+            for method in METHODS:
+                walls = []
+                for _ in range(repeats):
+                    m = make(mesh["level"], spec, **{k: v for k, v in mesh.items() if k != "level"},
+                             tolerance=tol, method=method)
+                    walls.append(simulate(m, 0.3)[2])
+                rows.append({"case": f"{scene}, {', '.join(f'{k}={v}' for k, v in mesh.items())}",
+                             "tolerance": tol, "method": method, "steps": m.n_internal_steps, "wall": min(walls),
+                             "error": float(np.max(np.abs(m.y - ref.y) / scale)),
+                             "loss_error": abs(m.energy_loss - ref.energy_loss), "loss": ref.energy_loss})
+    print("## The two methods in the do_step loop (1 ms, 0.3 s; errors against tolerance 1e-10, ROS34PW2)\n")
+    print("| case | tolerance | method | internal steps | wall s | state error | loss error J (of loss J) |")
+    print("|---|---|---|---|---|---|---|")
+    for r in rows:
+        print(f"| {r['case']} | {r['tolerance']:g} | {r['method']} | {r['steps']} | {r['wall']:.4f} | "
+              f"{r['error']:.1e} | {r['loss_error']:.1e} ({r['loss']:.4g}) |")
+    print()
+    return rows
+
+
 def trajectory(m, t_end=0.3, h=1e-3, events=None):
     """States at the communication points of a do_step loop, and the wall time."""
     n = int(round(t_end / h))
@@ -123,14 +168,14 @@ IVP_CASES = {
 IVP_METHODS = ("Radau", "BDF", "LSODA")
 
 
-def ivp_model(case: str, tol: float = 1e-6, kernel: str = "auto") -> MeshDifferential:
+def ivp_model(case: str, tol: float = 1e-6, kernel: str = "auto", method: str = "ros34pw2") -> MeshDifferential:
     """A model of one of IVP_CASES: paper-straight's carrier speed and loads (default locking
     law; pin friction off), initialized with the loads, then the case's loads applied from t = 0
-    (the same loads from unloaded meshes, or reversed)."""
+    (the same loads from unloaded meshes, or reversed); ``method``: solver.method."""
     mesh, sign = IVP_CASES[case]
     spec = paper_case("paper-straight")
     m = MeshDifferential(DifferentialParams(), MeshParams(tolerance=tol, maxInternalSteps=10 ** 7, kernel=kernel,
-                                                         **mesh))
+                                                         method=method, **mesh))
     m.w_ref, m.w_start_carrier = spec["w0"], spec["w0"]
     m.tau_L, m.tau_R = spec["loads"]
     m.initialize()
@@ -138,19 +183,25 @@ def ivp_model(case: str, tol: float = 1e-6, kernel: str = "auto") -> MeshDiffere
     return m
 
 
-# our solver as the FMU runs it (a do_step per 1 ms communication step, compiled kernel or the Python
-# reference: the same numbers), and over the whole run in one call as solve_ivp's one call with t_eval
-# (MeshDifferential.run_dense: internal steps not cut at the communication points, the states there by
-# the dense output), with the loss quadrature as the FMU integrates it and without (the states alone,
-# the same outputs as solve_ivp's)
-OURS = {"compiled": "ours, compiled (do_step loop)", "python": "ours, Python (do_step loop)",
-        "one call": "ours, compiled, one call", "states only": "ours, compiled, one call, states only"}
+# our solver with each of its methods (solver.method: ROS34PW2, RODAS5P) as the FMU runs it (a do_step
+# per 1 ms communication step, compiled kernel or the Python reference: the same numbers), and over the
+# whole run in one call as solve_ivp's one call with t_eval (MeshDifferential.run_dense: internal steps
+# not cut at the communication points, the states there by the dense output), with the loss quadrature
+# as the FMU integrates it and without (the states alone, the same outputs as solve_ivp's); keys
+# "<method> <how>"
+OURS = {f"{meth} {how}": f"ours {name}, {label}"
+        for meth, name in (("ros34pw2", "ROS34PW2"), ("rodas5p", "RODAS5P"))
+        for how, label in (("compiled", "compiled (do_step loop)"), ("python", "Python (do_step loop)"),
+                           ("one call", "compiled, one call"), ("states only", "compiled, one call, states only"))}
 
 
 def ours_trajectory(case: str, tol: float, impl: str, t_end: float = 0.3, h: float = 1e-3):
     """States at the communication points, the wall time and the solver counts of our solver
-    (``impl`` a key of OURS)."""
-    m = ivp_model(case, tol, "python" if impl == "python" else "compiled")
+    (``impl`` a key of OURS, or a way alone: "compiled", "python", "one call", "states only", the
+    default method)."""
+    first, _, rest = impl.partition(" ")
+    method, impl = (first, rest) if first in METHODS else ("ros34pw2", impl)
+    m = ivp_model(case, tol, "python" if impl == "python" else "compiled", method)
     if impl in ("compiled", "python"):
         ys, wall = trajectory(m, t_end, h)
         return ys, wall, m.solver_counts()
@@ -473,10 +524,11 @@ def step_costs(repeats: int = 3) -> dict[str, dict]:
                 out[impl][key].append(1e6 * wall / (m.n_internal_steps if key == "internal" else 300))
                 if key == "comm":
                     out[impl]["steps_per_comm"] = m.n_internal_steps / 300
-        m = _paper_model("compiled", preload=False)      # the same run without leaving C
-        t0 = time.perf_counter()
-        m._kernel.run(m, 0.0, 1e-3, 300)
-        out["compiled"].setdefault("in_kernel", []).append(1e6 * (time.perf_counter() - t0) / m.n_internal_steps)
+        for method, name in (("ros34pw2", "in_kernel"), ("rodas5p", "in_kernel_rodas5p")):
+            m = _paper_model("compiled", preload=False, method=method)     # the same run without leaving C
+            t0 = time.perf_counter()
+            m._kernel.run(m, 0.0, 1e-3, 300)
+            out["compiled"].setdefault(name, []).append(1e6 * (time.perf_counter() - t0) / m.n_internal_steps)
     return {impl: {k: statistics.median(v) if isinstance(v, list) else v for k, v in d.items()}
             for impl, d in out.items()}
 
@@ -547,6 +599,8 @@ def kernel_report(repeats: int = 3) -> list[str]:
     rows = [["per internal step, contact from unloaded meshes, do_step loop (us)", f"{py['internal']:.1f}",
              f"{cc['internal']:.1f}", f"{py['internal'] / cc['internal']:.1f}"],
             ["per internal step, the same run in one call (C only) (us)", "", f"{cc['in_kernel']:.2f}", ""],
+            ["  the same with solver.method = rodas5p (8 stages, a Jacobian every step) (us)", "",
+             f"{cc['in_kernel_rodas5p']:.2f}", ""],
             [f"per communication step, contact preloaded, 1 ms ({cc['steps_per_comm']:.2f} internal) (us)",
              f"{py['comm']:.1f}", f"{cc['comm']:.1f}", f"{py['comm'] / cc['comm']:.1f}"],
             ["real-time factor, paper-straight contact all effects, unloaded, through FMI",
@@ -578,6 +632,8 @@ def run(full: bool, sections, repeats: int = 3) -> None:
     if "step-bound" in sections:
         for variant in (None, "zero row", "gradient"):
             step_bound(quadrature_state=variant)
+    if "methods" in sections:
+        methods()
 
 
 if __name__ == "__main__":   # the command line is harness/cli/mesh_bench.py

@@ -57,11 +57,13 @@ class _Tee:
 
 
 # ours against which solve_ivp runs: (our integrator, solve_ivp variants taken, label of the target row)
-IVP_PAIRS = (
-    ("ours, compiled, one call", "one call", "one call over the run, against one solve_ivp call"),
-    ("ours, compiled (do_step loop)", "one call", "do_step loop (as the FMU runs), against one solve_ivp call"),
-    ("ours, compiled (do_step loop)", "restarted", "do_step loop, against solve_ivp restarted every 1 ms"),
-)
+IVP_PAIRS = tuple(
+    (f"ours {m}, {ours}", theirs, f"{m}, {label}") for m in ("RODAS5P", "ROS34PW2") for ours, theirs, label in (
+        ("compiled, one call", "one call", "one call over the run, against one solve_ivp call"),
+        ("compiled, one call, states only", "one call", "one call, states only (solve_ivp's outputs), against one "
+                                                         "solve_ivp call"),
+        ("compiled (do_step loop)", "one call", "do_step loop (as the FMU runs), against one solve_ivp call"),
+        ("compiled (do_step loop)", "restarted", "do_step loop, against solve_ivp restarted every 1 ms")))
 
 
 def _solve_ivp_ratios(ours: str, theirs: str) -> list[tuple[float, float]]:
