@@ -229,11 +229,12 @@ def test_a_stale_or_foreign_library_is_refused(tmp_path, monkeypatch):
         kernel.reset()
 
 
-def test_the_fmu_runs_the_kernel_with_the_reference_results(differential_fmu):
+@pytest.mark.parametrize("method", METHODS)
+def test_the_fmu_runs_the_kernel_with_the_reference_results(differential_fmu, method):
     from fmpy import simulate_fmu
 
     start = {"meshModel": "contact", "backlash": True, "flankFriction": True, "mesh.preload": False,
-             "carrier.w_ref": 1.389, "left.tau": -1110.201, "right.tau": -989.799}
+             "carrier.w_ref": 1.389, "left.tau": -1110.201, "right.tau": -989.799, "solver.method": method}
     logs = []
     runs = {k: simulate_fmu(str(differential_fmu), stop_time=0.02, output_interval=1e-3,
                             start_values={**start, "solver.kernel": k},
@@ -244,17 +245,46 @@ def test_the_fmu_runs_the_kernel_with_the_reference_results(differential_fmu):
     assert any("compiled implementation" in s for s in logs) and any("python (kernel = python)" in s for s in logs)
 
 
+def test_the_fmu_parameter_solver_method_reaches_the_integrator(differential_fmu):
+    """solver.method = rodas5p through fmpy takes the steps of a direct RODAS5P run (fewer than
+    ROS34PW2's over the unloaded start); an unknown method is refused, naming the parameter."""
+    from fmpy import simulate_fmu
+
+    start = {"meshModel": "contact", "mesh.preload": False, "carrier.w_ref": 1.389, "left.tau": -1050.0,
+             "right.tau": -1050.0, "tolerance": 1e-8}
+    steps = {}
+    for method in METHODS:
+        res = simulate_fmu(str(differential_fmu), stop_time=0.01, output_interval=1e-3,
+                           start_values={**start, "solver.method": method})
+        steps[method] = int(res["internalSteps"][-1])
+        m = MeshDifferential(DifferentialParams(), MeshParams(level="contact", preload=False, tolerance=1e-8,
+                                                             method=method))
+        m.w_ref = m.w_start_carrier = 1.389
+        m.tau_L = m.tau_R = -1050.0
+        m.initialize()
+        for k in range(10):
+            m.do_step(k * 1e-3, 1e-3)
+        assert steps[method] == m.n_internal_steps, method
+    assert steps["rodas5p"] < steps["ros34pw2"] / 2, steps
+    logs = []
+    with pytest.raises(Exception, match="ExitInitializationMode"):
+        simulate_fmu(str(differential_fmu), stop_time=0.01, start_values={**start, "solver.method": "rk4"},
+                     logger=lambda *a: logs.append(str(a[-1])), debug_logging=True)
+    assert any("solver.method = 'rk4' is invalid: allowed ros34pw2 | rodas5p" in s for s in logs), logs[-5:]
+
+
 HOSTS = Path(__file__).resolve().parents[4] / "shared" / "hosts"   # ../shared/hosts beside the checkout
 
 
 @pytest.mark.skipif(not (HOSTS / "fmusim").is_file(), reason=f"{HOSTS} is absent (third-party FMI hosts)")
-def test_fmusim_runs_the_compiled_kernel_with_a_bare_environment(differential_fmu, tmp_path):
+@pytest.mark.parametrize("method", METHODS)
+def test_fmusim_runs_the_compiled_kernel_with_a_bare_environment(differential_fmu, tmp_path, method):
     """The Reference FMUs' fmusim, started with env -i: the log names the compiled implementation
-    and the results equal fmpy's run of the Python reference."""
+    and the results equal fmpy's run of the Python reference, with each method."""
     from fmpy import simulate_fmu
 
     start = {"meshModel": "contact", "backlash": True, "mesh.preload": False, "carrier.w_ref": 1.389,
-             "left.tau": -1050.0, "right.tau": -1040.0}
+             "left.tau": -1050.0, "right.tau": -1040.0, "solver.method": method}
     args = []
     for k, v in start.items():
         args += ["--start-value", k, str(v).lower() if isinstance(v, bool) else str(v)]
