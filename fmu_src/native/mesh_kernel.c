@@ -67,17 +67,10 @@ static void lu_solve(const double *A, int N, const int *piv, const double *b, do
     }
 }
 
-/* the factorization of W (row-major) into LU and the solves with it (integrator.lu_factor, .lu_solve) */
-static int factor(const MkParams *P, const double *W, double *LU, int *piv, int N) {
-    (void)P;
+/* the factorization of W (row-major) into LU (integrator.lu_factor); 0: exactly singular */
+static int factor(const double *W, double *LU, int *piv, int N) {
     memcpy(LU, W, sizeof(double) * N * N);
     return lu(LU, N, piv);
-}
-
-static int solve(const MkParams *P, const double *LU, const int *piv, int N, const double *b, double *x) {
-    (void)P;
-    lu_solve(LU, N, piv, b, x);
-    return 1;
 }
 
 /* out = sum_k c[k] U[k] in the order of k (integrator._combine) */
@@ -100,10 +93,10 @@ static int ros_step(const MkParams *P, MkState *S, const double *y, const double
         for (int i = 0; i < N; i++)
             for (int j = 0; j < N; j++) wk->W[i * N + j] = (i == j ? d : 0.0) - S->Jf[i * N + j];
         S->n_lu++;
-        if (!factor(P, wk->W, S->LU, piv, N)) return 0;
+        if (!factor(wk->W, S->LU, piv, N)) return 0;
         S->lu_h = h;
     }
-    if (!solve(P, S->LU, piv, N, f0, wk->U[0])) return 0;
+    lu_solve(S->LU, N, piv, f0, wk->U[0]);
     double ih = 1.0 / h;
     const int ns = (int)P->stages;
     for (int i = 1; i < ns; i++) {
@@ -112,7 +105,7 @@ static int ros_step(const MkParams *P, MkState *S, const double *y, const double
         mk_eval(P, S, wk->Ys, wk->F, NULL, NULL);
         combine(P->cc[i], i, wk->U, N, wk->rhs);
         for (int j = 0; j < N; j++) wk->rhs[j] = wk->rhs[j] * ih + wk->F[j];
-        if (!solve(P, S->LU, piv, N, wk->rhs, wk->U[i])) return 0;
+        lu_solve(S->LU, N, piv, wk->rhs, wk->U[i]);
     }
     int finite = 1;
     combine(P->m, ns, wk->U, N, wk->ynew);
