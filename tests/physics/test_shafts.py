@@ -1,6 +1,7 @@
 """The shaft-owning differential (spurdiff.shafts) with WheelLoads in shaftCoupling = "wheel",
-coupled in plain Python (Gauss-Seidel, the differential first, as the vehicle scenes do): the
-hard cases of issue 19 at 1 ms and 20 ms, energy balances, step sequences, atomic steps."""
+coupled in plain Python (Gauss-Seidel, the differential first, as the vehicle scenes do; the loop
+is harness.bench.shafts.Loop): the hard cases of issue 19 at 1 ms and 20 ms, energy balances,
+step sequences, atomic steps."""
 from __future__ import annotations
 
 import math
@@ -10,91 +11,11 @@ import numpy as np
 import pytest
 
 from spurdiff.errors import ParameterError, StepError
-from spurdiff.mesh import MeshDifferential, MeshParams
 from spurdiff.params import DifferentialParams
 from spurdiff.rigid import RigidDifferential
 from spurdiff.shafts import ShaftedDifferential, ShaftParams, ShaftsParams, WheelSurrogate
-from spurdiff.wheel import WheelLoad, WheelLoadParams
 
-R_WHEEL = WheelLoadParams.defaults().wheel.R
-
-
-def make(mesh: str = "rigid", w0: float = 0.0, twist: float = 0.0, backlash: bool = False, tol: float = 1e-6,
-         **kw):
-    p = DifferentialParams(carrierDrive="torque", J_carrier=13.1)
-    inner = (RigidDifferential(p) if mesh == "rigid"
-             else MeshDifferential(p, MeshParams(level=mesh, backlash=backlash, tolerance=tol)))
-    inner.w_start_carrier = w0
-    inner.w_start_left = w0
-    diff = ShaftedDifferential(inner, ShaftsParams(ShaftParams(phi_rel_start=twist), ShaftParams(phi_rel_start=twist),
-                                                  **kw))
-    wheels = []
-    for _ in range(2):
-        wp = WheelLoadParams.defaults()
-        wp.shaftCoupling = "wheel"
-        wp.wheel.w_start = w0
-        wl = WheelLoad(wp)
-        wl.Fz, wl.mu, wl.vx = 3000.0, 1.0, w0 * R_WHEEL
-        wheels.append(wl)
-    return diff, wheels
-
-
-def surrogate_of(w: WheelLoad) -> WheelSurrogate:
-    """The wheel's interface-model outputs as the differential's input (what the scenes connect)."""
-    return WheelSurrogate(w.sur_a, w.sur_invJ, w.sur_dadw, w.sur_qrate, w.sur_ct, w.sur_rt)
-
-
-class Loop:
-    """Differential + two wheels, Gauss-Seidel (differential first); ``tau_c(t)``, ``Fz(t)``,
-    ``mu(t)`` per side and ``vx(t)`` the wheel-centre speed (the car is not modelled here)."""
-
-    def __init__(self, diff, wheels, tau_c, Fz=lambda t: (3000.0, 3000.0), mu=lambda t: (1.0, 1.0),
-                 vx=lambda t: None, surrogate: bool = True):
-        self.diff, self.wheels = diff, wheels
-        self.surrogate = surrogate   # the wheels' interface model connected (False: speed held)
-        self.tau_c, self.Fz, self.mu, self.vx = tau_c, Fz, mu, vx
-        wl, wr = wheels
-        for w, fz, m in zip(wheels, Fz(0.0), mu(0.0)):
-            w.Fz, w.mu = fz, m
-        diff.tau_c = tau_c(0.0)
-        self._wheel_inputs()
-        diff.initialize(0.0)
-        for w, tau in zip(wheels, (diff.tau_mean_L, diff.tau_mean_R)):
-            w.tau_in = tau
-            w.initialize(0.0)
-        self.t = 0.0
-        self.rows = []
-        self.work_c = 0.0
-
-    def _wheel_inputs(self):
-        d, (wl, wr) = self.diff, self.wheels
-        d.wheelL_phi, d.wheelL_w = getattr(wl, "phi", 0.0), getattr(wl, "w", wl.params.wheel.w_start)
-        d.wheelR_phi, d.wheelR_w = getattr(wr, "phi", 0.0), getattr(wr, "w", wr.params.wheel.w_start)
-        if self.surrogate and hasattr(wl, "sur_a"):
-            d.wheelL_model, d.wheelR_model = surrogate_of(wl), surrogate_of(wr)
-
-    def step(self, h: float):
-        d, ws, t = self.diff, self.wheels, self.t
-        d.tau_c = self.tau_c(t)
-        self._wheel_inputs()
-        wc0 = d.wc
-        d.do_step(t, h)
-        vx = self.vx(t)
-        for w, tau, dw, fz, m in zip(ws, (d.tau_mean_L, d.tau_mean_R), (d.dw_pred_L, d.dw_pred_R), self.Fz(t),
-                                     self.mu(t)):
-            w.tau_in, w.Fz, w.mu = tau, fz, m
-            w.dw_in = dw
-            w.vx = vx if vx is not None else w.vx
-            w.do_step(t, h)
-        self.t = t + h
-        self.rows.append((self.t, d.wc, d.w_L, d.w_R, d.locking_torque, d.locking_capacity, ws[0].w, ws[1].w,
-                          d.tau_mean_L, d.tau_mean_R, float(d.stuck)))
-
-    def run(self, t_end: float, h):
-        steps = h if callable(h) else (lambda: h)
-        while self.t < t_end - 1e-12:
-            self.step(min(steps(), t_end - self.t))
-        return np.array(self.rows)
+from harness.bench.shafts import R_WHEEL, Loop, make, start
 
 
 def assert_sound(loop: Loop, rows: np.ndarray, kin_tol: float = 1e-9):
@@ -114,12 +35,6 @@ def assert_sound(loop: Loop, rows: np.ndarray, kin_tol: float = 1e-9):
         assert w.loss_slip >= -1e-9 and w.loss_rolling >= -1e-9
     del KE0_PE
     assert np.max(np.abs(rows[:, 2] + rows[:, 3] - 2.0 * rows[:, 1])) < kin_tol
-
-
-def start(loop: Loop) -> Loop:
-    d = loop.diff
-    loop.E0 = d.work_in - d.kinetic_energy - d.potential_energy - d.energy_loss
-    return loop
 
 
 STEPS = [1e-3, 2e-2]
