@@ -56,14 +56,17 @@ class _Tee:
             st.flush()
 
 
-# ours against which solve_ivp runs: (our integrator, solve_ivp variants taken, label of the target row)
+# ours against which solve_ivp runs: (our integrator, solve_ivp variants taken, label of the row, a
+# target?): issue 17 wants >= 10x in one call against one call and in the do_step loop against
+# restarts; the do_step loop against one call is shown, not a target (it stops at 300 points)
 IVP_PAIRS = tuple(
-    (f"ours {m}, {ours}", theirs, f"{m}, {label}") for m in ("RODAS5P", "ROS34PW2") for ours, theirs, label in (
-        ("compiled, one call", "one call", "one call over the run, against one solve_ivp call"),
+    (f"ours {m}, {ours}", theirs, f"{m}, {label}", target) for m in ("RODAS5P", "ROS34PW2")
+    for ours, theirs, label, target in (
+        ("compiled, one call", "one call", "one call over the run, against one solve_ivp call", True),
         ("compiled, one call, states only", "one call", "one call, states only (solve_ivp's outputs), against one "
-                                                         "solve_ivp call"),
-        ("compiled (do_step loop)", "one call", "do_step loop (as the FMU runs), against one solve_ivp call"),
-        ("compiled (do_step loop)", "restarted", "do_step loop, against solve_ivp restarted every 1 ms")))
+                                                         "solve_ivp call", True),
+        ("compiled (do_step loop)", "one call", "do_step loop (as the FMU runs), against one solve_ivp call", False),
+        ("compiled (do_step loop)", "restarted", "do_step loop, against solve_ivp restarted every 1 ms", True)))
 
 
 def _solve_ivp_ratios(ours: str, theirs: str) -> list[tuple[float, float]]:
@@ -202,14 +205,15 @@ def _report(args) -> int:
     if "contact" in cost:
         c = cost["contact"]["realtime_factor"]
         targets.append(["real-time factor, paper-straight at contact (unloaded start)", ">= 1", f"{c:.1f}", c >= 1.0])
-    for ours, theirs, label in IVP_PAIRS:
+    for ours, theirs, label, target in IVP_PAIRS:
         r = _solve_ivp_ratios(ours, theirs)
         if r:
             lo, hi = min(x for _, x in r), max(x for _, x in r)
             targets.append([f"our solver vs solve_ivp at equal accuracy, contact, tolerance {r[0][0]:g} to "
-                            f"{r[-1][0]:g}: {label}", ">= 10", f"{lo:.1f} to {hi:.1f}", lo >= 10.0])
+                            f"{r[-1][0]:g}: {label}", ">= 10" if target else "(shown)", f"{lo:.1f} to {hi:.1f}",
+                            (lo >= 10.0) if target else None])
     print(render(["target", "wanted", "measured", "met"],
-                 [[a, b, c, "yes" if ok else "NO"] for a, b, c, ok in targets]))
+                 [[a, b, c, "-" if ok is None else "yes" if ok else "NO"] for a, b, c, ok in targets]))
     if o["ratio"] > 1.25 or o.get("ratio_cpu", 0.0) > 1.25:
         what = (f" ({call_us:.1f} us of it measured without the physics: fmi2DoStep's way, the getReal and the "
                 f"master's loop, and the setReal calls)" if path is not None else "")
