@@ -315,4 +315,4 @@ def test_the_kernel_bench_measures_both_implementations():
     assert 0 < c["compiled"]["in_kernel"] and 1.0 <= c["compiled"]["steps_per_comm"] < 2.0
     rows = solver_ratios()
     assert {r["ours"] for r in rows} == set(OURS.values())
-    assert all(r["best"] > 0 for r in rows) and {r["against"] for r in rows} == {"any", "restarted"}
+    assert all(r["best"] >= r["worst"] > 0 for r in rows) and {r["against"] for r in rows} == {"any", "restarted"}
