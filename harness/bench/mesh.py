@@ -16,6 +16,7 @@ import numpy as np
 from harness.metrics import metric_error
 from harness.scene import load_scene
 from spurdiff.mesh import MeshDifferential, MeshParams
+from spurdiff.errors import StepError
 from spurdiff.mesh.params import METHODS
 from spurdiff.params import DifferentialParams
 from spurdiff.rigid import RigidDifferential
@@ -143,6 +144,37 @@ def methods(tols=(1e-4, 1e-6, 1e-8), repeats: int = 3) -> list[dict]:
     for r in rows:
         print(f"| {r['case']} | {r['tolerance']:g} | {r['method']} | {r['steps']} | {r['wall']:.4f} | "
               f"{r['error']:.1e} | {r['loss_error']:.1e} ({r['loss']:.4g}) |")
+    print()
+    return rows
+
+
+def tight_tolerances(tols=(1e-8, 1e-9, 1e-10), t_end: float = 0.02) -> list[dict]:
+    """Where tight tolerances end: paper-cornering at the contact level from unloaded meshes,
+    every effect and each phase effect alone, 1 ms steps over ``t_end``, both methods; per case
+    the internal steps or the failure (StepError: the internal step fell below 1e-13 s at a mesh
+    phase boundary). Printed and returned. Command: ``python -m harness.bench.mesh --section
+    tight``."""
+    spec = paper_case("paper-cornering")
+    cases = {"all effects": dict(backlash=True, meshStiffnessVariation=True, flankFriction=True),
+             "stiffness wave": dict(meshStiffnessVariation=True), "flank friction": dict(flankFriction=True),
+             "backlash": dict(backlash=True)}
+    rows = []
+    for name, eff in cases.items():
+        for method in METHODS:
+            for tol in tols:
+                m = make("contact", spec, preload=False, tolerance=tol, method=method, maxInternalSteps=10 ** 6,
+                         **eff)
+                try:
+                    for k in range(int(round(t_end / 1e-3))):
+                        m.do_step(k * 1e-3, 1e-3)
+                    how = f"{m.n_internal_steps} steps"
+                except StepError as e:
+                    how = f"fails: {e}"
+                rows.append({"case": name, "method": method, "tolerance": tol, "result": how})
+    print(f"## Tight tolerances (paper-cornering, contact, unloaded, {t_end:g} s at 1 ms)\n")
+    print("| effects | method | tolerance | result |\n|---|---|---|---|")
+    for r in rows:
+        print(f"| {r['case']} | {r['method']} | {r['tolerance']:g} | {r['result']} |")
     print()
     return rows
 
@@ -638,6 +670,8 @@ def run(full: bool, sections, repeats: int = 3) -> None:
             step_bound(quadrature_state=variant)
     if "methods" in sections:
         methods()
+    if "tight" in sections:
+        tight_tolerances()
 
 
 if __name__ == "__main__":   # the command line is harness/cli/mesh_bench.py
