@@ -158,6 +158,11 @@ class ModelFmu(Fmi2Slave):
         pulled = set(self._io.real_outputs)
         self._unpulled_values = _getter([n for n in self._outputs if n not in pulled])
         self.terminated = False          # fmi2Terminated: the FMU cannot go on (stop time reached)
+        # fmi2Terminated also after the model's step failed (StepError, a non-finite result): the
+        # same step from the kept state fails again, so a master that retries a discarded step
+        # until fmi2Terminated (fmpy's simulate_fmu) stops instead of looping; cleared by the next
+        # step that succeeds (a master may retry with a shorter step, FMI 2.0 section 4.2.3)
+        self.step_failed = False
         self.last_step_status = OK
         self._dirty = True               # values changed since the model was built
         self._categories: set[str] | None = None   # None: every category
@@ -443,12 +448,16 @@ class ModelFmu(Fmi2Slave):
             if bad is None:
                 self.time = t + h
                 self.last_step_status = OK
+                if self.step_failed:
+                    self.step_failed = False
                 return OK
             msg = f"fmi2DoStep at t = {t:g} s refused: its result is not finite ({bad} = {values[bad]})"
-        except ParameterError as e:
+            self.step_failed = True
+        except ParameterError as e:      # an input the model refuses: the master can correct it
             msg = f"fmi2DoStep at t = {t:g} s refused: {e}"
         except Exception as e:
             msg = f"fmi2DoStep at t = {t:g} s failed: {type(e).__name__}: {e}"
+            self.step_failed = True
         try:
             if saved is not None:
                 model.set_state(saved)   # the last successful state stays valid
@@ -468,7 +477,7 @@ class ModelFmu(Fmi2Slave):
         if type_ == "real" and kind == _LAST_SUCCESSFUL_TIME:
             return OK, self.time
         if type_ == "boolean" and kind == _TERMINATED:
-            return OK, self.terminated
+            return OK, self.terminated or self.step_failed
         if kind == _PENDING_STATUS:
             return self._refuse(DISCARD, "fmi2PendingStatus: no asynchronous step is pending"), ""
         return self._refuse(ERROR, f"status kind {kind} is not defined for fmi2Get{type_.capitalize()}Status"), 0
@@ -500,7 +509,7 @@ class ModelFmu(Fmi2Slave):
         self.values.update(state.values)
         self.model = model if state.model is not None else None
         self.phase, self.failure, self.time = state.phase, state.failure, state.time
-        self.terminated = False
+        self.terminated = self.step_failed = False
         self._dirty = False
         self._inputs_ok = False
         return OK

@@ -292,6 +292,7 @@ def test_an_input_that_makes_the_result_overflow_is_discarded_and_the_state_kept
     inst.set_value(var, value)
     assert status_of(lambda: inst.slave.doStep(t, H)) == 2
     assert var in last(inst) and "state kept" in last(inst)
+    assert not inst.slave.getBooleanStatus(3)    # fmi2Terminated false: the master can correct the input
     outs = [v.valueReference for v in inst.vars.values() if v.causality == "output" and v.type == "Real"]
     assert inst.slave.getReal(outs) == ref.slave.getReal(outs)   # the outputs of the last good step
     inst.set_value(var, good)
@@ -300,6 +301,27 @@ def test_an_input_that_makes_the_result_overflow_is_discarded_and_the_state_kept
     assert inst.slave.getReal(outs) == ref.slave.getReal(outs)
     inst.slave.freeInstance()
     ref.slave.freeInstance()
+
+
+def test_a_failed_internal_integration_discards_says_terminated_and_fmpy_stops(fmu_files):
+    """The differential's integrator gives up (maxInternalSteps = 10 over a contact start
+    transient): fmi2Discard with the reason, fmi2Terminated true (fmpy's simulate_fmu retries a
+    discarded step until the FMU says so: it looped forever before), the state kept; a shorter
+    step from there succeeds and clears fmi2Terminated."""
+    from fmpy import simulate_fmu
+
+    path = fmu_files["SpurDifferential"]
+    params = {"meshModel": "contact", "mesh.preload": False, "maxInternalSteps": 10}
+    inst = start(path, "fail", CASES["SpurDifferential"], params=params)
+    assert status_of(lambda: inst.slave.doStep(0.0, H)) == 2
+    assert "maxInternalSteps" in last(inst) and "state kept at t = 0" in last(inst)
+    assert inst.slave.getBooleanStatus(3) and inst.slave.getRealStatus(2) == 0.0
+    inst.slave.doStep(0.0, 1e-6)     # a master may retry with a shorter step (FMI 2.0 section 4.2.3)
+    assert not inst.slave.getBooleanStatus(3)
+    inst.slave.freeInstance()
+    res = simulate_fmu(str(path), stop_time=0.01, output_interval=H,
+                       start_values={**params, **CASES["SpurDifferential"]["inputs"]})
+    assert res["time"][-1] == 0.0     # ended at the last successful time, not hung
 
 
 def _serialized(inst) -> bytes:
