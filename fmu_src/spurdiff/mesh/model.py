@@ -48,6 +48,7 @@ from .forces import (BilateralSpring, ElastoBacklash, FlankFriction, Impact, Mes
 from .integrator import METHODS, RosenbrockW
 from .layout import D12, DA, DB, PSI, VA, VB, W1, W2, constant_jacobian, mesh_data, relative_angles
 from .params import MeshParams
+from .events import contact_flags
 from .stepper import advance
 from .stickslip import initial_state
 
@@ -208,8 +209,16 @@ class MeshDifferential(DifferentialModel):
 
     def load_state_vector(self, y: np.ndarray) -> None:
         """Put a continuous state (e.g. a point of a solve_ivp trajectory) in place and refresh the
-        outputs at it; friction modes and inputs stay as they are."""
+        outputs at it; friction modes and inputs stay as they are. The integrator's memory of the
+        old state goes (its f at y, its Jacobian: a new one at the next step, as after
+        initialize), so the compiled kernel and the Python reference go on alike."""
         self.y[:] = y
+        self._f0_key = None
+        self._jac_age, self._integ.lu_h = -1, 0.0
+        if self._kernel is not None:      # (its counters stay: not a full Jacobian pack)
+            self._kernel.state.jac_age, self._kernel.state.lu_h = -1, 0.0
+        if self._bl or self._contact:
+            self._contact_flags = contact_flags(self, self.y)
         self._kernel_dirty = True
         self._refresh_outputs()
 

@@ -486,6 +486,21 @@ def test_rodas5p_has_order_5_and_its_estimate_and_dense_output_order_4():
         assert all(4.5 < p < 5.7 for p in rates), (e, rates)
 
 
+def test_the_five_point_loss_quadrature_is_exact_to_degree_5_and_estimates_beyond_3():
+    """loss_quadrature5 (RODAS5P's): Boole's rule, exact for polynomials of degree <= 5; its
+    estimate |Simpson(halves) - Simpson| vanishes to degree 3 and not for degree 4."""
+    from spurdiff.mesh.stepper import E_REF, loss_quadrature5
+
+    h = 0.37
+    for deg in range(6):
+        P = lambda t: 2.0 + sum((k + 1) * t ** k for k in range(1, deg + 1))   # noqa: E731
+        exact = 2.0 * h + sum((k + 1) * h ** (k + 1) / (k + 1) for k in range(1, deg + 1))
+        d, e = loss_quadrature5(P(0.0), P(h / 4), P(h / 2), P(3 * h / 4), P(h), h, 1e-6)
+        assert d == pytest.approx(exact, rel=1e-13), deg
+        assert (e < 1e-6) if deg <= 3 else (e > 1.0), (deg, e)
+    assert E_REF > 0.0
+
+
 def test_rhs_is_the_integrated_ode():
     # the same ODE integrated by scipy's Radau (analytic Jacobian) gives the same state
     from scipy.integrate import solve_ivp
