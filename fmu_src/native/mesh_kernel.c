@@ -1,6 +1,7 @@
 /*
  * Compiled kernel of the mesh levels (compliant, contact) of SpurDifferential: the model
- * evaluation (right-hand side, Jacobian, side values), the ROS34PW2 step with its error control,
+ * evaluation (right-hand side, Jacobian, side values), the Rosenbrock step (ROS34PW2 or RODAS5P,
+ * the tableau as data) with its error control,
  * and the whole internal stepping loop over one communication step (events, loss quadrature,
  * stick-slip, work accounting), so Python is entered once per communication step.
  *
@@ -321,7 +322,7 @@ static void book_parametric_work(const MkParams *P, MkState *S, const double *ya
 }
 
 /* stepper.dense_output: the states at the output times tq[k] (into the step) in (tin, tin + hi] of
- * an accepted step from y to yn, by the method's dense output (order 3); returns the next k */
+ * an accepted step from y to yn, by the method's dense output (order 3, RODAS5P 4); returns the next k */
 static int64_t dense_output(const MkParams *P, const Work *wk, const double *y, const double *yn, double tin,
                             double hi, int64_t k, int64_t nq, const double *tq, double *yq) {
     const int N = (int)P->N;
@@ -330,7 +331,7 @@ static int64_t dense_output(const MkParams *P, const Work *wk, const double *y, 
         if (th >= 1.0) {
             memcpy(out, yn, sizeof(double) * N);
         } else {
-            /* (a three-power dense output has bint[i][3] = 0: the fourth term adds 0, no bit changes) */
+            /* (a three-power dense output has bint[i][3] = 0: the fourth term adds 0, no value changes) */
             const int ns = (int)P->stages;
             double th2 = th * th, th3 = th2 * th, th4 = th3 * th, B[SMAX], d[SMAX];
             for (int i = 0; i < ns; i++)

@@ -211,7 +211,8 @@ VARIABLES: list[Var] = [
        "same results, slower)", kind="String"),
     _p("solver.method", "mesh.method", "Integration method of the compliant/contact levels: ros34pw2 (ROS34PW2, "
        "order 3, a Rosenbrock-W method that reuses its Jacobian) | rodas5p (RODAS5P, order 5, a Jacobian every "
-       "internal step; several times fewer internal steps from tolerance 1e-4 down, docs/accuracy.md)",
+       "internal step; several times fewer internal steps from tolerance 1e-4 down, docs/accuracy.md; its "
+       "analytic Jacobian is not exact with flankFriction: use ros34pw2 there)",
        kind="String"),
     Var("solver.kernelInUse", "calculatedParameter", "Implementation that runs the compliant/contact levels, "
         "or the rigid level's pin-load solve: compiled | python (and why) | none (rigid without a pin-load "

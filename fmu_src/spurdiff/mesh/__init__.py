@@ -4,7 +4,7 @@ effects (backlash, stiffness wave, pin and flank friction).
 Modules: :mod:`.params` (parameters and their limits), :mod:`.layout` (state vector, mesh
 geometry), :mod:`.laws` (force and friction laws), :mod:`.forces` (the effects and the
 right-hand side), :mod:`.events`, :mod:`.stickslip` (friction modes), :mod:`.integrator`
-(ROS34PW2), :mod:`.stepper` (the driver over a communication step), :mod:`.kernel` (the same
+(ROS34PW2, RODAS5P), :mod:`.stepper` (the driver over a communication step), :mod:`.kernel` (the same
 communication step compiled, fmu_src/native/mesh_kernel.c, through ctypes), :mod:`.model`
 (:class:`MeshDifferential`). Documentation: docs/mesh-dynamics.md.
 """

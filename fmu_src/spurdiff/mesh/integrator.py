@@ -1,5 +1,6 @@
-"""Adaptive linearly implicit integrator for the stiff mesh dynamics: the Rosenbrock-W method
-ROS34PW2 of Rang and Angermann (2005).
+"""Adaptive linearly implicit integrators for the stiff mesh dynamics: the Rosenbrock-W method
+ROS34PW2 of Rang and Angermann (2005), the default, and the Rosenbrock method RODAS5P of
+Steinebach (2023) (``solver.method``), tableaux as data.
 
 Method (Hairer and Wanner, Solving ODEs II, sec. IV.7), for ``y' = f(y)`` (our system is autonomous
 within a communication step), ``s = 4`` stages::
@@ -34,7 +35,9 @@ numerical benchmarks within the Julia Differential Equations package", BIT Numer
 ``Rodas5PTableau``, given directly in the transformed variables): 8 stages, order 5 with an
 embedded order 4 (the error estimate is the last stage, ``e = e_8``), L-stable and stiffly
 accurate, dense output of order 4. It is not a W-method: it needs the exact Jacobian at the start of
-every step, which the driver then evaluates at the end of every accepted step. It costs about twice
+every step, which the driver then evaluates at the end of every accepted step. Where the analytic
+Jacobian is not exact (flank friction: its lever arms' dependence on the mesh phase is left out)
+its order drops and its error estimate carries the Jacobian's error: use ROS34PW2 there. It costs about twice
 a ROS34PW2 step and needs several times fewer steps from tolerance 1e-4 down (the contact level's
 impact transient, docs/accuracy.md). Selected by the structural parameter ``solver.method``.
 """

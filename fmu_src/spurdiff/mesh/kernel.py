@@ -1,8 +1,8 @@
 """The compiled kernel of the mesh levels (``fmu_src/native/mesh_kernel*.c``) through ctypes.
 
-The kernel does a whole communication step (the internal ROS34PW2 steps with their error control,
-events, loss quadrature, stick-slip and work accounting) in C, so Python is entered once per
-communication step. It transcribes the pure-Python reference (:mod:`spurdiff.mesh.stepper` and
+The kernel does a whole communication step (the internal ROS34PW2 or RODAS5P steps, the tableau
+as data, with their error control, events, loss quadrature, stick-slip and work accounting) in C,
+so Python is entered once per communication step. It transcribes the pure-Python reference (:mod:`spurdiff.mesh.stepper` and
 what it calls), which stays the specification and the fallback; the two agree to rounding
 (tests/physics/mesh/test_mesh_kernel.py).
 

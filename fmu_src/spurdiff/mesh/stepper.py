@@ -1,6 +1,6 @@
 """The driver of the mesh model over one communication step, apart from the model and from the
 method (as scipy's ``solve_ivp`` keeps its driver apart from its methods): internal steps of the
-Rosenbrock-W method (:mod:`spurdiff.mesh.integrator`) with error control of the state and of the
+Rosenbrock method (:mod:`spurdiff.mesh.integrator`: ROS34PW2 or RODAS5P) with error control of the state and of the
 loss quadrature, events (:mod:`spurdiff.mesh.events`), friction modes
 (:mod:`spurdiff.mesh.stickslip`) and the work accounting.
 
@@ -97,9 +97,10 @@ def book_parametric_work(c, ya, yb) -> None:
 
 def dense_output(tr, U, y, yn, tin: float, hi: float, k: int, tq: list, yq, tmp) -> int:
     """The states at the output times ``tq[k], ...`` (into the communication step) that lie in
-    (tin, tin + hi], an accepted step from y to yn, by the method's dense output (order 3) into the
-    rows of ``yq``; returns the next k. The weights in the kernel's order of operations (its
-    fourth power adds 0 for a three-power dense output, which changes no bit)."""
+    (tin, tin + hi], an accepted step from y to yn, by the method's dense output (order 3, RODAS5P
+    4) into the rows of ``yq``; returns the next k. The weights in the kernel's order of
+    operations (the kernel's fourth power adds 0 for a three-power dense output: no value
+    changes)."""
     G = tr.Ginv_lists
     while k < len(tq) and tq[k] <= tin + hi:
         th = (tq[k] - tin) / hi

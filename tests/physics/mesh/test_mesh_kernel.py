@@ -132,8 +132,9 @@ def test_kernel_agrees_at_coarse_and_tiny_steps(h, n, method):
     step_both(a, b, n, h)
 
 
-def test_kernel_agrees_with_a_ten_times_rated_torque_step():
-    a, b = pair("compliant", paper_case("paper-straight"), backlash=True)
+@pytest.mark.parametrize("method", METHODS)
+def test_kernel_agrees_with_a_ten_times_rated_torque_step(method):
+    a, b = pair("compliant", paper_case("paper-straight"), backlash=True, method=method)
     step_both(a, b, 4, 1e-3, inputs=lambda m, k: setattr(m, "tau_L", -10500.0) if k == 1 else None)
 
 
@@ -212,9 +213,10 @@ def test_compiled_evaluation_equals_the_reference_evaluation():
             assert np.array_equal(f_py, f_c) and np.array_equal(J_py, J_c) and tuple(sv_py) == sv_c
 
 
-def test_a_failed_step_leaves_the_compiled_model_unchanged():
+@pytest.mark.parametrize("method", METHODS)
+def test_a_failed_step_leaves_the_compiled_model_unchanged(method):
     case = paper_case("paper-straight")
-    _, m = pair("compliant", case, backlash=True, pinFriction=False, maxInternalSteps=10)
+    _, m = pair("compliant", case, backlash=True, pinFriction=False, maxInternalSteps=10, method=method)
     m.do_step(0.0, 1e-3)
     m.tau_L = m.tau_R = 1050.0
     before = json.dumps(m.get_state())
