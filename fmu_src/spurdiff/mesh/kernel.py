@@ -26,9 +26,9 @@ import numpy as np
 
 from .. import native_library
 from ..errors import ParameterError, StepError
+from .integrator import SMAX      # mesh_kernel.h SMAX: the most stages of a tableau
 
 ABI = 4
-SMAX = 8           # mesh_kernel.h SMAX (spurdiff.mesh.integrator.SMAX)
 LIB_NAME = "mesh_kernel.so"
 SEARCH_PATH: list[Path] = []
 _HERE = Path(__file__).resolve().parent

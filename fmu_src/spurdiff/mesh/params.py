@@ -11,10 +11,11 @@ import numpy as np
 
 from ..datafile import differential_default as _d
 from ..errors import ParameterError, require_range
+from .integrator import METHODS as _TABLEAUX
 
 LEVELS = ("compliant", "contact")
 KERNELS = ("auto", "compiled", "python")
-METHODS = ("ros34pw2", "rodas5p")     # spurdiff.mesh.integrator.METHODS
+METHODS = tuple(_TABLEAUX)            # solver.method: the integrator's tableaux by name
 N_PER_MM15 = 1e3 ** 1.5  # 1 N/mm^1.5 in N/m^1.5
 SWITCHES = ("backlash", "meshStiffnessVariation", "pinFriction", "flankFriction", "preload")
 
