@@ -1,74 +1,43 @@
 /* The FMU's binary as a host loads it: binaries/linux64/<modelIdentifier>.so.
  *
- * It depends on nothing but the C library, so any host can dlopen it whatever Python (if any)
- * it runs. fmi2Instantiate then
- *   1. reads resources/python_runtime.cfg (the Python the FMU was built with);
- *   2. makes that Python's symbols global: if the process already has a Python (a Python host,
- *      or a C host with libpython preloaded) it is used; otherwise the recorded libpython is
- *      loaded with RTLD_GLOBAL, which numpy's and the standard library's extension modules need
- *      (they do not link libpython themselves). Nothing in the host's environment is changed;
- *   3. loads the bridge (fmi2_pybridge.so beside this file, which starts the interpreter with the
- *      recorded home and module path, and never finalizes it) and forwards every call to it.
+ * It depends on nothing but the C library, so any host can dlopen it whatever Python (if any) it
+ * runs. The FMU carries its own Python (resources/python/, described by
+ * resources/python_runtime.cfg, read strictly by runtime_cfg.h). fmi2Instantiate decides where the
+ * model runs:
+ *   - the process runs no Python (a C host): in this process, on the FMU's own Python (its
+ *     libraries made global, the interpreter started isolated with the FMU's module path only);
+ *   - the process runs the runtime's Python version (a Python host, or a C host where another of
+ *     our FMUs started it): in this process, on that interpreter;
+ *   - the process runs another Python version: in a process of its own, on the FMU's Python
+ *     (fmi2_remote.c, fmi2_server.c: shared memory, one round trip per call).
+ * SPURDIFF_FMU_PROCESS=out asks for the process of its own in any host (a crash of the model is
+ * then an error status, never the host's crash); =in refuses instead of starting one; unset or
+ * auto: as above. Either way the model is the bridge (fmi2_pybridge.c) over the FMU's package.
  * Any failure is logged through the host's logger with the reason, and fmi2Instantiate returns
- * NULL. The forwarding table below is the only list of FMI functions in this file.
+ * NULL. Getters and setters refuse a NULL array for n > 0 here, whichever side runs the model.
  */
 #define _GNU_SOURCE
 #include <dlfcn.h>
 #include <limits.h>
-#include <pthread.h>
 #include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 
-#include "fmi2Functions.h"
-#include "runtime_cfg.h"
+#include "fmi2_inproc.h"
+#include "fmi2_remote.h"
 
-#define BRIDGE_FILE "fmi2_pybridge.so"
-#define BRIDGE_PREFIX "spurdiff_bridge_"
+#define HANDLE_MAGIC 0x5350444Cu   /* "SPDL" */
+#define PROCESS_ENV "SPURDIFF_FMU_PROCESS"
 
-/* name, parameter list, argument list of every function with an fmi2Component */
-#define FMI2_FORWARDED(X)                                                                          \
-    X(fmi2SetDebugLogging, (fmi2Component c, fmi2Boolean on, size_t n, const fmi2String cat[]), (c, on, n, cat)) \
-    X(fmi2SetupExperiment, (fmi2Component c, fmi2Boolean td, fmi2Real tol, fmi2Real t0, fmi2Boolean sd, fmi2Real t1), (c, td, tol, t0, sd, t1)) \
-    X(fmi2EnterInitializationMode, (fmi2Component c), (c))                                        \
-    X(fmi2ExitInitializationMode, (fmi2Component c), (c))                                         \
-    X(fmi2Terminate, (fmi2Component c), (c))                                                      \
-    X(fmi2Reset, (fmi2Component c), (c))                                                          \
-    X(fmi2GetReal, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[]), (c, vr, n, v)) \
-    X(fmi2GetInteger, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer v[]), (c, vr, n, v)) \
-    X(fmi2GetBoolean, (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[]), (c, vr, n, v)) \
-    X(fmi2SetReal, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real v[]), (c, vr, n, v)) \
-    X(fmi2SetInteger, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer v[]), (c, vr, n, v)) \
-    X(fmi2SetBoolean, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Boolean v[]), (c, vr, n, v)) \
-    X(fmi2SetString, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2String v[]), (c, vr, n, v)) \
-    X(fmi2GetFMUstate, (fmi2Component c, fmi2FMUstate *s), (c, s))                                \
-    X(fmi2SetFMUstate, (fmi2Component c, fmi2FMUstate s), (c, s))                                 \
-    X(fmi2FreeFMUstate, (fmi2Component c, fmi2FMUstate *s), (c, s))                               \
-    X(fmi2SerializedFMUstateSize, (fmi2Component c, fmi2FMUstate s, size_t *n), (c, s, n))        \
-    X(fmi2SerializeFMUstate, (fmi2Component c, fmi2FMUstate s, fmi2Byte b[], size_t n), (c, s, b, n)) \
-    X(fmi2DeSerializeFMUstate, (fmi2Component c, const fmi2Byte b[], size_t n, fmi2FMUstate *s), (c, b, n, s)) \
-    X(fmi2GetDirectionalDerivative, (fmi2Component c, const fmi2ValueReference u[], size_t nu, const fmi2ValueReference z[], size_t nz, const fmi2Real du[], fmi2Real dz[]), (c, u, nu, z, nz, du, dz)) \
-    X(fmi2SetRealInputDerivatives, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer o[], const fmi2Real v[]), (c, vr, n, o, v)) \
-    X(fmi2GetRealOutputDerivatives, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer o[], fmi2Real v[]), (c, vr, n, o, v)) \
-    X(fmi2DoStep, (fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp), (c, t, h, nsp))   \
-    X(fmi2CancelStep, (fmi2Component c), (c))                                                     \
-    X(fmi2GetStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Status *v), (c, k, v))        \
-    X(fmi2GetRealStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Real *v), (c, k, v))      \
-    X(fmi2GetIntegerStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Integer *v), (c, k, v)) \
-    X(fmi2GetBooleanStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Boolean *v), (c, k, v)) \
-    X(fmi2GetStringStatus, (fmi2Component c, const fmi2StatusKind k, fmi2String *v), (c, k, v))
-
-static struct {
-    fmi2InstantiateTYPE *fmi2Instantiate;
-    fmi2FreeInstanceTYPE *fmi2FreeInstance;
-    fmi2GetStringTYPE *fmi2GetString;
-#define X_MEMBER(name, params, args) name##TYPE *name;
-    FMI2_FORWARDED(X_MEMBER)
-#undef X_MEMBER
-} B;
-
-static pthread_mutex_t load_lock = PTHREAD_MUTEX_INITIALIZER;
+typedef struct {
+    unsigned magic;
+    const Fmi2Table *t;        /* the bridge's functions, or REMOTE_TABLE */
+    fmi2Component inner;
+    fmi2CallbackFunctions cb;
+    char *iname;
+} Handle;
 
 static void log_error(const fmi2CallbackFunctions *f, fmi2String name, const char *fmt, ...)
 {
@@ -96,51 +65,10 @@ static int own_dir(char *out, size_t size)
 {
     Dl_info info;
     if (!dladdr((void *)&own_dir, &info) || !info.dli_fname) return -1;
-    snprintf(out, size, "%s", info.dli_fname);
+    if (snprintf(out, size, "%s", info.dli_fname) >= (int)size) return -1;
     char *slash = strrchr(out, '/');
     if (!slash) return -1;
     *slash = 0;
-    return 0;
-}
-
-/* Python's symbols global, then the bridge loaded and its table filled. 0 or -1 with `err`. */
-static int load_bridge(const RuntimeCfg *cfg, char *err, size_t errsize)
-{
-    if (B.fmi2Instantiate) return 0;
-    if (!dlsym(RTLD_DEFAULT, "Py_IsInitialized")) {
-        if (!dlopen(cfg->libpython, RTLD_NOW | RTLD_GLOBAL)) {
-            snprintf(err, errsize,
-                     "cannot load %s, the Python %s this FMU was built with (%s): install that Python "
-                     "with its shared library, or rebuild the FMU with the host's Python",
-                     cfg->libpython, cfg->version, dlerror());
-            return -1;
-        }
-    }
-    char dir[PATH_MAX], file[PATH_MAX + 32];
-    if (own_dir(dir, sizeof dir) != 0) {
-        snprintf(err, errsize, "cannot locate the FMU's binary directory");
-        return -1;
-    }
-    snprintf(file, sizeof file, "%s/%s", dir, BRIDGE_FILE);
-    void *h = dlopen(file, RTLD_NOW | RTLD_LOCAL);
-    if (!h) {
-        snprintf(err, errsize, "cannot load the Python bridge %s: %s", file, dlerror());
-        return -1;
-    }
-    void *sym;
-#define LOAD(name)                                                                                  \
-    if (!(sym = dlsym(h, BRIDGE_PREFIX #name))) {                                                  \
-        snprintf(err, errsize, "the bridge %s lacks %s", file, BRIDGE_PREFIX #name);               \
-        return -1;                                                                                 \
-    }                                                                                              \
-    memcpy(&B.name, &sym, sizeof sym);
-#define X_LOAD(name, params, args) LOAD(name)
-    FMI2_FORWARDED(X_LOAD)
-    LOAD(fmi2FreeInstance)
-    LOAD(fmi2GetString)
-    LOAD(fmi2Instantiate)   /* last: it marks the table complete */
-#undef X_LOAD
-#undef LOAD
     return 0;
 }
 
@@ -151,7 +79,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
                               fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
                               fmi2Boolean visible, fmi2Boolean loggingOn)
 {
-    char resources[PATH_MAX], err[4 * CFG_MAX_LINE];
+    char resources[PATH_MAX], bindir[PATH_MAX], err[4 * CFG_MAX_LINE], version[64];
     struct stat st;
     RuntimeCfg cfg;
     if (!instanceName || !*instanceName) {
@@ -159,7 +87,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         return NULL;
     }
     if (!fmuResourceLocation || cfg_uri_to_path(fmuResourceLocation, resources, sizeof resources) != 0) {
-        log_error(functions, instanceName, "fmi2Instantiate: fmuResourceLocation '%s' is not a local file URI",
+        log_error(functions, instanceName, "fmi2Instantiate: fmuResourceLocation '%.1000s' is not a local file URI",
                   fmuResourceLocation ? fmuResourceLocation : "(null)");
         return NULL;
     }
@@ -168,41 +96,116 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
                   "(the FMU was not extracted completely)", resources);
         return NULL;
     }
+    if (own_dir(bindir, sizeof bindir) != 0) {
+        log_error(functions, instanceName, "fmi2Instantiate: cannot locate the FMU's binary folder");
+        return NULL;
+    }
     if (cfg_read(resources, &cfg, err, sizeof err) != 0) {
         log_error(functions, instanceName, "fmi2Instantiate: %s", err);
         return NULL;
     }
-    pthread_mutex_lock(&load_lock);
-    int rc = load_bridge(&cfg, err, sizeof err);
-    pthread_mutex_unlock(&load_lock);
-    cfg_free(&cfg);
-    if (rc != 0) {
-        log_error(functions, instanceName, "fmi2Instantiate: %s", err);
+    if (!fmuGUID || strcmp(fmuGUID, cfg.guid) != 0) {
+        log_error(functions, instanceName, "fmi2Instantiate: GUID '%.200s' does not match this FMU's "
+                  "modelDescription.xml ('%s')", fmuGUID ? fmuGUID : "(null)", cfg.guid);
+        cfg_free(&cfg);
         return NULL;
     }
-    return B.fmi2Instantiate(instanceName, fmuType, fmuGUID, resources, functions, visible, loggingOn);
+    const char *mode = getenv(PROCESS_ENV);
+    if (!mode || !*mode) mode = "auto";
+    if (strcmp(mode, "auto") && strcmp(mode, "in") && strcmp(mode, "out")) {
+        log_error(functions, instanceName, "fmi2Instantiate: %s = '%.40s'; allowed: auto (default), in, out",
+                  PROCESS_ENV, mode);
+        cfg_free(&cfg);
+        return NULL;
+    }
+    int host = inproc_host_python(&cfg, version, sizeof version);
+    int remote = !strcmp(mode, "out") || (host == INPROC_OTHER);
+    if (remote && !strcmp(mode, "in")) {
+        log_error(functions, instanceName, "fmi2Instantiate: this process runs Python %s, the FMU's runtime is "
+                  "Python %s, and %s=in forbids the model's own process (unset it to allow one)",
+                  version, cfg.version, PROCESS_ENV);
+        cfg_free(&cfg);
+        return NULL;
+    }
+    Handle *h = (Handle *)calloc(1, sizeof *h);
+    if (!h) {
+        cfg_free(&cfg);
+        return NULL;
+    }
+    h->magic = HANDLE_MAGIC;
+    h->iname = strdup(instanceName);
+    if (functions) h->cb = *functions;
+    err[0] = 0;
+    if (remote) {
+        h->t = &REMOTE_TABLE;
+        h->inner = remote_instantiate(instanceName, fmuType, fmuGUID, resources, bindir, functions, visible,
+                                      loggingOn, err, sizeof err);
+    } else if (inproc_load(&cfg, resources, bindir, &h->t, err, sizeof err) == 0) {
+        h->inner = h->t->fmi2Instantiate(instanceName, fmuType, fmuGUID, resources, functions, visible, loggingOn);
+    }
+    cfg_free(&cfg);
+    if (!h->inner) {
+        if (err[0]) log_error(functions, instanceName, "fmi2Instantiate: %s", err);
+        free(h->iname);
+        free(h);
+        return NULL;
+    }
+    return h;
+}
+
+static Handle *handle(fmi2Component c)
+{
+    Handle *h = (Handle *)c;
+    return (h && h->magic == HANDLE_MAGIC) ? h : NULL;
+}
+
+void fmi2FreeInstance(fmi2Component c)
+{
+    Handle *h = handle(c);
+    if (!h) return;
+    h->t->fmi2FreeInstance(h->inner);
+    h->magic = 0;
+    free(h->iname);
+    free(h);
 }
 
 /* Strings are handed out even when the call fails ("" each): some hosts read them without
  * looking at the status (the ecos command line did, after an fmi2Instantiate that returned NULL). */
 fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String v[])
 {
-    fmi2Status s = (c && B.fmi2GetString) ? B.fmi2GetString(c, vr, n, v) : fmi2Error;
+    Handle *h = handle(c);
+    fmi2Status s = fmi2Error;
+    if (h && n && (!vr || !v))
+        log_error(&h->cb, h->iname, "fmi2GetString: %s is NULL for nvr = %zu", vr ? "value" : "vr", n);
+    else if (h)
+        s = h->t->fmi2GetString(h->inner, vr, n, v);
     if (s > fmi2Warning && v)
         for (size_t i = 0; i < n; i++) v[i] = "";
     return s;
 }
 
-void fmi2FreeInstance(fmi2Component c)
-{
-    if (c && B.fmi2FreeInstance) B.fmi2FreeInstance(c);
-}
-
-#define X_FORWARD(name, params, args)                                                               \
+#define X_ARRAYS(name, params, args)                                                               \
     fmi2Status name params                                                                         \
     {                                                                                              \
-        if (!c || !B.name) return fmi2Error;                                                       \
-        return B.name args;                                                                        \
+        Handle *hd_ = handle(c);                                                                     \
+        if (!hd_) return fmi2Error;                                                                  \
+        if (n && (!vr || !v)) {                                                                    \
+            log_error(&hd_->cb, hd_->iname, #name ": %s is NULL for nvr = %zu", vr ? "value" : "vr", n); \
+            return fmi2Error;                                                                      \
+        }                                                                                          \
+        c = hd_->inner;                                                                              \
+        return hd_->t->name args;                                                                    \
     }
-FMI2_FORWARDED(X_FORWARD)
-#undef X_FORWARD
+FMI2_FORWARDED_ARRAYS(X_ARRAYS)
+#undef X_ARRAYS
+
+#define X_PLAIN(name, params, args)                                                                \
+    fmi2Status name params                                                                         \
+    {                                                                                              \
+        Handle *hd_ = handle(c);                                                                     \
+        if (!hd_) return fmi2Error;                                                                  \
+        c = hd_->inner;                                                                              \
+        return hd_->t->name args;                                                                    \
+    }
+FMI2_FORWARDED_PLAIN(X_PLAIN)
+#undef X_PLAIN

@@ -5,11 +5,19 @@
  * Every exported name carries the prefix spurdiff_bridge_ (defined below: the headers fmpy ships
  * ignore FMI2_FUNCTION_PREFIX), so it never shadows the loader's unprefixed functions.
  *
- * The interpreter: when the process has none running, fmi2Instantiate starts one with the home
- * and module path recorded in resources/python_runtime.cfg (isolated: the host's environment
- * variables are not read, no signal handlers are installed) and never finalizes it: a process
- * that exits with numpy and scipy loaded must not run Python's finalization after their
- * libraries' destructors (that corrupted the heap at exit under pythonfmu's wrapper).
+ * The interpreter: when the process has none running, fmi2Instantiate starts the FMU's own (the
+ * loader made its libpython global) with the home and module path of resources/python_runtime.cfg,
+ * resolved in the FMU's resources folder (isolated: the host's environment variables are not
+ * read, no site-packages of any installation, UTF-8 mode, no bytecode written, no signal handlers)
+ * and never finalizes it: a process that exits with numpy loaded must not run Python's
+ * finalization after its libraries' destructors (that corrupted the heap at exit under
+ * pythonfmu's wrapper). In a process that already runs Python (of the runtime's version: the
+ * loader checked), that interpreter is used and its module path is left alone.
+ *
+ * The FMU's package (resources/<package>/) is imported under a private name per extraction
+ * folder and build (see BOOT_SOURCE), never as `spurdiff` from sys.path: two FMUs, two builds, or
+ * an FMU beside a host that imported spurdiff itself never share a module, and an extraction
+ * folder deleted after its last instance is freed leaves nothing behind that a later FMU reuses.
  *
  * The slave protocol (see spurdiff/fmi_adapter.py): the class from the cfg is called with
  * instance_name, resources, visible, logging_on; each FMI function calls one method named
@@ -113,6 +121,7 @@ typedef struct {
     int logging_on;
     int visible;
     PyObject *klass;          /* the slave class (kept for fmi2Reset) */
+    PyObject *alias;          /* the private name of the FMU's package (str) */
     PyObject *slave;          /* the slave object */
     PyObject *log_queue;      /* slave.log_queue */
     PyObject *methods[N_METHODS];
@@ -231,30 +240,35 @@ static fmi2Status status_of(Instance *I, PyObject *r, const char *fn)
 }
 
 /* ------------------------------------------------------------------------------ interpreter */
-static int start_python(const RuntimeCfg *cfg, char *err, size_t errsize)
+/* Start the FMU's Python when the process has none (GIL released on return). */
+static int start_python(const RuntimeCfg *cfg, const char *resources, char *err, size_t errsize)
 {
-    if (Py_IsInitialized()) {
-        /* a Python host (or another FMU) runs one: it must be the version we were built for */
-        const char *v = Py_GetVersion();
-        size_t n = strlen(cfg->version);
-        if (strncmp(v, cfg->version, n) != 0 || (v[n] != '.' && v[n] != ' ')) {
-            snprintf(err, errsize, "the process runs Python %.20s, this FMU was built for Python %s (%s)",
-                     v, cfg->version, cfg->executable ? cfg->executable : "");
-            return -1;
-        }
-        return 0;
-    }
+    if (Py_IsInitialized()) return 0;   /* a Python host, or another FMU started it: the loader checked the version */
+    char file[CFG_MAX_LINE];
     PyStatus status;
+    PyPreConfig pre;
+    PyPreConfig_InitIsolatedConfig(&pre);
+    pre.utf8_mode = 1;                    /* file names and messages are UTF-8 whatever the host's locale */
+    status = Py_PreInitialize(&pre);
+    if (PyStatus_Exception(status)) {
+        snprintf(err, errsize, "cannot pre-initialize the FMU's Python %s: %s", cfg->version,
+                 status.err_msg ? status.err_msg : "unknown error");
+        return -1;
+    }
     PyConfig config;
     PyConfig_InitIsolatedConfig(&config);
     config.install_signal_handlers = 0;   /* the host owns its signals */
-    config.site_import = 0;               /* the recorded path already holds what site added */
+    config.site_import = 0;               /* the runtime's path is complete; no installation's site-packages */
+    config.write_bytecode = 0;            /* the runtime carries its bytecode; never write into the FMU */
     config.parse_argv = 0;
-    status = PyConfig_SetBytesString(&config, &config.program_name, cfg->executable ? cfg->executable : "python3");
-    if (!PyStatus_Exception(status) && cfg->home)
-        status = PyConfig_SetBytesString(&config, &config.home, cfg->home);
+    status = PyConfig_SetBytesString(&config, &config.program_name, "spurdiff-fmu");
+    if (!PyStatus_Exception(status)) {
+        if (cfg_join(resources, cfg->home, file, sizeof file) != 0) status = PyStatus_Error("resources path too long");
+        else status = PyConfig_SetBytesString(&config, &config.home, file);
+    }
     for (int i = 0; i < cfg->n_path && !PyStatus_Exception(status); i++) {
-        wchar_t *w = Py_DecodeLocale(cfg->path[i], NULL);
+        if (cfg_join(resources, cfg->path[i], file, sizeof file) != 0) { status = PyStatus_Error("resources path too long"); break; }
+        wchar_t *w = Py_DecodeLocale(file, NULL);
         if (!w) { status = PyStatus_NoMemory(); break; }
         status = PyWideStringList_Append(&config.module_search_paths, w);
         PyMem_RawFree(w);
@@ -263,111 +277,85 @@ static int start_python(const RuntimeCfg *cfg, char *err, size_t errsize)
     if (!PyStatus_Exception(status)) status = Py_InitializeFromConfig(&config);
     PyConfig_Clear(&config);
     if (PyStatus_Exception(status)) {
-        snprintf(err, errsize, "cannot start Python %s (home %s): %s%s%s", cfg->version,
-                 cfg->home ? cfg->home : "?", status.func ? status.func : "",
-                 status.func ? ": " : "", status.err_msg ? status.err_msg : "unknown error");
+        snprintf(err, errsize, "cannot start the FMU's Python %s (home %s/%s): %s%s%s", cfg->version, resources,
+                 cfg->home, status.func ? status.func : "", status.func ? ": " : "",
+                 status.err_msg ? status.err_msg : "unknown error");
         return -1;
     }
     PyEval_SaveThread();   /* release the GIL: every call takes it with PyGILState_Ensure */
     return 0;
 }
 
-/* ------------------------------------------------------------------------------ one copy of a package
- * A process runs one interpreter and one copy of each package. When the host process has already
- * imported a package this FMU carries in resources/ (a Python host that imported spurdiff, or another
- * FMU built from other sources), importing the FMU's module would silently run that copy. Before the
- * import, every module file the FMU carries is compared with the copy already loaded; a difference
- * refuses the instantiation with the reason (equal copies, e.g. FMUs built from the checkout the host
- * runs, go on). The comparison runs once per (package, loaded copy, FMU copy) and process. */
-static const char *IDENTITY_CHECK_SOURCE =
-"import hashlib, os, sys\n"
-"_pairs = {}     # (loaded copy, FMU copy) -> the first difference or None\n"
-"_digests = {}   # FMU copy -> digest of its module files (an FMU's extraction folder may be gone later)\n"
-"def _files(root):\n"
-"    if os.path.isfile(root):\n"
-"        yield os.path.basename(root), root\n"
-"        return\n"
-"    for d, dirs, names in os.walk(root):\n"
-"        dirs[:] = sorted(x for x in dirs if x != '__pycache__')\n"
-"        for n in sorted(names):\n"
-"            if n.endswith('.py'):\n"
-"                full = os.path.join(d, n)\n"
-"                yield os.path.relpath(full, root), full\n"
-"def _digest(root):\n"
-"    h = hashlib.sha256()\n"
-"    for rel, full in _files(root):\n"
-"        with open(full, 'rb') as f:\n"
-"            h.update(rel.encode() + b'\\0' + f.read() + b'\\0')\n"
-"    return h.hexdigest()\n"
-"def _first_difference(mine, theirs):\n"
-"    for rel, a in _files(mine):\n"
-"        b = theirs if os.path.isfile(mine) else os.path.join(theirs, rel)\n"
-"        try:\n"
-"            with open(a, 'rb') as f, open(b, 'rb') as g:\n"
-"                if f.read() != g.read():\n"
-"                    return rel + ' differs'\n"
-"        except OSError:\n"
-"            return rel + ' is missing in the loaded copy'\n"
-"    return None\n"
-"def check(resources):\n"
+/* ------------------------------------------------------------------------------ the FMU's package
+ * One module per process (whichever FMU's bridge came first; the name carries the protocol
+ * version): load() imports resources/<package> as `_spurdiff_fmu_<digest of the folder and the
+ * GUID>` and returns (that name, the slave class); release() counts the instances down. An alias
+ * whose folder is gone and which has no instance left is dropped from sys.modules at the next
+ * load. numpy comes from the process (the host's, or the runtime's on the FMU's own Python); a
+ * Python host without numpy gets the runtime's site-packages at the end of its path. */
+static const char *BOOT_SOURCE =
+"import hashlib, importlib, importlib.util, os, sys\n"
+"_live = {}   # alias -> [instances, folder]\n"
+"def _drop(alias):\n"
+"    for name in [n for n in list(sys.modules) if n == alias or n.startswith(alias + '.')]:\n"
+"        del sys.modules[name]\n"
+"def load(resources, package, module, klass, guid, site):\n"
 "    res = os.path.realpath(resources)\n"
-"    carried = []\n"
-"    for entry in sorted(os.listdir(res)):\n"
-"        mine = os.path.join(res, entry)\n"
-"        if entry.endswith('.py') and os.path.isfile(mine):\n"
-"            carried.append((entry[:-3], False, mine))\n"
-"        elif os.path.isfile(os.path.join(mine, '__init__.py')):\n"
-"            carried.append((entry, True, mine))\n"
-"    for name, package, mine in carried:\n"
-"        m = sys.modules.get(name)\n"
-"        origin = getattr(m, '__file__', None) if m is not None else None\n"
-"        if not origin:\n"
-"            continue\n"
-"        theirs = os.path.realpath(origin)\n"
-"        if package:\n"
-"            theirs = os.path.dirname(theirs)\n"
-"        if theirs == mine:\n"
-"            continue\n"
-"        if theirs in _digests:   # loaded from another FMU's copy: compare with what that copy held\n"
-"            if mine not in _digests:\n"
-"                _digests[mine] = _digest(mine)\n"
-"            why = None if _digests[mine] == _digests[theirs] else 'its module files differ'\n"
-"        else:                    # the host's own copy: compare the files\n"
-"            if (theirs, mine) not in _pairs:\n"
-"                _pairs[(theirs, mine)] = _first_difference(mine, theirs)\n"
-"            why = _pairs[(theirs, mine)]\n"
-"        if why:\n"
-"            return ('this process already imported the Python %s %r from %s, which is not the copy this FMU '\n"
-"                    'carries (%s); one interpreter holds one copy of a package, so the FMU would run '\n"
-"                    'that code, not its own. Load the FMU in a process that has not imported another %r, or '\n"
-"                    'rebuild it from that version (spurdiff build)'\n"
-"                    % ('package' if package else 'module', name, theirs, why, name))\n"
-"    for name, package, mine in carried:\n"
-"        if mine not in _digests:\n"
-"            _digests[mine] = _digest(mine)\n"
-"    return None\n";
+"    for a, (count, folder) in list(_live.items()):\n"
+"        if count <= 0 and not os.path.isdir(folder):\n"
+"            _drop(a)\n"
+"            del _live[a]\n"
+"    try:\n"
+"        import numpy\n"
+"    except ImportError:\n"
+"        for p in site:\n"
+"            if p not in sys.path:\n"
+"                sys.path.append(p)\n"
+"        import numpy\n"
+"    key = hashlib.sha256(os.fsencode(res) + b'\\0' + guid.encode()).hexdigest()[:16]\n"
+"    alias = '_spurdiff_fmu_' + key\n"
+"    if alias not in sys.modules:\n"
+"        root = os.path.join(res, package)\n"
+"        spec = importlib.util.spec_from_file_location(alias, os.path.join(root, '__init__.py'),\n"
+"                                                      submodule_search_locations=[root])\n"
+"        if spec is None:\n"
+"            raise ImportError('the FMU has no package ' + root)\n"
+"        mod = importlib.util.module_from_spec(spec)\n"
+"        sys.modules[alias] = mod\n"
+"        try:\n"
+"            spec.loader.exec_module(mod)\n"
+"        except BaseException:\n"
+"            _drop(alias)\n"
+"            raise\n"
+"    try:\n"
+"        cls = getattr(importlib.import_module(alias + '.' + module), klass)\n"
+"    except BaseException:\n"
+"        if alias not in _live:\n"
+"            _drop(alias)\n"
+"        raise\n"
+"    _live.setdefault(alias, [0, res])[0] += 1\n"
+"    return alias, cls\n"
+"def release(alias):\n"
+"    if alias in _live:\n"
+"        _live[alias][0] -= 1\n";
 
-/* None when the FMU may import its module, else the reason (new reference), NULL with an error set. */
-static PyObject *identity_check(const char *resources)
+/* The boot module (borrowed), NULL with an error set. */
+static PyObject *boot_module(void)
 {
-    /* One module per process, whichever FMU's bridge came first: each FMU loads its own copy of this
-     * library, and the record of what each FMU copy held must be shared by all of them. */
-    static const char *NAME = "_spurdiff_fmu_identity_1";
+    static const char *NAME = "_spurdiff_fmu_boot_2";
     PyObject *modules = PyImport_GetModuleDict();   /* borrowed */
     PyObject *mod = PyDict_GetItemString(modules, NAME);   /* borrowed */
-    if (!mod) {
-        PyObject *m = PyModule_New(NAME);
-        if (!m) return NULL;
-        PyObject *globals = PyModule_GetDict(m);   /* borrowed */
-        if (PyDict_SetItemString(globals, "__builtins__", PyEval_GetBuiltins()) != 0) { Py_DECREF(m); return NULL; }
-        PyObject *r = PyRun_String(IDENTITY_CHECK_SOURCE, Py_file_input, globals, globals);
-        if (!r) { Py_DECREF(m); return NULL; }
-        Py_DECREF(r);
-        if (PyDict_SetItemString(modules, NAME, m) != 0) { Py_DECREF(m); return NULL; }
-        Py_DECREF(m);
-        mod = m;
-    }
-    return PyObject_CallMethod(mod, "check", "s", resources);
+    if (mod) return mod;
+    PyObject *m = PyModule_New(NAME);
+    if (!m) return NULL;
+    PyObject *globals = PyModule_GetDict(m);   /* borrowed */
+    if (PyDict_SetItemString(globals, "__builtins__", PyEval_GetBuiltins()) != 0) { Py_DECREF(m); return NULL; }
+    PyObject *r = PyRun_String(BOOT_SOURCE, Py_file_input, globals, globals);
+    if (!r) { Py_DECREF(m); return NULL; }
+    Py_DECREF(r);
+    if (PyDict_SetItemString(modules, NAME, m) != 0) { Py_DECREF(m); return NULL; }
+    Py_DECREF(m);
+    return m;
 }
 
 /* ------------------------------------------------------------------------------ instances */
@@ -432,6 +420,17 @@ static void drop_vr_caches(Instance *I)
         for (int k = 0; k < VR_SLOTS; k++) drop_entry(&I->vrc[i].e[k]);
 }
 
+/* The instance no longer uses its package alias (GIL held). */
+static void release_alias(Instance *I)
+{
+    if (!I || !I->alias) return;
+    PyObject *boot = boot_module();
+    PyObject *r = boot ? PyObject_CallMethod(boot, "release", "O", I->alias) : NULL;
+    Py_XDECREF(r);
+    if (PyErr_Occurred()) PyErr_Clear();
+    Py_CLEAR(I->alias);
+}
+
 static void free_instance(Instance *I)
 {
     if (!I) return;
@@ -447,7 +446,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
                               fmi2Boolean loggingOn)
 {
     RuntimeCfg cfg;
-    char err[8192];
+    char err[8192], file[CFG_MAX_LINE];
     if (cfg_read(resources, &cfg, err, sizeof err) != 0) {
         emitf(functions, instanceName, fmi2Error, "fmi2Instantiate: %s", err);
         return NULL;
@@ -459,12 +458,12 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         goto fail;
     }
     if (!fmuGUID || strcmp(fmuGUID, cfg.guid) != 0) {
-        emitf(functions, instanceName, fmi2Error, "fmi2Instantiate: GUID '%s' does not match this FMU's "
+        emitf(functions, instanceName, fmi2Error, "fmi2Instantiate: GUID '%.200s' does not match this FMU's "
               "modelDescription.xml ('%s')", fmuGUID ? fmuGUID : "(null)", cfg.guid);
         goto fail;
     }
     pthread_mutex_lock(&init_lock);
-    int rc = start_python(&cfg, err, sizeof err);
+    int rc = start_python(&cfg, resources, err, sizeof err);
     pthread_mutex_unlock(&init_lock);
     if (rc != 0) {
         emitf(functions, instanceName, fmi2Error, "fmi2Instantiate: %s", err);
@@ -480,44 +479,32 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     I->visible = visible ? 1 : 0;
 
     PyGILState_STATE g = PyGILState_Ensure();
-    const char *stage = "";
-    /* the packages the FMU needs, named when missing */
-    for (int i = 0; i < cfg.n_require; i++) {
-        PyObject *m = PyImport_ImportModule(cfg.require[i]);
-        if (!m) {
-            char text[4096];
-            exception_text(text, sizeof text);
-            emitf(functions, instanceName, fmi2Error,
-                  "fmi2Instantiate: this FMU needs the Python package '%s', which Python %s (%s) cannot "
-                  "import: %s. Install it for that interpreter (pip install %s).",
-                  cfg.require[i], Py_GetVersion(), cfg.executable ? cfg.executable : "?", text, cfg.require[i]);
-            PyGILState_Release(g);
-            goto fail;
-        }
-        Py_DECREF(m);
+    const char *stage = "loading the FMU's package";
+    PyObject *site = PyList_New(0), *r = NULL;
+    for (int i = 0; site && i < cfg.n_path; i++) {
+        const char *slash = strrchr(cfg.path[i], '/');
+        if (strcmp(slash ? slash + 1 : cfg.path[i], "site-packages") != 0) continue;
+        PyObject *p = cfg_join(resources, cfg.path[i], file, sizeof file) == 0 ? PyUnicode_DecodeFSDefault(file) : NULL;
+        if (!p || PyList_Append(site, p) != 0) Py_CLEAR(site);
+        Py_XDECREF(p);
     }
-    /* resources/ first on sys.path, then the slave module and class */
-    PyObject *sys_path = PySys_GetObject("path");   /* borrowed */
-    PyObject *res = PyUnicode_DecodeFSDefault(resources);
-    int present = (res && sys_path) ? PySequence_Contains(sys_path, res) : -1;
-    if (present < 0 || (!present && PyList_Insert(sys_path, 0, res) != 0)) { stage = "sys.path"; goto pyfail; }
-    Py_CLEAR(res);
-    PyObject *why = identity_check(resources);
-    if (!why) { stage = "comparing the FMU's packages with those already imported"; goto pyfail; }
-    if (why != Py_None) {
-        const char *text = PyUnicode_AsUTF8(why);
-        emitf(functions, instanceName, fmi2Error, "fmi2Instantiate: %s", text ? text : "(no text)");
-        PyErr_Clear();
-        Py_DECREF(why);
-        PyGILState_Release(g);
-        goto fail;
+    PyObject *boot = site ? boot_module() : NULL;
+    PyObject *res = boot ? PyUnicode_DecodeFSDefault(resources) : NULL;
+    if (res)
+        r = PyObject_CallMethod(boot, "load", "OssssO", res, cfg.package, cfg.module, cfg.klass, cfg.guid, site);
+    Py_XDECREF(res);
+    Py_XDECREF(site);
+    if (!r) goto pyfail;
+    if (!PyTuple_Check(r) || PyTuple_GET_SIZE(r) != 2) {
+        Py_DECREF(r);
+        PyErr_SetString(PyExc_TypeError, "the boot module's load() did not return (alias, class)");
+        goto pyfail;
     }
-    Py_DECREF(why);
-    PyObject *mod = PyImport_ImportModule(cfg.module);
-    if (!mod) { stage = "importing the FMU's module"; goto pyfail; }
-    I->klass = PyObject_GetAttrString(mod, cfg.klass);
-    Py_DECREF(mod);
-    if (!I->klass) { stage = "finding the slave class"; goto pyfail; }
+    I->alias = PyTuple_GET_ITEM(r, 0);
+    I->klass = PyTuple_GET_ITEM(r, 1);
+    Py_INCREF(I->alias);
+    Py_INCREF(I->klass);
+    Py_DECREF(r);
     if (make_slave(I) != 0) { stage = "creating the slave"; goto pyfail; }
     flush_log(I);
     PyGILState_Release(g);
@@ -525,12 +512,12 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     return I;
 
 pyfail:
-    Py_XDECREF(res);
     {
         char text[4096];
         exception_text(text, sizeof text);
         emitf(functions, instanceName, fmi2Error, "fmi2Instantiate: %s failed: %s", stage, text);
     }
+    release_alias(I);
     Py_CLEAR(I->klass);
     drop_methods(I);
     PyGILState_Release(g);
@@ -550,6 +537,7 @@ void fmi2FreeInstance(fmi2Component c)
     drop_vr_caches(I);
     Py_CLEAR(I->klass);
     Py_CLEAR(I->strings);
+    release_alias(I);
     PyGILState_Release(g);
     free_instance(I);
 }

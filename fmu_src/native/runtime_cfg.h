@@ -1,47 +1,60 @@
-/* The FMU's Python runtime description, resources/python_runtime.cfg (written by the build).
+/* The FMU's runtime description, resources/python_runtime.cfg (written by harness/build.py).
  *
- * One `key=value` per line, `#` starts a comment line. Keys:
- *   libpython  absolute path of the shared libpython the FMU was built with
- *   version    that Python's "major.minor" (e.g. 3.11); a process that already runs another
- *              Python version is refused
- *   executable the building interpreter (for messages only)
- *   home       its sys.base_prefix (PyConfig.home)
- *   path       one sys.path entry of the building interpreter (repeated, in order)
- *   require    a module the FMU needs (repeated): checked at instantiate, named when missing
- *   module     the FMU script's module name in resources/
- *   class      the Fmi2Slave subclass in that module
+ * Format 2. One `key=value` per line, `#` starts a comment line; nothing else. Every path is
+ * relative to the FMU's resources folder (no leading '/', no '..' component): the FMU carries its
+ * own Python, nothing from the building machine is recorded. Keys:
+ *   format     2
+ *   version    the runtime's Python "major.minor" (e.g. 3.11)
+ *   libpython  the runtime's shared libpython
+ *   home       PyConfig.home of the runtime (sys.base_prefix inside the FMU)
+ *   path       one module search path entry of the runtime (repeated, in order)
+ *   preload    a shared library the runtime's extension modules need (repeated; loaded first)
+ *   package    the FMU's Python package folder, imported under a private name per extraction
+ *   module     the module inside that package that holds the slave class
+ *   class      the slave class
  *   guid       the guid of modelDescription.xml; fmi2Instantiate refuses any other
- * Shared by the loader and the bridge (header-only, static functions).
+ * The file is read strictly: a regular file of at most CFG_MAX_FILE bytes, lines of at most
+ * CFG_MAX_LINE - 1 bytes, no NUL byte, known keys only, each single key once, at most
+ * CFG_MAX_LIST of a repeated one; anything else refuses the FMU with the line named.
+ * Shared by the loader, the server and the bridge (header-only, static functions).
  */
 #ifndef SPURDIFF_RUNTIME_CFG_H
 #define SPURDIFF_RUNTIME_CFG_H
 
 #include <ctype.h>
+#include <errno.h>
+#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #define CFG_MAX_LIST 64
 #define CFG_MAX_LINE 4096
+#define CFG_MAX_FILE 65536
+#define CFG_FILE "python_runtime.cfg"
+#define CFG_FORMAT "2"
+#define CFG_FN static __attribute__((unused))
 
 typedef struct {
-    char *libpython, *version, *executable, *home, *module, *klass, *guid;
+    char *format, *version, *libpython, *home, *package, *module, *klass, *guid;
     char *path[CFG_MAX_LIST];
     int n_path;
-    char *require[CFG_MAX_LIST];
-    int n_require;
+    char *preload[CFG_MAX_LIST];
+    int n_preload;
 } RuntimeCfg;
 
-static void cfg_free(RuntimeCfg *c)
+CFG_FN void cfg_free(RuntimeCfg *c)
 {
-    free(c->libpython); free(c->version); free(c->executable); free(c->home);
-    free(c->module); free(c->klass); free(c->guid);
+    free(c->format); free(c->version); free(c->libpython); free(c->home);
+    free(c->package); free(c->module); free(c->klass); free(c->guid);
     for (int i = 0; i < c->n_path; i++) free(c->path[i]);
-    for (int i = 0; i < c->n_require; i++) free(c->require[i]);
+    for (int i = 0; i < c->n_preload; i++) free(c->preload[i]);
     memset(c, 0, sizeof *c);
 }
 
-static char *cfg_strdup(const char *s)
+CFG_FN char *cfg_strdup(const char *s)
 {
     size_t n = strlen(s) + 1;
     char *d = (char *)malloc(n);
@@ -51,7 +64,7 @@ static char *cfg_strdup(const char *s)
 
 /* Decode a resource location (file URI, RFC 8089 forms file:/p, file:///p, file://localhost/p,
  * with %XX escapes) or a plain path into `out`. Returns 0 on success. */
-static inline int cfg_uri_to_path(const char *uri, char *out, size_t size)
+CFG_FN int cfg_uri_to_path(const char *uri, char *out, size_t size)
 {
     const char *p = uri;
     if (!uri || !*uri) return -1;
@@ -70,6 +83,7 @@ static inline int cfg_uri_to_path(const char *uri, char *out, size_t size)
             char hex[3] = {p[1], p[2], 0};
             ch = (int)strtol(hex, NULL, 16);
             p += 2;
+            if (ch == 0) return -1;                  /* %00 would cut the path */
         }
         if (n + 1 >= size) return -1;
         out[n++] = (char)ch;
@@ -79,44 +93,171 @@ static inline int cfg_uri_to_path(const char *uri, char *out, size_t size)
     return 0;
 }
 
-/* Read `<resources>/python_runtime.cfg`. Returns 0, or -1 with a reason in `err`. */
-static int cfg_read(const char *resources, RuntimeCfg *c, char *err, size_t errsize)
+/* A relative path inside the resources folder: not empty, no leading '/', no '..' component,
+ * no backslash. */
+CFG_FN int cfg_relative_ok(const char *v)
 {
-    char file[CFG_MAX_LINE], line[CFG_MAX_LINE];
+    if (!*v || v[0] == '/' || strchr(v, '\\')) return 0;
+    for (const char *p = v; *p;) {
+        const char *e = strchr(p, '/');
+        size_t n = e ? (size_t)(e - p) : strlen(p);
+        if (n == 2 && p[0] == '.' && p[1] == '.') return 0;
+        p += n + (e ? 1 : 0);
+    }
+    return 1;
+}
+
+/* A Python identifier (dotted when `dots`), ASCII. */
+CFG_FN int cfg_identifier_ok(const char *v, int dots)
+{
+    int start = 1;
+    if (!*v) return 0;
+    for (const char *p = v; *p; p++) {
+        unsigned char ch = (unsigned char)*p;
+        if (dots && ch == '.' && !start) { start = 1; continue; }
+        if (!(isalpha(ch) || ch == '_' || (!start && isdigit(ch)))) return 0;
+        start = 0;
+    }
+    return !start;
+}
+
+/* Join the resources folder and a relative cfg path into `out`. 0, or -1 when it does not fit. */
+CFG_FN int cfg_join(const char *resources, const char *rel, char *out, size_t size)
+{
+    int n = snprintf(out, size, "%s/%s", resources, rel);
+    return (n < 0 || (size_t)n >= size) ? -1 : 0;
+}
+
+/* Read `<resources>/python_runtime.cfg`. Returns 0, or -1 with a reason in `err`. */
+CFG_FN int cfg_read(const char *resources, RuntimeCfg *c, char *err, size_t errsize)
+{
+    char file[CFG_MAX_LINE];
     memset(c, 0, sizeof *c);
-    snprintf(file, sizeof file, "%s/python_runtime.cfg", resources);
-    FILE *f = fopen(file, "r");
-    if (!f) {
-        snprintf(err, errsize, "cannot read %s (the FMU's resources are incomplete)", file);
+    if (cfg_join(resources, CFG_FILE, file, sizeof file) != 0) {
+        snprintf(err, errsize, "the resources path is longer than %d bytes", CFG_MAX_LINE - 32);
         return -1;
     }
-    while (fgets(line, sizeof line, f)) {
-        size_t n = strlen(line);
-        while (n && (line[n - 1] == '\n' || line[n - 1] == '\r')) line[--n] = 0;
+    /* O_NONBLOCK: a FIFO planted in its place must not block the open; it is refused below */
+    int fd = open(file, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) {
+        snprintf(err, errsize, "cannot read %s: %s (the FMU's resources are incomplete or not readable)",
+                 file, strerror(errno));
+        return -1;
+    }
+    struct stat st;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        snprintf(err, errsize, "%s is not a regular file (the FMU's resources are damaged)", file);
+        close(fd);
+        return -1;
+    }
+    if (st.st_size > CFG_MAX_FILE) {
+        snprintf(err, errsize, "%s has %lld bytes, more than the %d a runtime description may have",
+                 file, (long long)st.st_size, CFG_MAX_FILE);
+        close(fd);
+        return -1;
+    }
+    char *text = (char *)malloc((size_t)st.st_size + 1);
+    size_t got = 0;
+    while (text && got < (size_t)st.st_size) {
+        ssize_t r = read(fd, text + got, (size_t)st.st_size - got);
+        if (r < 0 && errno == EINTR) continue;
+        if (r <= 0) break;
+        got += (size_t)r;
+    }
+    close(fd);
+    if (!text || got != (size_t)st.st_size) {
+        snprintf(err, errsize, "cannot read %s completely", file);
+        free(text);
+        return -1;
+    }
+    text[got] = 0;
+    if (memchr(text, 0, got)) {
+        snprintf(err, errsize, "%s contains a NUL byte (the FMU's resources are damaged)", file);
+        free(text);
+        return -1;
+    }
+    int lineno = 0, rc = 0;
+    char *p = text;
+    while (*p && rc == 0) {
+        char *nl = strchr(p, '\n');
+        size_t n = nl ? (size_t)(nl - p) : strlen(p);
+        lineno++;
+        if (n >= CFG_MAX_LINE) {
+            snprintf(err, errsize, "%.2000s line %d is longer than %d bytes", file, lineno, CFG_MAX_LINE - 1);
+            rc = -1;
+            break;
+        }
+        char line[CFG_MAX_LINE];
+        memcpy(line, p, n);
+        line[n] = 0;
+        p += n + (nl ? 1 : 0);
+        if (n && line[n - 1] == '\r') line[--n] = 0;
         if (!n || line[0] == '#') continue;
         char *eq = strchr(line, '=');
-        if (!eq) continue;
+        if (!eq) {
+            snprintf(err, errsize, "%.2000s line %d is not key=value", file, lineno);
+            rc = -1;
+            break;
+        }
         *eq = 0;
         const char *k = line, *v = eq + 1;
         char **slot = NULL;
-        if (!strcmp(k, "libpython")) slot = &c->libpython;
+        int kind = 0;   /* 0 plain, 1 relative path, 2 identifier, 3 dotted identifier */
+        if (!strcmp(k, "format")) slot = &c->format;
         else if (!strcmp(k, "version")) slot = &c->version;
-        else if (!strcmp(k, "executable")) slot = &c->executable;
-        else if (!strcmp(k, "home")) slot = &c->home;
-        else if (!strcmp(k, "module")) slot = &c->module;
-        else if (!strcmp(k, "class")) slot = &c->klass;
+        else if (!strcmp(k, "libpython")) { slot = &c->libpython; kind = 1; }
+        else if (!strcmp(k, "home")) { slot = &c->home; kind = 1; }
+        else if (!strcmp(k, "package")) { slot = &c->package; kind = 2; }
+        else if (!strcmp(k, "module")) { slot = &c->module; kind = 3; }
+        else if (!strcmp(k, "class")) { slot = &c->klass; kind = 2; }
         else if (!strcmp(k, "guid")) slot = &c->guid;
-        else if (!strcmp(k, "path") && c->n_path < CFG_MAX_LIST) slot = &c->path[c->n_path++];
-        else if (!strcmp(k, "require") && c->n_require < CFG_MAX_LIST) slot = &c->require[c->n_require++];
-        if (slot) { free(*slot); *slot = cfg_strdup(v); }
+        else if (!strcmp(k, "path") || !strcmp(k, "preload")) {
+            int *count = k[1] == 'a' ? &c->n_path : &c->n_preload;
+            char **list = k[1] == 'a' ? c->path : c->preload;
+            if (*count >= CFG_MAX_LIST) {
+                snprintf(err, errsize, "%.2000s line %d: more than %d '%s' lines", file, lineno, CFG_MAX_LIST, k);
+                rc = -1;
+                break;
+            }
+            slot = &list[(*count)++];
+            kind = 1;
+        } else {
+            snprintf(err, errsize, "%.2000s line %d: unknown key '%.40s'", file, lineno, k);
+            rc = -1;
+            break;
+        }
+        if (*slot) {
+            snprintf(err, errsize, "%.2000s line %d: '%.40s' given twice", file, lineno, k);
+            rc = -1;
+            break;
+        }
+        if (!*v || (kind == 1 && !cfg_relative_ok(v)) || (kind == 2 && !cfg_identifier_ok(v, 0)) ||
+            (kind == 3 && !cfg_identifier_ok(v, 1))) {
+            snprintf(err, errsize, "%.2000s line %d: '%.40s' must be %s", file, lineno, k,
+                     kind == 1 ? "a relative path inside the resources folder (no '/' at the start, no '..')"
+                     : kind ? "a Python identifier" : "a non-empty value");
+            rc = -1;
+            break;
+        }
+        if (!(*slot = cfg_strdup(v))) {
+            snprintf(err, errsize, "out of memory reading %s", file);
+            rc = -1;
+        }
     }
-    fclose(f);
-    if (!c->libpython || !c->version || !c->module || !c->klass || !c->guid) {
-        snprintf(err, errsize, "%s lacks one of libpython, version, module, class, guid", file);
-        cfg_free(c);
-        return -1;
+    free(text);
+    if (rc == 0 && (!c->format || strcmp(c->format, CFG_FORMAT) != 0)) {
+        snprintf(err, errsize, "%s has format %s where this loader reads format " CFG_FORMAT
+                 " (the FMU's binary and resources come from different builds)", file,
+                 c->format ? c->format : "(none)");
+        rc = -1;
     }
-    return 0;
+    if (rc == 0 && (!c->version || !c->libpython || !c->home || !c->n_path || !c->package || !c->module ||
+                    !c->klass || !c->guid)) {
+        snprintf(err, errsize, "%s lacks one of version, libpython, home, path, package, module, class, guid", file);
+        rc = -1;
+    }
+    if (rc != 0) cfg_free(c);
+    return rc;
 }
 
 #endif

@@ -1,0 +1,100 @@
+/* See fmi2_inproc.h. */
+#define _GNU_SOURCE
+#include <dlfcn.h>
+#include <limits.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "fmi2_inproc.h"
+
+#define BRIDGE_FILE "fmi2_pybridge.so"
+#define BRIDGE_PREFIX "spurdiff_bridge_"
+
+static Fmi2Table B;
+static int B_loaded;
+static pthread_mutex_t load_lock = PTHREAD_MUTEX_INITIALIZER;
+
+int inproc_host_python(const RuntimeCfg *cfg, char *version, size_t size)
+{
+    const char *(*get_version)(void);
+    void *sym = dlsym(RTLD_DEFAULT, "Py_GetVersion");
+    if (size) version[0] = 0;
+    if (!sym) return INPROC_NONE;
+    memcpy(&get_version, &sym, sizeof sym);
+    const char *v = get_version();   /* callable before initialization: a constant string */
+    size_t n = strlen(cfg->version);
+    snprintf(version, size, "%.*s", (int)strcspn(v, " "), v);
+    return (strncmp(v, cfg->version, n) == 0 && (v[n] == '.' || v[n] == ' ' || v[n] == 0)) ? INPROC_SAME
+                                                                                           : INPROC_OTHER;
+}
+
+static int load_python(const RuntimeCfg *cfg, const char *resources, char *err, size_t errsize)
+{
+    char v[64], file[PATH_MAX];
+    int host = inproc_host_python(cfg, v, sizeof v);
+    if (host == INPROC_SAME) return 0;
+    if (host == INPROC_OTHER) {
+        snprintf(err, errsize, "this process runs Python %s; the FMU's runtime is Python %s", v, cfg->version);
+        return -1;
+    }
+    for (int i = 0; i < cfg->n_preload; i++) {
+        if (cfg_join(resources, cfg->preload[i], file, sizeof file) != 0 || !dlopen(file, RTLD_NOW | RTLD_GLOBAL)) {
+            snprintf(err, errsize, "cannot load %s, a library of the FMU's runtime: %s", file, dlerror());
+            return -1;
+        }
+    }
+    if (cfg_join(resources, cfg->libpython, file, sizeof file) != 0 || !dlopen(file, RTLD_NOW | RTLD_GLOBAL)) {
+        snprintf(err, errsize, "cannot load %s, the FMU's Python %s: %s", file, cfg->version, dlerror());
+        return -1;
+    }
+    return 0;
+}
+
+static int load_bridge(const char *bindir, char *err, size_t errsize)
+{
+    char file[PATH_MAX + 32];
+    snprintf(file, sizeof file, "%s/%s", bindir, BRIDGE_FILE);
+    void *h = dlopen(file, RTLD_NOW | RTLD_LOCAL);
+    if (!h) {
+        snprintf(err, errsize, "cannot load the Python bridge %s: %s", file, dlerror());
+        return -1;
+    }
+    void *sym;
+#define LOAD(name)                                                                                  \
+    if (!(sym = dlsym(h, BRIDGE_PREFIX #name))) {                                                  \
+        snprintf(err, errsize, "the bridge %s lacks %s", file, BRIDGE_PREFIX #name);               \
+        return -1;                                                                                 \
+    }                                                                                              \
+    memcpy(&B.name, &sym, sizeof sym);
+#define X_LOAD(name, params, args) LOAD(name)
+    FMI2_FORWARDED(X_LOAD)
+    LOAD(fmi2FreeInstance)
+    LOAD(fmi2GetString)
+    LOAD(fmi2Instantiate)
+#undef X_LOAD
+#undef LOAD
+    return 0;
+}
+
+int inproc_load(const RuntimeCfg *cfg, const char *resources, const char *bindir, const Fmi2Table **table,
+                char *err, size_t errsize)
+{
+    int rc = 0;
+    pthread_mutex_lock(&load_lock);
+    if (!B_loaded) {
+        rc = load_python(cfg, resources, err, errsize);
+        if (rc == 0) rc = load_bridge(bindir, err, errsize);
+        if (rc == 0) B_loaded = 1;
+    } else {
+        /* the bridge is loaded: the Python it runs on must still be the runtime's version */
+        char v[64];
+        if (inproc_host_python(cfg, v, sizeof v) != INPROC_SAME) {
+            snprintf(err, errsize, "this process runs Python %s; the FMU's runtime is Python %s", v, cfg->version);
+            rc = -1;
+        }
+    }
+    pthread_mutex_unlock(&load_lock);
+    if (rc == 0) *table = &B;
+    return rc;
+}

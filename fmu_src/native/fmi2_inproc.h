@@ -1,0 +1,23 @@
+/* The model in this process: the runtime's Python (or the host's of the same version) and the
+ * bridge. Used by the loader (a host that can share) and by the server (the model's own process). */
+#ifndef SPURDIFF_FMI2_INPROC_H
+#define SPURDIFF_FMI2_INPROC_H
+
+#include <stddef.h>
+
+#include "fmi2_table.h"
+#include "runtime_cfg.h"
+
+/* Which Python the process runs, seen from the runtime description:
+ * INPROC_NONE: none; INPROC_SAME: one of the runtime's major.minor (the bridge uses it);
+ * INPROC_OTHER: another version (`version` gets it): the model must run in its own process. */
+enum { INPROC_NONE, INPROC_SAME, INPROC_OTHER };
+int inproc_host_python(const RuntimeCfg *cfg, char *version, size_t size);
+
+/* Make the Python symbols global (the process's own Python of the same version, else the
+ * runtime's libpython after its preloads), then load <bindir>/fmi2_pybridge.so and fill its
+ * table. Thread-safe; loads once per process. 0, or -1 with the reason in `err`. */
+int inproc_load(const RuntimeCfg *cfg, const char *resources, const char *bindir, const Fmi2Table **table,
+                char *err, size_t errsize);
+
+#endif

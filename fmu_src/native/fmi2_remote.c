@@ -1,0 +1,701 @@
+/* The model in its own process, seen from the host (see ipc.h for the protocol and
+ * fmi2_server.c for the other side).
+ *
+ * remote_instantiate starts binaries/<platform>/spurdiff_fmu_server with posix_spawn (in its own
+ * process group, so a terminal's Ctrl-C reaches the host, which decides; through the dynamic
+ * loader when the extracted file lost its execute bit), hands it a memfd and the read end of a
+ * pipe, and forwards fmi2Instantiate. Every later call is one round trip; the model's log
+ * records come back with the answer and go to the host's logger on the calling thread. When the
+ * server dies (a crash of the model), the call returns fmi2Error with the signal named, and so
+ * does every later call but fmi2FreeInstance. The server ends with fmi2FreeInstance, or by itself
+ * when the host process is gone (its pipe reads end of file).
+ */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <pthread.h>
+#include <signal.h>
+#include <spawn.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "fmi2_remote.h"
+#include "ipc.h"
+
+#define SERVER_FILE "spurdiff_fmu_server"
+#define REMOTE_MAGIC 0x52454D54u   /* "REMT" */
+#define RSTATE_MAGIC 0x52535441u   /* "RSTA" */
+
+#if defined(__x86_64__)
+#define DYNAMIC_LOADER "/lib64/ld-linux-x86-64.so.2"
+#elif defined(__aarch64__)
+#define DYNAMIC_LOADER "/lib/ld-linux-aarch64.so.1"
+#else
+#define DYNAMIC_LOADER ""
+#endif
+
+typedef struct {
+    unsigned magic;
+    char *name;
+    fmi2CallbackFunctions cb;
+    void *base;
+    IpcHeader *h;
+    int shm_fd, pipe_w;
+    pid_t pid;
+    int dead;                  /* the server is gone: every call but free fails */
+    char *strings;             /* the last fmi2GetString / fmi2GetStringStatus answer's text */
+    fmi2String *string_ptrs;
+} Remote;
+
+typedef struct {
+    unsigned magic;
+    Remote *owner;
+    uint64_t id;
+} RState;
+
+/* ---------------------------------------------------------------------------- logging */
+static void say(const fmi2CallbackFunctions *cb, const char *name, fmi2Status status, const char *category,
+                const char *text)
+{
+    if (!cb || !cb->logger) {
+        if (status >= fmi2Warning) fprintf(stderr, "%s: %s\n", name ? name : "fmu", text);
+        return;
+    }
+    /* the text as the format, '%' doubled (as the bridge does) */
+    size_t n = strlen(text);
+    char *buf = (char *)malloc(2 * n + 1);
+    if (!buf) return;
+    size_t k = 0;
+    for (const char *p = text; *p; p++) {
+        if (*p == '%') buf[k++] = '%';
+        buf[k++] = *p;
+    }
+    buf[k] = 0;
+    cb->logger(cb->componentEnvironment, name ? name : "", status, category, buf);
+    free(buf);
+}
+
+static void sayf(Remote *r, fmi2Status status, const char *fmt, ...)
+{
+    char msg[4096];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    say(&r->cb, r->name, status, status >= fmi2Error ? "logStatusError" : "logAll", msg);
+}
+
+/* The server's log records of the last call, to the host's logger. */
+static void replay(Remote *r)
+{
+    IpcBuf b = {ipc_log(r->base), (size_t)(r->h->log_len <= IPC_LOG_CAP ? r->h->log_len : 0), 0, 0};
+    while (b.pos < b.cap && !b.bad) {
+        size_t ncat, nmsg;
+        int32_t status = ipc_get_i32(&b);
+        const char *cat = ipc_get_str(&b, &ncat);
+        const char *msg = ipc_get_str(&b, &nmsg);
+        if (b.bad) break;
+        char category[128], *text = (char *)malloc(nmsg + 1);
+        if (!text) break;
+        snprintf(category, sizeof category, "%.*s", (int)ncat, cat ? cat : "logAll");
+        memcpy(text, msg ? msg : "", nmsg);
+        text[nmsg] = 0;
+        if (status < fmi2OK || status > fmi2Pending) status = fmi2Error;
+        say(&r->cb, r->name, (fmi2Status)status, category, text);
+        free(text);
+    }
+    if (r->h->log_dropped)
+        sayf(r, fmi2Warning, "%u log messages of the model did not fit the shared log area", r->h->log_dropped);
+    r->h->log_len = 0;
+    r->h->log_dropped = 0;
+}
+
+/* ---------------------------------------------------------------------------- the server */
+static const char *signal_name(int sig)
+{
+    const char *s = strsignal(sig);
+    return s ? s : "unknown signal";
+}
+
+/* 1 while the server runs; else marks the instance dead and logs why (once). */
+static int server_alive(void *ctx)
+{
+    Remote *r = (Remote *)ctx;
+    if (r->dead) return 0;
+    int st;
+    pid_t w = waitpid(r->pid, &st, WNOHANG);
+    if (w == 0) return 1;
+    if (w < 0 && errno == ECHILD && kill(r->pid, 0) == 0) return 1;   /* reaped by someone else? still there */
+    r->dead = 1;
+    if (w == r->pid && WIFSIGNALED(st))
+        sayf(r, fmi2Error, "the model's process (pid %d) ended with signal %d (%s): the instance is lost; "
+             "free it and instantiate again", (int)r->pid, WTERMSIG(st), signal_name(WTERMSIG(st)));
+    else if (w == r->pid && WIFEXITED(st))
+        sayf(r, fmi2Error, "the model's process (pid %d) exited with status %d: the instance is lost; free it and "
+             "instantiate again", (int)r->pid, WEXITSTATUS(st));
+    else
+        sayf(r, fmi2Error, "the model's process (pid %d) is gone: the instance is lost", (int)r->pid);
+    return 0;
+}
+
+/* Send the call written in the data area (`len` bytes) and wait for the answer. The answer's
+ * status, or fmi2Error when the server died. */
+static fmi2Status roundtrip(Remote *r, uint32_t call, size_t len, IpcBuf *answer)
+{
+    if (r->dead) {
+        sayf(r, fmi2Error, "the model's process is gone (see the earlier message): only fmi2FreeInstance is possible");
+        return fmi2Error;
+    }
+    IpcHeader *h = r->h;
+    h->call = call;
+    h->len = len;
+    uint32_t seq = atomic_load(&h->req) + 1;
+    ipc_publish(&h->req, seq, &h->server_sleeps);
+    uint32_t old = seq - 1;
+    /* spin 100 us: the answer to a get or set comes in a few microseconds */
+    if (ipc_wait_change(&h->resp, old, &h->host_sleeps, 100000, 50000000L, server_alive, r) != 0) return fmi2Error;
+    replay(r);
+    answer->p = ipc_data(r->base);
+    answer->cap = h->len <= IPC_DATA_CAP ? (size_t)h->len : 0;
+    answer->pos = 0;
+    answer->bad = 0;
+    int32_t s = h->status;
+    return (s >= fmi2OK && s <= fmi2Pending) ? (fmi2Status)s : fmi2Error;
+}
+
+static IpcBuf request(Remote *r)
+{
+    IpcBuf b = {ipc_data(r->base), IPC_DATA_CAP, 0, 0};
+    return b;
+}
+
+static fmi2Status too_large(Remote *r, const char *fn)
+{
+    sayf(r, fmi2Error, "%s: the arguments do not fit the shared memory's %zu bytes", fn, (size_t)IPC_DATA_CAP);
+    return fmi2Error;
+}
+
+static int move_up(int fd)
+{
+    if (fd < 0 || fd > 10) return fd;
+    int up = fcntl(fd, F_DUPFD_CLOEXEC, 10);
+    close(fd);
+    return up;
+}
+
+static void drop(Remote *r)
+{
+    if (!r) return;
+    if (r->base && r->base != MAP_FAILED) munmap(r->base, IPC_SIZE);
+    if (r->shm_fd >= 0) close(r->shm_fd);
+    if (r->pipe_w >= 0) close(r->pipe_w);
+    free(r->name);
+    free(r->strings);
+    free(r->string_ptrs);
+    r->magic = 0;
+    free(r);
+}
+
+/* Wait up to `ms` for the server to exit; SIGKILL after that. */
+static void reap(Remote *r, int ms)
+{
+    if (r->pid <= 0) return;
+    for (int i = 0; i < ms; i++) {
+        pid_t w = waitpid(r->pid, NULL, WNOHANG);
+        if (w == r->pid || (w < 0 && errno == ECHILD)) return;
+        usleep(1000);
+    }
+    kill(r->pid, SIGKILL);
+    waitpid(r->pid, NULL, 0);
+}
+
+static int start_server(Remote *r, const char *resources, const char *bindir, char *err, size_t errsize)
+{
+    char server[PATH_MAX];
+    if (snprintf(server, sizeof server, "%s/%s", bindir, SERVER_FILE) >= (int)sizeof server) {
+        snprintf(err, errsize, "the FMU's path is too long");
+        return -1;
+    }
+    if (access(server, R_OK) != 0) {
+        snprintf(err, errsize, "cannot read %s: %s (the FMU was not extracted completely)", server, strerror(errno));
+        return -1;
+    }
+    r->shm_fd = move_up(memfd_create("spurdiff-fmu", MFD_CLOEXEC));
+    if (r->shm_fd < 0 || ftruncate(r->shm_fd, (off_t)IPC_SIZE) != 0) {
+        snprintf(err, errsize, "cannot make the shared memory for the model's process: %s", strerror(errno));
+        return -1;
+    }
+    r->base = mmap(NULL, IPC_SIZE, PROT_READ | PROT_WRITE, MAP_SHARED, r->shm_fd, 0);
+    if (r->base == MAP_FAILED) {
+        snprintf(err, errsize, "cannot map the shared memory: %s", strerror(errno));
+        return -1;
+    }
+    r->h = (IpcHeader *)r->base;
+    r->h->magic = IPC_MAGIC;
+    r->h->version = IPC_VERSION;
+    int p[2];
+    if (pipe2(p, O_CLOEXEC) != 0) {
+        snprintf(err, errsize, "cannot make a pipe for the model's process: %s", strerror(errno));
+        return -1;
+    }
+    int pipe_r = move_up(p[0]);
+    r->pipe_w = move_up(p[1]);
+    posix_spawn_file_actions_t fa;
+    posix_spawnattr_t at;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_adddup2(&fa, r->shm_fd, IPC_SHM_FD);
+    posix_spawn_file_actions_adddup2(&fa, pipe_r, IPC_PIPE_FD);
+    posix_spawn_file_actions_addopen(&fa, 0, "/dev/null", O_RDONLY, 0);
+    posix_spawn_file_actions_addclosefrom_np(&fa, IPC_PIPE_FD + 1);
+    posix_spawnattr_init(&at);
+    sigset_t none, all;
+    sigemptyset(&none);
+    sigfillset(&all);
+    posix_spawnattr_setsigmask(&at, &none);
+    posix_spawnattr_setsigdefault(&at, &all);
+    posix_spawnattr_setpgroup(&at, 0);
+    posix_spawnattr_setflags(&at, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETPGROUP);
+    char *envp[] = {"LC_ALL=C.UTF-8", NULL};
+    int rc;
+    if (access(server, X_OK) == 0) {
+        char *argv[] = {server, (char *)resources, (char *)bindir, NULL};
+        rc = posix_spawn(&r->pid, server, &fa, &at, argv, envp);
+    } else {
+        /* unpacked without its execute bit (most hosts' unzip): run it through the dynamic loader */
+        char *argv[] = {DYNAMIC_LOADER, server, (char *)resources, (char *)bindir, NULL};
+        rc = *DYNAMIC_LOADER ? posix_spawn(&r->pid, DYNAMIC_LOADER, &fa, &at, argv, envp) : EACCES;
+    }
+    posix_spawn_file_actions_destroy(&fa);
+    posix_spawnattr_destroy(&at);
+    close(pipe_r);
+    if (rc != 0) {
+        r->pid = 0;
+        snprintf(err, errsize, "cannot start the model's process %s: %s", server, strerror(rc));
+        return -1;
+    }
+    return 0;
+}
+
+fmi2Component remote_instantiate(fmi2String name, fmi2Type type, fmi2String guid, const char *resources,
+                                 const char *bindir, const fmi2CallbackFunctions *cb, fmi2Boolean visible,
+                                 fmi2Boolean logging, char *err, size_t errsize)
+{
+    Remote *r = (Remote *)calloc(1, sizeof *r);
+    if (!r) { snprintf(err, errsize, "out of memory"); return NULL; }
+    r->magic = REMOTE_MAGIC;
+    r->shm_fd = r->pipe_w = -1;
+    r->name = strdup(name ? name : "");
+    if (cb) r->cb = *cb;
+    if (start_server(r, resources, bindir, err, errsize) != 0) {
+        drop(r);
+        return NULL;
+    }
+    IpcBuf b = request(r), a;
+    ipc_str(&b, name);
+    ipc_i32(&b, (int32_t)type);
+    ipc_str(&b, guid);
+    ipc_str(&b, resources);
+    ipc_i32(&b, visible);
+    ipc_i32(&b, logging);
+    fmi2Status s = b.bad ? fmi2Error : roundtrip(r, CALL_INSTANTIATE, b.pos, &a);
+    if (s > fmi2Warning) {
+        err[0] = 0;   /* the model's process logged why */
+        if (!r->dead) {
+            IpcBuf f = request(r);
+            roundtrip(r, CALL_FREE, 0, &f);
+        }
+        reap(r, 2000);
+        drop(r);
+        return NULL;
+    }
+    return r;
+}
+
+static Remote *valid(fmi2Component c)
+{
+    Remote *r = (Remote *)c;
+    return (r && r->magic == REMOTE_MAGIC) ? r : NULL;
+}
+
+static void remote_free(fmi2Component c)
+{
+    Remote *r = valid(c);
+    if (!r) return;
+    if (!r->dead) {
+        IpcBuf a;
+        roundtrip(r, CALL_FREE, 0, &a);
+    }
+    if (r->pipe_w >= 0) { close(r->pipe_w); r->pipe_w = -1; }   /* the server sees end of file */
+    reap(r, 5000);
+    drop(r);
+}
+
+/* ---------------------------------------------------------------------------- the calls */
+#define R_ENTER                                                                                    \
+    Remote *r = valid(c);                                                                          \
+    if (!r) return fmi2Error;                                                                      \
+    IpcBuf b = request(r), a;                                                                      \
+    (void)a;
+
+#define R_SEND(call, fn)                                                                           \
+    if (b.bad) return too_large(r, fn);                                                            \
+    fmi2Status s = roundtrip(r, call, b.pos, &a);
+
+static fmi2Status r_simple(fmi2Component c, uint32_t call)
+{
+    R_ENTER
+    R_SEND(call, "call")
+    return s;
+}
+
+static fmi2Status remote_fmi2SetDebugLogging(fmi2Component c, fmi2Boolean on, size_t n, const fmi2String cat[])
+{
+    R_ENTER
+    ipc_i32(&b, on);
+    ipc_u64(&b, n);
+    for (size_t i = 0; i < n; i++) ipc_str(&b, cat ? cat[i] : NULL);
+    R_SEND(CALL_SET_DEBUG_LOGGING, "fmi2SetDebugLogging")
+    return s;
+}
+
+static fmi2Status remote_fmi2SetupExperiment(fmi2Component c, fmi2Boolean td, fmi2Real tol, fmi2Real t0,
+                                             fmi2Boolean sd, fmi2Real t1)
+{
+    R_ENTER
+    ipc_i32(&b, td);
+    ipc_f64(&b, tol);
+    ipc_f64(&b, t0);
+    ipc_i32(&b, sd);
+    ipc_f64(&b, t1);
+    R_SEND(CALL_SETUP_EXPERIMENT, "fmi2SetupExperiment")
+    return s;
+}
+
+static fmi2Status remote_fmi2EnterInitializationMode(fmi2Component c) { return r_simple(c, CALL_ENTER_INIT); }
+static fmi2Status remote_fmi2ExitInitializationMode(fmi2Component c) { return r_simple(c, CALL_EXIT_INIT); }
+static fmi2Status remote_fmi2Terminate(fmi2Component c) { return r_simple(c, CALL_TERMINATE); }
+static fmi2Status remote_fmi2Reset(fmi2Component c) { return r_simple(c, CALL_RESET); }
+static fmi2Status remote_fmi2CancelStep(fmi2Component c) { return r_simple(c, CALL_CANCEL_STEP); }
+
+static fmi2Status r_get(fmi2Component c, uint32_t call, const fmi2ValueReference vr[], size_t n, void *v,
+                        size_t size, const char *fn)
+{
+    R_ENTER
+    ipc_u64(&b, n);
+    ipc_put_array(&b, vr, n, sizeof *vr);
+    R_SEND(call, fn)
+    if (s <= fmi2Warning) {
+        const void *p = ipc_take_array(&a, n, size);
+        if (!p) return fmi2Error;
+        if (n) memcpy(v, p, n * size);
+    }
+    return s;
+}
+
+static fmi2Status remote_fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[])
+{
+    return r_get(c, CALL_GET_REAL, vr, n, v, sizeof *v, "fmi2GetReal");
+}
+static fmi2Status remote_fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer v[])
+{
+    return r_get(c, CALL_GET_INTEGER, vr, n, v, sizeof *v, "fmi2GetInteger");
+}
+static fmi2Status remote_fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[])
+{
+    return r_get(c, CALL_GET_BOOLEAN, vr, n, v, sizeof *v, "fmi2GetBoolean");
+}
+
+/* Copy `n` strings of the answer into the instance's string store; they stay valid until the next
+ * call that returns strings. */
+static int keep_strings(Remote *r, IpcBuf *a, size_t n, fmi2String out[])
+{
+    size_t start = a->pos, total = 0, len;
+    for (size_t i = 0; i < n; i++) {
+        ipc_get_str(a, &len);
+        total += len + 1;
+    }
+    if (a->bad) return -1;
+    a->pos = start;
+    char *text = (char *)malloc(total ? total : 1);
+    fmi2String *ptrs = (fmi2String *)malloc((n ? n : 1) * sizeof *ptrs);
+    if (!text || !ptrs) { free(text); free(ptrs); return -1; }
+    char *q = text;
+    for (size_t i = 0; i < n; i++) {
+        const char *p = ipc_get_str(a, &len);
+        memcpy(q, p ? p : "", len);
+        q[len] = 0;
+        ptrs[i] = p ? q : NULL;
+        q += len + 1;
+    }
+    free(r->strings);
+    free(r->string_ptrs);
+    r->strings = text;
+    r->string_ptrs = ptrs;
+    for (size_t i = 0; i < n; i++) out[i] = ptrs[i] ? ptrs[i] : "";
+    return 0;
+}
+
+static fmi2Status remote_fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String v[])
+{
+    R_ENTER
+    ipc_u64(&b, n);
+    ipc_put_array(&b, vr, n, sizeof *vr);
+    R_SEND(CALL_GET_STRING, "fmi2GetString")
+    if (s <= fmi2Warning && keep_strings(r, &a, n, v) != 0) return fmi2Error;
+    return s;
+}
+
+static fmi2Status r_set(fmi2Component c, uint32_t call, const fmi2ValueReference vr[], size_t n, const void *v,
+                        size_t size, const char *fn)
+{
+    R_ENTER
+    ipc_u64(&b, n);
+    ipc_put_array(&b, vr, n, sizeof *vr);
+    ipc_put_array(&b, v, n, size);
+    R_SEND(call, fn)
+    return s;
+}
+
+static fmi2Status remote_fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real v[])
+{
+    return r_set(c, CALL_SET_REAL, vr, n, v, sizeof *v, "fmi2SetReal");
+}
+static fmi2Status remote_fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer v[])
+{
+    return r_set(c, CALL_SET_INTEGER, vr, n, v, sizeof *v, "fmi2SetInteger");
+}
+static fmi2Status remote_fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Boolean v[])
+{
+    return r_set(c, CALL_SET_BOOLEAN, vr, n, v, sizeof *v, "fmi2SetBoolean");
+}
+
+static fmi2Status remote_fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2String v[])
+{
+    R_ENTER
+    ipc_u64(&b, n);
+    ipc_put_array(&b, vr, n, sizeof *vr);
+    for (size_t i = 0; i < n; i++) ipc_str(&b, v[i]);
+    R_SEND(CALL_SET_STRING, "fmi2SetString")
+    return s;
+}
+
+static RState *valid_state(Remote *r, fmi2FMUstate p)
+{
+    RState *st = (RState *)p;
+    return (st && st->magic == RSTATE_MAGIC && st->owner == r) ? st : NULL;
+}
+
+static fmi2Status remote_fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *p)
+{
+    R_ENTER
+    if (!p) { sayf(r, fmi2Error, "fmi2GetFMUstate: FMUstate is NULL"); return fmi2Error; }
+    RState *old = *p ? valid_state(r, *p) : NULL;
+    if (*p && !old) { sayf(r, fmi2Error, "fmi2GetFMUstate: *FMUstate is not a state of this instance"); return fmi2Error; }
+    ipc_u64(&b, old ? old->id : 0);
+    R_SEND(CALL_GET_STATE, "fmi2GetFMUstate")
+    uint64_t id = ipc_get_u64(&a);
+    if (s > fmi2Warning || a.bad || !id) return s > fmi2Warning ? s : fmi2Error;
+    if (old) { old->id = id; return s; }
+    RState *st = (RState *)calloc(1, sizeof *st);
+    if (!st) return fmi2Error;
+    st->magic = RSTATE_MAGIC;
+    st->owner = r;
+    st->id = id;
+    *p = st;
+    return s;
+}
+
+static fmi2Status remote_fmi2SetFMUstate(fmi2Component c, fmi2FMUstate p)
+{
+    R_ENTER
+    RState *st = valid_state(r, p);
+    ipc_u64(&b, st ? st->id : 0);
+    R_SEND(CALL_SET_STATE, "fmi2SetFMUstate")
+    return s;
+}
+
+static fmi2Status remote_fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *p)
+{
+    R_ENTER
+    if (!p || !*p) return fmi2OK;
+    RState *st = valid_state(r, *p);
+    if (!st) { sayf(r, fmi2Error, "fmi2FreeFMUstate: not a state of this instance"); return fmi2Error; }
+    ipc_u64(&b, st->id);
+    fmi2Status s = r->dead ? fmi2OK : roundtrip(r, CALL_FREE_STATE, b.pos, &a);
+    if (s <= fmi2Warning) {
+        st->magic = 0;
+        free(st);
+        *p = NULL;
+    }
+    return s;
+}
+
+static fmi2Status remote_fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate p, size_t *n)
+{
+    R_ENTER
+    RState *st = valid_state(r, p);
+    ipc_u64(&b, st ? st->id : 0);
+    R_SEND(CALL_STATE_SIZE, "fmi2SerializedFMUstateSize")
+    uint64_t size = ipc_get_u64(&a);
+    if (s <= fmi2Warning && n) *n = (size_t)size;
+    return s;
+}
+
+static fmi2Status remote_fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate p, fmi2Byte out[], size_t n)
+{
+    R_ENTER
+    RState *st = valid_state(r, p);
+    ipc_u64(&b, st ? st->id : 0);
+    ipc_u64(&b, n);
+    R_SEND(CALL_SERIALIZE, "fmi2SerializeFMUstate")
+    if (s <= fmi2Warning) {
+        const void *q = ipc_take_array(&a, n, 1);
+        if (!q || !out) return fmi2Error;
+        memcpy(out, q, n);
+    }
+    return s;
+}
+
+static fmi2Status remote_fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte in[], size_t n, fmi2FMUstate *p)
+{
+    R_ENTER
+    if (!p) { sayf(r, fmi2Error, "fmi2DeSerializeFMUstate: FMUstate is NULL"); return fmi2Error; }
+    ipc_u64(&b, n);
+    ipc_put_array(&b, in, n, 1);
+    R_SEND(CALL_DESERIALIZE, "fmi2DeSerializeFMUstate")
+    uint64_t id = ipc_get_u64(&a);
+    if (s > fmi2Warning || a.bad || !id) return s > fmi2Warning ? s : fmi2Error;
+    RState *st = (RState *)calloc(1, sizeof *st);
+    if (!st) return fmi2Error;
+    st->magic = RSTATE_MAGIC;
+    st->owner = r;
+    st->id = id;
+    *p = st;
+    return s;
+}
+
+static fmi2Status remote_fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference u[], size_t nu,
+                                                      const fmi2ValueReference z[], size_t nz, const fmi2Real du[],
+                                                      fmi2Real dz[])
+{
+    R_ENTER
+    ipc_u64(&b, nu);
+    ipc_put_array(&b, u, nu, sizeof *u);
+    ipc_u64(&b, nz);
+    ipc_put_array(&b, z, nz, sizeof *z);
+    ipc_put_array(&b, du, nu, sizeof *du);
+    R_SEND(CALL_DIRECTIONAL_DERIVATIVE, "fmi2GetDirectionalDerivative")
+    if (s <= fmi2Warning) {
+        const void *q = ipc_take_array(&a, nz, sizeof *dz);
+        if (!q || (nz && !dz)) return fmi2Error;
+        if (nz) memcpy(dz, q, nz * sizeof *dz);
+    }
+    return s;
+}
+
+static fmi2Status remote_fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t n,
+                                                     const fmi2Integer o[], const fmi2Real v[])
+{
+    R_ENTER
+    ipc_u64(&b, n);
+    ipc_put_array(&b, vr, n, sizeof *vr);
+    ipc_put_array(&b, o, n, sizeof *o);
+    ipc_put_array(&b, v, n, sizeof *v);
+    R_SEND(CALL_SET_INPUT_DERIVATIVES, "fmi2SetRealInputDerivatives")
+    return s;
+}
+
+static fmi2Status remote_fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t n,
+                                                      const fmi2Integer o[], fmi2Real v[])
+{
+    R_ENTER
+    ipc_u64(&b, n);
+    ipc_put_array(&b, vr, n, sizeof *vr);
+    ipc_put_array(&b, o, n, sizeof *o);
+    R_SEND(CALL_GET_OUTPUT_DERIVATIVES, "fmi2GetRealOutputDerivatives")
+    if (s <= fmi2Warning) {
+        const void *q = ipc_take_array(&a, n, sizeof *v);
+        if (!q || (n && !v)) return fmi2Error;
+        if (n) memcpy(v, q, n * sizeof *v);
+    }
+    return s;
+}
+
+static fmi2Status remote_fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp)
+{
+    R_ENTER
+    ipc_f64(&b, t);
+    ipc_f64(&b, h);
+    ipc_i32(&b, nsp);
+    R_SEND(CALL_DO_STEP, "fmi2DoStep")
+    return s;
+}
+
+static fmi2Status r_status(fmi2Component c, uint32_t call, fmi2StatusKind k, IpcBuf *answer, Remote **out)
+{
+    R_ENTER
+    ipc_i32(&b, (int32_t)k);
+    R_SEND(call, "fmi2Get*Status")
+    *answer = a;
+    *out = r;
+    return s;
+}
+
+static fmi2Status remote_fmi2GetStatus(fmi2Component c, const fmi2StatusKind k, fmi2Status *v)
+{
+    IpcBuf a; Remote *r;
+    fmi2Status s = r_status(c, CALL_GET_STATUS, k, &a, &r);
+    if (s <= fmi2Warning && v) *v = (fmi2Status)ipc_get_i32(&a);
+    return s;
+}
+static fmi2Status remote_fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind k, fmi2Real *v)
+{
+    IpcBuf a; Remote *r;
+    fmi2Status s = r_status(c, CALL_GET_REAL_STATUS, k, &a, &r);
+    if (s <= fmi2Warning && v) *v = ipc_get_f64(&a);
+    return s;
+}
+static fmi2Status remote_fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind k, fmi2Integer *v)
+{
+    IpcBuf a; Remote *r;
+    fmi2Status s = r_status(c, CALL_GET_INTEGER_STATUS, k, &a, &r);
+    if (s <= fmi2Warning && v) *v = ipc_get_i32(&a);
+    return s;
+}
+static fmi2Status remote_fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind k, fmi2Boolean *v)
+{
+    IpcBuf a; Remote *r;
+    fmi2Status s = r_status(c, CALL_GET_BOOLEAN_STATUS, k, &a, &r);
+    if (s <= fmi2Warning && v) *v = ipc_get_i32(&a);
+    return s;
+}
+static fmi2Status remote_fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind k, fmi2String *v)
+{
+    IpcBuf a; Remote *r = NULL;
+    fmi2Status s = r_status(c, CALL_GET_STRING_STATUS, k, &a, &r);
+    if (s <= fmi2Warning && v && keep_strings(r, &a, 1, v) != 0) return fmi2Error;
+    return s;
+}
+
+static fmi2Component remote_fmi2Instantiate_unused(fmi2String a, fmi2Type b, fmi2String c, fmi2String d,
+                                                    const fmi2CallbackFunctions *e, fmi2Boolean f, fmi2Boolean g)
+{
+    (void)a; (void)b; (void)c; (void)d; (void)e; (void)f; (void)g;
+    return NULL;   /* remote instances start with remote_instantiate */
+}
+
+const Fmi2Table REMOTE_TABLE = {
+    remote_fmi2Instantiate_unused,
+    remote_free,
+    remote_fmi2GetString,
+#define X_REMOTE(name, params, args) remote_##name,
+    FMI2_FORWARDED(X_REMOTE)
+#undef X_REMOTE
+};

@@ -1,0 +1,18 @@
+/* The model in its own process (fmi2_server.c), seen from the host: see fmi2_remote.c. */
+#ifndef SPURDIFF_FMI2_REMOTE_H
+#define SPURDIFF_FMI2_REMOTE_H
+
+#include <stddef.h>
+
+#include "fmi2_table.h"
+
+/* Start the server for one instance and instantiate there. NULL on failure: `err` says why when
+ * the process could not start, and is empty when the model's process logged the reason itself. */
+fmi2Component remote_instantiate(fmi2String name, fmi2Type type, fmi2String guid, const char *resources,
+                                 const char *bindir, const fmi2CallbackFunctions *cb, fmi2Boolean visible,
+                                 fmi2Boolean logging, char *err, size_t errsize);
+
+/* Every other function, on the fmi2Component remote_instantiate returned (fmi2Instantiate unused). */
+extern const Fmi2Table REMOTE_TABLE;
+
+#endif

@@ -1,0 +1,369 @@
+/* The model's own process: binaries/<platform>/spurdiff_fmu_server RESOURCES BINDIR.
+ *
+ * Started by the loader (fmi2_remote.c) when the host cannot share its Python with the FMU's
+ * runtime. It inherits the shared memory (fd 3, see ipc.h) and the read end of a pipe whose write
+ * end only the host holds (fd 4), loads the runtime and the bridge in this process
+ * (fmi2_inproc.c, the same code a C host runs in process), and serves one instance's FMI calls
+ * until fmi2FreeInstance, or until the host process is gone (the pipe reads end of file: the
+ * host exited, failed or was killed), whichever comes first. It never outlives its host.
+ */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <limits.h>
+#include <poll.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include "fmi2_inproc.h"
+#include "ipc.h"
+
+static IpcHeader *H;
+static void *BASE;
+static const Fmi2Table *T;
+static fmi2Component C;
+static fmi2FMUstate *states;     /* id - 1 -> the bridge's state */
+static size_t n_states, cap_states;
+
+/* ---------------------------------------------------------------------------- the host's side */
+static int host_alive(void *ctx)
+{
+    (void)ctx;
+    struct pollfd p = {IPC_PIPE_FD, POLLIN, 0};
+    int r = poll(&p, 1, 0);
+    if (r < 0) return errno == EINTR;
+    if (r == 0) return 1;
+    char c;
+    return !(p.revents & (POLLHUP | POLLERR | POLLNVAL)) && read(IPC_PIPE_FD, &c, 1) > 0;
+}
+
+/* The model's log records, passed to the host with the answer (see fmi2_remote.c: replay). */
+static void logger(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status, fmi2String category,
+                   fmi2String message, ...)
+{
+    (void)env; (void)name;
+    char text[16384];
+    va_list ap;
+    va_start(ap, message);
+    vsnprintf(text, sizeof text, message ? message : "", ap);
+    va_end(ap);
+    IpcBuf b = {ipc_log(BASE), IPC_LOG_CAP, (size_t)H->log_len, 0};
+    ipc_i32(&b, (int32_t)status);
+    ipc_str(&b, category ? category : "logAll");
+    ipc_str(&b, text);
+    if (b.bad) H->log_dropped++;
+    else H->log_len = b.pos;
+}
+
+static const fmi2CallbackFunctions CALLBACKS = {logger, calloc, free, NULL, NULL};
+
+/* ---------------------------------------------------------------------------- states */
+static uint64_t state_id(fmi2FMUstate s)
+{
+    for (size_t i = 0; i < n_states; i++)
+        if (states[i] == s) return i + 1;
+    for (size_t i = 0; i < n_states; i++)
+        if (!states[i]) { states[i] = s; return i + 1; }
+    if (n_states == cap_states) {
+        size_t cap = cap_states ? 2 * cap_states : 16;
+        fmi2FMUstate *more = (fmi2FMUstate *)realloc(states, cap * sizeof *more);
+        if (!more) return 0;
+        states = more;
+        cap_states = cap;
+    }
+    states[n_states++] = s;
+    return n_states;
+}
+
+static fmi2FMUstate state_of(uint64_t id) { return (id >= 1 && id <= n_states) ? states[id - 1] : NULL; }
+
+/* ---------------------------------------------------------------------------- one call */
+static void *scratch;
+static size_t scratch_cap;
+
+static void *scratch_for(size_t n)
+{
+    if (n > scratch_cap) {
+        void *p = realloc(scratch, n);
+        if (!p) return NULL;
+        scratch = p;
+        scratch_cap = n;
+    }
+    return scratch;
+}
+
+/* Serve the call in `in` (a private copy of the request); the answer goes to the shared data
+ * area `out`. Returns 1 after fmi2FreeInstance (the server then exits). */
+static int serve(uint32_t call, IpcBuf *in, IpcBuf *out)
+{
+    fmi2Status s = fmi2Error;
+    int bye = 0;
+    size_t n, len;
+    if (!C && call != CALL_INSTANTIATE && call != CALL_PING && call != CALL_FREE) {
+        logger(NULL, "", fmi2Error, "logStatusError", "the model's process has no instance");
+        H->status = fmi2Error;
+        return 0;
+    }
+    switch (call) {
+    case CALL_PING:
+        s = fmi2OK;
+        break;
+    case CALL_INSTANTIATE: {
+        char name[4096], guid[4096], res[PATH_MAX];
+        const char *p;
+        p = ipc_get_str(in, &len); snprintf(name, sizeof name, "%.*s", (int)len, p ? p : "");
+        int32_t type = ipc_get_i32(in);
+        p = ipc_get_str(in, &len); snprintf(guid, sizeof guid, "%.*s", (int)len, p ? p : "");
+        p = ipc_get_str(in, &len); snprintf(res, sizeof res, "%.*s", (int)len, p ? p : "");
+        int32_t visible = ipc_get_i32(in), logging = ipc_get_i32(in);
+        if (in->bad || C) break;
+        C = T->fmi2Instantiate(name, (fmi2Type)type, guid, res, &CALLBACKS, visible, logging);
+        s = C ? fmi2OK : fmi2Error;
+        break;
+    }
+    case CALL_FREE:
+        if (C) T->fmi2FreeInstance(C);
+        C = NULL;
+        s = fmi2OK;
+        bye = 1;
+        break;
+    case CALL_SET_DEBUG_LOGGING: {
+        int32_t on = ipc_get_i32(in);
+        n = (size_t)ipc_get_u64(in);
+        if (in->bad || n > 4096) break;
+        char **cats = (char **)calloc(n ? n : 1, sizeof *cats);
+        for (size_t i = 0; cats && i < n; i++) {
+            const char *p = ipc_get_str(in, &len);
+            cats[i] = p ? strndup(p, len) : NULL;
+        }
+        if (cats && !in->bad) s = T->fmi2SetDebugLogging(C, on, n, (const fmi2String *)cats);
+        for (size_t i = 0; cats && i < n; i++) free(cats[i]);
+        free(cats);
+        break;
+    }
+    case CALL_SETUP_EXPERIMENT: {
+        int32_t td = ipc_get_i32(in);
+        double tol = ipc_get_f64(in), t0 = ipc_get_f64(in);
+        int32_t sd = ipc_get_i32(in);
+        double t1 = ipc_get_f64(in);
+        if (!in->bad) s = T->fmi2SetupExperiment(C, td, tol, t0, sd, t1);
+        break;
+    }
+    case CALL_ENTER_INIT: s = T->fmi2EnterInitializationMode(C); break;
+    case CALL_EXIT_INIT: s = T->fmi2ExitInitializationMode(C); break;
+    case CALL_TERMINATE: s = T->fmi2Terminate(C); break;
+    case CALL_RESET: s = T->fmi2Reset(C); break;
+    case CALL_CANCEL_STEP: s = T->fmi2CancelStep(C); break;
+    case CALL_GET_REAL: case CALL_GET_INTEGER: case CALL_GET_BOOLEAN: {
+        n = (size_t)ipc_get_u64(in);
+        const fmi2ValueReference *vr = (const fmi2ValueReference *)ipc_take_array(in, n, sizeof *vr);
+        if (in->bad) break;
+        size_t size = call == CALL_GET_REAL ? sizeof(fmi2Real) : sizeof(fmi2Integer);
+        void *v = scratch_for(n * size + 8);
+        if (!v) break;
+        s = call == CALL_GET_REAL ? T->fmi2GetReal(C, vr, n, (fmi2Real *)v)
+          : call == CALL_GET_INTEGER ? T->fmi2GetInteger(C, vr, n, (fmi2Integer *)v)
+          : T->fmi2GetBoolean(C, vr, n, (fmi2Boolean *)v);
+        if (s <= fmi2Warning) ipc_put_array(out, v, n, size);
+        break;
+    }
+    case CALL_GET_STRING: {
+        n = (size_t)ipc_get_u64(in);
+        const fmi2ValueReference *vr = (const fmi2ValueReference *)ipc_take_array(in, n, sizeof *vr);
+        if (in->bad) break;
+        fmi2String *v = (fmi2String *)scratch_for(n * sizeof *v + 8);
+        if (!v) break;
+        s = T->fmi2GetString(C, vr, n, v);
+        if (s <= fmi2Warning)
+            for (size_t i = 0; i < n; i++) ipc_str(out, v[i]);
+        break;
+    }
+    case CALL_SET_REAL: case CALL_SET_INTEGER: case CALL_SET_BOOLEAN: {
+        n = (size_t)ipc_get_u64(in);
+        const fmi2ValueReference *vr = (const fmi2ValueReference *)ipc_take_array(in, n, sizeof *vr);
+        size_t size = call == CALL_SET_REAL ? sizeof(fmi2Real) : sizeof(fmi2Integer);
+        const void *v = ipc_take_array(in, n, size);
+        if (in->bad) break;
+        s = call == CALL_SET_REAL ? T->fmi2SetReal(C, vr, n, (const fmi2Real *)v)
+          : call == CALL_SET_INTEGER ? T->fmi2SetInteger(C, vr, n, (const fmi2Integer *)v)
+          : T->fmi2SetBoolean(C, vr, n, (const fmi2Boolean *)v);
+        break;
+    }
+    case CALL_SET_STRING: {
+        n = (size_t)ipc_get_u64(in);
+        const fmi2ValueReference *vr = (const fmi2ValueReference *)ipc_take_array(in, n, sizeof *vr);
+        if (in->bad) break;
+        char **v = (char **)calloc(n ? n : 1, sizeof *v);
+        for (size_t i = 0; v && i < n; i++) {
+            const char *p = ipc_get_str(in, &len);
+            v[i] = p ? strndup(p, len) : NULL;
+        }
+        if (v && !in->bad) s = T->fmi2SetString(C, vr, n, (const fmi2String *)v);
+        for (size_t i = 0; v && i < n; i++) free(v[i]);
+        free(v);
+        break;
+    }
+    case CALL_GET_STATE: {
+        fmi2FMUstate st = state_of(ipc_get_u64(in));
+        if (in->bad) break;
+        s = T->fmi2GetFMUstate(C, &st);
+        uint64_t id = (s <= fmi2Warning && st) ? state_id(st) : 0;
+        if (s <= fmi2Warning && !id) s = fmi2Error;
+        ipc_u64(out, id);
+        break;
+    }
+    case CALL_SET_STATE: {
+        fmi2FMUstate st = state_of(ipc_get_u64(in));
+        if (!in->bad) s = T->fmi2SetFMUstate(C, st);
+        break;
+    }
+    case CALL_FREE_STATE: {
+        uint64_t id = ipc_get_u64(in);
+        fmi2FMUstate st = state_of(id);
+        if (in->bad) break;
+        s = T->fmi2FreeFMUstate(C, &st);
+        if (s <= fmi2Warning && id >= 1 && id <= n_states) states[id - 1] = NULL;
+        break;
+    }
+    case CALL_STATE_SIZE: {
+        fmi2FMUstate st = state_of(ipc_get_u64(in));
+        size_t size = 0;
+        if (in->bad) break;
+        s = T->fmi2SerializedFMUstateSize(C, st, &size);
+        ipc_u64(out, size);
+        break;
+    }
+    case CALL_SERIALIZE: {
+        fmi2FMUstate st = state_of(ipc_get_u64(in));
+        n = (size_t)ipc_get_u64(in);
+        if (in->bad || n > IPC_DATA_CAP - 64) break;
+        fmi2Byte *v = (fmi2Byte *)scratch_for(n + 8);
+        if (!v) break;
+        s = T->fmi2SerializeFMUstate(C, st, v, n);
+        if (s <= fmi2Warning) ipc_put_array(out, v, n, 1);
+        break;
+    }
+    case CALL_DESERIALIZE: {
+        n = (size_t)ipc_get_u64(in);
+        const fmi2Byte *v = (const fmi2Byte *)ipc_take_array(in, n, 1);
+        fmi2FMUstate st = NULL;
+        if (in->bad) break;
+        s = T->fmi2DeSerializeFMUstate(C, v, n, &st);
+        uint64_t id = (s <= fmi2Warning && st) ? state_id(st) : 0;
+        if (s <= fmi2Warning && !id) s = fmi2Error;
+        ipc_u64(out, id);
+        break;
+    }
+    case CALL_DIRECTIONAL_DERIVATIVE: {
+        size_t nu = (size_t)ipc_get_u64(in);
+        const fmi2ValueReference *u = (const fmi2ValueReference *)ipc_take_array(in, nu, sizeof *u);
+        size_t nz = (size_t)ipc_get_u64(in);
+        const fmi2ValueReference *z = (const fmi2ValueReference *)ipc_take_array(in, nz, sizeof *z);
+        const fmi2Real *du = (const fmi2Real *)ipc_take_array(in, nu, sizeof *du);
+        if (in->bad) break;
+        fmi2Real *dz = (fmi2Real *)scratch_for(nz * sizeof *dz + 8);
+        if (!dz) break;
+        s = T->fmi2GetDirectionalDerivative(C, u, nu, z, nz, du, dz);
+        if (s <= fmi2Warning) ipc_put_array(out, dz, nz, sizeof *dz);
+        break;
+    }
+    case CALL_SET_INPUT_DERIVATIVES: case CALL_GET_OUTPUT_DERIVATIVES: {
+        n = (size_t)ipc_get_u64(in);
+        const fmi2ValueReference *vr = (const fmi2ValueReference *)ipc_take_array(in, n, sizeof *vr);
+        const fmi2Integer *order = (const fmi2Integer *)ipc_take_array(in, n, sizeof *order);
+        if (call == CALL_SET_INPUT_DERIVATIVES) {
+            const fmi2Real *v = (const fmi2Real *)ipc_take_array(in, n, sizeof *v);
+            if (!in->bad) s = T->fmi2SetRealInputDerivatives(C, vr, n, order, v);
+        } else if (!in->bad) {
+            fmi2Real *v = (fmi2Real *)scratch_for(n * sizeof *v + 8);
+            if (!v) break;
+            s = T->fmi2GetRealOutputDerivatives(C, vr, n, order, v);
+            if (s <= fmi2Warning) ipc_put_array(out, v, n, sizeof *v);
+        }
+        break;
+    }
+    case CALL_DO_STEP: {
+        double t = ipc_get_f64(in), h = ipc_get_f64(in);
+        int32_t nsp = ipc_get_i32(in);
+        if (!in->bad) s = T->fmi2DoStep(C, t, h, nsp);
+        break;
+    }
+    case CALL_GET_STATUS: case CALL_GET_REAL_STATUS: case CALL_GET_INTEGER_STATUS:
+    case CALL_GET_BOOLEAN_STATUS: case CALL_GET_STRING_STATUS: {
+        fmi2StatusKind k = (fmi2StatusKind)ipc_get_i32(in);
+        if (in->bad) break;
+        if (call == CALL_GET_STATUS) { fmi2Status v = fmi2OK; s = T->fmi2GetStatus(C, k, &v); ipc_i32(out, v); }
+        else if (call == CALL_GET_REAL_STATUS) { fmi2Real v = 0; s = T->fmi2GetRealStatus(C, k, &v); ipc_f64(out, v); }
+        else if (call == CALL_GET_INTEGER_STATUS) { fmi2Integer v = 0; s = T->fmi2GetIntegerStatus(C, k, &v); ipc_i32(out, v); }
+        else if (call == CALL_GET_BOOLEAN_STATUS) { fmi2Boolean v = 0; s = T->fmi2GetBooleanStatus(C, k, &v); ipc_i32(out, v); }
+        else { fmi2String v = NULL; s = T->fmi2GetStringStatus(C, k, &v); ipc_str(out, s <= fmi2Warning ? v : NULL); }
+        break;
+    }
+    default:
+        logger(NULL, "", fmi2Error, "logStatusError", "the model's process got an unknown call");
+        break;
+    }
+    if (in->bad && s == fmi2Error)
+        logger(NULL, "", fmi2Error, "logStatusError", "the model's process got a malformed call");
+    if (out->bad) {   /* the answer did not fit */
+        logger(NULL, "", fmi2Error, "logStatusError", "the answer is larger than the shared memory's data area");
+        s = fmi2Error;
+        out->pos = 0;
+        out->bad = 0;
+    }
+    H->status = (int32_t)s;
+    return bye;
+}
+
+int main(int argc, char **argv)
+{
+    char err[8192];
+    RuntimeCfg cfg;
+    signal(SIGPIPE, SIG_IGN);
+    if (argc != 3) {
+        fprintf(stderr, "usage: spurdiff_fmu_server RESOURCES BINDIR (started by the FMU's loader)\n");
+        return 2;
+    }
+    BASE = mmap(NULL, IPC_SIZE, PROT_READ | PROT_WRITE, MAP_SHARED, IPC_SHM_FD, 0);
+    if (BASE == MAP_FAILED) {
+        fprintf(stderr, "spurdiff_fmu_server: no shared memory on fd %d: %s\n", IPC_SHM_FD, strerror(errno));
+        return 2;
+    }
+    H = (IpcHeader *)BASE;
+    if (H->magic != IPC_MAGIC || H->version != IPC_VERSION) {
+        fprintf(stderr, "spurdiff_fmu_server: the shared memory is not this protocol's\n");
+        return 2;
+    }
+    /* the runtime and the bridge; a failure is the answer to the first call */
+    int loaded = cfg_read(argv[1], &cfg, err, sizeof err) == 0 &&
+                 inproc_load(&cfg, argv[1], argv[2], &T, err, sizeof err) == 0;
+    uint32_t seen = 0;
+    for (;;) {
+        if (ipc_wait_change(&H->req, seen, &H->server_sleeps, 50000, 100000000L, host_alive, NULL) != 0)
+            return 0;   /* the host is gone */
+        seen = atomic_load_explicit(&H->req, memory_order_acquire);
+        size_t len = H->len <= IPC_DATA_CAP ? (size_t)H->len : 0;
+        void *copy = len ? malloc(len) : NULL;
+        if (len && copy) memcpy(copy, ipc_data(BASE), len);
+        IpcBuf in = {(unsigned char *)copy, copy ? len : 0, 0, (len && !copy) || H->len > IPC_DATA_CAP};
+        IpcBuf out = {ipc_data(BASE), IPC_DATA_CAP, 0, 0};
+        H->log_len = 0;
+        H->log_dropped = 0;
+        int bye = 0;
+        if (!loaded) {
+            logger(NULL, "", fmi2Error, "logStatusError", err);
+            H->status = fmi2Error;
+            bye = H->call == CALL_FREE;
+        } else {
+            bye = serve(H->call, &in, &out);
+        }
+        free(copy);
+        H->len = out.pos;
+        ipc_publish(&H->resp, seen, &H->host_sleeps);
+        if (bye) return 0;
+    }
+}
