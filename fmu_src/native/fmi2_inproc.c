@@ -44,10 +44,18 @@ static int load_python(const RuntimeCfg *cfg, const char *resources, char *err, 
             return -1;
         }
     }
-    if (cfg_join(resources, cfg->libpython, file, sizeof file) != 0 || !dlopen(file, RTLD_NOW | RTLD_GLOBAL)) {
+    void *lib;
+    if (cfg_join(resources, cfg->libpython, file, sizeof file) != 0 || !(lib = dlopen(file, RTLD_NOW | RTLD_GLOBAL))) {
         snprintf(err, errsize, "cannot load %s, the FMU's Python %s: %s", file, cfg->version, dlerror());
         return -1;
     }
+    /* the library must be the version the description names (the bridge was compiled for it) */
+    if (inproc_host_python(cfg, v, sizeof v) != INPROC_SAME) {
+        snprintf(err, errsize, "%s is Python %s, but the FMU's runtime description says %s (the FMU is damaged: "
+                 "rebuild it)", file, v[0] ? v : "(unknown)", cfg->version);
+        return -1;
+    }
+    (void)lib;
     return 0;
 }
 

@@ -1,0 +1,136 @@
+"""Every FMU runs its own copy of the physics package, whatever else the process holds.
+
+The bridge imports ``resources/spurdiff`` under a private name per extraction folder and GUID
+(fmu_src/native/fmi2_pybridge.c, BOOT_SOURCE), never ``spurdiff`` from sys.path: our FMUs one
+after another with their folders removed in between, side by side, two builds whose packages
+differ, and an FMU beside a host that imported ``spurdiff`` itself each run their own code. Each
+case runs in a fresh Python process (the test process has imported FMUs of its own).
+"""
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
+                                reason="no C compiler: the FMUs cannot be built with our loader")
+
+# the straight-line case of tests/harness/test_hosts.py: a loaded differential with a locking torque
+CASE = {"carrier.w_ref": 1.389, "left.tau": -1050.0, "right.tau": -1040.0}
+
+
+def _other_build(fmu: Path, out: Path, mu_pin: float = 0.13) -> Path:
+    """The FMU as another build would make it: its package's default pin friction changed and a
+    new GUID (in modelDescription.xml and the runtime description)."""
+    with zipfile.ZipFile(fmu) as z:
+        md = z.read("modelDescription.xml").decode()
+    old = md.split('guid="', 1)[1].split('"', 1)[0]
+    new = "{0badc0de-0000-4000-8000-" + old[-13:-1] + "}"
+    with zipfile.ZipFile(fmu) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as zout:
+        for item in zin.infolist():
+            data = zin.read(item)
+            if item.filename == "resources/spurdiff/data/differential.toml":
+                lines = [f"mu_pin = {mu_pin}" if ln.startswith("mu_pin =") else ln for ln in data.decode().split("\n")]
+                data = "\n".join(lines).encode()
+            elif item.filename in ("modelDescription.xml", "resources/python_runtime.cfg"):
+                data = data.replace(old.encode(), new.encode())
+            zout.writestr(item, data)
+    return out
+
+
+def _run(code: str, *args, env=None) -> dict:
+    r = subprocess.run([sys.executable, "-c", code, *map(str, args)], capture_output=True, text=True,
+                       timeout=300, env=env)
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+LOCKING = """
+import json, sys
+from fmpy import simulate_fmu
+CASE = %r
+def locking(path):
+    r = simulate_fmu(path, stop_time=0.02, output_interval=1e-3, start_values=CASE)
+    return float(r['lockingTorque'][-1])
+""" % (CASE,)
+
+
+def test_two_builds_one_after_another_and_again_each_run_their_own_package(differential_fmu, tmp_path):
+    other = _other_build(differential_fmu, tmp_path / "SpurDifferential.fmu")
+    out = _run(LOCKING + "print(json.dumps([locking(p) for p in sys.argv[1:]]))",
+               differential_fmu, other, differential_fmu, other)
+    a, b, a2, b2 = out
+    assert a == a2 and b == b2
+    assert b == pytest.approx(a * 0.13 / 0.26, rel=1e-6), out   # locking torque proportional to mu_pin
+
+
+def test_an_fmu_beside_a_host_that_imported_spurdiff_runs_its_own_copy(differential_fmu, tmp_path):
+    other = _other_build(differential_fmu, tmp_path / "SpurDifferential.fmu")
+    code = LOCKING + (
+        "import spurdiff, os\n"
+        "before = (spurdiff.__file__, list(sys.path))\n"
+        "x = [locking(sys.argv[1]), locking(sys.argv[2])]\n"
+        "import spurdiff as again\n"
+        "assert (again.__file__, list(sys.path)) == before, 'the host\\'s spurdiff or sys.path changed'\n"
+        "bad = [m for m, mod in list(sys.modules.items()) if not m.startswith('_spurdiff_fmu_')\n"
+        "       and '/resources/' in str(getattr(mod, '__file__', '') or '')]\n"
+        "assert not bad, f'modules imported from an FMU under their own names: {bad}'\n"
+        "print(json.dumps(x))\n")
+    a, b = _run(code, differential_fmu, other)
+    assert b == pytest.approx(a * 0.5, rel=1e-6)
+
+
+def test_side_by_side_two_builds_step_interleaved(differential_fmu, tmp_path):
+    other = _other_build(differential_fmu, tmp_path / "SpurDifferential.fmu")
+    code = """
+import json, sys
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+CASE = %r
+fmus = []
+for i, path in enumerate(sys.argv[1:]):
+    md = read_model_description(path)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    f = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier='SpurDifferential', instanceName=f'd{i}')
+    f.instantiate(); f.setupExperiment(startTime=0); f.enterInitializationMode()
+    f.setReal([vr[k] for k in CASE], list(CASE.values()))
+    f.exitInitializationMode()
+    fmus.append((f, vr['lockingTorque']))
+t = 0.0
+for _ in range(20):
+    for f, _vr in fmus:
+        f.doStep(t, 1e-3)
+    t += 1e-3
+out = [f.getReal([vr])[0] for f, vr in fmus]
+for f, _vr in fmus:
+    f.terminate(); f.freeInstance()
+print(json.dumps(out))
+""" % (CASE,)
+    a, b = _run(code, differential_fmu, other)
+    assert b == pytest.approx(a * 0.5, rel=1e-6)
+
+
+def test_our_three_fmus_one_after_another_with_their_folders_removed(fmu_files):
+    """fmpy's simulate_fmu extracts each FMU to a temporary folder and removes it afterwards;
+    every later FMU (and the first one again) runs, and the packages of removed folders are
+    dropped from sys.modules (at most the live ones stay)."""
+    code = """
+import json, sys
+from fmpy import simulate_fmu
+rows = []
+for path in sys.argv[1:]:
+    r = simulate_fmu(path, stop_time=0.01, output_interval=1e-3)
+    rows.append(len(r))
+aliases = sorted({m.split('.')[0] for m in sys.modules if m.startswith('_spurdiff_fmu_') and m != '_spurdiff_fmu_boot_2'})
+print(json.dumps([rows, len(aliases)]))
+"""
+    paths = [fmu_files["SpurDifferential"], fmu_files["WheelLoad"], fmu_files["Vehicle"],
+             fmu_files["SpurDifferential"], fmu_files["WheelLoad"]]
+    rows, aliases = _run(code, *paths)
+    assert rows == [11] * 5
+    assert aliases <= 1, f"{aliases} packages of removed FMU folders are still imported"

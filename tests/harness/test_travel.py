@@ -1,0 +1,233 @@
+"""The FMUs travel: they run where no Python is, as another user, from an odd path.
+
+Each host runs in a mount namespace (``unshare -m``) where every Python installation and virtual
+environment of this machine is hidden under an empty tmpfs (the pyenv tree, Debian's and
+/usr/local's python3 folders and libpython, this test's own venv), as the unprivileged user
+``nobody``, with a bare environment, from a folder whose path has spaces and non-ASCII
+characters. Hosts: the FMU Compliance Checker, the Reference FMUs' fmusim, the ecos command line
+(copied beside the FMUs: its wheel's folder is hidden too) and our own C host. Every run must
+exit 0 and give the in-harness (fmpy, this process) numbers to 1e-9. Skipped with the reason
+where namespaces are not permitted (CI runs as root, so it runs them).
+"""
+from __future__ import annotations
+
+import csv
+import glob
+import os
+import shlex
+import shutil
+import subprocess
+import sys
+import tempfile
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fmpy import read_model_description, simulate_fmu
+from host_cases import CASES, STEP, STOP
+
+HERE = Path(__file__).resolve().parents[1]   # tests/
+HOSTS = HERE.parent.parent / "shared" / "hosts"
+RUNS = 20
+
+
+def _hidden_paths() -> tuple[list[str], list[str]]:
+    """Folders and files that make up a Python installation or a venv on this machine."""
+    dirs = set()
+    for pattern in ("/root/.pyenv", "/usr/lib/python3*", "/usr/local/lib/python3*", "/opt/python*",
+                    "/usr/share/python3*", "/usr/lib/python2*"):
+        dirs.update(p for p in glob.glob(pattern) if os.path.isdir(p))
+    for p in (sys.prefix, sys.base_prefix, os.path.realpath(sys.prefix), os.path.realpath(sys.base_prefix)):
+        if os.path.isdir(p) and p not in ("/usr", "/usr/local", "/"):
+            dirs.add(p)
+    files = set()
+    for pattern in ("/usr/bin/python*", "/usr/local/bin/python*", "/usr/lib/x86_64-linux-gnu/libpython3*",
+                    "/usr/local/lib/libpython3*", "/usr/lib/libpython3*"):
+        files.update(p for p in glob.glob(pattern) if os.path.isfile(p) or os.path.islink(p))
+    # a path inside a hidden folder is hidden with it
+    return sorted(dirs), sorted(f for f in files if not any(f.startswith(d + "/") for d in dirs))
+
+
+def _namespaces_work() -> str | None:
+    if os.geteuid() != 0:
+        return "needs root to make a mount namespace (CI runs as root)"
+    if not shutil.which("unshare") or not shutil.which("setpriv"):
+        return "unshare/setpriv (util-linux) not installed"
+    r = subprocess.run(["unshare", "-m", "--propagation", "private", "true"], capture_output=True, text=True)
+    return None if r.returncode == 0 else f"mount namespaces not permitted here: {r.stderr.strip()}"
+
+
+WHY_NOT = _namespaces_work()
+pytestmark = pytest.mark.skipif(WHY_NOT is not None, reason=str(WHY_NOT))
+
+
+def hidden_run(script: str, cwd: Path, timeout: float = 900) -> subprocess.CompletedProcess:
+    """Run the shell `script` as nobody, bare environment, in a mount namespace with every Python
+    hidden; it starts with a check that no python3 runs there."""
+    dirs, files = _hidden_paths()
+    mounts = [f"mount -t tmpfs -o size=1m,mode=755 none {shlex.quote(d)}" for d in dirs]
+    mounts += [f"mount --bind /dev/null {shlex.quote(f)}" for f in files]
+    inner = ("set -u\n"
+             "if command -v python3 >/dev/null 2>&1 && python3 -c pass 2>/dev/null; then echo 'PYTHON VISIBLE'; exit 97; fi\n"
+             + script)
+    outer = "set -e\n" + "\n".join(mounts) + "\n" + (
+        f"cd {shlex.quote(str(cwd))}\n"
+        f"exec setpriv --reuid=65534 --regid=65534 --clear-groups env -i PATH=/usr/bin:/bin HOME={shlex.quote(str(cwd))} "
+        f"sh -c {shlex.quote(inner)}\n")
+    return subprocess.run(["unshare", "-m", "--propagation", "private", "sh", "-c", outer], capture_output=True,
+                          text=True, timeout=timeout)
+
+
+@pytest.fixture(scope="module")
+def odd_dir(fmu_files):
+    """A folder nobody can use, with spaces and non-ASCII characters in its path, holding the FMUs."""
+    root = Path(tempfile.mkdtemp(prefix="spurdiff travel ü ", dir="/tmp"))
+    os.chmod(root, 0o777)
+    for name, path in fmu_files.items():
+        shutil.copy(path, root / f"{name}.fmu")
+        os.chmod(root / f"{name}.fmu", 0o644)
+    yield root
+    shutil.rmtree(root, ignore_errors=True)
+
+
+@pytest.fixture(scope="module")
+def reference(fmu_files):
+    out = {}
+    for name, inputs in CASES.items():
+        res = simulate_fmu(str(fmu_files[name]), stop_time=STOP, output_interval=STEP, start_values=inputs)
+        out[name] = {n: np.asarray(res[n], dtype=float) for n in res.dtype.names}
+    return out
+
+
+def _read_csv(path: Path) -> dict[str, np.ndarray]:
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    names = [n.strip().strip('"') for n in rows[0]]
+    out = {}
+    for i, n in enumerate(names):
+        try:
+            out[n] = np.array([float(r[i]) for r in rows[1:] if r], dtype=float)
+        except ValueError:
+            continue
+    return out
+
+
+def _compare(got: dict, ref: dict, what: str, rtol: float = 1e-9):
+    common = [n for n in got if n in ref and n != "time"]
+    assert len(common) >= 3, f"{what}: too few common columns ({common})"
+    for n in common:
+        a, b = got[n], ref[n]
+        k = min(len(a), len(b))
+        assert k >= int(STOP / STEP), f"{what}: {n} has {len(a)} rows"
+        assert np.allclose(a[:k], b[:k], rtol=rtol, atol=1e-9), f"{what}: {n} differs"
+
+
+def _loop(cmd: str, runs: int = RUNS) -> str:
+    """`runs` runs of cmd; prints 'RUN i rc' after each."""
+    return f"i=1; while [ $i -le {runs} ]; do {cmd}; echo RUN $i $?; i=$((i+1)); done\n"
+
+
+def _exit_codes(out: str) -> list[int]:
+    return [int(line.split()[2]) for line in out.splitlines() if line.startswith("RUN ")]
+
+
+def test_no_python_is_visible_in_the_namespace(odd_dir):
+    r = hidden_run("ls /root/.pyenv 2>/dev/null | wc -l; id -u; pwd\n", odd_dir)
+    assert r.returncode == 0, r.stdout + r.stderr
+    lines = r.stdout.split()
+    assert lines[0] == "0" and lines[1] == "65534", r.stdout
+
+
+@pytest.mark.skipif(not (HOSTS / "fmusim").is_file(), reason=f"{HOSTS}/fmusim is absent")
+@pytest.mark.parametrize("name", list(CASES))
+def test_fmusim_runs_each_fmu_where_no_python_is(name, odd_dir, reference):
+    starts = " ".join(f"--start-value {k} {v}" for k, v in CASES[name].items())
+    out = f"out-fmusim-{name}.csv"
+    cmd = (f"{shlex.quote(str(HOSTS / 'fmusim'))} --interface-type cs --output-interval {STEP} --stop-time {STOP} "
+           f"{starts} --output-file {out} {name}.fmu >/dev/null 2>>err-fmusim-{name}.txt")
+    r = hidden_run(_loop(cmd), odd_dir)
+    codes = _exit_codes(r.stdout)
+    err = (odd_dir / f"err-fmusim-{name}.txt").read_text(errors="replace") if (odd_dir / f"err-fmusim-{name}.txt").exists() else ""
+    assert codes == [0] * RUNS, f"exit codes {codes}\n{r.stdout[-2000:]}{r.stderr[-2000:]}{err[-3000:]}"
+    _compare(_read_csv(odd_dir / out), reference[name], f"fmusim {name}")
+
+
+@pytest.mark.skipif(not (HOSTS / "fmuCheck.linux64").is_file(), reason=f"{HOSTS}/fmuCheck.linux64 is absent")
+@pytest.mark.parametrize("name", list(CASES))
+def test_fmucheck_runs_each_fmu_where_no_python_is(name, odd_dir, reference):
+    inputs = odd_dir / f"in-{name}.csv"
+    names = list(CASES[name])
+    with open(inputs, "w") as f:
+        f.write("time," + ",".join(names) + "\n")
+        for t in (0.0, STOP):
+            f.write(f"{t}," + ",".join(str(CASES[name][n]) for n in names) + "\n")
+    os.chmod(inputs, 0o644)
+    out = f"out-fmucheck-{name}.csv"
+    cmd = (f"{shlex.quote(str(HOSTS / 'fmuCheck.linux64'))} -k cs -h {STEP} -s {STOP} -i in-{name}.csv -o {out} "
+           f"{name}.fmu >log-fmucheck-{name}.txt 2>&1; grep -q '0 Error(s)' log-fmucheck-{name}.txt")
+    r = hidden_run(_loop(cmd), odd_dir)
+    codes = _exit_codes(r.stdout)
+    log = (odd_dir / f"log-fmucheck-{name}.txt").read_text(errors="replace")
+    assert codes == [0] * RUNS, f"exit codes {codes}\n{r.stderr[-2000:]}{log[-3000:]}"
+    _compare(_read_csv(odd_dir / out), reference[name], f"fmuCheck {name}")
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="no C compiler")
+def test_our_c_host_runs_the_differential_where_no_python_is(odd_dir, differential_fmu):
+    exe = odd_dir / "fmi2_host"
+    subprocess.run(["gcc", "-o", str(exe), str(HERE / "c_host" / "fmi2_host.c"), "-ldl"], check=True)
+    os.chmod(exe, 0o755)
+    unpacked = odd_dir / "unpacked differential ü"
+    with zipfile.ZipFile(differential_fmu) as z:
+        z.extractall(unpacked)
+    subprocess.run(["chmod", "-R", "a+rX", str(unpacked)], check=True)
+    md = read_model_description(str(differential_fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    so = unpacked / "binaries" / "linux64" / "SpurDifferential.so"
+    args = [str(exe), str(so), md.guid, (unpacked / "resources").as_uri(),
+            str(vr["carrier.w_ref"]), str(vr["left.tau"]), str(vr["right.tau"]), str(vr["carrier.tauDrive"])]
+    cmd = " ".join(shlex.quote(a) for a in args) + " >>out-chost.txt 2>&1"
+    r = hidden_run(_loop(cmd), odd_dir)
+    codes = _exit_codes(r.stdout)
+    text = (odd_dir / "out-chost.txt").read_text(errors="replace")
+    assert codes == [0] * RUNS, f"exit codes {codes}\n{text[-3000:]}"
+    assert text.count("status 0 tauDrive 2100.000000") == RUNS and text.count("freed") == RUNS, text[-3000:]
+
+
+def _ecos_binary() -> Path | None:
+    try:
+        import ecospy
+    except (ImportError, OSError):
+        return None
+    exe = Path(ecospy.__file__).parent / "binaries" / "ecos"
+    if not exe.is_file():
+        return None
+    r = subprocess.run(["ldd", str(exe)], capture_output=True, text=True)
+    return exe if "not found" not in r.stdout else None
+
+
+ECOS = _ecos_binary()
+
+
+@pytest.mark.skipif(ECOS is None, reason="the ecos command line (pip install ecospy; apt-get install libtbb12) "
+                                         "does not run here")
+@pytest.mark.parametrize("name", list(CASES))
+def test_ecos_runs_each_fmu_where_no_python_is(name, odd_dir, fmu_files):
+    exe = odd_dir / "ecos"
+    if not exe.exists():
+        shutil.copy(ECOS, exe)
+        os.chmod(exe, 0o755)
+    res = simulate_fmu(str(fmu_files[name]), stop_time=STOP, output_interval=STEP)
+    ref = {n: np.asarray(res[n], dtype=float) for n in res.dtype.names}
+    work = odd_dir / f"ecos {name}"
+    work.mkdir(exist_ok=True)
+    os.chmod(work, 0o777)
+    cmd = (f"cd {shlex.quote(str(work))} && ../ecos simulate --path ../{name}.fmu --stopTime {STOP} "
+           f"--stepSize {STEP} >>log.txt 2>&1; rc=$?; cd ..; (exit $rc)")
+    r = hidden_run(_loop(cmd), odd_dir)
+    codes = _exit_codes(r.stdout)
+    log = (work / "log.txt").read_text(errors="replace") if (work / "log.txt").exists() else ""
+    assert codes == [0] * RUNS, f"exit codes {codes}\n{r.stderr[-2000:]}{log[-3000:]}"
+    got = {k.split("::", 1)[-1].split("[", 1)[0]: v for k, v in _read_csv(work / f"{name}.csv").items()}
+    _compare(got, ref, f"ecos {name}", rtol=5e-7)   # ecos writes 7 significant digits
