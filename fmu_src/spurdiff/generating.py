@@ -25,7 +25,8 @@ import math
 from functools import lru_cache
 
 import numpy as np
-from scipy.optimize import brentq, minimize_scalar
+
+from .numerics import find_root, minimize_bounded
 
 ISO53_TOOL_ADDENDUM = 1.25    # h_aP0 / m, ISO 53 profile A (= the gear's dedendum h_fP)
 ISO53_TOOL_TIP_RADIUS = 0.38  # rho_aP0 / m, ISO 53 profile A (= the gear's root radius rho_fP)
@@ -105,8 +106,8 @@ def form_radius(z: int, x: float, m: float, alpha: float, haP0: float, rhoaP0: f
         # point in a window narrower than the sampling, next to the flank's tangent contact)
         peaks = np.flatnonzero((d[1:-1] >= d[:-2]) & (d[1:-1] >= d[2:]) & (d[1:-1] > -0.05 * m)) + 1
         for k in peaks:
-            res = minimize_scalar(lambda f: -depth_at(px, py, f), bounds=(phis[k] - dphi, phis[k] + dphi),
-                                  method="bounded", options={"xatol": 1e-14})
+            res = minimize_bounded(lambda f: -depth_at(px, py, f), phis[k] - dphi, phis[k] + dphi,
+                                   xatol=1e-14)
             best = max(best, -float(res.fun))
         return best
 
@@ -116,5 +117,5 @@ def form_radius(z: int, x: float, m: float, alpha: float, haP0: float, rhoaP0: f
         return rb, True
     if max_depth(R_top) > tol:                    # cut everywhere: no involute left
         return R_top, True
-    rF = brentq(lambda R: max_depth(R) - tol, rb * (1.0 + 1e-12), R_top, xtol=1e-12 * m)
+    rF = find_root(lambda R: max_depth(R) - tol, rb * (1.0 + 1e-12), R_top, xtol=1e-12 * m)
     return rF, True

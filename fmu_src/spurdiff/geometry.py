@@ -14,7 +14,7 @@ Equations (ISO 21771 / any gear textbook, e.g. Niemann-Winter vol. II):
 
 * involute function ``inv(a) = tan(a) - a``
 * operating pressure angle: ``inv(alpha_w) = 2 tan(alpha) (x1 + x2) / (z1 + z2) + inv(alpha)``,
-  solved with :func:`scipy.optimize.brentq`
+  solved with :func:`spurdiff.numerics.find_root` (Brent's method)
 * centre distance ``a = m (z1 + z2) / 2 * cos(alpha) / cos(alpha_w)``
 * operating pitch radii ``r_w1 = a z1 / (z1 + z2)``, ``r_w2 = a z2 / (z1 + z2)``
 * base radii ``r_b = m z cos(alpha) / 2``
@@ -32,11 +32,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
-from scipy.optimize import brentq
-
 from .datafile import differential_default as _d
 from .errors import ParameterError, require_finite, require_positive
 from .generating import form_radius
+from .numerics import find_root
 
 MM = 1e-3  # metres per millimetre
 
@@ -47,12 +46,12 @@ def inv(alpha: float) -> float:
 
 
 def inv_inverse(value: float, name: str = "alpha_w") -> float:
-    """Angle whose involute is ``value`` (radians), via :func:`scipy.optimize.brentq`."""
+    """Angle whose involute is ``value`` (radians), via :func:`spurdiff.numerics.find_root`."""
     hi = math.radians(60.0)
     if not 0.0 < value < inv(hi):
         raise ParameterError(name, value, f"an involute value in (0, {inv(hi):.4f})",
                              "the profile-shift sum gives no operating pressure angle between 0 and 60 deg")
-    return brentq(lambda a: inv(a) - value, 1e-9, hi, xtol=1e-15, rtol=1e-15)
+    return find_root(lambda a: inv(a) - value, 1e-9, hi, xtol=1e-15, rtol=1e-15)
 
 
 @dataclass(frozen=True)

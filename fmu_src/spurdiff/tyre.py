@@ -33,6 +33,7 @@ import math
 from dataclasses import dataclass
 
 from .errors import ParameterError, require_finite, require_nonnegative, require_positive
+from .numerics import find_root
 
 _HALF_PI = 0.5 * math.pi
 
@@ -62,12 +63,10 @@ def peak_slip(B: float, C: float, E: float) -> float:
     """Slip ``k > 0`` at which ``f`` peaks (``f = 1``); ``inf`` when ``C <= 1`` (no peak).
 
     At the peak ``C atan(phi) = pi/2``, i.e. ``phi(B k) = tan(pi / (2 C))``; ``phi`` is strictly
-    increasing in ``k`` for ``E <= 1``, so the root is unique (scipy ``brentq``).
+    increasing in ``k`` for ``E <= 1``, so the root is unique (Brent's method, ``find_root``).
     """
     if C <= 1.0:
         return math.inf
-    from scipy.optimize import brentq
-
     target = math.tan(_HALF_PI / C)
 
     def g(x: float) -> float:
@@ -76,14 +75,14 @@ def peak_slip(B: float, C: float, E: float) -> float:
     hi = 1.0
     while g(hi) < 0.0:
         hi *= 2.0
-    return brentq(g, 0.0, hi, xtol=1e-15, rtol=1e-15) / B
+    return find_root(g, 0.0, hi, xtol=1e-15, rtol=1e-15) / B
 
 
 def slip_for_force_ratio(ratio: float, B: float, C: float, E: float) -> float:
     """Inverse of (1) on the stable branch: the slip ``k`` with ``f(k) = ratio``, ``|k| <=`` peak slip.
 
     ``ratio = F / (mu Fz)`` must satisfy ``|ratio| <= 1`` (``< sin(C pi/2)`` when ``C <= 1``).
-    Not for use in time-step loops (it calls scipy ``brentq``).
+    Not for use in time-step loops (it solves for ``k`` with ``find_root``).
     """
     ratio = require_finite("ratio", ratio)
     if ratio == 0.0:
@@ -91,14 +90,13 @@ def slip_for_force_ratio(ratio: float, B: float, C: float, E: float) -> float:
     top = 1.0 if C > 1.0 else math.sin(C * _HALF_PI)
     if abs(ratio) > top:
         raise ParameterError("ratio", ratio, f"|ratio| <= {top:g}", "beyond the tyre's friction limit")
-    from scipy.optimize import brentq
 
     k_hi = peak_slip(B, C, E)
     if math.isinf(k_hi):
         k_hi = 1.0
         while magic_formula(k_hi, B, C, E) < abs(ratio):
             k_hi *= 2.0
-    k = brentq(lambda s: magic_formula(s, B, C, E) - abs(ratio), 0.0, k_hi, xtol=1e-15, rtol=1e-15)
+    k = find_root(lambda s: magic_formula(s, B, C, E) - abs(ratio), 0.0, k_hi, xtol=1e-15, rtol=1e-15)
     return math.copysign(k, ratio)
 
 

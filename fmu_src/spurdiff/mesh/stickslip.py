@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from ..numerics import solve_system
 from ..rigid import RigidDifferential
 from .events import STICK_RTOL, contact_flags
 from .forces import evaluate
@@ -115,11 +116,9 @@ def initial_forces(c, ac: float, ad: float, slip_dir: float, wd0: float):
             r.append(c.Jc * acc - (c.tau_c - (n * rbA * FA + n * rbB * FB + n * Q1 + n * Q2)))
         return r
 
-    from scipy.optimize import fsolve
-
     F0 = -(tL + tR) / (n * (rbA + rbB))
     x0 = [F0, ad] + ([] if speed else [ac])
-    sol, info, ier, _ = fsolve(res, x0, full_output=True, xtol=1e-13)
+    sol = solve_system(res, x0, xtol=1e-13).x
     if not np.all(np.isfinite(sol)):
         sol = x0  # no consistent start found: start from the rigid estimate (a short transient)
     F12, add = float(sol[0]), float(sol[1])

@@ -1,0 +1,332 @@
+"""The three numerical solvers the physics needs, in plain Python (numpy for the linear algebra only),
+so that the FMUs run without scipy.
+
+* :func:`find_root`: a root of a scalar function in a bracket ``[a, b]`` with a sign change, by
+  Brent's method (bisection safeguarding secant and inverse quadratic interpolation; R. P. Brent,
+  "Algorithms for Minimization without Derivatives", 1973, ch. 4). Same arguments and stopping
+  rule as ``scipy.optimize.brentq``: it returns ``x`` once the bracket around the root is shorter
+  than ``2 (xtol + rtol |x|)`` (so ``|x - root| <= xtol + rtol |x|``), or ``f(x) == 0`` exactly.
+  Used for the inverse involute (:mod:`spurdiff.geometry`), the form radius
+  (:mod:`spurdiff.generating`) and the Magic Formula's peak and inverse (:mod:`spurdiff.tyre`).
+* :func:`minimize_bounded`: a minimum of a scalar function on ``[lo, hi]`` by Brent's bounded
+  method (golden section with parabolic steps; Brent, ch. 5), as
+  ``scipy.optimize.minimize_scalar(method="bounded")``: stops when ``x`` is within
+  ``2 tol - (b - a) / 2`` of the midpoint of the current interval ``[a, b]``, with
+  ``tol = 1.483e-8 |x| + xatol / 3`` (``sqrt(2.2e-16)``, scipy's constant). The first term
+  usually dominates: the location is found to about 1.5e-8 relative, the minimum value to
+  rounding (a smooth minimum is flat). Used for the tool's depth over the rolling angle
+  (:mod:`spurdiff.generating`).
+* :func:`solve_system`: a root of a small nonlinear system ``F(x) = 0`` by Newton's method with a
+  forward-difference Jacobian (or a given one) and a backtracking line search on ``|F|``; for the
+  consistent start of the mesh model (2 or 3 unknowns, :mod:`spurdiff.mesh.stickslip`). It stops
+  with success when a full Newton step is at most ``xtol |x|`` (Euclidean norms; the relative-step
+  test of ``scipy.optimize.fsolve``, there on the Jacobian-scaled norm and the trust radius), when
+  ``F(x) == 0``, or when the residual cannot be lowered any more after it fell to ``1e-10`` of its
+  start (rounding level).
+  It never raises for a numerical failure: it returns the best point with ``success = False`` and
+  a message (singular or non-finite Jacobian, non-finite ``F``, no decrease, ``maxiter``).
+
+:func:`find_root` raises :class:`SolverError`, naming the function, for a bracket without a sign
+change, a non-finite function value, or no convergence in ``maxiter`` iterations;
+:func:`minimize_bounded` for a non-finite value. Bad arguments (tolerances, bounds) raise
+``ValueError``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+EPS = float(np.finfo(float).eps)
+_SQRT_EPS = math.sqrt(EPS)
+_GOLDEN = 0.5 * (3.0 - math.sqrt(5.0))  # the golden section's smaller part, 0.381966...
+_REL_TOL_MIN = math.sqrt(2.2e-16)       # minimize_bounded's relative resolution in x (1.483e-8; the
+                                        # value scipy's bounded method uses, so results agree)
+
+
+class SolverError(ArithmeticError):
+    """A solver could not do its job (no sign change, a non-finite value, no convergence); the
+    message names the function it was given and the numbers."""
+
+
+def _name(f) -> str:
+    return getattr(f, "__qualname__", None) or getattr(f, "__name__", None) or repr(f)
+
+
+def _finite_value(f, x: float, args: tuple) -> float:
+    v = float(f(x, *args))
+    if not math.isfinite(v):
+        raise SolverError(f"{_name(f)}({x!r}) = {v!r}: the function must be finite on the interval")
+    return v
+
+
+def find_root(f, a: float, b: float, args: tuple = (), xtol: float = 2e-12, rtol: float = 4.0 * EPS,
+              maxiter: int = 100) -> float:
+    """Root of ``f`` in ``[a, b]`` (``f(a)`` and ``f(b)`` of opposite signs) by Brent's method.
+
+    Returns ``x`` with ``|x - root| <= xtol + rtol |x|`` (an endpoint exactly if ``f`` is zero
+    there). ``rtol`` must be at least ``4 eps`` (a smaller one cannot be met in floating point).
+    Raises :class:`SolverError` when ``f(a)`` and ``f(b)`` have the same sign, ``f`` is not finite
+    at a point it is evaluated at, or ``maxiter`` iterations do not converge.
+    """
+    if not xtol > 0.0:
+        raise ValueError(f"xtol = {xtol!r} is invalid: allowed > 0")
+    if not rtol >= 4.0 * EPS:
+        raise ValueError(f"rtol = {rtol!r} is invalid: allowed >= 4 eps = {4.0 * EPS:.3g}")
+    if int(maxiter) < 1:
+        raise ValueError(f"maxiter = {maxiter!r} is invalid: allowed >= 1")
+    a, b = float(a), float(b)
+    fa, fb = _finite_value(f, a, args), _finite_value(f, b, args)
+    if fa == 0.0:
+        return a
+    if fb == 0.0:
+        return b
+    if (fa > 0.0) == (fb > 0.0):
+        raise SolverError(f"{_name(f)} has no sign change on [{a!r}, {b!r}]: f = {fa!r}, {fb!r}")
+    # x: the current best estimate; xp, fp: the previous one; xc, fc: the contrapoint (f(xc) of the
+    # other sign, so the root lies between x and xc); d, e: the last step and the one before it
+    xp, fp, x, fx = a, fa, b, fb
+    xc, fc = xp, fp
+    d = e = x - xp
+    for _ in range(int(maxiter)):
+        if (fp > 0.0) != (fx > 0.0):    # the sign changed between xp and x: xp is the contrapoint
+            xc, fc = xp, fp
+            d = e = x - xp
+        if abs(fc) < abs(fx):           # keep the smaller |f| as the estimate
+            xp, fp = x, fx
+            x, fx = xc, fc
+            xc, fc = xp, fp
+        tol = 0.5 * (xtol + rtol * abs(x))
+        half = 0.5 * (xc - x)           # bisection step
+        if fx == 0.0 or abs(half) < tol:
+            return x
+        step = half
+        if abs(e) > tol and abs(fx) < abs(fp):
+            if xp == xc:                # two points: secant
+                trial = -fx * (x - xp) / (fx - fp)
+            else:                       # three points: inverse quadratic interpolation
+                sp = (fp - fx) / (xp - x)
+                sc = (fc - fx) / (xc - x)
+                den = sc * sp * (fc - fp)
+                # (an underflowed denominator: no interpolation, bisect; NaN compares false below)
+                trial = -fx * (fc * sc - fp * sp) / den if den != 0.0 else math.inf
+            # accept the interpolation if it stays well inside the bracket and shrinks fast enough
+            if 2.0 * abs(trial) < min(abs(e), 3.0 * abs(half) - tol):
+                e, d = d, trial
+                step = trial
+            else:
+                e = d = half
+        else:
+            e = d = half
+        xp, fp = x, fx
+        x += step if abs(step) > tol else math.copysign(tol, half)
+        fx = _finite_value(f, x, args)
+    raise SolverError(f"{_name(f)}: no root found in {int(maxiter)} iterations on [{a!r}, {b!r}] "
+                      f"(last x = {x!r}, f = {fx!r}, bracket half width {abs(0.5 * (xc - x))!r})")
+
+
+@dataclass(frozen=True)
+class Minimum:
+    """Result of :func:`minimize_bounded`: the point, the value there, function evaluations,
+    whether the tolerance was met (``False``: ``maxiter`` evaluations reached) and why it stopped."""
+
+    x: float
+    fun: float
+    nfev: int
+    success: bool
+    message: str
+
+
+def minimize_bounded(f, lo: float, hi: float, args: tuple = (), xatol: float = 1e-5,
+                     maxiter: int = 500) -> Minimum:
+    """Local minimum of ``f`` on ``[lo, hi]`` by Brent's bounded method (golden section and
+    parabolic interpolation; the interior of the interval is searched, the ends are not evaluated).
+
+    Stops when ``x`` is within ``2 tol - (b - a)/2`` of the midpoint of the interval ``[a, b]``
+    still bracketing the minimum, ``tol = sqrt(2.2e-16) |x| + xatol / 3``, or after ``maxiter``
+    function evaluations (``success = False``). Raises :class:`SolverError` if ``f`` is not finite
+    at a point it is evaluated at.
+    """
+    lo, hi = float(lo), float(hi)
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise ValueError(f"bounds = ({lo!r}, {hi!r}) are invalid: allowed finite lo < hi")
+    if not xatol > 0.0:
+        raise ValueError(f"xatol = {xatol!r} is invalid: allowed > 0")
+    if int(maxiter) < 1:
+        raise ValueError(f"maxiter = {maxiter!r} is invalid: allowed >= 1")
+    a, b = lo, hi
+    # x: the best point so far; w: the second best; v: the previous value of w
+    x = w = v = a + _GOLDEN * (b - a)
+    fx = fw = fv = _finite_value(f, x, args)
+    nfev = 1
+    d = e = 0.0                 # the last step and the one before the last
+    success = True
+    while True:
+        mid = 0.5 * (a + b)
+        tol = _REL_TOL_MIN * abs(x) + xatol / 3.0
+        tol2 = 2.0 * tol
+        if abs(x - mid) <= tol2 - 0.5 * (b - a):
+            break
+        if nfev >= int(maxiter):
+            success = False
+            break
+        parabolic = False
+        if abs(e) > tol:
+            # parabola through (x, fx), (w, fw), (v, fv): its vertex is at x + p / q
+            r = (x - w) * (fx - fv)
+            q = (x - v) * (fx - fw)
+            p = (x - v) * q - (x - w) * r
+            q = 2.0 * (q - r)
+            if q > 0.0:
+                p = -p
+            q = abs(q)
+            e_old, e = e, d
+            # accept it if it is less than half the step before the last and inside (a, b)
+            if abs(p) < abs(0.5 * q * e_old) and q * (a - x) < p < q * (b - x):
+                parabolic = True
+                d = p / q
+                u = x + d
+                if u - a < tol2 or b - u < tol2:     # not closer than 2 tol to an end
+                    d = tol if mid >= x else -tol
+        if not parabolic:
+            e = (a - x) if x >= mid else (b - x)
+            d = _GOLDEN * e
+        # never evaluate closer than tol to x
+        u = x + (d if abs(d) >= tol else (tol if d >= 0.0 else -tol))
+        fu = _finite_value(f, u, args)
+        nfev += 1
+        if fu <= fx:
+            if u >= x:
+                a = x
+            else:
+                b = x
+            v, fv, w, fw, x, fx = w, fw, x, fx, u, fu
+        else:
+            if u < x:
+                a = u
+            else:
+                b = u
+            if fu <= fw or w == x:
+                v, fv, w, fw = w, fw, u, fu
+            elif fu <= fv or v == x or v == w:
+                v, fv = u, fu
+    message = ("x within 2 tol - (b - a)/2 of the interval's midpoint" if success
+               else f"maxiter = {int(maxiter)} function evaluations reached")
+    return Minimum(x, fx, nfev, success, message)
+
+
+@dataclass(frozen=True)
+class SystemSolution:
+    """Result of :func:`solve_system`: the best point found, ``F`` there, whether a convergence
+    test was met and which (or why it failed), Newton iterations and function evaluations."""
+
+    x: np.ndarray
+    fun: np.ndarray
+    success: bool
+    message: str
+    nit: int
+    nfev: int
+
+
+def _norm(v) -> float:
+    """Euclidean norm without underflow or overflow of the squares (math.hypot)."""
+    return math.hypot(*(float(a) for a in np.ravel(v)))
+
+
+def _jacobian_fd(f, x: np.ndarray, fx: np.ndarray, args: tuple, scale: np.ndarray) -> np.ndarray:
+    """Forward-difference Jacobian, step ``sqrt(eps) max(|x_j|, scale_j)`` (``sqrt(eps)`` where
+    that is zero or lost)."""
+    J = np.empty((fx.size, x.size))
+    for j in range(x.size):
+        xh = x.copy()
+        xh[j] = x[j] + _SQRT_EPS * max(abs(x[j]), scale[j])
+        if xh[j] == x[j]:        # x_j == 0 (and no scale) or subnormal: an absolute step
+            xh[j] = x[j] + _SQRT_EPS
+        J[:, j] = (np.asarray(f(xh, *args), dtype=float).ravel() - fx) / (xh[j] - x[j])
+    return J
+
+
+def solve_system(f, x0, args: tuple = (), xtol: float = 1.49012e-8, maxiter: int = 100,
+                 jac=None) -> SystemSolution:
+    """Root of ``F(x) = 0`` (``f(x, *args)`` returns ``n`` values for ``n`` unknowns) by Newton's
+    method with a backtracking (Armijo) line search on the Euclidean norm of ``F``.
+
+    ``jac(x, *args)``, if given, returns the ``n x n`` Jacobian; else forward differences, the step
+    in ``x_j`` being ``sqrt(eps)`` times the largest ``|x_j|`` of the iterates so far, ``x0``
+    included (a component that converges to zero keeps a step on its own scale).
+    Success: a full Newton step ``|dx| <= xtol |x|`` (the step is taken if it does not raise
+    ``|F|``), ``F(x) == 0``, or ``|F|`` cannot be lowered any more (halving the step 40 times) after
+    it fell below ``1e-10`` of its value at ``x0`` (rounding level). Otherwise ``success = False``
+    with the reason; ``x`` is then the point with the smallest ``|F|`` found (``x0`` if ``F(x0)``
+    is not finite). It does not raise for a numerical failure.
+    """
+    if not xtol > 0.0:
+        raise ValueError(f"xtol = {xtol!r} is invalid: allowed > 0")
+    if int(maxiter) < 1:
+        raise ValueError(f"maxiter = {maxiter!r} is invalid: allowed >= 1")
+    x = np.array(x0, dtype=float).ravel()
+    fx = np.asarray(f(x, *args), dtype=float).ravel()
+    nfev = 1
+    name = _name(f)
+    if fx.size != x.size:
+        raise ValueError(f"{name} returns {fx.size} values for {x.size} unknowns: "
+                         "allowed as many values as unknowns")
+
+    def result(ok: bool, message: str, nit: int) -> SystemSolution:
+        return SystemSolution(x, fx, ok, message, nit, nfev)
+
+    if not np.all(np.isfinite(x)):
+        raise ValueError(f"x0 = {x.tolist()} is invalid: allowed finite values")
+    if not np.all(np.isfinite(fx)):
+        return result(False, f"{name}(x0) is not finite: {fx.tolist()}", 0)
+    fnorm = fnorm0 = _norm(fx)
+    if fnorm == 0.0:
+        return result(True, "F(x0) = 0", 0)
+    scale = np.abs(x)
+    for it in range(1, int(maxiter) + 1):
+        if jac is None:
+            J = _jacobian_fd(f, x, fx, args, scale)
+            nfev += x.size
+        else:
+            J = np.asarray(jac(x, *args), dtype=float).reshape(x.size, x.size)
+        if not np.all(np.isfinite(J)):
+            return result(False, f"the Jacobian of {name} is not finite at x = {x.tolist()}", it)
+        try:
+            dx = np.linalg.solve(J, -fx)
+        except np.linalg.LinAlgError:
+            dx = None
+        if dx is None or not np.all(np.isfinite(dx)):
+            return result(False, f"the Jacobian of {name} is singular at x = {x.tolist()}", it)
+        if _norm(dx) <= xtol * _norm(x):
+            xn = x + dx
+            fn = np.asarray(f(xn, *args), dtype=float).ravel()
+            nfev += 1
+            if np.all(np.isfinite(fn)) and _norm(fn) <= fnorm:
+                x, fx = xn, fn
+            return result(True, f"Newton step <= xtol |x| (xtol = {xtol:g})", it)
+        t = 1.0
+        for _ in range(40):
+            xn = x + t * dx
+            fn = np.asarray(f(xn, *args), dtype=float).ravel()
+            nfev += 1
+            if np.all(np.isfinite(fn)):
+                nn = _norm(fn)
+                if nn <= (1.0 - 1e-4 * t) * fnorm:
+                    break
+            t *= 0.5
+        else:
+            if fnorm <= 1e-10 * fnorm0:
+                return result(True, f"|F| = {fnorm:.3g} cannot be lowered further (rounding level; "
+                                    f"{fnorm0:.3g} at x0)", it)
+            return result(False, f"{name}: |F| = {fnorm:.3g} does not decrease along the Newton step "
+                                 f"at x = {x.tolist()} (not a root; {fnorm0:.3g} at x0)", it)
+        x, fx, fnorm = xn, fn, nn
+        scale = np.maximum(scale, np.abs(x))
+        if fnorm == 0.0:
+            return result(True, "F(x) = 0", it)
+    return result(False, f"{name}: no convergence in maxiter = {int(maxiter)} Newton iterations "
+                         f"(|F| = {fnorm:.3g} at x = {x.tolist()}, {fnorm0:.3g} at x0)", int(maxiter))
+
+
+__all__ = ["EPS", "SolverError", "find_root", "minimize_bounded", "Minimum", "solve_system", "SystemSolution"]
