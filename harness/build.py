@@ -1,31 +1,40 @@
 """Build the project's FMUs into ``build/fmus/``.
 
 For each FMU declared in its interface module (:data:`FMUS`: ``spurdiff.differential_fmu``...):
-the script pythonfmu packs is generated from the declaration (:data:`SCRIPT`: the class is
-``spurdiff.fmi_adapter.fmu_class(interface)``), pythonfmu builds the archive with the ``spurdiff``
-package bundled as a resource; the modelDescription.xml is post-processed from the declared
-variables (:mod:`harness.modeldescription`). The Linux binary is then our own (``fmu_src/native``,
-compiled here with the C compiler and this Python's headers), in place of pythonfmu's wrapper:
+pythonfmu builds the archive's skeleton from a script generated from the declaration
+(:data:`SCRIPT`, imported here from the source tree: it yields modelDescription.xml and the GUID);
+the modelDescription.xml is post-processed from the declared variables
+(:mod:`harness.modeldescription`). What the FMU runs is then our own, so it travels (runs where no
+Python is installed, in any host process):
 
-* ``binaries/linux64/<model>.so``, the loader, depends on the C library only; at
-  fmi2Instantiate it makes the recorded libpython's symbols global (or uses the Python the host
-  process already runs) and loads
-* ``binaries/linux64/fmi2_pybridge.so``, which starts the interpreter with the recorded home and
-  module path (isolated from the host's environment), never finalizes it, and maps each FMI call
-  onto the adapter's ``fmi2_*`` methods with the statuses the standard asks for;
-* ``resources/python_runtime.cfg`` records this Python (libpython, home, sys.path), the packages
-  the FMU needs, its module, class and GUID.
+* ``resources/python/``, the FMU's own Python runtime: this interpreter's libpython, the standard
+  library modules the FMUs import, numpy (:mod:`harness.runtime_bundle`; made once and cached,
+  the archive starts from its compressed copy);
+* ``resources/spurdiff/``, the package under a name of its own: a copy whose imports are all
+  relative, with pythonfmu's run-time modules vendored and ``_fmu_entry.py`` holding the FMU's
+  class (:mod:`harness.fmu_package`); the bridge loads it under a private alias, never as
+  ``spurdiff`` or ``pythonfmu``;
+* ``binaries/linux64/<model>.so``, the loader (:data:`LOADER_SOURCES`, compiled here, C library
+  only), ``binaries/linux64/fmi2_pybridge.so``, the bridge into the interpreter (compiled with this
+  Python's headers), and ``binaries/linux64/spurdiff_fmu_server`` when :data:`SERVER_SOURCES` is
+  set (the model's own process);
+* ``resources/python_runtime.cfg`` (format 2, see ``fmu_src/native/runtime_cfg.h``): the runtime's
+  libpython, home, module path and preloaded libraries, the package, module, class and GUID, every
+  path relative to the resources folder: nothing of the building machine is recorded.
 
-So a C host (fmuCheck, fmusim, ecos) runs the FMU with a bare environment. Without a C compiler
-the build keeps pythonfmu's wrapper, linked to libpython with patchelf, and says so (a C host then
-needs LD_PRELOAD and PYTHONHOME). A build is skipped when the FMU is newer than every source.
+``needsExecutionTool`` is false. Without a C compiler the build keeps pythonfmu's wrapper and
+script (the package imported by its global name from the host's Python), linked to this
+libpython with patchelf, and says so: that FMU needs the host's Python and numpy
+(``needsExecutionTool`` true). A build is skipped when the FMU is newer than every source.
 """
 from __future__ import annotations
 
+import compileall
 import fcntl
 import hashlib
 import importlib
 import os
+import py_compile
 import shutil
 import subprocess
 import sys
@@ -35,21 +44,27 @@ import zipfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+from harness import fmu_package, runtime_bundle
 from harness.paths import fmu_cache_dir, fmu_sources, physics_package, sources_digest
+
+# the C files compiled together into binaries/linux64/<model>.so (-ldl -lpthread, no Python headers)
+LOADER_SOURCES: tuple = ("fmi2_loader.c",)
+# the C files compiled together into the executable binaries/linux64/spurdiff_fmu_server (none: no server)
+SERVER_SOURCES: tuple = ()
+SERVER = "spurdiff_fmu_server"
 
 FMU_SRC = fmu_sources()          # native/, the C sources (package spurdiff_fmus = fmu_src/)
 PACKAGE = physics_package()      # bundled into every FMU
 NATIVE = FMU_SRC / "native"
 
 # FMU name -> its interface module, where the FMU is declared once: FMU_NAME, DESCRIPTION,
-# VARIABLES (bound to the model), build_model, DEFAULT_EXPERIMENT, REQUIRES (the packages it
-# imports at instantiate, named in the log when the host's Python lacks one)
+# VARIABLES (bound to the model), build_model, DEFAULT_EXPERIMENT
 FMUS: dict[str, str] = {
     "SpurDifferential": "spurdiff.differential_fmu",
     "WheelLoad": "spurdiff.wheel_fmu",
     "Vehicle": "spurdiff.vehicle_fmu",
 }
-# the script pythonfmu packs (resources/<name>.py): generated from the declaration
+# the script pythonfmu builds the skeleton from (and packs, for its own wrapper without a C compiler)
 SCRIPT = '''"""{name}.fmu, generated by harness/build.py from its declaration in {module} (name,
 description, variables bound to the model, build_model); the FMI plumbing is spurdiff.fmi_adapter."""
 from {package} import {short} as interface
@@ -77,10 +92,24 @@ def script_text(name: str) -> str:
     return SCRIPT.format(name=name, module=module, package=package, short=short)
 
 
+# the build code besides this module and modeldescription.py (in harness.paths.sources_digest)
+BUILD_CODE = tuple(Path(m.__file__).resolve() for m in (fmu_package, runtime_bundle)) + runtime_bundle.CODE_FILES
+
+
 def source_digest(name: str) -> str:
     """Hash of everything that goes into an FMU (its declaration and the physics package, the C
-    sources, this build code): see :func:`harness.paths.sources_digest`."""
-    return hashlib.sha256(f"{sources_digest()}:{name}.py".encode()).hexdigest()
+    sources, this build code and the runtime's, the interpreter and numpy it carries): see
+    :func:`harness.paths.sources_digest`."""
+    h = hashlib.sha256(f"{sources_digest()}:{name}.py".encode())
+    for p in sorted(set(BUILD_CODE)):
+        h.update(p.read_bytes())
+    h.update(repr(runtime_bundle.interpreter_id()).encode())
+    return h.hexdigest()
+
+
+def declarations() -> dict[str, tuple[str, dict]]:
+    """Every FMU's interface module and default experiment (what the runtime is traced with)."""
+    return {n: (m, interface(n).DEFAULT_EXPERIMENT) for n, m in FMUS.items()}
 
 
 def fmu_path(name: str, dest: Path | None = None) -> Path:
@@ -91,15 +120,6 @@ def is_current(name: str, dest: Path | None = None) -> bool:
     fmu = fmu_path(name, dest)
     stamp = fmu.with_suffix(".sha256")
     return fmu.exists() and stamp.exists() and stamp.read_text().strip() == source_digest(name)
-
-
-def _libpython() -> Path | None:
-    libdir = sysconfig.get_config_var("LIBDIR")
-    name = sysconfig.get_config_var("INSTSONAME") or sysconfig.get_config_var("LDLIBRARY")
-    if not libdir or not name or not name.endswith(tuple([".so", ".so.1.0"])) and ".so" not in name:
-        return None
-    p = Path(libdir) / name
-    return p if p.exists() else None
 
 
 def find_patchelf() -> str | None:
@@ -134,27 +154,31 @@ def c_compiler() -> str:
     return found
 
 
-def compile_native(out_dir: Path) -> tuple[Path, Path]:
-    """Compile the loader and the bridge into ``out_dir``; raises BuildError with the compiler's
+def compile_native(out_dir: Path) -> tuple[Path, Path, Path | None]:
+    """Compile the loader (:data:`LOADER_SOURCES`), the bridge and, when :data:`SERVER_SOURCES`
+    names any, the server executable into ``out_dir``; raises BuildError with the compiler's
     message when there is no compiler or a build fails."""
     cc = c_compiler()
     include = sysconfig.get_paths()["include"]
     if not (Path(include) / "Python.h").is_file():
         raise BuildError(f"no Python.h in {include} (install this Python's development headers)")
-    common = ["-shared", "-fPIC", "-O2", "-Wall", "-Werror=implicit-function-declaration",
-              f"-I{_fmi2_headers()}", f"-I{NATIVE}"]
+    flags = ["-fPIC", "-O2", "-Wall", "-Werror=implicit-function-declaration", f"-I{_fmi2_headers()}",
+             f"-I{NATIVE}"]
     loader, bridge = out_dir / "loader.so", out_dir / BRIDGE
+    server = out_dir / SERVER if SERVER_SOURCES else None
     jobs = [
-        [cc, *common, str(NATIVE / "fmi2_loader.c"), "-o", str(loader), "-ldl", "-lpthread"],
-        [cc, *common, f"-I{include}",
+        [cc, "-shared", *flags, *(str(NATIVE / f) for f in LOADER_SOURCES), "-o", str(loader), "-ldl", "-lpthread"],
+        [cc, "-shared", *flags, f"-I{include}",
          str(NATIVE / "fmi2_pybridge.c"), "-o", str(bridge), "-lpthread"],
     ]
+    if server is not None:
+        jobs.append([cc, *flags, *(str(NATIVE / f) for f in SERVER_SOURCES), "-o", str(server), "-ldl", "-lpthread"])
     for cmd in jobs:
-        source = next(c for c in cmd if c.endswith(".c"))
+        sources = ", ".join(Path(c).name for c in cmd if c.endswith(".c"))
         r = subprocess.run(cmd, capture_output=True, text=True)
         if r.returncode != 0:
-            raise BuildError(f"compiling {source} failed:\n{r.stderr.strip()}")
-    return loader, bridge
+            raise BuildError(f"compiling {sources} failed:\n{r.stderr.strip()}")
+    return loader, bridge, server
 
 
 # FMUs that ship the compiled kernel of the mesh levels (fmu_src/native/mesh_kernel.c), and its flags:
@@ -214,40 +238,10 @@ def rigid_kernel_library(dest: Path | None = None) -> Path:
     return _direct_kernel(rigid_kernel, "rigid_kernel", RIGID_KERNEL_SOURCES, dest)
 
 
-def runtime_cfg(name: str, script: str, guid: str) -> str:
-    """resources/python_runtime.cfg: the Python this FMU runs on (see fmu_src/native/runtime_cfg.h)."""
-    lib = _libpython()
-    if lib is None:
-        raise BuildError(f"this Python ({sys.executable}) has no shared libpython: a C host could not "
-                         "load it (use a Python built with --enable-shared)")
-    prefixes = {str(Path(p).resolve()) for p in (sys.prefix, sys.base_prefix)}
-    path = []
-    for entry in sys.path:
-        if not entry or not Path(entry).exists():
-            continue
-        resolved = str(Path(entry).resolve())
-        if any(resolved == p or resolved.startswith(p + os.sep) for p in prefixes) and entry not in path:
-            path.append(entry)
-    lines = [
-        "# The Python this FMU was built with; its binary loads it at fmi2Instantiate.",
-        "# To run the FMU on a machine where that Python lives elsewhere, edit libpython, home and path.",
-        f"libpython={lib}",
-        f"version={sys.version_info.major}.{sys.version_info.minor}",
-        f"executable={sys.executable}",
-        f"home={sys.base_prefix}",
-        *(f"path={p}" for p in path),
-        *(f"require={m}" for m in interface(name).REQUIRES),
-        f"module={Path(script).stem}",
-        f"class={name}",
-        f"guid={guid}",
-    ]
-    return "\n".join(lines) + "\n"
-
-
 def _patch_binary(so: Path) -> str:
     """Add DT_NEEDED libpython (+ RUNPATH) to the Linux binary. Returns a note for the log."""
     patchelf = find_patchelf()
-    lib = _libpython()
+    lib = runtime_bundle.libpython()
     if patchelf is None:
         return "patchelf not found: binary not patched (a C host needs LD_PRELOAD of libpython)"
     if lib is None:
@@ -255,6 +249,49 @@ def _patch_binary(so: Path) -> str:
     subprocess.run([patchelf, "--add-needed", lib.name, str(so)], check=True, capture_output=True)
     subprocess.run([patchelf, "--set-rpath", str(lib.parent), str(so)], check=True, capture_output=True)
     return f"binary linked to {lib}"
+
+
+# what pythonfmu's builder packs for its own wrapper, left out of an FMU that carries its runtime
+# (the bridge loads resources/spurdiff under a private name; nothing imports these), and its
+# Windows wrapper (it needs the host's Python and the script; a Windows build is not made here)
+PYTHONFMU_RESOURCES = ("resources/pythonfmu/", "resources/slavemodule.txt", "binaries/win64/",
+                       "binaries/darwin64/")
+
+
+def _compile_kernels(name: str, pkg: Path, notes: list[str]) -> None:
+    if name not in MESH_KERNEL_FMUS:
+        return
+    try:             # the compiled mesh kernel beside its binding (spurdiff.mesh.kernel)
+        compile_kernel(pkg / "mesh" / "mesh_kernel.so")
+        notes.append("mesh kernel compiled")
+    except BuildError as e:
+        notes.append(f"WARNING: the mesh kernel was not built ({e}); the mesh levels run the Python reference")
+    try:             # the rigid level's pin-load kernel beside spurdiff.rigid_kernel
+        compile_kernel(pkg / "librigid_kernel.so", RIGID_KERNEL_SOURCES)
+        notes.append("rigid kernel compiled")
+    except BuildError as e:
+        notes.append(f"WARNING: the rigid kernel was not built ({e}); the rigid level runs the Python reference")
+
+
+def _stage(name: str, tmp: Path, carried: bool, notes: list[str]) -> Path:
+    """The package folder the FMU carries: with its runtime, the copy loadable under any name
+    (imports relative, pythonfmu vendored, ``_fmu_entry.py``, checked-hash pycs); else a plain copy."""
+    if not carried:
+        pkg = tmp / "plain" / "spurdiff"
+        shutil.copytree(PACKAGE, pkg, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.so"))
+        _compile_kernels(name, pkg, notes)
+        return pkg
+    try:
+        pkg = fmu_package.stage_package(PACKAGE, tmp / "carried")
+        fmu_package.write_entry(pkg, name, FMUS[name])
+    except fmu_package.PackageError as e:
+        raise BuildError(f"{name}: {e}") from None
+    _compile_kernels(name, pkg, notes)
+    # pycs checked against their source's hash: used whatever the file times after extraction
+    if not compileall.compile_dir(str(pkg), quiet=2, workers=1, stripdir=str(pkg.parent), prependdir=None,
+                                  invalidation_mode=py_compile.PycInvalidationMode.CHECKED_HASH):
+        raise BuildError(f"{name}: byte-compiling the package failed")
+    return pkg
 
 
 def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
@@ -272,32 +309,24 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
         script = tmp / "script" / script_name
         script.parent.mkdir()
         script.write_text(script_text(name))
-        native: tuple[Path, Path] | None = None
+        native: tuple[Path, Path, Path | None] | None = None
         notes = []
         if sys.platform.startswith("linux"):
             try:
                 native = compile_native(tmp)
             except BuildError as e:
                 notes.append(f"WARNING: the native bridge was not built ({e}); the FMU keeps pythonfmu's "
-                             "wrapper, which C hosts load only with LD_PRELOAD and PYTHONHOME")
-        # bundle a clean copy of the package (no caches)
-        pkg = tmp / "spurdiff"
-        shutil.copytree(PACKAGE, pkg, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.so"))
-        if name in MESH_KERNEL_FMUS:   # the compiled mesh kernel beside its binding (spurdiff.mesh.kernel)
+                             "wrapper and needs the host's Python and numpy (LD_PRELOAD and PYTHONHOME in a C "
+                             "host)")
+        runtime = None
+        if native is not None:
             try:
-                compile_kernel(pkg / "mesh" / "mesh_kernel.so")
-                notes.append("mesh kernel compiled")
-            except BuildError as e:
-                notes.append(f"WARNING: the mesh kernel was not built ({e}); the mesh levels run the Python "
-                             "reference")
-            try:             # the rigid level's pin-load kernel beside spurdiff.rigid_kernel
-                compile_kernel(pkg / "librigid_kernel.so", RIGID_KERNEL_SOURCES)
-                notes.append("rigid kernel compiled")
-            except BuildError as e:
-                notes.append(f"WARNING: the rigid kernel was not built ({e}); the rigid level runs the Python "
-                             "reference")
+                runtime = runtime_bundle.ensure_runtime(declarations(), quiet=quiet)
+            except runtime_bundle.RuntimeBundleError as e:
+                raise BuildError(f"{name}: the FMU's Python runtime: {e}") from None
+        pkg = _stage(name, tmp, runtime is not None, notes)
         try:
-            raw = FmuBuilder.build_FMU(script, dest=tmp / "raw", project_files=[pkg],
+            raw = FmuBuilder.build_FMU(script, dest=tmp / "raw", project_files=[] if runtime else [pkg],
                                        canGetAndSetFMUstate=True, canSerializeFMUstate=True)
         finally:
             # pythonfmu imported the generated script to find the class: forget that module, whose
@@ -308,26 +337,38 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
                 del sys.modules[script.stem]
         out = fmu_path(name, dest)
         part = tmp / f"{name}.fmu"
-        with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as zout:
+        if runtime is not None:    # the runtime's entries, compressed once, come first
+            shutil.copyfile(runtime.archive, part)
+        with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(part, "a" if runtime else "w", zipfile.ZIP_DEFLATED) as zout:
             guid = None
             for item in zin.infolist():
+                if runtime is not None and (item.filename == f"resources/{script_name}"
+                                            or item.filename.startswith(PYTHONFMU_RESOURCES)):
+                    continue
                 data = zin.read(item.filename)
                 if item.filename == "modelDescription.xml":
-                    data = postprocess(data.decode("utf-8"), variables, experiment).encode("utf-8")
+                    data = postprocess(data.decode("utf-8"), variables, experiment,
+                                       needs_execution_tool=runtime is None).encode("utf-8")
                     guid = ET.fromstring(data).get("guid")
                 elif item.filename.startswith("binaries/linux64/") and item.filename.endswith(".so"):
                     if native is not None:
                         data = native[0].read_bytes()
-                        zout.writestr(f"binaries/linux64/{BRIDGE}", native[1].read_bytes())
-                        notes.append("native bridge: a C host needs no environment variables")
+                        zout.writestr(_entry(f"binaries/linux64/{BRIDGE}", 0o755), native[1].read_bytes())
+                        if native[2] is not None:
+                            zout.writestr(_entry(f"binaries/linux64/{SERVER}", 0o755), native[2].read_bytes())
                     else:
                         so = tmp / "lib.so"
                         so.write_bytes(data)
                         notes.append(_patch_binary(so))
                         data = so.read_bytes()
+                item.compress_type = zipfile.ZIP_DEFLATED
                 zout.writestr(item, data)
-            if native is not None:
-                zout.writestr(f"resources/{RUNTIME_CFG}", runtime_cfg(name, script_name, guid))
+            if runtime is not None:
+                for f in sorted(pkg.rglob("*")):
+                    if f.is_file():
+                        zout.write(f, f"resources/{f.relative_to(pkg.parent).as_posix()}")
+                zout.writestr(_entry(f"resources/{RUNTIME_CFG}"), runtime_bundle.cfg_text(runtime, name, guid))
+                notes.append(f"carries its Python runtime ({runtime.folder.name})")
         with zipfile.ZipFile(part) as z:
             if not any(n.startswith("binaries/") for n in z.namelist()):
                 raise BuildError(f"{name}: the built archive has no binaries/ (pythonfmu build incomplete)")
@@ -341,6 +382,14 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
     if not quiet:
         print(f"built {out}" + (f" ({'; '.join(notes)})" if notes else ""))
     return out
+
+
+def _entry(name: str, mode: int = 0o644) -> zipfile.ZipInfo:
+    """A deflated archive entry ``name`` with the unix permissions ``mode`` (0o755: executable)."""
+    info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
+    info.compress_type = zipfile.ZIP_DEFLATED
+    info.external_attr = (0o100000 | mode) << 16
+    return info
 
 
 def build(names: list[str] | None = None, dest: Path | None = None, force: bool = False,

@@ -4,7 +4,9 @@ pythonfmu 0.7 writes no units, no UnitDefinitions, no InitialUnknowns and no dep
 ``fmpy validate`` rejects its FMUs. From the FMU's own :class:`~spurdiff.fmi_vars.Var` list this
 module adds: ``unit`` / ``displayUnit`` on every Real, the UnitDefinitions (SI base-unit exponents
 and display-unit factors), ``Outputs`` with their direct dependencies and ``InitialUnknowns``
-(outputs and calculated parameters, which are computed in initialization).
+(outputs and calculated parameters, which are computed in initialization). It also states
+``needsExecutionTool``: false for an FMU that carries its own Python runtime (the default build),
+true for one that runs on pythonfmu's wrapper and the host's Python.
 """
 from __future__ import annotations
 
@@ -80,9 +82,13 @@ def add_unit_definitions(root: ET.Element, used: Iterable[str]) -> None:
     root.insert(pos, ud)
 
 
-def postprocess(xml_text: str, variables: Sequence[Var], default_experiment: dict | None = None) -> str:
-    """Return modelDescription.xml text with units, dependencies and InitialUnknowns added."""
+def postprocess(xml_text: str, variables: Sequence[Var], default_experiment: dict | None = None,
+                needs_execution_tool: bool = False) -> str:
+    """Return modelDescription.xml text with units, dependencies and InitialUnknowns added, and
+    CoSimulation's ``needsExecutionTool`` set (false: the FMU carries its runtime)."""
     root = ET.fromstring(xml_text)
+    for cs in root.findall("CoSimulation"):
+        cs.set("needsExecutionTool", "true" if needs_execution_tool else "false")
     by_name = {v.name: v for v in variables}
     mv = root.find("ModelVariables")
     index: dict[str, int] = {}

@@ -2,7 +2,10 @@
 
 The default data are ``spurdiff/data/passenger_car.toml`` and ``spurdiff/data/differential.toml``,
 bundled with the package (and so inside every FMU, which carries the whole ``spurdiff`` package as
-a resource). Section and key names are the models' structured parameter names (``halfShaft.c``,
+a resource). They are read once, when this module is imported, from the ``data/`` folder beside
+this file: never through the package's global name (an FMU loads its copy of the package under a
+private name) and never later (a host may delete an FMU's extraction folder while its instances
+live on). Section and key names are the models' structured parameter names (``halfShaft.c``,
 ``vehicle.m``, ``sunA.z``, ``meshA1.backlash``...).
 """
 from __future__ import annotations
@@ -10,19 +13,24 @@ from __future__ import annotations
 import tomllib
 from dataclasses import fields
 from functools import lru_cache
-from importlib import resources
 from pathlib import Path
 
 from .errors import ParameterError
 
 DEFAULT_DATA = "passenger_car.toml"
 DIFFERENTIAL_DATA = "differential.toml"
+DATA_FOLDER = Path(__file__).resolve().parent / "data"     # this package's own data/, whatever its name
+# the bundled files' text, read at import from this package's own folder
+_BUNDLED = {name: (DATA_FOLDER / name).read_text(encoding="utf-8") for name in (DEFAULT_DATA, DIFFERENTIAL_DATA)}
 
 
 def read_data(path: str | Path | None = None, bundled: str = DEFAULT_DATA) -> dict:
-    """The bundled default-parameter TOML ``spurdiff/data/<bundled>`` or ``path`` as a dict."""
+    """The bundled default-parameter TOML ``spurdiff/data/<bundled>`` (one of :data:`DEFAULT_DATA`,
+    :data:`DIFFERENTIAL_DATA`, as read at import) or the file ``path`` as a dict."""
     if path is None:
-        return tomllib.loads(resources.files("spurdiff.data").joinpath(bundled).read_text())
+        if bundled not in _BUNDLED:
+            raise ValueError(f"bundled = {bundled!r}: the bundled data files are {', '.join(_BUNDLED)}")
+        return tomllib.loads(_BUNDLED[bundled])
     return tomllib.loads(Path(path).read_text())
 
 

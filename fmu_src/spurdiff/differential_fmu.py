@@ -27,7 +27,6 @@ FMU_NAME = "SpurDifferential"
 DESCRIPTION = ("Spur-gear planetary inter-wheel differential: two suns on the half-shafts, pairs of "
                "meshing planets on a driven carrier, pin-bushing friction locking")
 DEFAULT_EXPERIMENT = {"startTime": 0.0, "stopTime": 0.3, "stepSize": 1e-3}
-REQUIRES = ("numpy", "scipy")      # packages the FMU imports at instantiate (named in the log if missing)
 
 MESH_MODELS = ("rigid", "compliant", "contact")
 EFFECTS = ("backlash", "meshStiffnessVariation", "pinFriction", "flankFriction")

@@ -108,7 +108,7 @@ class ModelFmu(Fmi2Slave):
     """Base class of the project's FMUs, made by :func:`fmu_class` from an interface module of
     this package (e.g. :mod:`spurdiff.differential_fmu`) that defines, without any FMI dependency:
 
-    * ``FMU_NAME``, ``DESCRIPTION`` (and for the build ``DEFAULT_EXPERIMENT``, ``REQUIRES``);
+    * ``FMU_NAME``, ``DESCRIPTION`` (and for the build ``DEFAULT_EXPERIMENT``);
     * ``VARIABLES``: the list of :class:`Var`, inputs and outputs bound to model attributes;
     * ``build_model(values) -> model``: construct and ``initialize`` the physics model from the
       parameter and input values (raise ParameterError for invalid ones), and set the calculated

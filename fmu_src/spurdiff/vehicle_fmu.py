@@ -23,7 +23,6 @@ FMU_NAME = "Vehicle"
 DESCRIPTION = ("Planar rear-wheel-drive vehicle: body, axle lateral tyres, load transfer, "
                "speed and path-following steering control")
 DEFAULT_EXPERIMENT = {"startTime": 0.0, "stopTime": 10.0, "stepSize": 1e-3}
-REQUIRES = ("numpy",)      # packages the FMU imports at instantiate (named in the log if missing)
 
 _DATA = read_data()                             # the bundled TOML data
 _D = VehicleParams.from_data(_DATA)

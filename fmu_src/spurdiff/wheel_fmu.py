@@ -28,7 +28,6 @@ FMU_NAME = "WheelLoad"
 DESCRIPTION = ("Wheel load of one driven wheel: compliant half-shaft, wheel inertia and transient-slip "
                "Magic Formula longitudinal tyre")
 DEFAULT_EXPERIMENT = {"startTime": 0.0, "stopTime": 1.0, "stepSize": 1e-3}
-REQUIRES = ("numpy",)      # packages the FMU imports at instantiate (named in the log if missing)
 
 _DATA = read_data()                            # the bundled TOML data
 _D = WheelLoadParams.from_data(_DATA)
