@@ -48,9 +48,9 @@ from harness import fmu_package, runtime_bundle
 from harness.paths import fmu_cache_dir, fmu_sources, physics_package, sources_digest
 
 # the C files compiled together into binaries/linux64/<model>.so (-ldl -lpthread, no Python headers)
-LOADER_SOURCES: tuple = ("fmi2_loader.c",)
+LOADER_SOURCES: tuple = ("fmi2_loader.c", "fmi2_inproc.c", "fmi2_remote.c")
 # the C files compiled together into the executable binaries/linux64/spurdiff_fmu_server (none: no server)
-SERVER_SOURCES: tuple = ()
+SERVER_SOURCES: tuple = ("fmi2_server.c", "fmi2_inproc.c")
 SERVER = "spurdiff_fmu_server"
 
 FMU_SRC = fmu_sources()          # native/, the C sources (package spurdiff_fmus = fmu_src/)
@@ -336,45 +336,46 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
             if loaded is not None and str(getattr(loaded, "__file__", "")).startswith(str(tmp)):
                 del sys.modules[script.stem]
         out = fmu_path(name, dest)
-        part = tmp / f"{name}.fmu"
-        if runtime is not None:    # the runtime's entries, compressed once, come first
-            shutil.copyfile(runtime.archive, part)
-        with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(part, "a" if runtime else "w", zipfile.ZIP_DEFLATED) as zout:
-            guid = None
-            for item in zin.infolist():
-                if runtime is not None and (item.filename == f"resources/{script_name}"
-                                            or item.filename.startswith(PYTHONFMU_RESOURCES)):
-                    continue
-                data = zin.read(item.filename)
-                if item.filename == "modelDescription.xml":
-                    data = postprocess(data.decode("utf-8"), variables, experiment,
-                                       needs_execution_tool=runtime is None).encode("utf-8")
-                    guid = ET.fromstring(data).get("guid")
-                elif item.filename.startswith("binaries/linux64/") and item.filename.endswith(".so"):
-                    if native is not None:
-                        data = native[0].read_bytes()
-                        zout.writestr(_entry(f"binaries/linux64/{BRIDGE}", 0o755), native[1].read_bytes())
-                        if native[2] is not None:
-                            zout.writestr(_entry(f"binaries/linux64/{SERVER}", 0o755), native[2].read_bytes())
-                    else:
-                        so = tmp / "lib.so"
-                        so.write_bytes(data)
-                        notes.append(_patch_binary(so))
-                        data = so.read_bytes()
-                item.compress_type = zipfile.ZIP_DEFLATED
-                zout.writestr(item, data)
-            if runtime is not None:
-                for f in sorted(pkg.rglob("*")):
-                    if f.is_file():
-                        zout.write(f, f"resources/{f.relative_to(pkg.parent).as_posix()}")
-                zout.writestr(_entry(f"resources/{RUNTIME_CFG}"), runtime_bundle.cfg_text(runtime, name, guid))
-                notes.append(f"carries its Python runtime ({runtime.folder.name})")
-        with zipfile.ZipFile(part) as z:
-            if not any(n.startswith("binaries/") for n in z.namelist()):
-                raise BuildError(f"{name}: the built archive has no binaries/ (pythonfmu build incomplete)")
-        staged = dest / f".{name}.{os.getpid()}.fmu"
-        shutil.copyfile(part, staged)
-        os.replace(staged, out)  # atomic: a reader sees the old or the new FMU, never half of one
+        part = dest / f".{name}.{os.getpid()}.fmu"     # written in place, then renamed over ``out``
+        try:
+            if runtime is not None:    # the runtime's entries, compressed once, come first
+                shutil.copyfile(runtime.archive, part)
+            with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(part, "a" if runtime else "w", zipfile.ZIP_DEFLATED) as zout:
+                guid = None
+                for item in zin.infolist():
+                    if runtime is not None and (item.filename == f"resources/{script_name}"
+                                                or item.filename.startswith(PYTHONFMU_RESOURCES)):
+                        continue
+                    data = zin.read(item.filename)
+                    if item.filename == "modelDescription.xml":
+                        data = postprocess(data.decode("utf-8"), variables, experiment,
+                                           needs_execution_tool=runtime is None).encode("utf-8")
+                        guid = ET.fromstring(data).get("guid")
+                    elif item.filename.startswith("binaries/linux64/") and item.filename.endswith(".so"):
+                        if native is not None:
+                            data = native[0].read_bytes()
+                            zout.writestr(_entry(f"binaries/linux64/{BRIDGE}", 0o755), native[1].read_bytes())
+                            if native[2] is not None:
+                                zout.writestr(_entry(f"binaries/linux64/{SERVER}", 0o755), native[2].read_bytes())
+                        else:
+                            so = tmp / "lib.so"
+                            so.write_bytes(data)
+                            notes.append(_patch_binary(so))
+                            data = so.read_bytes()
+                    item.compress_type = zipfile.ZIP_DEFLATED
+                    zout.writestr(item, data)
+                if runtime is not None:
+                    for f in sorted(pkg.rglob("*")):
+                        if f.is_file():
+                            zout.write(f, f"resources/{f.relative_to(pkg.parent).as_posix()}")
+                    zout.writestr(_entry(f"resources/{RUNTIME_CFG}"), runtime_bundle.cfg_text(runtime, name, guid))
+                    notes.append(f"carries its Python runtime ({runtime.folder.name})")
+            with zipfile.ZipFile(part) as z:
+                if not any(n.startswith("binaries/") for n in z.namelist()):
+                    raise BuildError(f"{name}: the built archive has no binaries/ (pythonfmu build incomplete)")
+            os.replace(part, out)  # atomic: a reader sees the old or the new FMU, never half of one
+        finally:
+            part.unlink(missing_ok=True)   # left only by a build that failed
     stamp = out.with_suffix(".sha256")
     staged = dest / f".{name}.{os.getpid()}.sha256"
     staged.write_text(source_digest(name) + "\n")

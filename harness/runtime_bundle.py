@@ -459,11 +459,13 @@ def ensure_runtime(fmus: dict[str, tuple[str, dict]], cache: Path | None = None,
             work = Path(tempfile.mkdtemp(prefix=f".runtime-{key2[:16]}-", dir=cache))
             try:
                 manifest = assemble(work, items)
+                work.chmod(0o755)
                 if folder.exists():
                     shutil.rmtree(folder)
                 os.replace(work, folder)
             finally:
                 shutil.rmtree(work, ignore_errors=True)
+            _prune(cache, keep=folder)
             if not quiet:
                 print(f"FMU runtime made: {folder} ({manifest['unpacked_bytes'] / 1e6:.1f} MB, "
                       f"{manifest['zipped_bytes'] / 1e6:.1f} MB zipped"
@@ -472,6 +474,22 @@ def ensure_runtime(fmus: dict[str, tuple[str, dict]], cache: Path | None = None,
     runtime = Runtime(folder, tuple(manifest["preload"]), manifest["libpython"])
     _RUNTIMES[key1] = runtime
     return runtime
+
+
+KEEP_RUNTIMES = 2     # runtime folders kept in the cache (the newest); older ones are removed
+
+
+def _prune(cache: Path, keep: Path) -> None:
+    """Remove all but the :data:`KEEP_RUNTIMES` newest runtime folders and their module lists
+    (under the runtime lock: a build that holds an older one has finished copying from it)."""
+    folders = sorted((p for p in cache.glob("runtime-*") if p.is_dir() and p != keep),
+                     key=lambda p: p.stat().st_mtime, reverse=True)
+    for old in folders[KEEP_RUNTIMES - 1:]:
+        shutil.rmtree(old, ignore_errors=True)
+    for pattern in ("runtime-modules-*.json", "runtime-numpy-modules-*.json"):
+        lists = sorted(cache.glob(pattern), key=lambda p: p.stat().st_mtime, reverse=True)
+        for old in lists[KEEP_RUNTIMES:]:
+            old.unlink(missing_ok=True)
 
 
 def cfg_text(runtime: Runtime, name: str, guid: str) -> str:

@@ -1,0 +1,148 @@
+"""harness/fmu_package.py: the FMU's copy of spurdiff imports nothing by the global names
+``spurdiff``/``pythonfmu`` and runs under a private alias; datafile reads its own folder."""
+from __future__ import annotations
+
+import ast
+import importlib.util
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from harness import runtime_bundle
+from harness.fmu_package import (PackageError, leftover_imports, rewrite_source, stage_package,
+                                 write_entry)
+from harness.paths import physics_package
+
+
+def test_absolute_imports_become_relative_from_any_depth():
+    text = ("from spurdiff.geometry import GearSet\n"
+            "from spurdiff import datafile\n"
+            "import spurdiff.errors as errs\n"
+            "from pythonfmu.enums import Fmi2Status\n"
+            "from numpy import pi\n")
+    assert rewrite_source(text, Path("spurdiff/mesh/model.py")) == (
+        "from ..geometry import GearSet\n"
+        "from .. import datafile\n"
+        "from .. import errors as errs\n"
+        "from .._vendor.pythonfmu.enums import Fmi2Status\n"
+        "from numpy import pi\n")
+    assert rewrite_source(text, Path("spurdiff/wheel.py")).splitlines()[:4] == [
+        "from .geometry import GearSet", "from . import datafile", "from . import errors as errs",
+        "from ._vendor.pythonfmu.enums import Fmi2Status"]
+
+
+def test_a_multi_line_import_keeps_its_lines_and_a_nested_one_is_found():
+    text = ("from spurdiff.mesh.forces import (\n    a,\n    b,\n)\n"
+            "def f():\n    from pythonfmu import Real\n    return Real\n")
+    out = rewrite_source(text, Path("spurdiff/mesh/kernel.py"))
+    assert out.count("\n") == text.count("\n")
+    assert out.startswith("from .forces import (\n    a,\n    b,\n)\n")
+    assert "    from .._vendor.pythonfmu import Real\n" in out
+    ast.parse(out)
+
+
+@pytest.mark.parametrize("text, line, what", [
+    ("x = 1\nimport spurdiff.geometry\n", 2, "import spurdiff.geometry"),
+    ("import spurdiff\n", 1, "import spurdiff"),
+    ("import importlib\nm = importlib.import_module('spurdiff.geometry')\n", 2, "import_module"),
+    ("from importlib import resources\nt = resources.files('spurdiff.data')\n", 2, "files"),
+])
+def test_what_cannot_be_made_relative_fails_naming_file_and_line(text, line, what):
+    with pytest.raises(PackageError, match=rf"spurdiff/x\.py:{line}: .*{what}"):
+        rewrite_source(text, Path("spurdiff/x.py"))
+
+
+def _absolute_imports_of(root: Path, names=("spurdiff", "pythonfmu")) -> list[str]:
+    """Every absolute import of ``names`` in the tree, by a full ast.walk (independent of the
+    module's own statement walk)."""
+    left = []
+    for path in root.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            mods = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                    else [node.module] if isinstance(node, ast.ImportFrom) and node.level == 0 else [])
+            left += [f"{path}:{node.lineno}:{m}" for m in mods if m and m.split(".")[0] in names]
+    return left
+
+
+@pytest.fixture(scope="module")
+def staged(tmp_path_factory):
+    root = tmp_path_factory.mktemp("fmu package") / "resources"
+    pkg = stage_package(physics_package(), root)
+    write_entry(pkg, "WheelLoad", "spurdiff.wheel_fmu")
+    return pkg
+
+
+def test_the_copy_has_no_global_import_left_and_the_source_keeps_its_own(staged):
+    assert _absolute_imports_of(staged) == []
+    assert leftover_imports(staged.parent) == []
+    assert _absolute_imports_of(physics_package(), ("pythonfmu",)) != []    # the source is untouched
+    vendored = staged / "_vendor" / "pythonfmu"
+    assert sorted(p.stem for p in vendored.glob("*.py")) == sorted(
+        ["__init__", "fmi2slave", "variables", "enums", "logmsg", "default_experiment", "osutil", "_version"])
+
+
+def test_the_copy_runs_under_an_alias_without_the_source_tree_or_the_global_names(staged):
+    """In ``python -I -S`` whose path is the standard library and numpy's folder only, with
+    ``spurdiff`` and ``pythonfmu`` refused by name: the copy loads under its alias and runs."""
+    numpy_site = runtime_bundle.numpy_folder().parent
+    path = [str(runtime_bundle.STDLIB), str(runtime_bundle.DYNLOAD), str(numpy_site)]
+    assert not any(Path(p).resolve() == physics_package().parent for p in path)
+    out = runtime_bundle._run_probe(runtime_bundle.probe_spec(
+        {"WheelLoad": (staged, {"startTime": 0.0, "stepSize": 1e-3})}, path, [str(numpy_site)]))
+    loaded = out["modules"]
+    assert not any(n.split(".")[0] in ("spurdiff", "pythonfmu") for n in loaded)
+    aliases = {n.split(".")[0] for n in loaded if n.startswith("_spurdiff_fmu_")}
+    assert len(aliases) == 1 and f"{aliases.pop()}._fmu_entry" in loaded
+    assert len(out["results"]["WheelLoad"]) > 10
+
+
+def test_a_global_import_in_the_copy_is_refused_by_the_probe(tmp_path, staged):
+    """The guard is real: a copy that still imports pythonfmu by name fails to load."""
+    import shutil
+
+    copy = tmp_path / "resources" / "spurdiff"
+    shutil.copytree(staged, copy)
+    entry = copy / "_fmu_entry.py"
+    entry.write_text("import pythonfmu\n" + entry.read_text())
+    numpy_site = runtime_bundle.numpy_folder().parent
+    with pytest.raises(runtime_bundle.RuntimeBundleError, match="pythonfmu"):
+        runtime_bundle._run_probe(runtime_bundle.probe_spec(
+            {"WheelLoad": (copy, {"stepSize": 1e-3})},
+            [str(runtime_bundle.STDLIB), str(runtime_bundle.DYNLOAD), str(numpy_site)], [str(numpy_site)]))
+
+
+def test_datafile_reads_the_data_of_its_own_copy_at_import(staged, tmp_path):
+    """A copy's datafile module reads the copy's data folder (changed here), not the source's,
+    and no longer needs it once imported."""
+    import shutil
+
+    copy = tmp_path / "spurdiff"
+    shutil.copytree(staged, copy)
+    toml = copy / "data" / "passenger_car.toml"
+    text = toml.read_text()
+    assert "[wheel]" in text
+    toml.write_text(text.replace("[wheel]", "[wheel]\nplantedByTheTest = 1.5", 1))
+    code = (
+        "import importlib.util, shutil, sys\n"
+        "folder = sys.argv[1]\n"
+        "spec = importlib.util.spec_from_file_location('_alias_x', folder + '/__init__.py', "
+        "submodule_search_locations=[folder])\n"
+        "m = importlib.util.module_from_spec(spec); sys.modules['_alias_x'] = m; spec.loader.exec_module(m)\n"
+        "import importlib; d = importlib.import_module('_alias_x.datafile')\n"
+        "shutil.rmtree(folder + '/data')\n"
+        "print(d.read_data()['wheel']['plantedByTheTest'], 'spurdiff' in sys.modules)\n")
+    r = subprocess.run([sys.executable, "-I", "-c", code, str(copy)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.split() == ["1.5", "False"]
+    from spurdiff.datafile import read_data
+    assert "plantedByTheTest" not in read_data()["wheel"]
+
+
+def test_the_source_package_has_no_global_name_lookup():
+    """The rewrite would refuse it: the source names its data by folder, not by package name."""
+    spec = importlib.util.find_spec("spurdiff.datafile")
+    text = Path(spec.origin).read_text()
+    rewrite_source(text, Path("spurdiff/datafile.py"))
+    assert "spurdiff.data" not in text.replace("``spurdiff/data", "")

@@ -1,0 +1,169 @@
+"""harness/runtime_bundle.py and the built FMUs: each carries its own Python runtime, described by
+a format-2 python_runtime.cfg with paths relative to resources/, and nothing of the build machine.
+
+The FMUs cannot be instantiated by a host until the loader reads format 2; here the runtime is
+run the way the bridge will: the build interpreter's executable with ``-I -S`` and ``sys.path``
+only the runtime's entries, the package loaded under its private alias."""
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pytest
+
+from harness import elf, runtime_bundle
+from harness.build import FMUS, interface
+from harness.paths import checkout_root
+
+CFG_KEYS = {"format", "version", "libpython", "home", "path", "preload", "package", "module", "class", "guid"}
+REPEATED = {"path", "preload"}
+
+
+def parse_cfg(text: str) -> dict[str, list[str]]:
+    """The cfg as the C loader reads it: key=value lines and # comments only, known keys, single
+    keys once."""
+    out: dict[str, list[str]] = {}
+    for line in text.splitlines():
+        if line.startswith("#"):
+            continue
+        key, sep, value = line.partition("=")
+        assert sep and key in CFG_KEYS, f"not a key=value line of a known key: {line!r}"
+        assert key in REPEATED or key not in out, f"{key} twice"
+        out.setdefault(key, []).append(value)
+    return out
+
+
+@pytest.fixture(scope="module")
+def extracted(fmu_files, tmp_path_factory):
+    """Each FMU extracted into a folder whose path has spaces and non-ASCII characters."""
+    out = {}
+    for name, fmu in fmu_files.items():
+        folder = tmp_path_factory.mktemp("extr") / f"an FMU ü {name}"
+        with zipfile.ZipFile(fmu) as z:
+            z.extractall(folder)
+        out[name] = folder
+    return out
+
+
+def test_cfg_is_format_2_with_relative_paths_that_exist(fmu_files):
+    for name, fmu in fmu_files.items():
+        with zipfile.ZipFile(fmu) as z:
+            names = set(z.namelist())
+            cfg = parse_cfg(z.read("resources/python_runtime.cfg").decode())
+            md = z.read("modelDescription.xml").decode()
+        assert cfg["format"] == ["2"] and cfg["version"] == [runtime_bundle.VERSION]
+        assert cfg["package"] == ["spurdiff"] and cfg["module"] == ["_fmu_entry"] and cfg["class"] == [name]
+        assert f'guid="{cfg["guid"][0]}"' in md
+        assert 'needsExecutionTool="false"' in md
+        assert cfg["home"] == ["python"]
+        assert cfg["path"] == list(runtime_bundle.SEARCH_PATH)
+        for key in ("libpython", "home", "path", "preload"):
+            for p in cfg.get(key, []):
+                assert not p.startswith("/") and ".." not in p.split("/") and "\\" not in p, p
+                assert f"resources/{p}" in names or any(n.startswith(f"resources/{p}/") for n in names), p
+        assert "resources/spurdiff/_fmu_entry.py" in names
+        assert not any(n.startswith(("resources/pythonfmu/", "binaries/win64/")) for n in names)
+        assert f"resources/{name}.py" not in names
+
+
+def test_no_path_of_the_build_machine_in_any_text_file(fmu_files):
+    needles = {str(p) for p in (Path(sys.prefix), Path(sys.base_prefix), Path.home(), checkout_root())
+               if p is not None and str(p) not in ("/", "")}
+    needles |= {os.path.realpath(n) for n in needles}
+    for fmu in fmu_files.values():
+        with zipfile.ZipFile(fmu) as z:
+            for item in z.infolist():
+                data = z.read(item)
+                if b"\0" in data:
+                    continue
+                try:
+                    text = data.decode("utf-8")
+                except UnicodeDecodeError:
+                    continue
+                hits = [n for n in needles if n in text]
+                assert not hits, f"{fmu.name}:{item.filename} holds {hits}"
+
+
+def test_runtime_elf_files_need_only_the_system_preloads_or_their_neighbours(extracted):
+    """Every DT_NEEDED of every ELF file in the runtime is glibc's/libgcc's, a preloaded library
+    of the cfg, or a library inside the runtime; none has an absolute RPATH/RUNPATH."""
+    res = extracted["WheelLoad"] / "resources"
+    cfg = parse_cfg((res / "python_runtime.cfg").read_text())
+    preloaded = {Path(p).name for p in cfg.get("preload", [])}
+    files = [p for p in (res / "python").rglob("*") if p.is_file() and elf.is_elf(p)]
+    inside = {p.name for p in files} | {elf.dynamic(p).soname for p in files}
+    assert preloaded <= inside
+    assert "libffi.so.8" in preloaded          # _ctypes is carried (the kernels' bindings)
+    for p in files:
+        info = elf.dynamic(p)
+        for soname in info.needed:
+            assert soname in runtime_bundle.SYSTEM_LIBRARIES or soname in inside, f"{p.name} needs {soname}"
+        for entry in info.rpath + info.runpath:
+            assert entry.startswith("$ORIGIN"), f"{p.name}: {entry}"
+
+
+def test_elf_reader_agrees_with_readelf():
+    lib = runtime_bundle.libpython()
+    if lib is None or shutil.which("readelf") is None:
+        pytest.skip("no shared libpython or no readelf here")
+    out = subprocess.run(["readelf", "-d", str(lib)], capture_output=True, text=True, check=True).stdout
+    needed = [line.split("[")[1].rstrip("]") for line in out.splitlines() if "(NEEDED)" in line]
+    info = elf.dynamic(lib)
+    assert info.needed == needed and needed
+    assert info.soname == lib.name
+
+
+def test_the_stdlib_is_the_imported_part_only_and_compiled_unchecked(extracted):
+    pylib = extracted["Vehicle"] / "resources" / runtime_bundle.PYLIB
+    top = {p.name for p in pylib.iterdir()}
+    for need in ("encodings", "importlib", "json", "ctypes", "lib-dynload", "site-packages"):
+        assert need in top
+    for denied in ("test", "idlelib", "tkinter", "lib2to3", "distutils", "venv", "ensurepip"):
+        assert denied not in top
+    assert not any(n.startswith(("config-", "_sysconfigdata")) for n in top)
+    assert not (pylib / "site-packages" / "scipy").exists()
+    assert not (pylib / "site-packages" / "numpy" / "f2py").exists()
+    assert not list((pylib / "site-packages" / "numpy").rglob("tests"))
+    pyc = pylib / "__pycache__" / f"os.{sys.implementation.cache_tag}.pyc"
+    flags = int.from_bytes(pyc.read_bytes()[4:8], "little")
+    assert flags == 0b01          # hash-based, not checked against the source
+
+
+def test_the_runtime_runs_each_model_as_the_build_python_does(extracted, fmu_files):
+    """The FMU's own module path only (nothing of the build's stdlib or site-packages after
+    start-up): the package loads under its alias, the model runs 20 steps with its state got,
+    serialized and set back, and gives the values the build's Python gives."""
+    startup = runtime_bundle.startup_modules()
+    for name, folder in extracted.items():
+        res = folder / "resources"
+        experiment = interface(name).DEFAULT_EXPERIMENT
+        out = runtime_bundle.run_in_runtime(res, [name], experiment)
+        outside = [(n, f) for n, f in out["modules"].items()
+                   if f not in (None, "frozen", "built-in") and n not in startup and not f.startswith(str(res))]
+        assert outside == [], outside
+        assert not any(n.split(".")[0] in ("spurdiff", "pythonfmu", "scipy") for n in out["modules"])
+        # the same package run on the build interpreter's stdlib and numpy
+        numpy_site = runtime_bundle.numpy_folder().parent
+        ref = runtime_bundle._run_probe(runtime_bundle.probe_spec(
+            {name: (res / "spurdiff", experiment)},
+            [str(runtime_bundle.STDLIB), str(runtime_bundle.DYNLOAD), str(numpy_site)], [str(numpy_site)]))
+        assert out["results"][name] == ref["results"][name]
+        assert any(v != 0.0 for v in out["results"][name])
+
+
+def test_each_fmu_is_at_most_40_mb_zipped(fmu_files):
+    for fmu in fmu_files.values():
+        assert fmu.stat().st_size <= 40e6, f"{fmu.name}: {fmu.stat().st_size / 1e6:.1f} MB"
+
+
+def test_one_runtime_for_all_fmus(fmu_files):
+    cfgs = set()
+    for fmu in fmu_files.values():
+        with zipfile.ZipFile(fmu) as z:
+            cfg = parse_cfg(z.read("resources/python_runtime.cfg").decode())
+            cfgs.add((tuple(cfg["libpython"]), tuple(cfg.get("preload", []))))
+    assert len(cfgs) == 1 and set(FMUS) == set(fmu_files)
