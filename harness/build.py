@@ -29,6 +29,7 @@ libpython with patchelf, and says so: that FMU needs the host's Python and numpy
 """
 from __future__ import annotations
 
+import atexit
 import compileall
 import fcntl
 import hashlib
@@ -181,6 +182,23 @@ def compile_native(out_dir: Path) -> tuple[Path, Path, Path | None]:
     return loader, bridge, server
 
 
+_NATIVE: dict[str, tuple[Path, Path, Path | None]] = {}   # sources digest -> the binaries (one per process)
+
+
+def _native_binaries() -> tuple[Path, Path, Path | None]:
+    """:func:`compile_native`'s binaries, compiled once per process and C sources (every FMU
+    carries the same loader, bridge and server) into a temporary folder removed at exit."""
+    h = hashlib.sha256(repr((LOADER_SOURCES, SERVER_SOURCES, os.environ.get("CC"))).encode())
+    for p in sorted(NATIVE.glob("*.[ch]")):
+        h.update(p.name.encode() + b"\0" + p.read_bytes())
+    key = h.hexdigest()
+    if key not in _NATIVE:
+        tmp = Path(tempfile.mkdtemp(prefix="spurdiff_native_"))
+        atexit.register(shutil.rmtree, tmp, True)
+        _NATIVE[key] = compile_native(tmp)
+    return _NATIVE[key]
+
+
 # FMUs that ship the compiled kernel of the mesh levels (fmu_src/native/mesh_kernel.c), and its flags:
 # no contraction into fused multiply-adds, so it computes what the Python reference computes
 MESH_KERNEL_FMUS = ("SpurDifferential",)
@@ -273,24 +291,53 @@ def _compile_kernels(name: str, pkg: Path, notes: list[str]) -> None:
         notes.append(f"WARNING: the rigid kernel was not built ({e}); the rigid level runs the Python reference")
 
 
+_STAGED: dict[str, Path] = {}     # package digest -> the staged, byte-compiled copy (one per process)
+
+
+def _compile_pycs(path: Path, root: Path) -> None:
+    """Byte-compile ``path`` (a folder or a file) with pycs checked against their source's hash: used
+    whatever the file times after extraction; ``co_filename`` relative to ``root``."""
+    mode = py_compile.PycInvalidationMode.CHECKED_HASH
+    ok = (compileall.compile_dir(str(path), quiet=2, workers=1, stripdir=str(root), prependdir=None,
+                                 invalidation_mode=mode) if path.is_dir()
+          else compileall.compile_file(str(path), quiet=2, stripdir=str(root), prependdir=None,
+                                       invalidation_mode=mode))
+    if not ok:
+        raise BuildError(f"byte-compiling {path.name} failed")
+
+
+def _carried_package() -> Path:
+    """The FMUs' copy of the package (imports relative, pythonfmu vendored, compiled), staged once
+    per process and package digest in a temporary folder removed at exit."""
+    key = runtime_bundle.package_digest(declarations())
+    if key not in _STAGED:
+        tmp = Path(tempfile.mkdtemp(prefix="spurdiff_package_"))
+        atexit.register(shutil.rmtree, tmp, True)
+        try:
+            pkg = fmu_package.stage_package(PACKAGE, tmp)
+        except fmu_package.PackageError as e:
+            raise BuildError(str(e)) from None
+        _compile_pycs(pkg, tmp)
+        _STAGED[key] = pkg
+    return _STAGED[key]
+
+
 def _stage(name: str, tmp: Path, carried: bool, notes: list[str]) -> Path:
     """The package folder the FMU carries: with its runtime, the copy loadable under any name
-    (imports relative, pythonfmu vendored, ``_fmu_entry.py``, checked-hash pycs); else a plain copy."""
+    (:func:`_carried_package`) with ``_fmu_entry.py``; else a plain copy."""
     if not carried:
         pkg = tmp / "plain" / "spurdiff"
         shutil.copytree(PACKAGE, pkg, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.so"))
         _compile_kernels(name, pkg, notes)
         return pkg
+    pkg = tmp / "carried" / fmu_package.PACKAGE_NAME
+    shutil.copytree(_carried_package(), pkg)
     try:
-        pkg = fmu_package.stage_package(PACKAGE, tmp / "carried")
-        fmu_package.write_entry(pkg, name, FMUS[name])
+        entry = fmu_package.write_entry(pkg, name, FMUS[name])
     except fmu_package.PackageError as e:
         raise BuildError(f"{name}: {e}") from None
+    _compile_pycs(entry, pkg.parent)
     _compile_kernels(name, pkg, notes)
-    # pycs checked against their source's hash: used whatever the file times after extraction
-    if not compileall.compile_dir(str(pkg), quiet=2, workers=1, stripdir=str(pkg.parent), prependdir=None,
-                                  invalidation_mode=py_compile.PycInvalidationMode.CHECKED_HASH):
-        raise BuildError(f"{name}: byte-compiling the package failed")
     return pkg
 
 
@@ -313,7 +360,7 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
         notes = []
         if sys.platform.startswith("linux"):
             try:
-                native = compile_native(tmp)
+                native = _native_binaries()
             except BuildError as e:
                 notes.append(f"WARNING: the native bridge was not built ({e}); the FMU keeps pythonfmu's "
                              "wrapper and needs the host's Python and numpy (LD_PRELOAD and PYTHONHOME in a C "

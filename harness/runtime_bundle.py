@@ -411,7 +411,7 @@ def _cached_json(path: Path, make):
     return value
 
 
-def _source_digest(fmus: dict[str, tuple[str, dict]]) -> str:
+def package_digest(fmus: dict[str, tuple[str, dict]]) -> str:
     """What the module list depends on besides the interpreter: the package's sources, the
     vendored pythonfmu modules and the FMUs' declarations."""
     import pythonfmu
@@ -437,7 +437,7 @@ def ensure_runtime(fmus: dict[str, tuple[str, dict]], cache: Path | None = None,
     cache = Path(cache) if cache else fmu_cache_dir()
     cache.mkdir(parents=True, exist_ok=True)
     interp = _digest(*interpreter_id())
-    key1 = _digest(interp, _source_digest(fmus))
+    key1 = _digest(interp, package_digest(fmus))
     if key1 in _RUNTIMES:
         return _RUNTIMES[key1]
     numpy_site = numpy_folder().parent
