@@ -155,6 +155,12 @@ def c_compiler() -> str:
     return found
 
 
+def _prefix_map() -> list[str]:
+    """The compiler flag that writes ``native/...`` where a binary would name a source by its path
+    (assert messages), so no binary of the FMU holds the building checkout's folder."""
+    return [f"-ffile-prefix-map={NATIVE}=native"]
+
+
 def compile_native(out_dir: Path) -> tuple[Path, Path, Path | None]:
     """Compile the loader (:data:`LOADER_SOURCES`), the bridge and, when :data:`SERVER_SOURCES`
     names any, the server executable into ``out_dir``; raises BuildError with the compiler's
@@ -164,12 +170,12 @@ def compile_native(out_dir: Path) -> tuple[Path, Path, Path | None]:
     if not (Path(include) / "Python.h").is_file():
         raise BuildError(f"no Python.h in {include} (install this Python's development headers)")
     flags = ["-fPIC", "-O2", "-Wall", "-Werror=implicit-function-declaration", f"-I{_fmi2_headers()}",
-             f"-I{NATIVE}"]
+             f"-I{NATIVE}", *_prefix_map()]
     loader, bridge = out_dir / "loader.so", out_dir / BRIDGE
     server = out_dir / SERVER if SERVER_SOURCES else None
     jobs = [
         [cc, "-shared", *flags, *(str(NATIVE / f) for f in LOADER_SOURCES), "-o", str(loader), "-ldl", "-lpthread"],
-        [cc, "-shared", *flags, f"-I{include}",
+        [cc, "-shared", *flags, f"-I{include}", f"-ffile-prefix-map={include}=python-include",
          str(NATIVE / "fmi2_pybridge.c"), "-o", str(bridge), "-lpthread"],
     ]
     if server is not None:
@@ -213,7 +219,7 @@ def compile_kernel(out: Path, sources: tuple[str, ...] = KERNEL_SOURCES) -> Path
     libm only) into the file ``out``; BuildError with the compiler's message when there is no
     compiler or the build fails."""
     cc = c_compiler()
-    r = subprocess.run([cc, *KERNEL_FLAGS, f"-I{NATIVE}", *(str(NATIVE / f) for f in sources), "-o", str(out),
+    r = subprocess.run([cc, *KERNEL_FLAGS, *_prefix_map(), f"-I{NATIVE}", *(str(NATIVE / f) for f in sources), "-o", str(out),
                         "-lm"], capture_output=True, text=True)
     if r.returncode != 0:
         raise BuildError(f"compiling the kernel ({', '.join(sources)}) failed:\n{r.stderr.strip()}")

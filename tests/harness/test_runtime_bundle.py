@@ -88,6 +88,24 @@ def test_no_path_of_the_build_machine_in_any_text_file(fmu_files):
                 assert not hits, f"{fmu.name}:{item.filename} holds {hits}"
 
 
+def test_no_file_at_all_names_the_checkout_and_only_cpythons_binaries_name_its_prefix(fmu_files):
+    """Binaries and pycs included: the checkout's folder nowhere (compiled with a prefix map, pycs
+    with relative file names); the build Python's prefix only inside libpython (its compiled-in
+    default prefix, unused: the loader sets home) and the stdlib's extension modules (the string
+    of the RUNPATH removed, assert messages)."""
+    root = checkout_root()
+    prefixes = {os.path.realpath(sys.base_prefix), sys.base_prefix}
+    for fmu in fmu_files.values():
+        with zipfile.ZipFile(fmu) as z:
+            for item in z.infolist():
+                data = z.read(item)
+                if root is not None:
+                    assert str(root).encode() not in data, f"{fmu.name}:{item.filename}"
+                if any(p.encode() in data for p in prefixes):
+                    assert (item.filename.endswith(f"/{runtime_bundle.libpython().name}")
+                            or "/lib-dynload/" in item.filename), f"{fmu.name}:{item.filename}"
+
+
 def test_runtime_elf_files_need_only_the_system_preloads_or_their_neighbours(extracted):
     """Every DT_NEEDED of every ELF file in the runtime is glibc's/libgcc's, a preloaded library
     of the cfg, or a library inside the runtime; none has an absolute RPATH/RUNPATH."""
