@@ -32,8 +32,8 @@ copied into ``python/lib/`` under its soname and listed as a ``preload=`` of the
 description (the loader dlopens them RTLD_GLOBAL, dependencies first, before starting Python, so
 the extension modules find the soname already loaded). System libraries, expected on every target:
 glibc's own (libc, libm, libpthread, libdl, librt, libutil, libresolv, the dynamic loader) and
-libgcc_s / libstdc++, which the manylinux policy numpy's wheel is built to also takes from the
-system. libpython and the extension modules lose their RUNPATH (the build machine's folder,
+libgcc_s / libstdc++, which numpy's manylinux wheel also takes from the system (the manylinux
+policy allows them). libpython and the extension modules lose their RUNPATH (the build machine's folder,
 searched first by the loader: a library planted there would be loaded) with patchelf when it is
 installed, and their debug info with ``strip --strip-debug`` when it is.
 
@@ -44,8 +44,13 @@ as ``runtime-<key>/`` (the key: the interpreter's real path and version, numpy's
 the module list and this build code), built in a temporary folder and renamed under a file lock
 (parallel test workers build at once), with ``runtime.zip``, the same files compressed once under
 ``resources/python/``, which each FMU build starts its archive from. The module list is cached too
-(``runtime-modules-<key>.json``, keyed by the bundled package's files), so a build with an
-unchanged package runs no trace.
+(``runtime-modules-<key>.json``, keyed by the bundled package's files; numpy's static closure in
+``runtime-numpy-modules-<key>.json``), so a build with an unchanged package runs no trace. Making
+a new runtime removes all but the newest other one (:data:`KEEP_RUNTIMES`).
+
+:func:`run_in_runtime` runs an extracted FMU's package on its runtime's module path only (the
+build interpreter's executable standing in for the loader), which the tests use; the loader's
+preloading of the libraries is not exercised there.
 """
 from __future__ import annotations
 
@@ -456,6 +461,7 @@ def ensure_runtime(fmus: dict[str, tuple[str, dict]], cache: Path | None = None,
     with open(cache / ".runtime.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         if not (folder / "manifest.json").is_file():
+            _prune(cache, keep=folder)
             work = Path(tempfile.mkdtemp(prefix=f".runtime-{key2[:16]}-", dir=cache))
             try:
                 manifest = assemble(work, items)
@@ -465,7 +471,6 @@ def ensure_runtime(fmus: dict[str, tuple[str, dict]], cache: Path | None = None,
                 os.replace(work, folder)
             finally:
                 shutil.rmtree(work, ignore_errors=True)
-            _prune(cache, keep=folder)
             if not quiet:
                 print(f"FMU runtime made: {folder} ({manifest['unpacked_bytes'] / 1e6:.1f} MB, "
                       f"{manifest['zipped_bytes'] / 1e6:.1f} MB zipped"
@@ -486,6 +491,9 @@ def _prune(cache: Path, keep: Path) -> None:
                      key=lambda p: p.stat().st_mtime, reverse=True)
     for old in folders[KEEP_RUNTIMES - 1:]:
         shutil.rmtree(old, ignore_errors=True)
+    for stale in cache.glob(".runtime-*"):   # a build that died while assembling (it held this lock)
+        if stale.is_dir():
+            shutil.rmtree(stale, ignore_errors=True)
     for pattern in ("runtime-modules-*.json", "runtime-numpy-modules-*.json"):
         lists = sorted(cache.glob(pattern), key=lambda p: p.stat().st_mtime, reverse=True)
         for old in lists[KEEP_RUNTIMES:]:

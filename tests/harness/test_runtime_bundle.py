@@ -185,3 +185,13 @@ def test_one_runtime_for_all_fmus(fmu_files):
             cfg = parse_cfg(z.read("resources/python_runtime.cfg").decode())
             cfgs.add((tuple(cfg["libpython"]), tuple(cfg.get("preload", []))))
     assert len(cfgs) == 1 and set(FMUS) == set(fmu_files)
+
+
+def test_prune_keeps_the_newest_runtimes_and_drops_dead_work_folders(tmp_path):
+    for i, name in enumerate(["runtime-a", "runtime-b", "runtime-c", "runtime-d"]):
+        (tmp_path / name).mkdir()
+        os.utime(tmp_path / name, (1000 + i, 1000 + i))
+    (tmp_path / ".runtime-e-123").mkdir()
+    runtime_bundle._prune(tmp_path, keep=tmp_path / "runtime-a")
+    left = sorted(p.name for p in tmp_path.iterdir())
+    assert left == ["runtime-a", "runtime-d"]     # the one in use and the newest other
