@@ -20,8 +20,8 @@ import pytest
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
                                 reason="no C compiler: the FMUs cannot be built with our loader")
 
-# the straight-line case of tests/harness/test_hosts.py: a loaded differential with a locking torque
-CASE = {"carrier.w_ref": 1.389, "left.tau": -1050.0, "right.tau": -1040.0}
+# a loaded differential whose suns slip: the locking torque is the pin friction's (proportional to mu_pin)
+CASE = {"carrier.w_ref": 1.389, "left.tau": -1500.0, "right.tau": -500.0}
 
 
 def _other_build(fmu: Path, out: Path, mu_pin: float = 0.13) -> Path:
@@ -31,7 +31,7 @@ def _other_build(fmu: Path, out: Path, mu_pin: float = 0.13) -> Path:
         md = z.read("modelDescription.xml").decode()
     old = md.split('guid="', 1)[1].split('"', 1)[0]
     new = "{0badc0de-0000-4000-8000-" + old[-13:-1] + "}"
-    with zipfile.ZipFile(fmu) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as zout:
+    with zipfile.ZipFile(fmu) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_STORED) as zout:
         for item in zin.infolist():
             data = zin.read(item)
             if item.filename == "resources/spurdiff/data/differential.toml":
@@ -39,6 +39,7 @@ def _other_build(fmu: Path, out: Path, mu_pin: float = 0.13) -> Path:
                 data = "\n".join(lines).encode()
             elif item.filename in ("modelDescription.xml", "resources/python_runtime.cfg"):
                 data = data.replace(old.encode(), new.encode())
+            item.compress_type = zipfile.ZIP_STORED   # (no time spent on compression)
             zout.writestr(item, data)
     return out
 
@@ -64,9 +65,9 @@ def test_two_builds_one_after_another_and_again_each_run_their_own_package(diffe
     other = _other_build(differential_fmu, tmp_path / "SpurDifferential.fmu")
     out = _run(LOCKING + "print(json.dumps([locking(p) for p in sys.argv[1:]]))",
                differential_fmu, other, differential_fmu, other)
-    a, b, a2, b2 = out
-    assert a == a2 and b == b2
-    assert b == pytest.approx(a * 0.13 / 0.26, rel=1e-6), out   # locking torque proportional to mu_pin
+    alone = [_run(LOCKING + "print(json.dumps([locking(sys.argv[1])]))", p)[0] for p in (differential_fmu, other)]
+    assert out == alone * 2, f"one process {out}, each alone {alone}"
+    assert out[1] < 0.6 * out[0], out   # half the pin friction: the other build's package ran
 
 
 def test_an_fmu_beside_a_host_that_imported_spurdiff_runs_its_own_copy(differential_fmu, tmp_path):
@@ -82,7 +83,7 @@ def test_an_fmu_beside_a_host_that_imported_spurdiff_runs_its_own_copy(different
         "assert not bad, f'modules imported from an FMU under their own names: {bad}'\n"
         "print(json.dumps(x))\n")
     a, b = _run(code, differential_fmu, other)
-    assert b == pytest.approx(a * 0.5, rel=1e-6)
+    assert b < 0.6 * a, (a, b)
 
 
 def test_side_by_side_two_builds_step_interleaved(differential_fmu, tmp_path):
@@ -112,7 +113,7 @@ for f, _vr in fmus:
 print(json.dumps(out))
 """ % (CASE,)
     a, b = _run(code, differential_fmu, other)
-    assert b == pytest.approx(a * 0.5, rel=1e-6)
+    assert b < 0.6 * a, (a, b)
 
 
 def test_our_three_fmus_one_after_another_with_their_folders_removed(fmu_files):

@@ -1,201 +1,124 @@
-"""Our FMUs in FMI hosts nobody here wrote, and in our own C host, with a bare environment.
+"""A damaged or hostile FMU runtime is refused with the cause, never a crash, in a C host.
 
-The hosts: the FMU Compliance Checker (``fmuCheck.linux64``) and the Reference FMUs' ``fmusim``
-from ``../shared/hosts`` (skipped with that reason where the folder is absent), and
-``tests/c_host/fmi2_host.c`` (compiled here). Each is started as a user would start it, with
-``env -i PATH=/usr/bin:/bin`` (no LD_PRELOAD, PYTHONHOME or PYTHONPATH) from an unrelated working
-directory, several times per FMU: every run must exit 0 (Python is never finalized in the host,
-so no crash at exit) and give fmpy's numbers for the same case to 1e-9.
+The FMUs' normal runs in the hosts nobody here wrote (fmusim, fmuCheck, ecos) and in our own C
+host are tests/harness/test_travel.py (with every Python hidden). Here each case changes one thing
+in a copy of SpurDifferential.fmu: the runtime description (tests of runtime_cfg.h's strict
+reading: long lines, a special file, duplicate or unknown keys, absolute or escaping paths, a
+missing key, another format), the runtime itself (a missing libpython, a libpython of another
+version than described, numpy gone), or the host's environment (PYTHONHOME, PYTHONPATH and a
+planted ``numpy.py`` that must not run). fmusim (bare environment, from ../shared/hosts; skipped
+with that reason where absent) must exit with its failure code (not a signal), print the cause
+our loader logged, and leave the planted file unexecuted.
 """
 from __future__ import annotations
 
-import csv
+import os
 import shutil
 import subprocess
+import sys
 import zipfile
 from pathlib import Path
 
-import numpy as np
 import pytest
-from fmpy import read_model_description, simulate_fmu
 
 HERE = Path(__file__).resolve().parents[1]   # tests/
 HOSTS = HERE.parent.parent / "shared" / "hosts"
 BARE_ENV = {"PATH": "/usr/bin:/bin"}
-RUNS = 10
-STOP, STEP = 0.05, 1e-3
+CFG = "resources/python_runtime.cfg"
 
-# one case per FMU: constant inputs given as start values (fmusim) or an input file (fmuCheck)
+pytestmark = pytest.mark.skipif(not (HOSTS / "fmusim").is_file(), reason=f"{HOSTS}/fmusim is absent")
+
+
+def _copy(fmu: Path, out: Path, change) -> Path:
+    """The FMU with `change(name, data) -> data | None` applied to each member (None drops it); stored,
+    not compressed (no time spent on compression)."""
+    with zipfile.ZipFile(fmu) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_STORED) as zout:
+        for item in zin.infolist():
+            data = change(item.filename, zin.read(item))
+            if data is not None:
+                item.compress_type = zipfile.ZIP_STORED
+                zout.writestr(item, data)
+    return out
+
+
+def _cfg(change):
+    def f(name, data):
+        return change(data) if name == CFG else data
+    return f
+
+
+def _fmusim(fmu: Path, cwd: Path, env=None) -> subprocess.CompletedProcess:
+    return subprocess.run([str(HOSTS / "fmusim"), "--interface-type", "cs", "--stop-time", "0.01",
+                           "--output-file", str(cwd / "o.csv"), str(fmu)], cwd=cwd, env=env or BARE_ENV,
+                          capture_output=True, text=True, timeout=120)
+
+
+def _line(key: str, value: str):
+    return lambda data: b"\n".join(f"{key}={value}".encode() if ln.startswith(f"{key}=".encode()) else ln
+                                   for ln in data.split(b"\n"))
+
+
 CASES = {
-    "SpurDifferential": {"carrier.w_ref": 1.389, "left.tau": -1050.0, "right.tau": -1040.0},
-    "WheelLoad": {"flange.w": 30.0, "Fz": 4000.0, "mu": 0.9, "vx": 10.0},
-    "Vehicle": {"rearLeft.Fx": 500.0, "rearRight.Fx": 480.0, "speedTarget": 10.0, "pathRadius": 20.0},
+    "a line over 4095 bytes": (_cfg(lambda d: d + b"# " + b"x" * 5000 + b"\nguid=hidden\n"), "longer than 4095 bytes"),
+    "a duplicate key": (_cfg(lambda d: d + b"class=Other\n"), "'class' given twice"),
+    "an unknown key": (_cfg(lambda d: d + b"executable=/usr/bin/python3\n"), "unknown key 'executable'"),
+    "an absolute path": (_cfg(_line("libpython", "/usr/lib/libpython3.11.so.1.0")), "'libpython' must be a relative"),
+    "a path out of the FMU": (_cfg(lambda d: d + b"path=python/../../../../tmp\n"), "'path' must be a relative"),
+    "a missing key": (_cfg(lambda d: b"\n".join(ln for ln in d.split(b"\n") if not ln.startswith(b"package="))),
+                      "lacks one of"),
+    "another format": (_cfg(_line("format", "1")), "has format 1 where this loader reads format 2"),
+    "a line that is not key=value": (_cfg(lambda d: d + b"just some text\n"), "is not key=value"),
+    "no libpython": (lambda n, d: None if n.endswith("libpython3.11.so.1.0") else d, "cannot load"),
+    "libpython of another version than described": (_cfg(_line("version", "3.10")), "the FMU's runtime description says 3.10"),
+    "numpy gone": (lambda n, d: None if "/site-packages/numpy/" in n else d, "No module named 'numpy'"),
 }
 
-needs_hosts = pytest.mark.skipif(not HOSTS.is_dir(), reason=f"{HOSTS} is absent (third-party FMI hosts)")
 
-
-def _read_csv(path: Path) -> dict[str, np.ndarray]:
-    with open(path, newline="") as f:
-        rows = list(csv.reader(f))
-    names = [n.strip().strip('"') for n in rows[0]]
-    out = {}
-    for i, n in enumerate(names):   # numeric columns only (ecos also writes String variables)
-        try:
-            out[n] = np.array([float(r[i]) for r in rows[1:] if r], dtype=float)
-        except ValueError:
-            continue
-    return out
-
-
-@pytest.fixture(scope="module")
-def reference(fmu_files):
-    """fmpy's run of each case (the same FMU, the same inputs, the same step)."""
-    out = {}
-    for name, inputs in CASES.items():
-        res = simulate_fmu(str(fmu_files[name]), stop_time=STOP, output_interval=STEP, start_values=inputs)
-        out[name] = {n: np.asarray(res[n], dtype=float) for n in res.dtype.names}
-    return out
-
-
-def _compare(name: str, got: dict[str, np.ndarray], ref: dict[str, np.ndarray], where: str,
-             rtol: float = 1e-9) -> None:
-    t_ref = ref["time"]
-    common = [n for n in got if n in ref and n != "time"]
-    assert len(common) >= 5, f"{where}: too few common outputs {common}"
-    # the hosts may also write t = 0; compare at the times both have
-    idx = np.searchsorted(got["time"], t_ref - 1e-12)
-    ok = (idx < len(got["time"])) & (np.abs(got["time"][np.minimum(idx, len(got["time"]) - 1)] - t_ref) < 1e-9)
-    assert ok.sum() >= int(STOP / STEP), f"{where}: the host wrote {len(got['time'])} rows"
-    for n in common:
-        g, r = got[n][idx[ok]], ref[n][ok]
-        assert np.allclose(g, r, rtol=rtol, atol=1e-9), (
-            f"{where}: {n} differs from fmpy by {np.max(np.abs(g - r)):.3g}")
-
-
-def _run(cmd: list[str], cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run(cmd, cwd=cwd, env=BARE_ENV, capture_output=True, text=True, timeout=120)
-
-
-@needs_hosts
-@pytest.mark.parametrize("name", list(CASES))
-def test_fmusim_runs_our_fmu_with_a_bare_environment(name, fmu_files, reference, tmp_path):
-    args = []
-    for k, v in CASES[name].items():
-        args += ["--start-value", k, repr(v)]
-    for i in range(RUNS):
-        out = tmp_path / f"out{i}.csv"
-        r = _run([str(HOSTS / "fmusim"), "--interface-type", "cs", "--output-interval", str(STEP),
-                  "--stop-time", str(STOP), *args, "--output-file", str(out), str(fmu_files[name])], tmp_path)
-        assert r.returncode == 0, f"run {i + 1}/{RUNS}: exit {r.returncode}\n{r.stdout[-2000:]}{r.stderr[-2000:]}"
-        _compare(name, _read_csv(out), reference[name], f"fmusim run {i + 1}")
-
-
-@needs_hosts
-@pytest.mark.parametrize("name", list(CASES))
-def test_fmucheck_runs_our_fmu_with_a_bare_environment(name, fmu_files, reference, tmp_path):
-    inputs = tmp_path / "inputs.csv"
-    names = list(CASES[name])
-    with open(inputs, "w") as f:
-        f.write(",".join(["time", *names]) + "\n")
-        for t in (0.0, STOP):
-            f.write(",".join([repr(t), *(repr(CASES[name][n]) for n in names)]) + "\n")
-    for i in range(RUNS):
-        out = tmp_path / f"out{i}.csv"
-        r = _run([str(HOSTS / "fmuCheck.linux64"), "-k", "cs", "-h", str(STEP), "-s", str(STOP),
-                  "-i", str(inputs), "-o", str(out), str(fmu_files[name])], tmp_path)
-        assert r.returncode == 0, f"run {i + 1}/{RUNS}: exit {r.returncode}\n{r.stdout[-3000:]}{r.stderr[-3000:]}"
-        assert "0 Error(s)" in r.stdout + r.stderr, (r.stdout + r.stderr)[-3000:]
-        _compare(name, _read_csv(out), reference[name], f"fmuCheck run {i + 1}")
-
-
-@pytest.mark.skipif(shutil.which("gcc") is None, reason="no C compiler")
-def test_our_c_host_runs_the_fmu_with_a_bare_environment(differential_fmu, tmp_path):
-    exe = tmp_path / "fmi2_host"
-    subprocess.run(["gcc", "-o", str(exe), str(HERE / "c_host" / "fmi2_host.c"), "-ldl"], check=True)
-    with zipfile.ZipFile(differential_fmu) as z:
-        z.extractall(tmp_path / "fmu")
-    md = read_model_description(str(differential_fmu))
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    so = tmp_path / "fmu" / "binaries" / "linux64" / "SpurDifferential.so"
-    needed = subprocess.run(["readelf", "-d", str(so)], capture_output=True, text=True).stdout
-    assert "libpython" not in needed, "the loader must not depend on libpython (any host can dlopen it)"
-    args = [str(exe), str(so), md.guid, (tmp_path / "fmu" / "resources").as_uri(),
-            str(vr["carrier.w_ref"]), str(vr["left.tau"]), str(vr["right.tau"]), str(vr["carrier.tauDrive"])]
-    for i in range(3):
-        r = _run(args, tmp_path)
-        assert "status 0 tauDrive 2100.000000" in r.stdout, r.stdout + r.stderr
-        assert "freed" in r.stdout
-        assert r.returncode == 0, f"run {i + 1}: exit {r.returncode}\n{r.stdout}{r.stderr}"
-
-
-@needs_hosts
-def test_a_missing_package_is_named_and_instantiate_returns_null(differential_fmu, tmp_path):
-    """The host's Python lacks scipy: fmi2Instantiate logs which package and which interpreter,
-    and returns NULL (the host reports it; no crash)."""
-    fmu = tmp_path / "NoScipy.fmu"
-    with zipfile.ZipFile(differential_fmu) as zin, zipfile.ZipFile(fmu, "w") as zout:
-        for item in zin.infolist():
-            data = zin.read(item.filename)
-            if item.filename == "resources/python_runtime.cfg":
-                data = data.replace(b"require=scipy", b"require=scipy_not_installed_here")
-            zout.writestr(item, data)
-    r = _run([str(HOSTS / "fmuCheck.linux64"), "-k", "cs", "-s", "0.01", str(fmu)], tmp_path)
+@pytest.mark.parametrize("case", list(CASES))
+def test_a_damaged_runtime_is_refused_with_the_cause(case, differential_fmu, tmp_path):
+    change, cause = CASES[case]
+    fmu = _copy(differential_fmu, tmp_path / "SpurDifferential.fmu", change)
+    r = _fmusim(fmu, tmp_path)
     text = r.stdout + r.stderr
-    assert "scipy_not_installed_here" in text and "cannot import" in text, text[-3000:]
-    assert "Could not instantiate" in text
-    assert r.returncode != -11 and r.returncode >= 0, f"crashed: {r.returncode}"
+    assert r.returncode > 0, f"{case}: expected a clean failure, got exit {r.returncode}\n{text[-3000:]}"
+    assert cause in text, f"{case}: the cause is not named\n{text[-3000:]}"
 
 
-@needs_hosts
-def test_a_missing_python_is_named_and_instantiate_returns_null(differential_fmu, tmp_path):
-    fmu = tmp_path / "NoPython.fmu"
-    with zipfile.ZipFile(differential_fmu) as zin, zipfile.ZipFile(fmu, "w") as zout:
-        for item in zin.infolist():
-            data = zin.read(item.filename)
-            if item.filename == "resources/python_runtime.cfg":
-                data = b"\n".join(b"libpython=/nonexistent/libpython3.11.so.1.0" if line.startswith(b"libpython=")
-                                  else line for line in data.split(b"\n"))
-            zout.writestr(item, data)
-    r = _run([str(HOSTS / "fmusim"), "--interface-type", "cs", "--stop-time", "0.01",
-              "--output-file", str(tmp_path / "o.csv"), str(fmu)], tmp_path)
-    text = r.stdout + r.stderr
-    assert "/nonexistent/libpython3.11.so.1.0" in text, text[-3000:]
-    assert r.returncode > 0, f"expected a clean failure, got exit {r.returncode}"
+def test_the_description_as_a_special_file_is_refused_at_once(differential_fmu, tmp_path):
+    """A FIFO in the description's place (which would block a reader) and /dev/zero (endless)."""
+    for special in ("fifo", "/dev/zero"):
+        unpacked = tmp_path / special.strip("/").replace("/", "_")
+        with zipfile.ZipFile(differential_fmu) as z:
+            z.extractall(unpacked)
+        cfg = unpacked / CFG
+        cfg.unlink()
+        if special == "fifo":
+            os.mkfifo(cfg)
+        else:
+            cfg.symlink_to(special)
+        # fmusim unpacks archives, which cannot hold a FIFO: drive our loader through fmpy's C calls
+        code = ("import sys\nfrom fmpy import read_model_description\nfrom fmpy.fmi2 import FMU2Slave\n"
+                "md = read_model_description(sys.argv[1])\n"
+                "f = FMU2Slave(guid=md.guid, unzipDirectory=sys.argv[1], modelIdentifier='SpurDifferential')\n"
+                "try:\n    f.instantiate()\n    print('INSTANTIATED')\n"
+                "except Exception as e:\n    print('REFUSED', e)\n")   # fmpy prints the FMU's log to stdout
+        r = subprocess.run([sys.executable, "-c", code, str(unpacked)], capture_output=True, text=True, timeout=30)
+        assert "REFUSED" in r.stdout and "is not a regular file" in r.stdout, r.stdout + r.stderr
+        shutil.rmtree(unpacked)
 
 
-def _ecos() -> str | None:
-    """The ecos command line from the ecospy wheel, if it runs here (it needs Debian's libtbb12)."""
-    try:
-        import ecospy
-    except (ImportError, OSError):   # OSError: its library is there but libtbb.so.12 is not
-        return None
-    exe = Path(ecospy.__file__).parent / "binaries" / "ecos"
-    if not exe.is_file():
-        return None
-    exe.chmod(exe.stat().st_mode | 0o111)
-    r = subprocess.run([str(exe), "--version"], capture_output=True, text=True, env=BARE_ENV)
-    return str(exe) if r.returncode == 0 else None
-
-
-ECOS = _ecos()
-
-
-@pytest.mark.skipif(ECOS is None, reason="the ecos command line (pip install ecospy; apt-get install libtbb12) "
-                                         "does not run here")
-@pytest.mark.parametrize("name", list(CASES))
-def test_ecos_command_line_runs_our_fmu_with_a_bare_environment(name, fmu_files, tmp_path):
-    """ecos has no start-value option for a lone FMU: it runs the FMU's defaults, compared with
-    fmpy's run of the same defaults."""
-    res = simulate_fmu(str(fmu_files[name]), stop_time=STOP, output_interval=STEP)
-    ref = {n: np.asarray(res[n], dtype=float) for n in res.dtype.names}
-    for i in range(RUNS):
-        r = _run([ECOS, "simulate", "--path", str(fmu_files[name]), "--stopTime", str(STOP),
-                  "--stepSize", str(STEP)], tmp_path)
-        assert r.returncode == 0, f"run {i + 1}/{RUNS}: exit {r.returncode}\n{r.stdout[-2000:]}{r.stderr[-2000:]}"
-        got = _read_csv(tmp_path / f"{name}.csv")
-        # ecos names columns "instance::carrier.w[REAL]"
-        got = {k.split("::", 1)[-1].split("[", 1)[0]: v for k, v in got.items()}
-        # ecos writes 7 significant digits: rounding moves a value by at most half a unit of the
-        # 7th digit, 5e-7 of it (fmusim and fmuCheck write 16 or more)
-        _compare(name, got, ref, f"ecos run {i + 1}", rtol=5e-7)
+def test_the_hosts_python_variables_and_planted_files_do_not_reach_the_fmu(differential_fmu, tmp_path):
+    """PYTHONHOME, PYTHONPATH, PYTHONSTARTUP pointing at a folder with a planted numpy.py and
+    sitecustomize.py, and the same files in the working folder: none runs, the FMU runs."""
+    evil = tmp_path / "evil"
+    evil.mkdir()
+    marker = tmp_path / "RAN"
+    payload = f"open({str(marker)!r}, 'w').write('planted code ran')\n"
+    for name in ("numpy.py", "sitecustomize.py", "usercustomize.py", "encodings.py", "startup.py"):
+        (evil / name).write_text(payload)
+        (tmp_path / name).write_text(payload)
+    env = {**BARE_ENV, "PYTHONPATH": str(evil), "PYTHONHOME": str(evil), "PYTHONSTARTUP": str(evil / "startup.py"),
+           "PYTHONUSERBASE": str(evil)}
+    r = _fmusim(differential_fmu, tmp_path, env=env)
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+    assert not marker.exists(), "a planted file ran inside the FMU"
