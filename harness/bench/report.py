@@ -7,7 +7,8 @@ sections with per-step costs derived from them, the targets table (issues 5 and 
 3. real-time factor of each scene at its default fidelity;
 4. the targets;
 5. fixed versus variable communication steps (:mod:`harness.stepcontrol`) on tip-in-tip-out;
-6. the mesh levels' compiled kernel against the Python reference (:mod:`harness.bench.mesh`).
+6. the mesh levels' compiled kernel against the Python reference (:mod:`harness.bench.mesh`);
+7. the model in its own process against this process (:mod:`harness.bench.process`).
 """
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from pathlib import Path
 
 from harness.bench.core import (EFFECT_SETS, fidelity_cost, fmi_call_cost, fmi_overhead, fmi_path_cost,
                                 realtime_factors, recording_cost, step_control_comparison, step_cost_breakdown)
+from harness.bench.process import report as process_report
 from harness.scene import available
 
 
@@ -236,6 +238,10 @@ def _report(args) -> int:
           "numbers bit for bit)")
     from harness.bench.mesh import kernel_report
     print("\n".join(kernel_report(args.repeats)))
+    print("\n7. The model in its own process (a host of another Python version; SPURDIFF_FMU_PROCESS=out) against "
+          "this process\n   (harness/bench/process.py; both sides busy-wait a moment, so on a loaded machine the "
+          "round trips wait for a core)")
+    print("\n".join(process_report(max(2, args.repeats // 2))))
     print(f"\n(bench took {time.perf_counter() - t0:.1f} s on {sys.platform}, python {sys.version.split()[0]}; "
           f"{_load()})")
     return 0

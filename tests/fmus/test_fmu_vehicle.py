@@ -140,8 +140,9 @@ def test_wheel_energy_outputs_balance(wheel_fmu):
 
 # ---------------------------------------------------------------- bundled package and data
 def test_the_fmus_load_their_bundled_package_and_data(wheel_fmu, vehicle_fmu, tmp_path):
-    """In a process where the editable spurdiff is hidden, the FMUs import spurdiff from their
-    own resources/ folder and read their bundled passenger_car.toml."""
+    """In a process where the editable spurdiff is hidden, the FMUs import their own copy of the
+    package from their resources/ folder (under a private name, never as ``spurdiff``) and read
+    their bundled passenger_car.toml."""
     code = textwrap.dedent(f"""
         import json, sys
         sys.meta_path[:] = [f for f in sys.meta_path if "Editable" not in type(f).__name__
@@ -167,8 +168,11 @@ def test_the_fmus_load_their_bundled_package_and_data(wheel_fmu, vehicle_fmu, tm
             s.doStep(0.0, 1e-3)
             name = md.modelName
             key = "halfShaft.c" if name == "WheelLoad" else "vehicle.m"
-            out[name] = {{"value": s.getReal([vr[key]])[0], "package": sys.modules["spurdiff"].__file__,
-                          "data": sys.modules["spurdiff.datafile"].read_data()["vehicle"]["m"]}}
+            pkg = [m for n, m in sys.modules.items() if n.startswith("_spurdiff_fmu_") and "." not in n
+                   and str(getattr(m, "__file__", "")).startswith(str(d))]
+            assert len(pkg) == 1 and "spurdiff" not in sys.modules, (pkg, "spurdiff" in sys.modules)
+            out[name] = {{"value": s.getReal([vr[key]])[0], "package": pkg[0].__file__,
+                          "data": sys.modules[pkg[0].__name__ + ".datafile"].read_data()["vehicle"]["m"]}}
             s.terminate()
             s.freeInstance()
         print(json.dumps(out))

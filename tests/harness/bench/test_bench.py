@@ -87,8 +87,10 @@ def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeyp
          "err_ratio": 1e-3, "err_lock": 7.0},
         {"run": "variable (rtol 0.001, atol 0.001 J)", "wall_s": 4.0, "steps": 3900, "rejected": 99, "ok": True,
          "err_ratio": 6e-4, "err_lock": 2.9}])
+    monkeypatch.setattr(report, "process_report", lambda *a, **k: ["   one round trip (getReal's difference): 1.5 us"])
     assert report._report(argparse.Namespace(levels=None, repeats=1)) == 0
     out = capsys.readouterr().out
+    assert "7. The model in its own process" in out and "one round trip (getReal's difference): 1.5 us" in out
     assert set(seen["sets"]) == set(bench.EFFECT_SETS)   # the fidelity settings reach section 2
     # 15000 steps: 200 us (FMI) and 100 us (direct) per step, 25 us per instance and step
     assert "FMI 200 us, direct 100 us" in out and "= 25.0 us per instance and step" in out
@@ -129,3 +131,36 @@ def test_write_keeps_the_sections_after_the_generated_block(monkeypatch, tmp_pat
     text = page.read_text()
     assert "new numbers" in text and "old numbers" not in text
     assert text.endswith("```\n\n## Kept section\n\ntext by hand\n")
+
+
+def test_round_trips_measure_the_same_fmu_in_this_process_and_in_its_own(fmu_files):
+    from harness.bench.process import _calls, round_trips
+
+    r = round_trips(n=50)
+    for mode in ("in", "out"):
+        assert r[mode]["getReal"] > 0 and r[mode]["set+doStep+get"] > r[mode]["getReal"]
+    assert r["overhead"]["getReal"] == r["out"]["getReal"] - r["in"]["getReal"]
+
+
+def test_the_out_mode_really_starts_the_models_own_process(fmu_files):
+    import os
+    from pathlib import Path
+
+    from harness.bench.process import model_process
+    from harness.fmi.instance import Instance
+
+    def children():
+        return {int(x) for t in Path(f"/proc/{os.getpid()}/task").iterdir() for x in (t / "children").read_text().split()}
+
+    before = children()
+    with model_process("out"):
+        inst = Instance("probe", fmu_files["SpurDifferential"])
+    try:
+        inst.slave.setupExperiment(startTime=0.0)
+        inst.slave.enterInitializationMode()
+        inst.slave.exitInitializationMode()
+        new = children() - before
+        assert len(new) == 1 and "spurdiff_fmu_server" in Path(f"/proc/{new.pop()}/cmdline").read_text()
+    finally:
+        inst.close()
+    assert os.environ.get("SPURDIFF_FMU_PROCESS") != "out"   # the block restored the environment
