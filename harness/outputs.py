@@ -133,10 +133,9 @@ class StreamFile:
 
     def __init__(self, path: Path | str):
         self.path = Path(path)
-        self.rows = 0              # rows completely written
+        self.rows = 0              # lines completely written
         self.size = 0              # bytes completely written (a row boundary)
         self._buf: list[str] = []
-        self._pending = 0          # rows in _buf
         self.failed: OutputError | None = None
         output_folder(self.path.parent)
         refuse_symlink(self.path)
@@ -148,11 +147,10 @@ class StreamFile:
             raise output_error(self.path, e) from None
 
     def write(self, line: str) -> None:
-        """One complete row (with its line end)."""
+        """One or more complete lines (each with its line end)."""
         if self.failed is not None:
             raise self.failed
         self._buf.append(line)
-        self._pending += 1
 
     def flush(self) -> None:
         if self.failed is not None:
@@ -161,19 +159,21 @@ class StreamFile:
             return
         data = "".join(self._buf).encode("utf-8")
         self._buf.clear()
-        n, self._pending = self._pending, 0
         view, done = memoryview(data), 0
         try:
             while done < len(data):
                 done += os.write(self.fd, view[done:])
         except OSError as e:
+            cut = data.rfind(b"\n", 0, done) + 1   # the complete lines of a partial write stay
+            self.size += cut
+            self.rows += data.count(b"\n", 0, cut)
             with contextlib.suppress(OSError):
-                os.ftruncate(self.fd, self.size)   # drop the torn row
+                os.ftruncate(self.fd, self.size)   # drop the torn line
                 os.lseek(self.fd, self.size, os.SEEK_SET)
-            self.failed = output_error(self.path, e, f"the {self.rows} rows written before are kept")
+            self.failed = output_error(self.path, e, f"its first {self.rows} lines, written before, are kept")
             raise self.failed from None
         self.size += len(data)
-        self.rows += n
+        self.rows += data.count(b"\n")
 
     def close(self) -> None:
         """Flush what is left and close; raises the first write error if this flush meets one."""

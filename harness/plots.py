@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from harness.outputs import output_folder, save_figure
 from harness.result import Result
 
 PANELS = [
@@ -26,7 +27,7 @@ def plot_result(result: Result, out_dir: Path) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    out_dir.mkdir(parents=True, exist_ok=True)
+    output_folder(out_dir)
     groups: dict[str, list[str]] = {}
     for name in result.names:
         p = _panel_of(name)
@@ -47,7 +48,9 @@ def plot_result(result: Result, out_dir: Path) -> list[Path]:
         ax.legend(fontsize=8)
         fig.tight_layout()
         p = out_dir / f"{result.scene.name}_{key}.png"
-        fig.savefig(p, dpi=110)
-        plt.close(fig)
+        try:
+            save_figure(fig, p, dpi=110)   # no link followed; a full disk is one line
+        finally:
+            plt.close(fig)
         paths.append(p)
     return paths

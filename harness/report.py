@@ -11,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.master import RunFailure
 from harness.result import Result
 from harness.scene import SceneError
 from harness.expressions import compile_expression, is_expression
@@ -194,8 +193,9 @@ def writable_dir(path: Path, label: str) -> Path:
 class CsvStream:
     """Recorded rows to a CSV file as they come (the same format as :func:`write_csv`), flushed at
     least every ``flush_every`` s of wall time and on close: an interrupted or killed run keeps what
-    it recorded. The file is opened at the first row, so a run refused before it starts leaves an
-    earlier file in place. A write error stops the run as a :class:`RunFailure`."""
+    it recorded. The file is created at the first row (:class:`harness.outputs.StreamFile`: never
+    through a link planted there), so a run refused before it starts leaves an earlier file in
+    place. A write error raises :class:`harness.outputs.OutputError` (place, errno, rows kept)."""
 
     def __init__(self, path: Path, header: list[str], flush_every: float = 0.5):
         self.path, self.header, self.flush_every = Path(path), list(header), flush_every
@@ -204,35 +204,41 @@ class CsvStream:
         self._last = 0.0
 
     def write(self, row) -> None:
-        try:
-            if self.fh is None:
-                self.fh = open(self.path, "w", newline="")
-                self._w = csv.writer(self.fh)
-                self._w.writerow(self.header)
-            self._w.writerow([repr(float(x)) for x in row])
-            self.rows += 1
-            now = time.monotonic()
-            if now - self._last >= self.flush_every:
-                self.fh.flush()
-                self._last = now
-        except OSError as e:
-            raise RunFailure("results", float(row[0]), f"cannot write {self.path}: {e.strerror or e}") from None
+        from harness.outputs import StreamFile
+
+        if self.fh is None:
+            self.fh = StreamFile(self.path)
+            self._w = csv.writer(self.fh)
+            self._w.writerow(self.header)
+        self._w.writerow([repr(float(x)) for x in row])
+        self.rows += 1
+        now = time.monotonic()
+        if now - self._last >= self.flush_every:
+            self.fh.flush()
+            self._last = now
 
     def close(self) -> None:
         if self.fh is not None:
-            self.fh.close()
-            self.fh = None
+            fh, self.fh = self.fh, None
+            fh.close()
 
     def __enter__(self) -> "CsvStream":
         return self
 
     def __exit__(self, *exc) -> None:
-        self.close()
+        if exc[0] is None:
+            self.close()
+        else:   # the first error stands; a second one while closing would hide it
+            try:
+                self.close()
+            except Exception:
+                pass
 
 
 def write_csv(result: Result, path: Path) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as f:
+    from harness.outputs import atomic_file
+
+    with atomic_file(path, "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["time"] + result.names)
         for row in result.data:
