@@ -202,7 +202,8 @@ class OutputLock:
 
     def _refuse(self, reason: str, err: int | None) -> Exception:
         if self.error is not None:
-            return self.error(f"results folder {self.folder}: {reason}")
+            code = f" [errno {err} {_errno.errorcode.get(err, '?')}]" if err else ""
+            return self.error(f"results folder {self.folder}: {reason}{code}")
         return OutputError(self.folder, reason, err)
 
     def acquire(self) -> "OutputLock":

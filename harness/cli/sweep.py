@@ -7,6 +7,7 @@ import math
 import sys
 from pathlib import Path
 
+from harness.outputs import OutputError
 from harness.paths import results_dir
 from harness.scene import SceneError
 from harness.sweep.bench import bench
@@ -40,7 +41,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _fail(msg: str, code: int = 2) -> int:
-    print(f"spurdiff sweep: {msg}", file=sys.stderr)
+    from harness.messages import one_line
+
+    print(one_line(f"spurdiff sweep: {msg}"), file=sys.stderr)
     return code
 
 
@@ -55,6 +58,8 @@ def main(argv: list[str] | None = None) -> int:
         return _main(args)
     except (SceneError, ParameterError) as e:
         return _fail(str(e))
+    except OutputError as e:   # a table or plot that could not be written: the place and the errno
+        return _fail(str(e), 1)
     except KeyboardInterrupt:
         return _fail("interrupted; every finished run is in the table: --resume completes it", 130)
 

@@ -23,11 +23,12 @@ def plot_sweep(sweep: Sweep, rows: list[dict], out_dir: Path) -> list[Path]:
     """PNG per plot: metrics over a parameter, a line (or coloured points) per value of ``group``,
     theory columns dashed in the same colour. Runs that did not finish ok are left out (counted in the title)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from harness.outputs import output_folder, save_figure
     from matplotlib.figure import Figure
     import matplotlib as mpl
 
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    output_folder(out_dir)
     ok = [r for r in rows if r["status"] == "ok"]
     skipped = len(rows) - len(ok)
     paths = []
@@ -70,7 +71,7 @@ def plot_sweep(sweep: Sweep, rows: list[dict], out_dir: Path) -> list[Path]:
             ax.legend(fontsize=7, loc="best")
         fig.tight_layout()
         p = out_dir / f"{sweep.name}_{pl.file or '-'.join(pl.y) or k}.png"
-        fig.savefig(p, dpi=110)
+        save_figure(fig, p, dpi=110)
         paths.append(p)
     return paths
 
