@@ -103,6 +103,27 @@ def atomic_file(path: Path | str, mode: str = "w", **open_kw) -> Iterator[IO]:
         raise
 
 
+@contextlib.contextmanager
+def private_path(path: Path | str) -> Iterator[Path]:
+    """For a writer that needs a file name (a library writing an archive): a private temporary
+    file beside ``path``, created empty without following links, renamed over ``path`` when the
+    block ends without an error; on any error removed (an OSError becomes an :class:`OutputError`)."""
+    path = Path(path)
+    output_folder(path.parent)
+    refuse_symlink(path)
+    fd, tmp = _private(path)
+    os.close(fd)
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    except BaseException as e:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        if isinstance(e, OSError):
+            raise output_error(path, e) from None
+        raise
+
+
 def write_text(path: Path | str, text: str, encoding: str = "utf-8") -> Path:
     with atomic_file(path, "w", encoding=encoding) as fh:
         fh.write(text)

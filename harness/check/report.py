@@ -179,8 +179,11 @@ def junit_tree(results: Sequence[CheckResult], strict: bool = False) -> ET.Eleme
 
 
 def write_junit(path: str | Path, results: Sequence[CheckResult], strict: bool = False) -> Path:
-    """Write the JUnit XML report to ``path`` (parent directories are created)."""
+    """Write the JUnit XML report to ``path`` (parent directories are created; written whole
+    through :func:`harness.outputs.atomic_file`: no link followed, a write error is one line)."""
+    from harness.outputs import atomic_file
+
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    junit_tree(results, strict).write(path, encoding="utf-8", xml_declaration=True)
+    with atomic_file(path, "wb") as fh:
+        junit_tree(results, strict).write(fh, encoding="utf-8", xml_declaration=True)
     return path
