@@ -2,13 +2,28 @@
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
 from harness.cli import fail
 
 
+def _remove_staged(dest: Path) -> None:
+    """This process's half-written files in ``dest`` (``.<name>.<pid>.<ext>``, staged before the
+    rename that puts a finished FMU in place), after a write error."""
+    tag = f".{os.getpid()}."
+    try:
+        for p in dest.iterdir():
+            if p.name.startswith(".") and tag in p.name and not p.name.endswith(".lock"):
+                p.unlink(missing_ok=True)
+    except OSError:
+        pass
+
+
 def main(argv: list[str] | None = None) -> int:
     from harness.build import FMUS, BuildError, build
+    from harness.outputs import output_error
+    from harness.paths import fmu_cache_dir
 
     ap = argparse.ArgumentParser(prog="spurdiff build", description="Build the project's FMUs")
     ap.add_argument("names", nargs="*", help=f"FMUs to build (default: all of {', '.join(FMUS)})")
@@ -21,4 +36,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"FMUs in {paths[0].parent}" if paths else "nothing to build")
     except BuildError as e:
         return fail("spurdiff build", str(e))
+    except OSError as e:   # a read-only or full output place: one line with the place and the errno
+        dest = Path(args.dest) if args.dest else fmu_cache_dir()
+        _remove_staged(dest)
+        return fail("spurdiff build", str(output_error(getattr(e, "filename2", None) or e.filename or dest, e)), 1)
     return 0
