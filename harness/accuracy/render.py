@@ -8,6 +8,7 @@ from pathlib import Path
 from harness.accuracy.auto import REFERENCE_FRACTION, SANE_ERROR, choose
 from harness.accuracy.data import Point
 from harness.accuracy.ivp import equal_accuracy_ratios, front, ivp_error_key, variant
+from harness.outputs import output_folder, save_figure, write_text
 from harness.scene import SceneError
 
 
@@ -42,7 +43,7 @@ def plot(points: list[Point], path: Path, ivp: list[dict] | None = None) -> list
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    path.parent.mkdir(parents=True, exist_ok=True)
+    output_folder(path.parent)
     written = []
     scenes = sorted({p.scene for p in points})
     if scenes:
@@ -71,7 +72,7 @@ def plot(points: list[Point], path: Path, ivp: list[dict] | None = None) -> list
         for ax in list(axes.flat)[len(scenes):]:
             ax.set_visible(False)
         fig.tight_layout()
-        fig.savefig(path, dpi=100)
+        save_figure(fig, path, dpi=100)
         plt.close(fig)
         written.append(path)
     cases = list(dict.fromkeys(p["case"] for p in ivp or []))
@@ -102,7 +103,7 @@ def plot(points: list[Point], path: Path, ivp: list[dict] | None = None) -> list
                    fontsize=8, frameon=False)
         fig.tight_layout()
         solvers = path.with_name(f"{path.stem}_solvers.png")
-        fig.savefig(solvers, dpi=100, bbox_inches="tight")
+        save_figure(fig, solvers, dpi=100, bbox_inches="tight")
         plt.close(fig)
         written.append(solvers)
     return written
@@ -257,12 +258,12 @@ def _summary(points: list[Point], scene: str, duration: float) -> list[str]:
 
 
 def _write_docs(points, facts, ivp, out: Path, cmd: str, data, ivp_cmd: str | None = None) -> int:
-    out.mkdir(parents=True, exist_ok=True)
+    output_folder(out)
     figures = plot(data, out / "accuracy.png", ivp)
     text = markdown(points, facts, cmd)
     if ivp:
         text += "\n".join(markdown_ivp(ivp, ivp_cmd or cmd) + ["", "![ours against solve_ivp](accuracy_solvers.png)", "", ""])
     text += "\n".join(markdown_auto(data))
-    (out / "accuracy.md").write_text(text)
+    write_text(out / "accuracy.md", text)
     print(f"wrote {out / 'accuracy.md'}, " + ", ".join(str(f) for f in figures))
     return 0
