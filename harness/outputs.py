@@ -74,6 +74,19 @@ def _private(path: Path) -> tuple[int, Path]:
         raise output_error(path, e) from None
 
 
+def probe(path: Path | str) -> Path:
+    """Check before long work that ``path`` can be written: its folder made or there, the path not a
+    symbolic link, a private file created there and removed; an OutputError otherwise."""
+    path = Path(path)
+    output_folder(path.parent)
+    refuse_symlink(path)
+    fd, tmp = _private(path)
+    os.close(fd)
+    with contextlib.suppress(OSError):
+        os.unlink(tmp)
+    return path
+
+
 @contextlib.contextmanager
 def atomic_file(path: Path | str, mode: str = "w", **open_kw) -> Iterator[IO]:
     """A file object to write ``path`` whole: written to a private temporary name beside it and

@@ -10,7 +10,7 @@ from harness.accuracy.data import load_grid, read_csv, stored_files, write_csv
 from harness.accuracy.ivp import ivp_baseline
 from harness.accuracy.measure import measure_scene
 from harness.accuracy.render import _write_docs
-from harness.outputs import atomic_file, write_text
+from harness.outputs import atomic_file, probe, write_text
 from harness.paths import docs_dir, results_dir
 from harness.scene import SceneError
 
@@ -32,6 +32,8 @@ def run(args) -> int:
         data = read_csv(args.data)
         return _write_docs(data, stored["facts"], stored.get("ivp"), args.out, stored["command"], data,
                            stored.get("ivp_command"))
+    for place in (args.data, facts_file, args.out / "accuracy.md", results_dir("accuracy", "ivp.csv")):
+        probe(place)   # a place that cannot be written is said before minutes of measurements
     grid = load_grid()
     if args.only_ivp and (args.scenes or args.no_ivp or args.quick):
         raise SceneError("--only-ivp runs no scenes: give it no scene names, --no-ivp or --quick")
