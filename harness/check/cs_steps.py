@@ -165,7 +165,8 @@ def check_nan_inputs(s: Session):
                 return refusal(st, a, f"NaN written to input {v.name}")
         st = a.step_status(s.t0 + i * s.h, s.h)
         if st in REFUSED:
-            return refusal(st, a, f"fmi2DoStep with NaN on inputs {names}")
+            return (*refusal(st, a, f"fmi2DoStep with NaN on inputs {names}"),
+                    {"discard": {"how": "nan", "step": i}} if st == 2 else {})
         row = a.outputs()
         bad = [s.outputs[j].name for j in real if not math.isfinite(row[j])]
         if bad:
@@ -174,3 +175,110 @@ def check_nan_inputs(s: Session):
         return SKIP, f"NaN on inputs {names} was accepted, and there are no Real outputs to observe"
     return FAIL, (f"NaN written to inputs {names} was accepted and {NAN_STEPS} doSteps returned fmi2OK with "
                   f"all Real outputs finite: the NaN was silently ignored")
+
+
+def _input_candidates(v, start) -> list[float]:
+    """Values to set on input ``v`` (start value ``start``) to see an output follow it: different from
+    the start value, within min/max."""
+    out = []
+    p = perturbed(v, start)
+    if p is not None:
+        out.append(p)
+    lo = float(v.min) if v.min is not None else -math.inf
+    hi = float(v.max) if v.max is not None else math.inf
+    for c in (start + 1.0, start - 1.0, 2.0 * start + 0.5):
+        if lo <= c <= hi and c != start and c not in out:
+            out.append(c)
+    return out[:3]
+
+
+def check_feedthrough(s: Session):
+    if not s.real_inputs:
+        return SKIP, "no Real inputs"
+    pairs = {}
+    for u in s.md.outputs:
+        v = u.variable
+        if v is None or v.type != "Real" or v not in s.outputs or not u.dependencies:
+            continue
+        for d in u.dependencies:
+            if d in s.real_inputs:
+                pairs.setdefault(d.name, []).append(v)
+    if not pairs:
+        return SKIP, "no Real output declares a dependency on a Real input"
+    a = s.instance("feedthrough")
+    a.initialize()
+    _, t = a.run(s.t0, 1)
+    idx = {v.name: j for j, v in enumerate(s.outputs)}
+    base = a.outputs()
+    stale, followed = [], []
+    for name, outs in pairs.items():
+        v = s.by_name[name]
+        start = s.start_values.get(name, 0.0)
+        seen = set()
+        tried = _input_candidates(v, start)
+        for value in tried:
+            a.set_values({name: value})
+            now = a.outputs()
+            seen |= {o.name for o in outs if not (now[idx[o.name]] == base[idx[o.name]]
+                                                   or (math.isnan(now[idx[o.name]]) and math.isnan(base[idx[o.name]])))}
+            a.set_values({name: start})
+        for o in outs:
+            (followed if o.name in seen else stale).append((o.name, name, tried))
+    if stale:
+        out_name, in_name, tried = stale[0]
+        # does the next doStep show the change? (then the output was stale, not insensitive)
+        a.set_values({in_name: tried[0]} if tried else {})
+        a.do_step(t, s.h)
+        after = a.outputs()[idx[out_name]]
+        later = (f"; after the next doStep it is {after!r}" if after != base[idx[out_name]] else
+                 "; it did not change after the next doStep either (insensitive here, or stale)")
+        listed = ", ".join(f"{o} (on {i})" for o, i, _ in stale[:5])
+        return FAIL, (f"at t = {t:g} s, {len(stale)} output(s) declaring a dependency on an input did not change "
+                      f"when the input was set to {', '.join(f'{x:g}' for x in tried)}: {listed}; "
+                      f"{out_name} stayed {base[idx[out_name]]!r}{later}")
+    return PASS, (f"at t = {t:g} s every output declaring a dependency on a Real input followed it at once: "
+                  + ", ".join(f"{o} on {i}" for o, i, _ in followed[:6]))
+
+
+CLOCK_FRACTION = 0.6180339887498949   # steps of 0.618 h and 1.382 h: neither a multiple of the other, nor of h
+
+
+def check_clock(s: Session):
+    if not s.cs.canHandleVariableCommunicationStepSize:
+        return SKIP, "canHandleVariableCommunicationStepSize is not declared (only uniform steps are allowed)"
+    real = [j for j, v in enumerate(s.outputs) if v.type == "Real"]
+    if not real:
+        return SKIP, "no Real outputs"
+    import numpy as np
+    h = s.h
+    pairs = max(1, min(max(2, s.steps // 2), int((s.t_stop - s.t0) / (2 * h) + 1e-9)))
+    a_step = CLOCK_FRACTION * h
+
+    def run(name, sizes, every):
+        inst = s.instance(name)
+        inst.initialize()
+        rows, t_end = inst.run(s.t0, sizes)
+        inst.terminate()
+        inst.free()
+        return np.asarray(rows, dtype=float)[::every][:, real], t_end
+
+    uniform, t_u = run("clockUniform", [h] * (2 * pairs), 2)
+    double, _ = run("clockDouble", [2 * h] * pairs, 1)
+    mixed, t_m = run("clockMixed", [a_step, 2 * h - a_step] * pairs, 2)
+    with np.errstate(invalid="ignore"):
+        d_ref = np.nanmax(np.abs(double - uniform), axis=0)
+        d = np.nanmax(np.abs(mixed - uniform), axis=0)
+        scale = np.nanmax(np.abs(uniform), axis=0)
+    allowed = 2.0 * d_ref + 10.0 * s.tolerance * scale + 1e-12
+    bad = [(k, float(d[k]), float(allowed[k])) for k in range(len(real)) if not d[k] <= allowed[k]]
+    grid = f"{2 * pairs} steps of {h:g} s vs {2 * pairs} alternating steps of {a_step:.4g} s and {2 * h - a_step:.4g} s"
+    if bad:
+        k, dk, ak = max(bad, key=lambda x: x[1] / max(x[2], 1e-300))
+        i = int(np.nanargmax(np.abs(mixed[:, k] - uniform[:, k])))
+        name = s.outputs[real[k]].name
+        return FAIL, (f"{grid} to t = {t_m:g} s: {name} at t = {s.t0 + 2 * h * i:g} s is {float(mixed[i, k])!r} against "
+                      f"{float(uniform[i, k])!r} with uniform steps (difference {dk:.3g}, allowed {ak:.3g}: twice the "
+                      f"difference between uniform steps of {h:g} and {2 * h:g} s, plus {10 * s.tolerance:g} of its "
+                      f"magnitude): the FMU does not integrate to currentCommunicationPoint + communicationStepSize")
+    return PASS, (f"{grid}: the outputs at every common communication point agree within twice the difference "
+                  f"between uniform steps of {h:g} and {2 * h:g} s (largest {float(np.nanmax(d)):.3g})")
