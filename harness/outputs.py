@@ -8,8 +8,8 @@
   same way under its own name, so a hard link planted there is replaced, never written through.
 * **One writer per output place.** :class:`OutputLock` takes an exclusive ``fcntl.flock`` on a
   hidden file in the output folder and writes who holds it there; a second command writing the
-  same folder is refused with that name. The kernel drops the lock when its holder exits, however
-  it exits.
+  same folder is refused with that name. The holder removes the file when it is done; the kernel
+  drops the lock when its holder exits, however it exits (a killed holder leaves only the file).
 * **One line per failure.** A write that fails (full disk, read-only place, a symlink) raises
   :class:`OutputError` with the place and the errno; the command line turns it into one line and a
   non-zero exit. The temporary file is removed; what was completely written before is kept (a
@@ -25,6 +25,8 @@ import stat
 import time
 import uuid
 from pathlib import Path
+
+from harness.messages import printable
 from typing import IO, Iterator
 
 LOCK_NAME = ".spurdiff.lock"
@@ -34,10 +36,11 @@ class OutputError(Exception):
     """A result could not be written at ``place`` (a path); ``errno`` is the OS error number (or
     None for a refusal without one). ``str()`` is the one line a command prints."""
 
-    def __init__(self, place: Path | str, reason: str, errno: int | None = None, kept: str = ""):
+    def __init__(self, place: Path | str, reason: str, errno: int | None = None, kept: str = "",
+                 message: str | None = None):
         self.place, self.reason, self.errno, self.kept = str(place), reason, errno, kept
         code = f" [errno {errno} {_errno.errorcode.get(errno, '?')}]" if errno else ""
-        super().__init__(f"cannot write {self.place}: {reason}{code}" + (f"; {kept}" if kept else ""))
+        super().__init__(message or f"cannot write {self.place}: {reason}{code}" + (f"; {kept}" if kept else ""))
 
 
 def output_error(place: Path | str, e: OSError, kept: str = "") -> OutputError:
@@ -233,12 +236,12 @@ class OutputLock:
         self.path = self.folder / LOCK_NAME
         self.what, self.error = what, error
         self.fd: int | None = None
+        self._tries = 0
 
-    def _refuse(self, reason: str, err: int | None) -> Exception:
-        if self.error is not None:
-            code = f" [errno {err} {_errno.errorcode.get(err, '?')}]" if err else ""
-            return self.error(f"results folder {self.folder}: {reason}{code}")
-        return OutputError(self.folder, reason, err)
+    def _refuse(self, reason: str, err: int | None, busy: bool = False) -> Exception:
+        code = f" [errno {err} {_errno.errorcode.get(err, '?')}]" if err else ""
+        text = f"results folder {self.folder} {reason}" if busy else f"results folder {self.folder}: {reason}{code}"
+        return self.error(text) if self.error is not None else OutputError(self.folder, reason, err, message=text)
 
     def acquire(self) -> "OutputLock":
         import fcntl
@@ -258,8 +261,18 @@ class OutputLock:
         except OSError:
             holder = os.pread(fd, 500, 0).decode("utf-8", "replace").strip() or "another process"
             os.close(fd)
-            raise self._refuse(f"in use by {holder}; wait for it to finish or give another --out",
-                               None) from None
+            raise self._refuse(f"is in use by {printable(holder)}; wait for it to finish or give another --out",
+                               None, busy=True) from None
+        try:
+            same = os.path.samestat(os.fstat(fd), os.lstat(self.path))
+        except OSError:
+            same = False
+        if not same:   # its holder removed it on release after we opened it: take the new one
+            os.close(fd)
+            if self._tries > 3:
+                raise self._refuse("the lock file keeps changing; try again", None)
+            self._tries += 1
+            return self.acquire()
         stamp = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime())
         try:
             os.ftruncate(fd, 0)
@@ -274,7 +287,7 @@ class OutputLock:
 
         if self.fd is not None:
             with contextlib.suppress(OSError):
-                os.ftruncate(self.fd, 0)
+                os.unlink(self.path)   # while held: a process that opened it sees it gone and retries
             fcntl.flock(self.fd, fcntl.LOCK_UN)
             os.close(self.fd)
             self.fd = None

@@ -73,6 +73,12 @@ def evaluate_checks(result: Result) -> list[CheckOutcome]:
             out.append(CheckOutcome(c.get("name", c["var"]), True, float("nan"),
                                     f"not checked at meshModel = {level} (holds at {', '.join(c['fidelity'])})"))
             continue
+        w, end = c.get("window"), result.scene.duration
+        if w and float(w[0]) > end * (1 + 1e-9):   # a run shortened by --duration ends before the window
+            out.append(CheckOutcome(c.get("name", c["var"]), True, float("nan"),
+                                    f"not checked: window [{float(w[0]):g}, {float(w[1]):g}] s starts after "
+                                    f"this run's end ({end:g} s)"))
+            continue
         v = stat(result, c["var"], c["stat"], c.get("window"))
         ok = np.isfinite(v)
         parts = []
@@ -87,6 +93,8 @@ def evaluate_checks(result: Result) -> list[CheckOutcome]:
         if "above" in c:
             ok = ok and v > float(c["above"])
             parts.append(f"> {c['above']}")
+        if w and float(w[1]) > end * (1 + 1e-9):
+            parts.append(f"over [{float(w[0]):g}, {end:g}] s: the run ends inside the window")
         out.append(CheckOutcome(c.get("name", c["var"]), bool(ok), v, ", ".join(parts)))
     return out
 
@@ -137,7 +145,7 @@ def render(head: list[str], lines: list[list[str]]) -> str:
 
 
 def format_checks(outcomes: list[CheckOutcome]) -> str:
-    return "\n".join(f"N/A   {o.name}: {o.expectation}" if o.expectation.startswith("not checked at") else
+    return "\n".join(f"N/A   {o.name}: {o.expectation}" if o.expectation.startswith("not checked") else
                      f"{'PASS' if o.passed else 'FAIL'}  {o.name}: {o.value:.6g} (expected {o.expectation})"
                      for o in outcomes)
 

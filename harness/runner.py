@@ -7,6 +7,8 @@ from dataclasses import replace
 from pathlib import Path
 
 from harness.build import FMUS, build, fmu_path
+from harness.messages import shown
+from harness.recording import MAX_STEPS
 from harness.scene import Scene, SceneError, divides, load_scene, parameter_value
 
 
@@ -17,11 +19,17 @@ def _parse_value(text: str):
         return tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         return text  # bare word: a string
+    except (RecursionError, ValueError) as e:   # nested too deep; an integer of more than 4300 digits
+        reason = "nested too deep" if isinstance(e, RecursionError) else "a number too long to read"
+        raise SceneError(f"--set value {shown(text)}: {reason}; allowed: a number, true/false or a string") from None
 
 
 def prepare_scene(name: str, mesh: str | None = None, step: float | None = None, duration: float | None = None,
-                  algorithm: str | None = None, sets: list[str] | None = None) -> Scene:
-    """Load a scene and apply overrides (``sets``: 'instance.parameter=value')."""
+                  algorithm: str | None = None, sets: list[str] | None = None,
+                  max_steps: int | None = MAX_STEPS) -> Scene:
+    """Load a scene and apply overrides (``sets``: 'instance.parameter=value'). A run of more than
+    ``max_steps`` communication steps is refused with its estimate (None: no step limit; the
+    memory limit of the recording always holds)."""
     from harness.master import check_recording
 
     scene = load_scene(name)
@@ -43,7 +51,7 @@ def prepare_scene(name: str, mesh: str | None = None, step: float | None = None,
         raise SceneError(f"step = {scene.step} s is longer than duration = {scene.duration} s")
     if step is not None or duration is not None:
         divides("--step/--duration", scene.step, scene.duration)
-    check_recording(scene, f"scene {scene.name}")
+    check_recording(scene, f"scene {scene.name}", max_steps)
     names = {i.name for i in scene.instances}
     for item in sets or []:
         if "=" not in item or "." not in item.split("=", 1)[0]:

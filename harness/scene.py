@@ -45,6 +45,8 @@ from typing import Any
 from harness.schema import (SceneError, is_safe_name, number as _number, parameter_value, positive as _positive,  # noqa: F401
                             read_toml, safe_name, strings as _strings, table as _table_of, tables as _tables,
                             text as _text, unknown as _unknown, window as _window)
+from harness.messages import shown
+from harness.recording import MAX_STEPS, STEP_CAP
 from harness.profiles import Profile, parse_profile
 
 SCENE_DIR = Path(__file__).resolve().parent / "scenes"
@@ -58,6 +60,7 @@ TABLE_KEYS = {"label", "var", "scale", "unit", "paper", "theory", "paper_max", "
 CHECK_KEYS = {"name", "stat", "var", "window", "expect", "rtol", "atol", "below", "above", "expect_var", "fidelity"}
 COUPLING_KEYS = {"name", "torque", "w_from", "w_to", "sign"}
 STATS = {"mean", "max", "min", "final", "absmax", "span"}
+EXPECTATIONS = ("expect", "expect_var", "below", "above")   # what makes a check able to fail
 ALGORITHMS = {"gauss-seidel", "jacobi"}
 
 
@@ -166,6 +169,10 @@ class Scene:
 def divides(where: str, step: float, duration: float) -> None:
     """Refuse a communication step that does not divide the duration (the run would end elsewhere)."""
     n = duration / step
+    if not n < STEP_CAP:   # inf or more than any run could make (round(inf) would raise)
+        raise SceneError(f"{where}: duration = {duration:g} s at step = {step:g} s is {n:.3g} communication steps "
+                         f"(up to as many recorded samples); allowed: at most {MAX_STEPS:,} steps (--max-steps N "
+                         "raises the limit)")
     if abs(n - round(n)) > 1e-9 * max(1.0, n) or round(n) < 1:
         k = max(1, math.ceil(n - 1e-9))
         raise SceneError(f"{where}: step = {step:g} s does not divide duration = {duration:g} s ({n:.4g} steps); "
@@ -290,8 +297,8 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
         at = f"{where}: checks {c['name']!r}" if isinstance(c.get("name"), str) else f"{where}: checks[{i}]"
         if "name" in c:
             _text(f"{at}.name", c["name"])
-        if c.get("stat") not in STATS:
-            raise SceneError(f"{at}.stat = {c.get('stat')!r}; allowed: {', '.join(sorted(STATS))}")
+        if not isinstance(c.get("stat"), str) or c["stat"] not in STATS:
+            raise SceneError(f"{at}.stat = {shown(c.get('stat'))}; allowed: {', '.join(sorted(STATS))}")
         if "var" not in c:
             raise SceneError(f"{at}: missing key 'var'")
         needed += _quantity(f"{at}.var", c["var"], names)
@@ -303,6 +310,10 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
         for k in ("rtol", "atol"):
             if k in c:
                 _number(f"{at}.{k}", c[k], minimum=0.0)
+        if not any(k in c for k in EXPECTATIONS):   # a check that cannot fail is no check
+            raise SceneError(f"{at}: no expectation, so it cannot fail; allowed: one of {', '.join(EXPECTATIONS)}")
+        if ("rtol" in c or "atol" in c) and not ("expect" in c or "expect_var" in c):
+            raise SceneError(f"{at}: rtol/atol without expect or expect_var; allowed: a tolerance of an expectation")
         if "window" in c:
             _window(f"{at}.window", c["window"])
         if "fidelity" in c and not (isinstance(c["fidelity"], list) and c["fidelity"]
@@ -331,10 +342,28 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
             raise SceneError(f"{where}: fidelity tolerance = {tol!r}; allowed: a number > 0 (relative error)")
         fidelity.setdefault("data", data.get("extends", data["name"]))
         _text(f"{where}: fidelity.data", fidelity["data"])
-    return Scene(name=name, description=description, duration=duration,
-                 step=step, output_interval=out, algorithm=algorithm, instances=instances, inputs=inputs,
-                 connections=connections, couplings=couplings, record=record, table=table, checks=checks,
-                 effects=effects, fidelity=dict(fidelity), source=source)
+    scene = Scene(name=name, description=description, duration=duration,
+                  step=step, output_interval=out, algorithm=algorithm, instances=instances, inputs=inputs,
+                  connections=connections, couplings=couplings, record=record, table=table, checks=checks,
+                  effects=effects, fidelity=dict(fidelity), source=source)
+    check_windows(where, scene)
+    return scene
+
+
+def check_windows(where: str, scene: Scene) -> None:
+    """Refuse a check or table window outside the run, starting after its duration or ending before
+    0: it holds no sample, so its check could only say nan. (A window the run ends inside is
+    evaluated over the part run and says so: :func:`harness.report.evaluate_checks`.)"""
+    for kind, rows, key in (("checks", scene.checks, "name"), ("table", scene.table, "label")):
+        for i, row in enumerate(rows):
+            w = row.get("window")
+            if w is None:
+                continue
+            lo, hi = float(w[0]), float(w[1])
+            if lo > scene.duration * (1 + 1e-9) or hi < 0:
+                label = shown(row[key]) if key in row else f"[{i}]"
+                raise SceneError(f"{where}: {kind} {label}.window = [{lo:g}, {hi:g}] s is outside the run; "
+                                 f"allowed: a window within 0 .. {scene.duration:g} s (the duration)")
 
 
 def scene_path(name_or_path: str, base: Path | None = None) -> Path:

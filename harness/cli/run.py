@@ -29,6 +29,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="override a parameter, e.g. --set diff.mu_pin=0.1")
     p.add_argument("--out", help="output directory (default ./results/<scene> under the current folder)")
     p.add_argument("--no-plots", action="store_true")
+    p.add_argument("--max-steps", type=int, default=None, metavar="N",
+                   help="refuse a run of more than N communication steps (default 1,000,000; the estimate is "
+                        "said before the run starts)")
     return p
 
 
@@ -64,11 +67,14 @@ class Progress:
 
 def run(args) -> int:
     from harness.outputs import OutputLock
+    from harness.recording import MAX_STEPS
     from harness.report import writable_dir
     from harness.runner import prepare_scene
 
+    if args.max_steps is not None and args.max_steps < 1:
+        return fail("spurdiff", f"--max-steps = {args.max_steps}: allowed an integer >= 1")
     scene = prepare_scene(args.scene, mesh=args.mesh, step=args.step, duration=args.duration,
-                          algorithm=args.algorithm, sets=args.set)
+                          algorithm=args.algorithm, sets=args.set, max_steps=args.max_steps or MAX_STEPS)
     if scene.fidelity.get("mode") == "auto":
         if args.mesh or args.step:
             print("fidelity auto: overridden by --mesh/--step")

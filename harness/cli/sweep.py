@@ -31,6 +31,8 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--overwrite", action="store_true", help="discard an existing table and start again")
     ap.add_argument("--duration", type=float, help="simulated time per run, s (overrides the sweep and scene)")
     ap.add_argument("--timeout", type=float, help="wall time limit per run, s (overrides the sweep file)")
+    ap.add_argument("--max-steps", type=int, default=None, metavar="N",
+                    help="refuse runs of more than N communication steps each (default 1,000,000)")
     ap.add_argument("--plot", action="store_true", help="after the sweep, draw the metrics over the parameters (PNG)")
     ap.add_argument("--plot-only", action="store_true", help="draw the plots from the existing table, run nothing")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -79,6 +81,8 @@ def _main(args) -> int:
         return _fail("--retry-failed goes with --resume")
     if args.duration is not None and not (args.duration > 0 and math.isfinite(args.duration)):
         return _fail(f"--duration = {args.duration!r}: allowed a finite number > 0")
+    if args.max_steps is not None and args.max_steps < 1:
+        return _fail(f"--max-steps = {args.max_steps}: allowed an integer >= 1")
     if args.timeout is not None and not (args.timeout > 0):
         return _fail(f"--timeout = {args.timeout!r}: allowed a number > 0")
     sweep = load_sweep(args.sweep)
@@ -98,7 +102,7 @@ def _main(args) -> int:
         return 0
     o = run_sweep(sweep, out_dir, workers=args.workers, scheduler=args.scheduler, resume=args.resume,
                   overwrite=args.overwrite, retry_failed=args.retry_failed, duration=args.duration,
-                  timeout=args.timeout, progress=not args.quiet)
+                  timeout=args.timeout, progress=not args.quiet, max_steps=args.max_steps)
     bad = o.not_ok
     print(f"sweep {sweep.name} on scene {sweep.scene}: {o.total} runs, {o.total - len(bad)} ok, {len(bad)} not ok; "
           f"{o.ran} run now on {o.where} in {o.wall:.1f} s")

@@ -22,8 +22,11 @@ class Plan:
 
 
 def plan_sweep(sweep: Sweep, duration: float | None = None, timeout: float | None = None,
-               build: bool = True) -> Plan:
-    """Load the scene with the sweep's overrides, build the FMUs, check every name against them."""
+               build: bool = True, max_steps: int | None = None) -> Plan:
+    """Load the scene with the sweep's overrides, build the FMUs, check every name against them.
+    A run of more than ``max_steps`` communication steps (default :data:`harness.recording.MAX_STEPS`)
+    is refused with its estimate."""
+    from harness.recording import MAX_STEPS
     from fmpy import read_model_description
 
     from harness.runner import fmu_files_for, prepare_scene
@@ -33,7 +36,7 @@ def plan_sweep(sweep: Sweep, duration: float | None = None, timeout: float | Non
     if duration is not None:
         ov["duration"] = duration
     scene = prepare_scene(sweep.scene, mesh=ov.get("mesh"), step=ov.get("step"), duration=ov.get("duration"),
-                          algorithm=ov.get("algorithm"))
+                          algorithm=ov.get("algorithm"), max_steps=max_steps or MAX_STEPS)
     refs = {n: fmu_ref(n, p) for n, p in fmu_files_for(scene, build_missing=build).items()}
     files = {n: Path(r.path) for n, r in refs.items()}
     variables = {}
