@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import re
 
-SHOWN = 80            # characters of a value echoed in a message
+SHOWN = 200           # characters of a value echoed in a message (a long path still fits)
 LINE = 2000           # characters of one message line at most
 
 _CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f-\x9f]")
@@ -20,6 +20,12 @@ _CONTROL_NL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
 
 def _escape(m: re.Match) -> str:
     return f"\\x{ord(m.group()):02x}"
+
+
+def cut(text: str, limit: int = SHOWN) -> str:
+    """``text`` itself (no quotes), at most ``limit`` characters; a longer one is cut and says its length."""
+    text = str(text)
+    return text if len(text) <= limit else f"{text[:limit - 3]}... ({len(text):,} characters)"
 
 
 def shown(value, limit: int = SHOWN) -> str:

@@ -7,6 +7,7 @@ import math
 import sys
 from pathlib import Path
 
+from harness.messages import printable
 from harness.outputs import OutputError
 from harness.paths import results_dir
 from harness.scene import SceneError
@@ -107,7 +108,7 @@ def _main(args) -> int:
     print(f"sweep {sweep.name} on scene {sweep.scene}: {o.total} runs, {o.total - len(bad)} ok, {len(bad)} not ok; "
           f"{o.ran} run now on {o.where} in {o.wall:.1f} s")
     print()
-    print(head(o.rows, sweep.columns))
+    print(printable(head(o.rows, sweep.columns)))   # values from the sweep file: no raw control characters
     if len(o.rows) > 8:
         print(f"... ({len(o.rows) - 8} more rows)")
     print()
