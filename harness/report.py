@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import csv
+import errno
 import math
 import os
 import tempfile
@@ -195,7 +196,8 @@ def writable_dir(path: Path, label: str) -> Path:
         os.close(fd)
         os.unlink(probe)
     except OSError as e:
-        raise SceneError(f"{label} = {str(path)!r}: cannot write there ({e.strerror or e}); "
+        code = f" [errno {e.errno} {errno.errorcode.get(e.errno, '?')}]" if e.errno else ""
+        raise SceneError(f"{label} = {str(path)!r}: cannot write there ({e.strerror or e}){code}; "
                          "allowed: a folder you can write") from None
     return path
 
