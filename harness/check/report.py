@@ -213,12 +213,13 @@ def junit_tree(results: Sequence[CheckResult], strict: bool = False,
     return ET.ElementTree(root)
 
 
-def write_junit(path: str | Path, results: Sequence[CheckResult], strict: bool = False) -> Path:
+def write_junit(path: str | Path, results: Sequence[CheckResult], strict: bool = False,
+                deselected: Deselected | None = None) -> Path:
     """Write the JUnit XML report to ``path`` (parent directories are created; written whole
     through :func:`harness.outputs.atomic_file`: no link followed, a write error is one line)."""
     from harness.outputs import atomic_file
 
     path = Path(path)
     with atomic_file(path, "wb") as fh:
-        junit_tree(results, strict).write(fh, encoding="utf-8", xml_declaration=True)
+        junit_tree(results, strict, deselected).write(fh, encoding="utf-8", xml_declaration=True)
     return path

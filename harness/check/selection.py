@@ -91,8 +91,11 @@ class Selection:
                     per_fmu += [(s, pattern) for s in sels]
         best_sel = max((sp for s in (*self.select, *self.extend_select)
                         if (sp := _specificity(s, rule)) is not None), default=None)
-        if rule.profile is not None and rule.profile in profiles:
-            best_sel = max(best_sel if best_sel is not None else -1, 1)  # the profile selects it like its kind
+        if rule.profile is not None:
+            if rule.profile in profiles:
+                best_sel = max(best_sel if best_sel is not None else -1, 1)  # the profile selects it like its kind
+            elif best_sel is not None and best_sel < 2:
+                best_sel = None   # off with its profile unless named by id or group
         best_ign = max(((sp, s) for s in ignores if (sp := _specificity(s, rule)) is not None), default=None)
         best_fmu = max(((sp, s, p) for s, p in per_fmu if (sp := _specificity(s, rule)) is not None), default=None)
         if best_sel is None:

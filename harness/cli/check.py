@@ -68,6 +68,8 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--isolated", action="store_true", help="read no configuration file")
     g.add_argument("--list-rules", action="store_true", help="print every rule (id, groups, severity) and exit")
     g.add_argument("--rule-table", action="store_true", help="print the rule table of docs/compliance.md and exit")
+    g.add_argument("--write-rule-table", metavar="FILE", help="regenerate the rule table in FILE (between its "
+                   "rule-table markers, e.g. docs/compliance.md) and exit")
     ap.add_argument("--profile", action="append", default=None, choices=PROFILES,
                     help="also enforce a profile's conventions, as errors (spurdiff: a unit on every Real, "
                          "descriptions, dependencies on every output, fixed parameters refused after "
@@ -147,6 +149,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(e.code) if isinstance(e.code, int) else EXIT_USAGE
     if args.list_rules or args.rule_table:
         print(_list_rules() if args.list_rules else rule_table_markdown())
+        return 0
+    if args.write_rule_table:
+        from harness.check.rules import with_rule_table
+        doc = Path(args.write_rule_table)
+        try:
+            doc.write_text(with_rule_table(doc.read_text(encoding="utf-8")), encoding="utf-8")
+        except (OSError, ValueError) as e:
+            print(f"spurdiff check: error: --write-rule-table {doc}: {e}", file=sys.stderr)
+            return EXIT_USAGE
+        print(f"rule table written to {doc} ({len(RULES)} rules)")
         return 0
     try:
         config, config_path = {}, None

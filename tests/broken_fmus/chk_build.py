@@ -94,6 +94,7 @@ CHKC_VARIANTS = {
     "ChkCLostHistory": "BREAK_HISTORY",
     "ChkCNoLibm": "BREAK_LIBM",
     "ChkCStartRange": None,
+    "ChkCNanHang": "BREAK_NAN_HANG",
 }
 # ChkC variants with another modelDescription.xml: name -> (old, new) replaced in CHKC_XML
 CHKC_XML_EDITS = {

@@ -29,6 +29,8 @@
                        state leaves out (like a multistep integrator's history): a restore continues
                        within 1e-6 of the original run, two restores agree
    BREAK_LIBM          calls exp() from libm; built without -lm, so libm is not declared (DT_NEEDED)
+   BREAK_NAN_HANG      a doStep with a NaN input never returns, and a step past the stop time is accepted
+                       (so no step is ever discarded: cs.status-after-discard has nothing to check)
 */
 #include <math.h>
 #include <stdarg.h>
@@ -37,6 +39,10 @@
 #include <string.h>
 
 #include "fmi2Functions.h"
+
+#ifdef BREAK_NAN_HANG
+#define BREAK_STOP_TIME
+#endif
 
 #ifndef GUID
 #define GUID "{c0ffee00-5b0d-4c1e-9a1e-000000000001}"
@@ -340,7 +346,13 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noPri
 #ifdef BREAK_LATE_STEP
     if (t >= 0.5) return refuse(m, "fmi2DoStep (late)");
 #endif
-    if (!isfinite(m->u)) return fmi2Discard;
+    if (!isfinite(m->u)) {
+#ifdef BREAK_NAN_HANG
+        volatile int spin = 1;
+        while (spin) {}
+#endif
+        return fmi2Discard;
+    }
 #if defined(BREAK_CLOCK)
     {   /* its own clock: whole internal steps of 0.01 s from where it was, whatever t says */
         long n = (long)floor(h / 0.01 + 1e-9);
