@@ -153,12 +153,16 @@ def write_bytes(path: Path | str, data: bytes) -> Path:
 
 
 def save_figure(fig, path: Path | str, **savefig_kw) -> Path:
-    """``fig.savefig`` to ``path`` through :func:`atomic_file` (format from the suffix)."""
+    """``fig.savefig`` to ``path`` through :func:`atomic_file` (format from the suffix). The image is
+    made in memory first: the PNG writer fails with an AttributeError, not the OSError, when the file
+    object it writes meets a full disk."""
+    import io
+
     path = Path(path)
     savefig_kw.setdefault("format", path.suffix.lstrip(".") or "png")
-    with atomic_file(path, "wb") as fh:
-        fig.savefig(fh, **savefig_kw)
-    return path
+    buf = io.BytesIO()
+    fig.savefig(buf, **savefig_kw)
+    return write_bytes(path, buf.getvalue())
 
 
 class StreamFile:

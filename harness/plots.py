@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from harness.outputs import output_folder, save_figure
 from harness.result import Result
 
 # figure key, leaf-name prefixes, quantity, unit; then the kinds of a figure (label, leaf prefixes)
@@ -119,7 +120,7 @@ def plot_result(result: Result, out_dir: Path) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    out_dir.mkdir(parents=True, exist_ok=True)
+    output_folder(out_dir)
     groups: dict[str, list[str]] = {}
     for name in result.names:
         p = _panel_of(name)
@@ -132,7 +133,9 @@ def plot_result(result: Result, out_dir: Path) -> list[Path]:
             continue
         fig = figure_for(result, key, names)
         p = out_dir / f"{result.scene.name}_{key}.png"
-        fig.savefig(p, dpi=110)
-        plt.close(fig)
+        try:
+            save_figure(fig, p, dpi=110)   # no link followed; a full disk is one line
+        finally:
+            plt.close(fig)
         paths.append(p)
     return paths
