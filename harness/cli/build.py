@@ -3,19 +3,33 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 from pathlib import Path
 
 from harness.cli import fail
 
 
+_STAGED = re.compile(r"^\.[^.]+\.(\d+)\.(fmu|so|sha256)$")   # .<name>.<pid>.<ext>, renamed into place when done
+
+
 def _remove_staged(dest: Path) -> None:
-    """This process's half-written files in ``dest`` (``.<name>.<pid>.<ext>``, staged before the
-    rename that puts a finished FMU in place), after a write error."""
-    tag = f".{os.getpid()}."
+    """Half-written files in ``dest`` after a write error: staged by this process, or by one that
+    has exited (a build in a fresh process); a live process's own are left to it."""
     try:
         for p in dest.iterdir():
-            if p.name.startswith(".") and tag in p.name and not p.name.endswith(".lock"):
-                p.unlink(missing_ok=True)
+            m = _STAGED.match(p.name)
+            if m is None:
+                continue
+            pid = int(m.group(1))
+            if pid != os.getpid():
+                try:
+                    os.kill(pid, 0)
+                    continue   # still running: its file
+                except ProcessLookupError:
+                    pass
+                except PermissionError:
+                    continue
+            p.unlink(missing_ok=True)
     except OSError:
         pass
 
@@ -35,6 +49,7 @@ def main(argv: list[str] | None = None) -> int:
         paths = build(args.names or None, args.dest, args.force)
         print(f"FMUs in {paths[0].parent}" if paths else "nothing to build")
     except BuildError as e:
+        _remove_staged(Path(args.dest) if args.dest else fmu_cache_dir())
         return fail("spurdiff build", str(e))
     except OSError as e:   # a read-only or full output place: one line with the place and the errno
         dest = Path(args.dest) if args.dest else fmu_cache_dir()
