@@ -144,7 +144,11 @@ def test_a_missing_package_is_named_and_instantiate_returns_null(differential_fm
     text = r.stdout + r.stderr
     assert "scipy_not_installed_here" in text and "cannot import" in text, text[-3000:]
     assert "Could not instantiate" in text
-    assert r.returncode != -11 and r.returncode >= 0, f"crashed: {r.returncode}"
+    assert r.returncode == 1, f"fmuCheck: exit {r.returncode}, docs/interoperability.md says 1"
+    r = _run([str(HOSTS / "fmusim"), "--interface-type", "cs", "--stop-time", "0.01",
+              "--output-file", str(tmp_path / "o.csv"), str(fmu)], tmp_path)
+    assert "scipy_not_installed_here" in r.stdout + r.stderr
+    assert r.returncode == 3, f"fmusim: exit {r.returncode}, docs/interoperability.md says 3"
 
 
 @needs_hosts
@@ -161,7 +165,10 @@ def test_a_missing_python_is_named_and_instantiate_returns_null(differential_fmu
               "--output-file", str(tmp_path / "o.csv"), str(fmu)], tmp_path)
     text = r.stdout + r.stderr
     assert "/nonexistent/libpython3.11.so.1.0" in text, text[-3000:]
-    assert r.returncode > 0, f"expected a clean failure, got exit {r.returncode}"
+    assert r.returncode == 3, f"fmusim: exit {r.returncode}, docs/interoperability.md says 3 (a failed instantiation)"
+    r = _run([str(HOSTS / "fmuCheck.linux64"), "-k", "cs", "-s", "0.01", str(fmu)], tmp_path)
+    assert "/nonexistent/libpython3.11.so.1.0" in r.stdout + r.stderr
+    assert r.returncode == 1, f"fmuCheck: exit {r.returncode}, docs/interoperability.md says 1"
 
 
 def _ecos() -> str | None:
