@@ -195,16 +195,19 @@ RULES: tuple[Rule, ...] = (
             "communication step size (parameter communicationStepSize of fmi2DoStep(...)) has not to be constant "
             "for each call.", groups=("steps",)),
     R("cs.clock", "4.2.2", ERROR, "fmi2DoStep(currentCommunicationPoint, communicationStepSize)",
-      "(canHandleVariableCommunicationStepSize) steps of 0.618 h and 1.382 h give at every second communication "
-      "point the outputs a run of uniform steps h gives, within twice the difference between runs of uniform "
-      "steps h and 2 h (plus the FMU's tolerance): the slave keeps the master's clock",
+      "(canHandleVariableCommunicationStepSize) --steps steps of h, and the same steps each split into 0.618 h + "
+      "0.382 h, give the same outputs at every communication point, within twice the largest difference of "
+      "uniform steps of h from uniform steps of 2 h and h/2, plus 10 x the FMU's tolerance of the output's "
+      "magnitude; an output that moves with steps of h but not at all with steps of h/2 fails: the FMU keeps "
+      "its own clock",
       quote="The slave must integrate until time instant tc(i+1) = tc(i) + hc(i). [The calling environment defines "
             "the communication points and fmi2DoStep must synchronize to these points by always integrating "
             "exactly to tc(i) + hc(i).]", groups=("steps",)),
     R("cs.feedthrough", "2.2.8", WARNING, "fmi2SetReal (inputs), fmi2GetReal (outputs) at one communication point",
       "after a step, each Real input is changed and every Real output that declares a dependency on it is read "
-      "again at the same communication point: it changes. Dependencies may be declared conservatively, so an "
-      "output that stays put is a warning",
+      "again at the same communication point: it changes, unless it does not change after the next step either "
+      "(insensitive here). An output that changes only after the next step is stale: a warning (dependencies "
+      "may be declared conservatively, and 2.2.8 does not say when a value is computed)",
       quote="Dependency of scalar Unknown from Knowns in Continuous-Time and Event Mode (ModelExchange), and at "
             "Communication Points (CoSimulation): Unknown=f(Known_1, Known_2, ...).", groups=("io",)),
     R("cs.interpolate-inputs", "4.2.1, 4.3.1", ERROR, "fmi2SetRealInputDerivatives",
