@@ -98,10 +98,15 @@ def run_torque(fmu: str, stop: float, step: float) -> dict:
     out_vr = [vr[n] for n in OUTPUTS]
     n = int(round(stop / step))
     rows = [[0.0, *s.getReal(out_vr)]]
+    from fmpy.fmi1 import FMICallException
     for k in range(n):
         t = k * step
         s.setReal(flange, shaft_torques(t))   # inputs at the communication point, held over the step
-        s.doStep(currentCommunicationPoint=t, communicationStepSize=step)
+        try:
+            s.doStep(currentCommunicationPoint=t, communicationStepSize=step)
+        except FMICallException as e:         # fmi2Discard: the FMU logged why; the state is kept at t
+            raise SystemExit(f"fmi2DoStep refused the step at t = {t:.6g} s ({e}): with shaftCoupling = torque "
+                             "the suns' shaft mode runs through the coupling; use a smaller --step") from None
         rows.append([(k + 1) * step, *s.getReal(out_vr)])
     s.terminate()
     s.freeInstance()
