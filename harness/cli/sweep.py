@@ -15,7 +15,7 @@ from harness.sweep.bench import bench
 from harness.sweep.plots import head, plot_sweep
 from harness.sweep.run import run_sweep
 from harness.sweep.spec import available, load_sweep
-from harness.sweep.table import read_table, table_path
+from harness.sweep.table import FolderLock, read_table, table_path
 
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="spurdiff sweep", description="Run a parameter sweep over a scene "
@@ -98,8 +98,9 @@ def _main(args) -> int:
         if not path.exists():
             return _fail(f"no results table {path}; run the sweep first")
         _, rows = read_table(path)
-        for p in plot_sweep(sweep, [rows[r] for r in sorted(rows)], out_dir):
-            print(f"plot: {p}")
+        with FolderLock(out_dir, f"{sweep.name} --plot-only"):   # not while a sweep writes the folder
+            for p in plot_sweep(sweep, [rows[r] for r in sorted(rows)], out_dir):
+                print(f"plot: {p}")
         return 0
     o = run_sweep(sweep, out_dir, workers=args.workers, scheduler=args.scheduler, resume=args.resume,
                   overwrite=args.overwrite, retry_failed=args.retry_failed, duration=args.duration,
