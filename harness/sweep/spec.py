@@ -172,7 +172,7 @@ def _parse_metric(where: str, spec: dict, earlier: list[str]) -> Metric:
             except SceneError as e:
                 raise SweepError(str(e)) from None
         st = spec.get("stat", "mean")
-        if st not in STATS:
+        if not isinstance(st, str) or st not in STATS:
             raise SweepError(f"{where}: stat = {shown(st)}; allowed: {', '.join(sorted(STATS))}")
         window = spec.get("window")
         if window is not None:
@@ -187,7 +187,7 @@ def _parse_metric(where: str, spec: dict, earlier: list[str]) -> Metric:
         except SceneError as e:
             raise SweepError(str(e)) from None
         return Metric(name, "expr", expr=spec["expr"])
-    if spec["theory"] not in THEORIES:
+    if not isinstance(spec["theory"], str) or spec["theory"] not in THEORIES:
         raise SweepError(f"{where}: theory = {shown(spec['theory'])}; allowed: {', '.join(sorted(THEORIES))}")
     inst = spec.get("instance", "")
     if not isinstance(inst, str):

@@ -61,6 +61,16 @@ def test_a_value_that_overflows_or_nests_too_deep_is_one_line(sandbox, capsys, b
     one_line_error(r, *words)
 
 
+@pytest.mark.parametrize("metric, words", [
+    ('var = "diff.lockingTorque"\nstat = ["mean"]', ["stat = ['mean']", "allowed: absmax"]),
+    ('theory = ["locking_coefficient"]', ["theory = ['locking_coefficient']", "allowed: "]),
+])
+def test_a_sweep_metric_given_as_a_list_is_one_line(sandbox, capsys, metric, words):
+    p = sweep(sandbox.dir, f'[[metrics]]\nname = "m"\n{metric}')
+    r = cli(capsys, "sweep", p, "--workers", "0", "--quiet", "--out", sandbox.dir / "o")
+    one_line_error(r, *words)
+
+
 def test_a_set_value_nested_too_deep_is_one_line(sandbox, capsys):
     r = cli(capsys, "run", "paper-cornering", "--no-plots", "--out", sandbox.dir,
             "--set", "diff.mu_pin=" + "[" * 5000 + "]" * 5000)
