@@ -10,7 +10,8 @@ and parameters ``{inst.param}``). Allowed:
 * the functions of :data:`FUNCTIONS`, called by name with positional arguments.
 
 Nothing else: no attributes, subscripts, comprehensions, lambdas, strings, keywords or other
-names. Sizes are bounded: :data:`MAX_LENGTH` characters, :data:`MAX_NODES` tree nodes, a literal
+names. Sizes are bounded: :data:`MAX_LENGTH` characters, :data:`MAX_TERMS` terms (numbers and
+references), :data:`MAX_NODES` nodes of the parsed tree (terms, operators, calls), a literal
 exponent at most :data:`MAX_EXPONENT` in magnitude and no exponent that is itself a power
 (``m ** 9 ** 9 ** 9``). Every value is a float64 (or an array of them, for recorded series), so no
 operation is exact big-integer arithmetic: the cost of an evaluation is linear in the tree size
@@ -34,7 +35,8 @@ import numpy as np
 from harness.scene import SceneError
 
 MAX_LENGTH = 500          # characters
-MAX_NODES = 200           # nodes of the parsed tree
+MAX_TERMS = 200           # terms: numbers and references
+MAX_NODES = 600           # nodes of the parsed tree: terms, operators, calls (200 summed terms are 599)
 MAX_EXPONENT = 64.0       # magnitude of a literal exponent
 MAX_NUMBER = 1e300        # magnitude of a literal number
 REF = re.compile(r"\{([^{}]+)\}")
@@ -141,9 +143,12 @@ def _what(node: ast.AST) -> str:
 
 def _check(text: str, tree: ast.Expression, fail: Callable[[str], ExpressionError]) -> None:
     nodes = list(ast.walk(tree))
-    if len(nodes) > MAX_NODES:
-        raise fail(f"{len(nodes)} terms; allowed at most {MAX_NODES}")
     callee = {id(n.func) for n in nodes if isinstance(n, ast.Call)}
+    terms = sum(isinstance(n, ast.Constant) or (isinstance(n, ast.Name) and id(n) not in callee) for n in nodes)
+    if terms > MAX_TERMS:
+        raise fail(f"{terms} terms (numbers and references); allowed at most {MAX_TERMS}")
+    if len(nodes) > MAX_NODES:
+        raise fail(f"{len(nodes)} nodes of the parsed tree (terms, operators, calls); allowed at most {MAX_NODES}")
     for node in nodes:
         if isinstance(node, (ast.operator, ast.unaryop, ast.cmpop)):
             if type(node) not in {**_BINARY, **_UNARY, **_COMPARE}:

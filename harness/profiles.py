@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from harness.messages import shown
 from harness.schema import SceneError, number as _number, table as _table_of, unknown as _unknown
 
 
@@ -41,7 +42,7 @@ def parse_profile(where: str, spec) -> Profile:
         raise SceneError(f"{where}: allowed a number, {{table = [[t, v], ...]}} or {{step = ...}}")
     if isinstance(spec, (int, float)):
         if not math.isfinite(float(spec)):
-            raise SceneError(f"{where} = {spec!r}: allowed a finite number")
+            raise SceneError(f"{where} = {shown(spec)}: allowed a finite number")
         return Profile("constant", float(spec))
     if isinstance(spec, dict):
         _unknown(where, spec, {"table", "step"})

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import csv
+import errno
 import math
 import os
 import tempfile
@@ -11,7 +12,6 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.master import RunFailure
 from harness.result import Result
 from harness.scene import SceneError
 from harness.expressions import compile_expression, is_expression
@@ -74,6 +74,12 @@ def evaluate_checks(result: Result) -> list[CheckOutcome]:
             out.append(CheckOutcome(c.get("name", c["var"]), True, float("nan"),
                                     f"not checked at meshModel = {level} (holds at {', '.join(c['fidelity'])})"))
             continue
+        w, end = c.get("window"), result.scene.duration
+        if w and float(w[0]) > end * (1 + 1e-9):   # a run shortened by --duration ends before the window
+            out.append(CheckOutcome(c.get("name", c["var"]), True, float("nan"),
+                                    f"not checked: window [{float(w[0]):g}, {float(w[1]):g}] s starts after "
+                                    f"this run's end ({end:g} s)"))
+            continue
         v = stat(result, c["var"], c["stat"], c.get("window"))
         ok = np.isfinite(v)
         parts = []
@@ -88,6 +94,8 @@ def evaluate_checks(result: Result) -> list[CheckOutcome]:
         if "above" in c:
             ok = ok and v > float(c["above"])
             parts.append(f"> {c['above']}")
+        if w and float(w[1]) > end * (1 + 1e-9):
+            parts.append(f"over [{float(w[0]):g}, {end:g}] s: the run ends inside the window")
         out.append(CheckOutcome(c.get("name", c["var"]), bool(ok), v, ", ".join(parts)))
     return out
 
@@ -121,7 +129,9 @@ def format_table(result: Result) -> str:
                       num(theory) if theory is not None else "-",
                       _pct(mean, theory) if theory is not None else "-",
                       _pct(paper, theory) if (paper is not None and theory is not None) else "-"])
-    return render(head, lines)
+    # columns that are empty on every row (no ADAMS data in the vehicle scenes) are left out
+    keep = [i for i in range(len(head)) if i < 5 or any(line[i] != "-" for line in lines)]
+    return render([head[i] for i in keep], [[line[i] for i in keep] for line in lines])
 
 
 def num(x: float) -> str:
@@ -138,7 +148,7 @@ def render(head: list[str], lines: list[list[str]]) -> str:
 
 
 def format_checks(outcomes: list[CheckOutcome]) -> str:
-    return "\n".join(f"N/A   {o.name}: {o.expectation}" if o.expectation.startswith("not checked at") else
+    return "\n".join(f"N/A   {o.name}: {o.expectation}" if o.expectation.startswith("not checked") else
                      f"{'PASS' if o.passed else 'FAIL'}  {o.name}: {o.value:.6g} (expected {o.expectation})"
                      for o in outcomes)
 
@@ -186,7 +196,8 @@ def writable_dir(path: Path, label: str) -> Path:
         os.close(fd)
         os.unlink(probe)
     except OSError as e:
-        raise SceneError(f"{label} = {str(path)!r}: cannot write there ({e.strerror or e}); "
+        code = f" [errno {e.errno} {errno.errorcode.get(e.errno, '?')}]" if e.errno else ""
+        raise SceneError(f"{label} = {str(path)!r}: cannot write there ({e.strerror or e}){code}; "
                          "allowed: a folder you can write") from None
     return path
 
@@ -194,8 +205,9 @@ def writable_dir(path: Path, label: str) -> Path:
 class CsvStream:
     """Recorded rows to a CSV file as they come (the same format as :func:`write_csv`), flushed at
     least every ``flush_every`` s of wall time and on close: an interrupted or killed run keeps what
-    it recorded. The file is opened at the first row, so a run refused before it starts leaves an
-    earlier file in place. A write error stops the run as a :class:`RunFailure`."""
+    it recorded. The file is created at the first row (:class:`harness.outputs.StreamFile`: never
+    through a link planted there), so a run refused before it starts leaves an earlier file in
+    place. A write error raises :class:`harness.outputs.OutputError` (place, errno, rows kept)."""
 
     def __init__(self, path: Path, header: list[str], flush_every: float = 0.5):
         self.path, self.header, self.flush_every = Path(path), list(header), flush_every
@@ -204,35 +216,41 @@ class CsvStream:
         self._last = 0.0
 
     def write(self, row) -> None:
-        try:
-            if self.fh is None:
-                self.fh = open(self.path, "w", newline="")
-                self._w = csv.writer(self.fh)
-                self._w.writerow(self.header)
-            self._w.writerow([repr(float(x)) for x in row])
-            self.rows += 1
-            now = time.monotonic()
-            if now - self._last >= self.flush_every:
-                self.fh.flush()
-                self._last = now
-        except OSError as e:
-            raise RunFailure("results", float(row[0]), f"cannot write {self.path}: {e.strerror or e}") from None
+        from harness.outputs import StreamFile
+
+        if self.fh is None:
+            self.fh = StreamFile(self.path)
+            self._w = csv.writer(self.fh)
+            self._w.writerow(self.header)
+        self._w.writerow([repr(float(x)) for x in row])
+        self.rows += 1
+        now = time.monotonic()
+        if now - self._last >= self.flush_every:
+            self.fh.flush()
+            self._last = now
 
     def close(self) -> None:
         if self.fh is not None:
-            self.fh.close()
-            self.fh = None
+            fh, self.fh = self.fh, None
+            fh.close()
 
     def __enter__(self) -> "CsvStream":
         return self
 
     def __exit__(self, *exc) -> None:
-        self.close()
+        if exc[0] is None:
+            self.close()
+        else:   # the first error stands; a second one while closing would hide it
+            try:
+                self.close()
+            except Exception:
+                pass
 
 
 def write_csv(result: Result, path: Path) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as f:
+    from harness.outputs import atomic_file
+
+    with atomic_file(path, "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["time"] + result.names)
         for row in result.data:

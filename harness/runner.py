@@ -7,6 +7,8 @@ from dataclasses import replace
 from pathlib import Path
 
 from harness.build import FMUS, build, fmu_path
+from harness.messages import cut, shown
+from harness.recording import MAX_STEPS
 from harness.scene import Scene, SceneError, divides, load_scene, parameter_value
 
 
@@ -17,11 +19,17 @@ def _parse_value(text: str):
         return tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         return text  # bare word: a string
+    except (RecursionError, ValueError) as e:   # nested too deep; an integer of more than 4300 digits
+        reason = "nested too deep" if isinstance(e, RecursionError) else "a number too long to read"
+        raise SceneError(f"--set value {shown(text)}: {reason}; allowed: a number, true/false or a string") from None
 
 
 def prepare_scene(name: str, mesh: str | None = None, step: float | None = None, duration: float | None = None,
-                  algorithm: str | None = None, sets: list[str] | None = None) -> Scene:
-    """Load a scene and apply overrides (``sets``: 'instance.parameter=value')."""
+                  algorithm: str | None = None, sets: list[str] | None = None,
+                  max_steps: int | None = MAX_STEPS) -> Scene:
+    """Load a scene and apply overrides (``sets``: 'instance.parameter=value'). A run of more than
+    ``max_steps`` communication steps is refused with its estimate (None: no step limit; the
+    memory limit of the recording always holds)."""
     from harness.master import check_recording
 
     scene = load_scene(name)
@@ -32,7 +40,7 @@ def prepare_scene(name: str, mesh: str | None = None, step: float | None = None,
     for label, value in (("step", step), ("duration", duration)):
         if value is not None:
             if not (value > 0 and math.isfinite(value)):
-                raise SceneError(f"--{label} = {value!r}: allowed a finite number > 0")
+                raise SceneError(f"--{label} = {shown(value)}: allowed a finite number > 0")
             changes[label] = float(value)
     if algorithm:
         changes["algorithm"] = algorithm
@@ -43,15 +51,15 @@ def prepare_scene(name: str, mesh: str | None = None, step: float | None = None,
         raise SceneError(f"step = {scene.step} s is longer than duration = {scene.duration} s")
     if step is not None or duration is not None:
         divides("--step/--duration", scene.step, scene.duration)
-    check_recording(scene, f"scene {scene.name}")
+    check_recording(scene, f"scene {scene.name}", max_steps)
     names = {i.name for i in scene.instances}
     for item in sets or []:
         if "=" not in item or "." not in item.split("=", 1)[0]:
-            raise SceneError(f"--set {item!r}: allowed INSTANCE.PARAMETER=VALUE")
+            raise SceneError(f"--set {shown(item)}: allowed INSTANCE.PARAMETER=VALUE")
         key, value = item.split("=", 1)
         inst, param = key.split(".", 1)
         if inst not in names:
-            raise SceneError(f"--set {item!r}: unknown instance {inst!r}; allowed: {', '.join(sorted(names))}")
+            raise SceneError(f"--set {shown(item)}: unknown instance {shown(inst)}; allowed: {', '.join(sorted(names))}")
         scene.instance(inst).parameters[param] = _parse_value(value)
     return scene
 
@@ -70,11 +78,11 @@ def typed_parameters(scene: Scene, fmu_files: dict[str, Path]) -> Scene:
                 v = variables.get(name)
                 if v is None:
                     allowed = sorted(n for n, x in variables.items() if x.causality == "parameter")
-                    raise SceneError(f"{prefix}{name}: {spec.fmu} has no parameter {name!r}; allowed: "
+                    raise SceneError(f"{prefix}{cut(name)}: {spec.fmu} has no parameter {shown(name)}; allowed: "
                                      f"{', '.join(allowed)}")
                 if v.causality not in ("parameter", "input"):
-                    raise SceneError(f"{prefix}{name} is a {v.causality}, not a parameter")
-                params[name] = parameter_value(f"{prefix}{name}", v.type, value)
+                    raise SceneError(f"{prefix}{cut(name)} is a {v.causality}, not a parameter")
+                params[name] = parameter_value(f"{prefix}{cut(name)}", v.type, value)
     return scene
 
 
@@ -83,7 +91,7 @@ def fmu_files_for(scene: Scene, build_missing: bool = True, dest: Path | None = 
     needed = sorted({i.fmu for i in scene.instances})
     for n in needed:
         if n not in FMUS:
-            raise SceneError(f"scene {scene.name}: unknown FMU {n!r}; allowed: {', '.join(sorted(FMUS))}")
+            raise SceneError(f"scene {scene.name}: unknown FMU {shown(n)}; allowed: {', '.join(sorted(FMUS))}")
     if build_missing:
         paths = build(needed, dest, quiet=True)
     else:
@@ -98,7 +106,7 @@ def explain_failure(scene: Scene, failure) -> str:
     spec = next((i for i in scene.instances if i.name == getattr(failure, "instance", None)), None)
     if spec is None or getattr(failure, "time", 1.0) != 0.0 or not spec.parameters:
         return text
-    given = [f"{k} = {v!r}" for k, v in spec.parameters.items() if k not in text]
+    given = [f"{k} = {shown(v)}" for k, v in spec.parameters.items() if k not in text]
     if len(given) < len(spec.parameters):   # the reason names a parameter already
         return text
     more = f", ... ({len(given)} in all)" if len(given) > 8 else ""

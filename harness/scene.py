@@ -42,9 +42,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from harness.messages import shown
 from harness.schema import (SceneError, is_safe_name, number as _number, parameter_value, positive as _positive,  # noqa: F401
                             read_toml, safe_name, strings as _strings, table as _table_of, tables as _tables,
                             text as _text, unknown as _unknown, window as _window)
+from harness.recording import MAX_STEPS, STEP_CAP
 from harness.profiles import Profile, parse_profile
 
 SCENE_DIR = Path(__file__).resolve().parent / "scenes"
@@ -58,6 +60,7 @@ TABLE_KEYS = {"label", "var", "scale", "unit", "paper", "theory", "paper_max", "
 CHECK_KEYS = {"name", "stat", "var", "window", "expect", "rtol", "atol", "below", "above", "expect_var", "fidelity"}
 COUPLING_KEYS = {"name", "torque", "w_from", "w_to", "sign"}
 STATS = {"mean", "max", "min", "final", "absmax", "span"}
+EXPECTATIONS = ("expect", "expect_var", "below", "above")   # what makes a check able to fail
 ALGORITHMS = {"gauss-seidel", "jacobi"}
 
 
@@ -104,7 +107,7 @@ class Scene:
         for inst in self.instances:
             if inst.name == name:
                 return inst
-        raise SceneError(f"scene {self.name}: no FMU instance named {name!r}")
+        raise SceneError(f"scene {self.name}: no FMU instance named {shown(name)}")
 
     def parameter_sources(self, instance: str) -> list[tuple[str, dict[str, Any]]]:
         """Where an instance's parameter values come from, lowest priority first, as (prefix for
@@ -130,25 +133,25 @@ class Scene:
             try:
                 return variables[inst][name]
             except KeyError:
-                raise SceneError(f"{inst}: FMU has no variable {name!r}") from None
+                raise SceneError(f"{inst}: FMU has no variable {shown(name)}") from None
 
         for ref in self.inputs:
             v = var(*ref.split(".", 1))
             if v.causality != "input":
-                raise SceneError(f"inputs: {ref!r} is a {v.causality}, not an input (parameters go in "
+                raise SceneError(f"inputs: {shown(ref)} is a {v.causality}, not an input (parameters go in "
                                  "[fmus.<instance>.parameters])")
         links = []
         for to, frm in self.connections.items():
             (ti, tv), (fi, fv) = to.split(".", 1), frm.split(".", 1)
             tvar, fvar = var(ti, tv), var(fi, fv)
             if tvar.causality != "input":
-                raise SceneError(f"connections: {to!r} is a {tvar.causality}, not an input")
+                raise SceneError(f"connections: {shown(to)} is a {tvar.causality}, not an input")
             if fvar.causality != "output":
-                raise SceneError(f"connections: {frm!r} is a {fvar.causality}, not an output")
+                raise SceneError(f"connections: {shown(frm)} is a {fvar.causality}, not an output")
             if tvar.unit != fvar.unit:
-                raise SceneError(f"connections: {frm!r} [{fvar.unit}] -> {to!r} [{tvar.unit}]: units differ")
+                raise SceneError(f"connections: {shown(frm)} [{fvar.unit}] -> {shown(to)} [{tvar.unit}]: units differ")
             if tvar.type != "Real" or fvar.type != "Real":
-                raise SceneError(f"connections: {frm!r} -> {to!r}: only Real variables can be connected")
+                raise SceneError(f"connections: {shown(frm)} -> {shown(to)}: only Real variables can be connected")
             links.append((ti, tvar, fi, fvar))
         for ref in [c[k] for c in self.couplings for k in ("torque", "w_from", "w_to")] + list(self.record):
             inst, name = ref.split(".", 1)
@@ -166,6 +169,10 @@ class Scene:
 def divides(where: str, step: float, duration: float) -> None:
     """Refuse a communication step that does not divide the duration (the run would end elsewhere)."""
     n = duration / step
+    if not n < STEP_CAP:   # inf or more than any run could make (round(inf) would raise)
+        raise SceneError(f"{where}: duration = {duration:g} s at step = {step:g} s is {n:.3g} communication steps "
+                         f"(up to as many recorded samples); allowed: at most {MAX_STEPS:,} steps (--max-steps N "
+                         "raises the limit)")
     if abs(n - round(n)) > 1e-9 * max(1.0, n) or round(n) < 1:
         k = max(1, math.ceil(n - 1e-9))
         raise SceneError(f"{where}: step = {step:g} s does not divide duration = {duration:g} s ({n:.4g} steps); "
@@ -174,10 +181,10 @@ def divides(where: str, step: float, duration: float) -> None:
 
 def _split(where: str, ref: str, names: set[str]) -> tuple[str, str]:
     if not isinstance(ref, str) or "." not in ref:
-        raise SceneError(f"{where}: {ref!r} is not of the form 'instance.variable'")
+        raise SceneError(f"{where}: {shown(ref)} is not of the form 'instance.variable'")
     inst, var = ref.split(".", 1)
     if inst not in names:
-        raise SceneError(f"{where}: {ref!r} names unknown FMU instance {inst!r}; allowed: {', '.join(sorted(names))}")
+        raise SceneError(f"{where}: {shown(ref)} names unknown FMU instance {shown(inst)}; allowed: {', '.join(sorted(names))}")
     return inst, var
 
 
@@ -203,7 +210,7 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
     _unknown(where, data, TOP_KEYS)
     for req in ("name", "duration", "step", "fmus"):
         if req not in data:
-            raise SceneError(f"{where}: missing required key {req!r}")
+            raise SceneError(f"{where}: missing required key {shown(req)}")
     name = safe_name(f"{where}: name", data["name"])
     description = _text(f"{where}: description", data.get("description", ""))
     duration = _positive(f"{where}: duration", data["duration"])
@@ -214,13 +221,13 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
     out = _positive(f"{where}: output_interval", data.get("output_interval", step))
     algorithm = data.get("algorithm", "gauss-seidel")
     if not isinstance(algorithm, str) or algorithm not in ALGORITHMS:
-        raise SceneError(f"{where}: algorithm = {algorithm!r}; allowed: {', '.join(sorted(ALGORITHMS))}")
+        raise SceneError(f"{where}: algorithm = {shown(algorithm)}; allowed: {', '.join(sorted(ALGORITHMS))}")
     instances = []
     if not isinstance(data["fmus"], dict) or not data["fmus"]:
         raise SceneError(f"{where}: [fmus.<instance>] tables required")
     for iname, spec in data["fmus"].items():
         if not _INSTANCE.match(iname):
-            raise SceneError(f"{where}: fmus.{iname!r}: allowed an instance name of letters, digits and _")
+            raise SceneError(f"{where}: fmus.{shown(iname)}: allowed an instance name of letters, digits and _")
         _table_of(f"{where}: fmus.{iname}", spec)
         _unknown(f"{where}: fmus.{iname}", spec, FMU_KEYS)
         if "fmu" not in spec:
@@ -238,25 +245,25 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
     inputs = {}
     for ref, spec in _table_of(f"{where}: inputs", data.get("inputs", {})).items():
         _split(f"{where}: inputs", ref, names)
-        inputs[ref] = parse_profile(f"{where}: inputs.{ref!r}", spec)
+        inputs[ref] = parse_profile(f"{where}: inputs.{shown(ref)}", spec)
     connections = {}
     for to, frm in _table_of(f"{where}: connections", data.get("connections", {})).items():
         _split(f"{where}: connections", to, names)
-        _split(f"{where}: connections.{to!r}", frm, names)
+        _split(f"{where}: connections.{shown(to)}", frm, names)
         if to in inputs:
-            raise SceneError(f"{where}: {to!r} is both connected and given an input profile")
+            raise SceneError(f"{where}: {shown(to)} is both connected and given an input profile")
         connections[to] = frm
     couplings = []
     for c in _tables(f"{where}: couplings", data.get("couplings", [])):
         _unknown(f"{where}: couplings", c, COUPLING_KEYS)
         for k in ("name", "torque", "w_from", "w_to"):
             if k not in c:
-                raise SceneError(f"{where}: couplings: missing key {k!r}")
+                raise SceneError(f"{where}: couplings: missing key {shown(k)}")
             _text(f"{where}: couplings.{k}", c[k])
             if k != "name":
                 _split(f"{where}: couplings.{k}", c[k], names)
         if "sign" in c:
-            _number(f"{where}: couplings {c['name']!r}.sign", c["sign"])
+            _number(f"{where}: couplings {shown(c['name'])}.sign", c["sign"])
         couplings.append(dict(c))
     record = list(_strings(f"{where}: record", data.get("record", [])))
     for r in record:
@@ -268,9 +275,9 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
         at = f"{where}: table[{i}]"
         for k in ("label", "var"):
             if k not in row:
-                raise SceneError(f"{at}: missing key {k!r}")
+                raise SceneError(f"{at}: missing key {shown(k)}")
         _text(f"{at}.label", row["label"])
-        at = f"{where}: table {row['label']!r}"
+        at = f"{where}: table {shown(row['label'])}"
         needed += _quantity(f"{at}.var", row["var"], names)
         for k in ("scale", "paper", "paper_max", "paper_min"):
             if k in row:
@@ -287,11 +294,11 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
     checks = []
     for i, c in enumerate(_tables(f"{where}: checks", data.get("checks", []))):
         _unknown(f"{where}: checks", c, CHECK_KEYS)
-        at = f"{where}: checks {c['name']!r}" if isinstance(c.get("name"), str) else f"{where}: checks[{i}]"
+        at = f"{where}: checks {shown(c['name'])}" if isinstance(c.get("name"), str) else f"{where}: checks[{i}]"
         if "name" in c:
             _text(f"{at}.name", c["name"])
-        if c.get("stat") not in STATS:
-            raise SceneError(f"{at}.stat = {c.get('stat')!r}; allowed: {', '.join(sorted(STATS))}")
+        if not isinstance(c.get("stat"), str) or c["stat"] not in STATS:
+            raise SceneError(f"{at}.stat = {shown(c.get('stat'))}; allowed: {', '.join(sorted(STATS))}")
         if "var" not in c:
             raise SceneError(f"{at}: missing key 'var'")
         needed += _quantity(f"{at}.var", c["var"], names)
@@ -303,11 +310,15 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
         for k in ("rtol", "atol"):
             if k in c:
                 _number(f"{at}.{k}", c[k], minimum=0.0)
+        if not any(k in c for k in EXPECTATIONS):   # a check that cannot fail is no check
+            raise SceneError(f"{at}: no expectation, so it cannot fail; allowed: one of {', '.join(EXPECTATIONS)}")
+        if ("rtol" in c or "atol" in c) and not ("expect" in c or "expect_var" in c):
+            raise SceneError(f"{at}: rtol/atol without expect or expect_var; allowed: a tolerance of an expectation")
         if "window" in c:
             _window(f"{at}.window", c["window"])
         if "fidelity" in c and not (isinstance(c["fidelity"], list) and c["fidelity"]
                                     and all(f in ("rigid", "compliant", "contact") for f in c["fidelity"])):
-            raise SceneError(f"{at}.fidelity = {c['fidelity']!r}; allowed: a list of rigid, compliant, contact")
+            raise SceneError(f"{at}.fidelity = {shown(c['fidelity'])}; allowed: a list of rigid, compliant, contact")
         checks.append(dict(c))
     for r in needed:
         if r not in record:
@@ -319,7 +330,7 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
     _table_of(f"{where}: fidelity", fidelity)
     _unknown(f"{where}: fidelity", fidelity, FIDELITY_KEYS)
     if fidelity.get("mode", "fixed") not in ("fixed", "auto"):
-        raise SceneError(f"{where}: fidelity mode = {fidelity['mode']!r}; allowed: fixed | auto")
+        raise SceneError(f"{where}: fidelity mode = {shown(fidelity['mode'])}; allowed: fixed | auto")
     if fidelity.get("mode") == "auto":
         outs = fidelity.get("outputs")
         if not isinstance(outs, list) or not outs or not all(isinstance(o, str) for o in outs):
@@ -328,34 +339,52 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
             _quantity(f"{where}: fidelity.outputs", o, names)
         tol = fidelity.get("tolerance", 0.01)
         if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 0 < tol < 1e3:
-            raise SceneError(f"{where}: fidelity tolerance = {tol!r}; allowed: a number > 0 (relative error)")
+            raise SceneError(f"{where}: fidelity tolerance = {shown(tol)}; allowed: a number > 0 (relative error)")
         fidelity.setdefault("data", data.get("extends", data["name"]))
         _text(f"{where}: fidelity.data", fidelity["data"])
-    return Scene(name=name, description=description, duration=duration,
-                 step=step, output_interval=out, algorithm=algorithm, instances=instances, inputs=inputs,
-                 connections=connections, couplings=couplings, record=record, table=table, checks=checks,
-                 effects=effects, fidelity=dict(fidelity), source=source)
+    scene = Scene(name=name, description=description, duration=duration,
+                  step=step, output_interval=out, algorithm=algorithm, instances=instances, inputs=inputs,
+                  connections=connections, couplings=couplings, record=record, table=table, checks=checks,
+                  effects=effects, fidelity=dict(fidelity), source=source)
+    check_windows(where, scene)
+    return scene
+
+
+def check_windows(where: str, scene: Scene) -> None:
+    """Refuse a check or table window outside the run, starting after its duration or ending before
+    0: it holds no sample, so its check could only say nan. (A window the run ends inside is
+    evaluated over the part run and says so: :func:`harness.report.evaluate_checks`.)"""
+    for kind, rows, key in (("checks", scene.checks, "name"), ("table", scene.table, "label")):
+        for i, row in enumerate(rows):
+            w = row.get("window")
+            if w is None:
+                continue
+            lo, hi = float(w[0]), float(w[1])
+            if lo > scene.duration * (1 + 1e-9) or hi < 0:
+                label = shown(row[key]) if key in row else f"[{i}]"
+                raise SceneError(f"{where}: {kind} {label}.window = [{lo:g}, {hi:g}] s is outside the run; "
+                                 f"allowed: a window within 0 .. {scene.duration:g} s (the duration)")
 
 
 def scene_path(name_or_path: str, base: Path | None = None) -> Path:
     """The file of a scene name, or of a path to a .toml file (relative paths from ``base``, the
     folder of the scene that names it, else the working directory)."""
     if not isinstance(name_or_path, str) or not name_or_path or "\0" in name_or_path:
-        raise SceneError(f"scene {name_or_path!r}: allowed a scene name or a path to a .toml file")
+        raise SceneError(f"scene {shown(name_or_path)}: allowed a scene name or a path to a .toml file")
     p = Path(name_or_path)
     if p.suffix == ".toml":
         if base is not None and not p.is_absolute():
             p = base / p
         if p.is_file():
             return p
-        raise SceneError(f"scene file {str(p)!r} not found")
+        raise SceneError(f"scene file {shown(str(p))} not found")
     if is_safe_name(name_or_path):
         # a name: a scene beside the one that names it, then the packaged scenes
         for folder in ([base] if base is not None else []) + [SCENE_DIR]:
             q = folder / f"{name_or_path}.toml"
             if q.is_file():
                 return q
-    raise SceneError(f"unknown scene {name_or_path!r}; available: {', '.join(available())} (or a .toml file)")
+    raise SceneError(f"unknown scene {shown(name_or_path)}; available: {', '.join(available())} (or a .toml file)")
 
 
 def merge(base: dict, over: dict) -> dict:
@@ -385,7 +414,7 @@ def read_scene_data(name_or_path: str, _seen: tuple[Path, ...] = (), _base: Path
     if parent is None:
         return data
     if not isinstance(parent, str):
-        raise SceneError(f"{path.name}: extends = {parent!r}; allowed: a scene name or a path to a .toml file")
+        raise SceneError(f"{path.name}: extends = {shown(parent)}; allowed: a scene name or a path to a .toml file")
     base = read_scene_data(parent, _seen + (real,), path.parent)
     base.pop("fidelity", None)
     return merge(base, data)

@@ -12,6 +12,8 @@ import re
 import tomllib
 from pathlib import Path
 
+from harness.messages import shown
+
 INT32 = (-2**31, 2**31 - 1)
 _TRUE = {"true", "on", "yes", "1"}
 _FALSE = {"false", "off", "no", "0"}
@@ -30,14 +32,22 @@ def safe_name(where: str, name, error: type[SceneError] = SceneError) -> str:
     """``name`` if it can be a file or folder name inside a results folder (no separator, no '..',
     no leading dot, at most 100 characters); else an error naming ``where``."""
     if not is_safe_name(name):
-        raise error(f"{where} = {name!r}: allowed letters, digits, '_', '-' and '.' (not first, no '..'), "
+        raise error(f"{where} = {shown(name)}: allowed letters, digits, '_', '-' and '.' (not first, no '..'), "
                     "at most 100 characters: it becomes a file name")
     return name
 
 
 def _short(value, n: int = 60) -> str:
-    r = repr(value)
-    return r if len(r) <= n else r[: n - 3] + "..."
+    """A value echoed in a message: cut, with its length stated (:func:`harness.messages.shown`)."""
+    return shown(value, n)
+
+
+def _float(value) -> float:
+    """``float(value)`` of a number; an integer too large for a float is +-inf (refused as not finite)."""
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf if value > 0 else -math.inf
 
 
 def parameter_value(where: str, type_: str, value, finite: bool = True):
@@ -68,10 +78,7 @@ def parameter_value(where: str, type_: str, value, finite: bool = True):
     if type_ == "Real":
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise SceneError(f"{where} = {_short(value)}: allowed a number")
-        try:
-            x = float(value)
-        except OverflowError:
-            x = math.inf if value > 0 else -math.inf
+        x = _float(value)
         if finite and not math.isfinite(x):
             raise SceneError(f"{where} = {_short(value)}: allowed a finite number")
         return x
@@ -87,54 +94,55 @@ def unknown(where: str, keys, allowed, error: type[SceneError] = SceneError) -> 
     """Refuse keys outside ``allowed``, naming them and listing the allowed ones."""
     bad = sorted(set(keys) - set(allowed))
     if bad:
-        raise error(f"{where}: unknown key{'s' if len(bad) > 1 else ''} {', '.join(repr(b) for b in bad)}; "
+        raise error(f"{where}: unknown key{'s' if len(bad) > 1 else ''} {', '.join(shown(b) for b in bad[:5])}"
+                    f"{f' (and {len(bad) - 5} more)' if len(bad) > 5 else ''}; "
                     f"allowed: {', '.join(sorted(allowed))}")
 
 
 def positive(where: str, value, error: type[SceneError] = SceneError) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise error(f"{where} = {value!r}: allowed a number > 0")
-    v = float(value)
+        raise error(f"{where} = {shown(value)}: allowed a number > 0")
+    v = _float(value)
     if not (v > 0.0 and math.isfinite(v)):
-        raise error(f"{where} = {value!r}: allowed a finite number > 0")
+        raise error(f"{where} = {shown(value)}: allowed a finite number > 0")
     return v
 
 
 def number(where: str, value, minimum: float | None = None, error: type[SceneError] = SceneError) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(float(value)):
-        raise error(f"{where} = {value!r}: allowed a finite number")
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(_float(value)):
+        raise error(f"{where} = {shown(value)}: allowed a finite number")
     if minimum is not None and value < minimum:
-        raise error(f"{where} = {value!r}: allowed a number >= {minimum:g}")
+        raise error(f"{where} = {shown(value)}: allowed a number >= {minimum:g}")
     return float(value)
 
 
 def count(where: str, value, error: type[SceneError] = SceneError) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-        raise error(f"{where} = {value!r}: allowed an integer >= 1")
+        raise error(f"{where} = {shown(value)}: allowed an integer >= 1")
     return value
 
 
 def text(where: str, value, error: type[SceneError] = SceneError) -> str:
     if not isinstance(value, str):
-        raise error(f"{where} = {value!r}: allowed a string")
+        raise error(f"{where} = {shown(value)}: allowed a string")
     return value
 
 
 def table(where: str, value, error: type[SceneError] = SceneError) -> dict:
     if not isinstance(value, dict):
-        raise error(f"{where} = {value!r}: allowed a table {{key = value, ...}}")
+        raise error(f"{where} = {shown(value)}: allowed a table {{key = value, ...}}")
     return value
 
 
 def tables(where: str, value, error: type[SceneError] = SceneError) -> list[dict]:
     if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
-        raise error(f"{where} = {value!r}: allowed an array of tables [[...]]")
+        raise error(f"{where} = {shown(value)}: allowed an array of tables [[...]]")
     return value
 
 
 def strings(where: str, value, error: type[SceneError] = SceneError) -> list[str]:
     if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-        raise error(f"{where} = {value!r}: allowed a list of strings")
+        raise error(f"{where} = {shown(value)}: allowed a list of strings")
     return value
 
 
@@ -142,28 +150,57 @@ def scalar(where: str, value, error: type[SceneError] = SceneError):
     """A parameter value as a file gives it: a finite number, a string or a boolean."""
     if isinstance(value, (bool, int, str)) or (isinstance(value, float) and math.isfinite(value)):
         return value
-    raise error(f"{where}: {value!r} is not allowed; allowed: a finite number, a string or a boolean")
+    raise error(f"{where}: {shown(value)} is not allowed; allowed: a finite number, a string or a boolean")
 
 
 def window(where: str, value, error: type[SceneError] = SceneError, start_at_zero: bool = False):
     """A time window [t0, t1] in s (t0 <= t1; with ``start_at_zero``: 0 <= t0 < t1); returned as given."""
     if not (isinstance(value, list) and len(value) == 2):
-        raise error(f"{where} = {value!r}: allowed [t0, t1] in s")
+        raise error(f"{where} = {shown(value)}: allowed [t0, t1] in s")
     lo, hi = (number(where, v, error=error) for v in value)
     if start_at_zero and not 0 <= lo < hi:
-        raise error(f"{where} = {value!r}: allowed 0 <= t0 < t1")
+        raise error(f"{where} = {shown(value)}: allowed 0 <= t0 < t1")
     if not lo <= hi:
-        raise error(f"{where} = {value!r}: allowed [t0, t1] with t0 <= t1")
+        raise error(f"{where} = {shown(value)}: allowed [t0, t1] with t0 <= t1")
     return value
 
 
+MAX_DEPTH = 32   # nesting of tables and arrays in a scene or sweep file
+
+
+def depth(data) -> int:
+    """Nesting depth of tables and arrays (a plain value is 0), without recursion."""
+    deepest, todo = 0, [(data, 0)]
+    while todo:
+        value, d = todo.pop()
+        if isinstance(value, dict):
+            todo += [(v, d + 1) for v in value.values()]
+        elif isinstance(value, list):
+            todo += [(v, d + 1) for v in value]
+        else:
+            deepest = max(deepest, d)
+            continue
+        deepest = max(deepest, d + 1)
+    return deepest
+
+
 def read_toml(path: Path, error: type[SceneError] = SceneError) -> dict:
-    """The TOML data of ``path``; a file that is not UTF-8 TOML or cannot be read is one line."""
+    """The TOML data of ``path``; a file that is not UTF-8 TOML, cannot be read, or nests tables
+    and arrays deeper than :data:`MAX_DEPTH` is one line."""
     try:
-        return tomllib.loads(Path(path).read_bytes().decode("utf-8"))
+        data = tomllib.loads(Path(path).read_bytes().decode("utf-8"))
     except UnicodeDecodeError as e:
         raise error(f"{path.name}: not UTF-8 text (byte {e.start}); allowed: a UTF-8 TOML file") from None
     except tomllib.TOMLDecodeError as e:
         raise error(f"{path.name}: not valid TOML: {e}") from None
+    except RecursionError:
+        raise error(f"{path.name}: tables or arrays nested too deep to read; allowed: at most {MAX_DEPTH} "
+                    "levels") from None
+    except ValueError as e:   # e.g. an integer of more than 4300 digits
+        raise error(f"{path.name}: not valid TOML: {shown(str(e), 200)}") from None
     except OSError as e:
         raise error(f"{path.name}: cannot read: {e.strerror}") from None
+    d = depth(data)
+    if d > MAX_DEPTH:
+        raise error(f"{path.name}: tables and arrays nested {d} levels deep; allowed: at most {MAX_DEPTH}")
+    return data

@@ -176,15 +176,10 @@ def export_ssp_summary(scene: Scene, fmu_files: dict[str, Path], path: Path | st
     values = instance_values(scene)
     tables = {ref: p for ref, p in scene.inputs.items() if p.kind != "constant"}
 
-    path.parent.mkdir(parents=True, exist_ok=True)
-    partial = path.with_name(f".{path.stem}.partial.ssp")  # pyssp writes the archive even on error
-    partial.unlink(missing_ok=True)
-    try:
+    from harness.outputs import private_path
+
+    with private_path(path) as partial:   # pyssp writes the archive even on error: removed then
         n_values = _write(scene, fmu_files, mds, variables, values, partial)
-    except BaseException:
-        partial.unlink(missing_ok=True)
-        raise
-    partial.replace(path)
     return ExportSummary(path, len(scene.instances), len(scene.connections), n_values, sorted(tables))
 
 

@@ -26,7 +26,15 @@ from .shafts import SHAFT_COUPLINGS, ShaftedDifferential, ShaftsParams
 FMU_NAME = "SpurDifferential"
 DESCRIPTION = ("Spur-gear planetary inter-wheel differential: two suns on the half-shafts, pairs of "
                "meshing planets on a driven carrier, pin-bushing friction locking")
+# The default experiment, what any host runs with nothing connected: the paper's straight-line case
+# (docs/paper-reproduction.md), from the inputs' start values below: carrier speed 1.389 rad/s imposed
+# (carrierDrive = speed), both suns loaded with -1050 N m; the differential turns locked, the carrier
+# drive delivers 2100 N m. A slipping (cornering) steady state cannot come from constant inputs: with
+# Coulomb locking and constant torques the suns either stick or accelerate without bound, and with
+# shaftCoupling = wheel the wheel angles must advance. docs/use-the-fmu.md has the recipes for both.
 DEFAULT_EXPERIMENT = {"startTime": 0.0, "stopTime": 0.3, "stepSize": 1e-3}
+DEFAULT_CARRIER_SPEED = 1.389      # rad/s, the paper's carrier speed
+DEFAULT_SUN_LOAD = -1050.0         # N m on each sun, the paper's straight-line load
 
 MESH_MODELS = ("rigid", "compliant", "contact")
 EFFECTS = ("backlash", "meshStiffnessVariation", "pinFriction", "flankFriction")
@@ -89,14 +97,17 @@ def _mesh_vars(mesh: str, label: str) -> list[Var]:
 
 VARIABLES: list[Var] = [
     # --- inputs
-    Var("carrier.w_ref", "input", "Carrier speed target (carrierDrive = speed); reached linearly over each step",
-        "rad/s", "rpm", 0.0, min=-1e4, max=1e4, bind="w_ref"),
+    Var("carrier.w_ref", "input", "Carrier speed target (carrierDrive = speed); reached linearly over each step "
+        "(start value: the paper's 1.389 rad/s, the default experiment)",
+        "rad/s", "rpm", DEFAULT_CARRIER_SPEED, min=-1e4, max=1e4, bind="w_ref"),
     Var("carrier.tau", "input", "External torque driving the carrier (carrierDrive = torque)", "N.m", "N.mm", 0.0,
         min=-1e6, max=1e6, bind="tau_c"),
-    Var("left.tau", "input", "External torque on the left half-shaft flange (sun A), Modelica sign: a load is negative",
-        "N.m", "N.mm", 0.0, min=-1e6, max=1e6, bind="tau_L"),
-    Var("right.tau", "input", "External torque on the right half-shaft flange (sun B), Modelica sign: a load is negative",
-        "N.m", "N.mm", 0.0, min=-1e6, max=1e6, bind="tau_R"),
+    Var("left.tau", "input", "shaftCoupling = torque: external torque on the left half-shaft flange (sun A), "
+        "Modelica sign: a load is negative (start value: the paper's straight-line load; ignored with "
+        "shaftCoupling = wheel)", "N.m", "N.mm", DEFAULT_SUN_LOAD, min=-1e6, max=1e6, bind="tau_L"),
+    Var("right.tau", "input", "shaftCoupling = torque: external torque on the right half-shaft flange (sun B), "
+        "Modelica sign: a load is negative (start value: the paper's straight-line load; ignored with "
+        "shaftCoupling = wheel)", "N.m", "N.mm", DEFAULT_SUN_LOAD, min=-1e6, max=1e6, bind="tau_R"),
     Var("leftWheel.phi", "input", "shaftCoupling = wheel: angle of the wheel end of the left half-shaft "
         "(WheelLoad's wheel.phi)", "rad", "deg", 0.0, min=-1e9, max=1e9, bind="wheelL_phi"),
     Var("leftWheel.w", "input", "shaftCoupling = wheel: speed of the wheel end of the left half-shaft "

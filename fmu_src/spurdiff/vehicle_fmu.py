@@ -22,30 +22,41 @@ from .vehicle import Vehicle, VehicleParams
 FMU_NAME = "Vehicle"
 DESCRIPTION = ("Planar rear-wheel-drive vehicle: body, axle lateral tyres, load transfer, "
                "speed and path-following steering control")
+# The default experiment, what any host runs with nothing connected: the car of the main job alone
+# (scene vehicle-cornering): a steady left turn, R = 20 m at 10 m/s, the rear tyre forces held at
+# the values the wheels deliver there (means over 1 to 3 s of `spurdiff run vehicle-cornering`:
+# 240.9 N inner, 134.4 N outer); the car keeps its turn (lateral acceleration 5 m/s^2, yaw rate
+# 0.5 rad/s) and driveTorque shows the axle torque the speed controller asks for (about 152 N m).
+# The FMU's vehicle.vx_start is 10 m/s for it: a choice of the experiment, not vehicle data (the data
+# file's and the physics' default is 0, a car at rest).
 DEFAULT_EXPERIMENT = {"startTime": 0.0, "stopTime": 10.0, "stepSize": 1e-3}
+DEFAULT_SPEED = 10.0             # m/s: speedTarget and vehicle.vx_start
+DEFAULT_PATH_RADIUS = 20.0       # m, left turn
+DEFAULT_FX = (240.9, 134.4)      # N, rear left (inner) and rear right tyre forces of that turn
 
 _DATA = read_data()                             # the bundled TOML data
 _D = VehicleParams.from_data(_DATA)
 ROAD_MU = float(_DATA.get("road", {}).get("mu", 1.0))   # start value of the mu input
 
 def _p(group: str, field: str, description: str, unit: str | None, display: str | None = None,
-       kind: str = "Real") -> Var:
-    """The parameter bound to ``group.field`` of VehicleParams, its start value from the data file."""
-    start = getattr(getattr(_D, group), field)
+       kind: str = "Real", start=None) -> Var:
+    """The parameter bound to ``group.field`` of VehicleParams, its start value from the data file
+    (or ``start``: a choice of the default experiment, not data)."""
+    start = getattr(getattr(_D, group), field) if start is None else start
     start = int(start) if kind == "Integer" else float(start)
     return Var(f"{group}.{field}", "parameter", description, unit, display, start, kind=kind, bind=f"{group}.{field}")
 
 
 VARIABLES: list[Var] = [
     # --- inputs
-    Var("rearLeft.Fx", "input", "Longitudinal tyre force of the rear left wheel on the body (its WheelLoad Fx)",
-        "N", None, 0.0, min=-1e6, max=1e6, bind="rearLeft_Fx"),
-    Var("rearRight.Fx", "input", "Longitudinal tyre force of the rear right wheel on the body (its WheelLoad Fx)",
-        "N", None, 0.0, min=-1e6, max=1e6, bind="rearRight_Fx"),
-    Var("speedTarget", "input", "Target of the speed controller (longitudinal speed v_x)", "m/s", "km/h", 0.0,
+    Var("rearLeft.Fx", "input", "Longitudinal tyre force of the rear left wheel on the body (its WheelLoad Fx; "
+        "start value: the default experiment's steady turn)", "N", None, DEFAULT_FX[0], min=-1e6, max=1e6, bind="rearLeft_Fx"),
+    Var("rearRight.Fx", "input", "Longitudinal tyre force of the rear right wheel on the body (its WheelLoad Fx; "
+        "start value: the default experiment's steady turn)", "N", None, DEFAULT_FX[1], min=-1e6, max=1e6, bind="rearRight_Fx"),
+    Var("speedTarget", "input", "Target of the speed controller (longitudinal speed v_x)", "m/s", "km/h", DEFAULT_SPEED,
         min=-1e3, max=1e3, bind="speedTarget"),
     Var("pathRadius", "input", "Path radius the steering controller follows (steering.mode = 0); "
-        "positive: left turn; 0: straight", "m", None, 0.0, bind="pathRadius"),
+        "positive: left turn; 0: straight", "m", None, DEFAULT_PATH_RADIUS, bind="pathRadius"),
     Var("speedTargetRate", "input", "Rate of speedTarget over the step: the target ramps from its input value at "
         "this rate (the input's own rate at the step's start; 0: held)", "m/s2", None, 0.0, min=-1e4, max=1e4,
         bind="speedTargetRate"),
@@ -111,8 +122,8 @@ VARIABLES: list[Var] = [
     _p("vehicle", "v_rr", "Speed below which the front rolling resistance fades to zero (tanh)", "m/s", "km/h"),
     _p("vehicle", "rollStiffnessShareRear", "Share of the total roll stiffness on the rear axle (0..1)", "1"),
     _p("vehicle", "tau_load", "Time constant of the load transfer following the accelerations", "s", "ms"),
-    _p("vehicle", "vx_start", "Longitudinal speed at the start (with pathRadius: the steady turn at this speed)",
-       "m/s", "km/h"),
+    _p("vehicle", "vx_start", "Longitudinal speed at the start (with pathRadius: the steady turn at this speed; "
+       "10 m/s for the default experiment, 0 to launch)", "m/s", "km/h", start=DEFAULT_SPEED),
     _p("vehicle", "h_max", "Largest internal step of the Runge-Kutta integrator", "s", "ms"),
     _p("vehicle", "R_wheel", "Rear rolling radius (only to start the speed controller at the holding torque)",
        "m", "mm"),

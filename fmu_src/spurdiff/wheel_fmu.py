@@ -27,7 +27,15 @@ from .wheel import WheelLoad, WheelLoadParams
 FMU_NAME = "WheelLoad"
 DESCRIPTION = ("Wheel load of one driven wheel: compliant half-shaft, wheel inertia and transient-slip "
                "Magic Formula longitudinal tyre")
+# The default experiment, what any host runs with nothing connected: a locked-wheel skid test (as a
+# skid trailer does it): the wheel dragged at 10 m/s under 3000 N (about the sedan's static rear wheel
+# load) with its flange held (flange.phi, flange.w = 0; the angle input held is a clamped flange), so
+# the tyre slides (slip -1), the shaft twists against the tyre torque and the wheel settles stopped
+# with Fx at the sliding force. A driven, rolling wheel needs the flange angle to advance (an input
+# that changes) or shaftCoupling = wheel with a torque on shaftIn.tau: docs/use-the-fmu.md.
 DEFAULT_EXPERIMENT = {"startTime": 0.0, "stopTime": 1.0, "stepSize": 1e-3}
+DEFAULT_FZ = 3000.0     # N
+DEFAULT_VX = 10.0       # m/s
 
 _DATA = read_data()                            # the bundled TOML data
 _D = WheelLoadParams.from_data(_DATA)
@@ -55,8 +63,8 @@ VARIABLES: list[Var] = [
         "rad", "deg", 0.0, bind="flange_phi"),
     Var("flange.w", "input", "Speed of the differential's sun flange driving this half-shaft (its left.w / right.w)",
         "rad/s", "rpm", 0.0, min=-1e4, max=1e4, bind="flange_w"),
-    Var("Fz", "input", "Normal load on the wheel (negative is treated as 0: a lifted wheel)", "N", None, 0.0,
-        min=-1e6, max=1e6, bind="Fz"),
+    Var("Fz", "input", "Normal load on the wheel (negative is treated as 0: a lifted wheel; start value: the "
+        "default experiment's)", "N", None, DEFAULT_FZ, min=-1e6, max=1e6, bind="Fz"),
     Var("mu", "input", "Road friction coefficient (>= 0)", "1", None, ROAD_MU, min=0.0, max=10.0, bind="mu"),
     Var("shaftIn.tau", "input",
         "shaftCoupling = wheel: torque of the differential's half-shaft on this wheel, positive drives it forward "
@@ -67,8 +75,8 @@ VARIABLES: list[Var] = [
         "computed shaftIn.tau (connect the differential's leftShaft.dwWheel / rightShaft.dwWheel; 0: the wheel "
         "speed held, the linear extrapolation); the interface stiffness acts on the deviation from that motion",
         "rad/s", "rpm", 0.0, min=-1e4, max=1e4, bind="dw_in"),
-    Var("vx", "input", "Longitudinal velocity of the wheel centre along the wheel heading", "m/s", "km/h", 0.0,
-        min=-1e3, max=1e3, bind="vx"),
+    Var("vx", "input", "Longitudinal velocity of the wheel centre along the wheel heading (start value: the "
+        "default experiment's)", "m/s", "km/h", DEFAULT_VX, min=-1e3, max=1e3, bind="vx"),
     Var("FzRate", "input", "Rate of the normal load over the step: Fz ramps at this rate, from the Fz input "
         "(wheelLoad.rampAnchor = start) or to it (= end); connect the vehicle's rearLeft.FzRate / rearRight.FzRate; "
         "0: Fz held", "N/s", None, 0.0, min=-1e8, max=1e8, bind="dFz"),

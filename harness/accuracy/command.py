@@ -10,6 +10,7 @@ from harness.accuracy.data import load_grid, read_csv, stored_files, write_csv
 from harness.accuracy.ivp import ivp_baseline
 from harness.accuracy.measure import measure_scene
 from harness.accuracy.render import _write_docs
+from harness.outputs import atomic_file, probe, write_text
 from harness.paths import docs_dir, results_dir
 from harness.scene import SceneError
 
@@ -31,6 +32,8 @@ def run(args) -> int:
         data = read_csv(args.data)
         return _write_docs(data, stored["facts"], stored.get("ivp"), args.out, stored["command"], data,
                            stored.get("ivp_command"))
+    for place in (args.data, facts_file, args.out / "accuracy.md", results_dir("accuracy", "ivp.csv")):
+        probe(place)   # a place that cannot be written is said before minutes of measurements
     grid = load_grid()
     if args.only_ivp and (args.scenes or args.no_ivp or args.quick):
         raise SceneError("--only-ivp runs no scenes: give it no scene names, --no-ivp or --quick")
@@ -52,8 +55,7 @@ def run(args) -> int:
     ivp = None if args.no_ivp or args.quick else ivp_baseline()
     if ivp:
         path = results_dir("accuracy", "ivp.csv")
-        path.parent.mkdir(parents=True, exist_ok=True)   # (--only-ivp in a fresh folder: nothing made it yet)
-        with open(path, "w", newline="") as f:
+        with atomic_file(path, "w", newline="") as f:   # (--only-ivp in a fresh folder: the folder made here)
             w = csv.DictWriter(f, fieldnames=list(ivp[0]))
             w.writeheader()
             w.writerows(ivp)
@@ -68,8 +70,7 @@ def run(args) -> int:
         ivp, ivp_cmd = stored.get("ivp"), stored.get("ivp_command", "spurdiff accuracy")
     else:
         ivp_cmd = cmd
-    facts_file.parent.mkdir(parents=True, exist_ok=True)
-    facts_file.write_text(json.dumps({"command": "spurdiff accuracy", "facts": merged, "ivp": ivp,
-                                      "ivp_command": ivp_cmd}, indent=1) + "\n")
+    write_text(facts_file, json.dumps({"command": "spurdiff accuracy", "facts": merged, "ivp": ivp,
+                                       "ivp_command": ivp_cmd}, indent=1) + "\n")
     data = kept + all_points
     return _write_docs(data, merged, ivp, args.out, "spurdiff accuracy", data, ivp_cmd)

@@ -57,8 +57,9 @@ def load_grid(path: Path = GRID_FILE) -> dict:
 
 
 def write_csv(points: list[Point], path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as f:
+    from harness.outputs import atomic_file
+
+    with atomic_file(path, "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["scene", "fidelity", "effects", "step", "tolerance", "wall_s", "error", "ok", "reason",
                     "metric_errors"])

@@ -8,6 +8,7 @@ from pathlib import Path
 from harness.accuracy.auto import REFERENCE_FRACTION, SANE_ERROR, choose
 from harness.accuracy.data import Point
 from harness.accuracy.ivp import equal_accuracy_ratios, front, ivp_error_key, variant
+from harness.outputs import output_folder, save_figure, write_text
 from harness.scene import SceneError
 
 
@@ -17,19 +18,32 @@ def _legend_outside(ax, n: int) -> None:
               ncol=2 if n > 12 else 1, frameon=False)
 
 
+# distinct colours (no repeat within 14 fidelities) and markers for the work-precision panels
+_FIDELITY_COLOURS = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f",
+                     "#bcbd22", "#17becf", "#000000", "#393b79", "#637939", "#843c39"]
+_FIDELITY_MARKERS = ["o", "s", "^", "v", "D", "P", "X", "*", "h", "<", ">", "p", "d", "8"]
+
+
+def fidelity_style(i: int) -> dict:
+    """Colour, marker and line of the i-th fidelity of the work-precision figure."""
+    return {"color": _FIDELITY_COLOURS[i % len(_FIDELITY_COLOURS)], "marker": _FIDELITY_MARKERS[i % len(_FIDELITY_MARKERS)],
+            "ls": ("-", "--", "-.")[(i // len(_FIDELITY_COLOURS)) % 3], "lw": 1.4}
+
+
 _METHOD_COLOURS = {"ROS34PW2": "tab:blue", "RODAS5P": "tab:red", "Radau": "tab:olive", "BDF": "tab:purple",
                    "LSODA": "tab:green"}
 
 
 def _solver_style(name: str) -> dict:
     """Line style of a curve of the solver comparison: the colour names the method (ours: ROS34PW2
-    blue, RODAS5P red), the marker how ours runs (do_step loop compiled o, Python D, one call *,
-    states only P), the line solve_ivp's kind (dotted: one call, dashed: restarted every 1 ms)."""
+    blue, RODAS5P red), the marker and line how ours runs (do_step loop compiled o solid, Python D
+    dotted, one call * dashed, states only P dash-dot), the line solve_ivp's kind (dotted: one call,
+    dashed: restarted every 1 ms)."""
     colour = next((c for m, c in _METHOD_COLOURS.items() if m in name), "black")
     if name.startswith("ours"):
         marker = "P" if "states only" in name else "*" if "one call" in name else "o" if "compiled" in name else "D"
-        return {"color": colour, "marker": marker, "ls": ":" if "Python" in name else "-", "lw": 2.0, "ms": 6,
-                "label": name}
+        ls = ":" if "Python" in name else "-." if "states only" in name else "--" if "one call" in name else "-"
+        return {"color": colour, "marker": marker, "ls": ls, "lw": 2.0, "ms": 6, "label": name}
     return {"color": colour, "marker": "s" if "restarted" in name else "^", "ls": "--" if "restarted" in name else ":",
             "lw": 1.0, "ms": 4, "alpha": 0.8, "label": name}
 
@@ -42,23 +56,29 @@ def plot(points: list[Point], path: Path, ivp: list[dict] | None = None) -> list
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    path.parent.mkdir(parents=True, exist_ok=True)
+    output_folder(path.parent)
     written = []
     scenes = sorted({p.scene for p in points})
     if scenes:
         ncol = 2 if len(scenes) > 1 else 1
         nrow = -(-len(scenes) // ncol)
         fig, axes = plt.subplots(nrow, ncol, figsize=(7.2 * ncol, 3.9 * nrow), squeeze=False)
-        styles = [(m, ls) for ls in ("-", "--", ":") for m in ("o", "s", "^", "v", "D")]
+        # one style per fidelity, the same in every panel: its own colour and marker
+        fids = list(dict.fromkeys(p.fidelity for p in points))
+        style = {f: fidelity_style(i) for i, f in enumerate(fids)}
         for ax, sc in zip(axes.flat, scenes):
             curves: dict[str, list[Point]] = {}
             for p in points:
                 if p.scene == sc and p.ok and math.isfinite(p.error) and p.wall > 0:
                     curves.setdefault(p.fidelity, []).append(p)
-            for i, (fname, ps) in enumerate(curves.items()):
-                ps.sort(key=lambda p: p.wall)
-                m, ls = styles[i % len(styles)]
-                ax.loglog([p.wall for p in ps], [max(p.error, 1e-16) for p in ps], marker=m, ls=ls, label=fname, ms=4)
+            for fname, ps in curves.items():
+                # every run a marker; the line joins, in wall-time order, the runs no cheaper run
+                # beats in error (the work-precision front), so it never zig-zags between settings
+                st = style[fname]
+                ax.loglog([p.wall for p in ps], [max(p.error, 1e-16) for p in ps], ls="none", marker=st["marker"],
+                          color=st["color"], ms=4, alpha=0.55)
+                fr = sorted(front([{"wall": p.wall, "error": max(p.error, 1e-16)} for p in ps]), key=lambda q: q["wall"])
+                ax.loglog([q["wall"] for q in fr], [q["error"] for q in fr], label=fname, ms=5, **st)
             failed = sorted({p.step for p in points if p.scene == sc and not p.ok})
             if failed:
                 ax.text(0.02, 0.02, "coupled run fails at steps " + ", ".join(f"{h:g}" for h in failed) + " s",
@@ -70,8 +90,10 @@ def plot(points: list[Point], path: Path, ivp: list[dict] | None = None) -> list
             _legend_outside(ax, len(curves))
         for ax in list(axes.flat)[len(scenes):]:
             ax.set_visible(False)
+        fig.suptitle("markers: every run (steps, tolerances); lines: per fidelity, the cheapest run for each error "
+                     "(work-precision front), in wall-time order", fontsize=9)
         fig.tight_layout()
-        fig.savefig(path, dpi=100)
+        save_figure(fig, path, dpi=100)
         plt.close(fig)
         written.append(path)
     cases = list(dict.fromkeys(p["case"] for p in ivp or []))
@@ -87,11 +109,13 @@ def plot(points: list[Point], path: Path, ivp: list[dict] | None = None) -> list
                 if p["case"] == case and math.isfinite(p.get(key, math.nan)) and p.get(key, 0.0) > 0.0:
                     curves.setdefault(variant(p["integrator"]), []).append(p)
             for name, ps in curves.items():
-                ours = name.startswith("ours")
-                if not ours:     # the front over its rtol/atol settings (what the ratios use)
-                    ps = front([{**p, "error": p[key]} for p in ps])
-                ps.sort(key=lambda p: p["wall"])
-                (line,) = ax.loglog([p["wall"] for p in ps], [max(p[key], 1e-16) for p in ps], **_solver_style(name))
+                # every setting a marker; the line: the front over the settings (tolerances, and for
+                # solve_ivp rtol/atol: what the ratios use) in wall-time order, so it never zig-zags
+                st = _solver_style(name)
+                ax.loglog([p["wall"] for p in ps], [max(p[key], 1e-16) for p in ps], ls="none", marker=st["marker"],
+                          color=st["color"], ms=st["ms"], alpha=0.4)
+                ps = sorted(front([{**p, "error": p[key]} for p in ps]), key=lambda p: p["wall"])
+                (line,) = ax.loglog([p["wall"] for p in ps], [max(p[key], 1e-16) for p in ps], **st)
                 handles.setdefault(name, line)
             ax.set_xlabel("wall time [s]")
             ax.set_ylabel("max relative error of the metrics" if key == "metric_error"
@@ -102,7 +126,7 @@ def plot(points: list[Point], path: Path, ivp: list[dict] | None = None) -> list
                    fontsize=8, frameon=False)
         fig.tight_layout()
         solvers = path.with_name(f"{path.stem}_solvers.png")
-        fig.savefig(solvers, dpi=100, bbox_inches="tight")
+        save_figure(fig, solvers, dpi=100, bbox_inches="tight")
         plt.close(fig)
         written.append(solvers)
     return written
@@ -257,12 +281,12 @@ def _summary(points: list[Point], scene: str, duration: float) -> list[str]:
 
 
 def _write_docs(points, facts, ivp, out: Path, cmd: str, data, ivp_cmd: str | None = None) -> int:
-    out.mkdir(parents=True, exist_ok=True)
+    output_folder(out)
     figures = plot(data, out / "accuracy.png", ivp)
     text = markdown(points, facts, cmd)
     if ivp:
         text += "\n".join(markdown_ivp(ivp, ivp_cmd or cmd) + ["", "![ours against solve_ivp](accuracy_solvers.png)", "", ""])
     text += "\n".join(markdown_auto(data))
-    (out / "accuracy.md").write_text(text)
+    write_text(out / "accuracy.md", text)
     print(f"wrote {out / 'accuracy.md'}, " + ", ".join(str(f) for f in figures))
     return 0

@@ -24,6 +24,7 @@ from typing import Any, Callable, Sequence
 from harness.fmi.instance import REFUSED, CallFailed, Instance as FmuInstance, status_label  # noqa: F401
 
 DEFAULT_STEP_SIZE = 1e-3          # s, when the FMU has no DefaultExperiment stepSize
+DEFAULT_TOLERANCE = 1e-4          # relative, when the DefaultExperiment gives none (fmpy's and the cross-check default)
 SAME_RTOL, SAME_ATOL = 1e-9, 1e-12  # "same outputs": rounding-level differences only
 ENV_BASE = 0x5D1F0000  # componentEnvironment values handed out: ENV_BASE + 16 k
 WRONG_GUID = "{00000000-0000-0000-0000-5b0ad5b0ad00}"  # cs.guid, me.guid
@@ -119,6 +120,7 @@ class Session:
 
     def __init__(self, payload: dict, trace: Callable[[str], None], kind: str = "cs"):
         from fmpy import read_model_description
+        self.payload = payload
         self.unzipdir = payload["unzipdir"]
         self.steps = max(2, int(payload.get("steps", 10)))
         self.trace = trace
@@ -132,6 +134,8 @@ class Session:
         step = float(de.stepSize) if de is not None and de.stepSize is not None else 0.0
         self.h = step if step > 0 else DEFAULT_STEP_SIZE
         self.t_stop = (float(de.stopTime) if de is not None and de.stopTime is not None else self.t0 + 1.0)
+        tol = float(de.tolerance) if de is not None and de.tolerance is not None else 0.0
+        self.tolerance = tol if tol > 0 else DEFAULT_TOLERANCE   # the FMU's own (DefaultExperiment), else 1e-4
         mv = self.md.modelVariables
         self.variables = mv
         self.start_vars = [v for v in mv if v.causality in ("parameter", "input") and v.variability != "constant"

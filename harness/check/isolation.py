@@ -18,6 +18,7 @@ import subprocess
 import sys
 import tempfile
 import uuid
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from .report import FAIL
@@ -79,11 +80,35 @@ def kill_run(pgid: int, token: str) -> None:
             pass
 
 
+@dataclass
+class Outcome:
+    """What a check process gave: status, reason, severity (None: the rule's own), the facts the rule
+    recorded for the rules that depend on it, and, when the process crashed, hung or exited without a
+    result, ``abort`` = {"kind": "crash" / "timeout" / "exit", "call": the FMI call that was running}."""
+
+    status: str
+    reason: str
+    severity: str | None = None
+    facts: dict = field(default_factory=dict)
+    abort: dict | None = None
+
+
+def _call_of(trace_line: str) -> str:
+    """The FMI call of a trace line without its instance: 'fmi2DoStep(t=0, h=0.01)'."""
+    return trace_line.split(" [instance ", 1)[0].strip()
+
+
 def run_isolated(task: str, payload: dict, timeout: float) -> tuple[str, str, str | None]:
+    """(status, reason, severity or None) of :func:`run_isolated_outcome`."""
+    o = run_isolated_outcome(task, payload, timeout)
+    return o.status, o.reason, o.severity
+
+
+def run_isolated_outcome(task: str, payload: dict, timeout: float) -> Outcome:
     """Run ``task`` (a rule id, or "reference") in a fresh Python process.
 
-    Returns (status, reason, severity or None when the rule's own applies). A signal (segfault), a non-zero exit without a result, or the
-    timeout gives FAIL naming the FMI call that was running.
+    A signal (segfault), a non-zero exit without a result, or the timeout gives FAIL naming the FMI
+    call that was running (and ``abort``).
     """
     work = Path(tempfile.mkdtemp(prefix="spurdiff-check-"))
     trace, result = work / "trace.txt", work / "result.json"
@@ -104,7 +129,8 @@ def run_isolated(task: str, payload: dict, timeout: float) -> tuple[str, str, st
             kill_run(proc.pid, token)
             proc.wait()
             where = _last_line(trace)
-            return FAIL, f"timed out after {timeout:g} s" + (f" in {where}" if where else ""), None
+            return Outcome(FAIL, f"timed out after {timeout:g} s" + (f" in {where}" if where else ""),
+                           abort={"kind": "timeout", "call": _call_of(where)})
         finally:
             kill_run(proc.pid, token)  # whatever the FMU left behind
         data = None
@@ -120,13 +146,16 @@ def run_isolated(task: str, payload: dict, timeout: float) -> tuple[str, str, st
                 sig = f"signal {-rc}"
             where = _last_line(trace)
             if data is not None:
-                return FAIL, f"{data['status']} ({data['reason']}), but the process then crashed ({sig}) at exit", None
-            return FAIL, f"crashed ({sig})" + (f" in {where}" if where else ""), None
+                return Outcome(FAIL, f"{data['status']} ({data['reason']}), but the process then crashed ({sig}) at exit",
+                               abort={"kind": "crash", "call": "exit"})
+            return Outcome(FAIL, f"crashed ({sig})" + (f" in {where}" if where else ""),
+                           abort={"kind": "crash", "call": _call_of(where)})
         if data is None:
             where = _last_line(trace)
             tail = _tail(err_path) or _tail(out_path)
-            return FAIL, (f"process exited with status {rc} without a result" + (f" in {where}" if where else "")
-                          + (f"; output: {tail}" if tail else "")), None
-        return data["status"], data["reason"], data.get("severity")
+            return Outcome(FAIL, (f"process exited with status {rc} without a result" + (f" in {where}" if where else "")
+                                  + (f"; output: {tail}" if tail else "")),
+                           abort={"kind": "exit", "call": _call_of(where)})
+        return Outcome(data["status"], data["reason"], data.get("severity"), data.get("facts") or {})
     finally:
         shutil.rmtree(work, ignore_errors=True)

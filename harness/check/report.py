@@ -23,7 +23,7 @@ import re
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Sequence
+from typing import Iterable, Mapping, Sequence
 
 from .rules import BY_ID, ERROR, INFO, SEVERITIES, WARNING
 
@@ -120,15 +120,33 @@ def summary(results: Sequence[CheckResult]) -> str:
             f"{n['info']} info, {n['skipped']} skipped")
 
 
-def format_report(results: Iterable[CheckResult]) -> str:
-    """All result lines, then one summary line per subject (when there are several) and the total."""
+Deselected = Mapping[str, Sequence[tuple[str, str]]]   # subject -> [(rule id, why it was left out)]
+
+
+def _deselected_line(rules_why: Sequence[tuple[str, str]]) -> str:
+    """'4 deselected: cs.stop-time (ignore 'cs.stop-time' (pyproject.toml)), ...' grouped by reason."""
+    by_why: dict[str, list[str]] = {}
+    for rid, why in rules_why:
+        by_why.setdefault(why, []).append(rid)
+    return f"{len(rules_why)} deselected: " + "; ".join(f"{', '.join(ids)} ({why})" for why, ids in by_why.items())
+
+
+def format_report(results: Iterable[CheckResult], deselected: Deselected | None = None) -> str:
+    """All result lines, then one summary line per subject (when there are several) and the total; what
+    the selection left out, per subject, after its summary."""
     results = list(results)
+    deselected = {k: v for k, v in (deselected or {}).items() if v}
     lines = [format_line(r) for r in results]
-    subjects = list(dict.fromkeys(r.subject for r in results))
-    if len(subjects) > 1:
+    subjects = list(dict.fromkeys([r.subject for r in results] + list(deselected)))
+    if len(subjects) > 1 or deselected:
         for s in subjects:
-            lines.append(f"{one_line(s)}: " + summary([r for r in results if r.subject == s]))
-    lines.append(summary(results))
+            line = f"{one_line(s)}: " + summary([r for r in results if r.subject == s])
+            if deselected.get(s):
+                line += f"; {_deselected_line(deselected[s])}"
+            lines.append(line)
+    total = summary(results)
+    n_des = sum(len(v) for v in deselected.values())
+    lines.append(total + (f", {n_des} deselected" if n_des else ""))
     return "\n".join(lines)
 
 
@@ -138,11 +156,16 @@ def exit_code(results: Iterable[CheckResult], strict: bool = False) -> int:
     return EXIT_FAILED if bad else EXIT_OK
 
 
-def junit_tree(results: Sequence[CheckResult], strict: bool = False) -> ET.ElementTree:
-    """JUnit XML: ``testsuites`` > one ``testsuite`` per subject > one ``testcase`` per rule."""
+def junit_tree(results: Sequence[CheckResult], strict: bool = False,
+               deselected: Deselected | None = None) -> ET.ElementTree:
+    """JUnit XML: ``testsuites`` > one ``testsuite`` per subject > one ``testcase`` per rule; a rule the
+    selection left out is a ``testcase`` with ``<skipped type="deselected" message="deselected: why"/>``."""
     suites: dict[str, list[CheckResult]] = {}
     for r in results:
         suites.setdefault(r.subject, []).append(r)
+    deselected = deselected or {}
+    for subject in deselected:
+        suites.setdefault(subject, [])
 
     def as_failure(r: CheckResult) -> bool:
         return r.is_error or (strict and r.is_warning)
@@ -150,13 +173,18 @@ def junit_tree(results: Sequence[CheckResult], strict: bool = False) -> ET.Eleme
     def as_skipped(r: CheckResult) -> bool:
         return r.status == SKIP or (r.is_warning and not strict)
 
-    def attrs(rs: Sequence[CheckResult]) -> dict[str, str]:
-        return {"tests": str(len(rs)), "failures": str(sum(as_failure(r) for r in rs)), "errors": "0",
-                "skipped": str(sum(as_skipped(r) for r in rs)), "time": f"{sum(r.duration for r in rs):.3f}"}
+    def attrs(rs: Sequence[CheckResult], n_des: int = 0) -> dict[str, str]:
+        return {"tests": str(len(rs) + n_des), "failures": str(sum(as_failure(r) for r in rs)), "errors": "0",
+                "skipped": str(sum(as_skipped(r) for r in rs) + n_des), "time": f"{sum(r.duration for r in rs):.3f}"}
 
-    root = ET.Element("testsuites", {"name": "spurdiff check", **attrs(results)})
+    root = ET.Element("testsuites", {"name": "spurdiff check",
+                                     **attrs(results, sum(len(deselected.get(s, ())) for s in suites))})
     for subject, rs in suites.items():
-        suite = ET.SubElement(root, "testsuite", {"name": clean(subject), **attrs(rs)})
+        des = list(deselected.get(subject, ()))
+        suite = ET.SubElement(root, "testsuite", {"name": clean(subject), **attrs(rs, len(des))})
+        if des:
+            sp = ET.SubElement(suite, "properties")
+            ET.SubElement(sp, "property", {"name": "deselected", "value": clean(_deselected_line(des))})
         classname = clean(Path(subject).name)
         for r in rs:
             case = ET.SubElement(suite, "testcase", {"classname": classname, "name": r.check_id,
@@ -174,13 +202,24 @@ def junit_tree(results: Sequence[CheckResult], strict: bool = False) -> ET.Eleme
                 ET.SubElement(case, "skipped", {"message": message})
             elif r.status == FAIL:  # info: a passing test case with a note
                 ET.SubElement(props, "property", {"name": "note", "value": message})
+        for rid, why in des:
+            case = ET.SubElement(suite, "testcase", {"classname": classname, "name": rid, "time": "0.000"})
+            props = ET.SubElement(case, "properties")
+            for name, value in (("outcome", "DESELECTED"), ("severity", BY_ID[rid].severity),
+                                ("fmi-section", BY_ID[rid].section)):
+                ET.SubElement(props, "property", {"name": name, "value": value})
+            ET.SubElement(case, "skipped", {"type": "deselected", "message": clean(f"deselected: {why}")})
     ET.indent(root, space="  ")
     return ET.ElementTree(root)
 
 
-def write_junit(path: str | Path, results: Sequence[CheckResult], strict: bool = False) -> Path:
-    """Write the JUnit XML report to ``path`` (parent directories are created)."""
+def write_junit(path: str | Path, results: Sequence[CheckResult], strict: bool = False,
+                deselected: Deselected | None = None) -> Path:
+    """Write the JUnit XML report to ``path`` (parent directories are created; written whole
+    through :func:`harness.outputs.atomic_file`: no link followed, a write error is one line)."""
+    from harness.outputs import atomic_file
+
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    junit_tree(results, strict).write(path, encoding="utf-8", xml_declaration=True)
+    with atomic_file(path, "wb") as fh:
+        junit_tree(results, strict, deselected).write(fh, encoding="utf-8", xml_declaration=True)
     return path

@@ -36,6 +36,8 @@ class Rule:
     calls: str         # the FMI calls (or the XML parts) the rule exercises
     summary: str       # what passes, in one sentence
     profile: str | None = None  # only with --profile NAME
+    quote: str | None = None    # the sentence of FMI 2.0.x the rule enforces (None: no sentence says it)
+    groups: tuple[str, ...] = ()  # selection groups besides the kind (see harness.check.selection)
 
     @property
     def kind(self) -> str:
@@ -46,92 +48,202 @@ class Rule:
 
 
 R = Rule
+# The quotes: FMI 2.0.x ("Functional Mock-up Interface for Model Exchange and Co-Simulation", 2.0.2
+# wording), checked against public copies of the text (the FMISpec2.0.2 excerpts in FMICore.jl's
+# docstrings, the fmi2*.xsd annotations); a bracket [...] is the standard's own non-normative note.
+# A rule with quote=None has no sentence of the standard behind it: it is never an error.
+Q_STATE_MACHINE_CS = ("4.2.4: the state machine of the co-simulation slave lists, per state, the calls allowed "
+                      "(slaveInitialized: fmi2DoStep, fmi2Get*, fmi2Set*, fmi2Terminate, ...)")
 RULES: tuple[Rule, ...] = (
     # ------------------------------------------------------------------ static (no binary)
     R("static.archive", "2.3", ERROR, "zip archive",
       "a readable zip within the kit's limits (members, unpacked size, modelDescription.xml size) whose "
-      "member names are relative, '/'-separated, without '..', ':' or '\\', with modelDescription.xml at its root"),
+      "member names are relative, '/'-separated, without '..', ':' or '\\', with modelDescription.xml at its root",
+      quote="All relevant files are stored in a zip file with a pre-defined structure."),
     R("static.fmi2", "2.2.1", ERROR, "fmiModelDescription",
-      'fmiVersion="2.0" and a CoSimulation or ModelExchange element with a modelIdentifier'),
+      'fmiVersion="2.0" and a CoSimulation or ModelExchange element with a modelIdentifier',
+      quote='fmiVersion: Version of "FMI for Model Exchange or Co-Simulation" that was used to generate the XML '
+            'file. The value for this version is "2.0".'),
     R("static.fmpy-validate", "2.2", ERROR, "modelDescription.xml",
       "fmpy.validation.validate_fmu: XML schema, unique names, ModelStructure, start values, "
-      "causality/variability/initial combinations, units against UnitDefinitions"),
-    R("static.binary", "2.3", ERROR, "binaries/<platform>/",
-      "binaries/<platform>/<modelIdentifier><ext> exists for the platform the kit runs on (else nothing can run here)"),
+      "causality/variability/initial combinations, units against UnitDefinitions",
+      quote="InitialUnknowns: Ordered list of all exposed Unknowns in Initialization Mode. This list consists of all "
+            'variables with (1) causality = "output" and (initial="approx" or "calculated"), and (2) causality = '
+            '"calculatedParameter" and (3) all continuous-time states and all state derivatives ... with '
+            'initial="approx" or "calculated" (2.2.8; the rest: the schema fmi2ModelDescription.xsd)'),
+    R("static.binary", "2.3", WARNING, "binaries/<platform>/",
+      "binaries/<platform>/<modelIdentifier><ext> exists for the platform the kit runs on (else nothing can run "
+      "here; FMI 2.0 lets an FMU ship sources or other platforms' binaries only, so this is a warning)"),
     R("static.names", "2.2.9", ERROR, "ScalarVariable/@name",
-      'names legal for variableNamingConvention ("structured": the grammar of 2.2.9; "flat": no CR, LF, tab)'),
+      'names legal for variableNamingConvention ("structured": the grammar of 2.2.9; "flat": no CR, LF, tab)',
+      quote="name: The full, unique name of the variable. (2.2.7); structured: ... the names of the variables "
+            "... follow the grammar of section 2.2.9"),
     R("static.model-exchange", "3.3, 2.2.8", ERROR, "ModelExchange, ModelStructure/Derivatives",
       "each ModelStructure/Derivatives entry names a continuous Real derivative of a continuous Real state; "
-      "numberOfEventIndicators is a non-negative integer"),
+      "numberOfEventIndicators is a non-negative integer",
+      quote="Derivatives: Ordered list of all state derivatives ... (the corresponding continuous-time state is "
+            "defined by attribute derivative of the ScalarVariable)"),
+    R("static.start-range", "2.2.7", ERROR, "Real/Integer/Enumeration @start, @min, @max (and declaredType)",
+      "every start value lies within the variable's min and max (its own, else its declaredType's)",
+      quote="min: Minimum value of variable (variableValue >= min). ... max: Maximum value of variable "
+            "(variableValue <= max).", groups=("values",)),
     R("static.output-dependencies", "2.2.8", INFO, "ModelStructure/Outputs/@dependencies",
       "outputs of an FMU with inputs declare their dependencies (without, an importer must assume direct "
-      "feedthrough from every input)"),
+      "feedthrough from every input; good practice, not required)"),
     R("static.units", "2.2.7", INFO, "Real/@unit",
-      'every Real has a unit or a declaredType with one (unit="1" for dimensionless)', profile="spurdiff"),
+      'every Real has a unit or a declaredType with one (unit="1" for dimensionless)', profile="spurdiff",
+      groups=("conventions",)),
     R("static.descriptions", "2.2.7", INFO, "ScalarVariable/@description",
-      "every variable has a description", profile="spurdiff"),
+      "every variable has a description", profile="spurdiff", groups=("conventions",)),
     R("static.all-output-dependencies", "2.2.8", INFO, "ModelStructure/Outputs/@dependencies",
-      "every output declares its dependencies, also without inputs", profile="spurdiff"),
+      "every output declares its dependencies, also without inputs", profile="spurdiff", groups=("conventions",)),
+    # ------------------------------------------------------------------ the binary outside Python
+    R("load.needed-libraries", "2.3", WARNING, "ELF: undefined dynamic symbols, DT_NEEDED, DT_RUNPATH",
+      "every undefined symbol of binaries/<platform>/<modelIdentifier>.so is defined by a library it declares "
+      "(DT_NEEDED, searched the way the dynamic loader does); otherwise it loads only into a process that happens "
+      "to have that library already (e.g. libm in Python). No sentence of FMI 2.0 says it: a warning",
+      groups=("load",)),
+    R("load.bare-process", "2.3, 4.2.4", WARNING, "dlopen, fmi2Instantiate, fmi2SetupExperiment, "
+      "fmi2Enter/ExitInitializationMode, fmi2DoStep, fmi2Terminate, fmi2FreeInstance (from C)",
+      "a small C host, compiled with cc when the kit runs, opens the binary (dlopen RTLD_NOW) in a bare "
+      "environment (env -i), instantiates, initializes, steps 3 times and frees it (model exchange only: "
+      "initializes and frees). No sentence of FMI 2.0 names a host process: a warning",
+      groups=("load",)),
     # ------------------------------------------------------------------ co-simulation
     R("cs.version", "2.1.4", ERROR, "fmi2GetVersion, fmi2GetTypesPlatform",
-      'fmi2GetVersion returns "2.0" and fmi2GetTypesPlatform "default" (the standard header\'s types)'),
+      'fmi2GetVersion returns "2.0" and fmi2GetTypesPlatform "default" (the standard header\'s types)',
+      quote='fmi2GetVersion: Returns the version of the "fmi2Functions.h" header file which was used to compile '
+            'the functions of the FMU. The function returns "fmiVersion" which is defined in this header file.'),
     R("cs.basic", "4.2.4", ERROR,
       "fmi2Instantiate, fmi2SetupExperiment, fmi2Enter/ExitInitializationMode, fmi2DoStep, fmi2Get*, fmi2Terminate, fmi2FreeInstance",
-      "the basic call sequence (--steps doSteps of the DefaultExperiment step) is accepted"),
+      "the basic call sequence (--steps doSteps of the DefaultExperiment step) is accepted",
+      quote=Q_STATE_MACHINE_CS),
     R("cs.guid", "2.1.5", ERROR, "fmi2Instantiate",
-      "fmi2Instantiate with a GUID other than the modelDescription's returns NULL"),
+      "fmi2Instantiate with a GUID other than the modelDescription's returns NULL",
+      quote="Argument fmuGUID is used to check that the modelDescription.xml file (see section 2.3) is compatible "
+            "with the C code of the FMU."),
     R("cs.logger", "2.1.5", ERROR, "fmi2CallbackLogger",
       "every message reaches the logger with the componentEnvironment given to fmi2Instantiate and the "
-      "instance's name"),
+      "instance's name",
+      quote="componentEnvironment: Pointer to a data structure in the simulation environment that calls the FMU. "
+            "... this pointer is passed to the logger function as first argument ... instanceName: ... the "
+            "instance name given to fmi2Instantiate"),
     R("cs.debug-logging", "2.1.5", ERROR, "fmi2SetDebugLogging",
-      "fmi2SetDebugLogging with the declared LogCategories, with none (all) and off is accepted"),
+      "fmi2SetDebugLogging with the declared LogCategories, with none (all) and off is accepted",
+      quote="fmi2SetDebugLogging: The function controls debug logging that is output via the logger function "
+            "callback. If loggingOn = fmi2True, debug logging is enabled, otherwise it is switched off. If "
+            "nCategories = 0, loggingOn applies to all log categories."),
     R("cs.initial-unknowns", "2.1.7, 2.2.8", ERROR, "fmi2Get* in initialization mode",
       "in initialization mode the InitialUnknowns, outputs with initial exact/approx and calculated parameters "
-      "can be read"),
+      "can be read",
+      quote="InitialUnknowns: Ordered list of all exposed Unknowns in Initialization Mode."),
     R("cs.default-experiment", "2.2.5, 4.2.2", ERROR, "fmi2SetupExperiment(stopTimeDefined), fmi2DoStep",
       "a run from the DefaultExperiment start to its stop time at its step size, with the stop time "
-      "defined, is accepted and its Real outputs stay finite"),
+      "defined, is accepted and its Real outputs stay finite; the run stops at a step cap and a time budget "
+      "(half the rule's timeout) and then says how much of the experiment it checked",
+      quote="DefaultExperiment: ... default values of the experiment ... (2.2.5); fmi2DoStep: The computation of a "
+            "time step is started. (4.2.2)", groups=("experiment",)),
     R("cs.stop-time", "2.1.6", ERROR, "fmi2SetupExperiment(stopTimeDefined), fmi2DoStep",
-      "with the stop time defined, a doStep past it is refused with fmi2Error (refusing with fmi2Discard: warning)"),
+      "with the stop time defined, a doStep past it is refused with fmi2Error (refusing with fmi2Discard: warning)",
+      quote="If stopTimeDefined = fmi2True, then stopTime is the defined final value of the independent variable "
+            "and if the environment tries to compute past stopTime the FMU has to return fmi2Status = fmi2Error.",
+      groups=("experiment", "discard")),
     R("cs.status-after-discard", "4.2.3", ERROR,
       "fmi2GetStatus, fmi2GetRealStatus(fmi2LastSuccessfulTime), fmi2GetBooleanStatus(fmi2Terminated)",
-      "after a discarded doStep (past the stop time, in the default experiment, or with NaN inputs) the status "
-      "calls answer (fmi2Discard for a status the slave cannot give, never fmi2Error/Fatal) and "
-      "fmi2LastSuccessfulTime lies within the refused step"),
+      "precondition: a doStep was discarded (past the stop time in cs.stop-time, in cs.default-experiment, or "
+      "with NaN inputs in cs.nan-inputs; else SKIP). That discard is repeated and the status calls answer "
+      "(fmi2Discard for a status the slave cannot give, never fmi2Error/Fatal) and fmi2LastSuccessfulTime lies "
+      "within the refused step",
+      quote="fmi2LastSuccessfulTime: Returns the end time of the last successfully completed communication step. "
+            "Can be called after fmi2DoStep(...) returned fmi2Discard. ... fmi2Discard is returned also if the "
+            "slave is not able to return the required status information.", groups=("discard",)),
     R("cs.get-after-terminate", "4.2.4", ERROR, "fmi2Terminate, fmi2Get*",
-      "after fmi2Terminate the outputs can still be read (state terminated allows fmi2Get*)"),
+      "after fmi2Terminate the outputs can still be read (state terminated allows fmi2Get*)",
+      quote=Q_STATE_MACHINE_CS + "; terminated: fmi2Get* allowed"),
     R("cs.reset", "2.1.6", ERROR, "fmi2Reset",
-      "after fmi2Reset the same run gives the same outputs"),
+      "after fmi2Reset the same run gives the same outputs",
+      quote="fmi2Reset: Is called by the environment to reset the FMU after a simulation run. The FMU goes into "
+            "the same state as if fmi2Instantiate would have been called.", groups=("instances",)),
     R("cs.two-instances", "2.1.5", ERROR, "fmi2Instantiate x 2",
-      "two instances at once each give the outputs they give alone (unless canBeInstantiatedOnlyOncePerProcess)"),
+      "two instances at once each give the outputs they give alone (unless canBeInstantiatedOnlyOncePerProcess)",
+      quote="canBeInstantiatedOnlyOncePerProcess: This flag indicates cases (especially for embedded code), where "
+            "only one instance per FMU is possible (multiple instantiation is default = false ...)",
+      groups=("instances",)),
     R("cs.get-set-state", "2.1.8", ERROR, "fmi2GetFMUstate, fmi2SetFMUstate",
-      "(canGetAndSetFMUstate) setting a saved state repeats the continuation"),
+      "(canGetAndSetFMUstate) after fmi2SetFMUstate the outputs are the saved ones and the continuation repeats "
+      "the first one; a continuation that differs by no more than the bound from the FMU's tolerance, while two "
+      "restores agree, is integrator history the state leaves out: a warning giving the difference",
+      quote="fmi2GetFMUstate makes a copy of the internal FMU state and returns a pointer to this copy (FMUstate). "
+            "... fmi2SetFMUstate copies the content of the previously copied FMUstate back and uses it as actual "
+            "new FMU state.", groups=("state",)),
     R("cs.free-state", "2.1.8", ERROR, "fmi2GetFMUstate, fmi2SetFMUstate, fmi2FreeFMUstate",
-      "(canGetAndSetFMUstate) a state set twice repeats the continuation twice, fmi2GetFMUstate overwrites "
-      "a given state, fmi2FreeFMUstate succeeds and sets the pointer to NULL, freeing NULL is ignored"),
+      "(canGetAndSetFMUstate; precondition: cs.get-set-state restores a state) a state set twice gives the same "
+      "continuation both times, fmi2GetFMUstate overwrites a given state, fmi2FreeFMUstate succeeds and sets the "
+      "pointer to NULL, freeing NULL is ignored",
+      quote="If on entry *FMUstate != NULL, then *FMUstate points to a previously returned FMUstate ... "
+            "fmi2FreeFMUstate frees all memory and other resources allocated with the fmi2GetFMUstate call for "
+            "this FMUstate. ... If a null pointer is provided, the call is ignored. The function returns a null "
+            "pointer in argument FMUstate.", groups=("state",)),
     R("cs.serialize-state", "2.1.8", ERROR, "fmi2SerializeFMUstate, fmi2DeSerializeFMUstate",
-      "(canSerializeFMUstate) a serialized state restored into a fresh instance continues the same"),
+      "(canSerializeFMUstate; precondition: cs.get-set-state restores a state) a serialized state restored into a "
+      "fresh instance continues as the same state restored with fmi2SetFMUstate",
+      quote="fmi2DeSerializeFMUstate deserializes the byte vector serializedState of length size, constructs a copy "
+            "of the FMU state and returns FMUstate, the pointer to this copy.", groups=("state",)),
     R("cs.variable-step", "4.3.1", ERROR, "fmi2DoStep",
-      "(canHandleVariableCommunicationStepSize) varying step sizes are accepted, outputs stay finite"),
+      "(canHandleVariableCommunicationStepSize) varying step sizes are accepted, outputs stay finite",
+      quote="canHandleVariableCommunicationStepSize: The slave can handle variable communication step size. The "
+            "communication step size (parameter communicationStepSize of fmi2DoStep(...)) has not to be constant "
+            "for each call.", groups=("steps",)),
+    R("cs.clock", "4.2.2", ERROR, "fmi2DoStep(currentCommunicationPoint, communicationStepSize)",
+      "(canHandleVariableCommunicationStepSize) --steps steps of h, and the same steps each split into 0.618 h + "
+      "0.382 h, give the same outputs at every communication point, within twice the largest difference of "
+      "uniform steps of h from uniform steps of 2 h and h/2, plus 10 x the FMU's tolerance of the output's "
+      "magnitude; an output that moves with steps of h but not at all with steps of h/2 fails: the FMU keeps "
+      "its own clock",
+      quote="The slave must integrate until time instant tc(i+1) = tc(i) + hc(i). [The calling environment defines "
+            "the communication points and fmi2DoStep must synchronize to these points by always integrating "
+            "exactly to tc(i) + hc(i).]", groups=("steps",)),
+    R("cs.feedthrough", "2.2.8", WARNING, "fmi2SetReal (inputs), fmi2GetReal (outputs) at one communication point",
+      "after a step, each Real input is changed and every Real output that declares a dependency on it is read "
+      "again at the same communication point: it changes, unless it does not change after the next step either "
+      "(insensitive here). An output that changes only after the next step is stale: a warning (dependencies "
+      "may be declared conservatively, and 2.2.8 does not say when a value is computed)",
+      quote="Dependency of scalar Unknown from Knowns in Continuous-Time and Event Mode (ModelExchange), and at "
+            "Communication Points (CoSimulation): Unknown=f(Known_1, Known_2, ...).", groups=("io",)),
     R("cs.interpolate-inputs", "4.2.1, 4.3.1", ERROR, "fmi2SetRealInputDerivatives",
-      "(canInterpolateInputs) first derivatives of the Real inputs are accepted"),
+      "(canInterpolateInputs) first derivatives of the Real inputs are accepted",
+      quote="canInterpolateInputs: The slave is able to interpolate continuous inputs. Calling of "
+            "fmi2SetRealInputDerivatives(...) has an effect for the slave.", groups=("io",)),
     R("cs.output-derivatives", "4.2.1, 4.3.1", ERROR, "fmi2GetRealOutputDerivatives",
-      "(maxOutputDerivativeOrder >= 1) first derivatives of the Real outputs are given, finite"),
+      "(maxOutputDerivativeOrder >= 1) first derivatives of the Real outputs are given, finite",
+      quote="maxOutputDerivativeOrder: The slave is able to provide derivatives of outputs with maximum order.",
+      groups=("io",)),
     R("cs.directional-derivative", "2.1.9", ERROR, "fmi2GetDirectionalDerivative",
       "(providesDirectionalDerivative) derivatives of the outputs with respect to the Real inputs after a "
       "step (without inputs: of the InitialUnknowns with respect to their dependencies, in initialization "
-      "mode) are given, finite"),
+      "mode) are given, finite",
+      quote="providesDirectionalDerivative: If true, the directional derivative of the equations can be computed "
+            "with fmi2GetDirectionalDerivative(..)", groups=("io",)),
     R("cs.step-before-init", "4.2.4", WARNING, "fmi2DoStep",
-      "a doStep before initialization (not allowed in state instantiated) is refused"),
+      "a doStep before initialization (not allowed in state instantiated) is refused; the standard forbids the "
+      "call but does not say what the FMU returns: a warning",
+      quote=Q_STATE_MACHINE_CS + "; instantiated: no fmi2DoStep", groups=("steps",)),
     R("cs.zero-step-size", "4.2.2", WARNING, "fmi2DoStep",
-      "a doStep with communicationStepSize = 0 (it must be > 0) is refused"),
+      "a doStep with communicationStepSize = 0 (it must be > 0) is refused; the sentence binds the master, not "
+      "what the FMU returns: a warning",
+      quote="argument communicationStepSize is the communication step size (hc(i)). The latter must be > 0.0.",
+      groups=("steps",)),
     R("cs.negative-step-size", "4.2.2", WARNING, "fmi2DoStep",
-      "a doStep with a negative communicationStepSize (it must be > 0) is refused"),
-    R("cs.nan-inputs", "2.1.7", WARNING, "fmi2SetReal, fmi2DoStep",
-      "NaN on the Real inputs is refused or shows in the outputs, not silently ignored"),
+      "a doStep with a negative communicationStepSize (it must be > 0) is refused; the sentence binds the master: "
+      "a warning",
+      quote="argument communicationStepSize is the communication step size (hc(i)). The latter must be > 0.0.",
+      groups=("steps",)),
+    R("cs.nan-inputs", "2.1.7", INFO, "fmi2SetReal, fmi2DoStep",
+      "NaN on the Real inputs is refused or shows in the outputs, not silently ignored (good practice: no "
+      "sentence of FMI 2.0 mentions NaN, so never more than info)", groups=("io", "discard")),
     R("cs.parameter-after-init", "2.1.7, 4.2.4", INFO, "fmi2SetReal/Integer/Boolean after initialization",
       "a fixed parameter set after initialization (not allowed then; behaviour undefined) is refused",
-      profile="spurdiff"),
+      profile="spurdiff", groups=("conventions",)),
     # ------------------------------------------------------------------ model exchange
     R("me.basic", "3.2.3", ERROR,
       "fmi2Instantiate(fmi2ModelExchange), fmi2SetupExperiment, fmi2Enter/ExitInitializationMode, "
@@ -139,12 +251,19 @@ RULES: tuple[Rule, ...] = (
       "fmi2GetDerivatives, fmi2GetEventIndicators, fmi2CompletedIntegratorStep, fmi2EnterEventMode, "
       "fmi2Terminate, fmi2FreeInstance",
       "the model-exchange call sequence, driven by explicit Euler at the DefaultExperiment step to its stop "
-      "time with event iteration at state, time and step events, is accepted; states and derivatives finite"),
+      "time with event iteration at state, time and step events, is accepted; states and derivatives finite",
+      quote="3.2.3: the state machine of the model-exchange FMU lists, per state, the calls allowed "
+            "(Continuous-Time Mode: fmi2SetTime, fmi2SetContinuousStates, fmi2GetDerivatives, "
+            "fmi2GetEventIndicators, fmi2CompletedIntegratorStep, fmi2EnterEventMode, ...)"),
     R("me.directional-derivative", "2.1.9, 3.2.2", ERROR, "fmi2GetDirectionalDerivative, fmi2GetDerivatives",
       "(providesDirectionalDerivative) in continuous-time mode the state Jacobian (derivatives with respect to "
-      "the states) is given and matches central differences of fmi2GetDerivatives within 1e-4 (relative)"),
+      "the states) is given and matches central differences of fmi2GetDerivatives within 1e-4 (relative)",
+      quote="providesDirectionalDerivative: If true, the directional derivative of the equations can be computed "
+            "with fmi2GetDirectionalDerivative(..)", groups=("io",)),
     R("me.guid", "2.1.5", ERROR, "fmi2Instantiate(fmi2ModelExchange)",
-      "fmi2Instantiate with a GUID other than the modelDescription's returns NULL"),
+      "fmi2Instantiate with a GUID other than the modelDescription's returns NULL",
+      quote="Argument fmuGUID is used to check that the modelDescription.xml file (see section 2.3) is compatible "
+            "with the C code of the FMU."),
 )
 
 BY_ID: dict[str, Rule] = {r.id: r for r in RULES}
@@ -159,8 +278,24 @@ def rules(kind: str | None = None, profiles: tuple[str, ...] = ()) -> tuple[Rule
 
 def rule_table_markdown() -> str:
     """The rule table of docs/compliance.md, generated from :data:`RULES`."""
-    lines = ["| rule | FMI 2.0 section | severity | calls / XML | passes when |", "|---|---|---|---|---|"]
+    lines = ["| rule | groups | FMI 2.0 section | severity | calls / XML | passes when | the standard's words |",
+             "|---|---|---|---|---|---|---|"]
     for r in RULES:
         sev = r.severity + (f" (profile `{r.profile}`: error)" if r.profile else "")
-        lines.append(f"| `{r.id}` | {r.section} | {sev} | {r.calls} | {r.summary} |")
+        quote = f"\"{r.quote}\"" if r.quote else "(no sentence of FMI 2.0: " + ("a convention)" if r.profile else "never an error)")
+        groups = ", ".join(f"`{g}`" for g in (r.kind,) + r.groups)
+        lines.append(f"| `{r.id}` | {groups} | {r.section} | {sev} | {r.calls} | {r.summary} | {quote} |".replace("\\", "\\\\"))
     return "\n".join(lines)
+
+
+TABLE_BEGIN = "<!-- rule table: generated by `spurdiff check --write-rule-table docs/compliance.md` -->"
+TABLE_END = "<!-- end of the rule table -->"
+
+
+def with_rule_table(text: str) -> str:
+    """``text`` (docs/compliance.md) with the part between TABLE_BEGIN and TABLE_END replaced by
+    :func:`rule_table_markdown` (ValueError when the markers are missing)."""
+    i, j = text.find(TABLE_BEGIN), text.find(TABLE_END)
+    if i < 0 or j < i:
+        raise ValueError(f"no {TABLE_BEGIN} ... {TABLE_END} block")
+    return text[:i + len(TABLE_BEGIN)] + "\n" + rule_table_markdown() + "\n" + text[j:]

@@ -1,21 +1,40 @@
-"""Running the compliance kit over several FMUs: the static rules, then the call-sequence rules of
-every interface each FMU offers (the command line is :mod:`harness.cli.check`)."""
+"""Running the compliance kit over several FMUs: the static rules, the ``load`` rules (the binary outside
+Python), then the call-sequence rules of every interface each FMU offers, each FMU with the rules its
+selection leaves in (the command line is :mod:`harness.cli.check`)."""
 from __future__ import annotations
 
 from typing import Sequence
 
 from .lifecycle import LifecycleOptions, lifecycle_rules, run_lifecycle_checks_many
-from .report import SKIP, CheckResult
-from .rules import BY_ID
+from .native import run_load_checks
+from .report import PASS, SKIP, CheckResult
+from .rules import BY_ID, RULES
+from .selection import Selection
 from .static import read_archive, run_static_checks
 
+STATIC_GATES = ("static.archive", "static.fmi2", "static.binary")
 
-def run_checks(fmus: Sequence[str], options: LifecycleOptions, static_only: bool = False) -> list[CheckResult]:
-    """Static rules, then (unless ``static_only``) the call-sequence rules of every interface the
-    FMU offers, for every FMU; report order."""
+
+def run_checks(fmus: Sequence[str], options: LifecycleOptions, static_only: bool = False,
+               selection: Selection | None = None) -> list[CheckResult]:
+    """Static rules, then (unless ``static_only``) the load rules and the call-sequence rules of every
+    interface the FMU offers, for every FMU, as ``selection`` says (default: every rule); report order.
+    See :func:`run_checks_selected` for what was deselected."""
+    return run_checks_selected(fmus, options, static_only, selection)[0]
+
+
+def run_checks_selected(fmus: Sequence[str], options: LifecycleOptions, static_only: bool = False,
+                        selection: Selection | None = None) -> tuple[list[CheckResult], dict[str, list[tuple[str, str]]]]:
+    """(results, FMU -> [(rule id, why it was deselected)])."""
+    selection = selection or Selection()
     profiles = options.profiles
-    static = {f: run_static_checks(f, subject=f, profiles=profiles) for f in fmus}
-    lifecycle: dict[str, list[CheckResult]] = {}
+    chosen = {f: set(selection.rule_ids(f, profiles)) for f in fmus}
+    deselected = {f: selection.deselected(f, profiles) for f in fmus}
+    static = {}
+    for f in fmus:
+        everything = run_static_checks(f, subject=f, profiles=profiles)   # the gates are needed either way
+        static[f] = everything
+    later: dict[str, list[CheckResult]] = {}
     runnable = []
     for f in fmus:
         if static_only:
@@ -24,14 +43,20 @@ def run_checks(fmus: Sequence[str], options: LifecycleOptions, static_only: bool
         arc = read_archive(f) if not any(res[c].failed or res[c].status == SKIP
                                          for c in ("static.archive", "static.fmi2")) else None
         kinds = [k for k in ("cs", "me") if arc is not None and arc.interface(k) is not None]
-        blocker = next((res[c] for c in ("static.archive", "static.fmi2", "static.binary") if res[c].status != "PASS"), None)
+        blocker = next((res[c] for c in STATIC_GATES if res[c].status != PASS), None)
+        wanted_load = [r.id for r in RULES if r.kind == "load" and r.id in chosen[f]]
         if blocker is not None:
-            ids = lifecycle_rules(kinds or ("cs",), profiles)
-            lifecycle[f] = [CheckResult(f, c, SKIP, f"{blocker.check_id} did not pass",
-                                        severity=BY_ID[c].effective_severity(profiles)) for c in ids]
+            ids = [c for c in wanted_load + lifecycle_rules(kinds or ("cs",), profiles) if c in chosen[f]]
+            later[f] = [CheckResult(f, c, SKIP, f"{blocker.check_id} did not pass",
+                                    severity=BY_ID[c].effective_severity(profiles)) for c in ids]
         else:
-            runnable.append((f, f, kinds))
+            later[f] = run_load_checks(f, f, wanted_load, options.timeout, profiles)
+            ids = [c for c in lifecycle_rules(kinds, profiles) if c in chosen[f]]
+            if ids:
+                runnable.append((f, f, kinds, ids))
     if runnable:
-        lifecycle.update(run_lifecycle_checks_many(runnable, options))
-    return [r for f in fmus for r in static[f] + lifecycle.get(f, [])]
-
+        calls = run_lifecycle_checks_many(runnable, options)
+        for f, results in calls.items():
+            later[f] = later.get(f, []) + results
+    out = [r for f in fmus for r in static[f] + later.get(f, []) if r.check_id in chosen[f]]
+    return out, deselected

@@ -282,6 +282,39 @@ def check_model_exchange(arc: FmuArchive) -> Outcome:
                   f"{nei} event indicators")
 
 
+def check_start_range(arc: FmuArchive) -> Outcome:
+    types: dict[str, ET.Element] = {}
+    for st in arc.root.findall("TypeDefinitions/SimpleType"):
+        for el in st:
+            types[st.get("name", "")] = el
+    problems, n = [], 0
+    for sv in arc.variables():
+        el = next((c for c in sv if c.tag in ("Real", "Integer", "Enumeration")), None)
+        if el is None or el.get("start") is None:
+            continue
+        base = types.get(el.get("declaredType") or "")
+        lo = el.get("min") if el.get("min") is not None else (base.get("min") if base is not None else None)
+        hi = el.get("max") if el.get("max") is not None else (base.get("max") if base is not None else None)
+        if lo is None and hi is None:
+            continue
+        n += 1
+        try:
+            x = float(el.get("start"))
+            below = lo is not None and x < float(lo)
+            above = hi is not None and x > float(hi)
+        except ValueError:
+            problems.append(f"{sv.get('name')}: start/min/max not numbers ({el.get('start')!r}, {lo!r}, {hi!r})")
+            continue
+        if below or above:
+            problems.append(f"{sv.get('name')} start = {el.get('start')} {'<' if below else '>'} "
+                            f"{'min' if below else 'max'} = {lo if below else hi}")
+    if not n:
+        return SKIP, "no start value with a min or max"
+    if problems:
+        return FAIL, f"{len(problems)} of {n} start values outside min/max: " + "; ".join(problems[:6])
+    return PASS, f"all {n} start values with a min or max lie within them"
+
+
 CHECKS: dict[str, Callable[[FmuArchive], Outcome]] = {
     "static.archive": check_archive,
     "static.fmi2": check_fmi2,
@@ -289,6 +322,7 @@ CHECKS: dict[str, Callable[[FmuArchive], Outcome]] = {
     "static.binary": check_binary,
     "static.names": check_names,
     "static.model-exchange": check_model_exchange,
+    "static.start-range": check_start_range,
     "static.output-dependencies": check_output_dependencies,
     "static.units": check_units,
     "static.descriptions": check_descriptions,

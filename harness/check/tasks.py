@@ -22,6 +22,8 @@ CS_TASKS = {
     "cs.free-state": cs_state.check_free_state,
     "cs.serialize-state": cs_state.check_serialize_state,
     "cs.variable-step": cs_steps.check_variable_step,
+    "cs.clock": cs_steps.check_clock,
+    "cs.feedthrough": cs_steps.check_feedthrough,
     "cs.interpolate-inputs": cs_steps.check_interpolate_inputs,
     "cs.output-derivatives": cs_steps.check_output_derivatives,
     "cs.directional-derivative": cs_steps.check_directional_derivative,

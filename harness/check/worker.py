@@ -10,7 +10,7 @@ from .report import FAIL
 
 
 def worker_main(argv: Sequence[str]) -> None:
-    """``task payload-json trace-file result-file``: writes {"status", "reason"[, "severity"]} as
+    """``task payload-json trace-file result-file``: writes {"status", "reason"[, "severity", "facts"]} as
     JSON to the result file, then leaves with ``os._exit`` (no interpreter teardown touching the
     FMU again, e.g. after fmi2Fatal)."""
     from .driver import CallFailed, Tracer
@@ -29,9 +29,13 @@ def worker_main(argv: Sequence[str]) -> None:
         out = (FAIL, str(e))
     except Exception as e:
         out = (FAIL, f"{type(e).__name__}: {e}")
+    facts = out[-1] if isinstance(out[-1], dict) else {}
+    out = out[:-1] if facts or isinstance(out[-1], dict) else out
     data = {"status": out[0], "reason": out[1]}
-    if len(out) > 2:
+    if len(out) > 2 and out[2]:
         data["severity"] = out[2]
+    if facts:
+        data["facts"] = facts
     with open(result_path, "w", encoding="utf-8") as f:
         json.dump(data, f)
         f.flush()

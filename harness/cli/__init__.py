@@ -24,12 +24,17 @@ COMMANDS = {
     "export-ssp": ("export_ssp", "write a scene as an SSP file other masters run (docs/interoperability.md)"),
     "accuracy": ("accuracy", "accuracy versus wall time over fidelities, steps and tolerances (docs/accuracy.md)"),
     "sweep": ("sweep", "design sweep of a scene on a local or remote Dask cluster, resumable (docs/sweeps.md)"),
+    "starter": ("starter", "write a ready-to-run starter for the FMU in your own tool: fmpy script, C host or SSP "
+                           "(docs/use-the-fmu.md)"),
 }
 
 
 def fail(prog: str, msg: str, code: int = 2) -> int:
-    """One line on stderr, ``prog: msg``; returns ``code`` (the exit code)."""
-    print(f"{prog}: {msg}", file=sys.stderr)
+    """One line on stderr, ``prog: msg`` (control characters escaped, at most
+    :data:`harness.messages.LINE` characters); returns ``code`` (the exit code)."""
+    from harness.messages import one_line
+
+    print(one_line(f"{prog}: {msg}"), file=sys.stderr)
     return code
 
 
@@ -47,6 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     from harness.master import RunFailure
+    from harness.outputs import OutputError
     from harness.schema import SceneError
     from spurdiff.errors import ParameterError
 
@@ -59,5 +65,7 @@ def main(argv: list[str] | None = None) -> int:
         return module.main(argv[1:])
     except (SceneError, ParameterError, RunFailure) as e:
         return fail("spurdiff", str(e))
+    except OutputError as e:   # a result that could not be written: the place and the errno
+        return fail("spurdiff", str(e), 1)
     except KeyboardInterrupt:
         return fail("spurdiff", "interrupted", 130)

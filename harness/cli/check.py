@@ -7,8 +7,12 @@ Three modes::
     spurdiff check --compare RESULT.csv --reference REF.csv        compare a result, per column
 
 Exit code: 1 when a rule of severity error failed (``--strict``: or a warning), 0 otherwise, 2 for
-a usage error (unknown option, missing file, bad input table). ``--profile spurdiff`` adds the
-project's own conventions (units, descriptions, ...) as errors. Help: ``spurdiff check -h``.
+a usage error (unknown option, missing file, bad input table, unknown rule). ``--profile spurdiff``
+adds the project's own conventions (units, descriptions, ...) as errors. Rule selection as Python
+linters do it: ``--select``, ``--ignore``, ``--extend-select``, ``--per-fmu-ignore`` and
+``[tool.spurdiff.check]`` in pyproject.toml (see :mod:`harness.check.selection`).
+``--list-rules`` prints the rules; ``--rule-table`` the table of docs/compliance.md. Help:
+``spurdiff check -h``.
 """
 from __future__ import annotations
 
@@ -22,8 +26,9 @@ from harness.check.crosscheck import CsvFormatError, read_cross_check_csv
 from harness.check.lifecycle import LifecycleOptions
 from harness.check.reference import ReferenceUsageError, write_reference_results
 from harness.check.report import EXIT_USAGE, FAIL, CheckResult, exit_code, format_report, write_junit
-from harness.check.rules import PROFILES
-from harness.check.runner import run_checks
+from harness.check.rules import PROFILES, RULES, rule_table_markdown
+from harness.check.runner import run_checks_selected
+from harness.check.selection import SelectionError, find_config, read_config, resolve
 
 
 class UsageError(Exception):
@@ -40,15 +45,32 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="exit code: 0 no error (warnings and info allowed), 1 an error (--strict: or a warning), 2 usage error")
     ap.add_argument("fmus", nargs="*", metavar="PATH.fmu", help="FMUs to check")
     ap.add_argument("--junit", metavar="FILE", help="also write a JUnit XML report (one testsuite per FMU)")
-    ap.add_argument("--timeout", type=float, default=60.0, metavar="S",
+    ap.add_argument("--timeout", type=float, default=None, metavar="S",
                     help="wall-clock limit per lifecycle check process, s (default 60)")
-    ap.add_argument("--jobs", type=int, default=LifecycleOptions().jobs, metavar="N",
+    ap.add_argument("--jobs", type=int, default=None, metavar="N",
                     help="check processes run at once (default: number of CPUs)")
-    ap.add_argument("--steps", type=int, default=10, metavar="N",
+    ap.add_argument("--steps", type=int, default=None, metavar="N",
                     help="doSteps per lifecycle run (default 10, at least 2)")
     ap.add_argument("--static-only", action="store_true", help="only the static (modelDescription) checks")
-    ap.add_argument("--strict", action="store_true", help="warnings count as failures (exit code, JUnit)")
-    ap.add_argument("--profile", action="append", default=[], choices=PROFILES,
+    ap.add_argument("--strict", action="store_true", default=None,
+                    help="warnings count as failures (exit code, JUnit)")
+    g = ap.add_argument_group("rule selection (rule ids, kinds, groups or ALL; see --list-rules)")
+    g.add_argument("--select", metavar="RULES", help="comma-separated rules/groups to run (replaces the "
+                   "config's select; default ALL)")
+    g.add_argument("--ignore", metavar="RULES", action="append", default=[],
+                   help="comma-separated rules/groups not to run (adds to the config's ignore)")
+    g.add_argument("--extend-select", metavar="RULES", action="append", default=[],
+                   help="comma-separated rules/groups to run in addition")
+    g.add_argument("--per-fmu-ignore", metavar="GLOB=RULES", action="append", default=[],
+                   help="rules/groups not to run on the FMUs GLOB matches (path or file name; repeatable)")
+    g.add_argument("--config", metavar="FILE", help="read [tool.spurdiff.check] from FILE (default: the "
+                   "nearest pyproject.toml with that table, from the current folder upwards)")
+    g.add_argument("--isolated", action="store_true", help="read no configuration file")
+    g.add_argument("--list-rules", action="store_true", help="print every rule (id, groups, severity) and exit")
+    g.add_argument("--rule-table", action="store_true", help="print the rule table of docs/compliance.md and exit")
+    g.add_argument("--write-rule-table", metavar="FILE", help="regenerate the rule table in FILE (between its "
+                   "rule-table markers, e.g. docs/compliance.md) and exit")
+    ap.add_argument("--profile", action="append", default=None, choices=PROFILES,
                     help="also enforce a profile's conventions, as errors (spurdiff: a unit on every Real, "
                          "descriptions, dependencies on every output, fixed parameters refused after "
                          "initialization)")
@@ -97,12 +119,25 @@ def _existing_files(paths: Sequence[str], what: str) -> list[str]:
     return list(dict.fromkeys(paths))  # keep order, drop repeats
 
 
-def _finish(results: Sequence[CheckResult], junit: str | None, strict: bool = False) -> int:
-    print(format_report(results))
+def _finish(results: Sequence[CheckResult], junit: str | None, strict: bool = False,
+            deselected: dict | None = None) -> int:
+    print(format_report(results, deselected))
     if junit:
-        path = write_junit(junit, results, strict)
+        path = write_junit(junit, results, strict, deselected)
         print(f"JUnit report: {path}")
     return exit_code(results, strict)
+
+
+def _split(items: Sequence[str]) -> list[str]:
+    return [x.strip() for item in items for x in item.split(",") if x.strip()]
+
+
+def _list_rules() -> str:
+    lines = [f"{'rule':<28} {'severity':<8} groups"]
+    for r in RULES:
+        sev = r.severity + (f" (profile {r.profile})" if r.profile else "")
+        lines.append(f"{r.id:<28} {sev:<8} {', '.join((r.kind,) + r.groups)}")
+    return "\n".join(lines)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -112,7 +147,42 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(list(sys.argv[1:] if argv is None else argv))
     except SystemExit as e:  # argparse: --help (0) or a usage error (2)
         return int(e.code) if isinstance(e.code, int) else EXIT_USAGE
+    if args.list_rules or args.rule_table:
+        print(_list_rules() if args.list_rules else rule_table_markdown())
+        return 0
+    if args.write_rule_table:
+        from harness.check.rules import with_rule_table
+        doc = Path(args.write_rule_table)
+        try:
+            doc.write_text(with_rule_table(doc.read_text(encoding="utf-8")), encoding="utf-8")
+        except (OSError, ValueError) as e:
+            print(f"spurdiff check: error: --write-rule-table {doc}: {e}", file=sys.stderr)
+            return EXIT_USAGE
+        print(f"rule table written to {doc} ({len(RULES)} rules)")
+        return 0
     try:
+        config, config_path = {}, None
+        if not args.isolated:
+            config_path = args.config or find_config()
+            if config_path is not None:
+                config = read_config(config_path)
+        for name, default in (("timeout", 60.0), ("jobs", LifecycleOptions().jobs), ("steps", 10), ("strict", False)):
+            if getattr(args, name) is None:
+                setattr(args, name, config.get(name, default))
+        if args.profile is None:
+            args.profile = list(config.get("profile", []))
+        unknown = [p for p in args.profile if p not in PROFILES]
+        if unknown:
+            raise UsageError(f"profile {unknown[0]!r} in {config_path}: allowed {', '.join(PROFILES)}")
+        per_fmu = []
+        for item in args.per_fmu_ignore:
+            glob, sep, sels = item.rpartition("=")
+            if not sep or not glob or not sels.strip():
+                raise UsageError(f"--per-fmu-ignore {item!r}: expected GLOB=RULE[,RULE...]")
+            per_fmu.append((glob, _split([sels])))
+        selection = resolve(config, str(config_path) if config_path else None,
+                            _split([args.select]) if args.select is not None else None,
+                            _split(args.ignore), _split(args.extend_select), per_fmu)
         if args.timeout <= 0 or args.jobs < 1 or args.steps < 2:
             raise UsageError("--timeout must be > 0, --jobs >= 1, --steps >= 2")
         if args.compare or args.reference:
@@ -155,8 +225,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise UsageError("--input goes with --reference-results")
         options = LifecycleOptions(steps=args.steps, timeout=args.timeout, jobs=args.jobs,
                                    profiles=tuple(dict.fromkeys(args.profile)))
-        return _finish(run_checks(fmus, options, args.static_only), args.junit, args.strict)
-    except UsageError as e:
+        results, deselected = run_checks_selected(fmus, options, args.static_only, selection)
+        return _finish(results, args.junit, args.strict, deselected)
+    except (UsageError, SelectionError) as e:
         print(f"spurdiff check: error: {e}", file=sys.stderr)
         return EXIT_USAGE
 

@@ -26,12 +26,19 @@ def main(argv: list[str] | None = None) -> int:
     except LibcosimError as e:
         print(f"libcosim_run: {e}", file=sys.stderr)
         return 2
+    from harness.outputs import OutputError, atomic_file
+
     out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    if out.suffix == ".csv":
-        np.savetxt(out, res.data, fmt="%.17g", delimiter=",", header=",".join(["time"] + res.names), comments="")
-    else:
-        np.savez(out, names=np.array(res.names), data=res.data, step=res.step, failure=res.failure or "")
+    try:
+        with atomic_file(out, "wb") as fh:   # no link followed; a full or read-only place is one line
+            if out.suffix == ".csv":
+                np.savetxt(fh, res.data, fmt="%.17g", delimiter=",", header=",".join(["time"] + res.names),
+                           comments="")
+            else:
+                np.savez(fh, names=np.array(res.names), data=res.data, step=res.step, failure=res.failure or "")
+    except OutputError as e:
+        print(f"libcosim_run: {e}", file=sys.stderr)
+        return 1
     if res.failure:
         print(f"libcosim_run: {res.failure}", file=sys.stderr)
     sys.stdout.flush()

@@ -8,7 +8,14 @@ import time
 from pathlib import Path
 
 from harness.cli import fail
+from harness.messages import printable
+from harness.outputs import refuse_symlink
 from harness.paths import results_dir
+
+
+def say(text: str = "") -> None:
+    """Print text that may come from a scene file: control characters escaped (no escape codes)."""
+    print(printable(text))
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -22,6 +29,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="override a parameter, e.g. --set diff.mu_pin=0.1")
     p.add_argument("--out", help="output directory (default ./results/<scene> under the current folder)")
     p.add_argument("--no-plots", action="store_true")
+    p.add_argument("--max-steps", type=int, default=None, metavar="N",
+                   help="refuse a run of more than N communication steps (default 1,000,000; the estimate is "
+                        "said before the run starts)")
     return p
 
 
@@ -56,13 +66,15 @@ class Progress:
 
 
 def run(args) -> int:
-    from harness.master import Interrupted, run_scene, stop_on_sigint
-    from harness.plots import plot_result
-    from harness.report import CsvStream, evaluate_checks, format_checks, format_couplings, format_table, writable_dir
-    from harness.runner import explain_failure, fmu_files_for, prepare_scene, typed_parameters
+    from harness.outputs import OutputLock
+    from harness.recording import MAX_STEPS
+    from harness.report import writable_dir
+    from harness.runner import prepare_scene
 
+    if args.max_steps is not None and args.max_steps < 1:
+        return fail("spurdiff", f"--max-steps = {args.max_steps}: allowed an integer >= 1")
     scene = prepare_scene(args.scene, mesh=args.mesh, step=args.step, duration=args.duration,
-                          algorithm=args.algorithm, sets=args.set)
+                          algorithm=args.algorithm, sets=args.set, max_steps=args.max_steps or MAX_STEPS)
     if scene.fidelity.get("mode") == "auto":
         if args.mesh or args.step:
             print("fidelity auto: overridden by --mesh/--step")
@@ -70,42 +82,54 @@ def run(args) -> int:
             from harness.accuracy import apply_choice, choose
             pick, reason = choose(scene)
             scene = apply_choice(scene, pick)
-            print(reason)
+            say(reason)
     out_dir = Path(args.out) if args.out else results_dir(scene.name)
     writable_dir(out_dir, "--out" if args.out else "results folder")   # before running, not after
+    with OutputLock(out_dir, f"spurdiff run {scene.name}"):   # one writer per output folder
+        return _run_into(args, scene, out_dir)
+
+
+def _run_into(args, scene, out_dir: Path) -> int:
+    """The run of :func:`run` with the lock on ``out_dir`` held: CSV, report and plots."""
+    from harness.master import Interrupted, run_scene, stop_on_sigint
+    from harness.plots import plot_result
+    from harness.report import CsvStream, evaluate_checks, format_checks, format_couplings, format_table
+    from harness.runner import explain_failure, fmu_files_for, typed_parameters
+
     csv_path = out_dir / f"{scene.name}.csv"
+    refuse_symlink(csv_path)   # before running, not at the first row
     files = fmu_files_for(scene, build_missing=True)
     typed_parameters(scene, files)
     with CsvStream(csv_path, ["time"] + list(scene.record)) as stream, stop_on_sigint():   # rows as they come
         result = run_scene(scene, files, Progress(scene.name), sink=stream.write)
     if isinstance(result.failure, Interrupted):
         return fail("spurdiff", f"{result.failure}; the {len(result.time)} samples recorded so far are in {csv_path}", 130)
-    print(f"scene {scene.name}: {scene.description}")
+    say(f"scene {scene.name}: {scene.description}")
     fid = ", ".join(f"{k} = {v}" for k, v in scene.effects.items()) or "defaults"
-    print(f"fidelity: {fid}; step {scene.step:g} s, {scene.algorithm}; simulated {result.time[-1] if len(result.time) else 0:g} s "
+    say(f"fidelity: {fid}; step {scene.step:g} s, {scene.algorithm}; simulated {result.time[-1] if len(result.time) else 0:g} s "
           f"in {result.wall_time:.3f} s wall ({(result.time[-1] / result.wall_time) if result.wall_time > 0 and len(result.time) else 0:.1f}x real time; "
           f"setup {result.setup_time:.2f} s)")
     table = format_table(result)
     if table:
-        print()
-        print(table)
+        say()
+        say(table)
     extra = getattr(result, "summary", None)
     if extra:
-        print()
-        print(extra)
+        say()
+        say(extra)
     cp = format_couplings(result)
     if cp:
-        print()
-        print(cp)
+        say()
+        say(cp)
     outcomes = evaluate_checks(result) if result.ok else []
     if outcomes:
-        print()
-        print(format_checks(outcomes))
-    print()
-    print(f"results: {csv_path}" if stream.rows else "results: nothing recorded")
+        say()
+        say(format_checks(outcomes))
+    say()
+    say(f"results: {csv_path}" if stream.rows else "results: nothing recorded")
     if not args.no_plots and len(result.time) > 1:
         for p in plot_result(result, out_dir):
-            print(f"plot: {p}")
+            say(f"plot: {p}")
     if result.failure is not None:
         return fail("spurdiff", f"run stopped: {explain_failure(scene, result.failure)}"
                      + (f" (results so far kept in {csv_path})" if stream.rows else " (nothing recorded)"), 1)

@@ -7,13 +7,15 @@ import math
 import sys
 from pathlib import Path
 
+from harness.messages import printable
+from harness.outputs import OutputError
 from harness.paths import results_dir
 from harness.scene import SceneError
 from harness.sweep.bench import bench
 from harness.sweep.plots import head, plot_sweep
 from harness.sweep.run import run_sweep
 from harness.sweep.spec import available, load_sweep
-from harness.sweep.table import read_table, table_path
+from harness.sweep.table import FolderLock, read_table, table_path
 
 def build_parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(prog="spurdiff sweep", description="Run a parameter sweep over a scene "
@@ -30,6 +32,8 @@ def build_parser() -> argparse.ArgumentParser:
     ap.add_argument("--overwrite", action="store_true", help="discard an existing table and start again")
     ap.add_argument("--duration", type=float, help="simulated time per run, s (overrides the sweep and scene)")
     ap.add_argument("--timeout", type=float, help="wall time limit per run, s (overrides the sweep file)")
+    ap.add_argument("--max-steps", type=int, default=None, metavar="N",
+                    help="refuse runs of more than N communication steps each (default 1,000,000)")
     ap.add_argument("--plot", action="store_true", help="after the sweep, draw the metrics over the parameters (PNG)")
     ap.add_argument("--plot-only", action="store_true", help="draw the plots from the existing table, run nothing")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -40,7 +44,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _fail(msg: str, code: int = 2) -> int:
-    print(f"spurdiff sweep: {msg}", file=sys.stderr)
+    from harness.messages import one_line
+
+    print(one_line(f"spurdiff sweep: {msg}"), file=sys.stderr)
     return code
 
 
@@ -55,6 +61,8 @@ def main(argv: list[str] | None = None) -> int:
         return _main(args)
     except (SceneError, ParameterError) as e:
         return _fail(str(e))
+    except OutputError as e:   # a table or plot that could not be written: the place and the errno
+        return _fail(str(e), 1)
     except KeyboardInterrupt:
         return _fail("interrupted; every finished run is in the table: --resume completes it", 130)
 
@@ -74,6 +82,8 @@ def _main(args) -> int:
         return _fail("--retry-failed goes with --resume")
     if args.duration is not None and not (args.duration > 0 and math.isfinite(args.duration)):
         return _fail(f"--duration = {args.duration!r}: allowed a finite number > 0")
+    if args.max_steps is not None and args.max_steps < 1:
+        return _fail(f"--max-steps = {args.max_steps}: allowed an integer >= 1")
     if args.timeout is not None and not (args.timeout > 0):
         return _fail(f"--timeout = {args.timeout!r}: allowed a number > 0")
     sweep = load_sweep(args.sweep)
@@ -88,17 +98,18 @@ def _main(args) -> int:
         if not path.exists():
             return _fail(f"no results table {path}; run the sweep first")
         _, rows = read_table(path)
-        for p in plot_sweep(sweep, [rows[r] for r in sorted(rows)], out_dir):
-            print(f"plot: {p}")
+        with FolderLock(out_dir, f"{sweep.name} --plot-only"):   # not while a sweep writes the folder
+            for p in plot_sweep(sweep, [rows[r] for r in sorted(rows)], out_dir):
+                print(f"plot: {p}")
         return 0
     o = run_sweep(sweep, out_dir, workers=args.workers, scheduler=args.scheduler, resume=args.resume,
                   overwrite=args.overwrite, retry_failed=args.retry_failed, duration=args.duration,
-                  timeout=args.timeout, progress=not args.quiet)
+                  timeout=args.timeout, progress=not args.quiet, max_steps=args.max_steps)
     bad = o.not_ok
     print(f"sweep {sweep.name} on scene {sweep.scene}: {o.total} runs, {o.total - len(bad)} ok, {len(bad)} not ok; "
           f"{o.ran} run now on {o.where} in {o.wall:.1f} s")
     print()
-    print(head(o.rows, sweep.columns))
+    print(printable(head(o.rows, sweep.columns)))   # values from the sweep file: no raw control characters
     if len(o.rows) > 8:
         print(f"... ({len(o.rows) - 8} more rows)")
     print()

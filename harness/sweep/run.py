@@ -31,7 +31,8 @@ class Outcome:
 def run_sweep(sweep: Sweep, out_dir: Path | None = None, *, workers: int | None = None, scheduler: str | None = None,
               client=None, resume: bool = False, overwrite: bool = False, retry_failed: bool = False,
               duration: float | None = None, timeout: float | None = None, progress: bool = True,
-              runner: Runner = run_one, on_row: Callable[[dict], None] | None = None, plan: Plan | None = None) -> Outcome:
+              runner: Runner = run_one, on_row: Callable[[dict], None] | None = None, plan: Plan | None = None,
+              max_steps: int | None = None) -> Outcome:
     """Run (or complete, with ``resume``) a sweep; every finished run is in the table at once.
 
     Where: ``client`` (a dask.distributed Client), else ``scheduler`` (address of a running
@@ -44,7 +45,7 @@ def run_sweep(sweep: Sweep, out_dir: Path | None = None, *, workers: int | None 
         raise SweepError("--workers and --scheduler: allowed one of them (the cluster at ADDRESS has its own workers)")
     if resume and overwrite:
         raise SweepError("--resume and --overwrite: allowed one of them")
-    plan = plan or plan_sweep(sweep, duration=duration, timeout=timeout)
+    plan = plan or plan_sweep(sweep, duration=duration, timeout=timeout, max_steps=max_steps)
     path = table_path(sweep, out_dir)
     with FolderLock(path.parent, sweep.name):
         return _run_locked(sweep, plan, path, t0, workers=workers, scheduler=scheduler, client=client,

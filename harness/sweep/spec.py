@@ -11,6 +11,7 @@ from typing import Any
 
 from harness import schema
 from harness.expressions import compile_expression, is_expression
+from harness.messages import shown
 from harness.schema import SceneError
 from harness.scene import STATS
 from harness.sweep.jobs import Metric
@@ -98,7 +99,7 @@ def _count(where: str, value) -> int:
 
 def _param_name(where: str, name) -> str:
     if not isinstance(name, str) or not re.match(r"^[A-Za-z_]\w*\.\S+$", name):
-        raise SweepError(f"{where} = {name!r}: allowed 'instance.parameter'")
+        raise SweepError(f"{where} = {shown(name)}: allowed 'instance.parameter'")
     return name
 
 
@@ -107,33 +108,33 @@ def _parse_param(where: str, spec: dict, method: str) -> Param:
     if "name" not in spec:
         raise SweepError(f"{where}: missing key 'name'")
     p = Param(_param_name(f"{where}.name", spec["name"]))
-    where = f"{where} {p.name!r}"
+    where = f"{where} {shown(p.name)}"
     p.scale = spec.get("scale", "linear")
     if p.scale not in SCALES:
-        raise SweepError(f"{where}: scale = {p.scale!r}; allowed: {', '.join(SCALES)}")
+        raise SweepError(f"{where}: scale = {shown(p.scale)}; allowed: {', '.join(SCALES)}")
     p.integer = spec.get("integer", False)
     if not isinstance(p.integer, bool):
-        raise SweepError(f"{where}: integer = {p.integer!r}; allowed: true, false")
+        raise SweepError(f"{where}: integer = {shown(p.integer)}; allowed: true, false")
     if "values" in spec and "range" in spec:
         raise SweepError(f"{where}: give either 'values' or 'range', not both")
     if "values" in spec:
         vals = spec["values"]
         if not isinstance(vals, list) or not vals:
-            raise SweepError(f"{where}: values = {vals!r}; allowed: a non-empty list")
+            raise SweepError(f"{where}: values = {shown(vals)}; allowed: a non-empty list")
         p.values = [schema.scalar(f"{where}.values", v, SweepError) for v in vals]
         if "n" in spec:
             raise SweepError(f"{where}: 'n' goes with 'range', not with 'values'")
         if method in ("random", "lhs"):
-            raise SweepError(f"{where}: method = {method!r} samples a 'range = [lo, hi]', not 'values'")
+            raise SweepError(f"{where}: method = {shown(method)} samples a 'range = [lo, hi]', not 'values'")
     elif "range" in spec:
         r = spec["range"]
         if not (isinstance(r, list) and len(r) == 2):
-            raise SweepError(f"{where}: range = {r!r}; allowed: [lo, hi]")
+            raise SweepError(f"{where}: range = {shown(r)}; allowed: [lo, hi]")
         lo, hi = (_number(f"{where}.range", v) for v in r)
         if not lo < hi:
-            raise SweepError(f"{where}: range = {r!r}; allowed: lo < hi")
+            raise SweepError(f"{where}: range = {shown(r)}; allowed: lo < hi")
         if p.scale == "log" and lo <= 0:
-            raise SweepError(f"{where}: scale = 'log' needs range > 0, got {r!r}")
+            raise SweepError(f"{where}: scale = 'log' needs range > 0, got {shown(r)}")
         p.range = (lo, hi)
         if method == "list":
             raise SweepError(f"{where}: method = 'list' takes 'values', not 'range'")
@@ -142,7 +143,7 @@ def _parse_param(where: str, spec: dict, method: str) -> Param:
                 raise SweepError(f"{where}: a grid over a range needs 'n' (number of points)")
             p.n = _count(f"{where}.n", spec["n"])
         elif "n" in spec:
-            raise SweepError(f"{where}: 'n' of method = {method!r} goes in [sample], not in the parameter")
+            raise SweepError(f"{where}: 'n' of method = {shown(method)} goes in [sample], not in the parameter")
     else:
         raise SweepError(f"{where}: missing 'values' or 'range'")
     return p
@@ -152,8 +153,8 @@ def _parse_metric(where: str, spec: dict, earlier: list[str]) -> Metric:
     _unknown(where, spec, METRIC_KEYS)
     name = spec.get("name")
     if not isinstance(name, str) or not _NAME.match(name):
-        raise SweepError(f"{where}: name = {name!r}; allowed: a name of letters, digits and _")
-    where = f"{where} {name!r}"
+        raise SweepError(f"{where}: name = {shown(name)}; allowed: a name of letters, digits and _")
+    where = f"{where} {shown(name)}"
     kinds = [k for k in ("var", "expr", "theory") if k in spec]
     if len(kinds) != 1:
         raise SweepError(f"{where}: give exactly one of 'var' (with 'stat'), 'expr' or 'theory'")
@@ -161,18 +162,18 @@ def _parse_metric(where: str, spec: dict, earlier: list[str]) -> Metric:
     extra = sorted(set(spec) - {"name", kind} - ({"stat", "window"} if kind == "var" else set())
                    - ({"instance"} if kind == "theory" else set()))
     if extra:
-        raise SweepError(f"{where}: key {extra[0]!r} does not go with {kind!r}")
+        raise SweepError(f"{where}: key {shown(extra[0])} does not go with {shown(kind)}")
     if kind == "var":
         if not isinstance(spec["var"], str):
-            raise SweepError(f"{where}: var = {spec['var']!r}; allowed: 'inst.var' or an expression over {{inst.var}}")
+            raise SweepError(f"{where}: var = {shown(spec['var'])}; allowed: 'inst.var' or an expression over {{inst.var}}")
         if is_expression(spec["var"]):
             try:
                 compile_expression(spec["var"], f"{where}.var")
             except SceneError as e:
                 raise SweepError(str(e)) from None
         st = spec.get("stat", "mean")
-        if st not in STATS:
-            raise SweepError(f"{where}: stat = {st!r}; allowed: {', '.join(sorted(STATS))}")
+        if not isinstance(st, str) or st not in STATS:
+            raise SweepError(f"{where}: stat = {shown(st)}; allowed: {', '.join(sorted(STATS))}")
         window = spec.get("window")
         if window is not None:
             schema.window(f"{where}.window", window, SweepError, start_at_zero=True)
@@ -180,17 +181,17 @@ def _parse_metric(where: str, spec: dict, earlier: list[str]) -> Metric:
         return Metric(name, "stat", var=spec["var"], stat=st, window=window)
     if kind == "expr":
         if not isinstance(spec["expr"], str):
-            raise SweepError(f"{where}: expr = {spec['expr']!r}; allowed: a string")
+            raise SweepError(f"{where}: expr = {shown(spec['expr'])}; allowed: a string")
         try:
             compile_expression(spec["expr"], f"{where}.expr", earlier)
         except SceneError as e:
             raise SweepError(str(e)) from None
         return Metric(name, "expr", expr=spec["expr"])
-    if spec["theory"] not in THEORIES:
-        raise SweepError(f"{where}: theory = {spec['theory']!r}; allowed: {', '.join(sorted(THEORIES))}")
+    if not isinstance(spec["theory"], str) or spec["theory"] not in THEORIES:
+        raise SweepError(f"{where}: theory = {shown(spec['theory'])}; allowed: {', '.join(sorted(THEORIES))}")
     inst = spec.get("instance", "")
     if not isinstance(inst, str):
-        raise SweepError(f"{where}: instance = {inst!r}; allowed: an FMU instance name")
+        raise SweepError(f"{where}: instance = {shown(inst)}; allowed: an FMU instance name")
     return Metric(name, "theory", theory=spec["theory"], instance=inst)
 
 
@@ -198,19 +199,19 @@ def _parse_plot(where: str, spec: dict, params: list[str], columns: list[str]) -
     _unknown(where, spec, PLOT_KEYS)
     for k in ("x", "y"):
         if k not in spec:
-            raise SweepError(f"{where}: missing key {k!r}")
+            raise SweepError(f"{where}: missing key {shown(k)}")
     as_list = lambda v: [v] if isinstance(v, str) else v  # noqa: E731
     y, th = as_list(spec["y"]), as_list(spec.get("theory", []))
     for key, names, allowed in (("x", [spec["x"]], params), ("group", [spec["group"]] if "group" in spec else [], params),
                                 ("y", y, columns), ("theory", th, columns)):
         if not isinstance(names, list):
-            raise SweepError(f"{where}.{key} = {names!r}; allowed: a name or a list of names")
+            raise SweepError(f"{where}.{key} = {shown(names)}; allowed: a name or a list of names")
         for n in names:
             if n not in allowed:
-                raise SweepError(f"{where}.{key} = {n!r}; allowed: {', '.join(allowed)}")
+                raise SweepError(f"{where}.{key} = {shown(n)}; allowed: {', '.join(allowed)}")
     title, file = spec.get("title", ""), spec.get("file", "")
     if not isinstance(title, str):
-        raise SweepError(f"{where}.title = {title!r}; allowed: a string")
+        raise SweepError(f"{where}.title = {shown(title)}; allowed: a string")
     if file:
         schema.safe_name(f"{where}.file", file, SweepError)
     return Plot(spec["x"], y, th, spec.get("group"), title, file)
@@ -230,7 +231,7 @@ def parse_sweep(data: dict, source: Path | None = None) -> Sweep:
     for k in ("mesh", "algorithm"):
         if k in data:
             if not isinstance(data[k], str):
-                raise SweepError(f"{where}: {k} = {data[k]!r}; allowed: a string")
+                raise SweepError(f"{where}: {k} = {shown(data[k])}; allowed: a string")
             overrides[k] = data[k]
     fixed = {}
     for k, v in _table(f"{where}: fixed", data.get("fixed", {})).items():
@@ -242,20 +243,20 @@ def parse_sweep(data: dict, source: Path | None = None) -> Sweep:
     _unknown(f"{where}: sample", sample, SAMPLE_KEYS)
     method = sample.get("method", "grid")
     if method not in METHODS:
-        raise SweepError(f"{where}: sample.method = {method!r}; allowed: {', '.join(METHODS)}")
+        raise SweepError(f"{where}: sample.method = {shown(method)}; allowed: {', '.join(METHODS)}")
     n = seed = None
     if method in ("random", "lhs"):
         for k in ("n", "seed"):
             if k not in sample:
-                raise SweepError(f"{where}: sample.{k} is required for method = {method!r} (reproducible samples)")
+                raise SweepError(f"{where}: sample.{k} is required for method = {shown(method)} (reproducible samples)")
         n = _count(f"{where}: sample.n", sample["n"])
         seed = sample["seed"]
         if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-            raise SweepError(f"{where}: sample.seed = {seed!r}; allowed: an integer >= 0")
+            raise SweepError(f"{where}: sample.seed = {shown(seed)}; allowed: an integer >= 0")
     else:
         extra = sorted(set(sample) & {"n", "seed"})
         if extra:
-            raise SweepError(f"{where}: sample.{extra[0]} does not go with method = {method!r}; "
+            raise SweepError(f"{where}: sample.{extra[0]} does not go with method = {shown(method)}; "
                              f"allowed with it: method")
     params = [_parse_param(f"{where}: parameters", p, method) for p in _tables(f"{where}: parameters",
                                                                                  data.get("parameters", []))]
@@ -264,7 +265,7 @@ def parse_sweep(data: dict, source: Path | None = None) -> Sweep:
     pnames = [p.name for p in params]
     dup = sorted({x for x in pnames if pnames.count(x) > 1})
     if dup:
-        raise SweepError(f"{where}: parameter {dup[0]!r} is given twice")
+        raise SweepError(f"{where}: parameter {shown(dup[0])} is given twice")
     if method == "list":
         lengths = {p.name: len(p.values) for p in params}
         if len(set(lengths.values())) > 1:
@@ -274,7 +275,7 @@ def parse_sweep(data: dict, source: Path | None = None) -> Sweep:
     for spec in _tables(f"{where}: metrics", data.get("metrics", [])):
         m = _parse_metric(f"{where}: metrics", spec, pnames + [x.name for x in metrics])
         if m.name in [x.name for x in metrics] or m.name in BASE_COLUMNS:
-            raise SweepError(f"{where}: metric name {m.name!r} is used twice or is a standard column "
+            raise SweepError(f"{where}: metric name {shown(m.name)} is used twice or is a standard column "
                              f"({', '.join(BASE_COLUMNS)})")
         metrics.append(m)
     if not metrics:
@@ -293,7 +294,7 @@ def sweep_path(name_or_path: str) -> Path:
     q = SWEEP_DIR / f"{name_or_path}.toml"
     if q.is_file():
         return q
-    raise SweepError(f"unknown sweep {name_or_path!r}; allowed: a .toml file or one of {', '.join(available())}")
+    raise SweepError(f"unknown sweep {shown(name_or_path)}; allowed: a .toml file or one of {', '.join(available())}")
 
 
 def load_sweep(name_or_path: str) -> Sweep:

@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import csv
 import os
-import socket
-import time
 from pathlib import Path
 from typing import Iterable
 
+from harness.outputs import OutputLock, atomic_file, output_error
 from harness.paths import results_dir
 from harness.sweep.jobs import STATUSES, Task
 from harness.sweep.spec import Sweep, SweepError
@@ -49,79 +48,53 @@ def read_table(path: Path) -> tuple[list[str], dict[int, dict[str, str]]]:
 
 
 def write_table(path: Path, columns: list[str], rows: Iterable[dict]) -> None:
-    """Write a whole table atomically (temporary file, then rename)."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "w", newline="") as fh:
+    """Write a whole table atomically (private temporary file, then rename: :mod:`harness.outputs`;
+    on a write error the temporary file is removed and the table left as it was)."""
+    with atomic_file(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(columns)
         for row in rows:
             w.writerow([fmt(row.get(c, "")) for c in columns])
-    os.replace(tmp, path)
 
 
 class TableWriter:
-    """Appends one row per finished run and flushes it, so a killed sweep keeps every finished run."""
+    """Appends one row per finished run and flushes it, so a killed sweep keeps every finished run.
+    The table is opened without following a link; a write error is an :class:`OutputError`."""
 
     def __init__(self, path: Path, columns: list[str]):
-        self.columns = columns
-        self.fh = open(path, "a", newline="")
+        self.columns, self.path = columns, Path(path)
+        try:
+            fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o666)
+        except OSError as e:
+            raise output_error(self.path, e) from None
+        self.fh = os.fdopen(fd, "a", newline="")
         self.w = csv.writer(self.fh)
+        self.rows = 0
 
     def append(self, row: dict) -> None:
-        self.w.writerow([fmt(row.get(c, "")) for c in self.columns])
-        self.fh.flush()
+        try:
+            self.w.writerow([fmt(row.get(c, "")) for c in self.columns])
+            self.fh.flush()
+        except OSError as e:
+            raise output_error(self.path, e, f"the {self.rows} runs written before are kept; "
+                               "--resume completes it") from None
+        self.rows += 1
 
     def close(self) -> None:
-        self.fh.close()
+        try:
+            self.fh.close()
+        except OSError:   # a row that did not fit was reported by append; the torn line is dropped on reading
+            pass
 
 
-class FolderLock:
-    """An exclusive lock on a sweep's results folder (``fcntl.flock`` on a hidden file in it): a
-    second sweep writing the same folder is refused, told who holds it. The kernel drops the lock
-    when its holder exits, however it exits, so a killed sweep leaves no stale lock behind."""
-
-    NAME = ".spurdiff-sweep.lock"
+class FolderLock(OutputLock):
+    """The lock on a sweep's results folder (:class:`harness.outputs.OutputLock`, the same lock a
+    run takes): a second sweep or run writing the same folder is refused with a SweepError, told
+    who holds it. The kernel drops the lock when its holder exits, however it exits, so a killed
+    sweep leaves no stale lock behind."""
 
     def __init__(self, folder: Path, what: str):
-        self.path = Path(folder) / self.NAME
-        self.what = what
-        self.fd: int | None = None
-
-    def acquire(self) -> "FolderLock":
-        import fcntl
-
-        try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-        except OSError as e:
-            raise SweepError(f"results folder {self.path.parent}: cannot write there: {e.strerror}") from None
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            holder = os.pread(fd, 500, 0).decode("utf-8", "replace").strip() or "another process"
-            os.close(fd)
-            raise SweepError(f"results folder {self.path.parent} is in use by {holder}; wait for it to finish "
-                             "or give another --out") from None
-        os.ftruncate(fd, 0)
-        stamp = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime())
-        os.pwrite(fd, f"sweep {self.what} (pid {os.getpid()} on {socket.gethostname()}, since {stamp})\n".encode(), 0)
-        self.fd = fd
-        return self
-
-    def release(self) -> None:
-        import fcntl
-
-        if self.fd is not None:
-            os.ftruncate(self.fd, 0)
-            fcntl.flock(self.fd, fcntl.LOCK_UN)
-            os.close(self.fd)
-            self.fd = None
-
-    def __enter__(self) -> "FolderLock":
-        return self.acquire()
-
-    def __exit__(self, *exc) -> None:
-        self.release()
+        super().__init__(folder, f"sweep {what}", SweepError)
 
 
 def prepare_table(sweep: Sweep, tasks: list[Task], path: Path, resume: bool, overwrite: bool,

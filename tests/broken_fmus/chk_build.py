@@ -89,7 +89,19 @@ CHKC_VARIANTS = {
     "ChkCJacobian": "BREAK_JACOBIAN",
     "ChkCModelExchange": "BREAK_ME",
     "ChkCLateStep": "BREAK_LATE_STEP",
+    "ChkCStaleOutput": "BREAK_STALE_Y",
+    "ChkCOwnClock": "BREAK_CLOCK",
+    "ChkCLostHistory": "BREAK_HISTORY",
+    "ChkCNoLibm": "BREAK_LIBM",
+    "ChkCStartRange": None,
+    "ChkCNanHang": "BREAK_NAN_HANG",
 }
+# ChkC variants with another modelDescription.xml: name -> (old, new) replaced in CHKC_XML
+CHKC_XML_EDITS = {
+    # the gain's start value 2 lies above its declared max 1.5
+    "ChkCStartRange": ('<Real start="2" unit="1"/>', '<Real start="2" min="0" max="1.5" unit="1"/>'),
+}
+NO_LIBM = {"ChkCNoLibm"}   # linked without -lm although it calls exp()
 
 
 def _digest(*parts) -> str:
@@ -180,18 +192,27 @@ def chkc_fmu(variant: str) -> Path:
     macro = CHKC_VARIANTS[variant]
     src = HERE / "chkc.c"
     include = Path(fmpy.__file__).parent / "c-code"
-    key = _digest("chkc", src.read_bytes(), CHKC_XML, macro, Path(__file__).read_bytes())
+    xml = CHKC_XML
+    if variant in CHKC_XML_EDITS:
+        old, new = CHKC_XML_EDITS[variant]
+        assert old in xml, variant
+        xml = xml.replace(old, new)
+    key = _digest("chkc", src.read_bytes(), xml, macro, variant in NO_LIBM, Path(__file__).read_bytes())
 
     def make(tmp: Path) -> Path:
         binary = tmp / "binaries" / fmpy.platform / f"ChkC{fmpy.sharedLibraryExtension}"
         binary.parent.mkdir(parents=True)
-        cmd = ["gcc", "-shared", "-fPIC", "-O1", "-std=c99", "-Wall", f"-I{include}", "-o", str(binary), str(src), "-lm"]
+        cmd = ["gcc", "-shared", "-fPIC", "-O1", "-std=c99", "-Wall", f"-I{include}", "-o", str(binary), str(src)]
+        if variant in NO_LIBM:
+            cmd[1:1] = ["-fno-builtin", "-Wl,--no-as-needed"]
+        else:
+            cmd.append("-lm")
         if macro:
             cmd.insert(1, f"-D{macro}")
         subprocess.run(cmd, check=True, capture_output=True)
         out = tmp / f"{variant}.fmu"
         with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as z:
-            z.writestr("modelDescription.xml", CHKC_XML)
+            z.writestr("modelDescription.xml", xml)
             z.write(binary, f"binaries/{fmpy.platform}/{binary.name}")
         return out
 

@@ -21,6 +21,16 @@
    BREAK_JACOBIAN      fmi2GetDirectionalDerivative gives d der(x)/d x = 1 (it is 0)
    BREAK_ME            fmi2CompletedIntegratorStep refused (model exchange)
    BREAK_LATE_STEP     doSteps after t = 0.5 s are refused (fmi2Error): only a long run sees it
+   BREAK_STALE_Y       y (declared to depend on u) is computed in fmi2DoStep only: after fmi2SetReal(u)
+                       it keeps its old value until the next step
+   BREAK_CLOCK         fmi2DoStep ignores currentCommunicationPoint and keeps its own clock: it advances
+                       whole internal steps of 0.01 s only (a step of 0.006 s does nothing)
+   BREAK_HISTORY       x' = k u integrated with a correction from x before the last step, which the FMU
+                       state leaves out (like a multistep integrator's history): a restore continues
+                       within 1e-6 of the original run, two restores agree
+   BREAK_LIBM          calls exp() from libm; built without -lm, so libm is not declared (DT_NEEDED)
+   BREAK_NAN_HANG      a doStep with a NaN input never returns, and a step past the stop time is accepted
+                       (so no step is ever discarded: cs.status-after-discard has nothing to check)
 */
 #include <math.h>
 #include <stdarg.h>
@@ -30,6 +40,10 @@
 
 #include "fmi2Functions.h"
 
+#ifdef BREAK_NAN_HANG
+#define BREAK_STOP_TIME
+#endif
+
 #ifndef GUID
 #define GUID "{c0ffee00-5b0d-4c1e-9a1e-000000000001}"
 #endif
@@ -38,7 +52,8 @@ enum { VR_U = 0, VR_K = 1, VR_X = 2, VR_Y = 3, VR_DX = 4 };
 enum { INSTANTIATED, INITIALIZATION, STEP, EVENT, CONTINUOUS, TERMINATED };
 
 typedef struct {
-    double u, k, x, time, stop;
+    double u, k, x, time, stop, ystale, xprev;
+    long nsteps;
     int stopDefined, state, type, logging;
     char name[64];
     fmi2CallbackFunctions cb;
@@ -142,6 +157,7 @@ fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
 fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     Inst *m = (Inst *)c;
     if (m->state != INITIALIZATION) return refuse(m, "fmi2ExitInitializationMode");
+    m->ystale = m->k * m->u;
     m->state = m->type == fmi2CoSimulation ? STEP : EVENT;
     return fmi2OK;
 }
@@ -156,7 +172,7 @@ fmi2Status fmi2Terminate(fmi2Component c) {
 
 fmi2Status fmi2Reset(fmi2Component c) {
     Inst *m = (Inst *)c;
-    m->u = 1.0; m->k = 2.0; m->x = 0.0; m->time = 0.0;
+    m->u = 1.0; m->k = 2.0; m->x = 0.0; m->time = 0.0; m->nsteps = 0; m->xprev = 0.0;
     m->state = INSTANTIATED;
     return fmi2OK;
 }
@@ -167,7 +183,11 @@ static double value(Inst *m, fmi2ValueReference vr, int *ok) {
     case VR_U: return m->u;
     case VR_K: return m->k;
     case VR_X: return m->x;
+#ifdef BREAK_STALE_Y
+    case VR_Y: return m->ystale;
+#else
     case VR_Y: return m->k * m->u;
+#endif
     case VR_DX: return m->k * m->u;
     }
     *ok = 0;
@@ -307,10 +327,12 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noPri
         logmsg(m, fmi2Error, "logStatusError", "step size must be > 0, was %g", h);
         return fmi2Error;
     }
+#ifndef BREAK_CLOCK
     if (fabs(t - m->time) > 1e-9 * (1.0 + fabs(t))) {
         logmsg(m, fmi2Error, "logStatusError", "communication point %g, expected %g", t, m->time);
         return fmi2Error;
     }
+#endif
 #ifndef BREAK_STOP_TIME
     if (m->stopDefined && t + h > m->stop + 1e-9 * (1.0 + fabs(m->stop))) {
         logmsg(m, fmi2Error, "logStatusError", "a step to %g passes the stop time %g", t + h, m->stop);
@@ -324,9 +346,37 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noPri
 #ifdef BREAK_LATE_STEP
     if (t >= 0.5) return refuse(m, "fmi2DoStep (late)");
 #endif
-    if (!isfinite(m->u)) return fmi2Discard;
+    if (!isfinite(m->u)) {
+#ifdef BREAK_NAN_HANG
+        volatile int spin = 1;
+        while (spin) {}
+#endif
+        return fmi2Discard;
+    }
+#if defined(BREAK_CLOCK)
+    {   /* its own clock: whole internal steps of 0.01 s from where it was, whatever t says */
+        long n = (long)floor(h / 0.01 + 1e-9);
+        m->x += m->k * m->u * 0.01 * n;
+        m->time += 0.01 * n;
+    }
+#elif defined(BREAK_HISTORY)
+    {   /* a correction by the direction x last moved in: xprev is not in the saved FMU state, so the
+           first step after a restore (xprev from a later time) is corrected the other way */
+        double sign = m->x >= m->xprev ? 1.0 : -1.0;
+        m->xprev = m->x;
+        m->x += m->k * m->u * h * (1.0 + 1e-6 * sign);
+    }
+    m->time = t + h;
+#elif defined(BREAK_LIBM)
+    m->x += m->k * m->u * h * exp(0.0 * m->x);
+    m->time = t + h;
+#else
     m->x += m->k * m->u * h;
     m->time = t + h;
+#endif
+#ifdef BREAK_STALE_Y
+    m->ystale = m->k * m->u;
+#endif
     return fmi2OK;
 }
 

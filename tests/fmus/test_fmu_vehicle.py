@@ -15,6 +15,7 @@ from fmpy import read_model_description
 from fmu_session import free, get, start
 from spurdiff.datafile import read_data
 from spurdiff.tyre import magic_formula
+from spurdiff.vehicle_fmu import DEFAULT_SPEED
 
 DATA = read_data()
 R = DATA["wheel"]["R"]
@@ -80,6 +81,9 @@ def test_parameter_start_values_are_the_bundled_data(wheel_fmu, vehicle_fmu):
     assert math.isnan(DATA["tyre"]["k_start"]) and w["tyre.k_startSteady"].start in ("true", True)
     for section in ("vehicle", "lateralTyre", "speedControl"):
         for k, value in DATA[section].items():
+            if (section, k) == ("vehicle", "vx_start"):   # the default experiment's speed, not vehicle data
+                assert float(c["vehicle.vx_start"].start) == DEFAULT_SPEED and value == 0.0
+                continue
             assert float(c[f"{section}.{k}"].start) == value, f"{section}.{k}"
     assert int(c["steering.mode"].start) == DATA["steering"]["mode"]
     assert float(c["vehicle.R_wheel"].start) == DATA["wheel"]["R"]

@@ -80,7 +80,8 @@ def test_a_damaged_runtime_is_refused_with_the_cause(case, differential_fmu, tmp
     fmu = _copy(differential_fmu, tmp_path / "SpurDifferential.fmu", change)
     r = _fmusim(fmu, tmp_path)
     text = r.stdout + r.stderr
-    assert r.returncode > 0, f"{case}: expected a clean failure, got exit {r.returncode}\n{text[-3000:]}"
+    # fmusim's code for an FMU it cannot instantiate (a signal would be negative)
+    assert r.returncode == 3, f"{case}: expected fmusim's clean failure (3), got exit {r.returncode}\n{text[-3000:]}"
     assert cause in text, f"{case}: the cause is not named\n{text[-3000:]}"
 
 
@@ -122,3 +123,12 @@ def test_the_hosts_python_variables_and_planted_files_do_not_reach_the_fmu(diffe
     r = _fmusim(differential_fmu, tmp_path, env=env)
     assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
     assert not marker.exists(), "a planted file ran inside the FMU"
+
+
+@pytest.mark.skipif(not (HOSTS / "fmuCheck.linux64").is_file(), reason=f"{HOSTS}/fmuCheck.linux64 is absent")
+def test_fmucheck_exits_1_naming_the_cause(differential_fmu, tmp_path):
+    fmu = _copy(differential_fmu, tmp_path / "SpurDifferential.fmu", CASES["no libpython"][0])
+    r = subprocess.run([str(HOSTS / "fmuCheck.linux64"), "-k", "cs", "-s", "0.01", str(fmu)], cwd=tmp_path,
+                       env=BARE_ENV, capture_output=True, text=True, timeout=120)
+    text = r.stdout + r.stderr
+    assert r.returncode == 1 and "cannot load" in text and "libpython3.11.so.1.0" in text, text[-3000:]

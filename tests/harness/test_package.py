@@ -24,6 +24,8 @@ def installed(tmp_path_factory):
     r = subprocess.run([sys.executable, "-m", "build", "--outdir", str(tmp / "dist"), str(ROOT)],
                        capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    # setuptools warned that spurdiff_fmus.native "would be ignored" before it was listed (issue 31)
+    assert "WARNING" not in r.stdout + r.stderr, (r.stdout + r.stderr)[-3000:]
     wheels = list((tmp / "dist").glob("*.whl"))
     sdists = list((tmp / "dist").glob("*.tar.gz"))
     assert len(wheels) == 1 and len(sdists) == 1
@@ -46,7 +48,8 @@ def test_the_wheel_holds_what_the_commands_need(installed):
                    "spurdiff_fmus/native/runtime_cfg.h", "spurdiff/differential_fmu.py",
                    "spurdiff/data/passenger_car.toml", "harness/scenes/vehicle-cornering.toml",
                    "harness/sweeps/split-mu-locking.toml", "harness/accuracy_grid.toml",
-                   "harness/accuracy_data.csv", "harness/accuracy_facts.json"):
+                   "harness/accuracy_data.csv", "harness/accuracy_facts.json", "harness/recipes/fmi2_host.c",
+                   "harness/recipes/fmpy_differential.py", "harness/recipes/libcosim_ssp.py"):
         assert needed in names, needed
     # every harness subpackage made it (a new one must be listed in pyproject.toml)
     for pkg in (ROOT / "harness").rglob("__init__.py"):

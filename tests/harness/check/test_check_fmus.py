@@ -45,6 +45,11 @@ CATCH_TABLE = {
     "ChkCJacobian": ("c", ["cs.directional-derivative", "me.directional-derivative"],
                      {"me.directional-derivative": "error"}),
     "ChkCModelExchange": ("c", ["me.basic"], {"me.basic": "error"}),
+    "ChkCStaleOutput": ("c", ["cs.feedthrough"], {"cs.feedthrough": "warning"}),
+    "ChkCOwnClock": ("c", ["cs.clock"], {"cs.clock": "error"}),
+    # lost integrator history: one finding (a warning), the restore-vs-restore rules pass
+    "ChkCLostHistory": ("c", ["cs.get-set-state", "cs.free-state", "cs.serialize-state"],
+                        {"cs.get-set-state": "warning"}),
     "ChkIgnoresStopTime": ("py", ["cs.stop-time"], {"cs.stop-time": "error"}),
     "ChkConsumesState": ("py", ["cs.get-set-state", "cs.free-state"], {"cs.free-state": "error"}),
     "ChkRaiseInStep": ("py", ["cs.reset"], {"cs.basic": "error"}),
@@ -110,7 +115,8 @@ def test_broken_fmu_reasons(caught):
     assert "componentEnvironment 0x0 is not one given to fmi2Instantiate (instance name 'someoneElse'" in reason("ChkCLogger", "cs.logger")
     assert "returned fmi2OK: the FMU has to return fmi2Error" in reason("ChkIgnoresStopTime", "cs.stop-time")
     assert "fmi2GetRealStatus(fmi2LastSuccessfulTime) returned fmi2Error" in reason("ChkCStatus", "cs.status-after-discard")
-    assert "set for the second time, continues differently: x" in reason("ChkConsumesState", "cs.free-state")
+    assert ("set for the second time, continues differently: the outputs right after fmi2SetFMUstate are not the "
+            "saved ones: x 0.2 vs 0.1") in reason("ChkConsumesState", "cs.free-state")
     assert "not NULL" in reason("ChkCFreeState", "cs.free-state")
     assert reason("ChkCrashInStep", "cs.basic").startswith("crashed (SIGSEGV) in fmi2DoStep(t=0.02, h=0.01)")
     assert "fmi2Fatal" in reason("ChkRaiseInStep", "cs.basic") and "ZeroDivisionError" in reason("ChkRaiseInStep", "cs.basic")
@@ -118,24 +124,40 @@ def test_broken_fmu_reasons(caught):
     assert "the first instance (start values) changed when a second one ran beside it" in reason("ChkSharedGlobal", "cs.two-instances")
     assert "fmi2CompletedIntegratorStep [instance me] returned fmi2Error" in reason("ChkCModelExchange", "me.basic")
     assert "d der(x)/d x: 1.0 vs central difference 0.0" in reason("ChkCJacobian", "me.directional-derivative")
+    assert "y (on u); y stayed 2.0, and only after the next doStep it is 2.2" in reason("ChkCStaleOutput", "cs.feedthrough")
+    assert ("x changes with steps of 0.01 s but not at all with steps of 0.005 s (it stays 0.0 to t = 0.1 s)"
+            in reason("ChkCOwnClock", "cs.clock"))
+    lost = reason("ChkCLostHistory", "cs.get-set-state")
+    assert "the outputs are the saved ones, but the continuation differs by up to 2e-07" in lost
+    assert "tolerance 0.0001; a second restore continues within 0 of the first" in lost
+    assert "integrator history: cs.get-set-state" in reason("ChkCLostHistory", "cs.serialize-state")
+    assert "restores nothing" not in reason("ChkStateRestoreNoop", "cs.get-set-state")
+    assert "the outputs right after fmi2SetFMUstate are not the saved ones: x" in reason("ChkStateRestoreNoop",
+                                                                                     "cs.get-set-state")
 
 
 def test_pythonfmu_limits_are_reported_not_hidden(tmp_path, capsys):
     """The whole command on ChkGood (pythonfmu): pythonfmu 0.7's C++ layer does not compare the GUID
     and leaves fmi2FreeFMUstate's pointer set, so every pythonfmu FMU fails cs.guid and cs.free-state;
-    it answers fmi2GetStatus with fmi2Error and refuses past the stop time with fmi2Discard (warnings)."""
+    it answers fmi2GetStatus with fmi2Error and refuses past the stop time with fmi2Discard (warnings).
+    Its binary needs libpython's symbols without declaring libpython (it loads only into a Python process:
+    the load rules warn), and ChkGood computes y = k u in do_step only (cs.feedthrough warns)."""
     from harness.check.rules import rules
-    from harness.cli.check import main
+    from harness.cli.check import main as _main
+
+    def main(argv):
+        return _main(["--isolated", *argv])
     import xml.etree.ElementTree as ET
     path = chk_build.pythonfmu_fmu("ChkGood", STATE_FLAGS)
     junit = tmp_path / "good.xml"
     assert main([str(path), "--junit", str(junit), "--jobs", "2"]) == 1
     lines = [ln for ln in capsys.readouterr().out.splitlines()
              if ln.split(" ")[0] in ("PASS", "ERROR", "WARN", "INFO", "SKIP")]
-    assert len(lines) == len(rules("static")) + len(rules("cs"))
+    assert len(lines) == len(rules("static")) + len(rules("load")) + len(rules("cs"))
     labels = {ln.split("  ")[2]: ln.split(" ")[0] for ln in lines if not ln.startswith(("PASS", "SKIP"))}
     assert labels == {"cs.guid": "ERROR", "cs.free-state": "ERROR", "cs.stop-time": "WARN",
-                      "cs.status-after-discard": "WARN"}, labels
+                      "cs.status-after-discard": "WARN", "cs.feedthrough": "WARN", "load.needed-libraries": "WARN",
+                      "load.bare-process": "WARN"}, labels
     root = ET.parse(junit).getroot()
     assert root.get("tests") == str(len(lines)) and root.get("failures") == "2"
 

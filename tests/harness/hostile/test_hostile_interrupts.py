@@ -46,7 +46,7 @@ def test_ctrl_c_on_run_exits_130_keeping_the_rows_recorded(sandbox):
     out = sandbox.dir / "out"
     csv_path = out / "paper-cornering.csv"
     # 2000 s simulated: minutes of wall time, so the run is surely interrupted mid-way
-    p = start("run", "paper-cornering", "--duration", "2000", "--no-plots", "--out", out)
+    p = start("run", "paper-cornering", "--duration", "2000", "--max-steps", "3000000", "--no-plots", "--out", out)
     try:
         # streamed: rows are on disk while the run goes on
         wait_for(lambda: csv_path.exists() and len(rows_of(csv_path)) > 200, proc=p)
@@ -70,7 +70,7 @@ def test_ctrl_c_on_an_in_process_sweep_stops_at_once_and_records_no_row_for_the_
                     values="[0.1, 0.2]", duration=2000)
     out = sandbox.dir / "out"
     table = out / "hsweep.csv"
-    p = start("sweep", p_sweep, "--workers", "0", "--quiet", "--out", out)
+    p = start("sweep", p_sweep, "--workers", "0", "--quiet", "--max-steps", "3000000", "--out", out)
     try:
         wait_for(table.exists, proc=p)   # the table is made just before the first run starts
         time.sleep(1.0)                  # the first run (minutes long) is stepping now

@@ -1,0 +1,181 @@
+"""The first hour with the FMU alone (issue 31, docs/use-the-fmu.md): each FMU's default experiment
+does something a user recognises in fmpy and in fmusim; the recipes per interface run as shipped
+(fmpy script, C host, SSP in libcosim) and give the same steady turn."""
+from __future__ import annotations
+
+import csv
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fmpy import read_model_description, simulate_fmu
+
+from harness.recipes import fmpy_differential as recipe
+from harness.starter import write_starter
+
+HERE = Path(__file__).resolve().parent
+HOSTS = HERE.parents[2] / "shared" / "hosts"
+BARE_ENV = {"PATH": "/usr/bin:/bin"}
+STOP = 0.5
+
+
+# ------------------------------------------------------------------ default experiments
+def _fmusim(fmu: Path, tmp_path: Path) -> dict[str, np.ndarray]:
+    out = tmp_path / f"{fmu.stem}.csv"
+    r = subprocess.run([str(HOSTS / "fmusim"), "--interface-type", "cs", "--output-file", str(out), str(fmu)],
+                       env=BARE_ENV, capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+    rows = list(csv.reader(open(out, newline="")))
+    names = [n.strip().strip('"') for n in rows[0]]
+    return {n: np.array([float(row[i]) for row in rows[1:]]) for i, n in enumerate(names)}
+
+
+def _fmpy(fmu: Path, capsys) -> dict[str, np.ndarray]:
+    res = simulate_fmu(str(fmu))           # no inputs, no start values: the default experiment
+    assert "missing input" not in capsys.readouterr().out
+    return {n: np.asarray(res[n], dtype=float) for n in res.dtype.names}
+
+
+@pytest.mark.parametrize("host", ["fmpy", pytest.param("fmusim", marks=pytest.mark.skipif(
+    not (HOSTS / "fmusim").exists(), reason="fmusim (../shared/hosts) is absent"))])
+def test_default_experiments_do_something_a_user_recognises(host, fmu_files, tmp_path, capsys):
+    run = (lambda f: _fmusim(f, tmp_path)) if host == "fmusim" else (lambda f: _fmpy(f, capsys))
+    # the differential: the paper's straight-line case, turning locked under load, steady from the start
+    d = run(fmu_files["SpurDifferential"])
+    assert d["time"][-1] == pytest.approx(0.3)
+    for n, value in (("carrier.w", 1.389), ("left.w", 1.389), ("right.w", 1.389), ("carrier.tauDrive", 2100.0),
+                     ("left.tauMesh", 1050.0), ("right.tauMesh", 1050.0)):
+        assert np.allclose(d[n], value, rtol=1e-9), n
+    assert np.all(d["stuck"] == 1.0) and d["mesh.F_A1"][-1] == pytest.approx(6898, rel=1e-3)   # theory 6,898 N
+    # the wheel: a locked-wheel skid at 10 m/s under 3000 N, the wheel held by its shaft, settling
+    w = run(fmu_files["WheelLoad"])
+    assert w["slip"][-1] == -1.0 and -0.95 < w["Fx"][-1] / 3000.0 < -0.85
+    assert abs(w["wheel.w"][-1]) < 1e-6 and w["shaft.tau"][-1] == pytest.approx(w["Fx"][-1] * 0.3266, rel=1e-3)
+    # the car: the main job's steady turn, 10 m/s on R = 20 m
+    c = run(fmu_files["Vehicle"])
+    late = c["time"] >= 5.0
+    assert np.allclose(c["vx"][late], 10.0, rtol=1e-3) and np.allclose(c["yawRate"][late], 0.5, rtol=2e-3)
+    assert np.allclose(c["ay"][late], 5.0, rtol=2e-3) and np.allclose(c["driveTorque"][late], 152.0, rtol=0.03)
+
+
+# ------------------------------------------------------------------ the fmpy recipe
+@pytest.fixture(scope="module")
+def recipe_runs(fmu_files):
+    fmu = str(fmu_files["SpurDifferential"])
+    return {"wheel": recipe.run_wheel(fmu, STOP, 5e-3), "torque": recipe.run_torque(fmu, STOP, 2e-4)}
+
+
+def test_fmpy_recipe_both_interfaces_reach_the_same_steady_turn(recipe_runs):
+    means = {k: recipe.summary(r, since=0.6 * STOP) for k, r in recipe_runs.items()}
+    for interface, s in means.items():
+        r = recipe_runs[interface]
+        tail = r["time"] >= 0.6 * STOP
+        for n in ("leftShaft.tau", "rightShaft.tau", "lockingTorque"):   # steady: settled over the window
+            assert np.ptp(r[n][tail]) < 2e-5 * abs(s[n]), (interface, n, np.ptp(r[n][tail]))
+        assert s["stuck"] == 0.0                                           # it turns: the suns slip
+        assert s["lockingTorque"] == pytest.approx(s["lockingCapacity"], rel=1e-9)   # at full capacity
+        assert s["leftShaft.tau"] + s["rightShaft.tau"] == pytest.approx(recipe.DRIVE_TORQUE, rel=1e-6)
+        assert s["leftShaft.tau"] - s["rightShaft.tau"] == pytest.approx(s["lockingTorque"], rel=1e-6)
+        assert s["left.w"] == pytest.approx(recipe.W_INNER, rel=1e-6) and s["right.w"] == pytest.approx(recipe.W_OUTER, rel=1e-6)
+    for n in ("leftShaft.tau", "rightShaft.tau", "lockingTorque"):
+        assert means["wheel"][n] == pytest.approx(means["torque"][n], rel=1e-6), n
+    assert means["wheel"]["leftShaft.tau"] == pytest.approx(89.76, abs=0.01)    # the main job's inner torque
+
+
+def test_fmpy_recipe_script_runs_as_shipped_without_missing_input_warnings(fmu_files, tmp_path):
+    files, cmd = write_starter("fmpy", "wheel", tmp_path)
+    r = subprocess.run([sys.executable, "fmpy_differential.py", "--interface", "wheel", "--fmu", "SpurDifferential.fmu",
+                        "--stop", str(STOP)], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert "missing input" not in r.stdout + r.stderr
+    assert "inner (left) shaft torque  89.7555 N m" in r.stdout
+
+
+def test_input_table_fills_every_input_so_fmpy_warns_about_none(fmu_files, capsys):
+    md = read_model_description(str(fmu_files["SpurDifferential"]))
+    t = np.array([0.0, 1.0])
+    table = recipe.input_table(md, t, {"leftWheel.w": np.array([1.0, 2.0])}, {"carrier.tau": 5.0})
+    inputs = [v.name for v in md.modelVariables if v.causality == "input"]
+    assert list(table.dtype.names) == ["time"] + inputs
+    assert list(table["leftWheel.w"]) == [1.0, 2.0] and set(table["carrier.tau"]) == {5.0}
+    assert set(table["carrier.w_ref"]) == {1.389}      # not driven: its start value
+    # without the filling fmpy prints a warning per input it was not given
+    simulate_fmu(str(fmu_files["SpurDifferential"]), input=table[["time", "leftWheel.w"]], stop_time=0.002,
+                 step_size=1e-3)
+    assert capsys.readouterr().out.count("missing input") == len(inputs) - 1
+
+
+# ------------------------------------------------------------------ the C host
+@pytest.mark.skipif(shutil.which("cc") is None, reason="no C compiler")
+@pytest.mark.parametrize("interface", ["wheel", "torque"])
+def test_c_host_starter_compiles_runs_bare_and_equals_the_fmpy_recipe(interface, recipe_runs, tmp_path):
+    files, cmd = write_starter("c", interface, tmp_path)
+    cc = subprocess.run(["cc", "-O2", "-Wall", "-Werror", "-o", "host", "host.c", "-ldl"], cwd=tmp_path,
+                        capture_output=True, text=True)
+    assert cc.returncode == 0, cc.stderr
+    r = subprocess.run(["./host", str(STOP)], cwd=tmp_path, env=BARE_ENV, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stdout + r.stderr
+    got = {m.group(1): float(m.group(2)) for m in
+           (re.match(r"^(\D+?)\s+(-?\d+\.\d+)", line) for line in r.stdout.splitlines()[1:]) if m}
+    assert len(got) == 4, r.stdout
+    s = recipe.summary(recipe_runs[interface], since=0.6 * STOP)
+    assert got["inner (left) shaft torque"] == pytest.approx(s["leftShaft.tau"], rel=1e-9)
+    assert got["outer (right) shaft torque"] == pytest.approx(s["rightShaft.tau"], rel=1e-9)
+    assert got["locking torque"] == pytest.approx(s["lockingTorque"], rel=1e-9)
+    assert got["carrier speed"] == pytest.approx(s["carrier.w"], rel=1e-9)
+
+
+# ------------------------------------------------------------------ the SSP in libcosim
+def test_ssp_starters_run_in_libcosim_and_both_interfaces_agree(tmp_path):
+    pytest.importorskip("libcosimpy", reason="libcosimpy is not installed (pip install libcosimpy)")
+    means = {}
+    for interface in ("wheel", "torque"):
+        out = tmp_path / interface
+        files, cmd = write_starter("ssp", interface, out, duration=0.3)
+        r = subprocess.run([sys.executable, *cmd.split()[1:]], cwd=out, capture_output=True, text=True,
+                           timeout=300, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+        assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+        means[interface] = {ln.split()[0]: float(ln.split()[1]) for ln in r.stdout.splitlines()[1:]}
+    w, t = means["wheel"], means["torque"]
+    for n in ("diff.leftShaft.tau", "diff.rightShaft.tau", "diff.lockingTorque"):   # 5 ms wheel vs 0.2 ms torque
+        assert w[n] == pytest.approx(t[n], rel=2e-3), n
+    assert w["diff.leftShaft.tau"] - w["diff.rightShaft.tau"] == pytest.approx(w["diff.lockingTorque"], rel=1e-3)
+    assert 85.0 < w["diff.leftShaft.tau"] < 92.0 and 58.0 < w["diff.rightShaft.tau"] < 65.0   # the main job's turn
+
+
+# ------------------------------------------------------------------ two runs in one Python process
+_TWO_RUNS = """
+import sys
+from fmpy import extract, simulate_fmu
+diff, wheel = sys.argv[1:3]
+if sys.argv[3] == "extract":   # the workaround: extract once, keep the folders for the process's life
+    diff, wheel = extract(diff), extract(wheel)
+simulate_fmu(diff)
+simulate_fmu(wheel)
+simulate_fmu(wheel)
+print("three runs ok")
+"""
+
+
+def _two_runs(fmu_files, how: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-c", _TWO_RUNS, str(fmu_files["SpurDifferential"]),
+                           str(fmu_files["WheelLoad"]), how], capture_output=True, text=True, timeout=300,
+                          cwd="/", env={k: v for k, v in os.environ.items() if k != "PYTHONPATH"})
+
+
+def test_several_runs_in_one_process_work_from_extracted_folders(fmu_files):
+    """The workaround docs/use-the-fmu.md gives for the known problem below."""
+    r = _two_runs(fmu_files, "extract")
+    assert r.returncode == 0 and "three runs ok" in r.stdout, r.stdout[-2000:] + r.stderr[-2000:]
+
+
+def test_several_simulate_fmu_calls_on_fmu_files_in_one_process(fmu_files):
+    """Each FMU imports its own package under a private name per extraction folder (issue 25):
+    simulate_fmu's deleted folders are never reused."""
+    r = _two_runs(fmu_files, "files")
+    assert r.returncode == 0 and "three runs ok" in r.stdout, r.stderr[-500:]
