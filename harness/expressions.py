@@ -32,7 +32,7 @@ from typing import Any, Callable, Iterable, Mapping
 
 import numpy as np
 
-from harness.scene import SceneError
+from harness.schema import SceneError
 
 MAX_LENGTH = 500          # characters
 MAX_TERMS = 200           # terms: numbers and references

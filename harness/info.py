@@ -3,13 +3,14 @@ from __future__ import annotations
 
 import math
 
-from spurdiff.geometry import MM, GearTable, derive
-from spurdiff.inertia import mass_properties
-from spurdiff.params import DifferentialParams
-from spurdiff.locking import (breakaway, first_order_K, locking_coefficients, paper_locking_coefficient,
+from spurdiff.gears.design import derive
+from spurdiff.gears.geometry import MM, GearTable
+from spurdiff.differential.inertia import mass_properties
+from spurdiff.differential.params import DifferentialParams
+from spurdiff.differential.locking import (breakaway, first_order_K, locking_coefficients, paper_locking_coefficient,
                               pin_friction, torque_bias_ratio)
-from spurdiff.phasing import mesh_phases
-from spurdiff.statics import mesh_forces, mesh_forces_for
+from spurdiff.gears.phasing import mesh_phases
+from spurdiff.differential.statics import mesh_forces, mesh_forces_for
 
 from harness.report import render
 
@@ -126,8 +127,8 @@ def breakaway_table(resolution: float = 1e-3) -> str:
     load difference is ramped (1 ms steps of ``resolution`` x K T0, from 0.97 K T0, the model
     starting statically loaded) until the differential moves (rigid: relative speed; contact: both
     planets slipping). T0 = 2100 N m, carrier at 1.389 rad/s, sun A the more loaded one."""
-    from spurdiff.mesh import MeshDifferential, MeshParams
-    from spurdiff.rigid import RigidDifferential
+    from spurdiff.differential.mesh import MeshDifferential, MeshParams
+    from spurdiff.differential.rigid import RigidDifferential
 
     def make(level: str, loads: tuple[float, float]):
         p = DifferentialParams()
@@ -159,11 +160,3 @@ def breakaway_table(resolution: float = 1e-3) -> str:
                      f"{100 * (found['contact'] / found['rigid'] - 1):+.2f} %"])
     return render(["case", "K", "K T0 N m", "rigid breaks at N m", "contact breaks at N m", "contact vs rigid"],
                   rows)
-
-
-if __name__ == "__main__":   # python -m harness.info [breakaway]
-    import sys
-
-    from harness.cli.info import main
-
-    sys.exit(main())

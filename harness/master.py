@@ -12,6 +12,9 @@ logged; the results recorded so far are kept in the :class:`Result`.
 Power over each declared coupling (a torque and the speeds on both sides) is integrated, so the
 energy residual of the coupling (the work one side gives minus the work the other receives) shows
 when the communication step is too coarse.
+
+(Over 400 lines: one class, the co-simulation loop and its initialization, recording and
+coupling-energy bookkeeping, which share the planned step; :func:`run_scene` wraps it.)
 """
 from __future__ import annotations
 

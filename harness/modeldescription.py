@@ -1,7 +1,7 @@
 """Post-processing of a pythonfmu modelDescription.xml.
 
 pythonfmu 0.7 writes no units, no UnitDefinitions, no InitialUnknowns and no dependencies, so
-``fmpy validate`` rejects its FMUs. From the FMU's own :class:`~spurdiff.fmi_vars.Var` list this
+``fmpy validate`` rejects its FMUs. From the FMU's own :class:`~spurdiff.fmi.variables.Var` list this
 module adds: ``unit`` / ``displayUnit`` on every Real, the UnitDefinitions (SI base-unit exponents
 and display-unit factors), ``Outputs`` with their direct dependencies and ``InitialUnknowns``
 (outputs and calculated parameters, which are computed in initialization). It also states
@@ -14,7 +14,7 @@ import math
 import xml.etree.ElementTree as ET
 from typing import Iterable, Sequence
 
-from spurdiff.fmi_vars import Var
+from spurdiff.fmi.variables import Var
 
 # unit -> (SI base-unit exponents, {display unit: (factor, offset)}); value_display = factor * value + offset
 UNITS: dict[str, tuple[dict[str, int] | None, dict[str, tuple[float, float]]]] = {

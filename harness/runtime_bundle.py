@@ -51,6 +51,9 @@ a new runtime removes all but the newest other one (:data:`KEEP_RUNTIMES`).
 :func:`run_in_runtime` runs an extracted FMU's package on its runtime's module path only (the
 build interpreter's executable standing in for the loader), which the tests use; the loader's
 preloading of the libraries is not exercised there.
+
+(Over 400 lines: one runtime from the module list to the cached, checked folder: probing the
+modules the FMUs import, copying them with numpy and the libraries they need, and the cfg.)
 """
 from __future__ import annotations
 
@@ -296,7 +299,7 @@ def _tidy_elf(path: Path, notes: list[str]) -> None:
         notes.append("no strip")
     info = elf.dynamic(path)
     if info.rpath or info.runpath:
-        from harness.build import find_patchelf
+        from harness.elf import find_patchelf
         patchelf = find_patchelf()
         if patchelf:
             subprocess.run([patchelf, "--remove-rpath", str(path)], check=True, capture_output=True)

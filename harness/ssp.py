@@ -228,13 +228,3 @@ def _write(scene: Scene, fmu_files: dict[str, Path], mds: dict, variables: dict,
 def default_output(scene: Scene) -> Path:
     name = safe_name("scene name", scene.name)   # a name becomes a path only after validation
     return results_dir(name) / f"{name}.ssp"
-
-
-def main(argv: list[str] | None = None) -> int:
-    """``spurdiff export-ssp`` (see :mod:`harness.cli.export_ssp`)."""
-    from harness.cli.export_ssp import main as _main
-    return _main(argv)
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -19,7 +19,7 @@
  * an FMU beside a host that imported spurdiff itself never share a module, and an extraction
  * folder deleted after its last instance is freed leaves nothing behind that a later FMU reuses.
  *
- * The slave protocol (see spurdiff/fmi_adapter.py): the class from the cfg is called with
+ * The slave protocol (see spurdiff/fmi/adapter.py): the class from the cfg is called with
  * instance_name, resources, visible, logging_on; each FMI function calls one method named
  * fmi2_<function> whose return value is the status (None = fmi2OK) or, for getters, the values.
  * Getters and setters get the value references as a tuple (the same tuple object while the host
@@ -98,7 +98,7 @@ static const char *METHOD_NAMES[N_METHODS] = {
  * Python tuple made of each, and for fmi2GetReal / fmi2SetReal the slave's plan of the fast path
  * (fmi2_real_plan: the names of the variables in the slave's value table, for a setter the range
  * of each value): a master calls with the same few vectors every step, so the tuple and the plan
- * are made once and the slave's caches keyed on the tuple (fmi_adapter.py) hit. */
+ * are made once and the slave's caches keyed on the tuple (spurdiff/fmi/adapter.py) hit. */
 #define VR_SLOTS 4
 typedef struct {
     fmi2ValueReference *vr;

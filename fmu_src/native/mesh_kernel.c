@@ -6,9 +6,9 @@
  * stick-slip, work accounting), so Python is entered once per communication step.
  *
  * A line-by-line transcription of the pure-Python reference, which stays the specification and the
- * fallback: fmu_src/spurdiff/mesh/{forces,events,stickslip,stepper,integrator}.py (the comments
+ * fallback: fmu_src/spurdiff/differential/mesh/{forces,events,stickslip,stepper,integrator}.py (the comments
  * name the Python function each C function mirrors). Called through ctypes
- * (fmu_src/spurdiff/mesh/kernel.py); the structures (mesh_kernel.h) are mirrored there field by
+ * (fmu_src/spurdiff/differential/mesh/kernel.py); the structures (mesh_kernel.h) are mirrored there field by
  * field. The model evaluation is in mesh_kernel_model.c; this file holds the method, the events,
  * stick-slip, the driver and the exported functions. Depends on libm only.
  *
@@ -24,7 +24,7 @@ int mk_abi(void) { return MK_ABI; }
 int64_t mk_sizeof_params(void) { return (int64_t)sizeof(MkParams); }
 int64_t mk_sizeof_state(void) { return (int64_t)sizeof(MkState); }
 
-/* ------------------------------------------------------------ the method (spurdiff.mesh.integrator) */
+/* ------------------------------------------------------------ the method (spurdiff.differential.mesh.integrator) */
 
 typedef struct {
     double J1[NMAX * NMAX], W[NMAX * NMAX];
@@ -150,7 +150,7 @@ static double new_step_size(const MkParams *P, double h, double err, int rejecte
     return h * fac;
 }
 
-/* ------------------------------------------------------------ events (spurdiff.mesh.events) */
+/* ------------------------------------------------------------ events (spurdiff.differential.mesh.events) */
 #define JAC_AGE_MAX 10     /* stepper.JAC_AGE_MAX */
 #define H_KEEP 1.2         /* stepper.H_KEEP */
 #define STICK_RTOL 1e-9
@@ -255,7 +255,7 @@ static double phase_limit(const MkParams *P, const MkState *S, const double *y) 
     return best;
 }
 
-/* ------------------------------------------------------------ stick-slip (spurdiff.mesh.stickslip) */
+/* ------------------------------------------------------------ stick-slip (spurdiff.differential.mesh.stickslip) */
 static int64_t settle_modes(const MkParams *P, MkState *S, const double *y, const int *zeroed, int nz, Work *wk, double *sv) {
     int64_t before[2] = {S->s[0], S->s[1]};
     for (int k = 0; k < nz; k++) S->s[zeroed[k]] = 0;
@@ -304,7 +304,7 @@ static void stick_impulse(const MkParams *P, MkState *S, double *y, int i, doubl
     y[idx] = 0.0;
 }
 
-/* ------------------------------------------------------------ the driver (spurdiff.mesh.stepper) */
+/* ------------------------------------------------------------ the driver (spurdiff.differential.mesh.stepper) */
 static void book_parametric_work(const MkParams *P, MkState *S, const double *ya, const double *yb) {
     double psiBa, th1a, th2a, psiBb, th1b, th2b;
     mk_relative_angles(S, P, ya, &psiBa, &th1a, &th2a);

@@ -1,7 +1,7 @@
 /*
  * Shared declarations of the compiled mesh kernel (mesh_kernel_model.c: the model evaluation;
  * mesh_kernel.c: the method, events, stick-slip, the driver and the exported functions). The
- * structures are mirrored by fmu_src/spurdiff/mesh/kernel.py field by field (doubles and 64-bit
+ * structures are mirrored by fmu_src/spurdiff/differential/mesh/kernel.py field by field (doubles and 64-bit
  * integers only, so there is no padding).
  */
 #ifndef MESH_KERNEL_H
@@ -12,7 +12,7 @@
 
 #define MK_ABI 4
 #define NMAX 10
-#define SMAX 8        /* the most stages of a method (spurdiff.mesh.integrator.SMAX) */
+#define SMAX 8        /* the most stages of a method (spurdiff.differential.mesh.integrator.SMAX) */
 enum { PSI, DA, DB, D12, VA, VB, W1, W2, WC, PHIC };
 enum { LAW_BILATERAL = 0, LAW_ELASTO = 1, LAW_IMPACT = 2 };
 enum { MK_OK = 0, MK_MAX_STEPS = 1, MK_HMIN = 2 };
@@ -29,7 +29,7 @@ typedef struct {
     double e, C, dmax;                       /* IMPACT */
     double mu_s, mu_d, v_s, v_d;             /* flank friction */
     double c_pin, M01, M02;
-    double pin_flat[2][8];                   /* spurdiff.locking.PinLayout._flat */
+    double pin_flat[2][8];                   /* spurdiff.gears.layout.PinLayout._flat */
     double Minv[5][5];                       /* torque drive: inverse mass matrix (w_c, v_A, v_B, w_1, w_2) */
     double atol[NMAX], rtol, w_stick;
     double gamma, err_exp, a[SMAX][SMAX], cc[SMAX][SMAX], m[SMAX], ew[SMAX], dmid[SMAX];   /* transformed tableau */
@@ -43,11 +43,11 @@ typedef struct {
     double w_ref, tau_c, tau_L, tau_R;
     double ac, wc, phic, t, h_next, work_in, energy_loss, parametric_work, loss_last_step, last_h;
     double dA0, dB0, d120;
-    double sv[13];            /* side values of the outputs at the end (spurdiff.mesh.forces.SideValues) */
+    double sv[13];            /* side values of the outputs at the end (spurdiff.differential.mesh.forces.SideValues) */
     int64_t s[2], flags[6], n_flags;
     int64_t n_internal_steps, n_rejected_steps, n_mode_switches, n_contact_transitions, n_steps;
     double fail_t, fail_h;    /* where a step failed */
-    /* the integrator's memory between communication steps (spurdiff.mesh.stepper, .integrator) */
+    /* the integrator's memory between communication steps (spurdiff.differential.mesh.stepper, .integrator) */
     double Jf[NMAX * NMAX];   /* the Jacobian the steps use (c._integ.J), row-major N x N */
     double LU[NMAX * NMAX];   /* W = I/(gamma lu_h) - Jf factored (row-major, L and U in one) */
     double f0c[NMAX], sv0c[13], key[4];   /* f and side values at y for the inputs in key, key_s */

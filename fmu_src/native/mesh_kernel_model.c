@@ -1,7 +1,7 @@
 /*
  * The model evaluation of the compiled mesh kernel: force and friction laws, the effects (mesh
  * phase and stiffness wave, flank friction, pin friction) and the right-hand side with its Jacobian
- * and side values, a transcription of fmu_src/spurdiff/mesh/{laws,forces}.py (see mesh_kernel.c).
+ * and side values, a transcription of fmu_src/spurdiff/differential/mesh/{laws,forces}.py (see mesh_kernel.c).
  */
 #include "mesh_kernel.h"
 
@@ -16,7 +16,7 @@ MK_HIDDEN double mk_pymod(double x, double w) {
     return r;
 }
 
-/* ------------------------------------------------------------ laws (spurdiff.mesh.laws) */
+/* ------------------------------------------------------------ laws (spurdiff.differential.mesh.laws) */
 static void impact(double p, double v, double K, double e, double C, double dmax, double *out) {
     if (p <= 0.0) { out[0] = out[1] = out[2] = out[3] = 0.0; return; }
     double pe1 = e == 1.5 ? sqrt(p) : pow(p, e - 1.0);
@@ -63,7 +63,7 @@ static void friction_coefficient(double v, double mu_s, double mu_d, double v_s,
     *mu = v > 0.0 ? mu_d : -mu_d; *dmu = 0.0;
 }
 
-/* ------------------------------------------------------------ effects (spurdiff.mesh.forces) */
+/* ------------------------------------------------------------ effects (spurdiff.differential.mesh.forces) */
 MK_HIDDEN double mk_wave_factor(const MkParams *P, const MkMesh *m, double xi) {   /* MeshPhase.factor */
     if (!P->wave) return 1.0;
     return (xi < m->eps - 1.0 ? 2.0 : 1.0) / m->eps;

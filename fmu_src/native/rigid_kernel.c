@@ -1,11 +1,11 @@
-/* The compiled pin-load solve of the rigid level (spurdiff.rigid.RigidDifferential._slip_exact).
+/* The compiled pin-load solve of the rigid level (spurdiff.differential.rigid.RigidDifferential._slip_exact).
  *
  * Slipping in direction s with the pin-load locking law: Newton on the planets' moment balances for
  * (a_d, F_12). A transcription of the Python reference, which stays the specification and the
  * fallback: the same operations in the same order (compiled with -ffp-contract=off, no fused
  * multiply-adds), so the two agree bit for bit (tests/test_rigid_kernel.py).
  *
- * Constants (rk_nconst() doubles, set once per initialized model; see spurdiff/rigid_kernel.py):
+ * Constants (rk_nconst() doubles, set once per initialized model; see spurdiff/differential/rigid_kernel.py):
  *   0 rb1, 1 rb2, 2 n rbA, 3 n rbB, 4 c (pin friction lever), 5 M01, 6 M02, 7 J_A, 8 J_B, 9 lam,
  *   10 J_1, 11 J_2, 12 rho1, 13 rho2, 14 Mcd, 15 Mcc, 16 n, 17..32 planet 1's pin constants,
  *   33..48 planet 2's (tx ty rx ry ux uy qx qy, then the sums and differences, as _pin_constants).
@@ -70,7 +70,7 @@ int64_t rk_step_slip(const double *k, double *io)
 
 /* The accelerations, the sun mesh forces and the two pins' force vectors at the iterate (ad, F12):
  * evaluated in the Newton loop and once more at convergence (the same operations as the Python
- * reference, spurdiff/rigid_pinload.py, which writes them out twice on its hot path). */
+ * reference, spurdiff/differential/rigid_pinload.py, which writes them out twice on its hot path). */
 #define PIN_FORCES()                                                     \
     do {                                                                 \
         ac = given ? ac_given : (Qc - Mcd * ad) / Mcc;                   \

@@ -1,8 +1,12 @@
-"""spurdiff: physics of a spur-gear planetary inter-wheel differential.
+"""spurdiff: physics of a spur-gear planetary inter-wheel differential, and its FMUs.
 
-Plain Python (numpy only: the solvers are our own, :mod:`spurdiff.numerics`); no FMI needed. The
-FMUs are declared in ``differential_fmu``, ``wheel_fmu`` and ``vehicle_fmu`` (variables bound to
-the models, :mod:`spurdiff.binding`), made into FMU classes by :func:`spurdiff.fmi_adapter.fmu_class`;
-the harness builds on these modules.
+Plain Python (numpy only: the solvers are our own, :mod:`spurdiff.numerics`); no FMI needed below
+:mod:`spurdiff.fmi`. The packages, each importing only those below it (docs/architecture.md):
+
+* :mod:`spurdiff.fmi`: the FMI layer (variables, bindings, the three FMU declarations, the adapter);
+* :mod:`spurdiff.differential` and :mod:`spurdiff.vehicle`: the models;
+* :mod:`spurdiff.gears`: the gear set (geometry, checks, pin layout, phasing);
+* the core at the top: :mod:`.errors`, :mod:`.datafile` (with ``data/``), :mod:`.numerics`,
+  :mod:`.native_library`; this module imports nothing.
 """
 __version__ = "0.1.0"

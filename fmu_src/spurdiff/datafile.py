@@ -15,7 +15,7 @@ from dataclasses import fields
 from functools import lru_cache
 from pathlib import Path
 
-from .errors import ParameterError
+from spurdiff.errors import ParameterError
 
 DEFAULT_DATA = "passenger_car.toml"
 DIFFERENTIAL_DATA = "differential.toml"

@@ -6,8 +6,8 @@ so that the FMUs run without scipy.
   "Algorithms for Minimization without Derivatives", 1973, ch. 4). Same arguments and stopping
   rule as ``scipy.optimize.brentq``: it returns ``x`` once the bracket around the root is shorter
   than ``2 (xtol + rtol |x|)`` (so ``|x - root| <= xtol + rtol |x|``), or ``f(x) == 0`` exactly.
-  Used for the inverse involute (:mod:`spurdiff.geometry`), the form radius
-  (:mod:`spurdiff.generating`) and the Magic Formula's peak and inverse (:mod:`spurdiff.tyre`).
+  Used for the inverse involute (:mod:`spurdiff.gears.geometry`), the form radius
+  (:mod:`spurdiff.gears.generating`) and the Magic Formula's peak and inverse (:mod:`spurdiff.vehicle.tyre`).
 * :func:`minimize_bounded`: a minimum of a scalar function on ``[lo, hi]`` by Brent's bounded
   method (golden section with parabolic steps; Brent, ch. 5), as
   ``scipy.optimize.minimize_scalar(method="bounded")``: stops when ``x`` is within
@@ -15,10 +15,10 @@ so that the FMUs run without scipy.
   ``tol = 1.483e-8 |x| + xatol / 3`` (``sqrt(2.2e-16)``, scipy's constant). The first term
   usually dominates: the location is found to about 1.5e-8 relative, the minimum value to
   rounding (a smooth minimum is flat). Used for the tool's depth over the rolling angle
-  (:mod:`spurdiff.generating`).
+  (:mod:`spurdiff.gears.generating`).
 * :func:`solve_system`: a root of a small nonlinear system ``F(x) = 0`` by Newton's method with a
   forward-difference Jacobian (or a given one) and a backtracking line search on ``|F|``; for the
-  consistent start of the mesh model (2 or 3 unknowns, :mod:`spurdiff.mesh.stickslip`). It stops
+  consistent start of the mesh model (2 or 3 unknowns, :mod:`spurdiff.differential.mesh.stickslip`). It stops
   with success when a full Newton step is at most ``xtol |x|`` (Euclidean norms; the relative-step
   test of ``scipy.optimize.fsolve``, there on the Jacobian-scaled norm and the trust radius), when
   ``F(x) == 0``, or when the residual cannot be lowered any more after it fell to ``1e-10`` of its

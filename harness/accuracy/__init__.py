@@ -27,7 +27,7 @@ replaces a name patches the module that looks it up: ``data.DATA_FILE`` / ``data
 """
 from harness.accuracy.auto import (REFERENCE_FRACTION, SANE_ERROR, apply_choice, choose,
                                    reference_resolution)
-from harness.accuracy.command import main, run
+from harness.accuracy.command import run
 from harness.accuracy.data import (DATA_FILE, FACTS_FILE, GRID_FILE, STATS, Fidelity, Point, load_grid,
                                    read_csv, stored_files, write_csv)
 from harness.accuracy.ivp import equal_accuracy_ratios, ivp_baseline, ivp_error_key

@@ -1,6 +1,6 @@
 """``python -m harness.accuracy`` = ``spurdiff accuracy`` (:mod:`harness.cli.accuracy`)."""
 import sys
 
-from harness.accuracy import main
+from harness.cli.accuracy import main
 
 sys.exit(main())

@@ -15,11 +15,6 @@ from harness.paths import docs_dir, results_dir
 from harness.scene import SceneError
 
 
-def main(argv: list[str] | None = None) -> int:
-    """``spurdiff accuracy`` (see :mod:`harness.cli.accuracy`)."""
-    from harness.cli.accuracy import main as _main
-    return _main(argv)
-
 
 def run(args) -> int:
     """``spurdiff accuracy`` with its parsed options (:mod:`harness.cli.accuracy`)."""

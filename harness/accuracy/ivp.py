@@ -1,5 +1,5 @@
 """Our internal solver against scipy's ``solve_ivp`` on the differential ODE: the measured points
-(:mod:`harness.bench.mesh`) and the wall-time ratios at equal error."""
+(:mod:`harness.bench.mesh_ivp`) and the wall-time ratios at equal error."""
 from __future__ import annotations
 
 import math
@@ -68,9 +68,9 @@ def _wall_at(curve: list[dict], err: float) -> float | None:
 
 def ivp_baseline(log=print) -> list[dict]:
     """Our internal solver against scipy's solve_ivp on the same differential ODE
-    (:mod:`harness.bench.mesh`: contact level from unloaded meshes, compliant level with
+    (:mod:`harness.bench.mesh_ivp`: contact level from unloaded meshes, compliant level with
     backlash through a torque reversal)."""
-    from harness.bench.mesh import IVP_CASES, IVP_TOLS, ivp_points
+    from harness.bench.mesh_ivp import IVP_CASES, IVP_TOLS, ivp_points
 
     out = []
     for case in IVP_CASES:

@@ -137,7 +137,7 @@ def markdown_ivp(ivp: list[dict], command: str = "spurdiff accuracy") -> list[st
     lines = ["## Our internal solver against scipy's solve_ivp", "", f"Measured by `{command}`.", "",
              "The same differential ODE (`MeshDifferential.rhs`/`.jac`, pin friction off so no mode switches), "
              "0.3 s, states at the 301 points of a 1 ms grid, compared with a tolerance-1e-11 run of ours "
-             "(`harness.bench.mesh.ivp_points`) on two errors: the paper scenes' metrics (mean, max and min of the "
+             "(`harness.bench.mesh_ivp.ivp_points`) on two errors: the paper scenes' metrics (mean, max and min of the "
              "carrier and sun torques and the three mesh forces along the trajectory, each relative to its "
              "quantity's scale, as the scenes above are measured; plotted) and the scaled states at the "
              "1 ms points (stricter). solve_ivp (analytic Jacobian; right-hand side and Jacobian the compiled "

@@ -5,8 +5,8 @@ table, ``--write``) in :mod:`harness.bench.report`; this package re-exports what
 and other modules use. Benchmarks of their own subject go beside it as modules
 of this package.
 """
-from harness.bench.core import (EFFECT_SETS, fidelity_cost, fmi_overhead, main, realtime_factors,
+from harness.bench.core import (EFFECT_SETS, fidelity_cost, fmi_overhead, realtime_factors,
                                 step_control_comparison, step_cost_breakdown)
 
-__all__ = ["EFFECT_SETS", "fidelity_cost", "fmi_overhead", "main", "realtime_factors",
+__all__ = ["EFFECT_SETS", "fidelity_cost", "fmi_overhead", "realtime_factors",
            "step_control_comparison", "step_cost_breakdown"]

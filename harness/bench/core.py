@@ -364,9 +364,3 @@ def step_control_comparison(scene_name: str = "tip-in-tip-out", repeats: int = 3
                      "steps": r.steps, "rejected": m.rejected, "ok": r.ok,
                      "err_ratio": errors(r)[0], "err_lock": errors(r)[1]})
     return rows
-
-
-def main(argv: list[str] | None = None) -> int:
-    """``spurdiff bench`` (see :mod:`harness.cli.bench`)."""
-    from harness.cli.bench import main as _main
-    return _main(argv)

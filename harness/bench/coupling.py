@@ -4,7 +4,7 @@ over the step) at its stable 0.2 ms step. Prints one table: per scene and step t
 outer/inner wheel-speed ratio's difference (absolute) and the mean locking torque's difference
 (relative to the reference mean, and in N m), over the scene's window.
 
-    SPURDIFF_FMU_DIR=/tmp/fmus_x python -m harness.bench.coupling [scene ...] [--steps 1e-3,5e-3] [--fresh]
+    SPURDIFF_FMU_DIR=/tmp/fmus_x python -m harness.cli.coupling_bench [scene ...] [--steps 1e-3,5e-3] [--fresh]
 
 The reference runs' means are cached in ./results/coupling_refs.json (keyed by scene and window;
 ``--cache PATH`` for another file); ``--fresh`` recomputes them (do so after changing the old
@@ -140,9 +140,3 @@ def run(scenes: list[str], steps: list[float], fresh: bool = False, cache_path: 
         w0, w1 = WINDOWS[name]
         print(f"| {name} | {h * 1e3:g} | {w0:g}-{w1:g} | {a} | {b} | {c} | {ref_lock} | {wall:.1f} |")
     return 0
-
-
-if __name__ == "__main__":   # the command line is harness/cli/coupling_bench.py
-    from harness.cli.coupling_bench import main
-
-    raise SystemExit(main())

@@ -1,4 +1,4 @@
-"""What the rigid level's compiled kernel (:mod:`spurdiff.rigid_kernel`) saves on
+"""What the rigid level's compiled kernel (:mod:`spurdiff.differential.rigid_kernel`) saves on
 vehicle-cornering: A/B in one process, interleaved (``solver.kernel = python``, the reference,
 against the compiled kernel), CPU time of the stepping thread, fastest of ``rounds`` runs each:
 
@@ -7,7 +7,7 @@ against the compiled kernel), CPU time of the stepping thread, fastest of ``roun
 * the whole scene through FMI and directly (:func:`harness.bench.core.cpu_clock`): us per step and
   the real-time factor.
 
-Run ``python -m harness.bench.rigid_kernel [--rounds N]`` (the command line is
+Run ``python -m harness.cli.rigid_kernel_bench [--rounds N]`` (the command line is
 harness/cli/rigid_kernel_bench.py). Printed, never asserted.
 """
 from __future__ import annotations
@@ -18,7 +18,7 @@ from harness.direct import run_direct
 from harness.master import run_scene
 from harness.recording import recording_size
 from harness.runner import fmu_files_for, prepare_scene
-from spurdiff import rigid_kernel
+from spurdiff.differential import rigid_kernel
 
 KERNELS = ("python", "compiled")
 SCENE = "vehicle-cornering"
@@ -74,8 +74,3 @@ def run(rounds: int = 5) -> int:
     for (k, w), b in walls.items():
         print(f"  {k:8s} {w:6s}  {1e6 * b / n:6.1f} us per step  real-time factor {duration / b:5.2f}")
     return 0
-
-
-if __name__ == "__main__":   # the command line is harness/cli/rigid_kernel_bench.py
-    from harness.cli.rigid_kernel_bench import main
-    raise SystemExit(main())

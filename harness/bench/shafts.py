@@ -13,11 +13,11 @@ import time
 
 import numpy as np
 
-from spurdiff.mesh import MeshDifferential, MeshParams
-from spurdiff.params import DifferentialParams
-from spurdiff.rigid import RigidDifferential
-from spurdiff.shafts import ShaftedDifferential, ShaftParams, ShaftsParams, WheelSurrogate
-from spurdiff.wheel import WheelLoad, WheelLoadParams
+from spurdiff.differential.mesh import MeshDifferential, MeshParams
+from spurdiff.differential.params import DifferentialParams
+from spurdiff.differential.rigid import RigidDifferential
+from spurdiff.differential.shafts import ShaftedDifferential, ShaftParams, ShaftsParams, WheelSurrogate
+from spurdiff.vehicle.wheel import WheelLoad, WheelLoadParams
 
 R_WHEEL = WheelLoadParams.defaults().wheel.R
 

@@ -31,11 +31,4 @@ __all__ = [
     "LifecycleOptions", "lifecycle_rules", "run_lifecycle_checks", "run_lifecycle_checks_many",
     "write_reference_results", "compare_results", "compare_checks", "read_cross_check_csv", "read_ref_opt",
     "safe_model_name", "Tolerance", "ColumnComparison",
-    "main",
 ]
-
-
-def main(argv=None) -> int:
-    """``spurdiff check`` (see :mod:`harness.cli.check`)."""
-    from harness.cli.check import main as _main
-    return _main(argv)

@@ -13,6 +13,9 @@ for the FMU too, so an FMU can pass every call-sequence rule and still not load 
   reason, when there is no compiler) and runs it with an empty environment (``env -i``): dlopen with
   RTLD_NOW, fmi2Instantiate, fmi2SetupExperiment, initialization, 3 doSteps, fmi2Terminate,
   fmi2FreeInstance (model exchange only: through initialization). A crash or a hang names the call.
+
+(Just over 400 lines: about 85 of them are the C host it compiles, kept as text beside the rule that
+runs it.)
 """
 from __future__ import annotations
 

@@ -1,9 +1,10 @@
 """The ``spurdiff`` command line, one module per command; the only place with argparse.
 
 ``spurdiff COMMAND ...`` hands the arguments after the command to ``harness.cli.<command>.main``
-(each command parses its own options, ``spurdiff COMMAND -h`` shows them). The harness's
-library modules keep a ``main(argv)`` that delegates here, so ``python -m harness.sweep``,
-``python -m harness.accuracy``... stay the same commands.
+(each command parses its own options, ``spurdiff COMMAND -h`` shows them). The library modules
+never import this package: the ``python -m`` entries live here (``python -m harness.cli.info``,
+``python -m harness.cli.mesh_bench``...) or in a package's ``__main__`` that calls one of these
+(``python -m harness.sweep``, ``python -m harness.accuracy``).
 """
 from __future__ import annotations
 

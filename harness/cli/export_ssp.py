@@ -43,3 +43,7 @@ def main(argv: list[str] | None = None) -> int:
     if scene.connections and scene.algorithm != "jacobi":
         print(f"note: the scene's algorithm is {scene.algorithm}; SSP masters such as libcosim step Jacobi")
     return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,8 +1,9 @@
-"""``spurdiff info`` (= ``python -m harness.info``): derived gear geometry, design-check findings, the
+"""``spurdiff info`` (= ``python -m harness.cli.info``): derived gear geometry, design-check findings, the
 paper's theory table beside ours; ``breakaway``: the breakaway torques of both fidelity levels."""
 from __future__ import annotations
 
 import argparse
+import sys
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -14,3 +15,7 @@ def main(argv: list[str] | None = None) -> int:
     from harness.info import breakaway_table, info_text
     print(breakaway_table() if args.table == "breakaway" else info_text())
     return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,9 +1,10 @@
-"""``python -m harness.bench.mesh``: the measurements behind docs/mesh-dynamics.md (the compiled
+"""``python -m harness.cli.mesh_bench``: the measurements behind docs/mesh-dynamics.md (the compiled
 kernel against the Python reference, the paper's two cases at each mesh level, the tolerance
 sweep, the comparison with scipy's solve_ivp; :mod:`harness.bench.mesh`)."""
 from __future__ import annotations
 
 import argparse
+import sys
 
 SECTIONS = ("paper", "tolerance", "ivp", "kernel", "step-bound", "methods", "tight")
 
@@ -11,7 +12,7 @@ SECTIONS = ("paper", "tolerance", "ivp", "kernel", "step-bound", "methods", "tig
 def main(argv: list[str] | None = None) -> int:
     from harness.bench import mesh
 
-    ap = argparse.ArgumentParser(prog="python -m harness.bench.mesh", description=mesh.__doc__)
+    ap = argparse.ArgumentParser(prog="python -m harness.cli.mesh_bench", description=mesh.__doc__)
     ap.add_argument("--full", action="store_true", help="also cornering with all effects (slow: tens of s)")
     ap.add_argument("--section", choices=SECTIONS, action="append",
                     help="default: paper, tolerance, ivp, kernel; step-bound (which error estimate sets the "
@@ -21,3 +22,7 @@ def main(argv: list[str] | None = None) -> int:
     a = ap.parse_args(argv)
     mesh.run(a.full, a.section or ["paper", "tolerance", "ivp", "kernel"], a.repeats)
     return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -42,11 +42,6 @@ from harness.sweep.spec import SWEEP_DIR, Param, Plot, Sweep, SweepError, availa
 from harness.sweep.table import FolderLock, TableWriter, fmt, read_table, table_path, write_table
 
 
-def main(argv: list[str] | None = None) -> int:
-    """``spurdiff sweep`` (see :mod:`harness.cli.sweep`)."""
-    from harness.cli.sweep import main as _main
-    return _main(argv)
-
 
 __all__ = ["STATUSES", "FmuRef", "Job", "Metric", "Task", "Plan", "plan_sweep", "ProgressBar", "Outcome", "run_sweep",
            "expand", "unit_samples", "SWEEP_DIR", "Param", "Plot", "Sweep", "SweepError", "available", "load_sweep",

@@ -1,6 +1,6 @@
-"""``python -m harness.sweep``: the same as ``spurdiff sweep``."""
+"""``python -m harness.sweep``: the same as ``spurdiff sweep`` (:mod:`harness.cli.sweep`)."""
 import sys
 
-from harness.sweep import main
+from harness.cli.sweep import main
 
 sys.exit(main())

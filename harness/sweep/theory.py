@@ -8,7 +8,7 @@ from harness.scene import SceneError
 
 def _differential(params: dict[str, Any]):
     """Parameters and geometry of a SpurDifferential from its FMU start values plus ``params``."""
-    from spurdiff.differential_fmu import VARIABLES, differential_params
+    from spurdiff.fmi.differential_fmu import VARIABLES, differential_params
 
     values = {v.name: v.start for v in VARIABLES}
     unknown = sorted(set(params) - set(values))
@@ -20,16 +20,16 @@ def _differential(params: dict[str, Any]):
 
 
 def locking_coefficient(params: dict[str, Any]) -> float:
-    """K = (mu r_d / n)(1/(r_a + r_1) + 1/(r_b + r_2)) from spurdiff.statics, dimensionless."""
-    from spurdiff.statics import locking_coefficient as k
+    """K = (mu r_d / n)(1/(r_a + r_1) + 1/(r_b + r_2)) from spurdiff.differential.statics, dimensionless."""
+    from spurdiff.differential.statics import locking_coefficient as k
 
     p, g = _differential(params)
     return k(p.mu_pin, p.r_collar, p.table.nPairs, g.r_a, g.r_1, g.r_b, g.r_2)
 
 
 def torque_bias_ratio(params: dict[str, Any]) -> float:
-    """(1 + K) / (1 - K) from spurdiff.statics, dimensionless."""
-    from spurdiff.statics import torque_bias_ratio as tbr
+    """(1 + K) / (1 - K) from spurdiff.differential.statics, dimensionless."""
+    from spurdiff.differential.statics import torque_bias_ratio as tbr
 
     return tbr(locking_coefficient(params))
 

@@ -1,11 +1,11 @@
 """The FMUs' declarations without FMI: each variable's binding is used and answered by the model
-(spurdiff.binding), and the differential's start values are its data file's."""
+(spurdiff.fmi.binding), and the differential's start values are its data file's."""
 from __future__ import annotations
 
 import pytest
 
-INTERFACES = {"SpurDifferential": "spurdiff.differential_fmu", "WheelLoad": "spurdiff.wheel_fmu",
-              "Vehicle": "spurdiff.vehicle_fmu"}
+INTERFACES = {"SpurDifferential": "spurdiff.fmi.differential_fmu", "WheelLoad": "spurdiff.fmi.wheel_fmu",
+              "Vehicle": "spurdiff.fmi.vehicle_fmu"}
 # the configurations a model class depends on: the differential's shaft coupling and fidelity
 CONFIGS = {"SpurDifferential": ({}, {"meshModel": "contact"}, {"shaftCoupling": "wheel"},
                                 {"shaftCoupling": "wheel", "meshModel": "contact"}),
@@ -19,7 +19,7 @@ def test_every_binding_is_used_and_every_output_answered(name):
     those the model's attributes hold."""
     import importlib
 
-    from spurdiff.binding import _has, bindings, resolve
+    from spurdiff.fmi.binding import _has, bindings, resolve
 
     iface = importlib.import_module(INTERFACES[name])
     assert iface.FMU_NAME == name
@@ -44,7 +44,7 @@ def test_every_binding_is_used_and_every_output_answered(name):
 def test_the_differentials_start_values_are_its_data_file():
     """The parameters' start values are differential.toml's (keys: the FMU's names), and setting a
     parameter reaches its field in the parameter objects."""
-    from spurdiff import differential_fmu as d
+    from spurdiff.fmi import differential_fmu as d
     from spurdiff.datafile import DIFFERENTIAL_DATA, read_data
 
     data = read_data(bundled=DIFFERENTIAL_DATA)

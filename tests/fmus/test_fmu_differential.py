@@ -87,7 +87,7 @@ def test_form_diameters_and_usable_contact_ratios_are_reported(differential_fmu)
     free(inst)
     # a sharp tool leaves meshes B2 and 12 without continuous action: the model refuses the set
     # with the numbers (checked on the variable mapping, the adapter only forwards the message)
-    from spurdiff import differential_fmu as d
+    from spurdiff.fmi import differential_fmu as d
     from spurdiff.errors import ParameterError
 
     values = {v.name: v.start for v in d.VARIABLES}

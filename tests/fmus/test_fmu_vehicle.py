@@ -14,8 +14,8 @@ from fmpy import read_model_description
 
 from fmu_session import free, get, start
 from spurdiff.datafile import read_data
-from spurdiff.tyre import magic_formula
-from spurdiff.vehicle_fmu import DEFAULT_SPEED
+from spurdiff.vehicle.tyre import magic_formula
+from spurdiff.fmi.vehicle_fmu import DEFAULT_SPEED
 
 DATA = read_data()
 R = DATA["wheel"]["R"]

@@ -68,7 +68,7 @@ def test_stored_data_auto_picks_rigid_for_speeds_and_backlash_contact_for_tooth_
 
 
 def test_render_rewrites_the_docs_from_stored_data(tmp_path):
-    from harness.accuracy import main
+    from harness.cli.accuracy import main
     assert main(["--render", "--out", str(tmp_path)]) == 0
     text = (tmp_path / "accuracy.md").read_text()
     assert "solve_ivp" in text and "cornering-speeds-auto" in text and (tmp_path / "accuracy.png").stat().st_size > 0
@@ -147,7 +147,8 @@ def test_scene_metrics_of_a_trajectory_measure_its_distance_from_the_reference()
     relative change of a peak when one output sample is perturbed."""
     import numpy as np
 
-    from harness.bench.mesh import ivp_model, output_metrics, trajectory
+    from harness.bench.mesh_cases import trajectory
+    from harness.bench.mesh_ivp import ivp_model, output_metrics
     from harness.metrics import metric_error
 
     m = ivp_model("contact, unloaded start", 1e-4)

@@ -42,10 +42,10 @@ def test_argparse_lives_only_in_the_cli_package():
 
 @pytest.mark.parametrize("module", ["mesh_bench", "rigid_kernel_bench"])
 def test_bench_modules_answer_help(module, capsys):
-    """The benchmark modules' command lines (``python -m harness.bench.<name>``) answer -h."""
+    """The benchmark modules' command lines (``python -m harness.cli.<name>``) answer -h."""
     with pytest.raises(SystemExit) as e:
         importlib.import_module(f"harness.cli.{module}").main(["-h"])
-    assert e.value.code == 0 and "python -m harness.bench." in capsys.readouterr().out
+    assert e.value.code == 0 and "python -m harness.cli." in capsys.readouterr().out
 
 
 def test_rigid_kernel_bench_rejects_zero_rounds(capsys):

@@ -70,7 +70,7 @@ def _absolute_imports_of(root: Path, names=("spurdiff", "pythonfmu")) -> list[st
 def staged(tmp_path_factory):
     root = tmp_path_factory.mktemp("fmu package") / "resources"
     pkg = stage_package(physics_package(), root)
-    write_entry(pkg, "WheelLoad", "spurdiff.wheel_fmu")
+    write_entry(pkg, "WheelLoad", "spurdiff.fmi.wheel_fmu")
     return pkg
 
 

@@ -26,7 +26,8 @@ from harness.libcosim_run import LibcosimError, read_facts, run_ssp  # noqa: E40
 from harness.master import run_scene  # noqa: E402
 from harness.runner import fmu_files_for, prepare_scene  # noqa: E402
 from harness.scene import SCENE_DIR, SceneError  # noqa: E402
-from harness.ssp import SspError, export_ssp, export_ssp_summary, main as export_main  # noqa: E402
+from harness.cli.export_ssp import main as export_main  # noqa: E402
+from harness.ssp import SspError, export_ssp, export_ssp_summary  # noqa: E402
 
 RTOL = 1e-9   # of max(1, max |x|) per variable: rounding, far below any modelling difference
 

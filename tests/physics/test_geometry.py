@@ -6,7 +6,8 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from spurdiff.errors import ParameterError
-from spurdiff.geometry import MM, GearTable, derive, inv, inv_inverse
+from spurdiff.gears.design import derive
+from spurdiff.gears.geometry import MM, GearTable, inv, inv_inverse
 
 
 def sig4(a, b):
@@ -173,12 +174,12 @@ def test_sharp_tool_form_radius_is_where_the_tip_corner_trochoid_crosses_the_inv
     roots = [brentq(gap, p0, p1) for p0, p1 in zip(phis, phis[1:])
              if gap(p0) * gap(p1) < 0 and math.hypot(Xc - r * p0, y_tip) > rb]
     R_cross = max(math.hypot(Xc - r * p, y_tip) for p in roots)
-    from spurdiff.generating import form_radius
+    from spurdiff.gears.generating import form_radius
     assert form_radius(z, x, m, a, ha, 0.0, 0.021331)[0] == pytest.approx(R_cross, abs=1e-8)
 
 
 def test_form_radius_is_continuous_across_the_undercut_limit():
-    from spurdiff.generating import form_radius, straight_flank_reach
+    from spurdiff.gears.generating import form_radius, straight_flank_reach
 
     z, m, a = 13, 3e-3, math.radians(20.0)
     x_lim = 1.0 - z * math.sin(a) ** 2 / 2          # ISO 53 tool: straight flank ends 1.0 m deep
@@ -226,7 +227,7 @@ def test_bad_tool_values_name_the_parameter(field, value):
 
 # ------------------------------------------------------------------ mesh phasing
 def test_mesh_phases_from_the_tooth_positions():
-    from spurdiff.phasing import mesh_phases
+    from spurdiff.gears.phasing import mesh_phases
 
     ph = mesh_phases(derive(GearTable.paper()))
     # reference: an A1 drive pair at its pitch point; planet 1's nearest 12 drive pair is then
@@ -239,8 +240,8 @@ def test_mesh_phases_from_the_tooth_positions():
 def _contacts(geo, theta):
     """Planet-1 drive flanks on the usable paths of A1 and 12, planet 1 turned by theta from the
     reference (direct count over its teeth, no modulo arithmetic on phases)."""
-    from spurdiff.locking import PinLayout
-    from spurdiff.phasing import _psi_b, mesh_phases
+    from spurdiff.gears.layout import PinLayout
+    from spurdiff.gears.phasing import _psi_b, mesh_phases
 
     t = geo.table
     phi1 = mesh_phases(geo)["_planets"][0] + theta
@@ -275,7 +276,7 @@ def _contacts(geo, theta):
 
 
 def test_planet_1_through_one_turn_single_and_double_contact_offset_by_the_phase():
-    from spurdiff.phasing import mesh_phases
+    from spurdiff.gears.phasing import mesh_phases
 
     geo = derive(GearTable.paper())
     ph = mesh_phases(geo)
@@ -306,7 +307,7 @@ def test_planet_1_through_one_turn_single_and_double_contact_offset_by_the_phase
 
 
 def test_pairs_out_of_phase_when_z_sun_over_n_is_not_an_integer():
-    from spurdiff.phasing import pair_phases
+    from spurdiff.gears.phasing import pair_phases
 
     assert pair_phases(36, 3) == [0.0, 0.0, 0.0]
     assert pair_phases(35, 2) == [0.0, 0.5]
@@ -319,7 +320,7 @@ def test_pairs_out_of_phase_when_z_sun_over_n_is_not_an_integer():
 # ------------------------------------------------------------------ design checks the old code got wrong
 def test_unequal_planets_are_symmetric():
     # the old check demanded equal planets; the kinematics only need equal suns
-    from spurdiff.statics import kinematics
+    from spurdiff.gears.layout import kinematics
 
     t = GearTable.paper().with_gear("planet2", z=14, x=0.0, da=0.0).with_gear("sunB", x=1.1, da=0.0)
     geo = derive(t)

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from spurdiff.errors import ParameterError
-from spurdiff.params import DifferentialParams
-from spurdiff.rigid import RigidDifferential
+from spurdiff.differential.params import DifferentialParams
+from spurdiff.differential.rigid import RigidDifferential
 
 STEPS = [1e-3, 1e-2]  # default and coarsest supported communication step
 
@@ -125,7 +125,7 @@ def test_bad_step_through_fmi_is_discarded_not_fatal(differential_fmu):
 # ---------------------------------------------------------------- mesh levels (compliant, contact)
 from hypothesis import given, settings, strategies as st  # noqa: E402
 
-from spurdiff.mesh import MeshDifferential, MeshParams  # noqa: E402
+from spurdiff.differential.mesh import MeshDifferential, MeshParams  # noqa: E402
 
 
 def meshed(level="contact", drive="speed", w0=1.389, loads=(-1050.0, -1050.0), **mesh):
@@ -324,7 +324,7 @@ def test_contact_onset_with_a_stuck_planet_does_not_stall_the_integrator(tol):
 # ---------------------------------------------------------------- drawn gear tables
 from hypothesis import assume  # noqa: E402
 
-from spurdiff.geometry import Gear, GearTable  # noqa: E402
+from spurdiff.gears.geometry import Gear, GearTable  # noqa: E402
 
 
 # The feasible space is narrow (planet 2 must clear sun A's tip circle, which is why the paper

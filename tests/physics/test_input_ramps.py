@@ -11,8 +11,8 @@ import random
 import pytest
 
 from spurdiff.errors import ParameterError
-from spurdiff.vehicle import Vehicle, VehicleParams
-from spurdiff.wheel import WheelLoad, WheelLoadParams
+from spurdiff.vehicle.car import Vehicle, VehicleParams
+from spurdiff.vehicle.wheel import WheelLoad, WheelLoadParams
 
 R = 0.3266
 

@@ -218,9 +218,9 @@ def test_minimum_against_the_bounded_method(name, f, lo, hi, xmin, curv, xatol):
 
 
 def _generating_minimisations():
-    """The minimisations form_radius does (spurdiff.generating): the tool's depth over the rolling
+    """The minimisations form_radius does (spurdiff.gears.generating): the tool's depth over the rolling
     angle near each sampled peak, recorded while computing the form radius of undercut gears."""
-    import spurdiff.generating as g
+    import spurdiff.gears.generating as g
 
     calls = []
 
@@ -259,7 +259,7 @@ def test_minimiser_on_the_form_radius_depth_functions():
 def test_form_radius_with_our_solvers_matches_scipy():
     """form_radius (brentq + minimize_scalar before) with our solvers and with scipy's: equal to
     its own tolerance (1e-12 m = xtol) for undercut gears."""
-    import spurdiff.generating as g
+    import spurdiff.gears.generating as g
 
     m, alpha = 0.003, math.radians(20.0)
     cases = ((13, -0.3), (9, 0.0), (7, -0.6), (11, -0.2), (15, -0.5))
@@ -302,13 +302,13 @@ def test_minimiser_refuses_non_finite_values_and_bad_bounds():
 # ----------------------------------------------------------------------------- system solver
 
 def _stickslip_systems():
-    """The consistent-start systems the mesh model solves (spurdiff.mesh.stickslip.initial_forces),
+    """The consistent-start systems the mesh model solves (spurdiff.differential.mesh.stickslip.initial_forces),
     recorded while building mesh models: speed and torque drive (2 and 3 unknowns), stuck and
     slipping starts, loaded and unloaded, with and without pin friction and preload."""
     import itertools
 
-    import spurdiff.mesh.stickslip as ss
-    from spurdiff import differential_fmu as d
+    import spurdiff.differential.mesh.stickslip as ss
+    from spurdiff.fmi import differential_fmu as d
 
     calls = []
 
@@ -441,7 +441,7 @@ _NO_SCIPY = textwrap.dedent("""
     names = [m.name for m in pkgutil.walk_packages(spurdiff.__path__, "spurdiff.")]
     for name in names:
         importlib.import_module(name)
-    from spurdiff import differential_fmu, vehicle_fmu, wheel_fmu
+    from spurdiff.fmi import differential_fmu, vehicle_fmu, wheel_fmu
     for iface, config in ((differential_fmu, {}), (differential_fmu, {"meshModel": "contact"}),
                           (differential_fmu, {"meshModel": "compliant", "carrierDrive": "torque",
                                               "differential.w_start": 0.5, "carrier.tau": 500.0}),
@@ -451,8 +451,8 @@ _NO_SCIPY = textwrap.dedent("""
         model = iface.build_model(values)
         model.do_step(0.0, 1e-3)
     # the undercut gear's form radius (brent root + bounded minimum) and the tyre's inverse
-    from spurdiff.generating import form_radius
-    from spurdiff.tyre import slip_for_force_ratio
+    from spurdiff.gears.generating import form_radius
+    from spurdiff.vehicle.tyre import slip_for_force_ratio
     assert form_radius(13, -0.3, 0.003, 0.3490658503988659, 1.25, 0.38, 0.021)[1]
     assert slip_for_force_ratio(0.5, 10.0, 1.9, 0.97) > 0.0
     assert not blocked, blocked

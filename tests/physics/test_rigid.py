@@ -5,8 +5,8 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from spurdiff.errors import ParameterError
-from spurdiff.params import DifferentialParams
-from spurdiff.rigid import RigidDifferential, StepError
+from spurdiff.differential.params import DifferentialParams
+from spurdiff.differential.rigid import RigidDifferential, StepError
 
 W0 = 1.389
 
@@ -209,7 +209,7 @@ def test_pin_law_is_loaded_with_opposite_sun_torques_and_no_net_torque():
 
 @pytest.mark.parametrize("n", [1, 2, 3, 4])
 def test_pin_law_K_does_not_change_with_nPairs(n):
-    from spurdiff.geometry import GearTable
+    from spurdiff.gears.geometry import GearTable
 
     m = model(table=GearTable(nPairs=n))
     ref = model()

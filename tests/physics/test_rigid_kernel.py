@@ -1,5 +1,5 @@
 """The compiled kernel of the rigid level (fmu_src/native/rigid_kernel.c through
-spurdiff.rigid_kernel) against its Python reference: every pin-load solve
+spurdiff.differential.rigid_kernel) against its Python reference: every pin-load solve
 (RigidDifferential._slip_exact) of the rigid scenes run both ways from the same state, bit for bit;
 the compiled slipping step (RigidDifferential._step_compiled) through the model's state after every
 step and whole runs of every rigid scene with solver.kernel = compiled and python identical; the
@@ -15,10 +15,10 @@ import pytest
 from harness.build import BuildError, rigid_kernel_library
 from harness.direct import run_direct
 from harness.runner import prepare_scene
-from spurdiff import rigid_kernel
+from spurdiff.differential import rigid_kernel
 from spurdiff.errors import ParameterError
-from spurdiff.params import DifferentialParams
-from spurdiff.rigid import RigidDifferential
+from spurdiff.differential.params import DifferentialParams
+from spurdiff.differential.rigid import RigidDifferential
 
 
 @pytest.fixture(scope="module")
@@ -208,7 +208,7 @@ def test_the_fmu_ships_the_kernel(differential_fmu):
     from fmpy import simulate_fmu
 
     with zipfile.ZipFile(differential_fmu) as z:
-        assert "resources/spurdiff/librigid_kernel.so" in z.namelist()
+        assert "resources/spurdiff/differential/librigid_kernel.so" in z.namelist()
     start = {"meshModel": "rigid", "carrierDrive": "speed", "carrier.w_ref": 1.389, "left.tau": -1500.0,
              "right.tau": -600.0}
     runs = {k: simulate_fmu(str(differential_fmu), stop_time=0.05, output_interval=1e-3,

@@ -1,4 +1,4 @@
-"""The shaft-owning differential (spurdiff.shafts) with WheelLoads in shaftCoupling = "wheel",
+"""The shaft-owning differential (spurdiff.differential.shafts) with WheelLoads in shaftCoupling = "wheel",
 coupled in plain Python (Gauss-Seidel, the differential first, as the vehicle scenes do; the loop
 is harness.bench.shafts.Loop): the hard cases of issue 19 at 1 ms and 20 ms, energy balances,
 step sequences, atomic steps."""
@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from spurdiff.errors import ParameterError, StepError
-from spurdiff.params import DifferentialParams
-from spurdiff.rigid import RigidDifferential
-from spurdiff.shafts import ShaftedDifferential, ShaftParams, ShaftsParams, WheelSurrogate
+from spurdiff.differential.params import DifferentialParams
+from spurdiff.differential.rigid import RigidDifferential
+from spurdiff.differential.shafts import ShaftedDifferential, ShaftParams, ShaftsParams, WheelSurrogate
 
 from harness.bench.shafts import R_WHEEL, Loop, make, start
 

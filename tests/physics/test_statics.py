@@ -1,8 +1,10 @@
 """The paper's theory numbers (paper-notes.md) to 4 significant digits."""
 import pytest
 
-from spurdiff.geometry import MM, GearTable, derive
-from spurdiff.statics import kinematics, locking_coefficient, mesh_forces, mesh_forces_for, torque_bias_ratio
+from spurdiff.gears.design import derive
+from spurdiff.gears.geometry import MM, GearTable
+from spurdiff.gears.layout import kinematics
+from spurdiff.differential.statics import locking_coefficient, mesh_forces, mesh_forces_for, torque_bias_ratio
 
 T0 = 2100.0  # N m
 
@@ -64,8 +66,8 @@ def test_planet_mesh_force_lies_between_the_sun_mesh_forces_when_friction_holds_
 
 
 def test_locking_coefficients_for_each_law(geo):
-    from spurdiff.params import DifferentialParams
-    from spurdiff.statics import locking_coefficients_for
+    from spurdiff.differential.params import DifferentialParams
+    from spurdiff.differential.statics import locking_coefficients_for
 
     assert locking_coefficients_for(DifferentialParams(lockingLaw="paper"), geo) == pytest.approx((0.028332, 0.028332),
                                                                                                  rel=2e-5)
@@ -76,7 +78,7 @@ def test_locking_coefficients_for_each_law(geo):
 def test_pin_law_breakaway_power_balance_and_review_numbers(geo):
     # the review: pin loads per unit mesh force 1.689 / 0.398 (drive), 0.821 / 1.661 (coast),
     # K_drive about 0.178; the quasi-static break-away satisfies (T_B - T_A) dw = n sum M_i |w_i|
-    from spurdiff.locking import breakaway, first_order_K, pin_friction
+    from spurdiff.differential.locking import breakaway, first_order_K, pin_friction
 
     pf = pin_friction(geo, 0.26, 0.012)
     assert pf.layout.unit_pin_loads(1.0) == pytest.approx((1.689, 0.398), abs=5e-4)

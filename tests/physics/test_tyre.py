@@ -1,4 +1,4 @@
-"""Tyre force laws (spurdiff.tyre): Magic Formula sign, bounds, saturation, slope, inverse."""
+"""Tyre force laws (spurdiff.vehicle.tyre): Magic Formula sign, bounds, saturation, slope, inverse."""
 from __future__ import annotations
 
 import math
@@ -8,7 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from spurdiff.errors import ParameterError
-from spurdiff.tyre import (
+from spurdiff.vehicle.tyre import (
     TyreParams, magic_formula, magic_formula_slope, peak_slip, slip_for_force_ratio, tyre_force,
 )
 

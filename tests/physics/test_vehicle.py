@@ -1,4 +1,4 @@
-"""Vehicle (spurdiff.vehicle): planar body, lateral tyres, load transfer, steering and speed control."""
+"""Vehicle (spurdiff.vehicle.car): planar body, lateral tyres, load transfer, steering and speed control."""
 from __future__ import annotations
 
 import json
@@ -8,8 +8,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from spurdiff.errors import ParameterError
-from spurdiff.tyre import slip_for_force_ratio
-from spurdiff.vehicle import G, STEER_ANGLE, Vehicle, VehicleParams
+from spurdiff.vehicle.tyre import slip_for_force_ratio
+from spurdiff.vehicle.car import G, STEER_ANGLE, Vehicle, VehicleParams
 
 H = 1e-3
 

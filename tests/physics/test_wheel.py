@@ -1,4 +1,4 @@
-"""WheelLoad (spurdiff.wheel): half-shaft + wheel + tyre, stepped as the FMU will step it."""
+"""WheelLoad (spurdiff.vehicle.wheel): half-shaft + wheel + tyre, stepped as the FMU will step it."""
 from __future__ import annotations
 
 import json
@@ -9,8 +9,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from spurdiff.errors import ParameterError
-from spurdiff.tyre import magic_formula, slip_for_force_ratio
-from spurdiff.wheel import WheelLoad, WheelLoadParams
+from spurdiff.vehicle.tyre import magic_formula, slip_for_force_ratio
+from spurdiff.vehicle.wheel import WheelLoad, WheelLoadParams
 
 R = 0.3266  # default rolling radius (checked below against the data file)
 

@@ -36,7 +36,7 @@ def test_fmi_call_cost_measures_each_fmu_through_the_c_path():
 
 
 def test_fmi_path_cost_runs_both_loops_without_the_physics_and_restores_the_models():
-    from spurdiff.vehicle import Vehicle
+    from spurdiff.vehicle.car import Vehicle
 
     step = Vehicle.do_step
     c = bench.fmi_path_cost("vehicle-cornering", repeats=1)
@@ -127,7 +127,8 @@ def test_write_keeps_the_sections_after_the_generated_block(monkeypatch, tmp_pat
     page = tmp_path / "performance.md"
     page.write_text("# Performance\n\n```\nold numbers\n```\n\n## Kept section\n\ntext by hand\n")
     monkeypatch.setattr(report, "_report", lambda args: print("new numbers") or 0)
-    assert bench.main(["--write", str(page)]) == 0
+    from harness.cli.bench import main as bench_main
+    assert bench_main(["--write", str(page)]) == 0
     text = page.read_text()
     assert "new numbers" in text and "old numbers" not in text
     assert text.endswith("```\n\n## Kept section\n\ntext by hand\n")

@@ -1,5 +1,5 @@
 """harness.bench.coupling (issue 19 item 2): the vehicle scenes against the old coupling at 0.2 ms;
-its command line harness/cli/coupling_bench.py (``python -m harness.bench.coupling``)."""
+its command line harness/cli/coupling_bench.py (``python -m harness.cli.coupling_bench``)."""
 from __future__ import annotations
 
 import json
@@ -12,7 +12,7 @@ from harness.cli.coupling_bench import main
 def test_help_names_the_module(capsys):
     with pytest.raises(SystemExit) as e:
         main(["-h"])
-    assert e.value.code == 0 and "python -m harness.bench.coupling" in capsys.readouterr().out
+    assert e.value.code == 0 and "python -m harness.cli.coupling_bench" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("argv, message", [

@@ -157,7 +157,7 @@ def test_export_ssp_converts_a_boolean_word_like_run(tmp_path):
     """`spurdiff export-ssp --set diff.pinFriction=off` binds false (it used to be refused)."""
     import zipfile
 
-    from harness.ssp import main as export_main
+    from harness.cli.export_ssp import main as export_main
 
     out = tmp_path / "pc.ssp"
     assert export_main(["paper-cornering", "-o", str(out), "--set", "diff.pinFriction=off"]) == 0

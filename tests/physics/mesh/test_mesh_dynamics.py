@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from spurdiff.errors import ParameterError
-from spurdiff.mesh import MeshDifferential, MeshParams, N_PER_MM15
-from spurdiff.mesh.laws import friction_coefficient, impact, elasto_backlash, iso6336_stiffness, step
-from spurdiff.params import DifferentialParams
-from spurdiff.rigid import RigidDifferential, StepError
+from spurdiff.differential.mesh import MeshDifferential, MeshParams, N_PER_MM15
+from spurdiff.differential.mesh.laws import friction_coefficient, impact, elasto_backlash, iso6336_stiffness, step
+from spurdiff.differential.params import DifferentialParams
+from spurdiff.differential.rigid import RigidDifferential, StepError
 
 W0 = 1.389
 STRAIGHT = (-1050.0, -1050.0)
@@ -422,7 +422,7 @@ def test_tiny_communication_steps():
 
 
 def test_rosenbrock_w_method_has_order_3_even_with_a_wrong_jacobian():
-    from spurdiff.mesh.integrator import RosenbrockW
+    from spurdiff.differential.mesh.integrator import RosenbrockW
 
     def f(y, out, J):  # oscillator driving a stiff component (eigenvalue -1e4)
         out[0], out[1], out[2] = -y[1], y[0], -1e4 * (y[2] - math.sin(y[0]))
@@ -451,7 +451,7 @@ def test_rodas5p_has_order_5_and_its_estimate_and_dense_output_order_4():
     """RODAS5P with the exact Jacobian (it is not a W-method) on the same problem: global order 5;
     over one step from the exact solution, the embedded estimate and the dense output at the
     midpoint and the quarter points have local errors of order 5 (methods of order 4)."""
-    from spurdiff.mesh.integrator import RODAS5P, RosenbrockW
+    from spurdiff.differential.mesh.integrator import RODAS5P, RosenbrockW
 
     def f(y, out, J):
         out[0], out[1], out[2] = -y[1], y[0], -1e4 * (y[2] - math.sin(y[0]))
@@ -489,7 +489,7 @@ def test_rodas5p_has_order_5_and_its_estimate_and_dense_output_order_4():
 def test_the_five_point_loss_quadrature_is_exact_to_degree_5_and_estimates_beyond_3():
     """loss_quadrature5 (RODAS5P's): Boole's rule, exact for polynomials of degree <= 5; its
     estimate |Simpson(halves) - Simpson| vanishes to degree 3 and not for degree 4."""
-    from spurdiff.mesh.stepper import E_REF, loss_quadrature5
+    from spurdiff.differential.mesh.stepper import E_REF, loss_quadrature5
 
     h = 0.37
     for deg in range(6):
@@ -634,7 +634,7 @@ def test_contact_level_pin_friction_power_balance_while_slipping(sign):
 
 
 def test_the_integrators_lu_solves_with_partial_pivoting_and_refuses_a_singular_matrix():
-    from spurdiff.mesh.integrator import lu_factor, lu_solve
+    from spurdiff.differential.mesh.integrator import lu_factor, lu_solve
 
     rng = np.random.default_rng(3)
     for n in (1, 8, 10):

@@ -12,11 +12,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from harness.bench.mesh import paper_case
+from harness.bench.mesh_cases import paper_case
 from harness.build import kernel_library
 from spurdiff.errors import ParameterError, StepError
-from spurdiff.mesh import MeshDifferential, MeshParams, kernel
-from spurdiff.params import DifferentialParams
+from spurdiff.differential.mesh import MeshDifferential, MeshParams, kernel
+from spurdiff.differential.params import DifferentialParams
 
 RTOL = 1e-12
 SCALE = np.array([1.0, 1e-5, 1e-5, 1e-5, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0])   # rad, m, rad/s (the error norm's)
@@ -194,8 +194,8 @@ def test_rodas5p_takes_a_jacobian_at_every_step_and_ros34pw2_reuses_it():
 
 def test_compiled_evaluation_equals_the_reference_evaluation():
     """rhs, Jacobian and side values at states off the trajectory, stuck and slipping planets."""
-    from spurdiff.mesh.forces import evaluate
-    from spurdiff.mesh.layout import constant_jacobian
+    from spurdiff.differential.mesh.forces import evaluate
+    from spurdiff.differential.mesh.layout import constant_jacobian
 
     rng = np.random.default_rng(1)
     a, b = pair("contact", paper_case("paper-cornering"), drive="torque", backlash=True, flankFriction=True,
@@ -336,7 +336,8 @@ def test_fmusim_runs_the_compiled_kernel_with_a_bare_environment(differential_fm
 def test_the_kernel_bench_measures_both_implementations():
     """The lines of `spurdiff bench` section 6 come from real runs (values printed, never asserted
     against targets) and from the stored solve_ivp points of `spurdiff accuracy`."""
-    from harness.bench.mesh import OURS, solver_ratios, step_costs
+    from harness.bench.mesh import solver_ratios, step_costs
+    from harness.bench.mesh_ivp import OURS
 
     c = step_costs(repeats=1)
     assert all(c[k]["internal"] > 0 and c[k]["comm"] > 0 for k in ("python", "compiled"))

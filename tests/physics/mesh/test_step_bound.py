@@ -6,9 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import spurdiff.mesh.stepper as stepper
-from harness.bench.mesh import ivp_model, step_bound
-from spurdiff.mesh.integrator import RosenbrockW
+import spurdiff.differential.mesh.stepper as stepper
+from harness.bench.mesh import step_bound
+from harness.bench.mesh_ivp import ivp_model
+from spurdiff.differential.mesh.integrator import RosenbrockW
 
 CASE = "contact, unloaded start"
 

@@ -1,0 +1,370 @@
+"""Adaptive linearly implicit integrators for the stiff mesh dynamics: the Rosenbrock-W method
+ROS34PW2 of Rang and Angermann (2005), the default, and the Rosenbrock method RODAS5P of
+Steinebach (2023) (``solver.method``), tableaux as data.
+
+Method (Hairer and Wanner, Solving ODEs II, sec. IV.7), for ``y' = f(y)`` (our system is autonomous
+within a communication step), ``s = 4`` stages::
+
+    (I - gamma h J) k_i = h f(y + sum_j alpha_ij k_j) + h J sum_{j<i} gamma_ij k_j
+    y_1 = y + sum_i b_i k_i,      error estimate  sum_i (b_i - bhat_i) k_i
+
+implemented in the transformed variables ``u_i = sum_j Gamma_ij k_j`` so that only the matrix
+``W = I/(gamma h) - J`` is factored (once per step) and no product with ``J`` is needed::
+
+    W u_i = f(y + sum_j a_ij u_j) + sum_{j<i} (c_ij / h) u_j,    y_1 = y + sum_i m_i u_i
+
+with ``a = alpha Gamma^-1``, ``c = diag(1/gamma) - Gamma^-1``, ``m = b Gamma^-1``.
+
+Why ROS34PW2 (J. Rang, L. Angermann, BIT 45 (2005) 761-787; tableau as registered in PETSc's
+``TSROSWRA34PW2``):
+
+* L-stable and stiffly accurate: the mesh modes (several kHz, and the contact damping makes them
+  strongly overdamped, eigenvalues down to -1e6 1/s) are damped, not amplified, for any step;
+  a communication step of 1e-2 s is as stable as one of 1e-5 s.
+* a W-method: order 3 holds for any approximation of the Jacobian, so the analytic Jacobian of the
+  small system only has to be good for stability, not exact (friction laws, clipped forces).
+* linearly implicit: at most one LU of an 8x8 (10x10) matrix and four solves per step, no Newton
+  iteration that can fail to converge at contact onset; the LU serves on while the Jacobian and
+  the step size are unchanged (:mod:`spurdiff.differential.mesh.stepper`).
+* embedded order 2 for step-size control, and a dense output of order 3 (PETSc ``binterpt``), used
+  for the Simpson quadrature of the dissipated power.
+
+The second method, RODAS5P (G. Steinebach, "Construction of Rosenbrock-Wanner method Rodas5P and
+numerical benchmarks within the Julia Differential Equations package", BIT Numer. Math. 63 (2023)
+27; the coefficients as published there and registered in OrdinaryDiffEq.jl's
+``Rodas5PTableau``, given directly in the transformed variables): 8 stages, order 5 with an
+embedded order 4 (the error estimate is the last stage, ``e = e_8``), L-stable and stiffly
+accurate, dense output of order 4. It is not a W-method: it needs the exact Jacobian at the start of
+every step, which the driver then evaluates at the end of every accepted step. Where the analytic
+Jacobian is not exact (flank friction: its lever arms' dependence on the mesh phase is left out)
+its order drops and its error estimate carries the Jacobian's error: use ROS34PW2 there. It costs about twice
+a ROS34PW2 step and needs several times fewer steps from tolerance 1e-4 down (the contact level's
+impact transient, docs/accuracy.md). Selected by the structural parameter ``solver.method``.
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+class RosenbrockTableau(NamedTuple):
+    """Coefficients of a Rosenbrock(-W) method in the form of Hairer-Wanner: ``alpha``,
+    ``Gamma`` (lower triangular, constant diagonal ``gamma``), weights ``b`` and the embedded
+    ``bhat``, and the dense output ``y(t + theta h) = y + sum_i B_i(theta) k_i`` with
+    ``B_i(theta) = sum_j binterp[i, j] theta^(j+1)`` (three or four powers)."""
+
+    name: str
+    gamma: float
+    alpha: np.ndarray
+    Gamma: np.ndarray
+    b: np.ndarray
+    bhat: np.ndarray
+    binterp: np.ndarray
+    order: int
+    embedded_order: int
+
+
+ROS34PW2 = RosenbrockTableau(
+    name="ROS34PW2",
+    gamma=4.3586652150845900e-01,
+    alpha=np.array([
+        [0.0, 0.0, 0.0, 0.0],
+        [8.7173304301691801e-01, 0.0, 0.0, 0.0],
+        [8.4457060015369423e-01, -1.1299064236484185e-01, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+    ]),
+    Gamma=np.array([
+        [4.3586652150845900e-01, 0.0, 0.0, 0.0],
+        [-8.7173304301691801e-01, 4.3586652150845900e-01, 0.0, 0.0],
+        [-9.0338057013044082e-01, 5.4180672388095326e-02, 4.3586652150845900e-01, 0.0],
+        [2.4212380706095346e-01, -1.2232505839045147e+00, 5.4526025533510214e-01, 4.3586652150845900e-01],
+    ]),
+    b=np.array([2.4212380706095346e-01, -1.2232505839045147e+00, 1.5452602553351020e+00, 4.3586652150845900e-01]),
+    bhat=np.array([3.7810903145819369e-01, -9.6042292212423178e-02, 5.0000000000000000e-01, 2.1793326075422950e-01]),
+    binterp=np.array([
+        [1.0564298455794094, -1.3864882699759573, 0.5721822314575016],
+        [2.296429974281067, -8.262611700275677, 4.742931142090097],
+        [-1.307599564525376, 7.250979895056055, -4.398120075195578],
+        [-1.045260255335102, 2.398120075195581, -0.9169932983520199],
+    ]),
+    order=3,
+    embedded_order=2,
+)
+
+
+class Transformed(NamedTuple):
+    """A tableau in the transformed variables ``u_i = sum_j Gamma_ij k_j``: ``a`` (stage
+    arguments), ``c`` (strictly lower, stage right-hand sides), ``m`` (solution weights), ``e``
+    (error weights), ``dmid`` (dense output at theta = 1/2); rows as contiguous arrays. The dense
+    output ``y + sum_j d_j(theta) u_j`` with ``d = B(theta) Ginv``, ``B_i = sum_p binterp[i, p]
+    theta^(p+1)`` (Ginv the identity for a method given in the transformed variables).
+    ``w_method``: the order holds for any Jacobian (else the driver needs J at every step's start);
+    ``err_exp``: the step-size controller's exponent, -1 / (embedded order + 1); ``dquarter``:
+    the dense output's weights at theta = 1/4 and 3/4 (rows) for the five-point loss quadrature of
+    a method of order above 3 (None: the three-point one)."""
+
+    gamma: float
+    stages: int
+    a_rows: list
+    c_rows: list
+    m: np.ndarray
+    e: np.ndarray
+    dmid: np.ndarray
+    Ginv: np.ndarray
+    binterp: np.ndarray
+    embedded_order: int
+    name: str = ""
+    order: int = 0
+    w_method: bool = True
+    err_exp: float = -1.0 / 3.0
+    dquarter: list = None
+    a_lists: list = None      # the same coefficients as Python floats, row i with i entries
+    c_lists: list = None
+    m_list: list = None
+    e_list: list = None
+    dmid_list: list = None
+    binterp_lists: list = None
+    Ginv_lists: list = None
+
+
+def transform(tab: RosenbrockTableau) -> Transformed:
+    """A Hairer-Wanner tableau in the transformed variables (a W-method: ROS34PW2)."""
+    Ginv = np.linalg.inv(tab.Gamma)
+    a = tab.alpha @ Ginv
+    c = np.diag(1.0 / np.diag(tab.Gamma)) - Ginv
+    return _finish(tab.name, tab.gamma, a, c, tab.b @ Ginv, (tab.b - tab.bhat) @ Ginv, Ginv, tab.binterp,
+                   tab.order, tab.embedded_order, True)
+
+
+def _finish(name, gamma, a, c, m, e, Ginv, binterp, order, embedded_order, w_method) -> Transformed:
+    s = len(m)
+    tr = Transformed(gamma, s, [np.ascontiguousarray(a[i, :i]) for i in range(s)],
+                     [np.ascontiguousarray(c[i, :i]) for i in range(s)], np.ascontiguousarray(m),
+                     np.ascontiguousarray(e), None, Ginv, binterp, embedded_order, name=name, order=order,
+                     w_method=w_method, err_exp=-1.0 / (embedded_order + 1))
+    tr = tr._replace(dmid=np.ascontiguousarray(dense_weights(0.5, tr)))
+    if order > 3:
+        tr = tr._replace(dquarter=[dense_weights(0.25, tr).tolist(), dense_weights(0.75, tr).tolist()])
+    return tr._replace(a_lists=[r.tolist() for r in tr.a_rows], c_lists=[r.tolist() for r in tr.c_rows],
+                       m_list=tr.m.tolist(), e_list=tr.e.tolist(), dmid_list=tr.dmid.tolist(),
+                       binterp_lists=np.asarray(binterp).tolist(), Ginv_lists=Ginv.tolist())
+
+
+def dense_weights(theta: float, tr: "Transformed | None" = None) -> np.ndarray:
+    """Weights d_i with y(t + theta h) = y + sum_i d_i u_i (transformed stages)."""
+    tr = tr or METHOD
+    Bt = tr.binterp @ np.array([theta, theta ** 2, theta ** 3, theta ** 4][:tr.binterp.shape[1]])
+    return Bt @ tr.Ginv
+
+
+def _rodas5p() -> Transformed:
+    """RODAS5P (Steinebach 2023) in the transformed variables: ``a`` and ``c`` as published
+    (``c`` with our sign: ``W u_i = f(Y_i) + sum_j c_ij / h u_j``, ``W = I/(gamma h) - J``);
+    stages 7 and 8 evaluate at ``Y_6 + u_6`` and ``Y_6 + u_6 + u_7``, the solution is
+    ``Y_6 + u_6 + u_7 + u_8`` (stiffly accurate) and the error estimate ``u_8``. Dense output
+    ``y0 (1 - t) + t (y1 + (1 - t)(H1 u + t (H2 u + t H3 u)))`` expanded in powers of t."""
+    a = np.zeros((8, 8))
+    a[1, :1] = [3.0]
+    a[2, :2] = [2.849394379747939, 0.45842242204463923]
+    a[3, :3] = [-6.954028509809101, 2.489845061869568, -10.358996098473584]
+    a[4, :4] = [2.8029986275628964, 0.5072464736228206, -0.3988312541770524, -0.04721187230404641]
+    a[5, :5] = [-7.502846399306121, 2.561846144803919, -11.627539656261098, -0.18268767659942256,
+                0.030198172008377946]
+    a[6, :6] = [*a[5, :5], 1.0]
+    a[7, :7] = [*a[5, :5], 1.0, 1.0]
+    c = np.zeros((8, 8))
+    c[1, :1] = [-14.155112264123755]
+    c[2, :2] = [-17.97296035885952, -2.859693295451294]
+    c[3, :3] = [147.12150275711716, -1.41221402718213, 71.68940251302358]
+    c[4, :4] = [165.43517024871676, -0.4592823456491126, 42.90938336958603, -5.961986721573306]
+    c[5, :5] = [24.854864614690072, -3.0009227002832186, 47.4931110020768, 5.5814197821558125, -0.6610691825249471]
+    c[6, :6] = [30.91273214028599, -3.1208243349937974, 77.79954646070892, 34.28646028294783, -19.097331116725623,
+                -28.087943162872662]
+    c[7, :7] = [37.80277123390563, -3.2571969029072276, 112.26918849496327, 66.9347231244047, -40.06618937091002,
+                -54.66780262877968, -9.48861652309627]
+    m = np.array([*a[5, :5], 1.0, 1.0, 1.0])
+    e = np.zeros(8)
+    e[7] = 1.0
+    H = np.array([
+        [25.948786856663858, -2.5579724845846235, 10.433815404888879, -2.3679251022685204, 0.524948541321073,
+         1.1241088310450404, 0.4272876194431874, -0.17202221070155493],
+        [-9.91568850695171, -0.9689944594115154, 3.0438037242978453, -24.495224566215796, 20.176138334709044,
+         15.98066361424651, -6.789040303419874, -6.710236069923372],
+        [11.419903575922262, 2.8879645146136994, 72.92137995996029, 80.12511834622643, -52.072871366152654,
+         -59.78993625266729, -0.15582684282751913, 4.883087185713722]])
+    binterp = np.stack([m + H[0], H[1] - H[0], H[2] - H[1], -H[2]], axis=1)
+    return _finish("RODAS5P", 0.21193756319429014, a, c, m, e, np.eye(8), binterp, 5, 4, False)
+
+
+METHOD = transform(ROS34PW2)
+RODAS5P = _rodas5p()
+METHODS = {"ros34pw2": METHOD, "rodas5p": RODAS5P}   # solver.method
+SMAX = 8                                              # the most stages (the compiled kernel's arrays)
+GAMMA = METHOD.gamma
+STAGES = METHOD.stages
+ORDER, EMBEDDED_ORDER = ROS34PW2.order, ROS34PW2.embedded_order
+
+
+class RosenbrockW:
+    """One step of a Rosenbrock(-W) method (default ROS34PW2; RODAS5P) on a system given by ``evaluate(y, f_out, J_out)``.
+
+    All work arrays are allocated once. ``evaluate`` fills ``f_out`` (and ``J_out`` if not None)
+    and returns nothing; it must not keep references to ``y``.
+    """
+
+    def __init__(self, n: int, evaluate, method: Transformed = METHOD):
+        self.method = method
+        self.n = n
+        self.evaluate = evaluate
+        self.J = np.zeros((n, n))
+        self.W = np.zeros((n, n))
+        self.U = np.zeros((method.stages, n))
+        self.Ys = np.zeros(n)
+        self.F = np.zeros(n)
+        self.rhs = np.zeros(n)
+        self.y_new = np.zeros(n)
+        self.err = np.zeros(n)
+        self.y_mid = np.zeros(n)
+        self.eye = np.eye(n)
+        self.tmp = np.zeros(n)
+        self.lu = self.piv = None
+        self.lu_h = 0.0           # the step size the factored W = I/(gamma h) - J is for; 0: none
+        self.n_factorizations = 0
+
+    def step(self, y: np.ndarray, f0: np.ndarray, h: float) -> bool:
+        """Attempt a step of size h from y (with f0 = f(y) and self.J, an approximation of J(y),
+        already filled: a W-method keeps its order for any J). W is factored unless the last
+        factorization was for the same J (``lu_h`` is reset to 0 whenever J changes) and the same h.
+
+        Fills ``y_new`` and ``err`` (the raw error estimate vector). Returns False if the linear
+        system is singular or a stage is not finite.
+        """
+        U, F, rhs, Ys = self.U, self.F, self.rhs, self.Ys
+        tr = self.method
+        if h != self.lu_h:
+            self.lu_h = 0.0
+            self.n_factorizations += 1
+            W = self.W
+            np.multiply(self.eye, 1.0 / (tr.gamma * h), out=W)
+            W -= self.J
+            self.lu, self.piv = lu_factor(W.tolist())
+            if self.lu is None:
+                return False
+            self.lu_h = h
+        lu, piv = self.lu, self.piv
+        U[0] = lu_solve(lu, piv, f0.tolist())
+        ih = 1.0 / h
+        for i in range(1, tr.stages):
+            _combine(tr.a_lists[i], U, Ys, self.tmp)
+            Ys += y
+            self.evaluate(Ys, F, None)
+            _combine(tr.c_lists[i], U, rhs, self.tmp)
+            rhs *= ih
+            rhs += F
+            U[i] = lu_solve(lu, piv, rhs.tolist())
+        yn = self.y_new
+        _combine(tr.m_list, U, yn, self.tmp)
+        yn += y
+        _combine(tr.e_list, U, self.err, self.tmp)
+        return bool(np.isfinite(yn).all())
+
+    def dense_at(self, weights: list, y: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """Dense output of the last step with the weights of one point (``dquarter``'s rows)."""
+        _combine(weights, self.U, out, self.tmp)
+        out += y
+        return out
+
+    def midpoint(self, y: np.ndarray) -> np.ndarray:
+        """Dense output at the middle of the last step (order 3; RODAS5P 4)."""
+        ym = self.y_mid
+        _combine(self.method.dmid_list, self.U, ym, self.tmp)
+        ym += y
+        return ym
+
+
+def lu_factor(A: list) -> tuple:
+    """LU factorization with partial pivoting of the rows ``A`` (a list of lists, changed in
+    place): (A holding L below the diagonal (unit diagonal) and U, the pivot rows), or (None, None)
+    for an exactly singular matrix. Plain floats in a fixed order of operations, the compiled
+    kernel's ``lu`` operation for operation (so the two agree bit for bit; a LAPACK call costs
+    more in call overhead than the about 170 operations of an 8x8)."""
+    N = len(A)
+    piv = [0] * N
+    for j in range(N):
+        p, amax = j, abs(A[j][j])
+        for i in range(j + 1, N):
+            a = abs(A[i][j])
+            if a > amax:
+                p, amax = i, a
+        piv[j] = p
+        if A[p][j] == 0.0:
+            return None, None
+        if p != j:
+            A[j], A[p] = A[p], A[j]
+        Aj = A[j]
+        inv = 1.0 / Aj[j]
+        for i in range(j + 1, N):
+            Ai = A[i]
+            lij = Ai[j] * inv
+            Ai[j] = lij
+            if lij != 0.0:
+                for k in range(j + 1, N):
+                    Ai[k] -= lij * Aj[k]
+    return A, piv
+
+
+def lu_solve(A: list, piv: list, b: list) -> list:
+    """x with (P L U) x = b from :func:`lu_factor` (the kernel's ``lu_solve``, the same order)."""
+    N = len(A)
+    x = list(b)
+    for j in range(N):
+        p = piv[j]
+        if p != j:
+            x[j], x[p] = x[p], x[j]
+    for i in range(1, N):
+        Ai = A[i]
+        s = x[i]
+        for k in range(i):
+            s -= Ai[k] * x[k]
+        x[i] = s
+    for i in range(N - 1, -1, -1):
+        Ai = A[i]
+        s = x[i]
+        for k in range(i + 1, N):
+            s -= Ai[k] * x[k]
+        x[i] = s / Ai[i]
+    return x
+
+
+def _combine(coef: list, U: np.ndarray, out: np.ndarray, tmp: np.ndarray) -> None:
+    """out = sum_k coef[k] U[k], summed in the order of k (elementwise, so that the compiled
+    kernel, which sums in the same order, gives the same bits)."""
+    np.multiply(U[0], coef[0], out=out)
+    for k in range(1, len(coef)):
+        np.multiply(U[k], coef[k], out=tmp)
+        out += tmp
+
+
+def error_norm(err: np.ndarray, y: np.ndarray, y_new: np.ndarray, atol: np.ndarray, rtol: float,
+               scratch: np.ndarray) -> float:
+    """RMS norm of err / (atol + rtol max(|y|, |y_new|)) (Hairer-Wanner), summed in index order."""
+    np.abs(y, out=scratch)
+    scratch_max = np.maximum(scratch, np.abs(y_new), out=scratch)
+    scratch_max *= rtol
+    scratch_max += atol
+    ss = 0.0
+    for q in (err / scratch_max).tolist():
+        ss += q * q
+    return math.sqrt(ss / err.size)
+
+
+def new_step_size(h: float, err: float, rejected: bool, exponent: float = METHOD.err_exp) -> float:
+    """Elementary controller h_new = h * clamp(0.9 err^exponent, 0.2, 5) (1 after a rejection);
+    the exponent -1 / (embedded order + 1): -1/3 for ROS34PW2, -1/5 for RODAS5P."""
+    if err <= 0.0:
+        fac = 5.0
+    else:
+        fac = 0.9 * err ** exponent
+    fac = min(5.0 if not rejected else 1.0, max(0.2, fac))
+    return h * fac

@@ -1,0 +1,438 @@
+"""Gear-mesh dynamics of the differential at multibody fidelity, with switchable effects: the model
+(set-up, initial state, outputs, state), on :class:`spurdiff.differential.model_base.DifferentialModel`.
+
+Degrees of freedom (one representative planet pair: the n pairs are identical and share the load
+equally; its mesh forces act n times on the suns, its inertias n times on the carrier), all angles
+of the suns and planets relative to the carrier: carrier angle ``phi_c`` and speed ``w_c`` (states
+only with ``carrierDrive = "torque"``; with the speed drive the carrier follows the target linearly
+over each communication step, as in :mod:`spurdiff.differential.rigid`), sun A angle ``psi_A`` and speed
+``v_A``, sun B speed ``v_B``, planet spins ``w_1``, ``w_2``, and the three mesh deflections along
+the lines of action ``d_A1``, ``d_B2``, ``d_12`` (m):
+``y = (psi_A, d_A1, d_B2, d_12, v_A, v_B, w_1, w_2[, w_c, phi_c])``. The deflections are states
+(not the absolute angles, which grow without bound), as MSL's ElastoBacklash recommends::
+
+    d_A1' = -(rb_A v_A + rb_1 w_1)      d_B2' = -(rb_B v_B + rb_2 w_2)      d_12' = rb_1 w_1 + rb_2 w_2
+
+Lagrange's equations with
+``T = 1/2 [J_c w_c^2 + J_A (w_c + v_A)^2 + J_B (w_c + v_B)^2 + n J_1 (w_c + w_1)^2 + n J_2 (w_c + w_2)^2]``::
+
+    Q_A = n (rb_A F_A1 + Mf_A)                Q_B = n (rb_B F_B2 + Mf_B)
+    Q_1 = rb_1 (F_A1 - F_12) + Mf_1 + M_1     Q_2 = rb_2 (F_B2 - F_12) + Mf_2 + M_2
+    J_A (a_c + v_A') = tau_L + Q_A            J_B (a_c + v_B') = tau_R + Q_B
+    J_1 (a_c + w_1') = Q_1                    J_2 (a_c + w_2') = Q_2
+    J_c a_c = tau_c - (Q_A + Q_B + n Q_1 + n Q_2)        (torque drive)
+    tau_drive = J_c a_c + Q_A + Q_B + n Q_1 + n Q_2     (speed drive: what holds the carrier)
+
+``Mf``: flank-friction moments, ``M_i``: pin friction of planet i (exact stick: a stuck planet has
+``w_i = w_i' = 0`` and the friction that holds it while ``|M_i| <= c_pin |F_pin,i| + M_0,i``).
+The mesh laws and effects: :mod:`spurdiff.differential.mesh.forces`; the driver over a communication step:
+:mod:`spurdiff.differential.mesh.stepper`; numbers and sources: docs/mesh-dynamics.md.
+
+(Over 400 lines: the one class of the mesh levels, its state, initialization and outputs; the
+laws, events, stick-slip, integrator and stepper are modules of their own.)
+"""
+from __future__ import annotations
+
+import math
+from functools import partial
+
+import numpy as np
+
+from spurdiff.errors import ParameterError, StepError, require_finite, require_positive
+from spurdiff.gears.geometry import DifferentialGeometry
+from spurdiff.differential.inertia import MassProperties, mass_properties
+from spurdiff.differential.locking import locking_coefficients, paper_locking_coefficient, pin_friction
+from spurdiff.differential.model_base import DifferentialModel
+from spurdiff.differential.params import DifferentialParams
+from spurdiff.differential.statics import MeshForces
+from spurdiff.gears.layout import kinematics
+from spurdiff.differential.mesh import kernel as compiled
+from spurdiff.differential.mesh.forces import (BilateralSpring, ElastoBacklash, FlankFriction, Impact, MeshPhase, SideValues, evaluate,
+                     gear_meshes, potential)
+from spurdiff.differential.mesh.integrator import METHODS, RosenbrockW
+from spurdiff.differential.mesh.layout import D12, DA, DB, PSI, VA, VB, W1, W2, constant_jacobian, mesh_data, relative_angles
+from spurdiff.differential.mesh.params import MeshParams
+from spurdiff.differential.mesh.events import contact_flags
+from spurdiff.differential.mesh.stepper import advance
+from spurdiff.differential.mesh.stickslip import initial_state
+
+
+
+class MeshDifferential(DifferentialModel):
+    """Differential with compliant or contact gear meshes (the contract:
+    :class:`spurdiff.differential.model_base.DifferentialModel`)."""
+
+    ATOMIC_STEP = True   # do_step leaves the state as it was when it raises (the FMU adapter relies on it)
+
+    def __init__(self, params: DifferentialParams | None = None, mesh: MeshParams | None = None):
+        self.params = params or DifferentialParams()
+        self.mesh = mesh or MeshParams()
+        self.w_ref = 0.0
+        self.tau_c = 0.0
+        self.tau_L = 0.0
+        self.tau_R = 0.0
+        self.w_start_carrier = 0.0
+        self.w_start_left = float("nan")
+        self.input_names = dict(self.INPUT_NAMES)
+        self._ready = False
+
+    @property
+    def mesh_model(self) -> str:
+        return self.mesh.level
+
+    @property
+    def active_effects(self) -> tuple[str, ...]:
+        """Names of the effects in use: the mesh law, then the enabled switches (pinFriction only
+        if the locking coefficient is not zero)."""
+        m = self.mesh
+        eff = [m.level]
+        for name in ("backlash", "meshStiffnessVariation", "pinFriction", "flankFriction"):
+            on = bool(getattr(m, name))
+            if name == "pinFriction" and self._ready:
+                on = self._pin
+            if on:
+                eff.append(name)
+        return tuple(eff)
+
+    # ================================================================== setup
+    def initialize(self, t0: float = 0.0) -> None:
+        """Validate, derive constants, set the (preloaded) initial state, compute outputs at t0."""
+        p, mp_ = self.params, self.mesh
+        geo: DifferentialGeometry = p.validate()
+        mp_.validate()
+        self._check_inputs()
+        self.geometry = geo
+        self.mass: MassProperties = mass_properties(p, geo)
+        kin = kinematics(geo)
+        self.lam, self.rho1, self.rho2 = kin.sunB_per_sunA, kin.planet1_per_sunA, kin.planet2_per_sunA
+        ms = self.mass
+        n = self.n = ms.n_pairs
+        self.JA, self.JB, self.J1, self.J2 = ms.J_sunA, ms.J_sunB, ms.J_planet1, ms.J_planet2
+        self.Jc = ms.J_carrier_total
+        self.Jtot = self.Jc + self.JA + self.JB + n * (self.J1 + self.J2)
+        # the rigid model's names, for the FMU's calculated parameters
+        self.Mcc = self.Jtot
+        self.Mdd = self.JA + self.lam ** 2 * self.JB + n * (self.J1 * self.rho1 ** 2 + self.J2 * self.rho2 ** 2)
+        self.law = p.lockingLaw
+        self.preload = float(p.lockingPreload)
+        pf = self._pf = pin_friction(geo, p.mu_pin, p.r_collar, self.preload, self.law)
+        self.K_paper = paper_locking_coefficient(p.mu_pin, p.r_collar, n, geo.r_a, geo.r_1, geo.r_b, geo.r_2)
+        if self.law == "paper":
+            self.K = self.K_coast = self.K_paper
+        else:
+            self.K, self.K_coast = locking_coefficients(pf)
+        self.speed_drive = p.carrierDrive == "speed"
+        mA, mB = geo.meshA1, geo.meshB2
+        self.rbA, self.rb1, self.rbB, self.rb2 = mA.rb1, mA.rb2, mB.rb1, mB.rb2
+        # the effects
+        self._bl = bool(mp_.backlash)
+        self._contact = mp_.level == "contact"
+        self._var = bool(mp_.meshStiffnessVariation)
+        self._flank = bool(mp_.flankFriction)
+        self._pin = bool(mp_.pinFriction) and (pf.c > 0.0 or self.preload > 0.0)
+        self._need_phase = self._var or self._flank
+        self.law_obj = (Impact(float(mp_.contactExponent), float(mp_.contactDamping), float(mp_.contactDepth))
+                        if self._contact else ElastoBacklash() if self._bl else BilateralSpring())
+        self.phase_obj = MeshPhase(self._var, self._need_phase)
+        self.flank_obj = (FlankFriction(float(mp_.muStatic), float(mp_.muDynamic), float(mp_.vStiction),
+                                        float(mp_.vTransition)) if self._flank else None)
+        self.md = mesh_data(geo, ms, mp_)
+        self.gear_meshes = gear_meshes(self.md)
+        # pin friction: layout of one planet pair and the constants (spurdiff.differential.locking)
+        self._pin_force = pf.layout.pin_force
+        self.layout_angle = pf.layout.theta
+        self.pin_unit = pf.layout.unit_pin_loads(1.0)
+        self.c_pin = pf.c
+        self._M01, self._M02 = pf.M0
+        # dissipation present at all? (else the loss is identically 0 and not integrated)
+        self._dissipative = (self._pin or self._flank
+                             or (self._contact and float(mp_.contactDamping) > 0.0)
+                             or (not self._contact and any(m.c > 0.0 for m in self.md)))
+        N = self.n_states = 8 if self.speed_drive else 10
+        self._N = N
+        self.y = np.zeros(N)
+        self._integ = RosenbrockW(N, partial(evaluate, self), METHODS[mp_.method])
+        self._f0 = np.zeros(N)
+        self._f1 = np.zeros(N)
+        self._J1 = np.zeros((N, N))
+        self._fscratch = np.zeros(N)
+        self._scr = np.zeros(N)
+        self._yq = np.zeros(N)
+        atol = np.ones(N)
+        atol[[DA, DB, D12]] = 1e-5  # deflection scale: 10 um
+        self._atol = atol * float(mp_.tolerance)
+        self._rtol = float(mp_.tolerance)
+        # slip speed below which a slipping planet is tested for sticking (rad/s): 1e-3 of the
+        # integrator's absolute velocity accuracy
+        self._w_stick = 1e-3 * float(mp_.tolerance)
+        for J in (self._integ.J, self._J1):
+            constant_jacobian(J, self.rbA, self.rb1, self.rbB, self.rb2, self.speed_drive)
+        # torque drive: inverse mass matrix in (w_c, v_A, v_B, w_1, w_2) for stick impulses
+        if not self.speed_drive:
+            M = np.array([[self.Jtot, self.JA, self.JB, n * self.J1, n * self.J2],
+                          [self.JA, self.JA, 0, 0, 0], [self.JB, 0, self.JB, 0, 0],
+                          [n * self.J1, 0, 0, n * self.J1, 0], [n * self.J2, 0, 0, 0, n * self.J2]])
+            self._Minv = np.linalg.inv(M)
+        self._kernel, self.kernel_in_use = compiled.choose(self)
+        if self._kernel is not None:
+            self.y = self._kernel.y       # the state lives in the kernel's structure
+        initial_state(self, t0)
+        self._ready = True
+
+    def _check_inputs(self) -> None:
+        if math.isfinite(self.w_ref + self.tau_c + self.tau_L + self.tau_R):   # (a sum is cheaper than 4 checks)
+            return
+        names = self.input_names
+        for attr in ("w_ref", "tau_c", "tau_L", "tau_R"):
+            require_finite(names[attr], getattr(self, attr))
+
+    # ================================================================== solve_ivp interface
+    def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
+        """Right-hand side for scipy's solve_ivp (current inputs and friction modes held; the
+        compiled kernel's evaluation where it runs, the same numbers)."""
+        f = np.zeros(self._N)
+        if self._kernel is not None:
+            self._kernel.evaluate(self, np.asarray(y, dtype=float), f, None)
+        else:
+            evaluate(self, np.asarray(y, dtype=float), f, None)
+        return f
+
+    def jac(self, t: float, y: np.ndarray) -> np.ndarray:
+        """Analytic Jacobian for solve_ivp (Radau / BDF)."""
+        J = np.zeros((self._N, self._N))
+        constant_jacobian(J, self.rbA, self.rb1, self.rbB, self.rb2, self.speed_drive)
+        if self._kernel is not None:
+            self._kernel.evaluate(self, np.asarray(y, dtype=float), self._fscratch, J)
+        else:
+            evaluate(self, np.asarray(y, dtype=float), self._fscratch, J)
+        return J
+
+    def state_vector(self) -> np.ndarray:
+        """Copy of the continuous state y (see the module docstring for its layout)."""
+        return self.y.copy()
+
+    def load_state_vector(self, y: np.ndarray) -> None:
+        """Put a continuous state (e.g. a point of a solve_ivp trajectory) in place and refresh the
+        outputs at it; friction modes and inputs stay as they are. The integrator's memory of the
+        old state goes (its f at y, its Jacobian: a new one at the next step, as after
+        initialize), so the compiled kernel and the Python reference go on alike."""
+        self.y[:] = y
+        self._f0_key = None
+        self._jac_age, self._integ.lu_h = -1, 0.0
+        if self._kernel is not None:      # (its counters stay: not a full Jacobian pack)
+            self._kernel.state.jac_age, self._kernel.state.lu_h = -1, 0.0
+        if self._bl or self._contact:
+            self._contact_flags = contact_flags(self, self.y)
+        self._kernel_dirty = True
+        self._refresh_outputs()
+
+    # ================================================================== stepping
+    def do_step(self, t: float, h: float) -> None:
+        """Advance from t to t + h with the inputs held; raises ParameterError / StepError.
+
+        On any error the model is left exactly as it was before the call (``ATOMIC_STEP``)."""
+        if not self._ready:
+            raise StepError("do_step called before initialize")
+        h = require_positive("communicationStepSize", h)
+        self._check_inputs()
+        if self._kernel is not None:   # the whole step in C (which changes nothing on failure), outputs included
+            self._refresh_outputs(SideValues(*self._kernel.advance(self, t, h)))
+            return
+        snapshot = self.get_state()
+        try:
+            advance(self, t, h)
+        except StepError:
+            self.set_state(snapshot)
+            raise
+        except (ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
+            self.set_state(snapshot)
+            raise StepError(f"step at t = {t:.9g} s failed: {exc}") from exc
+        except Exception:
+            self.set_state(snapshot)
+            raise
+        self._refresh_outputs(self._sv0 if (not self.speed_drive or self._ac == 0.0) else None)
+
+    def solver_counts(self) -> dict[str, int]:
+        """The internal solver's work since initialize: accepted and rejected internal steps,
+        Jacobian evaluations and factorizations of W (diagnostics; not part of the FMU state)."""
+        k = self._kernel is not None and not self._jac_dirty
+        S = self._kernel.state if k else None
+        return {"steps": self.n_internal_steps, "rejected": self.n_rejected_steps,
+                "jacobians": int(S.n_jac) if k else self.n_jacobians,
+                "factorizations": int(S.n_lu) if k else self._integ.n_factorizations}
+
+    def states_only(self) -> None:
+        """From now on integrate the states alone: no loss quadrature (the dissipated energy is
+        not booked), as an ODE integrator without a quadrature does (the solver comparison). Not
+        with pin friction (its break-away test uses the quadrature's midpoint evaluation)."""
+        if self._pin:
+            raise ParameterError("mesh.pinFriction", True, "false for a states-only run")
+        self._dissipative = False
+        if self._kernel is not None:
+            self._kernel.params.dissipative = 0
+
+    def run_dense(self, t_end: float, times) -> np.ndarray:
+        """An integration over a whole run from the current time with the inputs held, as
+        solve_ivp's one call with ``t_eval``: one step of length ``t_end`` (the internal steps are
+        not cut at communication points) with the states at ``times`` (from the current time,
+        increasing, in (0, t_end]) by the method's dense output, rows; the model ends at the end.
+        For the solver comparison (harness.bench.mesh); a co-simulation steps with do_step."""
+        if not self._ready:
+            raise StepError("run_dense called before initialize")
+        t_end = require_positive("t_end", t_end)
+        self._check_inputs()
+        tq = np.asarray(times, dtype=float)
+        if tq.ndim != 1 or tq.size == 0 or tq[0] <= 0.0 or tq[-1] > t_end or np.any(np.diff(tq) <= 0.0):
+            raise ParameterError("times", list(tq[:3]), f"increasing, in (0, {t_end:g}]")
+        t = self.t
+        if self._kernel is not None:
+            ys = self._kernel.advance_dense(self, t, t_end, tq)
+        else:
+            ys = np.zeros((tq.size, self._N))
+            advance(self, t, t_end, dense=(tq.tolist(), ys))
+        self._refresh_outputs()
+        return ys
+
+    # ================================================================== outputs
+    def _refresh_outputs(self, sv=None) -> None:
+        """Outputs at the current state; the speed drive reports the torque that holds the
+        reached speed (carrier acceleration 0), as the rigid model does. ``sv``: side values of
+        an evaluation at the current state that already used that carrier acceleration."""
+        if sv is None:
+            ac_keep = self._ac
+            if self.speed_drive:
+                self._ac = 0.0
+            sv = evaluate(self, self.y, self._fscratch, None)
+            self._ac = ac_keep
+        self._out = sv
+        self._V = None
+        self._psiB = None
+
+    @property
+    def w_L(self) -> float:
+        return self.wc + float(self.y[VA])
+
+    @property
+    def w_R(self) -> float:
+        return self.wc + float(self.y[VB])
+
+    @property
+    def phi_L(self) -> float:
+        return self.phic + float(self.y[PSI])
+
+    @property
+    def phi_R(self) -> float:
+        if self._psiB is None:
+            self._psiB = relative_angles(self, self.y.tolist())[0]
+        return self.phic + self._psiB
+
+    @property
+    def wd(self) -> float:
+        """Speed of sun A relative to the carrier (the rigid model's differential speed)."""
+        return float(self.y[VA])
+
+    @property
+    def tau_drive(self) -> float:
+        """Torque the carrier drive delivers (speed drive: what holds the speed)."""
+        if not self.speed_drive:
+            return self.tau_c
+        o = self._out
+        return o.Q_A + o.Q_B + self.n * (o.Q_1 + o.Q_2)
+
+    @property
+    def tau_mesh_L(self) -> float:
+        """Torque the meshes deliver to sun A (N m)."""
+        return self._out.Q_A
+
+    @property
+    def tau_mesh_R(self) -> float:
+        return self._out.Q_B
+
+    @property
+    def mesh_forces(self) -> MeshForces:
+        """Normal tooth forces per planet pair (N), positive on the drive flanks."""
+        o = self._out
+        return MeshForces(o.F_A1, o.F_B2, o.F_12)
+
+    @property
+    def side_values(self):
+        """The last evaluation's :class:`spurdiff.differential.mesh.forces.SideValues` at the current state."""
+        return self._out
+
+    @property
+    def locking_torque(self) -> float:
+        """Pin friction as a generalised force on the differential coordinate (N m), the rigid
+        model's ``Q_f``: n (rho_1 M_1 + rho_2 M_2)."""
+        o = self._out
+        return self.n * (self.rho1 * o.M_1 + self.rho2 * o.M_2) if self._pin else 0.0
+
+    @property
+    def locking_capacity(self) -> float:
+        o = self._out
+        return self.n * (abs(self.rho1) * o.cap_1 + abs(self.rho2) * o.cap_2)
+
+    @property
+    def power_loss(self) -> float:
+        """Mean dissipated power over the last step (W), >= 0."""
+        return self.loss_last_step / self._last_h if self._last_h > 0.0 else self._out.P
+
+    @property
+    def kinetic_energy(self) -> float:
+        y = self.y.tolist()
+        wc = self.wc
+        n = self.n
+        return 0.5 * (self.Jc * wc * wc + self.JA * (wc + y[VA]) ** 2 + self.JB * (wc + y[VB]) ** 2
+                      + n * self.J1 * (wc + y[W1]) ** 2 + n * self.J2 * (wc + y[W2]) ** 2)
+
+    @property
+    def potential_energy(self) -> float:
+        """Elastic energy of all mesh springs (J)."""
+        if self._V is None:
+            self._V = potential(self, self.y.tolist())
+        return self._V
+
+    @property
+    def stuck(self) -> bool:
+        return self._pin and self.s[0] == 0 and self.s[1] == 0
+
+    @property
+    def planet_modes(self) -> tuple[int, int]:
+        """Pin-friction mode of planet 1 and 2: 0 stuck, +1/-1 slipping forward/backward."""
+        return tuple(self.s)
+
+    # ================================================================== state
+    _SCALARS = ("t", "wc", "phic", "_ac", "h_next", "_dA0", "_dB0", "_d120", "work_in", "energy_loss",
+                "loss_last_step", "parametric_work", "n_mode_switches", "n_contact_transitions",
+                "n_internal_steps", "n_rejected_steps", "n_steps", "_last_h",
+                "w_ref", "tau_c", "tau_L", "tau_R")
+
+    def get_state(self) -> dict:
+        """Full state (JSON-serialisable): continuous state, friction modes, contact flags,
+        integrator memory (next internal step size), bookkeeping and the held inputs."""
+        s = {k: getattr(self, k) for k in self._SCALARS}
+        for k in ("w_ref", "tau_c", "tau_L", "tau_R"):
+            s[k] = float(s[k])
+        s["y"] = self.y.tolist()
+        s["modes"] = list(self.s)
+        s["contact_flags"] = list(self._contact_flags)
+        # the integrator's Jacobian in use and its age (a W-method's memory, as h_next is)
+        k = self._kernel is not None and not self._jac_dirty
+        s["jacobian"] = (self._kernel.J if k else self._integ.J).ravel().tolist()
+        s["jac_age"] = int(self._kernel.state.jac_age) if k else self._jac_age
+        return s
+
+    def set_state(self, state: dict) -> None:
+        for k in self._SCALARS:
+            setattr(self, k, state[k])
+        self.y[:] = state["y"]
+        self.s = [int(v) for v in state["modes"]]
+        self._contact_flags = [int(v) for v in state["contact_flags"]]
+        if "jacobian" in state:
+            self._integ.J.ravel()[:] = state["jacobian"]
+            self._jac_age = int(state["jac_age"])
+        else:
+            self._jac_age = -1
+        self._integ.lu_h = 0.0
+        self._f0_key = None
+        self._kernel_dirty = self._jac_dirty = True
+        self._refresh_outputs()

@@ -1,0 +1,66 @@
+"""Parameters of the differential model, SI units; defaults (the paper's values) from
+``spurdiff/data/differential.toml``."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from spurdiff.datafile import differential_default as _d
+from spurdiff.errors import ParameterError, require_finite, require_nonnegative, require_positive
+from spurdiff.gears.design import derive
+from spurdiff.gears.geometry import DifferentialGeometry, GearTable
+
+CARRIER_DRIVES = ("speed", "torque")
+LOCKING_LAWS = ("pinFriction", "paper")
+
+
+@dataclass
+class DifferentialParams:
+    """Parameters shared by every fidelity level of the differential.
+
+    Inertias set to 0 are computed from the geometry and ``density`` (see :mod:`spurdiff.differential.inertia`).
+    """
+
+    table: GearTable = field(default_factory=GearTable)
+    mu_pin: float = _d("mu_pin")          # pin-bushing sliding friction coefficient (paper)
+    r_collar: float = _d("r_collar")      # thrust-collar radius r_d of the pinion shaft, m (paper)
+    lockingLaw: str = _d("lockingLaw")    # "pinFriction": from the pin loads | "paper": the paper's K
+    lockingPreload: float = _d("lockingPreload")   # N m, spring preload of the locking friction (0: none)
+    density: float = _d("density")        # steel, kg/m^3 (paper: 7.85e-6 kg/mm^3)
+    carrierDrive: str = _d("carrierDrive")   # "speed": carrier.w_ref imposed; "torque": carrier.tau drives it
+    J_carrier: float = _d("J_carrier")    # kg m^2, carrier (with everything rigidly on it), 0 = estimate
+    J_sunA: float = _d("J_sunA")          # kg m^2, 0 = from geometry
+    J_sunB: float = _d("J_sunB")
+    J_planet1: float = _d("J_planet1")    # kg m^2, one planet about its own axis, 0 = from geometry
+    J_planet2: float = _d("J_planet2")
+    m_planet1: float = 0.0        # kg, one planet, 0 = from geometry (orbit inertia on the carrier)
+    m_planet2: float = 0.0
+
+    def validate(self) -> DifferentialGeometry:
+        """Check every parameter; return the derived geometry. Raises ParameterError."""
+        geo = derive(self.table)
+        geo.raise_on_error()
+        mu = require_nonnegative("mu_pin", self.mu_pin)
+        if mu > 1.0:
+            raise ParameterError("mu_pin", self.mu_pin, "between 0 and 1")
+        require_nonnegative("r_collar", self.r_collar)
+        if self.lockingLaw not in LOCKING_LAWS:
+            raise ParameterError("lockingLaw", self.lockingLaw, " or ".join(LOCKING_LAWS))
+        pre = require_nonnegative("lockingPreload", self.lockingPreload)
+        if pre > 1e5:
+            raise ParameterError("lockingPreload", self.lockingPreload, "between 0 and 1e5 N m")
+        rb_planet = min(geo.meshA1.rb2, geo.meshB2.rb2)
+        if self.lockingLaw == "pinFriction" and mu * self.r_collar >= 0.5 * rb_planet:
+            raise ParameterError("r_collar", self.r_collar,
+                                 f"mu_pin * r_collar < r_b / 2 = {0.5 * rb_planet:.4g} m (planet base radius)",
+                                 "a larger friction lever than that makes the pins nearly self-locking")
+        require_positive("density", self.density)
+        if self.carrierDrive not in CARRIER_DRIVES:
+            raise ParameterError("carrierDrive", self.carrierDrive, " or ".join(CARRIER_DRIVES))
+        for name in ("J_carrier", "J_sunA", "J_sunB", "J_planet1", "J_planet2", "m_planet1", "m_planet2"):
+            require_nonnegative(name, getattr(self, name))
+        return geo
+
+
+def degrees(rad: float) -> float:
+    return math.degrees(rad)

@@ -1,0 +1,250 @@
+"""The pin-load locking law of the rigid level (``lockingLaw = pinFriction``), apart from the model.
+
+A mixin of :class:`spurdiff.differential.rigid.RigidDifferential` (whose module docstring states the law and the
+equations): the constants of the pin-load Newton (:meth:`PinLoadLaw._pin_constants`), the solve of
+the planets' moment balances while the differential slips (:meth:`PinLoadLaw._slip_exact`, the
+rigid level's hot path, also in C: :mod:`spurdiff.differential.rigid_kernel`), the interval of ``F_12`` each
+planet holds while stuck, in closed form (:meth:`PinLoadLaw._planet_interval`,
+:meth:`PinLoadLaw._stuck_exact`), and the mode choice with them
+(:meth:`PinLoadLaw._accelerations_exact`). The methods read the model's parameters and state
+(``pf``, ``J_A`` ... ``rho2``, ``tau_*``, ``wd``), set in :meth:`spurdiff.differential.rigid.RigidDifferential.initialize`.
+"""
+from __future__ import annotations
+
+import math
+
+
+class PinLoadLaw:
+    """The pin-load law's solves, mixed into :class:`spurdiff.differential.rigid.RigidDifferential`."""
+
+    def _pin_constants(self) -> None:
+        """What the pin-load Newton needs that depends on the parameters only (set once, in
+        :meth:`initialize`): the pins' unit force parts (:class:`spurdiff.gears.layout.PinLayout`) with
+        their sums and differences (the derivative of ``|F_pin|`` for either sign of a mesh force),
+        the lever, the preloads and the mesh-force divisors ``n r_b``."""
+        pf = self.pf
+        rbA, rb1, rbB, rb2 = pf.rb
+        planets = []
+        for i in (0, 1):
+            tx, ty, rx, ry, ux, uy, qx, qy = pf.layout._flat[i]
+            planets.append((tx, ty, rx, ry, ux, uy, qx, qy,
+                            tx + rx, ty + ry, tx - rx, ty - ry,      # d|F_pin|/dFs for Fs >= 0, < 0
+                            ux + qx, uy + qy, ux - qx, uy - qy))     # d|F_pin|/dF12 for F12 >= 0, < 0
+        self._pin1, self._pin2 = planets
+        self._nrbA, self._nrbB = pf.n * rbA, pf.n * rbB
+
+    def _sun_forces(self, ac: float, ad: float) -> tuple[float, float]:
+        """Normal mesh forces per pair of the sun meshes from the sun torques."""
+        n = self.pf.n
+        rbA, _, rbB, _ = self.pf.rb
+        return ((self.J_A * (ac + ad) - self.tau_L) / (n * rbA),
+                (self.J_B * (ac + self.lam * ad) - self.tau_R) / (n * rbB))
+
+    def _slip_exact(self, ac_given: float | None, s: float) -> tuple[float, float, float]:
+        """Slipping in direction s with the pin-load law: solve the planets' moment balances
+        for (a_d, F_12) by Newton; returns (ac, ad, Q_f) and leaves F12, cap set.
+
+        The hot path of the rigid level (one solve per inner step): the sun forces
+        (:meth:`_sun_forces`) and the pin capacities (:meth:`spurdiff.differential.locking.PinFriction.capacity`)
+        are written out here with the constants of :meth:`_pin_constants`, the same arithmetic in
+        the same order, so the result is bit for bit that of the two calls. With the compiled
+        kernel (:mod:`spurdiff.differential.rigid_kernel`) the same solve runs in C, bit for bit."""
+        rk = self._rk
+        if rk is not None:
+            io = rk.io
+            ad0 = self._ad_guess
+            if ac_given is None:
+                io[0:8] = (s, 0.0, 0.0, self.tau_c, self.tau_L, self.tau_R, 0.0 if ad0 is None else ad0, self.F12)
+            else:
+                io[0:8] = (s, 1.0, ac_given, self.tau_c, self.tau_L, self.tau_R, 0.0 if ad0 is None else ad0,
+                           self.F12)
+            rk.fn(rk.const, io)
+            ac, ad, self.F12, cap = io[8:12]
+            self.cap = cap
+            return ac, ad, -s * cap
+        pf = self.pf
+        n = pf.n
+        _, rb1, _, rb2 = pf.rb
+        nrbA, nrbB = self._nrbA, self._nrbB
+        cpin = pf.c
+        M01, M02 = pf.M0
+        (t1x, t1y, r1x, r1y, u1x, u1y, q1x, q1y, p1x, p1y, m1x, m1y, P1x, P1y, N1x, N1y) = self._pin1
+        (t2x, t2y, r2x, r2y, u2x, u2y, q2x, q2y, p2x, p2y, m2x, m2y, P2x, P2y, N2x, N2y) = self._pin2
+        J_A, J_B, lam = self.J_A, self.J_B, self.lam
+        J1, J2 = self.J_1, self.J_2
+        rho1, rho2 = self.rho1, self.rho2
+        tau_L, tau_R = self.tau_L, self.tau_R
+        Mcd, Mcc = self.Mcd, self.Mcc
+        sg1 = math.copysign(1.0, rho1) * s
+        sg2 = math.copysign(1.0, rho2) * s
+        Qc = self.tau_c + tau_L + tau_R
+        given = ac_given is not None
+        g = 0.0 if given else -Mcd / Mcc
+        sqrt = math.sqrt
+
+        # start: the last solution (or 0) for a_d, the last F_12 (or the mean sun force)
+        ad = self._ad_guess if self._ad_guess is not None else 0.0
+        F12 = self.F12
+        if F12 != F12:
+            ac = ac_given if given else (Qc - Mcd * ad) / Mcc
+            F12 = 0.5 * ((J_A * (ac + ad) - tau_L) / nrbA + (J_B * (ac + lam * ad) - tau_R) / nrbB)
+        dFA = J_A * (g + 1.0) / nrbA
+        dFB = J_B * (g + lam) / nrbB
+        a11_0 = J1 * (g + rho1)
+        a21_0 = J2 * (g + rho2)
+        for _ in range(50):
+            ac = ac_given if given else (Qc - Mcd * ad) / Mcc
+            FA = (J_A * (ac + ad) - tau_L) / nrbA
+            FB = (J_B * (ac + lam * ad) - tau_R) / nrbB
+            aA, aB, a12 = abs(FA), abs(FB), abs(F12)
+            # pin force of planet 1 (sun A mesh FA, planet mesh F12) and of planet 2 (FB, F12)
+            f1x = FA * t1x + aA * r1x + F12 * u1x + a12 * q1x
+            f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y
+            f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x
+            f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y
+            mag1 = sqrt(f1x * f1x + f1y * f1y)
+            mag2 = sqrt(f2x * f2x + f2y * f2y)
+            c1 = cpin * mag1 + M01
+            c2 = cpin * mag2 + M02
+            r1 = rb1 * (FA - F12) - sg1 * c1 - J1 * (ac + rho1 * ad)
+            r2 = rb2 * (FB - F12) - sg2 * c2 - J2 * (ac + rho2 * ad)
+            # moment residuals at rounding level of the largest moment: converged
+            if abs(r1) + abs(r2) <= 1e-14 * (rb1 * (aA + a12) + rb2 * (aB + a12)) + 1e-300:
+                break
+            if mag1 == 0.0:
+                c1S = c112 = 0.0
+            else:
+                c1S = cpin * ((f1x * p1x + f1y * p1y) / mag1 if FA >= 0.0 else (f1x * m1x + f1y * m1y) / mag1)
+                c112 = cpin * ((f1x * P1x + f1y * P1y) / mag1 if F12 >= 0.0 else (f1x * N1x + f1y * N1y) / mag1)
+            if mag2 == 0.0:
+                c2S = c212 = 0.0
+            else:
+                c2S = cpin * ((f2x * p2x + f2y * p2y) / mag2 if FB >= 0.0 else (f2x * m2x + f2y * m2y) / mag2)
+                c212 = cpin * ((f2x * P2x + f2y * P2y) / mag2 if F12 >= 0.0 else (f2x * N2x + f2y * N2y) / mag2)
+            a11 = (rb1 - sg1 * c1S) * dFA - a11_0
+            a12_ = -rb1 - sg1 * c112
+            a21 = (rb2 - sg2 * c2S) * dFB - a21_0
+            a22 = -rb2 - sg2 * c212
+            det = a11 * a22 - a12_ * a21
+            d_ad = (r1 * a22 - a12_ * r2) / det
+            d_F = (a11 * r2 - a21 * r1) / det
+            ad -= d_ad
+            F12 -= d_F
+            scale = aA + aB + abs(F12) + 1e-300
+            if abs(d_F) <= 1e-15 * scale and abs(d_ad) * (abs(dFA) + abs(dFB)) <= 1e-15 * scale:
+                # the loop's first lines again, at the converged iterate: written out rather than a
+                # function because a call per Newton iteration costs more than its arithmetic here
+                # (the C kernel writes them once, as the macro PIN_FORCES)
+                ac = ac_given if given else (Qc - Mcd * ad) / Mcc
+                FA = (J_A * (ac + ad) - tau_L) / nrbA
+                FB = (J_B * (ac + lam * ad) - tau_R) / nrbB
+                aA, aB, a12 = abs(FA), abs(FB), abs(F12)
+                f1x = FA * t1x + aA * r1x + F12 * u1x + a12 * q1x
+                f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y
+                f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x
+                f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y
+                c1 = cpin * sqrt(f1x * f1x + f1y * f1y) + M01
+                c2 = cpin * sqrt(f2x * f2x + f2y * f2y) + M02
+                break
+        self.F12 = F12
+        self.cap = n * (abs(rho1) * c1 + abs(rho2) * c2)
+        return ac, ad, -s * self.cap
+
+    def _planet_interval(self, i: int, Fs: float, ac: float) -> tuple[float, float]:
+        """F_12 interval in which planet i holds stuck: |r_bi (F_12 - F*)| <= M_i,max(F_12).
+
+        Closed form. Both ends solve ``r_b (F - F*) -+ (c |P(F)| + M_0) = 0``, with the pin force
+        ``P(F) = a + F u + |F| q`` (``a`` from the sun mesh force, :class:`spurdiff.gears.layout.PinLayout`):
+        for F of one sign, ``P = a + F v`` with ``v = u + q`` (F >= 0) or ``u - q`` (F < 0), ``|v| = 1``.
+        Each left side increases strictly in F (slope >= r_b - c > 0), so each end is the one root;
+        the sign of the left side at F = 0 tells which side of 0 it lies on, and there, squared,
+        ``(r_b F - k)^2 = c^2 |a + F v|^2`` (``k = r_b F* +- M_0``) is a quadratic whose larger root
+        is the upper end (``r_b F - k = +c |P|``) and whose smaller root is the lower end."""
+        pf = self.pf
+        if i == 0:
+            rb, J, M0 = pf.rb[1], self.J_1, pf.M0[0]
+            tx, ty, rx, ry, _, _, _, _, _, _, _, _, Px, Py, Nx, Ny = self._pin1
+        else:
+            rb, J, M0 = pf.rb[3], self.J_2, pf.M0[1]
+            tx, ty, rx, ry, _, _, _, _, _, _, _, _, Px, Py, Nx, Ny = self._pin2
+        c = pf.c
+        Fstar = Fs - J * ac / rb
+        cap0 = pf.capacity(i, Fs, Fstar)[0]
+        if cap0 <= 0.0:
+            return Fstar, Fstar
+        aS = abs(Fs)
+        ax, ay = Fs * tx + aS * rx, Fs * ty + aS * ry      # P(0)
+        c_a0 = c * math.sqrt(ax * ax + ay * ay)             # c |P(0)|
+        ends = []
+        for sign in (1.0, -1.0):                            # upper end, lower end
+            k = rb * Fstar + sign * M0
+            if c == 0.0:
+                ends.append(k / rb)
+                continue
+            # which side of F = 0: the left side at 0 is -k -+ c |P(0)|
+            vx, vy = (Px, Py) if -rb * Fstar - sign * (c_a0 + M0) <= 0.0 else (Nx, Ny)
+            # (rb^2 - c^2 |v|^2) F^2 - 2 beta F + (k^2 - c^2 |a|^2) = 0, discriminant written
+            # without cancellation: beta^2 - alpha gamma = c^2 (|rb a + k v|^2 - c^2 (a x v)^2)
+            vv = vx * vx + vy * vy
+            alpha = rb * rb - c * c * vv
+            beta = rb * k + c * c * (ax * vx + ay * vy)
+            gamma = k * k - c * c * (ax * ax + ay * ay)
+            wx, wy = rb * ax + k * vx, rb * ay + k * vy
+            cross = ax * vy - ay * vx
+            disc = c * c * (wx * wx + wy * wy - c * c * cross * cross)
+            root = math.sqrt(disc) if disc > 0.0 else 0.0
+            q = beta + math.copysign(root, beta)
+            if q == 0.0:
+                ends.append(0.0)
+                continue
+            r1, r2 = q / alpha, gamma / q                   # the two roots, stably
+            ends.append(max(r1, r2) if sign > 0.0 else min(r1, r2))
+        return ends[1], ends[0]
+
+    def _stuck_exact(self, ac: float) -> bool:
+        """Can both planets hold (a_d = 0)? Sets F12 and cap to the reported stuck values."""
+        pf = self.pf
+        rb1, rb2 = pf.rb[1], pf.rb[3]
+        FA, FB = self._sun_forces(ac, 0.0)
+        lo1, hi1 = self._planet_interval(0, FA, ac)
+        lo2, hi2 = self._planet_interval(1, FB, ac)
+        lo, hi = max(lo1, lo2), min(hi1, hi2)
+        tol = 1e-10 * (abs(FA) + abs(FB) + abs(hi) + abs(lo)) + 1e-300
+        if lo > hi + tol:
+            return False
+        # the frictionless compromise (least squares of the two friction moments), clipped to the overlap
+        F1s, F2s = FA - self.J_1 * ac / rb1, FB - self.J_2 * ac / rb2
+        F12 = (rb1 * rb1 * F1s + rb2 * rb2 * F2s) / (rb1 * rb1 + rb2 * rb2)
+        F12 = min(max(F12, lo), hi) if lo <= hi else 0.5 * (lo + hi)
+        self.F12 = F12
+        self.cap = pf.n * (abs(self.rho1) * pf.capacity(0, FA, F12)[0]
+                           + abs(self.rho2) * pf.capacity(1, FB, F12)[0])
+        return True
+
+    def _accelerations_exact(self, ac_given: float | None) -> tuple[float, float, float, float]:
+        """As :meth:`_accelerations`, with the pin-load law."""
+        if self.wd != 0.0:
+            s = math.copysign(1.0, self.wd)
+            key = (s, ac_given, self.tau_c, self.tau_L, self.tau_R)
+            if key == self._slip_key:          # same mode and inputs: same accelerations
+                ac, ad, Qf, s, self.F12, self.cap = self._slip_val
+                return ac, ad, Qf, s
+            ac, ad, Qf = self._slip_exact(ac_given, s)
+            self._ad_guess = ad
+            self._slip_key, self._slip_val = key, (ac, ad, Qf, s, self.F12, self.cap)
+            return ac, ad, Qf, s
+        Fd = self.tau_L + self.lam * self.tau_R
+        ac = ac_given if ac_given is not None else (self.tau_c + self.tau_L + self.tau_R) / self.Mcc
+        Q_req = self.Mcd * ac - Fd
+        F12_prev = self.F12
+        if self._stuck_exact(ac):
+            return ac, 0.0, Q_req, 0.0
+        s = -math.copysign(1.0, Q_req)
+        self._ad_guess = 0.0
+        ac_s, ad_s, Qf = self._slip_exact(ac_given, s)
+        if ad_s * s > 0.0:
+            self._ad_guess = ad_s
+            return ac_s, ad_s, Qf, s
+        # no consistent break-away: stay stuck at capacity (as the paper law does)
+        self.F12 = F12_prev if F12_prev == F12_prev else self.F12
+        return ac, 0.0, math.copysign(self.cap, Q_req), 0.0
