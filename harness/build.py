@@ -18,7 +18,7 @@ Python is installed, in any host process):
   only), ``binaries/linux64/fmi2_pybridge.so``, the bridge into the interpreter (compiled with this
   Python's headers), and ``binaries/linux64/spurdiff_fmu_server`` when :data:`SERVER_SOURCES` is
   set (the model's own process);
-* ``resources/python_runtime.cfg`` (format 2, see ``fmu_src/native/runtime_cfg.h``): the runtime's
+* ``resources/python_runtime.cfg`` (format 2, see ``fmu_src/native/fmi/runtime_cfg.h``): the runtime's
   libpython, home, module path and preloaded libraries, the package, module, class and GUID, every
   path relative to the resources folder: nothing of the building machine is recorded.
 
@@ -61,6 +61,8 @@ SERVER = "spurdiff_fmu_server"
 FMU_SRC = fmu_sources()          # native/, the C sources (package spurdiff_fmus = fmu_src/)
 PACKAGE = physics_package()      # bundled into every FMU
 NATIVE = FMU_SRC / "native"
+NATIVE_FMI = NATIVE / "fmi"           # the loader, bridge and server: LOADER_SOURCES, SERVER_SOURCES
+NATIVE_KERNELS = NATIVE / "kernels"   # the compiled steps of the models: KERNEL_SOURCES, RIGID_KERNEL_SOURCES
 
 # FMU name -> its interface module, where the FMU is declared once: FMU_NAME, DESCRIPTION,
 # VARIABLES (bound to the model), build_model, DEFAULT_EXPERIMENT
@@ -164,16 +166,16 @@ def compile_native(out_dir: Path) -> tuple[Path, Path, Path | None]:
     if not (Path(include) / "Python.h").is_file():
         raise BuildError(f"no Python.h in {include} (install this Python's development headers)")
     flags = ["-fPIC", "-O2", "-Wall", "-Werror=implicit-function-declaration", f"-I{_fmi2_headers()}",
-             f"-I{NATIVE}", *_prefix_map()]
+             f"-I{NATIVE_FMI}", *_prefix_map()]
     loader, bridge = out_dir / "loader.so", out_dir / BRIDGE
     server = out_dir / SERVER if SERVER_SOURCES else None
     jobs = [
-        [cc, "-shared", *flags, *(str(NATIVE / f) for f in LOADER_SOURCES), "-o", str(loader), "-ldl", "-lpthread"],
+        [cc, "-shared", *flags, *(str(NATIVE_FMI / f) for f in LOADER_SOURCES), "-o", str(loader), "-ldl", "-lpthread"],
         [cc, "-shared", *flags, f"-I{include}", f"-ffile-prefix-map={include}=python-include",
-         str(NATIVE / "fmi2_pybridge.c"), "-o", str(bridge), "-lpthread"],
+         str(NATIVE_FMI / "fmi2_pybridge.c"), "-o", str(bridge), "-lpthread"],
     ]
     if server is not None:
-        jobs.append([cc, *flags, *(str(NATIVE / f) for f in SERVER_SOURCES), "-o", str(server), "-ldl", "-lpthread"])
+        jobs.append([cc, *flags, *(str(NATIVE_FMI / f) for f in SERVER_SOURCES), "-o", str(server), "-ldl", "-lpthread"])
     for cmd in jobs:
         sources = ", ".join(Path(c).name for c in cmd if c.endswith(".c"))
         r = subprocess.run(cmd, capture_output=True, text=True)
@@ -189,7 +191,7 @@ def _native_binaries() -> tuple[Path, Path, Path | None]:
     """:func:`compile_native`'s binaries, compiled once per process and C sources (every FMU
     carries the same loader, bridge and server) into a temporary folder removed at exit."""
     h = hashlib.sha256(repr((LOADER_SOURCES, SERVER_SOURCES, os.environ.get("CC"))).encode())
-    for p in sorted(NATIVE.glob("*.[ch]")):
+    for p in sorted(NATIVE_FMI.glob("*.[ch]")):
         h.update(p.name.encode() + b"\0" + p.read_bytes())
     key = h.hexdigest()
     if key not in _NATIVE:
@@ -199,21 +201,21 @@ def _native_binaries() -> tuple[Path, Path, Path | None]:
     return _NATIVE[key]
 
 
-# FMUs that ship the compiled kernel of the mesh levels (fmu_src/native/mesh_kernel.c), and its flags:
+# FMUs that ship the compiled kernel of the mesh levels (fmu_src/native/kernels/mesh_kernel.c), and its flags:
 # no contraction into fused multiply-adds, so it computes what the Python reference computes
 MESH_KERNEL_FMUS = ("SpurDifferential",)
 KERNEL_FLAGS = ["-shared", "-fPIC", "-O2", "-Wall", "-ffp-contract=off"]
 KERNEL_SOURCES = ("mesh_kernel.c", "mesh_kernel_model.c")
-# the compiled pin-load solve of the rigid level (fmu_src/native/rigid_kernel.c), same flags, same FMUs
+# the compiled pin-load solve of the rigid level (fmu_src/native/kernels/rigid_kernel.c), same flags, same FMUs
 RIGID_KERNEL_SOURCES = ("rigid_kernel.c",)
 
 
 def compile_kernel(out: Path, sources: tuple[str, ...] = KERNEL_SOURCES) -> Path:
-    """Compile ``fmu_src/native/mesh_kernel*.c`` (or ``sources``, e.g. :data:`RIGID_KERNEL_SOURCES`;
+    """Compile ``fmu_src/native/kernels/mesh_kernel*.c`` (or ``sources``, e.g. :data:`RIGID_KERNEL_SOURCES`;
     libm only) into the file ``out``; BuildError with the compiler's message when there is no
     compiler or the build fails."""
     cc = c_compiler()
-    r = subprocess.run([cc, *KERNEL_FLAGS, *_prefix_map(), f"-I{NATIVE}", *(str(NATIVE / f) for f in sources), "-o", str(out),
+    r = subprocess.run([cc, *KERNEL_FLAGS, *_prefix_map(), f"-I{NATIVE_KERNELS}", *(str(NATIVE_KERNELS / f) for f in sources), "-o", str(out),
                         "-lm"], capture_output=True, text=True)
     if r.returncode != 0:
         raise BuildError(f"compiling the kernel ({', '.join(sources)}) failed:\n{r.stderr.strip()}")
@@ -225,7 +227,7 @@ def _direct_kernel(binding, stem: str, sources: tuple[str, ...], dest: Path | No
     the FMU folder (under a lock: parallel test workers share it) and put on ``binding``'s search path."""
     dest = Path(dest) if dest else fmu_cache_dir()
     dest.mkdir(parents=True, exist_ok=True)
-    out = dest / f"{stem}-{binding.source_digest(NATIVE)}.so"
+    out = dest / f"{stem}-{binding.source_digest(NATIVE_KERNELS)}.so"
     with open(dest / f".{stem}.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         if not out.is_file():

@@ -504,7 +504,7 @@ def _prune(cache: Path, keep: Path) -> None:
 
 
 def cfg_text(runtime: Runtime, name: str, guid: str) -> str:
-    """``resources/python_runtime.cfg``, format 2 (see ``fmu_src/native/runtime_cfg.h``): every path
+    """``resources/python_runtime.cfg``, format 2 (see ``fmu_src/native/fmi/runtime_cfg.h``): every path
     relative to the resources folder."""
     lines = [
         "# The Python runtime this FMU carries (resources/python) and the class it runs;",

@@ -20,8 +20,8 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 _PACKAGE = Path(__file__).resolve().parent
-_SOURCES = (_PACKAGE.parent / "native",                      # checkout: fmu_src/native
-            _PACKAGE.parent / "spurdiff_fmus" / "native")    # installed wheel
+_SOURCES = (_PACKAGE.parent / "native" / "kernels",                      # checkout: fmu_src/native/kernels
+            _PACKAGE.parent / "spurdiff_fmus" / "native" / "kernels")    # installed wheel
 
 
 def source_digest(native: Path, stem: str) -> str:
@@ -39,8 +39,8 @@ def candidates(stem: str, shipped: Path, search_path: Sequence[Path]) -> list[Pa
     src = next((p for p in _SOURCES if (p / f"{stem}.c").is_file()), None)
     dirs = list(search_path) + [Path(os.environ[v]) for v in ("SPURDIFF_KERNEL_DIR", "SPURDIFF_FMU_DIR")
                                 if os.environ.get(v)]
-    if src is not None and src.parent.name == "fmu_src":      # a checkout: its build/fmus
-        dirs.append(src.parent.parent / "build" / "fmus")
+    if src is not None and src.parent.parent.name == "fmu_src":      # a checkout (fmu_src/native/kernels): its build/fmus
+        dirs.append(src.parent.parent.parent / "build" / "fmus")
     if src is not None:
         out += [Path(d) / f"{stem}-{source_digest(src, stem)}.so" for d in dirs]
     else:

@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import math
 import statistics
+import sys
 import time
 import types
 from dataclasses import replace
@@ -139,7 +140,8 @@ def fmi_call_cost(scene_name: str, calls: int = 2000) -> dict:
 def fmi_path_cost(scene_name: str = "vehicle-cornering", repeats: int = 5) -> dict:
     """The FMI path without the physics: the scene through FMI and directly, interleaved, with
     every model's ``do_step`` a no-op (the models' classes patched for the measurement; the FMUs
-    run the same classes in this process), in CPU time of this thread, the fastest of
+    run the same classes in this process, or their own copy of the package under a private name, which
+    is patched too), in CPU time of this thread, the fastest of
     ``repeats`` each. What is left is what both runs do around the physics (the interface modules'
     copies, the loops, the recording) and, in the FMI run only, fmi2DoStep's way through ctypes,
     the loader, the bridge and the adapter, the getReal calls and the master's Python. The
@@ -180,6 +182,15 @@ def fmi_path_cost(scene_name: str = "vehicle-cornering", repeats: int = 5) -> di
         real = run_scene(scene, files)
     finally:
         hi.Port.set, hm.Master._start = orig_set, orig_start
+    # the FMUs run their own copy of the package, under a private name per extracted FMU (the bridge's
+    # _spurdiff_fmu_<key>; extracted once per process, so the same copy in every run): its classes too
+    copies = [m for n, m in sys.modules.items() if n.startswith("_spurdiff_fmu_") and n.count(".") == 0]
+    for c in list(classes):
+        rel = c.__module__.partition(".")[2]
+        for pkg in copies:
+            mod = sys.modules.get(f"{pkg.__name__}.{rel}")
+            if mod is not None and isinstance(getattr(mod, c.__qualname__, None), type):
+                classes.add(getattr(mod, c.__qualname__))
     saved = {c: c.__dict__.get("do_step") for c in classes}
     fmi, direct = [], []
     try:

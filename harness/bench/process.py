@@ -1,7 +1,7 @@
 """What the model's own process costs (issue 25): the same FMU in this process and in its own.
 
 A host whose Python is not the FMU runtime's version runs the model in a process of its own
-(fmu_src/native/fmi2_remote.c, fmi2_server.c: shared memory, one round trip per FMI call);
+(fmu_src/native/fmi/fmi2_remote.c, fmi2_server.c: shared memory, one round trip per FMI call);
 ``SPURDIFF_FMU_PROCESS=out`` asks for that in any host, which is how this module measures it from
 this process, interleaved with the in-process runs so machine noise hits both sides:
 

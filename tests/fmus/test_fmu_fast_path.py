@@ -1,4 +1,4 @@
-"""The bridge's fast fmi2GetReal / fmi2SetReal while stepping (fmu_src/native/fmi2_pybridge.c: the
+"""The bridge's fast fmi2GetReal / fmi2SetReal while stepping (fmu_src/native/fmi/fmi2_pybridge.c: the
 slave's value table read and stored in C by the names its fmi2_real_plan gave once per
 value-reference vector, each stored value checked against its range) answer as the slave's own
 methods do in the other phases: the same values, the same refusals, a bad input named by the next

@@ -1,7 +1,7 @@
 """Every FMU runs its own copy of the physics package, whatever else the process holds.
 
 The bridge imports ``resources/spurdiff`` under a private name per extraction folder and GUID
-(fmu_src/native/fmi2_pybridge.c, BOOT_SOURCE), never ``spurdiff`` from sys.path: our FMUs one
+(fmu_src/native/fmi/fmi2_pybridge.c, BOOT_SOURCE), never ``spurdiff`` from sys.path: our FMUs one
 after another with their folders removed in between, side by side, two builds whose packages
 differ, and an FMU beside a host that imported ``spurdiff`` itself each run their own code. Each
 case runs in a fresh Python process (the test process has imported FMUs of its own).

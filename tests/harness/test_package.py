@@ -44,8 +44,8 @@ def test_the_wheel_holds_what_the_commands_need(installed):
     _, wheel, _, _ = installed
     names = set(zipfile.ZipFile(wheel).namelist())
     for needed in ("spurdiff/fmi/wheel_fmu.py", "spurdiff/fmi/vehicle_fmu.py", "spurdiff/data/differential.toml",
-                   "spurdiff_fmus/native/fmi2_loader.c", "spurdiff_fmus/native/fmi2_pybridge.c",
-                   "spurdiff_fmus/native/runtime_cfg.h", "spurdiff/fmi/differential_fmu.py",
+                   "spurdiff_fmus/native/fmi/fmi2_loader.c", "spurdiff_fmus/native/fmi/fmi2_pybridge.c",
+                   "spurdiff_fmus/native/fmi/runtime_cfg.h", "spurdiff/fmi/differential_fmu.py",
                    "spurdiff/data/passenger_car.toml", "harness/scenes/vehicle-cornering.toml",
                    "harness/sweeps/split-mu-locking.toml", "harness/accuracy_grid.toml",
                    "harness/accuracy_data.csv", "harness/accuracy_facts.json", "harness/recipes/fmi2_host.c",

@@ -1,4 +1,4 @@
-"""The compiled kernel of the rigid level (fmu_src/native/rigid_kernel.c through
+"""The compiled kernel of the rigid level (fmu_src/native/kernels/rigid_kernel.c through
 spurdiff.differential.rigid_kernel) against its Python reference: every pin-load solve
 (RigidDifferential._slip_exact) of the rigid scenes run both ways from the same state, bit for bit;
 the compiled slipping step (RigidDifferential._step_compiled) through the model's state after every

@@ -1,4 +1,4 @@
-"""The compiled kernel of the rigid level (``fmu_src/native/rigid_kernel.c``) through ctypes.
+"""The compiled kernel of the rigid level (``fmu_src/native/kernels/rigid_kernel.c``) through ctypes.
 
 The rigid level's hot path is the Newton solve of the planets' moment balances while the
 differential slips with the pin-load locking law (:meth:`spurdiff.differential.rigid.RigidDifferential._slip_exact`,
@@ -62,7 +62,7 @@ def _candidates() -> list[Path]:
 
 
 MISSING = ("no compiled rigid kernel found (build it with `spurdiff build`, which compiles "
-           "fmu_src/native/rigid_kernel.c)")
+           "fmu_src/native/kernels/rigid_kernel.c)")
 
 
 def load() -> tuple[C.CDLL | None, str]:

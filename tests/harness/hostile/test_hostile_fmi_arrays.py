@@ -2,7 +2,7 @@
 
 A host that passes ``NULL`` for the value-reference or the value array with ``nvr > 0`` made every
 getter segfault (the setters already refused). The loader now checks the arrays before the
-model sees the call (fmu_src/native/fmi2_loader.c), whichever side runs the model: in this
+model sees the call (fmu_src/native/fmi/fmi2_loader.c), whichever side runs the model: in this
 process and in its own (``SPURDIFF_FMU_PROCESS=out``). Each case runs in a child process, so a
 segfault is a failed test, not a dead test run.
 """

@@ -1,4 +1,4 @@
-"""The compiled kernel of the mesh levels (fmu_src/native/mesh_kernel.c) against the pure-Python
+"""The compiled kernel of the mesh levels (fmu_src/native/kernels/mesh_kernel.c) against the pure-Python
 reference: the same states after every communication step (to 1e-12 relative; they are in fact
 equal bit for bit: both factor with the same LU, integrator.lu_factor) over the paper scenes' loads and the hard
 cases, at every level and effect, with each integration method (solver.method); the choice of

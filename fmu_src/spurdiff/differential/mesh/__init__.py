@@ -5,7 +5,7 @@ Modules: :mod:`.params` (parameters and their limits), :mod:`.layout` (state vec
 geometry), :mod:`.laws` (force and friction laws), :mod:`.forces` (the effects and the
 right-hand side), :mod:`.events`, :mod:`.stickslip` (friction modes), :mod:`.integrator`
 (ROS34PW2, RODAS5P), :mod:`.stepper` (the driver over a communication step), :mod:`.kernel` (the same
-communication step compiled, fmu_src/native/mesh_kernel.c, through ctypes), :mod:`.model`
+communication step compiled, fmu_src/native/kernels/mesh_kernel.c, through ctypes), :mod:`.model`
 (:class:`MeshDifferential`). Documentation: docs/mesh-dynamics.md.
 
 May import: the rest of :mod:`spurdiff.differential` (parameters, statics, the locking law, the rigid

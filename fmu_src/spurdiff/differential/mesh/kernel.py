@@ -1,4 +1,4 @@
-"""The compiled kernel of the mesh levels (``fmu_src/native/mesh_kernel*.c``) through ctypes.
+"""The compiled kernel of the mesh levels (``fmu_src/native/kernels/mesh_kernel*.c``) through ctypes.
 
 The kernel does a whole communication step (the internal ROS34PW2 or RODAS5P steps, the tableau
 as data, with their error control, events, loss quadrature, stick-slip and work accounting) in C,
@@ -100,7 +100,7 @@ def _candidates() -> list[Path]:
 
 
 MISSING = ("no compiled mesh kernel found (build it with `spurdiff build`, which compiles "
-           "fmu_src/native/mesh_kernel*.c)")
+           "fmu_src/native/kernels/mesh_kernel*.c)")
 
 
 def load() -> tuple[C.CDLL | None, str]:
