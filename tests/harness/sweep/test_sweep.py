@@ -14,8 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from harness.sweep import (ProgressBar, SweepError, available, expand, load_sweep, main, parse_sweep, plan_sweep,
+from harness.sweep import (ProgressBar, SweepError, available, expand, load_sweep, parse_sweep, plan_sweep,
                            read_table, run_sweep, sweep_path)
+from harness.cli.sweep import main
 from harness.sweep.pool import InstancePool, ReusingMaster
 from harness.sweep.worker import run_one, scene_for
 
