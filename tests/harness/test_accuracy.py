@@ -90,7 +90,7 @@ def test_a_per_scene_run_keeps_the_other_scenes_and_the_solve_ivp_points(tmp_pat
     """`spurdiff accuracy SCENE` replaces that scene's rows and facts and keeps everything else."""
     import json
 
-    import harness.accuracy as acc
+    import harness.cli.accuracy as acc
     from harness.accuracy import command, data as stored_data
 
     data, facts = tmp_path / "data.csv", tmp_path / "facts.json"
@@ -124,7 +124,7 @@ def test_only_ivp_in_a_fresh_folder_keeps_its_points(tmp_path, monkeypatch):
     and was lost)."""
     import json
 
-    import harness.accuracy as acc
+    import harness.cli.accuracy as acc
     from harness.accuracy import command, data as stored_data
 
     data, facts = tmp_path / "data.csv", tmp_path / "facts.json"
