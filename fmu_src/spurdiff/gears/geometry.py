@@ -30,7 +30,7 @@ pointed tip, tip interference, contact ratio, form circle, tip clearance, symmet
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from spurdiff.datafile import differential_default as _d
 from spurdiff.errors import ParameterError, require_finite, require_positive
