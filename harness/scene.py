@@ -402,6 +402,20 @@ def merge(base: dict, over: dict) -> dict:
 MAX_EXTENDS = 16
 
 
+def within_run(data: dict) -> dict:
+    """``data`` (scene TOML data whose ``duration`` a caller shortened) without the checks and table
+    rows whose window lies beyond the run: they cannot be evaluated, and a scene read with them is
+    refused. Rows without a window stay."""
+    end = data.get("duration")
+    if isinstance(end, (int, float)):
+        for key in ("checks", "table"):
+            rows = data.get(key)
+            if isinstance(rows, list):
+                data[key] = [r for r in rows if not (isinstance(r, dict) and isinstance(r.get("window"), list)
+                                                     and len(r["window"]) == 2 and r["window"][1] > end)]
+    return data
+
+
 def read_scene_data(name_or_path: str, _seen: tuple[Path, ...] = (), _base: Path | None = None) -> dict:
     """The scene's TOML data with ``extends`` resolved (its parent's tables merged underneath).
 

@@ -139,9 +139,9 @@ def fmi_call_cost(scene_name: str, calls: int = 2000) -> dict:
 
 def fmi_path_cost(scene_name: str = "vehicle-cornering", repeats: int = 5) -> dict:
     """The FMI path without the physics: the scene through FMI and directly, interleaved, with
-    every model's ``do_step`` a no-op (the models' classes patched for the measurement; the FMUs
-    run the same classes in this process, or their own copy of the package under a private name, which
-    is patched too), in CPU time of this thread, the fastest of
+    every model's ``do_step`` a no-op (the models' classes patched for the measurement: this
+    process's and the FMUs' own copies, which they import under a private name,
+    :func:`fmu_copies`), in CPU time of this thread, the fastest of
     ``repeats`` each. What is left is what both runs do around the physics (the interface modules'
     copies, the loops, the recording) and, in the FMI run only, fmi2DoStep's way through ctypes,
     the loader, the bridge and the adapter, the getReal calls and the master's Python. The
@@ -182,15 +182,7 @@ def fmi_path_cost(scene_name: str = "vehicle-cornering", repeats: int = 5) -> di
         real = run_scene(scene, files)
     finally:
         hi.Port.set, hm.Master._start = orig_set, orig_start
-    # the FMUs run their own copy of the package, under a private name per extracted FMU (the bridge's
-    # _spurdiff_fmu_<key>; extracted once per process, so the same copy in every run): its classes too
-    copies = [m for n, m in sys.modules.items() if n.startswith("_spurdiff_fmu_") and n.count(".") == 0]
-    for c in list(classes):
-        rel = c.__module__.partition(".")[2]
-        for pkg in copies:
-            mod = sys.modules.get(f"{pkg.__name__}.{rel}")
-            if mod is not None and isinstance(getattr(mod, c.__qualname__, None), type):
-                classes.add(getattr(mod, c.__qualname__))
+    classes |= fmu_copies(classes)
     saved = {c: c.__dict__.get("do_step") for c in classes}
     fmi, direct = [], []
     try:
@@ -217,6 +209,26 @@ def fmi_path_cost(scene_name: str = "vehicle-cornering", repeats: int = 5) -> di
     return {"fmi_us": f, "direct_us": d, "instances": len(scene.instances),
             "per_instance_us": (f - d) / len(scene.instances),
             "setreal_calls_per_step": sets[0] / max(1, real.steps)}
+
+
+def fmu_copies(classes) -> set:
+    """The FMUs' copies of ``classes`` in this process: each FMU imports its package as
+    ``_spurdiff_fmu_<key>`` (fmu_src/native/fmi2_pybridge.c), so ``spurdiff.rigid.RigidModel`` is also
+    ``_spurdiff_fmu_<key>.rigid.RigidModel`` for every FMU folder loaded here."""
+    import sys
+
+    out = set()
+    for c in classes:
+        rest = c.__module__.split(".", 1)
+        if rest[0] != "spurdiff":
+            continue
+        for name, mod in list(sys.modules.items()):
+            if name.startswith("_spurdiff_fmu_") and "." not in name:
+                sub = sys.modules.get(name + ("." + rest[1] if len(rest) > 1 else ""))
+                copy = getattr(sub, c.__name__, None) if sub is not None else None
+                if isinstance(copy, type):
+                    out.add(copy)
+    return out
 
 
 # Fidelity settings whose cost `bench` compares (structural parameters of the differential).

@@ -37,7 +37,7 @@ def torque_coupled(name: str, **changes) -> dict:
     speed in, flange torque out), the differential gets the flange torques; every input held over
     the step (no FzRate / vxRate from the car, no speedTargetRate / pathRadiusRate): the reference
     of issue 19 as it was measured. ``changes`` replace top-level keys (step, duration ...)."""
-    from harness.scene import read_scene_data
+    from harness.scene import read_scene_data, within_run
 
     data = read_scene_data(name)
     for k in [k for k in data.get("inputs", {}) if k.endswith("Rate")]:
@@ -59,6 +59,7 @@ def torque_coupled(name: str, **changes) -> dict:
             if c["torque"] == f"diff.{side}Shaft.tau":
                 c["torque"] = f"{w}.shaft.tau"
     data.update(changes)
+    within_run(data)   # a shortened run keeps only the windows it covers
     return data
 
 

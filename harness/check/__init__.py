@@ -3,12 +3,15 @@
 * :mod:`.rules`: every rule as data (id, FMI 2.0 section, severity, calls, what passes);
 * :mod:`.archive`: reading a possibly hostile FMU archive within limits, safe extraction;
 * :mod:`.static`: the archive and modelDescription.xml rules (no binary loaded);
+* :mod:`.native`: the binary outside Python (ELF symbols against DT_NEEDED, a bare C host);
+* :mod:`.selection`: which rules run on which FMU (select/ignore, [tool.spurdiff.check]);
 * :mod:`.isolation`: one task in a fresh process, killed with its whole group at the timeout;
 * :mod:`.worker`, :mod:`.driver`: the worker process and its FMI session (on :mod:`harness.fmi`);
 * :mod:`.tasks`: what a worker process can run, by id: the co-simulation rules (:mod:`.cs_lifecycle`,
   :mod:`.cs_state`, :mod:`.cs_steps`), the model-exchange rules (:mod:`.me_checks`) and the
   reference simulation (:mod:`.reference_task`);
-* :mod:`.lifecycle`: scheduling those rules, ``jobs`` processes at a time;
+* :mod:`.lifecycle`: scheduling those rules, ``jobs`` processes at a time, preconditions, one finding
+  per crash or hang;
 * :mod:`.crosscheck`: the cross-check file formats (CSV, ``_ref.opt``);
 * :mod:`.reference`: writing reference results (parent side); :mod:`.compare`: per-column comparison;
 * :mod:`.report`: PASS/ERROR/WARN/INFO/SKIP lines, JUnit XML, exit code;

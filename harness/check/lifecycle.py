@@ -18,7 +18,7 @@ from typing import Sequence
 from .archive import ArchiveError, extract
 from .isolation import run_isolated, run_isolated_outcome
 from .report import FAIL, SKIP, CheckResult
-from .rules import BY_ID, rules
+from .rules import BY_ID, RULES, rules
 
 GATES = {"cs": "cs.basic", "me": "me.basic"}
 
@@ -132,7 +132,9 @@ def run_lifecycle_checks_many(fmus: Sequence[tuple[str | Path, str, Sequence[str
     try:
         for path, subject, kinds, *own in fmus:
             only = own[0] if own else checks
-            available = lifecycle_rules(kinds, options.profiles)
+            # without a list: the kit's default (profile rules with their profile); a list may name any rule
+            available = (lifecycle_rules(kinds, options.profiles) if only is None
+                         else [r.id for r in RULES if r.kind in kinds and r.kind in ("cs", "me")])
             ids = [c for c in available if only is None or c in only]
             plan[subject] = ids
             hidden[subject] = {p for c in ids for p in DEPENDS.get(c, ()) if p not in ids and p in available}

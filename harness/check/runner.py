@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Sequence
 
-from .lifecycle import LifecycleOptions, lifecycle_rules, run_lifecycle_checks_many
+from .lifecycle import LifecycleOptions, run_lifecycle_checks_many
 from .native import run_load_checks
 from .report import PASS, SKIP, CheckResult
 from .rules import BY_ID, RULES
@@ -32,7 +32,7 @@ def run_checks_selected(fmus: Sequence[str], options: LifecycleOptions, static_o
     deselected = {f: selection.deselected(f, profiles) for f in fmus}
     static = {}
     for f in fmus:
-        everything = run_static_checks(f, subject=f, profiles=profiles)   # the gates are needed either way
+        everything = run_static_checks(f, subject=f, profiles=profiles, also=chosen[f])   # gates: needed either way
         static[f] = everything
     later: dict[str, list[CheckResult]] = {}
     runnable = []
@@ -46,12 +46,12 @@ def run_checks_selected(fmus: Sequence[str], options: LifecycleOptions, static_o
         blocker = next((res[c] for c in STATIC_GATES if res[c].status != PASS), None)
         wanted_load = [r.id for r in RULES if r.kind == "load" and r.id in chosen[f]]
         if blocker is not None:
-            ids = [c for c in wanted_load + lifecycle_rules(kinds or ("cs",), profiles) if c in chosen[f]]
+            ids = wanted_load + [r.id for r in RULES if r.kind in (kinds or ["cs"]) and r.id in chosen[f]]
             later[f] = [CheckResult(f, c, SKIP, f"{blocker.check_id} did not pass",
                                     severity=BY_ID[c].effective_severity(profiles)) for c in ids]
         else:
             later[f] = run_load_checks(f, f, wanted_load, options.timeout, profiles)
-            ids = [c for c in lifecycle_rules(kinds, profiles) if c in chosen[f]]
+            ids = [r.id for r in RULES if r.kind in kinds and r.id in chosen[f]]
             if ids:
                 runnable.append((f, f, kinds, ids))
     if runnable:

@@ -10,11 +10,11 @@ import time
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Sequence
 
 from .archive import ArchiveError, read_model_description_bytes, scan
 from .report import FAIL, PASS, SKIP, CheckResult
-from .rules import rules
+from .rules import RULES, rules
 
 # --- FMI 2.0 structured names (spec 2.2.9) ----------------------------------------------------
 _B_NAME = r"(?:[A-Za-z_][A-Za-z0-9_]*|'(?:[A-Za-z0-9_!#$%&()*+,\-./:;<=>?@\[\]^{}|~ ]|\\['\"?\\abfnrtv])+')"
@@ -331,8 +331,8 @@ CHECKS: dict[str, Callable[[FmuArchive], Outcome]] = {
 
 
 def run_static_checks(fmu_path: str | Path, subject: str | None = None,
-                      profiles: tuple[str, ...] = ()) -> list[CheckResult]:
-    """Every static rule (and those of ``profiles``) on one FMU file.
+                      profiles: tuple[str, ...] = (), also: Sequence[str] = ()) -> list[CheckResult]:
+    """Every static rule (and those of ``profiles``, and the profile rules named in ``also``) on one FMU file.
 
     When the archive or the model description cannot be read, the later rules are SKIPped
     (they would only repeat the same failure).
@@ -340,7 +340,7 @@ def run_static_checks(fmu_path: str | Path, subject: str | None = None,
     subject = subject if subject is not None else str(fmu_path)
     arc = read_archive(fmu_path)
     results: list[CheckResult] = []
-    for rule in rules("static", profiles):
+    for rule in [r for r in RULES if r.kind == "static" and (r in rules("static", profiles) or r.id in also)]:
         t0 = time.perf_counter()
         blocker = next((r for r in results if r.check_id in ("static.archive", "static.fmi2") and r.failed), None)
         if blocker is not None:

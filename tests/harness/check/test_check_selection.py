@@ -239,3 +239,14 @@ def test_wheel_lost_history_is_one_warning_and_no_false_status_error():
     assert res["cs.free-state"].status == "PASS", res["cs.free-state"].reason
     st = res["cs.status-after-discard"]
     assert st.status == "SKIP" and st.reason.startswith("precondition not met: no doStep was discarded"), st.reason
+
+
+@needs_gcc
+def test_a_profile_rule_named_by_id_runs_without_its_profile(capsys):
+    """--select static.units,cs.parameter-after-init: profile rules chosen by id run (with their own
+    severity, info), though the profile is off."""
+    fmu = chk_build.chkc_fmu("ChkC")
+    assert main(["--isolated", str(fmu), "--select", "static.units,cs.parameter-after-init,cs.basic"]) == 0
+    out = capsys.readouterr().out
+    ran = [ln.split("  ")[2] for ln in out.splitlines() if ln.startswith(("PASS", "INFO", "SKIP", "ERROR", "WARN"))]
+    assert ran == ["static.units", "cs.basic", "cs.parameter-after-init"], out
