@@ -215,8 +215,6 @@ def fmu_copies(classes) -> set:
     """The FMUs' copies of ``classes`` in this process: each FMU imports its package as
     ``_spurdiff_fmu_<key>`` (fmu_src/native/fmi2_pybridge.c), so ``spurdiff.rigid.RigidModel`` is also
     ``_spurdiff_fmu_<key>.rigid.RigidModel`` for every FMU folder loaded here."""
-    import sys
-
     out = set()
     for c in classes:
         rest = c.__module__.split(".", 1)
