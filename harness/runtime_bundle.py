@@ -5,7 +5,7 @@ Layout (``X`` the build interpreter's minor version)::
 
     python/lib/libpython3.X.so.1.0          the build interpreter's shared libpython, debug info stripped
     python/lib/<soname>                     non-glibc libraries the extension modules need (preloaded)
-    python/lib/python3.X/                   the standard library modules and packages the FMUs import
+    python/lib/python3X.zip                 the pure-Python standard library modules the FMUs import
     python/lib/python3.X/lib-dynload/       the extension modules among them
     python/lib/python3.X/site-packages/     numpy (+ numpy.libs), without tests, f2py, headers, stubs
 
@@ -37,9 +37,12 @@ policy allows them). libpython and the extension modules lose their RUNPATH (the
 searched first by the loader: a library planted there would be loaded) with patchelf when it is
 installed, and their debug info with ``strip --strip-debug`` when it is.
 
-Every ``.py`` is byte-compiled with ``UNCHECKED_HASH`` pycs (used whatever the file times after
-extraction; the interpreter never needs to write into the FMU's folder); the sources stay for
-tracebacks. The finished runtime is cached in the FMU folder (:func:`harness.paths.fmu_cache_dir`)
+Every ``.py`` is byte-compiled to a sourceless pyc in its place (``module.pyc``, ``UNCHECKED_HASH``)
+and the source removed; the pure-Python standard library then goes into one uncompressed zip on
+the module path (as CPython's own ``python3X.zip``; zipimport is frozen into libpython). The
+interpreter never writes into the FMU's folder, and a host extracting the FMU writes about 1,000
+fewer files and 12 MB less (tracebacks through the standard library and numpy name file and
+line, without the source text; the FMU's own package keeps its sources). The finished runtime is cached in the FMU folder (:func:`harness.paths.fmu_cache_dir`)
 as ``runtime-<key>/`` (the key: the interpreter's real path and version, numpy's version and place,
 the module list and this build code), built in a temporary folder and renamed under a file lock
 (parallel test workers build at once), with ``runtime.zip``, the same files compressed once under
@@ -83,7 +86,8 @@ DYNLOAD = Path(sysconfig.get_config_var("DESTSHARED") or STDLIB / "lib-dynload")
 HOME = "python"                                   # the runtime's folder in resources/ (PyConfig.home)
 LIB = f"{HOME}/lib"
 PYLIB = f"{LIB}/python{VERSION}"
-SEARCH_PATH = (PYLIB, f"{PYLIB}/lib-dynload", f"{PYLIB}/site-packages")   # the cfg's path= lines
+STDLIB_ZIP = f"{LIB}/python{VERSION.replace('.', '')}.zip"   # the pure-Python standard library, sourceless
+SEARCH_PATH = (STDLIB_ZIP, f"{PYLIB}/lib-dynload", f"{PYLIB}/site-packages")   # the cfg's path= lines
 DENY = frozenset({"test", "idlelib", "tkinter", "turtledemo", "ensurepip", "lib2to3", "pydoc_data",
                   "distutils", "venv", "site-packages", "turtle", "_tkinter", "_hashlib", "_ssl",
                   "readline", "curses", "_curses", "_curses_panel", "_dbm", "_gdbm", "dbm", "_sqlite3", "sqlite3"})
@@ -346,6 +350,33 @@ def _bundle_libraries(root: Path, sources: dict[Path, Path]) -> list[str]:
     return [f"{LIB}/{s}" for s in order]
 
 
+def _compile_sourceless(folder: Path) -> None:
+    """Byte-compile every ``.py`` under ``folder`` to a pyc in its place (``module.pyc`` beside it,
+    the layout the import system loads without a source) and remove the source."""
+    ok = compileall.compile_dir(str(folder), quiet=2, workers=1, stripdir=str(folder.parent), prependdir=None,
+                                legacy=True, invalidation_mode=py_compile.PycInvalidationMode.UNCHECKED_HASH)
+    if not ok:
+        raise RuntimeBundleError("byte-compiling the runtime's standard library and numpy failed")
+    for py in folder.rglob("*.py"):
+        py.unlink()
+
+
+def _zip_pure_stdlib(pylib: Path, archive: Path) -> None:
+    """Move the pure-Python standard library (everything in ``pylib`` but ``lib-dynload``,
+    ``site-packages`` and the licence) into ``archive``, stored uncompressed (zipimport then needs
+    no zlib; the FMU's own archive compresses it): one file to extract instead of about a thousand."""
+    keep = {"lib-dynload", "site-packages", "LICENSE.txt"}
+    with zipfile.ZipFile(archive, "w", zipfile.ZIP_STORED) as z:
+        for entry in sorted(pylib.iterdir()):
+            if entry.name in keep:
+                continue
+            files = sorted(entry.rglob("*")) if entry.is_dir() else [entry]
+            for f in files:
+                if f.is_file():
+                    z.write(f, f.relative_to(pylib).as_posix())
+            shutil.rmtree(entry) if entry.is_dir() else entry.unlink()
+
+
 def assemble(dest: Path, items: list[str]) -> dict:
     """Make the runtime in ``dest`` (``dest/python/...`` and ``dest/runtime.zip``); its manifest."""
     notes: list[str] = []
@@ -375,11 +406,9 @@ def assemble(dest: Path, items: list[str]) -> dict:
     _copy_numpy(pylib / "site-packages")
     preload = _bundle_libraries(dest, sources)
     sources_size = sum(p.stat().st_size for p in dest.rglob("*.py"))
-    ok = compileall.compile_dir(str(dest / HOME), quiet=2, workers=1, stripdir=str(dest), prependdir=None,
-                                invalidation_mode=py_compile.PycInvalidationMode.UNCHECKED_HASH)
-    if not ok:
-        raise RuntimeBundleError("byte-compiling the runtime's standard library failed")
+    _compile_sourceless(dest / HOME)
     pyc_size = sum(p.stat().st_size for p in dest.rglob("*.pyc"))
+    _zip_pure_stdlib(pylib, dest / STDLIB_ZIP)
     with zipfile.ZipFile(dest / "runtime.zip", "w", zipfile.ZIP_DEFLATED) as z:
         for p in sorted((dest / HOME).rglob("*")):
             if p.is_file():

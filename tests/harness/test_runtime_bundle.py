@@ -135,20 +135,28 @@ def test_elf_reader_agrees_with_readelf():
     assert info.soname == lib.name
 
 
-def test_the_stdlib_is_the_imported_part_only_and_compiled_unchecked(extracted):
-    pylib = extracted["Vehicle"] / "resources" / runtime_bundle.PYLIB
-    top = {p.name for p in pylib.iterdir()}
-    for need in ("encodings", "importlib", "json", "ctypes", "lib-dynload", "site-packages"):
+def test_the_stdlib_is_the_imported_part_only_sourceless_and_zipped(extracted):
+    res = extracted["Vehicle"] / "resources"
+    pylib = res / runtime_bundle.PYLIB
+    assert {p.name for p in pylib.iterdir()} <= {"lib-dynload", "site-packages", "LICENSE.txt"}
+    with zipfile.ZipFile(res / runtime_bundle.STDLIB_ZIP) as z:
+        names = z.namelist()
+        assert all(i.compress_type == zipfile.ZIP_STORED for i in z.infolist())   # zipimport needs no zlib
+        os_pyc = z.read("os.pyc")
+    top = {n.split("/")[0] for n in names}
+    for need in ("encodings", "importlib", "json", "ctypes", "os.pyc", "site.pyc"):
         assert need in top
     for denied in ("test", "idlelib", "tkinter", "lib2to3", "distutils", "venv", "ensurepip"):
-        assert denied not in top
+        assert denied not in top and f"{denied}.pyc" not in top
     assert not any(n.startswith(("config-", "_sysconfigdata")) for n in top)
-    assert not (pylib / "site-packages" / "scipy").exists()
-    assert not (pylib / "site-packages" / "numpy" / "f2py").exists()
-    assert not list((pylib / "site-packages" / "numpy").rglob("tests"))
-    pyc = pylib / "__pycache__" / f"os.{sys.implementation.cache_tag}.pyc"
-    flags = int.from_bytes(pyc.read_bytes()[4:8], "little")
-    assert flags == 0b01          # hash-based, not checked against the source
+    assert not any(n.endswith(".py") or "__pycache__" in n for n in names)      # sourceless, legacy layout
+    site = pylib / "site-packages"
+    assert not (site / "scipy").exists()
+    assert not (site / "numpy" / "f2py").exists()
+    assert not list((site / "numpy").rglob("tests"))
+    assert not list((site / "numpy").rglob("*.py")) and (site / "numpy" / "__init__.pyc").is_file()
+    flags = int.from_bytes(os_pyc[4:8], "little")
+    assert flags == 0b01          # hash-based, not checked (there is no source to check against)
 
 
 def test_the_runtime_runs_each_model_as_the_build_python_does(extracted, fmu_files):
