@@ -327,7 +327,22 @@ RULES: tuple[Rule, ...] = (
       quote=Q_GUID),
 )
 
+from .rules3 import RULES3, SOURCE_FMI3  # noqa: E402  (FMI 3.0 rules; rules3 uses Rule from above)
+
+RULES2: tuple[Rule, ...] = RULES
+RULES = RULES2 + RULES3
 BY_ID: dict[str, Rule] = {r.id: r for r in RULES}
+KINDS = {"2.0": ("static", "load", "cs", "me"), "3.0": ("static3", "cs3", "me3")}
+
+
+def fmi_version(fmi_version_attribute: str | None) -> str:
+    """The rule set an FMU gets from its modelDescription's fmiVersion: "3.0" for 3.x, else "2.0"."""
+    return "3.0" if (fmi_version_attribute or "").strip().startswith("3") else "2.0"
+
+
+def applies(rule: Rule, version: str) -> bool:
+    """Whether ``rule`` checks FMUs of FMI ``version`` ("2.0" / "3.0")."""
+    return rule.fmi == version
 
 
 def rules(kind: str | None = None, profiles: tuple[str, ...] = ()) -> tuple[Rule, ...]:
@@ -339,13 +354,15 @@ def rules(kind: str | None = None, profiles: tuple[str, ...] = ()) -> tuple[Rule
 
 def rule_table_markdown() -> str:
     """The rule table of docs/compliance.md, generated from :data:`RULES`."""
-    lines = ["| rule | groups | FMI 2.0 section | severity | calls / XML | passes when | the standard's words |",
+    lines = ["| rule | groups | FMI section | severity | calls / XML | passes when | the standard's words |",
              "|---|---|---|---|---|---|---|"]
     for r in RULES:
         sev = r.severity + (f" (profile `{r.profile}`: error)" if r.profile else "")
-        quote = f"\"{r.quote}\"" if r.quote else "(no sentence of FMI 2.0: " + ("a convention)" if r.profile else "never an error)")
+        quote = (f"\"{r.quote}\"" if r.quote else f"(no sentence of FMI {r.fmi}: "
+                 + ("a convention)" if r.profile else "never an error)"))
         groups = ", ".join(f"`{g}`" for g in (r.kind,) + r.groups)
-        lines.append(f"| `{r.id}` | {groups} | {r.section} | {sev} | {r.calls} | {r.summary} | {quote} |".replace("\\", "\\\\"))
+        lines.append(f"| `{r.id}` | {groups} | {r.fmi}: {r.section} | {sev} | {r.calls} | {r.summary} | {quote} |"
+                     .replace("\\", "\\\\"))
     return "\n".join(lines)
 
 

@@ -14,7 +14,7 @@ from typing import Callable, Sequence
 
 from .archive import ArchiveError, read_model_description_bytes, scan
 from .report import FAIL, PASS, SKIP, CheckResult
-from .rules import RULES, rules
+from .rules import RULES, fmi_version, rules
 
 # --- FMI 2.0 structured names (spec 2.2.9) ----------------------------------------------------
 _B_NAME = r"(?:[A-Za-z_][A-Za-z0-9_]*|'(?:[A-Za-z0-9_!#$%&()*+,\-./:;<=>?@\[\]^{}|~ ]|\\['\"?\\abfnrtv])+')"
@@ -340,14 +340,19 @@ def run_static_checks(fmu_path: str | Path, subject: str | None = None,
     subject = subject if subject is not None else str(fmu_path)
     arc = read_archive(fmu_path)
     results: list[CheckResult] = []
-    for rule in [r for r in RULES if r.kind == "static" and (r in rules("static", profiles) or r.id in also)]:
+    if arc.root is not None and fmi_version(arc.root.get("fmiVersion")) == "3.0":   # FMI 3.0: rules3 / static3
+        from .static3 import CHECKS3, GATES3
+        kind, checks, gates = "static3", CHECKS3, GATES3
+    else:
+        kind, checks, gates = "static", CHECKS, ("static.archive", "static.fmi2")
+    for rule in [r for r in RULES if r.kind == kind and (r in rules(kind, profiles) or r.id in also)]:
         t0 = time.perf_counter()
-        blocker = next((r for r in results if r.check_id in ("static.archive", "static.fmi2") and r.failed), None)
+        blocker = next((r for r in results if r.check_id in gates and r.failed), None)
         if blocker is not None:
             status, reason = SKIP, f"needs {blocker.check_id}, which failed"
         else:
             try:
-                status, reason = CHECKS[rule.id](arc)
+                status, reason = checks[rule.id](arc)
             except Exception as e:  # a malformed description must not stop the other rules
                 status, reason = FAIL, f"could not evaluate: {type(e).__name__}: {e}"
         results.append(CheckResult(subject, rule.id, status, reason, time.perf_counter() - t0,
