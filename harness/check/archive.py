@@ -139,3 +139,18 @@ def extract(path: str | Path, dest: str | Path | None = None, max_bytes: int = M
             shutil.rmtree(dest, ignore_errors=True)
         raise
     return dest
+
+
+def peek_fmi_version(path: str | Path) -> str | None:
+    """The fmiVersion attribute of an archive's modelDescription.xml even when the archive fails the checks
+    of :func:`open_checked` (so a broken FMI 3.0 FMU is reported under the FMI 3.0 rules); None when there
+    is none to read. Reads at most the description's first 64 KiB."""
+    import re
+    try:
+        with zipfile.ZipFile(path) as zf:
+            with zf.open(zf.getinfo("modelDescription.xml")) as f:
+                head = f.read(64 * 1024).decode("utf-8", "replace")
+    except Exception:
+        return None
+    m = re.search(r"<fmiModelDescription\b[^>]*?\bfmiVersion\s*=\s*[\"']([^\"']*)[\"']", head)
+    return m.group(1) if m else None

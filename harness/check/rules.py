@@ -327,7 +327,7 @@ RULES: tuple[Rule, ...] = (
       quote=Q_GUID),
 )
 
-from .rules3 import RULES3, SOURCE_FMI3  # noqa: E402  (FMI 3.0 rules; rules3 uses Rule from above)
+from .rules3 import RULES3, SOURCE_FMI3  # noqa: E402,F401  (FMI 3.0 rules; rules3 uses Rule from above)
 
 RULES2: tuple[Rule, ...] = RULES
 RULES = RULES2 + RULES3

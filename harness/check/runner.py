@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from typing import Sequence
 
+from .archive import peek_fmi_version
 from .lifecycle import LifecycleOptions, run_lifecycle_checks_many
 from .native import run_load_checks
 from .report import PASS, SKIP, CheckResult
@@ -19,7 +20,7 @@ STATIC_GATES3 = ("static3.archive", "static3.fmi3", "static3.binary")
 def _version(fmu: str) -> str:
     """The FMI version whose rules check ``fmu`` (from its fmiVersion; "2.0" when it cannot be read)."""
     arc = read_archive(fmu)
-    return fmi_version(arc.root.get("fmiVersion")) if arc.root is not None else "2.0"
+    return fmi_version(arc.root.get("fmiVersion") if arc.root is not None else peek_fmi_version(fmu))
 
 
 def run_checks(fmus: Sequence[str], options: LifecycleOptions, static_only: bool = False,

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
 
-from .archive import ArchiveError, read_model_description_bytes, scan
+from .archive import ArchiveError, peek_fmi_version, read_model_description_bytes, scan
 from .report import FAIL, PASS, SKIP, CheckResult
 from .rules import RULES, fmi_version, rules
 
@@ -340,7 +340,8 @@ def run_static_checks(fmu_path: str | Path, subject: str | None = None,
     subject = subject if subject is not None else str(fmu_path)
     arc = read_archive(fmu_path)
     results: list[CheckResult] = []
-    if arc.root is not None and fmi_version(arc.root.get("fmiVersion")) == "3.0":   # FMI 3.0: rules3 / static3
+    declared = arc.root.get("fmiVersion") if arc.root is not None else peek_fmi_version(fmu_path)
+    if fmi_version(declared) == "3.0":   # FMI 3.0: rules3 / static3
         from .static3 import CHECKS3, GATES3
         kind, checks, gates = "static3", CHECKS3, GATES3
     else:
