@@ -1,7 +1,9 @@
-"""The rules of the compliance kit, as data: id, FMI 2.0 section, severity, calls, what is checked.
+"""The rules of the compliance kit, as data: id, FMI version and section, severity, calls, what is checked.
+The FMI 2.0 rules are here; the FMI 3.0 rules (kinds static3, cs3, me3) in :mod:`.rules3`; an FMU gets the
+rules of its fmiVersion (:func:`fmi_version`, :func:`applies`).
 
 Severity comes from the standard's own words (FMI 2.0.x, "Functional Mock-up Interface for Model
-Exchange and Co-Simulation"):
+Exchange and Co-Simulation"; FMI 3.0, "Functional Mock-up Interface Specification"):
 
 ``error``
     the standard says *shall* / *must* / *has to* / *needs to*, or the call sequence is one the
@@ -25,32 +27,7 @@ co-simulation call sequence, each rule in a fresh process), ``me`` (model exchan
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
-ERROR, WARNING, INFO = "error", "warning", "info"
-SEVERITIES = (ERROR, WARNING, INFO)
-
-PROFILES = ("spurdiff",)
-
-
-@dataclass(frozen=True)
-class Rule:
-    id: str
-    section: str       # section of the FMI standard (version ``fmi``), e.g. "2.1.5"
-    severity: str      # error / warning / info (see the module docstring)
-    calls: str         # the FMI calls (or the XML parts) the rule exercises
-    summary: str       # what passes, in one sentence
-    profile: str | None = None  # only with --profile NAME
-    quote: str | None = None    # the standard's sentence the rule enforces (None: no sentence says it)
-    groups: tuple[str, ...] = ()  # selection groups besides the kind (see harness.check.selection)
-    fmi: str = "2.0"            # the FMI version whose FMUs the rule checks (and whose text it cites)
-
-    @property
-    def kind(self) -> str:
-        return self.id.split(".", 1)[0]
-
-    def effective_severity(self, profiles: tuple[str, ...] = ()) -> str:
-        return ERROR if self.profile is not None and self.profile in profiles else self.severity
+from .ruledef import ERROR, INFO, PROFILES, SEVERITIES, WARNING, Rule  # noqa: F401  (re-exported)
 
 
 R = Rule
@@ -327,7 +304,7 @@ RULES: tuple[Rule, ...] = (
       quote=Q_GUID),
 )
 
-from .rules3 import RULES3, SOURCE_FMI3  # noqa: E402,F401  (FMI 3.0 rules; rules3 uses Rule from above)
+from .rules3 import RULES3, SOURCE_FMI3  # noqa: E402,F401  (FMI 3.0 rules, SOURCE_FMI3 re-exported)
 
 RULES2: tuple[Rule, ...] = RULES
 RULES = RULES2 + RULES3

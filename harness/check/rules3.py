@@ -7,7 +7,7 @@ own non-normative note.
 """
 from __future__ import annotations
 
-from .rules import ERROR, WARNING, Rule
+from .ruledef import ERROR, WARNING, Rule
 
 SOURCE_FMI3 = ("modelica/fmi-standard.org, docs/3.0/index.html at commit d4b021e9fbf8ad57e15d75210abecb900e0290d3 "
                "(FMI 3.0 asciidoc of modelica/fmi-standard rendered by Asciidoctor; header 'version 3.0, 2022-05-10')")
