@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 import time
 
-from .driver3 import WRONG_TOKEN, Call3Failed, Session3, first_difference3, status3
+from .driver3 import NUMERIC, WRONG_TOKEN, Call3Failed, Session3, first_difference3, status3
 from .report import FAIL, PASS, SKIP
 from .rules import WARNING
 
@@ -48,8 +48,7 @@ def check_instantiation_token(s: Session3):
 def check_initial_unknowns(s: Session3):
     wanted, seen = [], set()
     for v in [u.variable for u in s.md.initialUnknowns if u.variable is not None] + s.outputs:
-        if v.name not in seen and v.type in ("Float32", "Float64", "Int8", "UInt8", "Int16", "UInt16", "Int32",
-                                             "UInt32", "Int64", "UInt64", "Boolean") and not getattr(v, "clocks", None):
+        if v.name not in seen and v.type in NUMERIC and not getattr(v, "clocks", None):
             seen.add(v.name)
             wanted.append(v)
     if not wanted:

@@ -17,7 +17,14 @@ from .driver import DEFAULT_STEP_SIZE, DEFAULT_TOLERANCE, SAME_ATOL, SAME_RTOL
 
 STATUS3 = ("fmi3OK", "fmi3Warning", "fmi3Discard", "fmi3Error", "fmi3Fatal")
 REFUSED3 = (2, 3, 4)
-NUMERIC = ("Float32", "Float64", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64", "Boolean")
+NUMERIC = ("Float32", "Float64", "Int8", "UInt8", "Int16", "UInt16", "Int32", "UInt32", "Int64", "UInt64", "Boolean",
+           "Enumeration")
+
+
+def api_type(v) -> str:
+    """The {VariableType} of the fmi3Get/Set functions for ``v``: 2.2.7.2 "To set or inquire variables of type
+    Enumeration, fmi3SetInt64 and fmi3GetInt64 must be used." """
+    return "Int64" if v.type == "Enumeration" else v.type
 WRONG_TOKEN = "{00000000-0000-0000-0000-5b0ad5b0ad00}"
 
 
@@ -153,11 +160,13 @@ class Instance3:
         """Set the start values of ``variables``, one fmi3Set{Type} call per variable."""
         for v in variables:
             vals = self.s.values_of(v)
-            self.call(f"fmi3Set{v.type}({v.name}){label}", getattr(self.fmu, f"set{v.type}"), [v.valueReference], vals)
+            t = api_type(v)
+            self.call(f"fmi3Set{t}({v.name}){label}", getattr(self.fmu, f"set{t}"), [v.valueReference], vals)
 
     def set_status(self, v, values: list) -> int:
-        return self.status(f"fmi3Set{v.type}({v.name} = {values!r})", getattr(self.fmu, f"set{v.type}"),
-                           [v.valueReference], values)
+        t = api_type(v)
+        return self.status(f"fmi3Set{t}({v.name} = {values!r})", getattr(self.fmu, f"set{t}"), [v.valueReference],
+                           values)
 
     def enter_init(self, stop_time: float | None = None) -> None:
         label = f"fmi3EnterInitializationMode(startTime={self.s.t0:g}" + (
@@ -176,8 +185,8 @@ class Instance3:
         """The values of ``variables`` (arrays flattened), as floats, in the given order."""
         row: list[float] = []
         for v in variables:
-            vals = self.call(f"fmi3Get{v.type}({label})", getattr(self.fmu, f"get{v.type}"), [v.valueReference],
-                             self.s.size(v))
+            t = api_type(v)
+            vals = self.call(f"fmi3Get{t}({label})", getattr(self.fmu, f"get{t}"), [v.valueReference], self.s.size(v))
             row += [float(x) for x in vals]
         return row
 
