@@ -1,14 +1,16 @@
-"""FMU compliance kit (``spurdiff check``) for any FMI 2.0 FMU, co-simulation and model exchange.
+"""FMU compliance kit (``spurdiff check``) for any FMI 2.0 or FMI 3.0 FMU, co-simulation and model exchange.
 
-* :mod:`.rules`: every rule as data (id, FMI 2.0 section, severity, calls, what passes);
+* :mod:`.rules`: every rule as data (id, FMI version and section, severity, calls, what passes, the
+  standard's sentence); the FMI 3.0 rules in :mod:`.rules3`;
 * :mod:`.archive`: reading a possibly hostile FMU archive within limits, safe extraction;
-* :mod:`.static`: the archive and modelDescription.xml rules (no binary loaded);
+* :mod:`.static`: the archive and modelDescription.xml rules (no binary loaded), :mod:`.static3` for FMI 3.0;
 * :mod:`.native`: the binary outside Python (ELF symbols against DT_NEEDED, a bare C host);
 * :mod:`.selection`: which rules run on which FMU (select/ignore, [tool.spurdiff.check]);
 * :mod:`.isolation`: one task in a fresh process, killed with its whole group at the timeout;
 * :mod:`.worker`, :mod:`.driver`: the worker process and its FMI session (on :mod:`harness.fmi`);
 * :mod:`.tasks`: what a worker process can run, by id: the co-simulation rules (:mod:`.cs_lifecycle`,
-  :mod:`.cs_state`, :mod:`.cs_steps`), the model-exchange rules (:mod:`.me_checks`) and the
+  :mod:`.cs_state`, :mod:`.cs_steps`), the model-exchange rules (:mod:`.me_checks`), the FMI 3.0 ones
+  (:mod:`.driver3`, :mod:`.cs3_checks`, :mod:`.me3_checks`) and the
   reference simulation (:mod:`.reference_task`);
 * :mod:`.lifecycle`: scheduling those rules, ``jobs`` processes at a time, preconditions, one finding
   per crash or hang;

@@ -16,7 +16,9 @@ from __future__ import annotations
 import os
 import shutil
 import tempfile
+import xml.etree.ElementTree as ET
 import zipfile
+from dataclasses import dataclass, field
 from pathlib import Path
 
 MAX_MEMBERS = 10_000
@@ -139,3 +141,63 @@ def extract(path: str | Path, dest: str | Path | None = None, max_bytes: int = M
             shutil.rmtree(dest, ignore_errors=True)
         raise
     return dest
+
+
+def peek_fmi_version(path: str | Path) -> str | None:
+    """The fmiVersion attribute of an archive's modelDescription.xml even when the archive fails the checks
+    of :func:`open_checked` (so a broken FMI 3.0 FMU is reported under the FMI 3.0 rules); None when there
+    is none to read. Reads at most the description's first 64 KiB."""
+    import re
+    try:
+        with zipfile.ZipFile(path) as zf:
+            with zf.open(zf.getinfo("modelDescription.xml")) as f:
+                head = f.read(64 * 1024).decode("utf-8", "replace")
+    except Exception:
+        return None
+    m = re.search(r"<fmiModelDescription\b[^>]*?\bfmiVersion\s*=\s*[\"']([^\"']*)[\"']", head)
+    return m.group(1) if m else None
+
+
+@dataclass
+class FmuArchive:
+    """What the static rules need from an FMU file: its member names and parsed XML."""
+
+    path: Path
+    members: list[str] = field(default_factory=list)
+    root: ET.Element | None = None
+    error: str = ""             # why the archive could not be read (static.archive)
+    xml_error: str = ""         # why modelDescription.xml could not be parsed (static.fmi2)
+    unpacked: int = 0           # bytes, all members unpacked
+
+    def interface(self, kind: str) -> ET.Element | None:
+        """The CoSimulation ("cs") or ModelExchange ("me") element, or None."""
+        if self.root is None:
+            return None
+        return self.root.find({"cs": "CoSimulation", "me": "ModelExchange"}[kind])
+
+    def model_identifier(self, kind: str) -> str | None:
+        el = self.interface(kind)
+        return el.get("modelIdentifier") if el is not None else None
+
+    @property
+    def model_name(self) -> str | None:
+        return None if self.root is None else self.root.get("modelName")
+
+    def variables(self) -> list[ET.Element]:
+        return [] if self.root is None else self.root.findall("ModelVariables/ScalarVariable")
+
+
+def read_archive(path: str | Path) -> FmuArchive:
+    """Open the FMU zip within the kit's limits and parse ``modelDescription.xml``."""
+    arc = FmuArchive(Path(path))
+    try:
+        arc.members, data = read_model_description_bytes(arc.path)
+        arc.unpacked = scan(arc.path)
+    except ArchiveError as e:
+        arc.error = str(e)
+        return arc
+    try:
+        arc.root = ET.fromstring(data)
+    except ET.ParseError as e:
+        arc.xml_error = f"modelDescription.xml is not well-formed XML: {e}"
+    return arc

@@ -32,14 +32,16 @@ def check_version(s: Session):
     version = fmu.fmi2GetVersion()
     s.trace("fmi2GetTypesPlatform")
     types = fmu.fmi2GetTypesPlatform()
-    problems = []
+    problems, recommended = [], []
     if version != b"2.0":
         problems.append(f'fmi2GetVersion returned {version!r}, not "2.0"')
-    if types != b"default":
-        problems.append(f'fmi2GetTypesPlatform returned {types!r}, not "default" (an importer built with the '
-                        f'standard header passes arguments of other types)')
+    if types != b"default":   # 2.1.2: "It is recommended to use this "default" definition for all binary FMUs."
+        recommended.append(f'fmi2GetTypesPlatform returned {types!r}, not "default" (an importer built with the '
+                           f'standard header passes arguments of other types; "default" is recommended, 2.1.2)')
     if problems:
-        return FAIL, "; ".join(problems)
+        return FAIL, "; ".join(problems + recommended)
+    if recommended:
+        return FAIL, "; ".join(recommended), WARNING
     return PASS, 'fmi2GetVersion "2.0", fmi2GetTypesPlatform "default"'
 
 

@@ -20,7 +20,8 @@ from .isolation import run_isolated, run_isolated_outcome
 from .report import FAIL, SKIP, CheckResult
 from .rules import BY_ID, RULES, rules
 
-GATES = {"cs": "cs.basic", "me": "me.basic"}
+GATES = {"cs": "cs.basic", "me": "me.basic", "cs3": "cs3.basic", "me3": "me3.basic"}
+CALL_KINDS = ("cs", "me", "cs3", "me3")   # FMI 2.0 and FMI 3.0 call sequences
 
 
 @dataclass
@@ -38,7 +39,7 @@ class LifecycleOptions:
 
 
 def lifecycle_rules(kinds: Sequence[str], profiles: tuple[str, ...] = ()) -> list[str]:
-    return [r.id for k in ("cs", "me") if k in kinds for r in rules(k, profiles)]
+    return [r.id for k in CALL_KINDS if k in kinds for r in rules(k, profiles)]
 
 
 # rule -> the rules whose outcome says whether its precondition happened (see :func:`precondition`)
@@ -134,7 +135,7 @@ def run_lifecycle_checks_many(fmus: Sequence[tuple[str | Path, str, Sequence[str
             only = own[0] if own else checks
             # without a list: the kit's default (profile rules with their profile); a list may name any rule
             available = (lifecycle_rules(kinds, options.profiles) if only is None
-                         else [r.id for r in RULES if r.kind in kinds and r.kind in ("cs", "me")])
+                         else [r.id for r in RULES if r.kind in kinds and r.kind in CALL_KINDS])
             ids = [c for c in available if only is None or c in only]
             plan[subject] = ids
             hidden[subject] = {p for c in ids for p in DEPENDS.get(c, ()) if p not in ids and p in available}

@@ -100,10 +100,16 @@ class CheckResult:
         rule = BY_ID.get(self.check_id)
         return rule.section if rule else ""
 
+    @property
+    def cite(self) -> str:
+        """``FMI <version> <section>`` of the rule (the standard whose text it cites), or ""."""
+        rule = BY_ID.get(self.check_id)
+        return f"FMI {rule.fmi} {rule.section}" if rule and rule.section else ""
+
 
 def format_line(result: CheckResult) -> str:
-    """``LABEL  <subject>  <rule>  [FMI 2.0 section] <reason>`` on one line."""
-    sec = f"[FMI 2.0 {result.section}] " if result.status == FAIL and result.section else ""
+    """``LABEL  <subject>  <rule>  [FMI <version> <section>] <reason>`` on one line."""
+    sec = f"[{result.cite}] " if result.status == FAIL and result.cite else ""
     return f"{result.label:<5}  {one_line(result.subject)}  {result.check_id}  {sec}{one_line(result.reason)}".rstrip()
 
 
@@ -194,7 +200,7 @@ def junit_tree(results: Sequence[CheckResult], strict: bool = False,
                 ET.SubElement(props, "property", {"name": name, "value": value})
             message = one_line(r.reason)
             if r.status == FAIL:
-                message = f"{r.severity} [FMI 2.0 {r.section}]: {message}" if r.section else f"{r.severity}: {message}"
+                message = f"{r.severity} [{r.cite}]: {message}" if r.cite else f"{r.severity}: {message}"
             if as_failure(r):
                 el = ET.SubElement(case, "failure", {"message": message, "type": r.severity})
                 el.text = clean(r.reason)

@@ -5,14 +5,22 @@ from __future__ import annotations
 
 from typing import Sequence
 
+from .archive import peek_fmi_version
 from .lifecycle import LifecycleOptions, run_lifecycle_checks_many
 from .native import run_load_checks
 from .report import PASS, SKIP, CheckResult
-from .rules import BY_ID, RULES
+from .rules import BY_ID, RULES, applies, fmi_version
 from .selection import Selection
 from .static import read_archive, run_static_checks
 
 STATIC_GATES = ("static.archive", "static.fmi2", "static.binary")
+STATIC_GATES3 = ("static3.archive", "static3.fmi3", "static3.binary")
+
+
+def _version(fmu: str) -> str:
+    """The FMI version whose rules check ``fmu`` (from its fmiVersion; "2.0" when it cannot be read)."""
+    arc = read_archive(fmu)
+    return fmi_version(arc.root.get("fmiVersion") if arc.root is not None else peek_fmi_version(fmu))
 
 
 def run_checks(fmus: Sequence[str], options: LifecycleOptions, static_only: bool = False,
@@ -28,8 +36,10 @@ def run_checks_selected(fmus: Sequence[str], options: LifecycleOptions, static_o
     """(results, FMU -> [(rule id, why it was deselected)])."""
     selection = selection or Selection()
     profiles = options.profiles
-    chosen = {f: set(selection.rule_ids(f, profiles)) for f in fmus}
-    deselected = {f: selection.deselected(f, profiles) for f in fmus}
+    version = {f: _version(f) for f in fmus}   # FMI 2.0 rules for FMI 2.0 FMUs, FMI 3.0 rules for 3.x
+    chosen = {f: {i for i in selection.rule_ids(f, profiles) if applies(BY_ID[i], version[f])} for f in fmus}
+    deselected = {f: [(i, why) for i, why in selection.deselected(f, profiles) if applies(BY_ID[i], version[f])]
+                  for f in fmus}
     static = {}
     for f in fmus:
         everything = run_static_checks(f, subject=f, profiles=profiles, also=chosen[f])   # gates: needed either way
@@ -40,15 +50,17 @@ def run_checks_selected(fmus: Sequence[str], options: LifecycleOptions, static_o
         if static_only:
             continue
         res = {r.check_id: r for r in static[f]}
-        arc = read_archive(f) if not any(res[c].failed or res[c].status == SKIP
-                                         for c in ("static.archive", "static.fmi2")) else None
-        kinds = [k for k in ("cs", "me") if arc is not None and arc.interface(k) is not None]
-        blocker = next((res[c] for c in STATIC_GATES if res[c].status != PASS), None)
+        v3 = version[f] == "3.0"
+        gates = STATIC_GATES3 if v3 else STATIC_GATES
+        arc = read_archive(f) if not any(res[c].failed or res[c].status == SKIP for c in gates[:2]) else None
+        kinds = [k + ("3" if v3 else "") for k in ("cs", "me") if arc is not None and arc.interface(k) is not None]
+        blocker = next((res[c] for c in gates if res[c].status != PASS), None)
         wanted_load = [r.id for r in RULES if r.kind == "load" and r.id in chosen[f]]
         if blocker is not None:
-            ids = wanted_load + [r.id for r in RULES if r.kind in (kinds or ["cs"]) and r.id in chosen[f]]
-            later[f] = [CheckResult(f, c, SKIP, f"{blocker.check_id} did not pass",
-                                    severity=BY_ID[c].effective_severity(profiles)) for c in ids]
+            ids = wanted_load + [r.id for r in RULES if r.kind in (kinds or ["cs3" if v3 else "cs"]) and r.id in chosen[f]]
+            why = (f"{blocker.check_id} did not pass" if kinds or blocker.status != SKIP else
+                   "the FMU offers neither co-simulation nor model exchange (scheduled execution is not checked)")
+            later[f] = [CheckResult(f, c, SKIP, why, severity=BY_ID[c].effective_severity(profiles)) for c in ids]
         else:
             later[f] = run_load_checks(f, f, wanted_load, options.timeout, profiles)
             ids = [r.id for r in RULES if r.kind in kinds and r.id in chosen[f]]

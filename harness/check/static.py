@@ -8,13 +8,13 @@ from __future__ import annotations
 import re
 import time
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
 
-from .archive import ArchiveError, read_model_description_bytes, scan
+from .archive import FmuArchive, peek_fmi_version, read_archive  # noqa: F401  (FmuArchive, read_archive: re-exported)
 from .report import FAIL, PASS, SKIP, CheckResult
-from .rules import RULES, rules
+from .rules import RULES, fmi_version, rules
+from .static3 import CHECKS3, GATES3
 
 # --- FMI 2.0 structured names (spec 2.2.9) ----------------------------------------------------
 _B_NAME = r"(?:[A-Za-z_][A-Za-z0-9_]*|'(?:[A-Za-z0-9_!#$%&()*+,\-./:;<=>?@\[\]^{}|~ ]|\\['\"?\\abfnrtv])+')"
@@ -32,51 +32,6 @@ def host_platform() -> tuple[str, str]:
     """(FMI platform folder, shared-library extension) of this machine, e.g. ("linux64", ".so")."""
     import fmpy
     return fmpy.platform, fmpy.sharedLibraryExtension
-
-
-@dataclass
-class FmuArchive:
-    """What the static rules need from an FMU file: its member names and parsed XML."""
-
-    path: Path
-    members: list[str] = field(default_factory=list)
-    root: ET.Element | None = None
-    error: str = ""             # why the archive could not be read (static.archive)
-    xml_error: str = ""         # why modelDescription.xml could not be parsed (static.fmi2)
-    unpacked: int = 0           # bytes, all members unpacked
-
-    def interface(self, kind: str) -> ET.Element | None:
-        """The CoSimulation ("cs") or ModelExchange ("me") element, or None."""
-        if self.root is None:
-            return None
-        return self.root.find({"cs": "CoSimulation", "me": "ModelExchange"}[kind])
-
-    def model_identifier(self, kind: str) -> str | None:
-        el = self.interface(kind)
-        return el.get("modelIdentifier") if el is not None else None
-
-    @property
-    def model_name(self) -> str | None:
-        return None if self.root is None else self.root.get("modelName")
-
-    def variables(self) -> list[ET.Element]:
-        return [] if self.root is None else self.root.findall("ModelVariables/ScalarVariable")
-
-
-def read_archive(path: str | Path) -> FmuArchive:
-    """Open the FMU zip within the kit's limits and parse ``modelDescription.xml``."""
-    arc = FmuArchive(Path(path))
-    try:
-        arc.members, data = read_model_description_bytes(arc.path)
-        arc.unpacked = scan(arc.path)
-    except ArchiveError as e:
-        arc.error = str(e)
-        return arc
-    try:
-        arc.root = ET.fromstring(data)
-    except ET.ParseError as e:
-        arc.xml_error = f"modelDescription.xml is not well-formed XML: {e}"
-    return arc
 
 
 def _names_list(names: list[str], limit: int = 8) -> str:
@@ -340,14 +295,19 @@ def run_static_checks(fmu_path: str | Path, subject: str | None = None,
     subject = subject if subject is not None else str(fmu_path)
     arc = read_archive(fmu_path)
     results: list[CheckResult] = []
-    for rule in [r for r in RULES if r.kind == "static" and (r in rules("static", profiles) or r.id in also)]:
+    declared = arc.root.get("fmiVersion") if arc.root is not None else peek_fmi_version(fmu_path)
+    if fmi_version(declared) == "3.0":   # FMI 3.0: rules3 / static3
+        kind, checks, gates = "static3", CHECKS3, GATES3
+    else:
+        kind, checks, gates = "static", CHECKS, ("static.archive", "static.fmi2")
+    for rule in [r for r in RULES if r.kind == kind and (r in rules(kind, profiles) or r.id in also)]:
         t0 = time.perf_counter()
-        blocker = next((r for r in results if r.check_id in ("static.archive", "static.fmi2") and r.failed), None)
+        blocker = next((r for r in results if r.check_id in gates and r.failed), None)
         if blocker is not None:
             status, reason = SKIP, f"needs {blocker.check_id}, which failed"
         else:
             try:
-                status, reason = CHECKS[rule.id](arc)
+                status, reason = checks[rule.id](arc)
             except Exception as e:  # a malformed description must not stop the other rules
                 status, reason = FAIL, f"could not evaluate: {type(e).__name__}: {e}"
         results.append(CheckResult(subject, rule.id, status, reason, time.perf_counter() - t0,

@@ -42,6 +42,10 @@ def run_task(task: str, payload: dict, tracer) -> tuple:
         from .reference_task import simulate_reference_task
         return simulate_reference_task(payload, tracer)
     kind = task.split(".", 1)[0]
+    if kind in ("cs3", "me3"):   # FMI 3.0
+        from . import cs3_checks, me3_checks
+        from .driver3 import Session3
+        return {**cs3_checks.TASKS, **me3_checks.TASKS}[task](Session3(payload, tracer, kind))
     if kind == "cs":
         return CS_TASKS[task](Session(payload, tracer, "cs"))
     if kind == "me":

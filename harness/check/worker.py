@@ -27,8 +27,9 @@ def worker_main(argv: Sequence[str]) -> None:
         out = run_task(task, payload, tracer)
     except CallFailed as e:
         out = (FAIL, str(e))
-    except Exception as e:
-        out = (FAIL, f"{type(e).__name__}: {e}")
+    except Exception as e:   # an FMI 3.0 call refused (driver3.Call3Failed) reads like a 2.0 one
+        from .driver3 import Call3Failed
+        out = (FAIL, str(e) if isinstance(e, Call3Failed) else f"{type(e).__name__}: {e}")
     facts = out[-1] if isinstance(out[-1], dict) else {}
     out = out[:-1] if facts or isinstance(out[-1], dict) else out
     data = {"status": out[0], "reason": out[1]}

@@ -28,7 +28,7 @@ STATE_FLAGS = ["--handle-state", "--serialize-state"]
 # broken FMU -> (how it is built, the rules it runs, {rule: severity of the expected failure})
 CATCH_TABLE = {
     "ChkCVersion": ("c", ["cs.version"], {"cs.version": "error"}),
-    "ChkCTypes": ("c", ["cs.version"], {"cs.version": "error"}),
+    "ChkCTypes": ("c", ["cs.version"], {"cs.version": "warning"}),   # "default" is recommended (2.1.2)
     "ChkCLogger": ("c", ["cs.logger"], {"cs.logger": "error"}),
     "ChkCDebugLogging": ("c", ["cs.debug-logging"], {"cs.debug-logging": "error"}),
     "ChkCInitGet": ("c", ["cs.initial-unknowns"], {"cs.initial-unknowns": "error"}),
@@ -38,14 +38,14 @@ CATCH_TABLE = {
     "ChkCTerminatedGet": ("c", ["cs.get-after-terminate"], {"cs.get-after-terminate": "error"}),
     "ChkCFreeState": ("c", ["cs.free-state", "cs.get-set-state"], {"cs.free-state": "error"}),
     "ChkCGuid": ("c", ["cs.guid", "me.guid"], {"cs.guid": "error", "me.guid": "error"}),
-    "ChkCLateStep": ("c", ["cs.default-experiment"], {"cs.default-experiment": "error"}),
+    "ChkCLateStep": ("c", ["cs.default-experiment"], {"cs.default-experiment": "warning"}),
     "ChkCInterpolate": ("c", ["cs.interpolate-inputs"], {"cs.interpolate-inputs": "error"}),
     "ChkCDirDer": ("c", ["cs.directional-derivative", "me.directional-derivative"],
                    {"cs.directional-derivative": "error", "me.directional-derivative": "error"}),
     "ChkCJacobian": ("c", ["cs.directional-derivative", "me.directional-derivative"],
                      {"me.directional-derivative": "error"}),
     "ChkCModelExchange": ("c", ["me.basic"], {"me.basic": "error"}),
-    "ChkCStaleOutput": ("c", ["cs.feedthrough"], {"cs.feedthrough": "warning"}),
+    "ChkCStaleOutput": ("c", ["cs.feedthrough"], {"cs.feedthrough": "info"}),   # 4.2.4 forbids get after set
     "ChkCOwnClock": ("c", ["cs.clock"], {"cs.clock": "error"}),
     # lost integrator history: one finding (a warning), the restore-vs-restore rules pass
     "ChkCLostHistory": ("c", ["cs.get-set-state", "cs.free-state", "cs.serialize-state"],
@@ -141,7 +141,7 @@ def test_pythonfmu_limits_are_reported_not_hidden(tmp_path, capsys):
     and leaves fmi2FreeFMUstate's pointer set, so every pythonfmu FMU fails cs.guid and cs.free-state;
     it answers fmi2GetStatus with fmi2Error and refuses past the stop time with fmi2Discard (warnings).
     Its binary needs libpython's symbols without declaring libpython (it loads only into a Python process:
-    the load rules warn), and ChkGood computes y = k u in do_step only (cs.feedthrough warns)."""
+    the load rules warn), and ChkGood computes y = k u in do_step only (cs.feedthrough: info)."""
     from harness.check.rules import rules
     from harness.cli.check import main as _main
 
@@ -156,7 +156,7 @@ def test_pythonfmu_limits_are_reported_not_hidden(tmp_path, capsys):
     assert len(lines) == len(rules("static")) + len(rules("load")) + len(rules("cs"))
     labels = {ln.split("  ")[2]: ln.split(" ")[0] for ln in lines if not ln.startswith(("PASS", "SKIP"))}
     assert labels == {"cs.guid": "ERROR", "cs.free-state": "ERROR", "cs.stop-time": "WARN",
-                      "cs.status-after-discard": "WARN", "cs.feedthrough": "WARN", "load.needed-libraries": "WARN",
+                      "cs.status-after-discard": "WARN", "cs.feedthrough": "INFO", "load.needed-libraries": "WARN",
                       "load.bare-process": "WARN"}, labels
     root = ET.parse(junit).getroot()
     assert root.get("tests") == str(len(lines)) and root.get("failures") == "2"
