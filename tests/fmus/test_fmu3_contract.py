@@ -187,6 +187,12 @@ def test_what_the_fmu_does_not_offer_is_a_logged_fmi3Error(differential_fmu, fmu
     assert "fmi3EnterInitializationMode" in s.log[-1][1] and "fmi2" not in s.log[-1][1]
     s.doStep(0.0, H)
     assert s.getFloat64([TIME_VR]) == [pytest.approx(H)]
+    # NULL arrays and NULL output arguments: fmi3Error with the reason, no crash
+    dll, comp = s.dll, s.component
+    assert dll.fmi3GetFloat64(comp, None, 1, None, 1) == 3 and "NULL" in s.log[-1][1]
+    assert dll.fmi3SetBoolean(comp, None, 2, None, 2) == 3 and "NULL" in s.log[-1][1]
+    assert dll.fmi3DoStep(comp, H, H, True, None, None, None, None) == 3 and "eventHandlingNeeded" in s.log[-1][1]
+    assert dll.fmi3GetFloat64(None, None, 0, None, 0) == 3   # not an instance
     s.terminate()
     s.freeInstance()
 

@@ -175,6 +175,18 @@ def test_our_c_host_runs_each_fmi3_fmu_bare(odd_dir, unpacked, reference):
         vr = {v.name: v.valueReference for v in md.modelVariables}
         for n in gets[name]:
             assert got[vr[n]] == pytest.approx(reference[name][n][-1], rel=1e-12, abs=1e-12), n
+    # the model in its own process (SPURDIFF_FMU_PROCESS=out: the server behind the FMI 3.0 calls)
+    name = "SpurDifferential"
+    md = read_model_description(str(unpacked[name]))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    r = subprocess.run([*BARE, "SPURDIFF_FMU_PROCESS=out", str(exe),
+                        str(unpacked[name] / "binaries" / "x86_64-linux" / f"{name}.so"), md.guid,
+                        str(unpacked[name] / "resources"), str(STOP), str(STEP),
+                        *(f"set:{vr[k]}={v!r}" for k, v in CASES[name].items()), f"get:{vr['left.w']}"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and "freed" in r.stdout, r.stdout + r.stderr
+    got = float(next(line.split()[2] for line in r.stdout.splitlines() if line.startswith("get ")))
+    assert got == pytest.approx(reference[name]["left.w"][-1], rel=1e-12, abs=1e-12)
 
 
 def _ecos_binary() -> Path | None:
@@ -242,3 +254,28 @@ def test_ssp_export_names_the_fmi3_fmus(tmp_path, fmu3_files):
     for n in (n for n in names if n.endswith(".fmu")):
         with zipfile.ZipFile(out) as z, z.open(n) as f, zipfile.ZipFile(f) as fmu:
             assert b'fmiVersion="3.0"' in fmu.read("modelDescription.xml")
+
+
+def test_fmusim_runs_each_fmi3_fmu_where_no_python_is(odd_dir, reference):
+    """As test_travel.py does for the FMI 2.0 FMUs: every Python of the machine hidden (mount
+    namespace), as nobody, bare environment, odd path; once per FMU."""
+    from test_travel import WHY_NOT, hidden_run
+
+    if WHY_NOT is not None:
+        pytest.skip(WHY_NOT)
+    if not (HOSTS / "fmusim").is_file():
+        pytest.skip(f"{HOSTS}/fmusim is absent")
+    os.chmod(odd_dir, 0o777)
+    for name in CASES:
+        os.chmod(odd_dir / f"{name}.fmu", 0o644)
+    script = ""
+    for name in CASES:
+        starts = " ".join(f"--start-value {k} {v}" for k, v in CASES[name].items())
+        script += (f"{shlex.quote(str(HOSTS / 'fmusim'))} --interface-type cs --output-interval {STEP} "
+                   f"--stop-time {STOP} {starts} --output-file hidden-{name}.csv {name}.fmu >/dev/null 2>&1; "
+                   f"echo RUN {name} $?\n")
+    r = hidden_run(script, odd_dir, timeout=600)
+    codes = {line.split()[1]: int(line.split()[2]) for line in r.stdout.splitlines() if line.startswith("RUN ")}
+    assert codes == {name: 0 for name in CASES}, r.stdout + r.stderr
+    for name in CASES:
+        _compare(_read_csv(odd_dir / f"hidden-{name}.csv"), reference[name], f"fmusim hidden {name}")
