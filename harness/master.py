@@ -26,6 +26,7 @@ from typing import Callable
 import numpy as np
 from fmpy.fmi1 import FMICallException
 
+from harness.fmi.instance3 import open_instance
 from harness.fmi.instance import FmuCache, Instance, Port, RealPort, fmu_cache, make_logger as _make_logger  # noqa: F401
 from harness.interrupt import STOP, Interrupted, stop_on_sigint  # noqa: F401
 from harness.recording import check_recording, recording_size  # noqa: F401
@@ -57,7 +58,7 @@ class Master:
         for spec in self.scene.instances:
             if spec.fmu not in self.fmu_files:
                 raise SceneError(f"{spec.name}: unknown FMU {spec.fmu!r}; allowed: {', '.join(sorted(self.fmu_files))}")
-            self.instances[spec.name] = Instance(spec.name, self.fmu_files[spec.fmu])
+            self.instances[spec.name] = open_instance(spec.name, self.fmu_files[spec.fmu])   # FMI 2.0 or 3.0
 
     def _initialize(self) -> None:
         sc = self.scene

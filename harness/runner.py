@@ -86,13 +86,21 @@ def typed_parameters(scene: Scene, fmu_files: dict[str, Path]) -> Scene:
     return scene
 
 
-def fmu_files_for(scene: Scene, build_missing: bool = True, dest: Path | None = None) -> dict[str, Path]:
-    """Paths of the FMUs the scene uses, building missing or outdated ones."""
+def fmu_files_for(scene: Scene, build_missing: bool = True, dest: Path | None = None,
+                  fmi_version: int = 2) -> dict[str, Path]:
+    """Paths of the FMUs the scene uses, building missing or outdated ones: the FMI 2.0 FMUs, or
+    with ``fmi_version = 3`` the FMI 3.0 ones (``NAME-fmi3.fmu``, :mod:`harness.build3`)."""
+    from harness import build3
+
     needed = sorted({i.fmu for i in scene.instances})
     for n in needed:
         if n not in FMUS:
             raise SceneError(f"scene {scene.name}: unknown FMU {shown(n)}; allowed: {', '.join(sorted(FMUS))}")
-    if build_missing:
+    if fmi_version not in build3.FMI_VERSIONS:
+        raise SceneError(f"FMI version {shown(fmi_version)}: allowed 2 or 3")
+    if fmi_version == 3:
+        paths = build3.build(needed, dest, quiet=True) if build_missing else [build3.fmu_path(n, dest) for n in needed]
+    elif build_missing:
         paths = build(needed, dest, quiet=True)
     else:
         paths = [fmu_path(n, dest) for n in needed]

@@ -59,12 +59,14 @@ class ExportSummary:
 def _model_descriptions(scene: Scene, fmu_files: dict[str, Path]):
     from fmpy import read_model_description
 
+    from harness.fmi.instance import fmi2_type_names
+
     mds = {}
     for inst in scene.instances:
         if inst.fmu not in fmu_files:
             raise SceneError(f"{inst.name}: no FMU file for {inst.fmu!r}; have: {', '.join(sorted(fmu_files))}")
-        if inst.fmu not in mds:
-            mds[inst.fmu] = read_model_description(str(fmu_files[inst.fmu]))
+        if inst.fmu not in mds:   # an FMI 3.0 FMU's Float64/Int32 are SSP 1.0's Real/Integer
+            mds[inst.fmu] = fmi2_type_names(read_model_description(str(fmu_files[inst.fmu])))
     return mds
 
 

@@ -35,7 +35,8 @@ def _remove_staged(dest: Path) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from harness.build import FMUS, BuildError, build
+    from harness.build import FMUS, BuildError
+    from harness.build3 import build_versions
     from harness.outputs import output_error
     from harness.paths import fmu_cache_dir
 
@@ -44,9 +45,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", "--dest", dest="dest", type=Path, default=None,
                     help="output directory (default: build/fmus in a checkout, else the per-user cache)")
     ap.add_argument("--force", action="store_true", help="rebuild even if up to date")
+    ap.add_argument("--fmi-version", dest="fmi_version", type=int, choices=(2, 3), action="append", default=None,
+                    help="build the FMI 2.0 (NAME.fmu) or 3.0 (NAME-fmi3.fmu) FMUs only (repeatable; default: both)")
     args = ap.parse_args(argv)
     try:
-        paths = build(args.names or None, args.dest, args.force)
+        versions = tuple(sorted(set(args.fmi_version))) if args.fmi_version else (2, 3)
+        paths = build_versions(args.names or None, args.dest, args.force, versions=versions)
         print(f"FMUs in {paths[0].parent}" if paths else "nothing to build")
     except BuildError as e:
         _remove_staged(Path(args.dest) if args.dest else fmu_cache_dir())

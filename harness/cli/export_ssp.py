@@ -23,10 +23,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--mesh", help="differential mesh model (overrides the scene's effects.meshModel)")
     ap.add_argument("--set", action="append", default=[], metavar="INST.PARAM=VALUE",
                     help="override a parameter, e.g. --set diff.mu_pin=0.1")
+    ap.add_argument("--fmi-version", dest="fmi_version", type=int, choices=(2, 3), default=2,
+                    help="put the FMI 2.0 FMUs (NAME.fmu, the default) or the FMI 3.0 ones (NAME-fmi3.fmu) in the SSP")
     args = ap.parse_args(argv)
     try:
         scene = prepare_scene(args.scene, mesh=args.mesh, step=args.step, duration=args.duration, sets=args.set)
-        files = fmu_files_for(scene, build_missing=True)
+        files = fmu_files_for(scene, build_missing=True, fmi_version=args.fmi_version)
         out = Path(args.output) if args.output else default_output(scene)
         s = export_ssp_summary(scene, files, out)
     except (SceneError, SspError) as e:

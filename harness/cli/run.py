@@ -29,6 +29,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="override a parameter, e.g. --set diff.mu_pin=0.1")
     p.add_argument("--out", help="output directory (default ./results/<scene> under the current folder)")
     p.add_argument("--no-plots", action="store_true")
+    p.add_argument("--fmi-version", dest="fmi_version", type=int, choices=(2, 3), default=2,
+                   help="run the FMI 2.0 FMUs (NAME.fmu, the default) or the FMI 3.0 ones (NAME-fmi3.fmu)")
     p.add_argument("--max-steps", type=int, default=None, metavar="N",
                    help="refuse a run of more than N communication steps (default 1,000,000; the estimate is "
                         "said before the run starts)")
@@ -98,7 +100,7 @@ def _run_into(args, scene, out_dir: Path) -> int:
 
     csv_path = out_dir / f"{scene.name}.csv"
     refuse_symlink(csv_path)   # before running, not at the first row
-    files = fmu_files_for(scene, build_missing=True)
+    files = fmu_files_for(scene, build_missing=True, fmi_version=getattr(args, "fmi_version", 2))
     typed_parameters(scene, files)
     with CsvStream(csv_path, ["time"] + list(scene.record)) as stream, stop_on_sigint():   # rows as they come
         result = run_scene(scene, files, Progress(scene.name), sink=stream.write)

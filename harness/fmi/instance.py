@@ -49,6 +49,18 @@ class CallFailed(Exception):
         super().__init__(text + (f': FMU says "{message}"' if message else ""))
 
 
+# FMI 3.0 variable types under the FMI 2.0 names the harness uses (harness.fmi.instance3)
+TYPES_AS_FMI2 = {"Float64": "Real", "Int32": "Integer"}
+
+
+def fmi2_type_names(md):
+    """``md`` with an FMI 3.0 FMU's Float64 and Int32 variables typed Real and Integer (in place)."""
+    if str(getattr(md, "fmiVersion", "")).startswith("3"):
+        for v in md.modelVariables:
+            v.type = TYPES_AS_FMI2.get(v.type, v.type)
+    return md
+
+
 class FmuCache:
     """Extracts each FMU file once per process and keeps its model description."""
 
@@ -64,7 +76,7 @@ class FmuCache:
         if key not in self._dirs:
             target = self._tmp / f"{path.stem}_{len(self._dirs)}"
             d = extract(str(path), unzipdir=str(target))
-            self._dirs[key] = (d, read_model_description(d))
+            self._dirs[key] = (d, fmi2_type_names(read_model_description(d)))
         return self._dirs[key]
 
     def cleanup(self) -> None:

@@ -16,6 +16,7 @@ import time
 from pathlib import Path
 
 from harness.fmi.instance import Instance
+from harness.fmi.instance3 import open_instance
 from harness.master import Master, RunFailure
 from harness.scene import Scene, SceneError
 from harness.sweep.jobs import FmuRef
@@ -45,7 +46,7 @@ class InstancePool:
                 inst = self._free.get(key, []).pop() if self._free.get(key) else None
             if inst is None:
                 self.created += 1
-                inst = Instance(name, path)  # its own log callback: messages reach this instance only
+                inst = open_instance(name, path)  # FMI 2.0 or 3.0; its own log callback: messages reach this instance only
                 self._free_at_exit()
                 return inst
             inst.messages.clear()          # the logger callback appends to this very list
