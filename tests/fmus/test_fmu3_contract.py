@@ -148,6 +148,10 @@ def test_an_input_out_of_range_is_fmi3Discard_at_the_FMUs_time(pair):
     # a communication point that is not the FMU's time
     assert do(inst.component, 5 * H, H, 1) == 2
     assert "not the FMU's time" in inst.messages[-1][1]
+    # an illegal step size is fmi3Error (FMI 3.0 2.2.4: illegal arguments), the state untouched
+    for h in (0.0, -H, math.nan, math.inf):
+        assert do(inst.component, 2 * H, h, 1) == 3, h
+        assert "communicationStepSize" in inst.messages[-1][1] and "fmi3DoStep" in inst.messages[-1][1]
     inst.close()
 
 

@@ -34,6 +34,7 @@
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <math.h>
 #include <string.h>
 
 #include "fmi2Functions.h"
@@ -266,6 +267,13 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
         sayf(I, fmi3Error, "fmi3DoStep: %s is NULL (every output argument of fmi3DoStep is required)",
              !eventHandlingNeeded ? "eventHandlingNeeded" : !terminateSimulation ? "terminateSimulation"
              : !earlyReturn ? "earlyReturn" : "lastSuccessfulTime");
+        return fmi3Error;
+    }
+    if (!(communicationStepSize > 0.0) || !isfinite(communicationStepSize)) {
+        /* an illegal argument: FMI 3.0 2.2.4 "When detecting illegal arguments [...] the FMU must
+         * return fmi3Error" (FMI 2.0 has no such sentence: there the model's fmi2Discard stands) */
+        sayf(I, fmi3Error, "fmi3DoStep at t = %g s refused: communicationStepSize = %g must be > 0 and finite",
+             currentCommunicationPoint, communicationStepSize);
         return fmi3Error;
     }
     fmi2Status s = fmi2DoStep(I->inner, currentCommunicationPoint, communicationStepSize,
