@@ -321,6 +321,8 @@ def _base_archive(runtime, win64) -> Path:
         return runtime.archive
     merged = win64.folder / f"with-{runtime.folder.name}.zip"
     if not merged.is_file():
+        for old in win64.folder.glob("with-*.zip"):     # the merge with an older linux64 runtime
+            old.unlink(missing_ok=True)
         staged = merged.with_name(f".{merged.name}.{os.getpid()}")
         shutil.copyfile(runtime.archive, staged)
         with zipfile.ZipFile(win64.archive) as zin, zipfile.ZipFile(staged, "a") as zout:

@@ -156,14 +156,14 @@ def _compile(cmd: list[str], what: str) -> None:
 
 
 def _headers(tmp: Path, native_fmi: Path) -> Path:
-    """This interpreter's headers with the Windows pyconfig.h (fmu_src/native/fmi/win64/) in place
+    """This interpreter's headers with the Windows pyconfig.h (fmu_src/native/fmi/pyconfig_win64.h) in place
     of its own (Python.h includes "pyconfig.h" from its own folder first)."""
     include = Path(sysconfig.get_paths()["include"])
     if not (include / "Python.h").is_file():
         raise Win64Unavailable(f"no Python.h in {include}")
     out = tmp / "include"
     shutil.copytree(include, out)
-    shutil.copyfile(native_fmi / "win64" / "pyconfig.h", out / "pyconfig.h")
+    shutil.copyfile(native_fmi / "pyconfig_win64.h", out / "pyconfig.h")
     return out
 
 
