@@ -260,6 +260,8 @@ def ensure_win64(native_fmi: Path, native_kernels: Path, fmi_headers: Path,
             try:
                 assemble(work, native_fmi, native_kernels, fmi_headers, kernel_sources, kernel_flags)
                 os.replace(work, folder)
+            except (OSError, subprocess.SubprocessError, tarfile.TarError, zipfile.BadZipFile) as e:
+                raise Win64Unavailable(f"making the win64 runtime failed: {e}") from None
             finally:
                 shutil.rmtree(work, ignore_errors=True)
     w = Win64(folder, folder / "bin" / "loader.dll", folder / "bin" / "fmi2_pybridge.dll",
