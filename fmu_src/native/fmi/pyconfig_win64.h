@@ -2,11 +2,12 @@
  * (python3XY.dll of the embeddable distribution the FMU carries).
  *
  * The rest of CPython's headers are the same on every platform, so the build takes them from the
- * building interpreter (same major.minor as the win64 runtime: harness/runtime_win64.py checks it)
- * and only this file, which the Windows distribution does not ship, is ours: the configuration of
- * the official 64-bit Windows build as far as the public headers read it (type sizes of the LLP64
- * model, the DLL import of every API symbol, Windows threads; no debug build, no free threading).
- * Placed before the interpreter's include folder on the command line, it replaces the Linux one.
+ * building interpreter (the win64 runtime is of its major.minor: harness/runtime_win64.py fetches
+ * that version) and only this file, which the embeddable distribution does not ship, is ours: the
+ * configuration of the official 64-bit Windows build as far as the public headers read it (type
+ * sizes of the LLP64 model, the DLL import of every API symbol, Windows threads; no debug build).
+ * harness/runtime_win64.py copies the interpreter's include folder and writes this file over its
+ * pyconfig.h (Python.h includes "pyconfig.h" from its own folder first).
  */
 #ifndef Py_CONFIG_H
 #define Py_CONFIG_H
