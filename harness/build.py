@@ -48,7 +48,7 @@ import zipfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from harness import fmu_package, runtime_bundle
+from harness import fmu_package, runtime_bundle, runtime_win64
 from harness.elf import find_patchelf
 from harness.paths import fmu_cache_dir, fmu_sources, physics_package, sources_digest
 
@@ -100,7 +100,8 @@ def script_text(name: str) -> str:
 
 
 # the build code besides this module and modeldescription.py (in harness.paths.sources_digest)
-BUILD_CODE = tuple(Path(m.__file__).resolve() for m in (fmu_package, runtime_bundle)) + runtime_bundle.CODE_FILES
+BUILD_CODE = (tuple(Path(m.__file__).resolve() for m in (fmu_package, runtime_bundle, runtime_win64))
+              + runtime_bundle.CODE_FILES)
 
 
 def source_digest(name: str) -> str:
@@ -111,6 +112,7 @@ def source_digest(name: str) -> str:
     for p in sorted(set(BUILD_CODE)):
         h.update(p.read_bytes())
     h.update(repr(runtime_bundle.interpreter_id()).encode())
+    h.update(b"win64" if shutil.which(runtime_win64.CC) else b"linux64")   # a toolchain installed later rebuilds
     return h.hexdigest()
 
 
@@ -293,6 +295,43 @@ def _compile_kernels(name: str, pkg: Path, notes: list[str]) -> None:
         notes.append(f"WARNING: the rigid kernel was not built ({e}); the rigid level runs the Python reference")
 
 
+# the win64 kernels: their shipped name -> (sources, place in the package), beside the .so ones
+WIN64_KERNELS = {"mesh_kernel.dll": (KERNEL_SOURCES, "differential/mesh/mesh_kernel.dll"),
+                 "librigid_kernel.dll": (RIGID_KERNEL_SOURCES, "differential/librigid_kernel.dll")}
+_WIN64: dict[str, object] = {}    # "parts": the Win64 parts, or "why": the reason there are none (one per process)
+
+
+def _win64_parts():
+    """The win64 loader, bridge, kernels and runtime (:mod:`harness.runtime_win64`, cached), or None
+    when they cannot be made here; the reason is printed once per process."""
+    if "parts" not in _WIN64 and "why" not in _WIN64:
+        try:
+            _WIN64["parts"] = runtime_win64.ensure_win64(NATIVE_FMI, NATIVE_KERNELS, _fmi2_headers(),
+                                                         {k: v[0] for k, v in WIN64_KERNELS.items()}, KERNEL_FLAGS)
+        except runtime_win64.Win64Unavailable as e:
+            _WIN64["why"] = str(e)
+            print(f"linux64-only FMUs: the win64 binaries were not built ({e})", file=sys.stderr)
+    return _WIN64.get("parts")
+
+
+def _base_archive(runtime, win64) -> Path:
+    """The archive an FMU starts from: the linux64 runtime's entries, then the win64 runtime's (both
+    compressed once, merged once per pair and kept beside the win64 runtime)."""
+    if win64 is None:
+        return runtime.archive
+    merged = win64.folder / f"with-{runtime.folder.name}.zip"
+    if not merged.is_file():
+        for old in win64.folder.glob("with-*.zip"):     # the merge with an older linux64 runtime
+            old.unlink(missing_ok=True)
+        staged = merged.with_name(f".{merged.name}.{os.getpid()}")
+        shutil.copyfile(runtime.archive, staged)
+        with zipfile.ZipFile(win64.archive) as zin, zipfile.ZipFile(staged, "a") as zout:
+            for item in zin.infolist():
+                zout.writestr(item, zin.read(item.filename))
+        os.replace(staged, merged)
+    return merged
+
+
 _STAGED: dict[str, Path] = {}     # package digest -> the staged, byte-compiled copy (one per process)
 
 
@@ -374,6 +413,10 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
             except runtime_bundle.RuntimeBundleError as e:
                 raise BuildError(f"{name}: the FMU's Python runtime: {e}") from None
         pkg = _stage(name, tmp, runtime is not None, notes)
+        win64 = _win64_parts() if runtime is not None else None
+        if win64 is not None and name in MESH_KERNEL_FMUS:
+            for shipped, (_, place) in WIN64_KERNELS.items():
+                shutil.copyfile(win64.kernels[shipped], pkg / place)
         try:
             raw = FmuBuilder.build_FMU(script, dest=tmp / "raw", project_files=[] if runtime else [pkg],
                                        canGetAndSetFMUstate=True, canSerializeFMUstate=True)
@@ -387,8 +430,8 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
         out = fmu_path(name, dest)
         part = dest / f".{name}.{os.getpid()}.fmu"     # written in place, then renamed over ``out``
         try:
-            if runtime is not None:    # the runtime's entries, compressed once, come first
-                shutil.copyfile(runtime.archive, part)
+            if runtime is not None:    # the runtimes' entries, compressed once, come first
+                shutil.copyfile(_base_archive(runtime, win64), part)
             with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(part, "a" if runtime else "w", zipfile.ZIP_DEFLATED) as zout:
                 guid = None
                 for item in zin.infolist():
@@ -419,6 +462,12 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
                             zout.write(f, f"resources/{f.relative_to(pkg.parent).as_posix()}")
                     zout.writestr(_entry(f"resources/{RUNTIME_CFG}"), runtime_bundle.cfg_text(runtime, name, guid))
                     notes.append(f"carries its Python runtime ({runtime.folder.name})")
+                if win64 is not None:
+                    zout.writestr(_entry(f"binaries/win64/{name}.dll", 0o755), win64.loader.read_bytes())
+                    zout.writestr(_entry("binaries/win64/fmi2_pybridge.dll", 0o755), win64.bridge.read_bytes())
+                    zout.writestr(_entry(f"resources/{runtime_win64.CFG}"),
+                                  runtime_win64.cfg_text(name, guid, fmu_package.PACKAGE_NAME, fmu_package.ENTRY_MODULE))
+                    notes.append(f"win64 too ({win64.folder.name})")
             with zipfile.ZipFile(part) as z:
                 if not any(n.startswith("binaries/") for n in z.namelist()):
                     raise BuildError(f"{name}: the built archive has no binaries/ (pythonfmu build incomplete)")

@@ -9,7 +9,7 @@ Where a kernel is found (first hit that loads and passes the kernel's own check)
    compiles the kernels for direct runs and the tests), ``$SPURDIFF_KERNEL_DIR``,
    ``$SPURDIFF_FMU_DIR`` and a checkout's ``build/fmus``, as ``<stem>-<digest>.so``: the digest of
    the C sources beside this package, so a stale library is never used (with no sources at hand,
-   under the shipped name).
+   under the shipped name). On Windows the shipped name ends in ``.dll``.
 """
 from __future__ import annotations
 
@@ -34,7 +34,10 @@ def source_digest(native: Path, stem: str) -> str:
 
 
 def candidates(stem: str, shipped: Path, search_path: Sequence[Path]) -> list[Path]:
-    """The files to try, in order, for the kernel ``stem`` shipped as ``shipped``."""
+    """The files to try, in order, for the kernel ``stem`` shipped as ``shipped`` (on Windows the
+    ``.dll`` of the same name: a win64 FMU carries both)."""
+    if os.name == "nt":
+        shipped = shipped.with_suffix(".dll")
     out = [shipped]
     src = next((p for p in _SOURCES if (p / f"{stem}.c").is_file()), None)
     dirs = list(search_path) + [Path(os.environ[v]) for v in ("SPURDIFF_KERNEL_DIR", "SPURDIFF_FMU_DIR")

@@ -1,6 +1,5 @@
 /* See fmi2_inproc.h. */
 #define _GNU_SOURCE
-#include <dlfcn.h>
 #include <limits.h>
 #include <pthread.h>
 #include <stdio.h>
@@ -8,7 +7,11 @@
 
 #include "fmi2_inproc.h"
 
+#ifdef _WIN32
+#define BRIDGE_FILE "fmi2_pybridge.dll"
+#else
 #define BRIDGE_FILE "fmi2_pybridge.so"
+#endif
 #define BRIDGE_PREFIX "spurdiff_bridge_"
 
 static Fmi2Table B;
@@ -18,7 +21,7 @@ static pthread_mutex_t load_lock = PTHREAD_MUTEX_INITIALIZER;
 int inproc_host_python(const RuntimeCfg *cfg, char *version, size_t size)
 {
     const char *(*get_version)(void);
-    void *sym = dlsym(RTLD_DEFAULT, "Py_GetVersion");
+    void *sym = plat_process_symbol("Py_GetVersion");
     if (size) version[0] = 0;
     if (!sym) return INPROC_NONE;
     memcpy(&get_version, &sym, sizeof sym);
@@ -31,7 +34,7 @@ int inproc_host_python(const RuntimeCfg *cfg, char *version, size_t size)
 
 static int load_python(const RuntimeCfg *cfg, const char *resources, char *err, size_t errsize)
 {
-    char v[64], file[PATH_MAX];
+    char v[64], file[PATH_MAX], why[1024];
     int host = inproc_host_python(cfg, v, sizeof v);
     if (host == INPROC_SAME) return 0;
     if (host == INPROC_OTHER) {
@@ -39,14 +42,16 @@ static int load_python(const RuntimeCfg *cfg, const char *resources, char *err, 
         return -1;
     }
     for (int i = 0; i < cfg->n_preload; i++) {
-        if (cfg_join(resources, cfg->preload[i], file, sizeof file) != 0 || !dlopen(file, RTLD_NOW | RTLD_GLOBAL)) {
-            snprintf(err, errsize, "cannot load %s, a library of the FMU's runtime: %s", file, dlerror());
+        if (cfg_join(resources, cfg->preload[i], file, sizeof file) != 0 || !plat_open_library(file, 1)) {
+            snprintf(err, errsize, "cannot load %s, a library of the FMU's runtime: %s", file,
+                     plat_library_error(why, sizeof why));
             return -1;
         }
     }
-    void *lib;
-    if (cfg_join(resources, cfg->libpython, file, sizeof file) != 0 || !(lib = dlopen(file, RTLD_NOW | RTLD_GLOBAL))) {
-        snprintf(err, errsize, "cannot load %s, the FMU's Python %s: %s", file, cfg->version, dlerror());
+    PlatLibrary lib;
+    if (cfg_join(resources, cfg->libpython, file, sizeof file) != 0 || !(lib = plat_open_library(file, 1))) {
+        snprintf(err, errsize, "cannot load %s, the FMU's Python %s: %s", file, cfg->version,
+                 plat_library_error(why, sizeof why));
         return -1;
     }
     /* the library must be the version the description names (the bridge was compiled for it) */
@@ -61,16 +66,16 @@ static int load_python(const RuntimeCfg *cfg, const char *resources, char *err, 
 
 static int load_bridge(const char *bindir, char *err, size_t errsize)
 {
-    char file[PATH_MAX + 32];
+    char file[PATH_MAX + 32], why[1024];
     snprintf(file, sizeof file, "%s/%s", bindir, BRIDGE_FILE);
-    void *h = dlopen(file, RTLD_NOW | RTLD_LOCAL);
+    PlatLibrary h = plat_open_library(file, 0);
     if (!h) {
-        snprintf(err, errsize, "cannot load the Python bridge %s: %s", file, dlerror());
+        snprintf(err, errsize, "cannot load the Python bridge %s: %s", file, plat_library_error(why, sizeof why));
         return -1;
     }
     void *sym;
 #define LOAD(name)                                                                                  \
-    if (!(sym = dlsym(h, BRIDGE_PREFIX #name))) {                                                  \
+    if (!(sym = plat_symbol(h, BRIDGE_PREFIX #name))) {                                                  \
         snprintf(err, errsize, "the bridge %s lacks %s", file, BRIDGE_PREFIX #name);               \
         return -1;                                                                                 \
     }                                                                                              \

@@ -15,9 +15,12 @@
  * auto: as above. Either way the model is the bridge (fmi2_pybridge.c) over the FMU's package.
  * Any failure is logged through the host's logger with the reason, and fmi2Instantiate returns
  * NULL. Getters and setters refuse a NULL array for n > 0 here, whichever side runs the model.
+ * binaries/win64/<modelIdentifier>.dll is this file cross-built with mingw-w64 (the system calls in
+ * platform.h): the model runs in the host's process only, on the FMU's own Python (described by
+ * resources/python_runtime_win64.cfg) or the host's of the same version; the model's own process
+ * is not built for Windows, so a host running another Python version is refused with the reason.
  */
 #define _GNU_SOURCE
-#include <dlfcn.h>
 #include <limits.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -63,13 +66,7 @@ static void log_error(const fmi2CallbackFunctions *f, fmi2String name, const cha
 /* Directory of this shared object (binaries/<platform>/). */
 static int own_dir(char *out, size_t size)
 {
-    Dl_info info;
-    if (!dladdr((void *)&own_dir, &info) || !info.dli_fname) return -1;
-    if (snprintf(out, size, "%s", info.dli_fname) >= (int)size) return -1;
-    char *slash = strrchr(out, '/');
-    if (!slash) return -1;
-    *slash = 0;
-    return 0;
+    return plat_own_dir((const void *)&own_dir, out, size);
 }
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
@@ -80,7 +77,6 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
                               fmi2Boolean visible, fmi2Boolean loggingOn)
 {
     char resources[PATH_MAX], bindir[PATH_MAX], err[4 * CFG_MAX_LINE], version[64];
-    struct stat st;
     RuntimeCfg cfg;
     if (!instanceName || !*instanceName) {
         log_error(functions, instanceName, "fmi2Instantiate: instanceName must be a non-empty string");
@@ -91,7 +87,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
                   fmuResourceLocation ? fmuResourceLocation : "(null)");
         return NULL;
     }
-    if (stat(resources, &st) != 0 || !S_ISDIR(st.st_mode)) {
+    if (!plat_is_dir(resources)) {
         log_error(functions, instanceName, "fmi2Instantiate: the resources folder %s does not exist "
                   "(the FMU was not extracted completely)", resources);
         return NULL;
@@ -120,6 +116,19 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     }
     int host = inproc_host_python(&cfg, version, sizeof version);
     int remote = !strcmp(mode, "out") || (host == INPROC_OTHER);
+#ifdef _WIN32
+    if (remote) {
+        if (host == INPROC_OTHER)
+            log_error(functions, instanceName, "fmi2Instantiate: this process runs Python %s, the FMU's runtime is "
+                      "Python %s, and the win64 binary runs the model in the host's process only (use a host "
+                      "without Python or with Python %s)", version, cfg.version, cfg.version);
+        else
+            log_error(functions, instanceName, "fmi2Instantiate: %s=out: the win64 binary runs the model in the "
+                      "host's process only (unset it)", PROCESS_ENV);
+        cfg_free(&cfg);
+        return NULL;
+    }
+#endif
     if (remote && !strcmp(mode, "in")) {
         log_error(functions, instanceName, "fmi2Instantiate: this process runs Python %s, the FMU's runtime is "
                   "Python %s, and %s=in forbids the model's own process (unset it to allow one)",
@@ -136,11 +145,14 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     h->iname = strdup(instanceName);
     if (functions) h->cb = *functions;
     err[0] = 0;
+#ifndef _WIN32
     if (remote) {
         h->t = &REMOTE_TABLE;
         h->inner = remote_instantiate(instanceName, fmuType, fmuGUID, resources, bindir, functions, visible,
                                       loggingOn, err, sizeof err);
-    } else if (inproc_load(&cfg, resources, bindir, &h->t, err, sizeof err) == 0) {
+    } else
+#endif
+    if (inproc_load(&cfg, resources, bindir, &h->t, err, sizeof err) == 0) {
         h->inner = h->t->fmi2Instantiate(instanceName, fmuType, fmuGUID, resources, functions, visible, loggingOn);
     }
     cfg_free(&cfg);

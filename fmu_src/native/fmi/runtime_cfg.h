@@ -30,10 +30,16 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "platform.h"
+
 #define CFG_MAX_LIST 64
 #define CFG_MAX_LINE 4096
 #define CFG_MAX_FILE 65536
+#ifdef _WIN32   /* the win64 binaries read their own runtime's description */
+#define CFG_FILE "python_runtime_win64.cfg"
+#else
 #define CFG_FILE "python_runtime.cfg"
+#endif
 #define CFG_FORMAT "2"
 #define CFG_FN static __attribute__((unused))
 
@@ -90,6 +96,9 @@ CFG_FN int cfg_uri_to_path(const char *uri, char *out, size_t size)
     }
     while (n > 1 && out[n - 1] == '/') n--;          /* no trailing slash */
     out[n] = 0;
+#ifdef _WIN32   /* file:///C:/dir decodes to /C:/dir: the path is C:/dir */
+    if (out[0] == '/' && isalpha((unsigned char)out[1]) && out[2] == ':') memmove(out, out + 1, n);
+#endif
     return 0;
 }
 
@@ -98,6 +107,9 @@ CFG_FN int cfg_uri_to_path(const char *uri, char *out, size_t size)
 CFG_FN int cfg_relative_ok(const char *v)
 {
     if (!*v || v[0] == '/' || strchr(v, '\\')) return 0;
+#ifdef _WIN32   /* no drive letter (C:x is relative to that drive's current folder) */
+    if (strchr(v, ':')) return 0;
+#endif
     for (const char *p = v; *p;) {
         const char *e = strchr(p, '/');
         size_t n = e ? (size_t)(e - p) : strlen(p);
@@ -137,15 +149,20 @@ CFG_FN int cfg_read(const char *resources, RuntimeCfg *c, char *err, size_t errs
         snprintf(err, errsize, "the resources path is longer than %d bytes", CFG_MAX_LINE - 32);
         return -1;
     }
-    /* O_NONBLOCK: a FIFO planted in its place must not block the open; it is refused below */
-    int fd = open(file, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    /* a FIFO planted in its place must not block the open (platform.h); it is refused below */
+    int fd = plat_open_read(file);
     if (fd < 0) {
         snprintf(err, errsize, "cannot read %s: %s (the FMU's resources are incomplete or not readable)",
                  file, strerror(errno));
         return -1;
     }
+#ifdef _WIN32
+    struct _stat64 st;
+    if (_fstat64(fd, &st) != 0 || !(st.st_mode & _S_IFREG)) {
+#else
     struct stat st;
     if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+#endif
         snprintf(err, errsize, "%s is not a regular file (the FMU's resources are damaged)", file);
         close(fd);
         return -1;

@@ -1,0 +1,63 @@
+"""The win64 side of the build (harness/runtime_win64.py) without wine: what an FMU carries for
+Windows, and a build where mingw-w64 is missing (linux64-only FMUs, said in one line)."""
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+import zipfile
+
+import pytest
+
+from harness import build, runtime_win64
+
+
+def test_without_the_toolchain_the_build_makes_linux64_only_fmus_and_says_so_once(monkeypatch, tmp_path, capsys):
+    monkeypatch.setattr(runtime_win64, "CC", "no-such-mingw-gcc")
+    monkeypatch.setattr(build, "_WIN64", {})
+    with pytest.raises(runtime_win64.Win64Unavailable, match="no no-such-mingw-gcc on PATH"):
+        runtime_win64.compiler()
+    fmu = build.build_one("WheelLoad", tmp_path, quiet=True)
+    build.build_one("Vehicle", tmp_path, quiet=True)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["linux64-only FMUs: the win64 binaries were not built (no no-such-mingw-gcc on PATH "
+                   "(Debian: apt-get install gcc-mingw-w64-x86-64))"]
+    names = zipfile.ZipFile(fmu).namelist()
+    assert "binaries/linux64/WheelLoad.so" in names and "resources/python_runtime.cfg" in names
+    assert not [n for n in names if "win64" in n]
+
+
+def test_the_win64_runtime_description_is_relative_and_complete():
+    text = runtime_win64.cfg_text("WheelLoad", "{g}", "spurdiff", "_fmu_entry")
+    pairs = [line.split("=", 1) for line in text.splitlines() if line and not line.startswith("#")]
+    keys = [k for k, _ in pairs]
+    for k in ("format", "version", "libpython", "home", "package", "module", "class", "guid"):
+        assert keys.count(k) == 1, k
+    for k, v in pairs:
+        if k in ("libpython", "home", "path", "preload"):
+            assert not v.startswith("/") and ".." not in v.split("/") and ":" not in v and "\\" not in v, (k, v)
+    assert dict(pairs)["libpython"] == f"python-win64/python{runtime_win64.TAG}.dll"
+
+
+def test_numpys_tests_headers_and_stubs_stay_out():
+    kept = runtime_win64._numpy_kept
+    assert kept("numpy/__init__.py") and kept("numpy/linalg/_umath_linalg.cp311-win_amd64.pyd")
+    assert kept("numpy.libs/libscipy_openblas64_.dll") and kept("numpy/testing/__init__.py")
+    assert not kept("numpy/linalg/tests/test_linalg.py") and not kept("numpy/_core/include/numpy/ndarrayobject.h")
+    assert not kept("numpy/__init__.pyi") and not kept("numpy/f2py/__init__.py")
+
+
+@pytest.mark.skipif(shutil.which("x86_64-w64-mingw32-objdump") is None, reason="no x86_64-w64-mingw32-objdump")
+def test_the_win64_binaries_need_only_windows_own_libraries(fmu_files, tmp_path):
+    with zipfile.ZipFile(fmu_files["SpurDifferential"]) as z:
+        names = z.namelist()
+        if "binaries/win64/SpurDifferential.dll" not in names:
+            pytest.skip("built without mingw-w64: no win64 binaries")
+        z.extractall(tmp_path, [n for n in names if n.endswith(".dll") and "python-win64" not in n])
+    needs = {}
+    for dll in tmp_path.rglob("*.dll"):
+        r = subprocess.run(["x86_64-w64-mingw32-objdump", "-p", str(dll)], capture_output=True, text=True, check=True)
+        needs[dll.name] = sorted(set(re.findall(r"DLL Name: (\S+)", r.stdout)))
+    assert needs["SpurDifferential.dll"] == ["KERNEL32.dll", "msvcrt.dll"]
+    assert needs["fmi2_pybridge.dll"] == ["KERNEL32.dll", "msvcrt.dll", f"python{runtime_win64.TAG}.dll"]
+    assert needs["mesh_kernel.dll"] == needs["librigid_kernel.dll"] == ["KERNEL32.dll", "msvcrt.dll"]
