@@ -11,7 +11,9 @@ bridge and server. What differs:
 * the binaries sit in ``binaries/x86_64-linux/`` and the model's binary is the FMI 3.0 loader:
   ``fmu_src/native/fmi/fmi3_loader.c`` linked with the FMI 2.0 loader it maps every call onto
   (:data:`LOADER3_SOURCES`), so the model runs in this process or its own exactly as in the FMI 2.0
-  FMU, with the same refusals.
+  FMU, with the same refusals;
+* no Windows side: the FMI 2.0 FMU's ``binaries/win64/`` and ``resources/python-win64/`` hold an
+  FMI 2.0 loader (:data:`WIN64_ONLY` is left out; Windows hosts take the FMI 2.0 FMU).
 
 The archive starts from the runtime's compressed entries (as the FMI 2.0 build does), so making
 an FMI 3.0 FMU costs about a second. A build is skipped when its stamp (the FMI 2.0 FMU's source
@@ -37,6 +39,11 @@ from harness.paths import fmu_cache_dir
 SUFFIX = "-fmi3"
 LOADER3_SOURCES: tuple = ("fmi3_loader.c", *build2.LOADER_SOURCES)
 FMI_VERSIONS = (2, 3)
+
+
+# the FMI 2.0 FMU's Windows side: its DLLs export the FMI 2.0 functions only, so the FMI 3.0 FMU
+# leaves it out (an FMI 3.0 win64 loader, binaries/x86_64-windows/, is not built yet)
+WIN64_ONLY = ("binaries/win64/", "resources/python-win64/", "resources/python_runtime_win64.cfg")
 
 
 def fmu_path(name: str, dest: Path | None = None) -> Path:
@@ -102,7 +109,7 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
                 raise build2.BuildError(f"{name}: {fmu2.name} carries no runtime (built without a C compiler?); "
                                         "an FMI 3.0 FMU needs the native loader")
             for item in zin.infolist():
-                if item.filename in in_runtime:
+                if item.filename in in_runtime or item.filename.startswith(WIN64_ONLY):
                     continue
                 data = zin.read(item.filename)
                 target = item.filename

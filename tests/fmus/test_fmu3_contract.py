@@ -79,6 +79,17 @@ def test_fmpy_validates_the_fmi3_description(pair):
     assert validate_fmu(str(path3)) == []
 
 
+def test_the_fmi3_fmu_carries_no_fmi2_windows_side(pair):
+    """The FMI 2.0 FMU's win64 loader exports FMI 2.0 functions only: not in the FMI 3.0 FMU."""
+    import zipfile
+    name, _, path3, _ = pair
+    with zipfile.ZipFile(path3) as z:
+        names = z.namelist()
+    assert f"binaries/x86_64-linux/{name}.so" in names
+    assert not [n for n in names if n.startswith(("binaries/win64/", "resources/python-win64/"))
+                or n == "resources/python_runtime_win64.cfg"]
+
+
 def test_the_fmi3_description_carries_the_fmi2_variables(pair):
     name, path2, path3, _ = pair
     md2, md3 = read_model_description(str(path2)), read_model_description(str(path3))
