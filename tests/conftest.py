@@ -17,6 +17,16 @@ def differential_fmu(fmu_files):
     return fmu_files["SpurDifferential"]
 
 
+@pytest.fixture(autouse=True)
+def _fmpy_logger_proxy_restored():
+    """A test that ran simulate_fmu(logger=...) leaves fmpy's process-wide logger proxy pointing
+    at a callback freed after it: the next FMU logging through fmpy's defaults would crash the
+    worker (harness/fmi/fmpy_logging.py)."""
+    yield
+    from harness.fmi import fmpy_logging
+    fmpy_logging.restore_default()
+
+
 # CI runs the property tests with a fixed seed (reproducible); locally they explore at random.
 import os  # noqa: E402
 

@@ -23,6 +23,8 @@ import tempfile
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
+from harness.fmi import fmpy_logging
+
 STATUS_LABELS = ("fmi2OK", "fmi2Warning", "fmi2Discard", "fmi2Error", "fmi2Fatal", "fmi2Pending")
 REFUSED = (2, 3, 4)  # discard, error, fatal
 SETTERS = {"Real": "setReal", "Integer": "setInteger", "Boolean": "setBoolean", "String": "setString"}
@@ -145,7 +147,7 @@ class Instance:
         appends to ``messages``); ``environment``: the componentEnvironment pointer value;
         ``format_messages``: let fmpy format printf-style messages in C before the logger sees
         them. False when the FMU returned NULL and ``raise_on_null`` is False."""
-        from ctypes import byref, c_void_p
+        from ctypes import c_void_p
 
         from fmpy import calloc, free
         from fmpy.fmi2 import fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions
@@ -156,12 +158,7 @@ class Instance:
         cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
         if environment is not None:
             cb.componentEnvironment = c_void_p(environment)
-        if format_messages:
-            try:
-                from fmpy.logging import addLoggerProxy
-                addLoggerProxy(byref(cb))
-            except Exception:
-                pass
+        self._proxied = format_messages and fmpy_logging.use_proxy(cb)
         self._callbacks = cb  # keep the C callbacks alive as long as the instance
         self.trace(f"fmi2Instantiate [instance {self.name}]")
         try:
@@ -178,6 +175,12 @@ class Instance:
     def free(self) -> None:
         self.trace(f"fmi2FreeInstance [instance {self.name}]")
         self.slave.freeInstance()
+        self._unproxy()
+
+    def _unproxy(self) -> None:
+        if getattr(self, "_proxied", False):
+            fmpy_logging.restore_default()     # fmpy's one process-wide proxy target
+            self._proxied = False
 
     def close(self) -> None:
         """Terminate (if the state allows) and free, ignoring refusals: the end of any run."""
@@ -186,6 +189,7 @@ class Instance:
                 call()
             except Exception:
                 pass
+        self._unproxy()
 
     # ------------------------------------------------------------------ calls and statuses
     def call(self, label: str, fn: Callable, *args):
