@@ -146,9 +146,19 @@ def test_kit_flags_what_the_checker_flags(tmp_path):
     # only the kit flags are the catch table there)
     run = [v for v in fmus if by_checker[v]]
     kit = run_checks([str(fmus[v]) for v in run], LifecycleOptions(timeout=60.0))
-    by_kit = {v: any(r.is_error for r in kit if r.subject == str(fmus[v])) for v in run}
-    print("\nvariant: checker flags, kit flags\n" + "\n".join(f"{v}: {by_checker[v]}, {by_kit.get(v, '-')}" for v in fmus))
-    assert all(by_kit.values()), by_kit          # the checker flags => the kit flags
+    failed = {v: {r.check_id: r.severity for r in kit if r.subject == str(fmus[v]) and r.status == "FAIL"}
+              for v in run}
+    print("\nvariant: checker flags, kit flags\n" + "\n".join(f"{v}: {by_checker[v]}, {failed.get(v, '-')}" for v in fmus))
+    assert all(failed.values()), failed          # the checker flags => the kit flags
+    # where the standard's text has no shall/must the kit's finding is a warning, not the checker's error:
+    # a types platform other than "default" (2.1.2 "It is recommended"), a refusal inside the default
+    # experiment (2.2.5 "A tool may ignore this information"); every other one is an error
+    warn_only = {"ChkCTypes": {"cs.version"}, "ChkCLateStep": {"cs.default-experiment"}}
+    for v, found in failed.items():
+        if v in warn_only:
+            assert set(found) == warn_only[v] and set(found.values()) == {"warning"}, (v, found)
+        else:
+            assert "error" in found.values(), (v, found)
     assert by_checker["ChkC"] is False           # the checker passes the well-behaved one
     assert len(run) >= 2                         # the comparison is not vacuous
 
