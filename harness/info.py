@@ -9,6 +9,8 @@ from spurdiff.differential.inertia import mass_properties
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.locking import (breakaway, first_order_K, locking_coefficients, paper_locking_coefficient,
                               pin_friction, torque_bias_ratio)
+from spurdiff.differential.flank_law import locking_coefficients_flank
+from spurdiff.differential.mesh.params import MeshParams
 from spurdiff.gears.phasing import mesh_phases
 from spurdiff.differential.statics import mesh_forces, mesh_forces_for
 
@@ -29,7 +31,28 @@ def _pct(ours: float, ref: float) -> str:
     return f"{100.0 * (ours - ref) / ref:+.3f} %"
 
 
-def info_text(table: GearTable | None = None, params: DifferentialParams | None = None) -> str:
+def flank_rows(geo, pf, Kd: float, Kc: float, mu_flank: float) -> list[str]:
+    """The locking coefficients with Coulomb flank friction (spurdiff.differential.flank_law)
+    beside those of the pins alone, drive and coast."""
+    fl = locking_coefficients_flank(geo, pf, mu_flank)
+    rows = []
+    for k, (case, K0) in enumerate((("drive", Kd), ("coast", Kc))):
+        rows.append([case, f"{K0:.4f}", f"{torque_bias_ratio(K0):.4f}", f"{fl.average[k]:.4f}",
+                     f"{torque_bias_ratio(fl.average[k]):.4f}", f"{100 * (fl.average[k] / K0 - 1):+.1f} %",
+                     f"{fl.start[k]:.4f}", f"{fl.lo[k]:.4f} .. {fl.hi[k]:.4f}"])
+    return [f"Locking with flank friction (pinFriction law; Coulomb friction on the flanks at the static "
+            f"coefficient flank.muStatic = {mu_flank:g}; drive: load on the drive flanks, the carrier drives the "
+            f"suns; coast: on the coast flanks, the suns drive the carrier). Off by default at every level "
+            f"(docs/locking-law.md); where flankFriction is on (compliant, contact) lockingCoefficient is the "
+            f"mesh-cycle average",
+            render(["case", "K pins", "bias pins", "K pins + flanks (cycle mean)", "bias", "change",
+                    "K at the start phases", "K over one cycle"], rows), ""]
+
+
+def info_text(table: GearTable | None = None, params: DifferentialParams | None = None,
+              mu_flank: float | None = None) -> str:
+    if mu_flank is None:
+        mu_flank = MeshParams().muStatic
     p = params or DifferentialParams(table=table or GearTable())
     geo = derive(p.table)
     t = geo.table
@@ -94,6 +117,7 @@ def info_text(table: GearTable | None = None, params: DifferentialParams | None 
             f"{bd.F_pin[0]:,.0f} / {bd.F_pin[1]:,.0f} N; coast: pin loads {bc.F_pin[0]:,.0f} / {bc.F_pin[1]:,.0f} N",
             f"  the paper's law at the compliant/contact levels (pin lever scaled to its K in drive) holds "
             f"K = {Kpc_mesh:.4f} in coast ({Kpc_mesh / Kp:.3f} x)", ""]
+    out += flank_rows(geo, pf, Kd, Kc, mu_flank)
 
     T0 = PAPER_T0 * 1e-3  # N m
     K = Kp

@@ -313,10 +313,13 @@ VARIABLES: list[Var] = [
     Var("planet2.rw", "calculatedParameter", "Operating pitch radius of planet 2 in mesh B2, r_2", "m", "mm",
         bind="geometry.r_2"),
     Var("lockingCoefficient", "calculatedParameter",
-        "Locking coefficient in drive, |T_A - T_B| / (T_A + T_B) at break-away (lockingLaw = paper: "
-        "(mu r_d / n)(1/(r_a+r_1) + 1/(r_b+r_2)))", "1", bind="K"),
+        "Locking coefficient in drive (load on the drive flanks: the carrier drives the suns), |T_A - T_B| / "
+        "(T_A + T_B) at break-away; with flankFriction (compliant/contact) it includes the flanks' Coulomb "
+        "friction at flank.muStatic, mesh-cycle average (lockingLaw = paper: (mu r_d / n)(1/(r_a+r_1) + "
+        "1/(r_b+r_2)), pins only)", "1", bind="K"),
     Var("lockingCoefficientCoast", "calculatedParameter",
-        "Locking coefficient in coast (suns drive the carrier); equals the drive value with lockingLaw = paper", "1",
+        "Locking coefficient in coast (load on the coast flanks: the suns drive the carrier), flank friction "
+        "as in lockingCoefficient; equals the drive value with lockingLaw = paper", "1",
         bind="K_coast"),
     Var("torqueBiasRatio", "calculatedParameter",
         "Torque bias ratio in drive, largest T_slow / T_fast the locking holds: (1 + K) / (1 - K)", "1"),

@@ -41,7 +41,8 @@ import numpy as np
 from spurdiff.errors import ParameterError, StepError, require_finite, require_positive
 from spurdiff.gears.geometry import DifferentialGeometry
 from spurdiff.differential.inertia import MassProperties, mass_properties
-from spurdiff.differential.locking import locking_coefficients, paper_locking_coefficient, pin_friction
+from spurdiff.differential.flank_law import locking_coefficient_flank
+from spurdiff.differential.locking import PinFriction, locking_coefficients, paper_locking_coefficient, pin_friction
 from spurdiff.differential.model_base import DifferentialModel
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.statics import MeshForces
@@ -131,6 +132,15 @@ class MeshDifferential(DifferentialModel):
         self._flank = bool(mp_.flankFriction)
         self._pin = bool(mp_.pinFriction) and (pf.c > 0.0 or self.preload > 0.0)
         self._need_phase = self._var or self._flank
+        # the locking coefficients without flank friction, and with it where it is on (pin-load
+        # law): the mesh-cycle average of the Coulomb flank friction at the static coefficient
+        # (spurdiff.differential.flank_law; the break-away of a slow ramp from rest depends on the
+        # start phases, within the range info prints)
+        self.K_pins, self.K_pins_coast = self.K, self.K_coast
+        if self._flank and self.law == "pinFriction":
+            pf_f = pf if self._pin else PinFriction(pf.layout, 0.0, (0.0, 0.0), pf.rho, pf.rb, pf.n)
+            self.K, self.K_coast = (locking_coefficient_flank(geo, pf_f, float(mp_.muStatic), sg)
+                                    for sg in (1.0, -1.0))
         self.law_obj = (Impact(float(mp_.contactExponent), float(mp_.contactDamping), float(mp_.contactDepth))
                         if self._contact else ElastoBacklash() if self._bl else BilateralSpring())
         self.phase_obj = MeshPhase(self._var, self._need_phase)
