@@ -9,7 +9,9 @@ from spurdiff.differential.inertia import mass_properties
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.locking import (breakaway, first_order_K, locking_coefficients, paper_locking_coefficient,
                               pin_friction, torque_bias_ratio)
-from spurdiff.differential.flank_law import locking_coefficients_flank
+from spurdiff.differential.bushing import BACKUP_RATIO_MIN, PIN_SETS, bushing, check
+from spurdiff.differential.flank_law import locking_coefficient_flank, locking_coefficients_flank
+from spurdiff.gears.layout import kinematics
 from spurdiff.differential.mesh.params import MeshParams
 from spurdiff.gears.phasing import mesh_phases
 from spurdiff.differential.statics import mesh_forces, mesh_forces_for
@@ -47,6 +49,41 @@ def flank_rows(geo, pf, Kd: float, Kc: float, mu_flank: float) -> list[str]:
             f"mesh-cycle average",
             render(["case", "K pins", "bias pins", "K pins + flanks (cycle mean)", "bias", "change",
                     "K at the start phases", "K over one cycle"], rows), ""]
+
+
+CORNERING_W_REL = 1.1706   # rad/s, sun A relative to the carrier in vehicle-cornering's steady turn
+
+
+def bushing_rows(geo, mu_flank: float) -> list[str]:
+    """Both pin data sets (spurdiff/data/pin_bushing.toml): lever, K and bias with and without
+    flank friction, and the design findings (rim backup ratio, bushing p and pv)."""
+    kin = kinematics(geo)
+    rho = (kin.planet1_per_sunA, kin.planet2_per_sunA)
+    rows, finds = [], []
+    for name in PIN_SETS:
+        b = bushing(name)
+        pf = pin_friction(geo, b.mu_effective, b.journalRadius, 0.0, "pinFriction")
+        Kd, Kc = locking_coefficients(pf)
+        Kfd, Kfc = (locking_coefficient_flank(geo, pf, mu_flank, sg) for sg in (1.0, -1.0))
+        ba = breakaway(pf, PAPER_T0 * 1e-3, -1.0)
+        checks = check(geo, b, ba.F_pin, CORNERING_W_REL, rho)
+        rows.append([name, f"{b.muStatic:g} / {b.muDynamic:g}", f"{b.mu_effective:.4f}", f"{b.journalRadius / MM:g}",
+                     f"{b.lever / MM:.4f}", f"{Kd:.4f} / {Kc:.4f}",
+                     f"{torque_bias_ratio(Kd):.3f} / {torque_bias_ratio(Kc):.3f}", f"{Kfd:.4f} / {Kfc:.4f}",
+                     f"{torque_bias_ratio(Kfd):.3f} / {torque_bias_ratio(Kfc):.3f}",
+                     " / ".join(f"{c.backup_ratio:.2f}" for c in checks),
+                     " / ".join(f"{c.p / 1e6:.1f}" for c in checks),
+                     " / ".join(f"{c.pv / 1e6:.3f}" for c in checks)])
+        finds += [f"  {name}: {f}" for c in checks for f in c.findings(b)]
+    return ["Pin bushings (spurdiff/data/pin_bushing.toml, sources there): lever mu' r_j, mu' = mu_s/sqrt(1+mu_s^2) "
+            "with the friction-circle correction (bronze), as published (paper); K and bias drive / coast, pins "
+            f"alone and with flank friction {mu_flank:g} (cycle mean); backup ratio s_R/h_t planet 1 / 2; p at the "
+            f"break-away pin loads at T0 = {PAPER_T0 * 1e-3:g} N m (drive); pv with sun A at "
+            f"{CORNERING_W_REL:g} rad/s relative to the carrier (vehicle-cornering)",
+            render(["set", "mu_s / mu_d", "mu'", "r_j mm", "lever mm", "K", "bias", "K + flanks", "bias + flanks",
+                    "backup ratio", "p MPa", "pv MPa m/s"], rows),
+            "Bushing findings" + (f" (limits: backup ratio >= {BACKUP_RATIO_MIN:g}, C93200 bronze p, pv)"),
+            *(finds or ["  none"]), ""]
 
 
 def info_text(table: GearTable | None = None, params: DifferentialParams | None = None,
@@ -118,6 +155,7 @@ def info_text(table: GearTable | None = None, params: DifferentialParams | None 
             f"  the paper's law at the compliant/contact levels (pin lever scaled to its K in drive) holds "
             f"K = {Kpc_mesh:.4f} in coast ({Kpc_mesh / Kp:.3f} x)", ""]
     out += flank_rows(geo, pf, Kd, Kc, mu_flank)
+    out += bushing_rows(geo, mu_flank)
 
     T0 = PAPER_T0 * 1e-3  # N m
     K = Kp

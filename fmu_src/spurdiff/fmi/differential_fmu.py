@@ -265,8 +265,10 @@ VARIABLES: list[Var] = [
     *_gear_vars("planet2", "planet 2 (meshes sun B and planet 1)"),
     _p("nPairs", "diff.table.nPairs", "Number of planet pairs (3: the paper's figures)", None, kind="Integer"),
     # --- friction, mass
-    _p("mu_pin", "diff.mu_pin", "Sliding friction coefficient of the planet pin bushings", "1"),
-    _p("r_collar", "diff.r_collar", "Thrust-collar radius r_d of the pinion shaft", "m", "mm"),
+    _p("mu_pin", "diff.mu_pin", "Friction coefficient of the planet pin bushings at break-away, with the "
+       "friction-circle correction mu/sqrt(1+mu^2) where the data set has it (spurdiff/data/pin_bushing.toml)", "1"),
+    _p("r_collar", "diff.r_collar", "Journal radius of the planet pins, the friction lever's radius (the paper's "
+       "r_d, which it calls a thrust-collar radius)", "m", "mm"),
     _p("lockingPreload", "diff.lockingPreload",
        "Spring preload of the locking friction (clutch-type limited slip): torque difference held with no load", "N.m", "N.mm"),
     _p("density", "diff.density", "Density of the gear steel", "kg/m3"),
@@ -334,6 +336,80 @@ VARIABLES: list[Var] = [
 ]
 
 
+# ---------------------------------------------------------------------------------------------------
+# Load capacity (issue 27 item 4): ISO 6336 safety factors at initialization, the run's largest
+# stresses as outputs and one logged warning when a run exceeds the static strength
+# (spurdiff.gears.capacity, docs/capacity.md). Appended after the other variables.
+CAPACITY_MESHES = (("A1", "sunA", "planet1"), ("B2", "sunB", "planet2"), ("12", "planet1", "planet2"))
+VARIABLES += [
+    Var("capacity.T0", "parameter", "Carrier torque at which the ISO 6336 safety factors are rated and from which the "
+        "run's stresses are scaled (the paper's load: 2100 N m)", "N.m", "N.m", 2100.0),
+    Var("capacity.material", "parameter", "Gear material of the ISO 6336 check (spurdiff/data/materials.toml): "
+        "18CrNiMo7-6 | 20MnCr5 | 40CrNi2Mo-paper", None, None, "18CrNiMo7-6", kind="String"),
+    *[Var(f"capacity.mesh{k}.{g}.{S}", "calculatedParameter",
+          f"ISO 6336 {what} safety factor of {g} in mesh {k} at capacity.T0, long life (< 1: a finding, logged)", "1")
+      for k, g1, g2 in CAPACITY_MESHES for g in (g1, g2)
+      for S, what in (("S_H", "contact (pitting, method B)"), ("S_F", "root (bending, method B)"))],
+    Var("capacity.S_H_static", "calculatedParameter", "Smallest ISO 6336 contact safety factor against the static "
+        "strength (Z_NT for N <= 1e5) at capacity.T0, over all meshes and gears", "1"),
+    Var("capacity.S_F_static", "calculatedParameter", "Smallest ISO 6336 root safety factor against the static "
+        "strength (Y_NT for N <= 1e3) at capacity.T0, over all meshes and gears", "1"),
+    Var("capacity.sigmaHMax", "output", "Largest contact stress of the run so far (ISO 6336-2 from the mesh forces at "
+        "the communication points, load factors of capacity.T0)", "Pa", "MPa", bind="capacity_watch.sigma_H_max"),
+    Var("capacity.sigmaFMax", "output", "Largest tooth-root stress of the run so far (ISO 6336-3, as "
+        "capacity.sigmaHMax)", "Pa", "MPa", bind="capacity_watch.sigma_F_max"),
+    Var("capacity.exceeded", "output", "1 once the run exceeded the static contact or root strength of "
+        "capacity.material (logged once), else 0", "1", bind="capacity_watch.exceeded_indicator"),
+]
+
+
+def _attach_capacity(model, values: dict) -> None:
+    """Rate the gear set at capacity.T0 (calculated parameters) and watch the run's mesh forces:
+    ``model.capacity_watch`` (the outputs), ``model.do_step`` books each step's forces,
+    ``model.get_state`` / ``set_state`` carry the watch, ``model.log_to(log)`` (called by the adapter
+    with its logger) logs the findings now and the first excess when it happens."""
+    from spurdiff.errors import require_positive
+    from spurdiff.gears import capacity as cap
+    T0 = require_positive("capacity.T0", values["capacity.T0"])
+    mat = cap.material(values["capacity.material"])
+    r_pin = values.get("r_collar", 0.0)          # the planets turn on journals of this radius (Y_B)
+    bores = {"planet1": 2.0 * r_pin, "planet2": 2.0 * r_pin} if r_pin > 0.0 else None
+    forces = cap.nominal_mesh_forces(model.geometry, T0)
+    rep = cap.capacity_report(model.geometry, forces, mat, None, bores)
+    for r in rep.meshes:
+        for g in r.gears:
+            values[f"capacity.mesh{r.mesh}.{g.gear}.S_H"] = g.S_H
+            values[f"capacity.mesh{r.mesh}.{g.gear}.S_F"] = g.S_F
+    values["capacity.S_H_static"] = rep.S_H_static
+    values["capacity.S_F_static"] = rep.S_F_static
+    watch = model.capacity_watch = cap.StressWatch(model.geometry, forces, mat, rep.conditions, bores)
+    sink = []                                     # the adapter's logger, once given
+    inner_step, inner_get, inner_set = model.do_step, model.get_state, model.set_state
+
+    def do_step(t, h):
+        inner_step(t, h)
+        f = model.mesh_forces
+        msg = watch.update(f.F_A1, f.F_B2, f.F_12)
+        if msg is not None and sink:
+            sink[0](f"t = {t + h:g} s: {msg}", 1)   # fmi2Warning
+
+    def get_state():
+        return {**inner_get(), "capacity": watch.get_state()}
+
+    def set_state(state):
+        state = dict(state)
+        watch.set_state(state.pop("capacity", [0.0, 0.0, False]))
+        inner_set(state)
+
+    def log_to(log):
+        sink[:] = [log]
+        for f in rep.findings:
+            log(f"capacity at capacity.T0 = {T0:g} N m: {f}", 1)
+
+    model.do_step, model.get_state, model.set_state, model.log_to = do_step, get_state, set_state, log_to
+# ---------------------------------------------------------------------------------------------------
+
+
 def setup(values: dict) -> Setup:
     """The parameter objects from FMI variable values, by the parameters' bindings."""
     return build_params(VARIABLES, values, Setup())
@@ -380,6 +456,7 @@ def build_model(values: dict):
     model.initialize(0.0)
     io.pull_calculated(model, values)
     _set_calculated(model, values)
+    _attach_capacity(model, values)   # load capacity (the block after VARIABLES)
     return model
 
 
