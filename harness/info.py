@@ -10,6 +10,7 @@ from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.locking import (breakaway, first_order_K, locking_coefficients, paper_locking_coefficient,
                               pin_friction, torque_bias_ratio)
 from spurdiff.differential.bushing import BACKUP_RATIO_MIN, PIN_SETS, bushing, check
+from spurdiff.differential.speed_law import locking_torque_at_speed
 from spurdiff.differential.flank_law import locking_coefficient_flank, locking_coefficients_flank
 from spurdiff.gears.layout import kinematics
 from spurdiff.differential.mesh.params import MeshParams
@@ -86,6 +87,28 @@ def bushing_rows(geo, mu_flank: float) -> list[str]:
             *(finds or ["  none"]), ""]
 
 
+WHEEL_RADIUS = 0.3266      # m, the Chrono sedan's tyre (shared/docs/model-references.md): carrier = wheel speed
+
+
+def speed_rows(p, geo, pf) -> list[str]:
+    """Locking torque against carrier speed (spurdiff.differential.speed_law) at zero and low
+    torque, beside the first-order theory n c (|rho_1| m_1 a_1 + |rho_2| m_2 a_2) w_c^2."""
+    mp = mass_properties(p, geo)
+    ms = (mp.m_planet1, mp.m_planet2)
+    first = pf.n * pf.c * (abs(pf.rho[0]) * ms[0] * geo.meshA1.a + abs(pf.rho[1]) * ms[1] * geo.meshB2.a)
+    rows = []
+    for label, wc in (("standstill", 0.0), ("vehicle-cornering", 30.7161), ("100 km/h", 100 / 3.6 / WHEEL_RADIUS),
+                      ("200 km/h", 200 / 3.6 / WHEEL_RADIUS)):
+        T = [locking_torque_at_speed(pf, geo, ms, wc, T0) for T0 in (0.0, 100.0, -100.0)]
+        rows.append([label, f"{wc:.1f}", f"{T[0]:.3f}", f"{first * wc * wc:.3f}", f"{T[1]:.2f}", f"{T[1] / 100:.4f}",
+                     f"{T[2]:.2f}", f"{T[2] / 100:.4f}"])
+    return [f"Locking torque against carrier speed (centrifugal pin loads of the planets, {ms[0]:.3f} / {ms[1]:.3f} kg "
+            f"at {geo.meshA1.a / MM:g} / {geo.meshB2.a / MM:g} mm; quasi-static theory, not yet in the dynamic "
+            f"levels; carrier speed = wheel speed, r_w = {WHEEL_RADIUS} m)",
+            render(["carrier", "w_c rad/s", "T0 = 0: N m", "first order N m", "T0 = 100 drive: N m", "K",
+                    "T0 = 100 coast: N m", "K"], rows), ""]
+
+
 def info_text(table: GearTable | None = None, params: DifferentialParams | None = None,
               mu_flank: float | None = None) -> str:
     if mu_flank is None:
@@ -156,6 +179,7 @@ def info_text(table: GearTable | None = None, params: DifferentialParams | None 
             f"K = {Kpc_mesh:.4f} in coast ({Kpc_mesh / Kp:.3f} x)", ""]
     out += flank_rows(geo, pf, Kd, Kc, mu_flank)
     out += bushing_rows(geo, mu_flank)
+    out += speed_rows(p, geo, pf)
 
     T0 = PAPER_T0 * 1e-3  # N m
     K = Kp
