@@ -191,9 +191,8 @@ def test_rim_factor_and_thin_rim_finding(geo):
 
 
 def test_stress_watch_tracks_the_peak_and_warns_once(geo):
-    w = cap.StressWatch(geo)
     F = cap.nominal_mesh_forces(geo, 500.0)     # below the static strength (2100 N m is not, see docs)
-    w.calibrate(F)
+    w = cap.StressWatch(geo, F)
     ref = cap.capacity_report(geo, F)
     assert w.update(F["A1"], F["B2"], F["12"]) is None
     assert w.sigma_H_max == pytest.approx(max(r.sigma_H for r in ref.meshes), rel=1e-12)
@@ -204,6 +203,9 @@ def test_stress_watch_tracks_the_peak_and_warns_once(geo):
     assert w.update(20 * F["A1"], 0.0, 0.0) is None          # once
     w.set_state(saved)
     assert not w.exceeded and w.sigma_H_max == saved[0]
+    assert w.exceeded_indicator == 0.0
+    with pytest.raises(ParameterError, match="capacity.F_A1"):
+        cap.StressWatch(geo, dict(F, A1=0.0))
 
 
 def test_bad_material_and_conditions():

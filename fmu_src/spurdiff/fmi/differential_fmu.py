@@ -25,6 +25,7 @@ from spurdiff.differential.mesh import MeshDifferential, MeshParams
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.rigid import RigidDifferential
 from spurdiff.differential.shafts import SHAFT_COUPLINGS, ShaftedDifferential, ShaftsParams
+from spurdiff.gears.capacity import CapacityParams
 
 FMU_NAME = "SpurDifferential"
 DESCRIPTION = ("Spur-gear planetary inter-wheel differential: two suns on the half-shafts, pairs of "
@@ -50,6 +51,7 @@ class Setup:
     diff: DifferentialParams = field(default_factory=DifferentialParams)
     mesh: MeshParams = field(default_factory=MeshParams)
     shafts: ShaftsParams = field(default_factory=ShaftsParams)
+    capacity: CapacityParams = field(default_factory=CapacityParams)   # load capacity (block after VARIABLES)
     shaftCoupling: str = "torque"
     w_start_carrier: float = 0.0
     w_start_differential: float = 0.0
@@ -342,10 +344,10 @@ VARIABLES: list[Var] = [
 # (spurdiff.gears.capacity, docs/capacity.md). Appended after the other variables.
 CAPACITY_MESHES = (("A1", "sunA", "planet1"), ("B2", "sunB", "planet2"), ("12", "planet1", "planet2"))
 VARIABLES += [
-    Var("capacity.T0", "parameter", "Carrier torque at which the ISO 6336 safety factors are rated and from which the "
-        "run's stresses are scaled (the paper's load: 2100 N m)", "N.m", "N.m", 2100.0),
-    Var("capacity.material", "parameter", "Gear material of the ISO 6336 check (spurdiff/data/materials.toml): "
-        "18CrNiMo7-6 | 20MnCr5 | 40CrNi2Mo-paper", None, None, "18CrNiMo7-6", kind="String"),
+    _p("capacity.T0", "capacity.T0", "Carrier torque at which the ISO 6336 safety factors are rated and from which "
+       "the run's stresses are scaled (the paper's load: 2100 N m)", "N.m", "N.m"),
+    _p("capacity.material", "capacity.material", "Gear material of the ISO 6336 check (spurdiff/data/materials.toml): "
+       "18CrNiMo7-6 | 20MnCr5 | 40CrNi2Mo-paper", kind="String"),
     *[Var(f"capacity.mesh{k}.{g}.{S}", "calculatedParameter",
           f"ISO 6336 {what} safety factor of {g} in mesh {k} at capacity.T0, long life (< 1: a finding, logged)", "1")
       for k, g1, g2 in CAPACITY_MESHES for g in (g1, g2)
@@ -398,13 +400,17 @@ def _attach_capacity(model, values: dict) -> None:
 
     def set_state(state):
         state = dict(state)
-        watch.set_state(state.pop("capacity", [0.0, 0.0, False]))
+        watch.set_state(state.pop("capacity", [0.0, 0.0, False, [0.0, 0.0, 0.0]]))
         inner_set(state)
 
     def log_to(log):
         sink[:] = [log]
-        for f in rep.findings:
-            log(f"capacity at capacity.T0 = {T0:g} N m: {f}", 1)
+        if rep.findings:
+            n_err = sum(f.level == "error" for f in rep.findings)
+            first = next((f for f in rep.findings if f.level == "error"), rep.findings[0])
+            log(f"load capacity at capacity.T0 = {T0:g} N m ({mat.name}): smallest safety factors S_H "
+                f"{rep.S_H:.3f} (static {rep.S_H_static:.3f}), S_F {rep.S_F:.3f} (static {rep.S_F_static:.3f}); "
+                f"{n_err} errors, {len(rep.findings) - n_err} warnings, first: {first}", 1)
 
     model.do_step, model.get_state, model.set_state, model.log_to = do_step, get_state, set_state, log_to
 # ---------------------------------------------------------------------------------------------------

@@ -121,6 +121,15 @@ class Conditions:
                 raise ParameterError(f"capacity.{name}", v, ">= 0")
 
 
+@dataclass(frozen=True)
+class CapacityParams:
+    """What an FMU rates its gear set with: the carrier torque ``T0`` (N m) of the safety factors
+    and of the stress scaling, and the material's name (defaults: ``materials.toml``)."""
+
+    T0: float = tomllib.loads(_MATERIALS_TEXT)["rating"]["T0"]
+    material: str = tomllib.loads(_MATERIALS_TEXT)["default"]
+
+
 def materials_data() -> dict:
     """The bundled ``materials.toml`` as a dict."""
     return tomllib.loads(_MATERIALS_TEXT)
@@ -516,36 +525,51 @@ def capacity_report(geo: DifferentialGeometry, forces: dict[str, float], mat: Ma
 # ------------------------------------------------------------------ a run
 class StressWatch:
     """The largest contact and root stress over a run from the mesh forces, and whether the static
-    strength was exceeded (for the FMU: plain state, saved and restored with the model's)."""
+    strength was exceeded (for the FMU: plain state, saved and restored with the model's).
 
-    def __init__(self, geo: DifferentialGeometry, mat: Material | None = None, cond: Conditions | None = None,
-                 bores: dict[str, float] | None = None):
+    The load factors depend on the load (K_Hbeta and K_Halpha fall as it grows), so a run's stress
+    is scaled from the rating at the reference forces ``forces`` (N per mesh, e.g. the nominal
+    forces of the rated carrier torque): ``sigma_H = a_H sqrt(F)``, ``sigma_F = a_F F`` with
+    ``a_H``, ``a_F`` of each mesh's more loaded gear there; exact at the reference forces,
+    conservative above them.
+    """
+
+    def __init__(self, geo: DifferentialGeometry, forces: dict[str, float], mat: Material | None = None,
+                 cond: Conditions | None = None, bores: dict[str, float] | None = None):
         mat = mat or material()
         cond = cond or conditions()
-        # the load factors depend on the load (K_Hbeta, K_Halpha fall with it), so a run's stress
-        # is scaled from a reference load: sigma_H = a_H sqrt(F), sigma_F = a_F F with a_H, a_F
-        # taken at the forces given to calibrate() (exact there, conservative above them)
         self.geo, self.mat, self.cond, self.bores = geo, mat, cond, bores
         self.sigma_HG_static = mat.sigma_Hlim * cond.Z_LvR * cond.Z_W * cond.Z_X * mat.Z_NT_static
         self.sigma_FG_static = mat.sigma_Flim * cond.Y_ST * cond.Y_deltarelT * cond.Y_RrelT * cond.Y_X * mat.Y_NT_static
-        self.calibrate({"A1": 1.0, "B2": 1.0, "12": 1.0})
+        self.calibrate(forces)
         self.sigma_H_max = 0.0
         self.sigma_F_max = 0.0
         self.exceeded = False
+        self._F_max = (0.0, 0.0, 0.0)    # largest |force| booked per mesh
 
     def calibrate(self, forces: dict[str, float]) -> None:
-        """Take the load factors at ``forces`` (the nominal load); stresses scale from there."""
+        """Take the load factors at ``forces`` (N per mesh, each > 0); stresses scale from there."""
+        for k, F in forces.items():
+            if not (math.isfinite(F) and F > 0.0):
+                raise ParameterError(f"capacity.F_{k}", F, "> 0 N (the reference force of the stress scaling)")
         rep = capacity_report(self.geo, forces, self.mat, self.cond, self.bores)
         self._aH = tuple(r.sigma_H / math.sqrt(r.F_n) if r.F_n > 0 else 0.0 for r in rep.meshes)
         self._aF = tuple(r.sigma_F / r.F_n if r.F_n > 0 else 0.0 for r in rep.meshes)
 
     def update(self, F_A1: float, F_B2: float, F_12: float) -> str | None:
-        """Book the mesh forces of one instant; a message the first time a limit is exceeded."""
-        sH = sF = 0.0
-        for aH, aF, F in zip(self._aH, self._aF, (F_A1, F_B2, F_12)):
-            F = abs(F)
-            sH = max(sH, aH * math.sqrt(F))
-            sF = max(sF, aF * F)
+        """Book the mesh forces of one instant; a message the first time a limit is exceeded.
+        (On the FMU's per-step path: three comparisons unless a mesh's largest force grows.)"""
+        a1 = F_A1 if F_A1 >= 0.0 else -F_A1
+        a2 = F_B2 if F_B2 >= 0.0 else -F_B2
+        a3 = F_12 if F_12 >= 0.0 else -F_12
+        m1, m2, m3 = self._F_max
+        if a1 <= m1 and a2 <= m2 and a3 <= m3:     # NaN too: never booked
+            return None
+        self._F_max = (a1 if a1 > m1 else m1), (a2 if a2 > m2 else m2), (a3 if a3 > m3 else m3)
+        hA, hB, h12 = self._aH
+        fA, fB, f12 = self._aF
+        sH = max(hA * math.sqrt(a1), hB * math.sqrt(a2), h12 * math.sqrt(a3))
+        sF = max(fA * a1, fB * a2, f12 * a3)
         if sH > self.sigma_H_max:
             self.sigma_H_max = sH
         if sF > self.sigma_F_max:
@@ -559,13 +583,19 @@ class StressWatch:
                     f"would fail (ISO 6336, docs/capacity.md)")
         return None
 
-    def get_state(self) -> tuple:
-        return (self.sigma_H_max, self.sigma_F_max, self.exceeded)
+    @property
+    def exceeded_indicator(self) -> float:
+        """1.0 once the static strength was exceeded, else 0.0 (an FMU output)."""
+        return 1.0 if self.exceeded else 0.0
 
-    def set_state(self, s: tuple) -> None:
-        self.sigma_H_max, self.sigma_F_max, self.exceeded = s
+    def get_state(self) -> list:
+        return [self.sigma_H_max, self.sigma_F_max, self.exceeded, list(self._F_max)]
+
+    def set_state(self, s) -> None:
+        self.sigma_H_max, self.sigma_F_max, self.exceeded = float(s[0]), float(s[1]), bool(s[2])
+        self._F_max = tuple(float(f) for f in s[3])
 
 
-__all__ = ["Material", "Conditions", "material", "conditions", "single_stiffness", "mesh_stiffness",
+__all__ = ["CapacityParams", "Material", "Conditions", "material", "conditions", "single_stiffness", "mesh_stiffness",
            "impact_equivalent", "impact_secant", "stiffness_comparison", "StiffnessComparison", "tooth_form", "rim_factor", "rate_mesh", "nominal_mesh_forces",
            "capacity_report", "CapacityReport", "MeshRating", "GearRating", "StressWatch", "elasticity_factor"]
