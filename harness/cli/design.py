@@ -72,6 +72,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--tip-thickness", type=float, default=0.3, help="least tip thickness, in modules (default 0.3)")
     ap.add_argument("--clearance", type=float, default=0.2, help="least tip clearances, in modules (default 0.2)")
     ap.add_argument("--torque", type=float, help="carrier torque T0 in N m: print the ISO 6336 capacity of both sets")
+    ap.add_argument("--pin-diameter", type=float, help="diameter of the planets' pins in mm, for the rim factor Y_B "
+                    "(default: 2 r_collar of differential.toml, the paper's 24 mm; 0: solid planets)")
     ap.add_argument("--write", help="write the proposed set to this TOML file")
     args = ap.parse_args(_joined(argv))
 
@@ -114,11 +116,29 @@ def main(argv: list[str] | None = None) -> int:
         from spurdiff.gears.capacity import capacity_report, nominal_mesh_forces
         if not math.isfinite(args.torque):
             raise ParameterError("--torque", args.torque, "a finite carrier torque in N m")
+        from spurdiff.datafile import differential_default
+        from spurdiff.gears.capacity import stiffness_comparison
+        K = {k: differential_default(f"mesh{k}.contactStiffness") for k in MESHES}
+        e = differential_default("mesh.contactExponent")
+        pin = 2.0 * differential_default("r_collar") if args.pin_diameter is None else args.pin_diameter / 1e3
+        if not (math.isfinite(pin) and pin >= 0.0):
+            raise ParameterError("--pin-diameter", args.pin_diameter, ">= 0 mm")
+        bores = {"planet1": pin, "planet2": pin} if pin > 0.0 else None
         for label, geo in (("input", p.before), ("proposed", p.geometry)):
-            rep = capacity_report(geo, nominal_mesh_forces(geo, args.torque))
-            print(f"ISO 6336 capacity of the {label} set at T0 = {args.torque:g} N m:")
+            F = nominal_mesh_forces(geo, args.torque)
+            rep = capacity_report(geo, F, bores=bores)
+            print(f"ISO 6336 capacity of the {label} set at T0 = {args.torque:g} N m (planet pins {pin * 1e3:g} mm):")
             for line in rep.lines():
                 print("  " + line)
+            print(f"mesh stiffness of the {label} set at T0 = {args.torque:g} N m, ISO 6336-1 against the paper's "
+                  f"IMPACT constants (e = {e:g}):")
+            for c in stiffness_comparison(geo, F, K, e):
+                print(f"  mesh {c.mesh:2s} F_n {c.F0:8.1f} N: ISO c' {c.c_prime:.2f}, c_gamma_alpha {c.c_gamma:.2f} "
+                      f"N/(mm um), k = c_gamma_alpha b {c.k_iso / 1e6:6.1f} N/um, deflection {c.deflection_iso * 1e6:5.1f} "
+                      f"um | IMPACT K {c.K_impact / 1e3 ** e:.3g} N/mm^{e:g}: secant {c.k_impact_secant / 1e6:6.1f} N/um, "
+                      f"tangent {c.k_impact_tangent / 1e6:6.1f} N/um, penetration {c.deflection_impact * 1e6:5.1f} um "
+                      f"| ISO / IMPACT secant {c.k_iso / c.k_impact_secant:.2f}, IMPACT K matching ISO "
+                      f"{c.K_iso_equivalent / 1e3 ** e:.3g} N/mm^{e:g}")
     if args.write:
         cmd = "spurdiff design " + " ".join(a_ for a_ in _joined(argv) if not a_.startswith("--write")
                                              and a_ != args.write)

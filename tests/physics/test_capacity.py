@@ -215,3 +215,28 @@ def test_bad_material_and_conditions():
         cap.conditions(K_A=0.5)
     with pytest.raises(ParameterError, match="capacity.grade"):
         cap.conditions(grade=2)
+
+
+def test_iso_contact_parameters_are_fmu_parameters_with_the_iso_secant(geo):
+    from spurdiff.fmi.differential_fmu import VARIABLES
+    names = {v.name for v in VARIABLES}
+    p = cap.iso_contact_parameters(geo, 2100.0)
+    assert set(p) == {"meshA1.contactStiffness", "meshB2.contactStiffness", "mesh12.contactStiffness"} <= names
+    F = cap.nominal_mesh_forces(geo, 2100.0)
+    for me in geo.meshes:
+        _, cg = cap.mesh_stiffness(me, geo.gears, geo.table)
+        k = cg * me.b * 1e9                     # N/(mm um) per mm times b: N/um -> N/m
+        assert cap.impact_secant(p[f"mesh{me.name}.contactStiffness"], F[me.name]) == pytest.approx(k, rel=1e-12)
+
+
+def test_planets_bent_both_ways_have_seventy_percent_of_the_root_strength(geo, mat):
+    """ISO 6336-3: an idler's (fully reversed) root strength is 0.7 of the pulsating one; the
+    planets mesh on opposite flanks in their two meshes. Static strength is not reduced."""
+    cond = cap.conditions()
+    me = geo.meshA1
+    both = cap.rate_mesh(me, geo.gears, geo.table, 5000.0, mat, cond)
+    none = cap.rate_mesh(me, geo.gears, geo.table, 5000.0, mat, cond, idlers=())
+    sun, planet = 0, 1
+    assert both.gears[planet].S_F == pytest.approx(0.7 * none.gears[planet].S_F, rel=1e-12)
+    assert both.gears[sun].S_F == none.gears[sun].S_F
+    assert both.gears[planet].S_F_static == none.gears[planet].S_F_static

@@ -50,7 +50,9 @@ Mesh stiffness, ISO 6336-1:2006 method B: ``q' = 0.04723 + 0.15551/z_n1 + 0.2579
 
 Permissible: ``sigma_HG = sigma_Hlim Z_NT Z_L Z_v Z_R Z_W Z_X``, ``sigma_FG = sigma_Flim Y_ST Y_NT
 Y_deltarelT Y_RrelT Y_X``; ``S_H = sigma_HG / sigma_H``, ``S_F = sigma_FG / sigma_F`` for endurance
-(``Z_NT = Y_NT = 1``, long life) and static stress (``Z_NT``, ``Y_NT`` of the material's static line).
+(``Z_NT = Y_NT = 1``, long life; the planets' root strength times ``Y_M = 0.7``: their teeth are bent
+one way in one mesh and back in the other) and static stress (``Z_NT``, ``Y_NT`` of the material's
+static line).
 """
 from __future__ import annotations
 
@@ -108,6 +110,7 @@ class Conditions:
     Y_deltarelT: float = 1.0
     Y_RrelT: float = 1.0
     Y_X: float = 1.0
+    Y_M_reversed: float = 0.7   # idlers (teeth bent both ways): sigma_Flim times this, long life
     v: float = 0.0         # pitch-line speed relative to the carrier, m/s (K_v)
 
     def validate(self) -> None:
@@ -218,6 +221,21 @@ def stiffness_comparison(geo: DifferentialGeometry, F0: dict[str, float], K: dic
         ks = impact_secant(Ki, F, e)
         out.append(StiffnessComparison(me.name, F, c1, cg, k, Ki, ks, e * ks, impact_equivalent(k, F, e),
                                        F / k, F / ks))
+    return out
+
+
+def iso_contact_parameters(geo: DifferentialGeometry, T0: float, e: float = 1.5,
+                           E: float = E_REF * MPA) -> dict[str, float]:
+    """The contact level's IMPACT stiffnesses with the ISO 6336-1 mesh stiffness instead of the
+    paper's ADAMS constants, as SpurDifferential parameters (``meshA1.contactStiffness``...): each
+    ``K = (c_gamma_alpha b)^e F0^(1 - e)``, the secant stiffness of ISO at the nominal force F0 of
+    the carrier torque ``T0`` (N m). Select them by setting these parameters (a scene's
+    ``[fmus.<diff>.parameters]``); the paper's constants stay the default."""
+    F = nominal_mesh_forces(geo, T0)
+    out = {}
+    for me in geo.meshes:
+        _, cg = mesh_stiffness(me, geo.gears, geo.table, E)
+        out[f"mesh{me.name}.contactStiffness"] = impact_equivalent(cg * me.b / MM * 1e6, F[me.name], e)
     return out
 
 
@@ -343,10 +361,15 @@ def elasticity_factor(m1: Material, m2: Material) -> float:
     return math.sqrt(1.0 / (math.pi * ((1.0 - m1.nu ** 2) / m1.E + (1.0 - m2.nu ** 2) / m2.E)))
 
 
+IDLERS = ("planet1", "planet2")   # the differential's planets: each tooth loaded on both flanks
+
+
 def rate_mesh(me: MeshGeometry, gg: dict[str, GearGeometry], t: GearTable, F_n: float, mat: Material,
-              cond: Conditions, bores: dict[str, float] | None = None) -> MeshRating:
+              cond: Conditions, bores: dict[str, float] | None = None,
+              idlers: tuple[str, ...] = IDLERS) -> MeshRating:
     """ISO 6336 method B rating of mesh ``me`` under normal force ``F_n`` (N, per mesh, its sign
-    ignored); ``bores``: bore diameters (m) of gears that are rims on a pin (Y_B)."""
+    ignored); ``bores``: bore diameters (m) of gears that are rims on a pin (Y_B); ``idlers``: gears
+    whose teeth are bent both ways (long-life root strength times ``Y_M_reversed``)."""
     F_n = abs(float(F_n))
     g1, g2 = gg[me.gear1], gg[me.gear2]
     m, alpha = t.m, t.alpha
@@ -413,10 +436,11 @@ def rate_mesh(me: MeshGeometry, gg: dict[str, GearGeometry], t: GearTable, F_n: 
         sF0 = F_t / (b * m) * Y_B
         sigma_F = sF0 * tf.Y_F * tf.Y_S * KF
         sigma_F_tip = sF0 * tf_a.Y_F * tf_a.Y_S * Y_eps * KF
+        sFG_life = sFG * (cond.Y_M_reversed if g.name in idlers else 1.0)
         ratings.append(GearRating(
             g.name, sigma_H, sigma_F, Z_BD, tf.Y_F, tf.Y_S, tf_a.Y_F, tf_a.Y_S, Y_B, sigma_F_tip,
             S_H=sHG / sigma_H if sigma_H > 0 else math.inf,
-            S_F=sFG / sigma_F if sigma_F > 0 else math.inf,
+            S_F=sFG_life / sigma_F if sigma_F > 0 else math.inf,
             S_H_static=sHG * mat.Z_NT_static / sigma_H if sigma_H > 0 else math.inf,
             S_F_static=sFG * mat.Y_NT_static / sigma_F if sigma_F > 0 else math.inf,
             backup_ratio=s_R / h_t))
@@ -597,5 +621,5 @@ class StressWatch:
 
 
 __all__ = ["CapacityParams", "Material", "Conditions", "material", "conditions", "single_stiffness", "mesh_stiffness",
-           "impact_equivalent", "impact_secant", "stiffness_comparison", "StiffnessComparison", "tooth_form", "rim_factor", "rate_mesh", "nominal_mesh_forces",
+           "impact_equivalent", "impact_secant", "iso_contact_parameters", "stiffness_comparison", "StiffnessComparison", "tooth_form", "rim_factor", "rate_mesh", "nominal_mesh_forces",
            "capacity_report", "CapacityReport", "MeshRating", "GearRating", "StressWatch", "elasticity_factor"]
