@@ -345,7 +345,7 @@ VARIABLES: list[Var] = [
 CAPACITY_MESHES = (("A1", "sunA", "planet1"), ("B2", "sunB", "planet2"), ("12", "planet1", "planet2"))
 VARIABLES += [
     _p("capacity.T0", "capacity.T0", "Carrier torque at which the ISO 6336 safety factors are rated and from which "
-       "the run's stresses are scaled (the paper's load: 2100 N m)", "N.m", "N.m"),
+       "the run's stresses are scaled (the paper's load: 2100 N m)", "N.m"),
     _p("capacity.material", "capacity.material", "Gear material of the ISO 6336 check (spurdiff/data/materials.toml): "
        "18CrNiMo7-6 | 20MnCr5 | 40CrNi2Mo-paper", kind="String"),
     *[Var(f"capacity.mesh{k}.{g}.{S}", "calculatedParameter",
