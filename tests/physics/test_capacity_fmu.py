@@ -87,3 +87,24 @@ def test_bad_capacity_parameters_fail_initialization_naming_them(name, value, ne
     f, status = _fmu(**{name: value})
     assert status == 3
     assert any(needle in m for s, m in f.logged if s == 3)
+
+
+def test_through_the_built_fmu_the_warning_reaches_the_hosts_logger_once(differential_fmu):
+    """The built FMU (our C bridge, fmpy): the findings' line at initialization and one fmi2Warning
+    message when the default experiment (the paper's 2100 N m) exceeds the static contact strength."""
+    from harness.fmi.instance import Instance
+
+    inst = Instance("capacity", differential_fmu)
+    inst.slave.setupExperiment(startTime=0.0)
+    inst.slave.enterInitializationMode()
+    inst.slave.exitInitializationMode()
+    t = 0.0
+    for _ in range(5):
+        inst.do_step(t, H)
+        t += H
+    warnings = [m for s, m in inst.messages if s == 1]
+    assert sum("load capacity at capacity.T0 = 2100 N m" in m for m in warnings) == 1
+    assert sum("exceed the static strength" in m for m in warnings) == 1
+    (sH,), (ex,) = inst.read([inst.var("capacity.sigmaHMax")], "x"), inst.read([inst.var("capacity.exceeded")], "x")
+    assert ex == 1.0 and sH > 2.2e9
+    inst.close()
