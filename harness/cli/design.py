@@ -74,6 +74,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--torque", type=float, help="carrier torque T0 in N m: print the ISO 6336 capacity of both sets")
     ap.add_argument("--pin-diameter", type=float, help="diameter of the planets' pins in mm, for the rim factor Y_B "
                     "(default: 2 r_collar of differential.toml, the paper's 24 mm; 0: solid planets)")
+    ap.add_argument("--scene-parameters", action="store_true", help="print the SpurDifferential parameters of the "
+                    "proposed set as a TOML inline table, for a scene's [fmus.<diff>] parameters")
     ap.add_argument("--write", help="write the proposed set to this TOML file")
     args = ap.parse_args(_joined(argv))
 
@@ -139,6 +141,10 @@ def main(argv: list[str] | None = None) -> int:
                       f"tangent {c.k_impact_tangent / 1e6:6.1f} N/um, penetration {c.deflection_impact * 1e6:5.1f} um "
                       f"| ISO / IMPACT secant {c.k_iso / c.k_impact_secant:.2f}, IMPACT K matching ISO "
                       f"{c.K_iso_equivalent / 1e3 ** e:.3g} N/mm^{e:g}")
+    if args.scene_parameters:
+        from spurdiff.gears.design_sets import fmu_parameters
+        items = ", ".join(f'"{k}" = {v!r}' for k, v in fmu_parameters(p.table).items())
+        print(f"scene parameters of the proposed set: {{ {items} }}")
     if args.write:
         cmd = "spurdiff design " + " ".join(a_ for a_ in _joined(argv) if not a_.startswith("--write")
                                              and a_ != args.write)

@@ -8,6 +8,22 @@ from harness.cli import main
 from spurdiff.datafile import DATA_FOLDER
 
 
+def test_scene_parameters_select_the_designed_set(capsys):
+    from spurdiff.gears.design_sets import gear_set, table_from_data
+
+    assert main(["design", "--centre-distances", "71.5,76.5,40.5", "--scene-parameters"]) == 0
+    line = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("scene parameters"))
+    params = tomllib.loads("p = " + line.split(": ", 1)[1])["p"]
+    nested = {}
+    for k, v in params.items():
+        if "." in k:
+            sec, key = k.split(".", 1)
+            nested.setdefault(sec, {})[key] = v
+        else:
+            nested[k] = v
+    assert table_from_data(nested) == gear_set("designed")
+
+
 def test_design_prints_the_changes_and_writes_the_bundled_set(tmp_path, capsys):
     out = tmp_path / "set.toml"
     assert main(["design", "--centre-distances", "71.5,76.5,40.5", "--torque", "2100", "--write", str(out)]) == 0
