@@ -128,3 +128,45 @@ def test_rigid_energy_balance_and_kernel_agree_at_speed(case):
         assert m.wc > 100.0 and m.wd < 0.0
         assert m.work_in - (m.kinetic_energy - ke0) - m.energy_loss == pytest.approx(0.0, abs=1e-9 * m.work_in)
     assert runs["compiled"] == runs["python"]
+
+
+# ------------------------------------------------------------------ the mesh levels with speed loads
+def _mesh(kernel: str, level: str, wc: float, D: float):
+    from spurdiff.differential.mesh import MeshDifferential, MeshParams
+
+    m = MeshDifferential(DifferentialParams(), MeshParams(level=level, kernel=kernel))
+    m.w_ref = m.w_start_carrier = wc
+    m.tau_L, m.tau_R = -D / 2, D / 2
+    m.initialize()
+    return m
+
+
+@pytest.mark.parametrize("level", ["compliant", "contact"])
+def test_mesh_levels_break_away_where_the_theory_says(case, level):
+    """No input torque, carrier held at 100 km/h: the mesh levels hold 0.99 of speed_law's
+    locking torque and slip at 1.01 of it."""
+    p, geo, pf, ms = case
+    D = breakaway_at_speed(pf, geo, ms, 85.0, 0.0, -1.0).locking_torque
+    for frac, stuck in ((0.99, True), (1.01, False)):
+        m = _mesh("python", level, 85.0, frac * D)
+        for k in range(30):
+            m.do_step(k * 1e-3, 1e-3)
+        assert m.stuck == stuck, (frac, m.planet_modes)
+
+
+def test_mesh_kernel_agrees_with_the_reference_at_speed(case):
+    from spurdiff.differential.mesh import kernel as mk
+
+    if mk.load()[0] is None:
+        pytest.skip("no compiled mesh kernel here")
+    runs = {}
+    for kernel in ("compiled", "python"):
+        m = _mesh(kernel, "compliant", 85.0, 8.2)
+        assert m.kernel_in_use.startswith(kernel)
+        out = []
+        for k in range(30):
+            m.do_step(k * 1e-3, 1e-3)
+            out.append((m.wd, m.locking_torque, m.locking_capacity, m.mesh_forces.F_12))
+        runs[kernel] = out
+    assert runs["compiled"] == runs["python"]
+    assert runs["python"][-1][0] < 0.0
