@@ -14,11 +14,13 @@ set-up they bind to.)
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
 from spurdiff.fmi.binding import bindings, build_params, renamed, resolve
 from spurdiff.errors import ParameterError
 from spurdiff.fmi.variables import Var
+from spurdiff.differential.bushing import bushing
 from spurdiff.differential.locking import torque_bias_ratio
 from spurdiff.gears.phasing import mesh_phases
 from spurdiff.differential.mesh import MeshDifferential, MeshParams
@@ -55,6 +57,7 @@ class Setup:
     shaftCoupling: str = "torque"
     w_start_carrier: float = 0.0
     w_start_differential: float = 0.0
+    overspeedLimit: float = 0.0        # rad/s, |w_A - w_c|; 0: the pin bushings' sliding-speed limit
 
 
 _DEFAULTS = Setup()
@@ -199,6 +202,19 @@ VARIABLES: list[Var] = [
         None, None, 0, kind="Integer", bind="n_contact_transitions"),
     Var("potentialEnergy", "output", "Elastic energy stored in the mesh springs (0 at rigid)", "J",
         bind="potential_energy"),
+    Var("parametricWork", "output", "Work of the mesh stiffness wave on the gears since the start (0 without "
+        "meshStiffnessVariation): workIn + parametricWork = change of kineticEnergy + potentialEnergy + energyLoss",
+        "J", bind="parametric_work"),
+    Var("loadedFlanks", "output", "Flanks that carry the load: 1 drive (the carrier drives the suns, "
+        "T_A + T_B > 0; lockingCoefficient applies), -1 coast (the suns drive the carrier; "
+        "lockingCoefficientCoast), 0 unloaded", None, None, 0, kind="Integer", bind="loaded_flanks"),
+    Var("overspeed", "output", "1 while the differential speed |w_A - w_c| is above overspeedLimit (a runaway: "
+        "the first time is logged as a warning), else 0", "1", bind="overspeed_indicator"),
+    Var("overspeedLimit", "parameter", "Largest differential speed |w_A - w_c| the pin bushings are rated for "
+        "(0: the bronze bushing's sliding-speed limit 3.81 m/s, spurdiff/data/pin_bushing.toml, over r_collar and the "
+        "planets' spin ratio z_sun / z_planet)",
+        "rad/s", "rpm", 0.0, bind="overspeedLimit"),
+    Var("overspeedLimitInUse", "calculatedParameter", "The differential-speed limit in use", "rad/s", "rpm"),
     Var("nStates", "calculatedParameter", "Number of continuous states of the selected fidelity", None, None, 0,
         kind="Integer"),
     Var("activeEffects", "calculatedParameter",
@@ -269,6 +285,8 @@ VARIABLES: list[Var] = [
     # --- friction, mass
     _p("mu_pin", "diff.mu_pin", "Friction coefficient of the planet pin bushings at break-away, with the "
        "friction-circle correction mu/sqrt(1+mu^2) where the data set has it (spurdiff/data/pin_bushing.toml)", "1"),
+    _p("pinSpeedLoads", "diff.pinSpeedLoads", "The planets' centrifugal forces m a w_c^2 load their pins (carrier speed "
+       "at each step's start; lockingLaw = pinFriction): the locking grows with carrier speed", kind="Boolean"),
     _p("r_collar", "diff.r_collar", "Journal radius of the planet pins, the friction lever's radius (the paper's "
        "r_d, which it calls a thrust-collar radius)", "m", "mm"),
     _p("lockingPreload", "diff.lockingPreload",
@@ -463,7 +481,50 @@ def build_model(values: dict):
     io.pull_calculated(model, values)
     _set_calculated(model, values)
     _attach_capacity(model, values)   # load capacity (the block after VARIABLES)
+    _attach_overspeed(model, values, s.overspeedLimit)   # after it: chains its log_to
     return model
+
+
+def _attach_overspeed(model, values: dict, limit: float) -> None:
+    """The overspeed watch: ``overspeed`` output while ``|w_A - w_c|`` exceeds the limit, and one
+    warning through the FMU's logger the first time (the paper scenes' constant torques above
+    break-away run away without bound). The limit 0 means the pin bushings' sliding-speed limit
+    (spurdiff/data/pin_bushing.toml, C93200 bronze 3.81 m/s) over the journal radius and the planets'
+    spin ratio."""
+    if not (limit >= 0.0 and limit < math.inf):
+        raise ParameterError("overspeedLimit", limit, ">= 0 rad/s (0: from the pin bushings)")
+    geo = model.geometry
+    rho = max(geo.table.sunA.z / geo.table.planet1.z, geo.table.sunB.z / geo.table.planet2.z)
+    r_j = model.params.r_collar
+    if limit == 0.0:
+        limit = bushing("bronze").vMax / (r_j * rho) if r_j > 0.0 else math.inf
+    values["overspeedLimitInUse"] = limit
+    model.overspeed_indicator = 1.0 if abs(model.wd) > limit else 0.0
+    sink, warned = [], []
+    inner_step, prev_log_to = model.do_step, getattr(model, "log_to", None)
+
+    def do_step(t, h):
+        inner_step(t, h)
+        over = abs(model.wd) > limit
+        model.overspeed_indicator = 1.0 if over else 0.0
+        if over and not warned and sink:
+            warned.append(t + h)
+            sink[0](f"t = {t + h:g} s: overspeed, |w_A - w_c| = {abs(model.wd):.4g} rad/s > overspeedLimit = "
+                    f"{limit:.4g} rad/s (planets at {rho * abs(model.wd):.4g} rad/s on their pins): the "
+                    f"differential runs away; the results past this point are no longer of rated hardware", 1)
+
+    def log_to(log):
+        sink[:] = [log]
+        if prev_log_to is not None:
+            prev_log_to(log)
+
+    inner_set = model.set_state
+
+    def set_state(state):
+        inner_set(state)
+        model.overspeed_indicator = 1.0 if abs(model.wd) > limit else 0.0
+
+    model.do_step, model.log_to, model.set_state = do_step, log_to, set_state
 
 
 def build_message(values: dict) -> str | None:
