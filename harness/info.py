@@ -10,7 +10,7 @@ from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.locking import (breakaway, first_order_K, locking_coefficients, paper_locking_coefficient,
                               pin_friction, torque_bias_ratio)
 from spurdiff.differential.bushing import BACKUP_RATIO_MIN, PIN_SETS, bushing, check
-from spurdiff.differential.speed_law import locking_torque_at_speed
+from spurdiff.differential.speed_law import breakaway_at_speed, locking_torque_at_speed
 from spurdiff.differential.flank_law import locking_coefficient_flank, locking_coefficients_flank
 from spurdiff.gears.layout import kinematics
 from spurdiff.differential.mesh.params import MeshParams
@@ -53,6 +53,7 @@ def flank_rows(geo, pf, Kd: float, Kc: float, mu_flank: float) -> list[str]:
 
 
 CORNERING_W_REL = 1.1706   # rad/s, sun A relative to the carrier in vehicle-cornering's steady turn
+CORNERING_WC, CORNERING_T0 = 30.7161, 152.4    # rad/s, N m: vehicle-cornering's carrier speed and axle torque
 
 
 def bushing_rows(geo, mu_flank: float) -> list[str]:
@@ -103,10 +104,15 @@ def speed_rows(p, geo, pf) -> list[str]:
         rows.append([label, f"{wc:.1f}", f"{T[0]:.3f}", f"{first * wc * wc:.3f}", f"{T[1]:.2f}", f"{T[1] / 100:.4f}",
                      f"{T[2]:.2f}", f"{T[2] / 100:.4f}"])
     return [f"Locking torque against carrier speed (centrifugal pin loads of the planets, {ms[0]:.3f} / {ms[1]:.3f} kg "
-            f"at {geo.meshA1.a / MM:g} / {geo.meshB2.a / MM:g} mm; quasi-static theory, not yet in the dynamic "
-            f"levels; carrier speed = wheel speed, r_w = {WHEEL_RADIUS} m)",
+            f"at {geo.meshA1.a / MM:.1f} / {geo.meshB2.a / MM:.1f} mm; quasi-static break-away, smaller direction; every "
+            f"level carries these loads with pinSpeedLoads (default on); carrier speed = wheel speed, r_w = "
+            f"{WHEEL_RADIUS} m)",
             render(["carrier", "w_c rad/s", "T0 = 0: N m", "first order N m", "T0 = 100 drive: N m", "K",
-                    "T0 = 100 coast: N m", "K"], rows), ""]
+                    "T0 = 100 coast: N m", "K"], rows),
+            f"  vehicle-cornering's operating point (carrier {CORNERING_WC} rad/s, T0 = {CORNERING_T0} N m drive, "
+            f"inner sun A behind the carrier): K = "
+            f"{breakaway_at_speed(pf, geo, ms, CORNERING_WC, CORNERING_T0, -1.0).K:.4f} (standstill "
+            f"{breakaway(pf, CORNERING_T0, -1.0).K:.4f})", ""]
 
 
 def info_text(table: GearTable | None = None, params: DifferentialParams | None = None,
