@@ -176,7 +176,9 @@ def info_text(table: GearTable | None = None, params: DifferentialParams | None 
     ]
     out += [f"Locking (mu = {p.mu_pin:g}, r_d = {p.r_collar / MM:g} mm, n = {t.nPairs}): K = |T_A - T_B| / |T_A + T_B| "
             f"at break-away; pin loads per unit mesh force with equal mesh forces; K_1 their linearisation "
-            f"c (|rho_1| p_1 + |rho_2| p_2) / (r_bA + r_bB)",
+            f"c (|rho_1| p_1 + |rho_2| p_2) / (r_bA + r_bB); drive: the load on the drive flanks (the carrier "
+            f"drives the suns, T_A + T_B > 0, FMU output loadedFlanks = 1), coast: on the coast flanks (the suns "
+            f"drive the carrier, reversing under power included, loadedFlanks = -1)",
             render(["law", "case", "K", "K_1", "bias ratio", "pin loads p_1 / p_2", "K |T0| at 2100 N m, N m"], rows),
             f"  pinFriction at break-away, T0 = {PAPER_T0 * 1e-3:g} N m drive: T_A / T_B = {bd.T_A:.1f} / {bd.T_B:.1f} N m, "
             f"F_A1 / F_B2 / F_12 = {bd.F_A1:,.0f} / {bd.F_B2:,.0f} / {bd.F_12:,.0f} N, pin loads "
