@@ -9,6 +9,11 @@ from spurdiff.differential.inertia import mass_properties
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.locking import (breakaway, first_order_K, locking_coefficients, paper_locking_coefficient,
                               pin_friction, torque_bias_ratio)
+from spurdiff.differential.bushing import BACKUP_RATIO_MIN, PIN_SETS, bushing, check
+from spurdiff.differential.speed_law import breakaway_at_speed, locking_torque_at_speed
+from spurdiff.differential.flank_law import locking_coefficient_flank, locking_coefficients_flank
+from spurdiff.gears.layout import kinematics
+from spurdiff.differential.mesh.params import MeshParams
 from spurdiff.gears.phasing import mesh_phases
 from spurdiff.differential.statics import mesh_forces, mesh_forces_for
 
@@ -29,7 +34,91 @@ def _pct(ours: float, ref: float) -> str:
     return f"{100.0 * (ours - ref) / ref:+.3f} %"
 
 
-def info_text(table: GearTable | None = None, params: DifferentialParams | None = None) -> str:
+def flank_rows(geo, pf, Kd: float, Kc: float, mu_flank: float) -> list[str]:
+    """The locking coefficients with Coulomb flank friction (spurdiff.differential.flank_law)
+    beside those of the pins alone, drive and coast."""
+    fl = locking_coefficients_flank(geo, pf, mu_flank)
+    rows = []
+    for k, (case, K0) in enumerate((("drive", Kd), ("coast", Kc))):
+        rows.append([case, f"{K0:.4f}", f"{torque_bias_ratio(K0):.4f}", f"{fl.average[k]:.4f}",
+                     f"{torque_bias_ratio(fl.average[k]):.4f}", f"{100 * (fl.average[k] / K0 - 1):+.1f} %",
+                     f"{fl.start[k]:.4f}", f"{fl.lo[k]:.4f} .. {fl.hi[k]:.4f}"])
+    return [f"Locking with flank friction (pinFriction law; Coulomb friction on the flanks at the static "
+            f"coefficient flank.muStatic = {mu_flank:g}; drive: load on the drive flanks, the carrier drives the "
+            f"suns; coast: on the coast flanks, the suns drive the carrier). Off by default at every level "
+            f"(docs/locking-law.md); where flankFriction is on (compliant, contact) lockingCoefficient is the "
+            f"mesh-cycle average",
+            render(["case", "K pins", "bias pins", "K pins + flanks (cycle mean)", "bias", "change",
+                    "K at the start phases", "K over one cycle"], rows), ""]
+
+
+CORNERING_W_REL = 1.1706   # rad/s, sun A relative to the carrier in vehicle-cornering's steady turn
+CORNERING_WC, CORNERING_T0 = 30.7161, 152.4    # rad/s, N m: vehicle-cornering's carrier speed and axle torque
+
+
+def bushing_rows(geo, mu_flank: float) -> list[str]:
+    """Both pin data sets (spurdiff/data/pin_bushing.toml): lever, K and bias with and without
+    flank friction, and the design findings (rim backup ratio, bushing p and pv)."""
+    kin = kinematics(geo)
+    rho = (kin.planet1_per_sunA, kin.planet2_per_sunA)
+    rows, finds = [], []
+    for name in PIN_SETS:
+        b = bushing(name)
+        pf = pin_friction(geo, b.mu_effective, b.journalRadius, 0.0, "pinFriction")
+        Kd, Kc = locking_coefficients(pf)
+        Kfd, Kfc = (locking_coefficient_flank(geo, pf, mu_flank, sg) for sg in (1.0, -1.0))
+        ba = breakaway(pf, PAPER_T0 * 1e-3, -1.0)
+        checks = check(geo, b, ba.F_pin, CORNERING_W_REL, rho)
+        rows.append([name, f"{b.muStatic:g} / {b.muDynamic:g}", f"{b.mu_effective:.4f}", f"{b.journalRadius / MM:g}",
+                     f"{b.lever / MM:.4f}", f"{Kd:.4f} / {Kc:.4f}",
+                     f"{torque_bias_ratio(Kd):.3f} / {torque_bias_ratio(Kc):.3f}", f"{Kfd:.4f} / {Kfc:.4f}",
+                     f"{torque_bias_ratio(Kfd):.3f} / {torque_bias_ratio(Kfc):.3f}",
+                     " / ".join(f"{c.backup_ratio:.2f}" for c in checks),
+                     " / ".join(f"{c.p / 1e6:.1f}" for c in checks),
+                     " / ".join(f"{c.pv / 1e6:.3f}" for c in checks)])
+        finds += [f"  {name}: {f}" for c in checks for f in c.findings(b)]
+    return ["Pin bushings (spurdiff/data/pin_bushing.toml, sources there): lever mu' r_j, mu' = mu_s/sqrt(1+mu_s^2) "
+            "with the friction-circle correction (bronze), as published (paper); K and bias drive / coast, pins "
+            f"alone and with flank friction {mu_flank:g} (cycle mean); backup ratio s_R/h_t planet 1 / 2; p at the "
+            f"break-away pin loads at T0 = {PAPER_T0 * 1e-3:g} N m (drive); pv with sun A at "
+            f"{CORNERING_W_REL:g} rad/s relative to the carrier (vehicle-cornering)",
+            render(["set", "mu_s / mu_d", "mu'", "r_j mm", "lever mm", "K", "bias", "K + flanks", "bias + flanks",
+                    "backup ratio", "p MPa", "pv MPa m/s"], rows),
+            "Bushing findings" + (f" (limits: backup ratio >= {BACKUP_RATIO_MIN:g}, C93200 bronze p, pv)"),
+            *(finds or ["  none"]), ""]
+
+
+WHEEL_RADIUS = 0.3266      # m, the Chrono sedan's tyre (shared/docs/model-references.md): carrier = wheel speed
+
+
+def speed_rows(p, geo, pf) -> list[str]:
+    """Locking torque against carrier speed (spurdiff.differential.speed_law) at zero and low
+    torque, beside the first-order theory n c (|rho_1| m_1 a_1 + |rho_2| m_2 a_2) w_c^2."""
+    mp = mass_properties(p, geo)
+    ms = (mp.m_planet1, mp.m_planet2)
+    first = pf.n * pf.c * (abs(pf.rho[0]) * ms[0] * geo.meshA1.a + abs(pf.rho[1]) * ms[1] * geo.meshB2.a)
+    rows = []
+    for label, wc in (("standstill", 0.0), ("vehicle-cornering", 30.7161), ("100 km/h", 100 / 3.6 / WHEEL_RADIUS),
+                      ("200 km/h", 200 / 3.6 / WHEEL_RADIUS)):
+        T = [locking_torque_at_speed(pf, geo, ms, wc, T0) for T0 in (0.0, 100.0, -100.0)]
+        rows.append([label, f"{wc:.1f}", f"{T[0]:.3f}", f"{first * wc * wc:.3f}", f"{T[1]:.2f}", f"{T[1] / 100:.4f}",
+                     f"{T[2]:.2f}", f"{T[2] / 100:.4f}"])
+    return [f"Locking torque against carrier speed (centrifugal pin loads of the planets, {ms[0]:.3f} / {ms[1]:.3f} kg "
+            f"at {geo.meshA1.a / MM:.1f} / {geo.meshB2.a / MM:.1f} mm; quasi-static break-away, smaller direction; every "
+            f"level carries these loads with pinSpeedLoads (default on); carrier speed = wheel speed, r_w = "
+            f"{WHEEL_RADIUS} m)",
+            render(["carrier", "w_c rad/s", "T0 = 0: N m", "first order N m", "T0 = 100 drive: N m", "K",
+                    "T0 = 100 coast: N m", "K"], rows),
+            f"  vehicle-cornering's operating point (carrier {CORNERING_WC} rad/s, T0 = {CORNERING_T0} N m drive, "
+            f"inner sun A behind the carrier): K = "
+            f"{breakaway_at_speed(pf, geo, ms, CORNERING_WC, CORNERING_T0, -1.0).K:.4f} (standstill "
+            f"{breakaway(pf, CORNERING_T0, -1.0).K:.4f})", ""]
+
+
+def info_text(table: GearTable | None = None, params: DifferentialParams | None = None,
+              mu_flank: float | None = None) -> str:
+    if mu_flank is None:
+        mu_flank = MeshParams().muStatic
     p = params or DifferentialParams(table=table or GearTable())
     geo = derive(p.table)
     t = geo.table
@@ -87,13 +176,18 @@ def info_text(table: GearTable | None = None, params: DifferentialParams | None 
     ]
     out += [f"Locking (mu = {p.mu_pin:g}, r_d = {p.r_collar / MM:g} mm, n = {t.nPairs}): K = |T_A - T_B| / |T_A + T_B| "
             f"at break-away; pin loads per unit mesh force with equal mesh forces; K_1 their linearisation "
-            f"c (|rho_1| p_1 + |rho_2| p_2) / (r_bA + r_bB)",
+            f"c (|rho_1| p_1 + |rho_2| p_2) / (r_bA + r_bB); drive: the load on the drive flanks (the carrier "
+            f"drives the suns, T_A + T_B > 0, FMU output loadedFlanks = 1), coast: on the coast flanks (the suns "
+            f"drive the carrier, reversing under power included, loadedFlanks = -1)",
             render(["law", "case", "K", "K_1", "bias ratio", "pin loads p_1 / p_2", "K |T0| at 2100 N m, N m"], rows),
             f"  pinFriction at break-away, T0 = {PAPER_T0 * 1e-3:g} N m drive: T_A / T_B = {bd.T_A:.1f} / {bd.T_B:.1f} N m, "
             f"F_A1 / F_B2 / F_12 = {bd.F_A1:,.0f} / {bd.F_B2:,.0f} / {bd.F_12:,.0f} N, pin loads "
             f"{bd.F_pin[0]:,.0f} / {bd.F_pin[1]:,.0f} N; coast: pin loads {bc.F_pin[0]:,.0f} / {bc.F_pin[1]:,.0f} N",
             f"  the paper's law at the compliant/contact levels (pin lever scaled to its K in drive) holds "
             f"K = {Kpc_mesh:.4f} in coast ({Kpc_mesh / Kp:.3f} x)", ""]
+    out += flank_rows(geo, pf, Kd, Kc, mu_flank)
+    out += bushing_rows(geo, mu_flank)
+    out += speed_rows(p, geo, pf)
 
     T0 = PAPER_T0 * 1e-3  # N m
     K = Kp

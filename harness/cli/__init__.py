@@ -18,6 +18,7 @@ COMMANDS = {
                        "prints where"),
     "fmu": ("fmu", "print the path of a built FMU, building it if needed"),
     "info": ("info", "derived geometry, design checks and the paper's theory table beside ours"),
+    "design": ("design", "propose profile shifts and tip diameters for given tooth counts and centre distances (docs/capacity.md)"),
     "scenes": ("scenes", "list the scenes"),
     "run": ("run", "run a scene: results table, checks, CSV and plots"),
     "bench": ("bench", "measured cost ratios: FMI vs direct, each fidelity vs rigid, real-time factors"),

@@ -10,7 +10,7 @@
 #include <stdint.h>
 #include <string.h>
 
-#define MK_ABI 4
+#define MK_ABI 5
 #define NMAX 10
 #define SMAX 8        /* the most stages of a method (spurdiff.differential.mesh.integrator.SMAX) */
 enum { PSI, DA, DB, D12, VA, VB, W1, W2, WC, PHIC };
@@ -55,6 +55,7 @@ typedef struct {
     int32_t piv[NMAX];
     int64_t key_s[2], cache_ok, jac_age;  /* jac_age: accepted steps since Jf was evaluated, -1: none */
     int64_t n_jac, n_lu;      /* Jacobian evaluations and factorizations of W (diagnostics) */
+    double gpin[4];           /* the planets' centrifugal forces (g1x g1y g2x g2y, N) at the step's start speed */
 } MkState;
 
 typedef struct { double F, dF_dd, dF_dv, Fc, xi; } Force;

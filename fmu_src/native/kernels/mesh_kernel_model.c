@@ -146,11 +146,12 @@ static Moments flank_moments(const MkParams *P, const MkMesh *m, double F, doubl
     return r;
 }
 
-static void pin_force(const MkParams *P, int i, double Fs, double F12, double *mag, double *dS, double *d12) {
+static void pin_force(const MkParams *P, const double *g, int i, double Fs, double F12, double *mag, double *dS,
+                      double *d12) {
     const double *q = P->pin_flat[i];   /* tx, ty, rx, ry, ux, uy, qx, qy */
     double aS = fabs(Fs), a12 = fabs(F12);
-    double fx = Fs * q[0] + aS * q[2] + F12 * q[4] + a12 * q[6];
-    double fy = Fs * q[1] + aS * q[3] + F12 * q[5] + a12 * q[7];
+    double fx = Fs * q[0] + aS * q[2] + F12 * q[4] + a12 * q[6] + g[2 * i];
+    double fy = Fs * q[1] + aS * q[3] + F12 * q[5] + a12 * q[7] + g[2 * i + 1];
     double mg = sqrt(fx * fx + fy * fy);
     if (mg == 0.0) { *mag = *dS = *d12 = 0.0; return; }
     double sgS = Fs >= 0.0 ? 1.0 : -1.0, sg12 = F12 >= 0.0 ? 1.0 : -1.0;
@@ -216,8 +217,8 @@ MK_HIDDEN void mk_eval(const MkParams *P, const MkState *S, const double *y, dou
     int stuck1 = 0, stuck2 = 0;
     if (P->pin) {
         double Fp1, Fp2;
-        pin_force(P, 0, FA, F12, &Fp1, &dp1S, &dp112);
-        pin_force(P, 1, FB, F12, &Fp2, &dp2S, &dp212);
+        pin_force(P, S->gpin, 0, FA, F12, &Fp1, &dp1S, &dp112);
+        pin_force(P, S->gpin, 1, FB, F12, &Fp2, &dp2S, &dp212);
         cap1 = cp * Fp1 + P->M01;
         cap2 = cp * Fp2 + P->M02;
         stuck1 = s1 == 0;

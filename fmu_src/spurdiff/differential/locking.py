@@ -34,8 +34,10 @@ Two laws (the FMU's structural parameter ``lockingLaw``):
     how the two pins are loaded. At break-away both planets slip, ``M_i = -sgn(w_i) M_i,max``,
     and the two balances fix ``F_12`` and the torque difference. Without preload the solution
     is homogeneous in the torque, so ``|T_A - T_B| = K |T_A + T_B|`` with a locking coefficient
-    that depends on the sign of the torque (drive ``T_A + T_B > 0`` or coast) and, a little, on
-    which sun runs ahead; it does not depend on ``n`` (the mesh forces scale with ``1/n``, the
+    that depends on the sign of the torque (drive ``T_A + T_B > 0``: the load on the drive flanks,
+    the carrier driving the suns; coast: on the coast flanks, the suns driving the carrier) and
+    in principle on which sun runs ahead (for the paper's set the two agree to 7 digits without
+    flank friction; with it they do not, :mod:`spurdiff.differential.flank_law`); it does not depend on ``n`` (the mesh forces scale with ``1/n``, the
     number of pins with ``n``). :func:`breakaway` solves it exactly; :func:`first_order_K` is
     its linearisation with equal mesh forces ``F = T_0 / (n (r_bA + r_bB))``:
 
@@ -44,6 +46,12 @@ Two laws (the FMU's structural parameter ``lockingLaw``):
     The rigid level uses the same balances (:class:`spurdiff.differential.rigid.RigidDifferential`), so it
     breaks away where the compliant and contact levels do; the pins stay loaded with opposite
     sun torques and ``T_A + T_B = 0``, where the paper's law has no capacity at all.
+
+The lever ``mu r_d``: ``r_d`` is the journal radius of the pin (the pin load of a spur-gear planet
+is radial), ``mu`` the bushing's coefficient, with the friction-circle correction where the data set
+has it (:mod:`spurdiff.differential.bushing`, ``spurdiff/data/pin_bushing.toml``). Not in this law:
+flank friction (:mod:`spurdiff.differential.flank_law`) and the planets' centrifugal pin loads
+(:mod:`spurdiff.differential.speed_law`); docs/locking-law.md.
 
 ``paper``, the paper's formula as published (with ``n`` planet pairs)
     ``K = (mu r_d / n) (1/(r_a + r_1) + 1/(r_b + r_2))``, capacity ``K |T_A + T_B| + T_pre``;
@@ -176,8 +184,8 @@ def breakaway(pf: PinFriction, T0: float, s: float) -> Breakaway:
 
 def locking_coefficients(pf: PinFriction) -> tuple[float, float]:
     """(K_drive, K_coast): the smaller of the two break-away coefficients (sun A ahead or behind)
-    in drive and in coast, without preload. The larger one is within a few per cent (see
-    docs/paper-reproduction.md)."""
+    in drive and in coast, without preload. For the paper's set the two directions agree to
+    rounding (tests/physics/test_locking_law_doc.py)."""
     pf0 = PinFriction(pf.layout, pf.c, (0.0, 0.0), pf.rho, pf.rb, pf.n)
     if pf.c == 0.0:
         return 0.0, 0.0

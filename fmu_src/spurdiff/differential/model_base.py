@@ -63,6 +63,14 @@ class DifferentialModel:
     dw_pred_L = dw_pred_R = 0.0
     n_contact_transitions = 0
     potential_energy = 0.0
+    parametric_work = 0.0     # the stiffness wave's work (mesh levels with meshStiffnessVariation)
+
+    @property
+    def loaded_flanks(self) -> int:
+        """Which flanks carry the load: 1 the drive flanks (T_A + T_B > 0, the carrier drives the
+        suns), -1 the coast flanks (the suns drive the carrier), 0 none."""
+        T0 = self.tau_mesh_L + self.tau_mesh_R
+        return 1 if T0 > 0.0 else -1 if T0 < 0.0 else 0
 
     @property
     def tau_mean_L(self) -> float:

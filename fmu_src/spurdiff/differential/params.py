@@ -26,6 +26,7 @@ class DifferentialParams:
     r_collar: float = _d("r_collar")      # thrust-collar radius r_d of the pinion shaft, m (paper)
     lockingLaw: str = _d("lockingLaw")    # "pinFriction": from the pin loads | "paper": the paper's K
     lockingPreload: float = _d("lockingPreload")   # N m, spring preload of the locking friction (0: none)
+    pinSpeedLoads: bool = _d("pinSpeedLoads")      # the planets' centrifugal forces load their pins (pinFriction law)
     density: float = _d("density")        # steel, kg/m^3 (paper: 7.85e-6 kg/mm^3)
     carrierDrive: str = _d("carrierDrive")   # "speed": carrier.w_ref imposed; "torque": carrier.tau drives it
     J_carrier: float = _d("J_carrier")    # kg m^2, carrier (with everything rigidly on it), 0 = estimate

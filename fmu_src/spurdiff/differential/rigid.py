@@ -61,10 +61,10 @@ from spurdiff.gears.layout import kinematics
 
 _STATE_KEYS = (
     "t", "wc", "wd", "phic", "phid", "ac", "ad", "Qf", "slip_dir", "F12", "cap", "_ad_guess", "_slip_key", "_slip_val",
-    "work_in", "energy_loss", "loss_last_step", "n_mode_switches", "n_steps",
+    "work_in", "energy_loss", "loss_last_step", "n_mode_switches", "n_steps", "_g", "_g_wc",
 )
 _get_state_values = operator.itemgetter(*_STATE_KEYS)
-_TUPLE_KEYS = ("_slip_key", "_slip_val")   # the only state entries that are not numbers or None
+_TUPLE_KEYS = ("_slip_key", "_slip_val", "_g")   # the only state entries that are not numbers or None
 
 
 class RigidDifferential(PinLoadLaw, DifferentialModel):
@@ -125,6 +125,13 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
         # the exact pin law (pinFriction with friction or preload), else the paper's linear capacity
         self._exact = self.law == "pinFriction" and (self.pf.c > 0.0 or self.preload > 0.0)
         self._pin_constants()
+        # the planets' centrifugal pin loads per unit w_c^2 (pinSpeedLoads; spurdiff.differential.speed_law)
+        th = self.pf.layout.theta
+        speed = bool(p.pinSpeedLoads) and self._exact
+        self._cf = ((mp.m_planet1 * geo.meshA1.a, 0.0),
+                    (mp.m_planet2 * geo.meshB2.a * math.cos(th), mp.m_planet2 * geo.meshB2.a * math.sin(th))) \
+            if speed else ((0.0, 0.0), (0.0, 0.0))
+        self._g, self._g_wc = (0.0, 0.0, 0.0, 0.0), 0.0
         self._rk, self.kernel_note = (rigid_kernel.choose(self) if self._exact
                                       else (None, "none (no pin-load solve)"))
         self.F12 = float("nan")
@@ -141,6 +148,7 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
         self.n_mode_switches = 0
         self.n_steps = 0
         self.slip_dir = 0.0 if wd0 == 0.0 else math.copysign(1.0, wd0)
+        self._set_speed_loads(self.wc)
         ac = 0.0 if self.speed_drive else None
         self.ac, self.ad, self.Qf, self.slip_dir = self._accelerations(ac)
         self._ready = True
@@ -215,6 +223,8 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
         if not (h.__class__ is float and 0.0 < h < math.inf):
             h = require_positive("communicationStepSize", h)
         self._check_inputs()
+        if self._exact:
+            self._set_speed_loads(self.wc)      # the carrier speed at the step's start, held over it
         rk = self._rk
         if rk is not None and self.wd != 0.0 and not self.speed_drive and self._step_compiled(rk, t, h):
             return
@@ -258,7 +268,7 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
         step, nothing changed (the Python path runs it)."""
         s = math.copysign(1.0, self.wd)
         tau_c, tau_L, tau_R = self.tau_c, self.tau_L, self.tau_R
-        key = (s, None, tau_c, tau_L, tau_R)
+        key = (s, None, tau_c, tau_L, tau_R, self._g_wc)
         if key == self._slip_key:
             return False
         io = rk.sio
@@ -387,4 +397,7 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
                 d[k] = tuple(v)
         d["w_ref"], d["tau_c"], d["tau_L"], d["tau_R"] = state["w_ref"], state["tau_c"], state["tau_L"], state["tau_R"]
         d["_last_h"] = state["last_h"]
+        rk = d.get("_rk")
+        if rk is not None:
+            rk.set_speed_loads(d["_g"])
 

@@ -24,8 +24,8 @@ from pathlib import Path
 from spurdiff import native_library
 from spurdiff.errors import ParameterError
 
-ABI = 2
-NCONST = 49
+ABI = 3
+NCONST = 53
 NIO = 12
 NIO_STEP = 24
 LIB_NAME = "librigid_kernel.so"   # not rigid_kernel.so: Python would import that for this module
@@ -107,7 +107,7 @@ class Kernel:
         _, rb1, _, rb2 = pf.rb
         M01, M02 = pf.M0
         const = (rb1, rb2, m._nrbA, m._nrbB, pf.c, M01, M02, m.J_A, m.J_B, m.lam, m.J_1, m.J_2, m.rho1, m.rho2,
-                 m.Mcd, m.Mcc, pf.n) + tuple(m._pin1) + tuple(m._pin2)
+                 m.Mcd, m.Mcc, pf.n) + tuple(m._pin1) + tuple(m._pin2) + tuple(m._g)
         assert len(const) == NCONST
         self.const = (C.c_double * NCONST)(*(float(v) for v in const))
         self.io = (C.c_double * NIO)()
@@ -115,3 +115,7 @@ class Kernel:
         # a whole step of a carrier torque-driven model that slips throughout (rigid.py's do_step)
         self.sio = (C.c_double * NIO_STEP)()
         self.step = lib.rk_step_slip   # step(const, sio): 0 done, 1 not that kind of step
+
+    def set_speed_loads(self, g) -> None:
+        """The planets' centrifugal force vectors (constants 49..52) for the next solves."""
+        self.const[49], self.const[50], self.const[51], self.const[52] = g

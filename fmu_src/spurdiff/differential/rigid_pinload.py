@@ -33,6 +33,27 @@ class PinLoadLaw:
         self._pin1, self._pin2 = planets
         self._nrbA, self._nrbB = pf.n * rbA, pf.n * rbB
 
+    def _capacity(self, i: int, Fs: float, F12: float) -> float:
+        """Friction capacity of planet i's pin (N m): ``c |F_mesh + g_i| + M_0,i`` with the
+        planet's centrifugal force ``g_i`` (:meth:`_set_speed_loads`)."""
+        tx, ty, rx, ry, ux, uy, qx, qy = self.pf.layout._flat[i]
+        aS, a12 = abs(Fs), abs(F12)
+        fx = Fs * tx + aS * rx + F12 * ux + a12 * qx + self._g[2 * i]
+        fy = Fs * ty + aS * ry + F12 * uy + a12 * qy + self._g[2 * i + 1]
+        return self.pf.c * math.sqrt(fx * fx + fy * fy) + self.pf.M0[i]
+
+    def _set_speed_loads(self, wc: float) -> None:
+        """The planets' centrifugal pin loads ``m_i a_i w_c^2 e_r,i`` at the carrier speed ``wc``
+        (held over a step; zero without ``pinSpeedLoads``). A change drops the cached slip solve."""
+        if wc == self._g_wc:
+            return
+        w2 = wc * wc
+        (c1x, c1y), (c2x, c2y) = self._cf
+        self._g = (c1x * w2, c1y * w2, c2x * w2, c2y * w2)
+        self._g_wc = wc
+        if self._rk is not None:
+            self._rk.set_speed_loads(self._g)
+
     def _sun_forces(self, ac: float, ad: float) -> tuple[float, float]:
         """Normal mesh forces per pair of the sun meshes from the sun torques."""
         n = self.pf.n
@@ -72,6 +93,7 @@ class PinLoadLaw:
         (t2x, t2y, r2x, r2y, u2x, u2y, q2x, q2y, p2x, p2y, m2x, m2y, P2x, P2y, N2x, N2y) = self._pin2
         J_A, J_B, lam = self.J_A, self.J_B, self.lam
         J1, J2 = self.J_1, self.J_2
+        g1x, g1y, g2x, g2y = self._g
         rho1, rho2 = self.rho1, self.rho2
         tau_L, tau_R = self.tau_L, self.tau_R
         Mcd, Mcc = self.Mcd, self.Mcc
@@ -98,10 +120,10 @@ class PinLoadLaw:
             FB = (J_B * (ac + lam * ad) - tau_R) / nrbB
             aA, aB, a12 = abs(FA), abs(FB), abs(F12)
             # pin force of planet 1 (sun A mesh FA, planet mesh F12) and of planet 2 (FB, F12)
-            f1x = FA * t1x + aA * r1x + F12 * u1x + a12 * q1x
-            f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y
-            f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x
-            f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y
+            f1x = FA * t1x + aA * r1x + F12 * u1x + a12 * q1x + g1x
+            f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y + g1y
+            f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x + g2x
+            f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y + g2y
             mag1 = sqrt(f1x * f1x + f1y * f1y)
             mag2 = sqrt(f2x * f2x + f2y * f2y)
             c1 = cpin * mag1 + M01
@@ -139,10 +161,10 @@ class PinLoadLaw:
                 FA = (J_A * (ac + ad) - tau_L) / nrbA
                 FB = (J_B * (ac + lam * ad) - tau_R) / nrbB
                 aA, aB, a12 = abs(FA), abs(FB), abs(F12)
-                f1x = FA * t1x + aA * r1x + F12 * u1x + a12 * q1x
-                f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y
-                f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x
-                f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y
+                f1x = FA * t1x + aA * r1x + F12 * u1x + a12 * q1x + g1x
+                f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y + g1y
+                f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x + g2x
+                f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y + g2y
                 c1 = cpin * sqrt(f1x * f1x + f1y * f1y) + M01
                 c2 = cpin * sqrt(f2x * f2x + f2y * f2y) + M02
                 break
@@ -169,11 +191,12 @@ class PinLoadLaw:
             tx, ty, rx, ry, _, _, _, _, _, _, _, _, Px, Py, Nx, Ny = self._pin2
         c = pf.c
         Fstar = Fs - J * ac / rb
-        cap0 = pf.capacity(i, Fs, Fstar)[0]
+        cap0 = self._capacity(i, Fs, Fstar)
         if cap0 <= 0.0:
             return Fstar, Fstar
         aS = abs(Fs)
-        ax, ay = Fs * tx + aS * rx, Fs * ty + aS * ry      # P(0)
+        gx, gy = self._g[2 * i], self._g[2 * i + 1]
+        ax, ay = Fs * tx + aS * rx + gx, Fs * ty + aS * ry + gy      # P(0), with the centrifugal force
         c_a0 = c * math.sqrt(ax * ax + ay * ay)             # c |P(0)|
         ends = []
         for sign in (1.0, -1.0):                            # upper end, lower end
@@ -217,15 +240,14 @@ class PinLoadLaw:
         F12 = (rb1 * rb1 * F1s + rb2 * rb2 * F2s) / (rb1 * rb1 + rb2 * rb2)
         F12 = min(max(F12, lo), hi) if lo <= hi else 0.5 * (lo + hi)
         self.F12 = F12
-        self.cap = pf.n * (abs(self.rho1) * pf.capacity(0, FA, F12)[0]
-                           + abs(self.rho2) * pf.capacity(1, FB, F12)[0])
+        self.cap = pf.n * (abs(self.rho1) * self._capacity(0, FA, F12) + abs(self.rho2) * self._capacity(1, FB, F12))
         return True
 
     def _accelerations_exact(self, ac_given: float | None) -> tuple[float, float, float, float]:
         """As :meth:`_accelerations`, with the pin-load law."""
         if self.wd != 0.0:
             s = math.copysign(1.0, self.wd)
-            key = (s, ac_given, self.tau_c, self.tau_L, self.tau_R)
+            key = (s, ac_given, self.tau_c, self.tau_L, self.tau_R, self._g_wc)
             if key == self._slip_key:          # same mode and inputs: same accelerations
                 ac, ad, Qf, s, self.F12, self.cap = self._slip_val
                 return ac, ad, Qf, s

@@ -253,7 +253,7 @@ class ShaftedDifferential(ShaftSolver):
 # torque-coupled models answer (spurdiff.differential.model_base.DifferentialModel).
 INNER_OUTPUTS = ("wc", "phic", "w_L", "phi_L", "w_R", "phi_R", "tau_drive", "tau_mesh_L", "tau_mesh_R",
                  "mesh_forces", "locking_torque", "locking_capacity", "power_loss", "kinetic_energy", "stuck",
-                 "stuck_indicator", "n_mode_switches", "n_contact_transitions")
+                 "stuck_indicator", "n_mode_switches", "n_contact_transitions", "parametric_work", "loaded_flanks")
 for _name in INNER_OUTPUTS:
     setattr(ShaftedDifferential, _name,
             property(operator.attrgetter("inner." + _name), doc=f"The inner model's ``{_name}``."))

@@ -14,17 +14,20 @@ set-up they bind to.)
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
 from spurdiff.fmi.binding import bindings, build_params, renamed, resolve
 from spurdiff.errors import ParameterError
 from spurdiff.fmi.variables import Var
+from spurdiff.differential.bushing import bushing
 from spurdiff.differential.locking import torque_bias_ratio
 from spurdiff.gears.phasing import mesh_phases
 from spurdiff.differential.mesh import MeshDifferential, MeshParams
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.rigid import RigidDifferential
 from spurdiff.differential.shafts import SHAFT_COUPLINGS, ShaftedDifferential, ShaftsParams
+from spurdiff.gears.capacity import CapacityParams
 
 FMU_NAME = "SpurDifferential"
 DESCRIPTION = ("Spur-gear planetary inter-wheel differential: two suns on the half-shafts, pairs of "
@@ -50,9 +53,11 @@ class Setup:
     diff: DifferentialParams = field(default_factory=DifferentialParams)
     mesh: MeshParams = field(default_factory=MeshParams)
     shafts: ShaftsParams = field(default_factory=ShaftsParams)
+    capacity: CapacityParams = field(default_factory=CapacityParams)   # load capacity (block after VARIABLES)
     shaftCoupling: str = "torque"
     w_start_carrier: float = 0.0
     w_start_differential: float = 0.0
+    overspeedLimit: float = 0.0        # rad/s, |w_A - w_c|; 0: the pin bushings' sliding-speed limit
 
 
 _DEFAULTS = Setup()
@@ -197,6 +202,19 @@ VARIABLES: list[Var] = [
         None, None, 0, kind="Integer", bind="n_contact_transitions"),
     Var("potentialEnergy", "output", "Elastic energy stored in the mesh springs (0 at rigid)", "J",
         bind="potential_energy"),
+    Var("parametricWork", "output", "Work of the mesh stiffness wave on the gears since the start (0 without "
+        "meshStiffnessVariation): workIn + parametricWork = change of kineticEnergy + potentialEnergy + energyLoss",
+        "J", bind="parametric_work"),
+    Var("loadedFlanks", "output", "Flanks that carry the load: 1 drive (the carrier drives the suns, "
+        "T_A + T_B > 0; lockingCoefficient applies), -1 coast (the suns drive the carrier; "
+        "lockingCoefficientCoast), 0 unloaded", None, None, 0, kind="Integer", bind="loaded_flanks"),
+    Var("overspeed", "output", "1 while the differential speed |w_A - w_c| is above overspeedLimit (a runaway: "
+        "the first time is logged as a warning), else 0", "1", bind="overspeed_indicator"),
+    Var("overspeedLimit", "parameter", "Largest differential speed |w_A - w_c| the pin bushings are rated for "
+        "(0: the bronze bushing's sliding-speed limit 3.81 m/s, spurdiff/data/pin_bushing.toml, over r_collar and the "
+        "planets' spin ratio z_sun / z_planet)",
+        "rad/s", "rpm", 0.0, bind="overspeedLimit"),
+    Var("overspeedLimitInUse", "calculatedParameter", "The differential-speed limit in use", "rad/s", "rpm"),
     Var("nStates", "calculatedParameter", "Number of continuous states of the selected fidelity", None, None, 0,
         kind="Integer"),
     Var("activeEffects", "calculatedParameter",
@@ -265,8 +283,12 @@ VARIABLES: list[Var] = [
     *_gear_vars("planet2", "planet 2 (meshes sun B and planet 1)"),
     _p("nPairs", "diff.table.nPairs", "Number of planet pairs (3: the paper's figures)", None, kind="Integer"),
     # --- friction, mass
-    _p("mu_pin", "diff.mu_pin", "Sliding friction coefficient of the planet pin bushings", "1"),
-    _p("r_collar", "diff.r_collar", "Thrust-collar radius r_d of the pinion shaft", "m", "mm"),
+    _p("mu_pin", "diff.mu_pin", "Friction coefficient of the planet pin bushings at break-away, with the "
+       "friction-circle correction mu/sqrt(1+mu^2) where the data set has it (spurdiff/data/pin_bushing.toml)", "1"),
+    _p("pinSpeedLoads", "diff.pinSpeedLoads", "The planets' centrifugal forces m a w_c^2 load their pins (carrier speed "
+       "at each step's start; lockingLaw = pinFriction): the locking grows with carrier speed", kind="Boolean"),
+    _p("r_collar", "diff.r_collar", "Journal radius of the planet pins, the friction lever's radius (the paper's "
+       "r_d, which it calls a thrust-collar radius)", "m", "mm"),
     _p("lockingPreload", "diff.lockingPreload",
        "Spring preload of the locking friction (clutch-type limited slip): torque difference held with no load", "N.m", "N.mm"),
     _p("density", "diff.density", "Density of the gear steel", "kg/m3"),
@@ -313,10 +335,13 @@ VARIABLES: list[Var] = [
     Var("planet2.rw", "calculatedParameter", "Operating pitch radius of planet 2 in mesh B2, r_2", "m", "mm",
         bind="geometry.r_2"),
     Var("lockingCoefficient", "calculatedParameter",
-        "Locking coefficient in drive, |T_A - T_B| / (T_A + T_B) at break-away (lockingLaw = paper: "
-        "(mu r_d / n)(1/(r_a+r_1) + 1/(r_b+r_2)))", "1", bind="K"),
+        "Locking coefficient in drive (load on the drive flanks: the carrier drives the suns), |T_A - T_B| / "
+        "(T_A + T_B) at break-away; with flankFriction (compliant/contact) it includes the flanks' Coulomb "
+        "friction at flank.muStatic, mesh-cycle average (lockingLaw = paper: (mu r_d / n)(1/(r_a+r_1) + "
+        "1/(r_b+r_2)), pins only)", "1", bind="K"),
     Var("lockingCoefficientCoast", "calculatedParameter",
-        "Locking coefficient in coast (suns drive the carrier); equals the drive value with lockingLaw = paper", "1",
+        "Locking coefficient in coast (load on the coast flanks: the suns drive the carrier), flank friction "
+        "as in lockingCoefficient; equals the drive value with lockingLaw = paper", "1",
         bind="K_coast"),
     Var("torqueBiasRatio", "calculatedParameter",
         "Torque bias ratio in drive, largest T_slow / T_fast the locking holds: (1 + K) / (1 - K)", "1"),
@@ -329,6 +354,84 @@ VARIABLES: list[Var] = [
     Var("geometry.warnings", "calculatedParameter", "Number of design-check warnings for this gear set (logged)",
         None, None, 0, kind="Integer"),
 ]
+
+
+# ---------------------------------------------------------------------------------------------------
+# Load capacity (issue 27 item 4): ISO 6336 safety factors at initialization, the run's largest
+# stresses as outputs and one logged warning when a run exceeds the static strength
+# (spurdiff.gears.capacity, docs/capacity.md). Appended after the other variables.
+CAPACITY_MESHES = (("A1", "sunA", "planet1"), ("B2", "sunB", "planet2"), ("12", "planet1", "planet2"))
+VARIABLES += [
+    _p("capacity.T0", "capacity.T0", "Carrier torque at which the ISO 6336 safety factors are rated and from which "
+       "the run's stresses are scaled (the paper's load: 2100 N m)", "N.m"),
+    _p("capacity.material", "capacity.material", "Gear material of the ISO 6336 check (spurdiff/data/materials.toml): "
+       "18CrNiMo7-6 | 20MnCr5 | 40CrNi2Mo-paper", kind="String"),
+    *[Var(f"capacity.mesh{k}.{g}.{S}", "calculatedParameter",
+          f"ISO 6336 {what} safety factor of {g} in mesh {k} at capacity.T0, long life (< 1: a finding, logged)", "1")
+      for k, g1, g2 in CAPACITY_MESHES for g in (g1, g2)
+      for S, what in (("S_H", "contact (pitting, method B)"), ("S_F", "root (bending, method B)"))],
+    Var("capacity.S_H_static", "calculatedParameter", "Smallest ISO 6336 contact safety factor against the static "
+        "strength (Z_NT for N <= 1e5) at capacity.T0, over all meshes and gears", "1"),
+    Var("capacity.S_F_static", "calculatedParameter", "Smallest ISO 6336 root safety factor against the static "
+        "strength (Y_NT for N <= 1e3) at capacity.T0, over all meshes and gears", "1"),
+    Var("capacity.sigmaHMax", "output", "Largest contact stress of the run so far (ISO 6336-2 from the mesh forces at "
+        "the communication points, load factors of capacity.T0)", "Pa", "MPa", bind="capacity_watch.sigma_H_max"),
+    Var("capacity.sigmaFMax", "output", "Largest tooth-root stress of the run so far (ISO 6336-3, as "
+        "capacity.sigmaHMax)", "Pa", "MPa", bind="capacity_watch.sigma_F_max"),
+    Var("capacity.exceeded", "output", "1 once the run exceeded the static contact or root strength of "
+        "capacity.material (logged once), else 0", "1", bind="capacity_watch.exceeded_indicator"),
+]
+
+
+def _attach_capacity(model, values: dict) -> None:
+    """Rate the gear set at capacity.T0 (calculated parameters) and watch the run's mesh forces:
+    ``model.capacity_watch`` (the outputs), ``model.do_step`` books each step's forces,
+    ``model.get_state`` / ``set_state`` carry the watch, ``model.log_to(log)`` (called by the adapter
+    with its logger) logs the findings now and the first excess when it happens."""
+    from spurdiff.errors import require_positive
+    from spurdiff.gears import capacity as cap
+    T0 = require_positive("capacity.T0", values["capacity.T0"])
+    mat = cap.material(values["capacity.material"])
+    r_pin = values.get("r_collar", 0.0)          # the planets turn on journals of this radius (Y_B)
+    bores = {"planet1": 2.0 * r_pin, "planet2": 2.0 * r_pin} if r_pin > 0.0 else None
+    forces = cap.nominal_mesh_forces(model.geometry, T0)
+    rep = cap.capacity_report(model.geometry, forces, mat, None, bores)
+    for r in rep.meshes:
+        for g in r.gears:
+            values[f"capacity.mesh{r.mesh}.{g.gear}.S_H"] = g.S_H
+            values[f"capacity.mesh{r.mesh}.{g.gear}.S_F"] = g.S_F
+    values["capacity.S_H_static"] = rep.S_H_static
+    values["capacity.S_F_static"] = rep.S_F_static
+    watch = model.capacity_watch = cap.StressWatch(model.geometry, forces, mat, rep.conditions, bores)
+    sink = []                                     # the adapter's logger, once given
+    inner_step, inner_get, inner_set = model.do_step, model.get_state, model.set_state
+
+    def do_step(t, h):
+        inner_step(t, h)
+        f = model.mesh_forces
+        msg = watch.update(f.F_A1, f.F_B2, f.F_12)
+        if msg is not None and sink:
+            sink[0](f"t = {t + h:g} s: {msg}", 1)   # fmi2Warning
+
+    def get_state():
+        return {**inner_get(), "capacity": watch.get_state()}
+
+    def set_state(state):
+        state = dict(state)
+        watch.set_state(state.pop("capacity", [0.0, 0.0, False, [0.0, 0.0, 0.0]]))
+        inner_set(state)
+
+    def log_to(log):
+        sink[:] = [log]
+        if rep.findings:
+            n_err = sum(f.level == "error" for f in rep.findings)
+            first = next((f for f in rep.findings if f.level == "error"), rep.findings[0])
+            log(f"load capacity at capacity.T0 = {T0:g} N m ({mat.name}): smallest safety factors S_H "
+                f"{rep.S_H:.3f} (static {rep.S_H_static:.3f}), S_F {rep.S_F:.3f} (static {rep.S_F_static:.3f}); "
+                f"{n_err} errors, {len(rep.findings) - n_err} warnings, first: {first}", 1)
+
+    model.do_step, model.get_state, model.set_state, model.log_to = do_step, get_state, set_state, log_to
+# ---------------------------------------------------------------------------------------------------
 
 
 def setup(values: dict) -> Setup:
@@ -377,7 +480,51 @@ def build_model(values: dict):
     model.initialize(0.0)
     io.pull_calculated(model, values)
     _set_calculated(model, values)
+    _attach_capacity(model, values)   # load capacity (the block after VARIABLES)
+    _attach_overspeed(model, values, s.overspeedLimit)   # after it: chains its log_to
     return model
+
+
+def _attach_overspeed(model, values: dict, limit: float) -> None:
+    """The overspeed watch: ``overspeed`` output while ``|w_A - w_c|`` exceeds the limit, and one
+    warning through the FMU's logger the first time (the paper scenes' constant torques above
+    break-away run away without bound). The limit 0 means the pin bushings' sliding-speed limit
+    (spurdiff/data/pin_bushing.toml, C93200 bronze 3.81 m/s) over the journal radius and the planets'
+    spin ratio."""
+    if not (limit >= 0.0 and limit < math.inf):
+        raise ParameterError("overspeedLimit", limit, ">= 0 rad/s (0: from the pin bushings)")
+    geo = model.geometry
+    rho = max(geo.table.sunA.z / geo.table.planet1.z, geo.table.sunB.z / geo.table.planet2.z)
+    r_j = model.params.r_collar
+    if limit == 0.0:
+        limit = bushing("bronze").vMax / (r_j * rho) if r_j > 0.0 else math.inf
+    values["overspeedLimitInUse"] = limit
+    model.overspeed_indicator = 1.0 if abs(model.wd) > limit else 0.0
+    sink, warned = [], []
+    inner_step, prev_log_to = model.do_step, getattr(model, "log_to", None)
+
+    def do_step(t, h):
+        inner_step(t, h)
+        over = abs(model.wd) > limit
+        model.overspeed_indicator = 1.0 if over else 0.0
+        if over and not warned and sink:
+            warned.append(t + h)
+            sink[0](f"t = {t + h:g} s: overspeed, |w_A - w_c| = {abs(model.wd):.4g} rad/s > overspeedLimit = "
+                    f"{limit:.4g} rad/s (planets at {rho * abs(model.wd):.4g} rad/s on their pins): the "
+                    f"differential runs away; the results past this point are no longer of rated hardware", 1)
+
+    def log_to(log):
+        sink[:] = [log]
+        if prev_log_to is not None:
+            prev_log_to(log)
+
+    inner_set = model.set_state
+
+    def set_state(state):
+        inner_set(state)
+        model.overspeed_indicator = 1.0 if abs(model.wd) > limit else 0.0
+
+    model.do_step, model.log_to, model.set_state = do_step, log_to, set_state
 
 
 def build_message(values: dict) -> str | None:

@@ -28,7 +28,7 @@ from spurdiff import native_library
 from spurdiff.errors import ParameterError, StepError
 from spurdiff.differential.mesh.integrator import SMAX      # mesh_kernel.h SMAX: the most stages of a tableau
 
-ABI = 4
+ABI = 5
 LIB_NAME = "mesh_kernel.so"
 SEARCH_PATH: list[Path] = []
 _HERE = Path(__file__).resolve().parent
@@ -64,7 +64,7 @@ class MkState(C.Structure):
                 # factored W, the cached f and side values at y with their inputs, the Jacobian's age)
                 + [("Jf", _d * 100), ("LU", _d * 100), ("f0c", _d * 10), ("sv0c", _d * 13), ("key", _d * 4),
                    ("lu_h", _d), ("piv", C.c_int32 * 10), ("key_s", _i * 2), ("cache_ok", _i), ("jac_age", _i),
-                   ("n_jac", _i), ("n_lu", _i)])
+                   ("n_jac", _i), ("n_lu", _i), ("gpin", _d * 4)])
 
 
 def source_digest(native: Path) -> str:
@@ -227,7 +227,14 @@ class Kernel:
             I[2:2 + nf] = fl
         I[8] = nf
         I[9:14] = (c.n_internal_steps, c.n_rejected_steps, c.n_mode_switches, c.n_contact_transitions, c.n_steps)
+        S.gpin[:] = c._g
         return S
+
+    def set_speed_loads(self, g) -> None:
+        """The planets' centrifugal forces for the next steps; the cached f at y no longer holds."""
+        S = self.state
+        S.gpin[:] = g
+        S.cache_ok = 0
 
     def advance(self, c, t: float, h: float) -> list:
         """One communication step of model ``c`` in C; updates the model's state and returns the

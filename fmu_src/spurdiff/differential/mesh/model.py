@@ -41,7 +41,8 @@ import numpy as np
 from spurdiff.errors import ParameterError, StepError, require_finite, require_positive
 from spurdiff.gears.geometry import DifferentialGeometry
 from spurdiff.differential.inertia import MassProperties, mass_properties
-from spurdiff.differential.locking import locking_coefficients, paper_locking_coefficient, pin_friction
+from spurdiff.differential.flank_law import locking_coefficient_flank
+from spurdiff.differential.locking import PinFriction, locking_coefficients, paper_locking_coefficient, pin_friction
 from spurdiff.differential.model_base import DifferentialModel
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.statics import MeshForces
@@ -50,7 +51,7 @@ from spurdiff.differential.mesh import kernel as compiled
 from spurdiff.differential.mesh.forces import (BilateralSpring, ElastoBacklash, FlankFriction, Impact, MeshPhase, SideValues, evaluate,
                      gear_meshes, potential)
 from spurdiff.differential.mesh.integrator import METHODS, RosenbrockW
-from spurdiff.differential.mesh.layout import D12, DA, DB, PSI, VA, VB, W1, W2, constant_jacobian, mesh_data, relative_angles
+from spurdiff.differential.mesh.layout import D12, DA, DB, PSI, VA, VB, W1, W2, WC, constant_jacobian, mesh_data, relative_angles
 from spurdiff.differential.mesh.params import MeshParams
 from spurdiff.differential.mesh.events import contact_flags
 from spurdiff.differential.mesh.stepper import advance
@@ -131,6 +132,15 @@ class MeshDifferential(DifferentialModel):
         self._flank = bool(mp_.flankFriction)
         self._pin = bool(mp_.pinFriction) and (pf.c > 0.0 or self.preload > 0.0)
         self._need_phase = self._var or self._flank
+        # the locking coefficients without flank friction, and with it where it is on (pin-load
+        # law): the mesh-cycle average of the Coulomb flank friction at the static coefficient
+        # (spurdiff.differential.flank_law; the break-away of a slow ramp from rest depends on the
+        # start phases, within the range info prints)
+        self.K_pins, self.K_pins_coast = self.K, self.K_coast
+        if self._flank and self.law == "pinFriction":
+            pf_f = pf if self._pin else PinFriction(pf.layout, 0.0, (0.0, 0.0), pf.rho, pf.rb, pf.n)
+            self.K, self.K_coast = (locking_coefficient_flank(geo, pf_f, float(mp_.muStatic), sg)
+                                    for sg in (1.0, -1.0))
         self.law_obj = (Impact(float(mp_.contactExponent), float(mp_.contactDamping), float(mp_.contactDepth))
                         if self._contact else ElastoBacklash() if self._bl else BilateralSpring())
         self.phase_obj = MeshPhase(self._var, self._need_phase)
@@ -139,7 +149,13 @@ class MeshDifferential(DifferentialModel):
         self.md = mesh_data(geo, ms, mp_)
         self.gear_meshes = gear_meshes(self.md)
         # pin friction: layout of one planet pair and the constants (spurdiff.differential.locking)
-        self._pin_force = pf.layout.pin_force
+        # the planets' centrifugal pin loads per unit w_c^2 (pinSpeedLoads, as the rigid level)
+        th = pf.layout.theta
+        self._cf = (((ms.m_planet1 * geo.meshA1.a, 0.0),
+                     (ms.m_planet2 * geo.meshB2.a * math.cos(th), ms.m_planet2 * geo.meshB2.a * math.sin(th)))
+                    if p.pinSpeedLoads and self._pin and self.law == "pinFriction" else ((0.0, 0.0), (0.0, 0.0)))
+        self._g, self._g_wc = (0.0, 0.0, 0.0, 0.0), 0.0
+        self._pin_flat = pf.layout._flat
         self.layout_angle = pf.layout.theta
         self.pin_unit = pf.layout.unit_pin_loads(1.0)
         self.c_pin = pf.c
@@ -226,6 +242,34 @@ class MeshDifferential(DifferentialModel):
         self._kernel_dirty = True
         self._refresh_outputs()
 
+    def _pin_force(self, i: int, Fs: float, F12: float) -> tuple[float, float, float]:
+        """|bearing force| of planet i with its centrifugal force and its derivatives by Fs and
+        F12 (:meth:`spurdiff.gears.layout.PinLayout.pin_force` plus ``g_i``)."""
+        tx, ty, rx, ry, ux, uy, qx, qy = self._pin_flat[i]
+        aS = abs(Fs)
+        a12 = abs(F12)
+        fx = Fs * tx + aS * rx + F12 * ux + a12 * qx + self._g[2 * i]
+        fy = Fs * ty + aS * ry + F12 * uy + a12 * qy + self._g[2 * i + 1]
+        mag = math.sqrt(fx * fx + fy * fy)
+        if mag == 0.0:
+            return 0.0, 0.0, 0.0
+        sgS = 1.0 if Fs >= 0.0 else -1.0
+        sg12 = 1.0 if F12 >= 0.0 else -1.0
+        return (mag, (fx * (tx + sgS * rx) + fy * (ty + sgS * ry)) / mag,
+                (fx * (ux + sg12 * qx) + fy * (uy + sg12 * qy)) / mag)
+
+    def _set_speed_loads(self, wc: float) -> None:
+        """The planets' centrifugal pin loads at carrier speed ``wc``, held over the next step."""
+        if wc == self._g_wc:
+            return
+        w2 = wc * wc
+        (c1x, c1y), (c2x, c2y) = self._cf
+        self._g = (c1x * w2, c1y * w2, c2x * w2, c2y * w2)
+        self._g_wc = wc
+        self._f0_key = None
+        if self._kernel is not None:
+            self._kernel.set_speed_loads(self._g)
+
     # ================================================================== stepping
     def do_step(self, t: float, h: float) -> None:
         """Advance from t to t + h with the inputs held; raises ParameterError / StepError.
@@ -235,6 +279,7 @@ class MeshDifferential(DifferentialModel):
             raise StepError("do_step called before initialize")
         h = require_positive("communicationStepSize", h)
         self._check_inputs()
+        self._set_speed_loads(self.wc if self.speed_drive else float(self.y[WC]))
         if self._kernel is not None:   # the whole step in C (which changes nothing on failure), outputs included
             self._refresh_outputs(SideValues(*self._kernel.advance(self, t, h)))
             return
@@ -404,7 +449,7 @@ class MeshDifferential(DifferentialModel):
     _SCALARS = ("t", "wc", "phic", "_ac", "h_next", "_dA0", "_dB0", "_d120", "work_in", "energy_loss",
                 "loss_last_step", "parametric_work", "n_mode_switches", "n_contact_transitions",
                 "n_internal_steps", "n_rejected_steps", "n_steps", "_last_h",
-                "w_ref", "tau_c", "tau_L", "tau_R")
+                "w_ref", "tau_c", "tau_L", "tau_R", "_g_wc")
 
     def get_state(self) -> dict:
         """Full state (JSON-serialisable): continuous state, friction modes, contact flags,
@@ -424,6 +469,9 @@ class MeshDifferential(DifferentialModel):
     def set_state(self, state: dict) -> None:
         for k in self._SCALARS:
             setattr(self, k, state[k])
+        w2 = self._g_wc * self._g_wc                  # the speed loads are a function of _g_wc
+        (c1x, c1y), (c2x, c2y) = self._cf
+        self._g = (c1x * w2, c1y * w2, c2x * w2, c2y * w2)
         self.y[:] = state["y"]
         self.s = [int(v) for v in state["modes"]]
         self._contact_flags = [int(v) for v in state["contact_flags"]]

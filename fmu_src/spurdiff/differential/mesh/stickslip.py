@@ -148,6 +148,7 @@ def initial_state(c, t0: float) -> None:
     if not c.speed_drive:
         y[WC] = wc0
     ac = 0.0 if c.speed_drive else rig.ac
+    c._set_speed_loads(float(wc0))      # the planets' centrifugal pin loads at the start speed
     c.s = [0, 0]
     FA, FB, F12, ac = initial_forces(c, ac, rig.ad, rig.slip_dir, wd0)
     preload = c.mesh.preload

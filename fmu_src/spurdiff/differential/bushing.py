@@ -1,0 +1,106 @@
+"""The planets' pin bushings: the data sets of ``spurdiff/data/pin_bushing.toml`` (each value with
+its source there), the friction lever they give the locking law, and the design findings they
+raise (rim backup ratio of the planets, bushing pressure p and pv against the material's limits).
+
+The lever of the pin-load law (:mod:`spurdiff.differential.locking`) is ``mu' r_j``: ``r_j`` the
+journal radius, ``mu' = mu_s / sqrt(1 + mu_s^2)`` the friction-circle coefficient of a journal
+bearing where the data set says so (the paper's set uses its ``mu`` as published). The static
+coefficient is used: the locking coefficient is a break-away value; the dynamic coefficient is
+recorded in the data and not used by the dynamics (one coefficient per run).
+
+Bushing length: the planet's face width (planet 1: 22 mm, planet 2: 40 mm in the paper's set).
+Backup ratio ``m_B = s_R / h_t`` with the rim ``s_R = (d_f - d_bore) / 2`` under the tooth root
+and the tooth height ``h_t = (d_a - d_f) / 2``; ``d_bore = 2 (r_j + wall)``.
+"""
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+
+from spurdiff.datafile import DATA_FOLDER
+from spurdiff.gears.geometry import DifferentialGeometry
+
+PIN_DATA = "pin_bushing.toml"
+# read once at import, from this package's own data folder (see spurdiff.datafile)
+_SETS = tomllib.loads((DATA_FOLDER / PIN_DATA).read_text(encoding="utf-8"))
+PIN_SETS = tuple(_SETS)
+BACKUP_RATIO_MIN = 1.2      # AGMA 2001-D04 / ISO 6336-3: rim as solid at and above (pin_bushing.toml)
+
+
+@dataclass(frozen=True)
+class Bushing:
+    name: str
+    description: str
+    material: str
+    lubrication: str
+    muStatic: float
+    muDynamic: float
+    frictionCircle: bool
+    journalRadius: float
+    bushingWall: float
+    pMax: float
+    vMax: float
+    pvMax: float
+
+    @property
+    def mu_effective(self) -> float:
+        """The coefficient the locking law uses with ``journalRadius``: mu_s / sqrt(1 + mu_s^2)
+        with the friction-circle correction, else mu_s."""
+        mu = self.muStatic
+        return mu / math.sqrt(1.0 + mu * mu) if self.frictionCircle else mu
+
+    @property
+    def lever(self) -> float:
+        return self.mu_effective * self.journalRadius
+
+
+def bushing(name: str) -> Bushing:
+    """The pin data set ``name`` (``paper`` or ``bronze``)."""
+    if name not in _SETS:
+        raise ValueError(f"pin data set {name!r}: the sets are {', '.join(PIN_SETS)}")
+    d = _SETS[name]
+    return Bushing(name, d["description"], d["material"], d["lubrication"], float(d["muStatic"]),
+                   float(d["muDynamic"]), bool(d["frictionCircle"]), float(d["journalRadius"]),
+                   float(d["bushingWall"]), float(d["pMax"]), float(d["vMax"]), float(d["pvMax"]))
+
+
+@dataclass(frozen=True)
+class BushingCheck:
+    planet: str
+    backup_ratio: float
+    p: float          # Pa, pin load / (journal diameter x length)
+    v: float          # m/s, sliding speed on the journal
+    pv: float         # Pa m/s
+
+    def findings(self, b: Bushing) -> list[str]:
+        out = []
+        if self.backup_ratio < BACKUP_RATIO_MIN:
+            out.append(f"{self.planet}: rim backup ratio s_R/h_t = {self.backup_ratio:.2f} < {BACKUP_RATIO_MIN:g} "
+                       f"(thin rim under the bore: root stress raised, ISO 6336-3 Y_B > 1)")
+        if self.p > b.pMax:
+            out.append(f"{self.planet}: bushing pressure p = {self.p / 1e6:.1f} MPa > {b.pMax / 1e6:.1f} MPa")
+        if self.pv > b.pvMax:
+            out.append(f"{self.planet}: bushing pv = {self.pv / 1e6:.2f} MPa m/s > {b.pvMax / 1e6:.2f} MPa m/s")
+        return out
+
+
+def backup_ratio(geo: DifferentialGeometry, planet: str, b: Bushing) -> float:
+    g = geo.gears[planet]
+    rf, ra = g.rf, g.ra
+    s_R = rf - (b.journalRadius + b.bushingWall)
+    return s_R / (ra - rf)
+
+
+def check(geo: DifferentialGeometry, b: Bushing, pin_loads: tuple[float, float], w_rel: float,
+          rho: tuple[float, float]) -> tuple[BushingCheck, BushingCheck]:
+    """Backup ratio, p, v and pv of the two planets' bushings for the pin loads (N, per planet)
+    and the differential speed ``w_rel`` (sun A relative to the carrier, rad/s; the planets
+    turn at ``rho_i w_rel`` on their pins)."""
+    out = []
+    for k, planet in enumerate(("planet1", "planet2")):
+        L = geo.gears[planet].b
+        p = pin_loads[k] / (2.0 * b.journalRadius * L)
+        v = abs(rho[k] * w_rel) * b.journalRadius
+        out.append(BushingCheck(planet, backup_ratio(geo, planet, b), p, v, p * v))
+    return tuple(out)

@@ -1,0 +1,167 @@
+"""``spurdiff design`` (= ``python -m harness.cli.design``): for given tooth counts and centre
+distances, profile shifts and tip diameters with no undercut, no tip interference, a usable
+contact ratio of at least 1.2 on every mesh, assembly and clearance satisfied
+(:mod:`spurdiff.gears.design_search`); prints what changed against the input set, the design
+checks and, with ``--torque``, the ISO 6336 load capacity of both sets; ``--write`` writes the set
+as a data file (the bundled ``designed`` set, docs/capacity.md, was written so)."""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import tomllib
+from pathlib import Path
+
+HEADER = """# The designed gear set (`spurdiff design`, spurdiff/gears/design_search.py; docs/capacity.md):
+# written by
+#   {command}
+# Tooth counts, module, rack, tool, face widths and nPairs as the paper's set; centre distances
+# {a} mm (A1, B2, 12). Profile shifts and tip diameters proposed: no undercut, no tip interference,
+# usable contact ratio >= {eps:g} on every mesh, tip thickness >= {s:g} m, tip clearances >= {c:g} m,
+# planet 2 clear of sun A, neighbour clearance for nPairs. Keys as in differential.toml; SI units.
+# Loaded by spurdiff.gears.design_sets.gear_set("designed")."""
+
+
+def _numbers(text: str, n: int, what: str, kind):
+    from spurdiff.errors import ParameterError
+    parts = [p.strip() for p in text.split(",")]
+    if len(parts) != n:
+        raise ParameterError(what, text, f"{n} comma-separated numbers")
+    out = []
+    for p in parts:
+        try:
+            v = kind(p)
+        except ValueError:
+            raise ParameterError(what, text, f"{n} comma-separated {'integers' if kind is int else 'numbers'}") from None
+        if kind is float and not math.isfinite(v):
+            raise ParameterError(what, text, "finite numbers")
+        out.append(v)
+    return out
+
+
+class _Parser(argparse.ArgumentParser):
+    """Usage errors as one line (``spurdiff design: ...``), exit 2."""
+
+    def error(self, message):
+        from harness.cli import fail
+        sys.exit(fail(self.prog, message + " (spurdiff design -h shows the options)"))
+
+
+def _joined(argv: list[str]) -> list[str]:
+    """``--teeth -5,13,...`` as ``--teeth=-5,13,...`` (a list starting with a minus sign is a value)."""
+    out, i = [], 0
+    while i < len(argv):
+        if argv[i] in ("--teeth", "--centre-distances") and i + 1 < len(argv):
+            out.append(f"{argv[i]}={argv[i + 1]}")
+            i += 2
+        else:
+            out.append(argv[i])
+            i += 1
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    ap = _Parser(prog="spurdiff design", description="propose profile shifts and tip diameters "
+                                 "for given tooth counts and centre distances (no undercut, no interference, usable "
+                                 "contact ratio >= 1.2, assembly and clearance), against an input set")
+    ap.add_argument("--teeth", help="tooth counts sunA,planet1,sunB,planet2 (default: the input set's)")
+    ap.add_argument("--centre-distances", dest="a", help="centre distances A1,B2,12 in mm (default: the input set's)")
+    ap.add_argument("--input", help="input gear set, a TOML file with differential.toml's keys (default: the paper's)")
+    ap.add_argument("--eps-min", type=float, default=1.2, help="least usable contact ratio (default 1.2)")
+    ap.add_argument("--tip-thickness", type=float, default=0.3, help="least tip thickness, in modules (default 0.3)")
+    ap.add_argument("--clearance", type=float, default=0.2, help="least tip clearances, in modules (default 0.2)")
+    ap.add_argument("--torque", type=float, help="carrier torque T0 in N m: print the ISO 6336 capacity of both sets")
+    ap.add_argument("--pin-diameter", type=float, help="diameter of the planets' pins in mm, for the rim factor Y_B "
+                    "(default: 2 r_collar of differential.toml, the paper's 24 mm; 0: solid planets)")
+    ap.add_argument("--scene-parameters", action="store_true", help="print the SpurDifferential parameters of the "
+                    "proposed set as a TOML inline table, for a scene's [fmus.<diff>] parameters")
+    ap.add_argument("--write", help="write the proposed set to this TOML file")
+    args = ap.parse_args(_joined(argv))
+
+    from spurdiff.errors import ParameterError
+    from spurdiff.gears.design import derive
+    from spurdiff.gears.design_search import GEARS, MESHES, Targets, propose, to_toml
+    from spurdiff.gears.design_sets import table_from_data
+    from spurdiff.gears.geometry import GearTable
+
+    if args.input:
+        try:
+            base = table_from_data(tomllib.loads(Path(args.input).read_text(encoding="utf-8")))
+        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
+            raise ParameterError("--input", args.input, "a readable TOML gear set", str(e)) from None
+    else:
+        base = GearTable.paper()
+    for name, v, lo, hi in (("--eps-min", args.eps_min, 1.0, 2.0), ("--tip-thickness", args.tip_thickness, 0.0, 1.0),
+                            ("--clearance", args.clearance, 0.0, 0.5)):
+        if not (math.isfinite(v) and lo <= v <= hi):
+            raise ParameterError(name, v, f"between {lo:g} and {hi:g}")
+    before = derive(base)
+    z = dict(zip(GEARS, _numbers(args.teeth, 4, "--teeth", int))) if args.teeth else \
+        {n: getattr(base, n).z for n in GEARS}
+    if args.a:
+        a = dict(zip(MESHES, (v / 1e3 for v in _numbers(args.a, 3, "--centre-distances", float))))
+    else:
+        a = {me.name: me.a for me in before.meshes}
+    p = propose(z, a, base, Targets(args.eps_min, args.tip_thickness, args.clearance))
+    print(f"proposed gear set for z = {', '.join(str(z[n]) for n in GEARS)} (sunA, planet1, sunB, planet2), "
+          f"centre distances {', '.join(f'{a[k] * 1e3:g}' for k in MESHES)} mm (A1, B2, 12); input -> proposed:")
+    for line in p.changes():
+        print("  " + line)
+    print(f"design checks of the proposed set: {len(p.geometry.errors)} errors, {len(p.geometry.warnings)} warnings")
+    for f in p.geometry.findings:
+        print(f"  {f}")
+    print(f"design checks of the input set: {len(p.before.errors)} errors, {len(p.before.warnings)} warnings")
+    for f in p.before.findings:
+        print(f"  {f}")
+    if args.torque is not None:
+        from spurdiff.gears.capacity import capacity_report, nominal_mesh_forces
+        if not math.isfinite(args.torque):
+            raise ParameterError("--torque", args.torque, "a finite carrier torque in N m")
+        from spurdiff.datafile import differential_default
+        from spurdiff.gears.capacity import stiffness_comparison
+        K = {k: differential_default(f"mesh{k}.contactStiffness") for k in MESHES}
+        e = differential_default("mesh.contactExponent")
+        pin = 2.0 * differential_default("r_collar") if args.pin_diameter is None else args.pin_diameter / 1e3
+        if not (math.isfinite(pin) and pin >= 0.0):
+            raise ParameterError("--pin-diameter", args.pin_diameter, ">= 0 mm")
+        bores = {"planet1": pin, "planet2": pin} if pin > 0.0 else None
+        for label, geo in (("input", p.before), ("proposed", p.geometry)):
+            F = nominal_mesh_forces(geo, args.torque)
+            rep = capacity_report(geo, F, bores=bores)
+            print(f"ISO 6336 capacity of the {label} set at T0 = {args.torque:g} N m (planet pins {pin * 1e3:g} mm):")
+            for line in rep.lines():
+                print("  " + line)
+            print(f"mesh stiffness of the {label} set at T0 = {args.torque:g} N m, ISO 6336-1 against the paper's "
+                  f"IMPACT constants (e = {e:g}):")
+            for c in stiffness_comparison(geo, F, K, e):
+                print(f"  mesh {c.mesh:2s} F_n {c.F0:8.1f} N: ISO c' {c.c_prime:.2f}, c_gamma_alpha {c.c_gamma:.2f} "
+                      f"N/(mm um), k = c_gamma_alpha b {c.k_iso / 1e6:6.1f} N/um, deflection {c.deflection_iso * 1e6:5.1f} "
+                      f"um | IMPACT K {c.K_impact / 1e3 ** e:.3g} N/mm^{e:g}: secant {c.k_impact_secant / 1e6:6.1f} N/um, "
+                      f"tangent {c.k_impact_tangent / 1e6:6.1f} N/um, penetration {c.deflection_impact * 1e6:5.1f} um "
+                      f"| ISO / IMPACT secant {c.k_iso / c.k_impact_secant:.2f}, IMPACT K matching ISO "
+                      f"{c.K_iso_equivalent / 1e3 ** e:.3g} N/mm^{e:g}")
+    if args.scene_parameters:
+        from spurdiff.gears.design_sets import fmu_parameters
+        items = ", ".join(f'"{k}" = {v!r}' for k, v in fmu_parameters(p.table).items())
+        print(f"scene parameters of the proposed set: {{ {items} }}")
+    if args.write:
+        cmd = "spurdiff design " + " ".join(a_ for a_ in _joined(argv) if not a_.startswith("--write")
+                                             and a_ != args.write)
+        text = to_toml(p, HEADER.format(command=cmd.strip(), a=", ".join(f"{a[k] * 1e3:g}" for k in MESHES),
+                                        eps=args.eps_min, s=args.tip_thickness, c=args.clearance))
+        try:
+            Path(args.write).write_text(text, encoding="utf-8")
+        except OSError as e:
+            raise ParameterError("--write", args.write, "a writable file", e.strerror or str(e)) from None
+        print(f"written: {args.write}")
+    return 0
+
+
+if __name__ == "__main__":
+    from harness.cli import fail
+    from spurdiff.errors import ParameterError
+    try:
+        sys.exit(main())
+    except ParameterError as e:
+        sys.exit(fail("spurdiff design", str(e)))

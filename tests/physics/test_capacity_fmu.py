@@ -1,0 +1,110 @@
+"""The load-capacity block of SpurDifferential (spurdiff.fmi.differential_fmu): safety factors as
+calculated parameters equal to spurdiff.gears.capacity's report, the run's largest stresses as
+outputs, one logged warning when a run exceeds the static strength, carried by the FMU state."""
+import pytest
+
+from spurdiff.fmi import differential_fmu as D
+from spurdiff.fmi.adapter import fmu_class
+from spurdiff.gears import capacity as cap
+
+H = 1e-3
+
+
+class _Logged(fmu_class(D)):
+    def __init__(self, **kw):
+        super().__init__(**kw)
+        self.logged = []
+
+    def log(self, msg, status=0, category=None, debug=None):
+        self.logged.append((int(status), msg))
+
+
+def _fmu(**values):
+    f = _Logged(instance_name="cap", resources=".", logging_on=True)
+    f.values.update(values)
+    f.fmi2_setup_experiment(False, 0.0, 0.0, False, 0.0)
+    f.fmi2_enter_initialization_mode()
+    return f, f.fmi2_exit_initialization_mode()
+
+
+def _steps(f, n, t=0.0):
+    for _ in range(n):
+        assert f.fmi2_do_step(t, H) == 0
+        t += H
+    return t
+
+
+def test_safety_factors_are_the_reports():
+    f, status = _fmu(**{"capacity.T0": 1000.0})
+    assert status == 0
+    geo = f.model.geometry
+    bores = {"planet1": 2 * f.values["r_collar"], "planet2": 2 * f.values["r_collar"]}
+    rep = cap.capacity_report(geo, cap.nominal_mesh_forces(geo, 1000.0), bores=bores)
+    for r in rep.meshes:
+        for g in r.gears:
+            assert f.values[f"capacity.mesh{r.mesh}.{g.gear}.S_H"] == g.S_H
+            assert f.values[f"capacity.mesh{r.mesh}.{g.gear}.S_F"] == g.S_F
+    assert f.values["capacity.S_H_static"] == rep.S_H_static
+    assert any("load capacity at capacity.T0 = 1000 N m" in m for _, m in f.logged)
+
+
+def test_largest_stress_output_and_one_warning_when_the_limit_is_exceeded():
+    # a light load (100 N m per sun): below the static strength
+    f, _ = _fmu(**{"left.tau": -100.0, "right.tau": -100.0})
+    f.logged.clear()
+    t = _steps(f, 20)
+    w = f.model.capacity_watch
+    F = f.values["mesh.F_A1"]
+    assert f.values["capacity.sigmaHMax"] == w.sigma_H_max > 0.0
+    assert f.values["capacity.exceeded"] == 0.0 and f.logged == []
+    ref = cap.StressWatch(f.model.geometry, cap.nominal_mesh_forces(f.model.geometry, 2100.0), bores=w.bores)
+    ref.update(F, f.values["mesh.F_B2"], f.values["mesh.F_12"])
+    assert w.sigma_H_max == pytest.approx(ref.sigma_H_max, rel=1e-12)
+    saved = f.fmi2_get_state()
+    light = f.values["capacity.sigmaHMax"]
+    # ten times the paper's load: over the limit, logged once as a warning
+    f.values["left.tau"] = f.values["right.tau"] = -10500.0
+    f._inputs_ok = False
+    t2 = _steps(f, 20, t)
+    assert f.values["capacity.exceeded"] == 1.0
+    warnings = [m for s, m in f.logged if s == 1 and "exceed the static strength" in m]
+    assert len(warnings) == 1
+    assert f.values["capacity.sigmaHMax"] > w.sigma_HG_static
+    assert f.values["capacity.sigmaHMax"] == pytest.approx(light * (10500 / 100) ** 0.5, rel=1e-9)   # sqrt(load)
+    # the FMU state carries the watch: back to the light run, not exceeded
+    assert f.fmi2_set_state(saved) == 0
+    assert f.model.capacity_watch.exceeded is False
+    back = f.fmi2_deserialize_state(f.fmi2_serialize_state(f.fmi2_get_state()))
+    assert f.fmi2_set_state(back) == 0 and f.model.capacity_watch.sigma_H_max == pytest.approx(ref.sigma_H_max)
+    assert t2 > t
+
+
+@pytest.mark.parametrize("name,value,needle", [
+    ("capacity.material", "unobtainium", "capacity.material"),
+    ("capacity.T0", 0.0, "capacity.T0"),
+])
+def test_bad_capacity_parameters_fail_initialization_naming_them(name, value, needle):
+    f, status = _fmu(**{name: value})
+    assert status == 3
+    assert any(needle in m for s, m in f.logged if s == 3)
+
+
+def test_through_the_built_fmu_the_warning_reaches_the_hosts_logger_once(differential_fmu):
+    """The built FMU (our C bridge, fmpy): the findings' line at initialization and one fmi2Warning
+    message when the default experiment (the paper's 2100 N m) exceeds the static contact strength."""
+    from harness.fmi.instance import Instance
+
+    inst = Instance("capacity", differential_fmu)
+    inst.slave.setupExperiment(startTime=0.0)
+    inst.slave.enterInitializationMode()
+    inst.slave.exitInitializationMode()
+    t = 0.0
+    for _ in range(5):
+        inst.do_step(t, H)
+        t += H
+    warnings = [m for s, m in inst.messages if s == 1]
+    assert sum("load capacity at capacity.T0 = 2100 N m" in m for m in warnings) == 1
+    assert sum("exceed the static strength" in m for m in warnings) == 1
+    (sH,), (ex,) = inst.read([inst.var("capacity.sigmaHMax")], "x"), inst.read([inst.var("capacity.exceeded")], "x")
+    assert ex == 1.0 and sH > 2.2e9
+    inst.close()
