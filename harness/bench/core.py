@@ -48,11 +48,13 @@ def cpu_clock():
         hm.time, hdir.time = saved
 
 
-def fmi_overhead(scene_name: str, duration: float | None = None, repeats: int = 5) -> dict:
+def fmi_overhead(scene_name: str, duration: float | None = None, repeats: int = 5,
+                 sets: list[str] | None = None) -> dict:
     """Median stepping time through FMI and directly, interleaved; ratio FMI / direct. Also in CPU
     time of this thread (:func:`cpu_clock`), the fastest of ``repeats`` interleaved runs each (CPU
-    time does not count waiting for the processor: its noise on a shared machine is upward only)."""
-    scene = prepare_scene(scene_name, duration=duration)
+    time does not count waiting for the processor: its noise on a shared machine is upward only).
+    ``sets``: parameter overrides ('instance.parameter=value', as ``spurdiff run --set``)."""
+    scene = prepare_scene(scene_name, duration=duration, sets=sets)
     files = fmu_files_for(scene)
     run_scene(scene, files)  # warm-up: first instantiation imports the model's modules
     fmi, direct, fmi_cpu, direct_cpu = [], [], [], []
@@ -285,16 +287,17 @@ def realtime_factors(repeats: int = 3) -> list[dict]:
     return rows
 
 
-def step_cost_breakdown(scene_name: str = "vehicle-cornering", repeats: int = 3) -> dict:
+def step_cost_breakdown(scene_name: str = "vehicle-cornering", repeats: int = 3,
+                        sets: list[str] | None = None) -> dict:
     """Direct run of a scene with each instance's stepping time measured in CPU time of this thread
     (robust to other processes on a shared machine; the fastest of ``repeats`` runs): microseconds
     per communication step per instance, of it in the model's do_step (the rest: the interface
     module's input and output copies), and for a differential owning its half-shafts the inner
     model's evaluations per step with the time in its steps and its state copies (what bounds the
-    real-time factor)."""
+    real-time factor). ``sets``: parameter overrides as for :func:`fmi_overhead`."""
     import harness.direct as hd
 
-    scene = prepare_scene(scene_name)
+    scene = prepare_scene(scene_name, sets=sets)
     clock = time.thread_time
     acc: dict[str, float] = {}
     models: dict[str, object] = {}
@@ -335,6 +338,8 @@ def step_cost_breakdown(scene_name: str = "vehicle-cornering", repeats: int = 3)
             acc.clear()
             models.clear()
             r = run_direct(scene)
+            if r.failure is not None:    # a failed run measures nothing
+                raise RuntimeError(f"step_cost_breakdown: {scene_name} failed: {r.failure}")
             n = max(1, r.steps)
             for k, v in acc.items():
                 best[k] = min(best.get(k, math.inf), 1e6 * v / n)

@@ -165,3 +165,26 @@ def test_the_out_mode_really_starts_the_models_own_process(fmu_files):
     finally:
         inst.close()
     assert os.environ.get("SPURDIFF_FMU_PROCESS") != "out"   # the block restored the environment
+
+
+def test_vehicle_kernel_bench_measures_both_implementations_of_car_and_wheels(monkeypatch):
+    """harness.bench.vehicle_kernel: the per-part breakdown once with the car and the wheels in
+    Python and once compiled (the scene's solver.kernel overrides reach step_cost_breakdown)."""
+    import harness.bench.vehicle_kernel as vk
+
+    seen, orig = [], bench.step_cost_breakdown
+
+    def once(name, repeats, sets=None):
+        seen.append(sets)
+        return orig(name, 1, sets=sets)
+
+    monkeypatch.setattr(vk, "step_cost_breakdown", once)
+    best = vk.part_costs(1)
+    assert seen == [vk.sets_for("python"), vk.sets_for("compiled")]
+    assert vk.sets_for("python") == ["car.solver.kernel=python", "wheelL.solver.kernel=python",
+                                     "wheelR.solver.kernel=python"]
+    for k in vk.KERNELS:
+        assert {"car", "diff", "wheelL", "wheelR", "car do_step", "diff inner steps"} <= set(best[k])
+        assert all(v > 0.0 for v in best[k].values())
+    with pytest.raises(Exception, match="solver.kernel"):
+        orig("vehicle-cornering", 1, sets=["car.solver.kernel=fortran"])
