@@ -53,15 +53,23 @@ def test_recording_cost_compares_runs_recording_every_step_and_once():
 
 
 def test_step_control_comparison_measures_real_runs(monkeypatch):
-    """The fixed and variable runs of section 5, on a 0.3 s tip-in-tip-out."""
+    """The fixed and variable runs of section 5, on a 0.3 s tip-in-tip-out, and the comparison at equal error."""
     from dataclasses import replace
 
     real = bench.prepare_scene
     monkeypatch.setattr(bench, "prepare_scene", lambda name, **k: replace(real(name, **k), duration=0.3))
     rows = bench.step_control_comparison("tip-in-tip-out", repeats=1)
-    assert [r["run"][:5] for r in rows] == ["fixed", "fixed", "varia", "varia"] and all(r["ok"] for r in rows)
-    assert rows[0]["steps"] == 60 and rows[1]["steps"] == 300
+    assert [r["run"][:5] for r in rows] == ["fixed"] * 3 + ["varia"] * 3 and all(r["ok"] for r in rows)
+    assert [r["steps"] for r in rows[:3]] == [60, 150, 300]
     assert all(math.isfinite(r["err_ratio"]) and r["err_lock"] >= 0.0 for r in rows)
+    assert rows[5]["run"].endswith("no redo)") and rows[5]["rejected"] == 0
+    for r in rows[3:]:   # each variable run against the cheapest fixed run at its error, if any
+        if r["fixed_over"] is None:
+            assert all(f["err_ratio"] > r["err_ratio"] or f["err_lock"] > r["err_lock"] for f in rows[:3])
+        else:
+            f = next(f for f in rows[:3] if f["run"] == r["fixed_over"])
+            assert f["err_ratio"] <= r["err_ratio"] and f["err_lock"] <= r["err_lock"]
+            assert r["cost_ratio"] == r["wall_s"] / f["wall_s"]
 
 
 def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeypatch, capsys):
@@ -86,7 +94,9 @@ def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeyp
         {"run": "fixed 5 ms (scene default)", "wall_s": 0.5, "steps": 700, "rejected": 0, "ok": True,
          "err_ratio": 1e-3, "err_lock": 7.0},
         {"run": "variable (rtol 0.001, atol 0.001 J)", "wall_s": 4.0, "steps": 3900, "rejected": 99, "ok": True,
-         "err_ratio": 6e-4, "err_lock": 2.9}])
+         "err_ratio": 6e-4, "err_lock": 2.9, "fixed_over": None, "cost_ratio": None},
+        {"run": "variable (rtol 0.01, atol 0.01 J, no redo)", "wall_s": 1.0, "steps": 600, "rejected": 0, "ok": True,
+         "err_ratio": 2e-3, "err_lock": 8.0, "fixed_over": "fixed 5 ms (scene default)", "cost_ratio": 2.0}])
     monkeypatch.setattr(report, "process_report", lambda *a, **k: ["   one round trip (getReal's difference): 1.5 us"])
     assert report._report(argparse.Namespace(levels=None, repeats=1)) == 0
     out = capsys.readouterr().out
@@ -107,7 +117,9 @@ def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeyp
     assert "the FMI path at most 6 us per instance and step" in out
     lines = {ln.split("  ")[0]: ln for ln in out.splitlines()}
     assert lines["coupled / direct run, vehicle-cornering (step 0.2 ms)"].rstrip().endswith("NO")
-    assert "variable (rtol 0.001, atol 0.001 J)" in lines and lines["variable (rtol 0.001, atol 0.001 J)"].split()[-4] == "3900"
+    assert "variable (rtol 0.001, atol 0.001 J)" in lines and lines["variable (rtol 0.001, atol 0.001 J)"].split()[-6] == "3900"
+    assert lines["variable (rtol 0.01, atol 0.01 J, no redo)"].split()[-5:] == ["5", "ms", "(scene", "default)", "2.00"]
+    assert "the variable step wins (no fixed run reaches its error for less): variable (rtol 0.001, atol 0.001 J)" in out
     assert lines["real-time factor, paper-straight at contact (unloaded start)"].rstrip().endswith("yes")
 
 
