@@ -59,15 +59,18 @@ def test_step_control_comparison_measures_real_runs(monkeypatch):
     real = bench.prepare_scene
     monkeypatch.setattr(bench, "prepare_scene", lambda name, **k: replace(real(name, **k), duration=0.3))
     rows = bench.step_control_comparison("tip-in-tip-out", repeats=1)
-    assert [r["run"][:5] for r in rows] == ["fixed"] * 3 + ["varia"] * 3 and all(r["ok"] for r in rows)
-    assert [r["steps"] for r in rows[:3]] == [60, 150, 300]
+    nf = 1 + len(bench.FIXED_STEPS)
+    assert [r["run"][:5] for r in rows] == ["fixed"] * nf + ["varia"] * 3 and all(r["ok"] for r in rows)
+    assert [r["steps"] for r in rows[:nf]] == [60, 75, 120, 150, 240, 300]
     assert all(math.isfinite(r["err_ratio"]) and r["err_lock"] >= 0.0 for r in rows)
-    assert rows[5]["run"].endswith("no redo)") and rows[5]["rejected"] == 0
-    for r in rows[3:]:   # each variable run against the cheapest fixed run at its error, if any
+    assert rows[-1]["run"].endswith("no redo)") and rows[-1]["rejected"] == 0
+    for r in rows[nf:]:   # each variable run against the cheapest fixed run at its error, if any
+        ok = [f for f in rows[:nf] if f["err_ratio"] <= r["err_ratio"] and f["err_lock"] <= r["err_lock"]]
         if r["fixed_over"] is None:
-            assert all(f["err_ratio"] > r["err_ratio"] or f["err_lock"] > r["err_lock"] for f in rows[:3])
+            assert not ok
         else:
-            f = next(f for f in rows[:3] if f["run"] == r["fixed_over"])
+            f = next(f for f in rows[:nf] if f["run"] == r["fixed_over"])
+            assert f["wall_s"] == min(g["wall_s"] for g in ok)
             assert f["err_ratio"] <= r["err_ratio"] and f["err_lock"] <= r["err_lock"]
             assert r["cost_ratio"] == r["wall_s"] / f["wall_s"]
 
