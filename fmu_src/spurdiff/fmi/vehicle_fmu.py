@@ -144,7 +144,7 @@ VARIABLES: list[Var] = [
     Var("solver.kernel", "parameter", "Implementation of the car's Runge-Kutta step: auto (the compiled kernel "
         "shipped in the FMU when it loads, else the Python reference, with the reason logged) | compiled "
         "(refuse to start without it) | python (the pure-Python reference; the same results bit for bit, "
-        "slower)", None, None, "auto", kind="String"),
+        "slower)", None, None, "auto", kind="String", bind="kernel"),
     Var("solver.kernelInUse", "calculatedParameter", "Implementation that runs the car's Runge-Kutta step: "
         "compiled | python (and why)", None, None, "", kind="String"),
 ]
@@ -158,7 +158,6 @@ def vehicle_params(values: dict) -> VehicleParams:
 def build_model(values: dict) -> Vehicle:
     """Build and initialize the vehicle model from FMI variable values (ParameterError if invalid)."""
     model = Vehicle(vehicle_params(values))
-    model.kernel = values["solver.kernel"]
     bindings(VARIABLES).push(model, values)
     model.initialize(0.0)
     values["solver.kernelInUse"] = model.kernel_note

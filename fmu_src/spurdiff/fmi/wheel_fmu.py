@@ -174,7 +174,7 @@ VARIABLES: list[Var] = [
     Var("solver.kernel", "parameter", "Implementation of the wheel's implicit-midpoint sub-steps: auto (the compiled kernel "
         "shipped in the FMU when it loads, else the Python reference, with the reason logged) | compiled "
         "(refuse to start without it) | python (the pure-Python reference; the same results bit for bit, "
-        "slower)", None, None, "auto", kind="String"),
+        "slower)", None, None, "auto", kind="String", bind="kernel"),
     Var("solver.kernelInUse", "calculatedParameter", "Implementation that runs the wheel's implicit-midpoint sub-steps: "
         "compiled | python (and why)", None, None, "", kind="String"),
 ]
@@ -194,7 +194,6 @@ def wheel_params(values: dict) -> WheelLoadParams:
 def build_model(values: dict) -> WheelLoad:
     """Build and initialize the wheel-load model from FMI variable values (ParameterError if invalid)."""
     model = WheelLoad(wheel_params(values))
-    model.kernel = values["solver.kernel"]
     bindings(VARIABLES).push(model, values)
     model.initialize(0.0)
     values["solver.kernelInUse"] = model.kernel_note

@@ -96,7 +96,7 @@ class Vehicle:
         self._geo_key = None   # (pathRadius, grade, its sign, L) of the cached terms of _set_geometry
         # implementation of do_step (``solver.kernel``): auto (the compiled step,
         # spurdiff.vehicle.kernel, if it loads, else this Python reference) | compiled | python
-        self.kernel = "auto"
+        self.kernel = getattr(self.params, "kernel", "auto")   # params.kernel; may be set here
         self._vk = None
         self.kernel_note = "python (not initialized)"
         self._ready = False

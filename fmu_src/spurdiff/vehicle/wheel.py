@@ -130,7 +130,7 @@ class WheelLoad:
         self.flange_tau = self.Fx = self.wheel_w = self.slip = self.shaft_tau = self.shaft_power = 0.0
         # implementation of the sub-steps and outputs (``solver.kernel``): auto (the compiled step,
         # spurdiff.vehicle.kernel, if it loads, else this Python reference) | compiled | python
-        self.kernel = "auto"
+        self.kernel = getattr(self.params, "kernel", "auto")   # params.kernel; may be set here
         self._vk = None
         self.kernel_note = "python (not initialized)"
         self._ready = False
