@@ -62,7 +62,8 @@ FMU_SRC = fmu_sources()          # native/, the C sources (package spurdiff_fmus
 PACKAGE = physics_package()      # bundled into every FMU
 NATIVE = FMU_SRC / "native"
 NATIVE_FMI = NATIVE / "fmi"           # the loader, bridge and server: LOADER_SOURCES, SERVER_SOURCES
-NATIVE_KERNELS = NATIVE / "kernels"   # the compiled steps of the models: KERNEL_SOURCES, RIGID_KERNEL_SOURCES
+NATIVE_KERNELS = NATIVE / "kernels"   # the compiled steps of the models: KERNEL_SOURCES, RIGID_KERNEL_SOURCES,
+                                      # VEHICLE_KERNEL_SOURCES
 
 # FMU name -> its interface module, where the FMU is declared once: FMU_NAME, DESCRIPTION,
 # VARIABLES (bound to the model), build_model, DEFAULT_EXPERIMENT
@@ -210,6 +211,10 @@ KERNEL_FLAGS = ["-shared", "-fPIC", "-O2", "-Wall", "-ffp-contract=off"]
 KERNEL_SOURCES = ("mesh_kernel.c", "mesh_kernel_model.c")
 # the compiled pin-load solve of the rigid level (fmu_src/native/kernels/rigid_kernel.c), same flags, same FMUs
 RIGID_KERNEL_SOURCES = ("rigid_kernel.c",)
+# the compiled steps of the car and the wheel (fmu_src/native/kernels/vehicle_kernel.c), same flags, in the
+# Vehicle and WheelLoad FMUs
+VEHICLE_KERNEL_SOURCES = ("vehicle_kernel.c",)
+VEHICLE_KERNEL_FMUS = ("Vehicle", "WheelLoad")
 
 
 def compile_kernel(out: Path, sources: tuple[str, ...] = KERNEL_SOURCES) -> Path:
@@ -250,6 +255,7 @@ def kernel_library(dest: Path | None = None) -> Path:
 
     out = _direct_kernel(kernel, "mesh_kernel", KERNEL_SOURCES, dest)
     rigid_kernel_library(dest)
+    vehicle_kernel_library(dest)
     return out
 
 
@@ -258,6 +264,13 @@ def rigid_kernel_library(dest: Path | None = None) -> Path:
     from spurdiff.differential import rigid_kernel
 
     return _direct_kernel(rigid_kernel, "rigid_kernel", RIGID_KERNEL_SOURCES, dest)
+
+
+def vehicle_kernel_library(dest: Path | None = None) -> Path:
+    """The car's and the wheel's compiled steps for direct runs: ``vehicle_kernel-<digest>.so`` in the FMU folder."""
+    from spurdiff.vehicle import kernel
+
+    return _direct_kernel(kernel, "vehicle_kernel", VEHICLE_KERNEL_SOURCES, dest)
 
 
 def _patch_binary(so: Path) -> str:
@@ -281,6 +294,12 @@ PYTHONFMU_RESOURCES = ("resources/pythonfmu/", "resources/slavemodule.txt", "bin
 
 
 def _compile_kernels(name: str, pkg: Path, notes: list[str]) -> None:
+    if name in VEHICLE_KERNEL_FMUS:
+        try:         # the car's and the wheel's steps beside spurdiff.vehicle.kernel
+            compile_kernel(pkg / "vehicle" / "libvehicle_kernel.so", VEHICLE_KERNEL_SOURCES)
+            notes.append("vehicle kernel compiled")
+        except BuildError as e:
+            notes.append(f"WARNING: the vehicle kernel was not built ({e}); the model runs the Python reference")
     if name not in MESH_KERNEL_FMUS:
         return
     try:             # the compiled mesh kernel beside its binding (spurdiff.differential.mesh.kernel)

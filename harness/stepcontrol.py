@@ -12,7 +12,8 @@ the receiving side's speed::
 and scaled by the tolerance ``atol + rtol |tau_mean w_mean| h`` (J). The error ``e`` is the
 largest scaled residual of all bonds. A step with ``e > 1`` is rejected: every FMU is restored
 with fmi2SetFMUstate to the state it had before the step (taken with fmi2GetFMUstate), and the
-step is redone with a smaller h. Accepted steps set the next h by a PI controller
+step is redone with a smaller h (``reject = False``: never redone, no state saved; the error
+only sets the next step, the non-iterative form of the paper). Accepted steps set the next h by a PI controller
 ``h_new = h safety e^(-k_i) (e_prev / e)^(k_p)``, limited to ``[h_min, h_max]`` and to a change
 of at most ``grow`` / ``shrink`` per step.
 
@@ -48,6 +49,9 @@ class StepControl:
     grow: float = 2.0
     shrink: float = 0.2
     max_rejects: int = 20
+    # False: never redo a step (no FMU state saved per step; the error of a step only sets the next
+    # one, as the non-iterative control of Sadjina et al.)
+    reject: bool = True
 
     def validate(self) -> None:
         for name in ("h_min", "h_max", "h_start", "rtol", "safety", "grow"):
@@ -132,18 +136,22 @@ class VariableStepMaster(Master):
                     raise Interrupted(t)
                 h = min(h, sc.duration - t)
                 prev_bonds, prev_power = self._bonds(), self._coupling_power()
-                saved = self._save()
-                for attempt in range(ctl.max_rejects + 1):
+                if not ctl.reject:
                     self._communication_step(t, h, order, jacobi)
                     err = bond_error(prev_bonds, self._bonds(), h, ctl)
-                    if err <= 1.0 or h <= ctl.h_min * (1.0 + 1e-12):
-                        break
-                    self.rejected += 1
-                    self._restore(saved)
-                    h = max(ctl.h_min, h * max(ctl.shrink, ctl.safety * err ** -0.5))
                 else:
-                    raise RunFailure("step control", t, f"{ctl.max_rejects} rejected steps in a row")
-                self._free_states(saved)
+                    saved = self._save()
+                    for attempt in range(ctl.max_rejects + 1):
+                        self._communication_step(t, h, order, jacobi)
+                        err = bond_error(prev_bonds, self._bonds(), h, ctl)
+                        if err <= 1.0 or h <= ctl.h_min * (1.0 + 1e-12):
+                            break
+                        self.rejected += 1
+                        self._restore(saved)
+                        h = max(ctl.h_min, h * max(ctl.shrink, ctl.safety * err ** -0.5))
+                    else:
+                        raise RunFailure("step control", t, f"{ctl.max_rejects} rejected steps in a row")
+                    self._free_states(saved)
                 self._add_work(energy, prev_power, h)
                 t += h
                 steps += 1

@@ -1,10 +1,11 @@
 """Finding and loading a compiled kernel of this package (the mesh levels' ``mesh_kernel*.c``, the
-rigid level's ``rigid_kernel.c``; both in ``fmu_src/native``), written once for both.
+rigid level's ``rigid_kernel.c``, the car's and the wheel's ``vehicle_kernel.c``; all in
+``fmu_src/native/kernels``), written once for all.
 
 Where a kernel is found (first hit that loads and passes the kernel's own check):
 
 1. beside its binding module, under its shipped name (``harness/build.py`` puts it there inside each
-   SpurDifferential FMU);
+   FMU that runs it);
 2. in the folders of the binding's ``SEARCH_PATH`` (``harness.build`` adds the FMU folder, where it
    compiles the kernels for direct runs and the tests), ``$SPURDIFF_KERNEL_DIR``,
    ``$SPURDIFF_FMU_DIR`` and a checkout's ``build/fmus``, as ``<stem>-<digest>.so``: the digest of

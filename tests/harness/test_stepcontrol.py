@@ -46,3 +46,23 @@ def test_variable_steps_follow_the_transient_and_agree_with_fixed_steps(fmu_file
     assert stat(r, "diff.lockingTorque", "mean", [1.0, 2.4]) == pytest.approx(
         stat(ref, "diff.lockingTorque", "mean", [1.0, 2.4]), rel=1e-2)
     assert m.rejected >= 1          # a step was redone through fmi2SetFMUstate
+
+
+def test_without_redo_no_state_is_taken_and_every_step_is_accepted(fmu_files, monkeypatch):
+    """reject = False (the non-iterative form): no FMU state saved or restored, no step redone;
+    the error of each step still sets the next (small steps at the tip-in, larger before it)."""
+    from harness.stepcontrol import VariableStepMaster
+
+    def refuse(self, *a):
+        raise AssertionError("an FMU state was saved or restored")
+
+    monkeypatch.setattr(VariableStepMaster, "_save", refuse)
+    monkeypatch.setattr(VariableStepMaster, "_restore", refuse)
+    scene = prepare_scene("tip-in-tip-out", duration=0.8)
+    r, m = run_variable(scene, fmu_files, StepControl(rtol=1e-2, atol=1e-2, reject=False))
+    assert r.ok, r.failure
+    assert m.rejected == 0 and len(m.steps_taken) == r.steps
+    assert sum(m.steps_taken) == pytest.approx(0.8, abs=1e-12)
+    before = [h for h, t in zip(m.steps_taken, np.cumsum(m.steps_taken)) if t < 0.5]
+    after = [h for h, t in zip(m.steps_taken, np.cumsum(m.steps_taken)) if 0.5 < t < 0.65]
+    assert min(after) < 0.5 * max(before)

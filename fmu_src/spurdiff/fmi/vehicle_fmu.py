@@ -141,6 +141,12 @@ VARIABLES: list[Var] = [
     _p("speedControl", "Ki", "Speed controller integral gain (axle torque per integrated speed error)", "N.m/m"),
     _p("speedControl", "driveTorqueMax", "Largest axle drive torque (> 0)", "N.m", "N.mm"),
     _p("speedControl", "driveTorqueMin", "Most negative axle torque, engine braking (<= 0)", "N.m", "N.mm"),
+    Var("solver.kernel", "parameter", "Implementation of the car's Runge-Kutta step: auto (the compiled kernel "
+        "shipped in the FMU when it loads, else the Python reference, with the reason logged) | compiled "
+        "(refuse to start without it) | python (the pure-Python reference; the same results bit for bit, "
+        "slower)", None, None, "auto", kind="String", bind="kernel"),
+    Var("solver.kernelInUse", "calculatedParameter", "Implementation that runs the car's Runge-Kutta step: "
+        "compiled | python (and why)", None, None, "", kind="String"),
 ]
 
 
@@ -154,4 +160,11 @@ def build_model(values: dict) -> Vehicle:
     model = Vehicle(vehicle_params(values))
     bindings(VARIABLES).push(model, values)
     model.initialize(0.0)
+    values["solver.kernelInUse"] = model.kernel_note
     return model
+
+
+def build_message(values: dict) -> str | None:
+    """What the FMU logs once the model is built: which implementation runs its step."""
+    return (f"solver.kernel = {values['solver.kernel']}: {values['solver.kernelInUse']} implementation of the "
+            "car's Runge-Kutta step")

@@ -171,6 +171,12 @@ VARIABLES: list[Var] = [
     _p(None, "followFlangeAngle",
        "true: the half-shaft twist follows the flange angle input (no drift); false: integrate flange.w only",
        None, None, kind="Boolean"),
+    Var("solver.kernel", "parameter", "Implementation of the wheel's implicit-midpoint sub-steps: auto (the compiled kernel "
+        "shipped in the FMU when it loads, else the Python reference, with the reason logged) | compiled "
+        "(refuse to start without it) | python (the pure-Python reference; the same results bit for bit, "
+        "slower)", None, None, "auto", kind="String", bind="kernel"),
+    Var("solver.kernelInUse", "calculatedParameter", "Implementation that runs the wheel's implicit-midpoint sub-steps: "
+        "compiled | python (and why)", None, None, "", kind="String"),
 ]
 
 
@@ -190,4 +196,11 @@ def build_model(values: dict) -> WheelLoad:
     model = WheelLoad(wheel_params(values))
     bindings(VARIABLES).push(model, values)
     model.initialize(0.0)
+    values["solver.kernelInUse"] = model.kernel_note
     return model
+
+
+def build_message(values: dict) -> str | None:
+    """What the FMU logs once the model is built: which implementation runs its step."""
+    return (f"solver.kernel = {values['solver.kernel']}: {values['solver.kernelInUse']} implementation of the "
+            "wheel's implicit-midpoint sub-steps")

@@ -42,6 +42,7 @@ from spurdiff.vehicle.tyre import slip_for_force_ratio
 from spurdiff.vehicle.car_params import (G, STEER_ANGLE, STEER_PATH, BodyParams, LateralTyreParams,  # noqa: F401 (re-exported)
                              SpeedControlParams, SteeringParams, VehicleParams)
 from spurdiff.vehicle.car_rates import make_rates
+from spurdiff.vehicle import kernel as vehicle_kernel
 
 _GRADE_MIN, _GRADE_MAX = -0.25 * math.pi, 0.25 * math.pi   # allowed road grade (rad)
 
@@ -93,6 +94,11 @@ class Vehicle:
             setattr(self, k, 0.0)
         self.s = [0.0] * _N
         self._geo_key = None   # (pathRadius, grade, its sign, L) of the cached terms of _set_geometry
+        # implementation of do_step (``solver.kernel``): auto (the compiled step,
+        # spurdiff.vehicle.kernel, if it loads, else this Python reference) | compiled | python
+        self.kernel = getattr(self.params, "kernel", "auto")   # params.kernel; may be set here
+        self._vk = None
+        self.kernel_note = "python (not initialized)"
         self._ready = False
 
     # ------------------------------------------------------------------ setup
@@ -142,6 +148,7 @@ class Vehicle:
         self.n_steps = 0
         self.n_substeps = 0
         self._update_outputs()
+        self._vk, self.kernel_note = vehicle_kernel.choose_car(self)
         self._ready = True
 
     def _steady_turn_start(self, vx: float, r: float) -> tuple[float, float]:
@@ -238,6 +245,9 @@ class Vehicle:
         if not (h.__class__ is float and 0.0 < h < math.inf):
             h = require_positive("communicationStepSize", h)
         self._load_inputs()
+        if self._vk is not None:
+            self._step_compiled(self._vk, t, h)
+            return
         p = self.params
         h_lim = p.vehicle.h_max
         vx = abs(self.s[0])
@@ -289,6 +299,26 @@ class Vehicle:
         # the car then ramps its inputs from the car's outputs at the step's start to those at its end)
         out = out[:-4] + ((out[0] - self.rearLeft_vx) / h, (out[1] - self.rearRight_vx) / h,
                           (out[2] - self.rearLeft_Fz) / h, (out[3] - self.rearRight_Fz) / h)
+        self._set_outputs(out)
+
+    def _step_compiled(self, vk, t: float, h: float) -> None:
+        """The step of :meth:`do_step` in C (:mod:`spurdiff.vehicle.kernel`; the same numbers bit for
+        bit), the inputs loaded and checked; atomic as the reference."""
+        io = vk.io
+        io[0:12] = self.s
+        io[12:29] = (h, self._FxL, self._FxR, self._vref, self._dcmd, self._mu, self._dvref, self._dR, self._R,
+                     self._kappa, self._delta_ff, self._sin_g, self._cos_g, self.rearLeft_vx, self.rearRight_vx,
+                     self.rearLeft_Fz, self.rearRight_Fz)
+        bad = vk.fn(vk.const, io)
+        s = io[29:41]
+        out = io[41:59]
+        out[6] = math.hypot(s[0], s[1])     # the speed (CPython's hypot, not libm's)
+        if bad or not math.isfinite(out[6]):
+            raise StepError(f"vehicle: the step at t = {t:.6g} s gave a non-finite state; state kept")
+        self.s = s
+        self.n_substeps += int(io[59])
+        self.t = t + h
+        self.n_steps += 1
         self._set_outputs(out)
 
     def _update_outputs(self) -> None:
@@ -362,6 +392,8 @@ class Vehicle:
         for k in _INPUT_KEYS + _OUTPUT_KEYS:
             setattr(self, k, state[k])
         self._load_inputs()
+        if self.kernel_note.startswith("python (not"):
+            self._vk, self.kernel_note = vehicle_kernel.choose_car(self)
         self._ready = True
 
 

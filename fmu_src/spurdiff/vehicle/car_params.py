@@ -120,6 +120,8 @@ class VehicleParams:
     lateralTyre: LateralTyreParams = field(default_factory=LateralTyreParams)
     steering: SteeringParams = field(default_factory=SteeringParams)
     speedControl: SpeedControlParams = field(default_factory=SpeedControlParams)
+    # implementation of the step (FMI solver.kernel; not data): auto | compiled | python (spurdiff.vehicle.kernel)
+    kernel: str = "auto"
 
     @classmethod
     def from_data(cls, data: dict) -> "VehicleParams":

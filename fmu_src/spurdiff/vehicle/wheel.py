@@ -75,6 +75,7 @@ from __future__ import annotations
 import math
 import operator
 from spurdiff.errors import StepError, require_finite, require_nonnegative, require_positive
+from spurdiff.vehicle import kernel as vehicle_kernel
 from spurdiff.vehicle.wheel_params import SHAFT_COUPLINGS, HalfShaftParams, WheelLoadParams, WheelParams  # noqa: F401 (re-exported)
 
 _STATE_KEYS = (
@@ -127,6 +128,11 @@ class WheelLoad:
         self.dFz = 0.0
         self.dvx = 0.0
         self.flange_tau = self.Fx = self.wheel_w = self.slip = self.shaft_tau = self.shaft_power = 0.0
+        # implementation of the sub-steps and outputs (``solver.kernel``): auto (the compiled step,
+        # spurdiff.vehicle.kernel, if it loads, else this Python reference) | compiled | python
+        self.kernel = getattr(self.params, "kernel", "auto")   # params.kernel; may be set here
+        self._vk = None
+        self.kernel_note = "python (not initialized)"
         self._ready = False
 
     # ------------------------------------------------------------------ setup
@@ -158,6 +164,7 @@ class WheelLoad:
         self.KE0 = self.kinetic_energy
         self.PE0 = self.potential_energy
         self._update_outputs(self.w if self.wheel_mode else w_in, v, Fz, mu)
+        self._vk, self.kernel_note = vehicle_kernel.choose_wheel(self)
         self._ready = True
 
     def _inputs(self) -> tuple[float, float, float, float, float]:
@@ -217,6 +224,15 @@ class WheelLoad:
                 self.theta = th0 + dphi
                 self.work_flange += 0.5 * c * (self.theta * self.theta - th0 * th0)
         n = max(1, math.ceil(h / p.h_max - 1e-9))
+        if self._vk is not None:
+            io = self._compiled(self._vk, h / n, n, w_in, 0.0, v0, Fz0, mu, p.halfShaft.c, p.halfShaft.d, 0.0, dFz,
+                                dv, w_in, v, Fz, 0.0, 0.0, False)
+            self._commit_compiled(io)
+            self.n_substeps += n
+            self.phi_ref = phi_in + w_in * h
+            self.t = t + h
+            self.n_steps += 1
+            return
         self._substeps(h / n, n, w_in, 0.0, v0, Fz0, mu, dFz=dFz, dv=dv)
         self.n_substeps += n
         self.phi_ref = phi_in + w_in * h
@@ -234,6 +250,21 @@ class WheelLoad:
             dw_in = require_finite("shaftIn.dw", self.dw_in)
         Fz0, v0, Fz, v, dFz, dv = self._ramp(Fz, v, h)
         p = self.params
+        if self._vk is not None:   # the same in C; nothing stored before the result is checked
+            k = 1.0 if p.interfaceStiffness else 0.0
+            n = max(1, math.ceil(h / p.h_max - 1e-9))
+            w0 = self.w
+            io = self._compiled(self._vk, h / n, n, w0, dw_in, v0, Fz0, mu, k * p.halfShaft.c, k * p.halfShaft.d,
+                                tau_in, dFz, dv, w0 + dw_in, v, Fz, self.tau_in, k, True)
+            if not (math.isfinite(io[1] + io[2] + io[3] + io[9] + io[11])
+                    or all(math.isfinite(x) for x in (io[1], io[2], io[3], io[9], io[11]))):
+                raise StepError(f"wheel: the step at t = {t:.6g} s gave a non-finite state")
+            self.w_anchor = w0
+            self._commit_compiled(io)
+            self.n_substeps += n
+            self.t = t + h
+            self.n_steps += 1
+            return
         saved = _get_step_values(self)   # what a step changes (cheap)
         try:
             # interface stiffness: the differential computed tau_in with the wheel side moving at
@@ -264,6 +295,35 @@ class WheelLoad:
         """True with shaftCoupling = "wheel": do_step leaves the state as it was when it raises
         and never commits a non-finite state (the FMU adapter then takes no snapshot)."""
         return getattr(self, "wheel_mode", False)
+
+    def _compiled(self, vk, hs: float, n: int, w_in: float, dw_in: float, v: float, Fz: float, mu: float,
+                  c: float, d: float, tau0: float, dFz: float, dv: float, w_out: float, v_end: float,
+                  Fz_end: float, tau_in: float, k_if: float, wheel_mode: bool) -> list:
+        """:meth:`_substeps` and :meth:`_update_outputs` in C (:mod:`spurdiff.vehicle.kernel`; the same
+        numbers bit for bit), the sub-steps' arguments as there (the twist from 0 with
+        ``wheel_mode``, as :meth:`_do_step_wheel` starts it), the outputs' (``w_out``, ``v_end``,
+        ``Fz_end``, ``tau_in``: shaftIn.tau, ``k_if``: the interface stiffness 0 or 1) as
+        ``_update_outputs`` takes them. Returns the new theta, w, k, phi, the ledger and the outputs
+        (io[28:47]); raises StepError as the reference does, nothing stored."""
+        io = vk.io
+        io[0:28] = (hs, n, w_in, dw_in, v, Fz, mu, c, d, tau0, dFz, dv, 1.0 if wheel_mode else 0.0,
+                    0.0 if wheel_mode else self.theta, self.w, self.k, self.phi, self.work_flange, self.loss_damping, self.work_road,
+                    self.loss_slip, self.loss_rolling, w_out, v_end, Fz_end, tau_in, k_if,
+                    1.0 if wheel_mode else 0.0)
+        status = vk.fn(vk.const, io)
+        if status == 1:
+            raise StepError(f"wheel: implicit step not solvable (slope {io[47]!r}); reduce wheelLoad.h_max")
+        if status:
+            raise StepError("wheel: Newton iteration did not converge; reduce wheelLoad.h_max")
+        return io[28:47]
+
+    def _commit_compiled(self, out: list) -> None:
+        """Store what :meth:`_compiled` returned."""
+        (self.theta, self.w, self.k, self.phi, self.work_flange, self.loss_damping, self.work_road,
+         self.loss_slip, self.loss_rolling, self.shaft_tau, self.flange_tau, self.Fx, self.shaft_power,
+         self.sur_a, self.sur_invJ, self.sur_dadw, self.sur_qrate, self.sur_ct, self.sur_rt) = out
+        self.wheel_w = self.w
+        self.slip = self.k
 
     def _substeps(self, hs: float, n: int, w_in: float, dw_in: float, v: float, Fz: float, mu: float,
                   c: float | None = None, d: float | None = None, tau0: float | None = None,
@@ -440,6 +500,8 @@ class WheelLoad:
         for k in _STATE_KEYS:
             setattr(self, k, state[k])
         self.wheel_mode = self.params.shaftCoupling == "wheel"
+        if self.kernel_note.startswith("python (not"):
+            self._vk, self.kernel_note = vehicle_kernel.choose_wheel(self)
         self._ready = True
 
 

@@ -62,6 +62,8 @@ class WheelLoadParams:
     shaftCoupling: str = "torque"
     interfaceStiffness: int = 1
     rampAnchor: str = "start"
+    # implementation of the sub-steps (FMI solver.kernel; not data): auto | compiled | python (spurdiff.vehicle.kernel)
+    kernel: str = "auto"
 
     @classmethod
     def from_data(cls, data: dict) -> "WheelLoadParams":

@@ -53,15 +53,26 @@ def test_recording_cost_compares_runs_recording_every_step_and_once():
 
 
 def test_step_control_comparison_measures_real_runs(monkeypatch):
-    """The fixed and variable runs of section 5, on a 0.3 s tip-in-tip-out."""
+    """The fixed and variable runs of section 5, on a 0.3 s tip-in-tip-out, and the comparison at equal error."""
     from dataclasses import replace
 
     real = bench.prepare_scene
     monkeypatch.setattr(bench, "prepare_scene", lambda name, **k: replace(real(name, **k), duration=0.3))
     rows = bench.step_control_comparison("tip-in-tip-out", repeats=1)
-    assert [r["run"][:5] for r in rows] == ["fixed", "fixed", "varia", "varia"] and all(r["ok"] for r in rows)
-    assert rows[0]["steps"] == 60 and rows[1]["steps"] == 300
+    nf = 1 + len(bench.FIXED_STEPS)
+    assert [r["run"][:5] for r in rows] == ["fixed"] * nf + ["varia"] * 3 and all(r["ok"] for r in rows)
+    assert [r["steps"] for r in rows[:nf]] == [60, 75, 120, 150, 240, 300]
     assert all(math.isfinite(r["err_ratio"]) and r["err_lock"] >= 0.0 for r in rows)
+    assert rows[-1]["run"].endswith("no redo)") and rows[-1]["rejected"] == 0
+    for r in rows[nf:]:   # each variable run against the cheapest fixed run at its error, if any
+        ok = [f for f in rows[:nf] if f["err_ratio"] <= r["err_ratio"] and f["err_lock"] <= r["err_lock"]]
+        if r["fixed_over"] is None:
+            assert not ok
+        else:
+            f = next(f for f in rows[:nf] if f["run"] == r["fixed_over"])
+            assert f["wall_s"] == min(g["wall_s"] for g in ok)
+            assert f["err_ratio"] <= r["err_ratio"] and f["err_lock"] <= r["err_lock"]
+            assert r["cost_ratio"] == r["wall_s"] / f["wall_s"]
 
 
 def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeypatch, capsys):
@@ -86,7 +97,9 @@ def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeyp
         {"run": "fixed 5 ms (scene default)", "wall_s": 0.5, "steps": 700, "rejected": 0, "ok": True,
          "err_ratio": 1e-3, "err_lock": 7.0},
         {"run": "variable (rtol 0.001, atol 0.001 J)", "wall_s": 4.0, "steps": 3900, "rejected": 99, "ok": True,
-         "err_ratio": 6e-4, "err_lock": 2.9}])
+         "err_ratio": 6e-4, "err_lock": 2.9, "fixed_over": None, "cost_ratio": None},
+        {"run": "variable (rtol 0.01, atol 0.01 J, no redo)", "wall_s": 1.0, "steps": 600, "rejected": 0, "ok": True,
+         "err_ratio": 2e-3, "err_lock": 8.0, "fixed_over": "fixed 5 ms (scene default)", "cost_ratio": 2.0}])
     monkeypatch.setattr(report, "process_report", lambda *a, **k: ["   one round trip (getReal's difference): 1.5 us"])
     assert report._report(argparse.Namespace(levels=None, repeats=1)) == 0
     out = capsys.readouterr().out
@@ -107,7 +120,9 @@ def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeyp
     assert "the FMI path at most 6 us per instance and step" in out
     lines = {ln.split("  ")[0]: ln for ln in out.splitlines()}
     assert lines["coupled / direct run, vehicle-cornering (step 0.2 ms)"].rstrip().endswith("NO")
-    assert "variable (rtol 0.001, atol 0.001 J)" in lines and lines["variable (rtol 0.001, atol 0.001 J)"].split()[-4] == "3900"
+    assert "variable (rtol 0.001, atol 0.001 J)" in lines and lines["variable (rtol 0.001, atol 0.001 J)"].split()[-6] == "3900"
+    assert lines["variable (rtol 0.01, atol 0.01 J, no redo)"].split()[-5:] == ["5", "ms", "(scene", "default)", "2.00"]
+    assert "the variable step wins (no fixed run reaches its error for less): variable (rtol 0.001, atol 0.001 J)" in out
     assert lines["real-time factor, paper-straight at contact (unloaded start)"].rstrip().endswith("yes")
 
 
@@ -165,3 +180,26 @@ def test_the_out_mode_really_starts_the_models_own_process(fmu_files):
     finally:
         inst.close()
     assert os.environ.get("SPURDIFF_FMU_PROCESS") != "out"   # the block restored the environment
+
+
+def test_vehicle_kernel_bench_measures_both_implementations_of_car_and_wheels(monkeypatch):
+    """harness.bench.vehicle_kernel: the per-part breakdown once with the car and the wheels in
+    Python and once compiled (the scene's solver.kernel overrides reach step_cost_breakdown)."""
+    import harness.bench.vehicle_kernel as vk
+
+    seen, orig = [], bench.step_cost_breakdown
+
+    def once(name, repeats, sets=None):
+        seen.append(sets)
+        return orig(name, 1, sets=sets)
+
+    monkeypatch.setattr(vk, "step_cost_breakdown", once)
+    best = vk.part_costs(1)
+    assert seen == [vk.sets_for("python"), vk.sets_for("compiled")]
+    assert vk.sets_for("python") == ["car.solver.kernel=python", "wheelL.solver.kernel=python",
+                                     "wheelR.solver.kernel=python"]
+    for k in vk.KERNELS:
+        assert {"car", "diff", "wheelL", "wheelR", "car do_step", "diff inner steps"} <= set(best[k])
+        assert all(v > 0.0 for v in best[k].values())
+    with pytest.raises(Exception, match="solver.kernel"):
+        orig("vehicle-cornering", 1, sets=["car.solver.kernel=fortran"])

@@ -1,0 +1,89 @@
+"""What the car's and the wheel's compiled steps (:mod:`spurdiff.vehicle.kernel`) save on
+vehicle-cornering: A/B in one process, interleaved (``solver.kernel = python`` on the car and both
+wheels, the reference, against ``compiled``; the differential as the scene runs it), CPU time of
+the stepping thread, fastest of ``rounds`` runs each:
+
+* the cost per communication step of each instance in the direct run and of it in the model's
+  ``do_step`` (:func:`harness.bench.core.step_cost_breakdown`), with the differential's inner
+  model and state copies (what the half-shaft solve leaves besides);
+* the whole scene through FMI and directly (:func:`harness.bench.core.fmi_overhead`): us per step,
+  FMI / direct and the real-time factor;
+* the FMI path without the physics (:func:`harness.bench.core.fmi_path_cost`): what bounds FMI /
+  direct as the physics gets cheaper.
+
+Run ``python -m harness.cli.vehicle_kernel_bench [--rounds N]``. Printed, never asserted.
+"""
+from __future__ import annotations
+
+import os
+
+from harness.bench.core import fmi_overhead, fmi_path_cost, step_cost_breakdown
+from harness.build import kernel_library
+
+KERNELS = ("python", "compiled")
+SCENE = "vehicle-cornering"
+VEHICLE_INSTANCES = ("car", "wheelL", "wheelR")
+
+
+def sets_for(kernel: str) -> list[str]:
+    """The scene overrides that select ``kernel`` for the car and the wheels."""
+    return [f"{i}.solver.kernel={kernel}" for i in VEHICLE_INSTANCES]
+
+
+def part_costs(rounds: int) -> dict[str, dict]:
+    """Per kernel: us per step of each instance and of it in do_step, the differential's inner steps
+    and state copies (fastest of ``rounds`` x 3 direct runs, the kernels alternating)."""
+    best: dict[str, dict] = {k: {} for k in KERNELS}
+    for _ in range(rounds):
+        for k in KERNELS:
+            o = step_cost_breakdown(SCENE, 3, sets=sets_for(k))
+            rows = {**{n: v for n, v in o["us_per_step"].items()},
+                    **{f"{n} do_step": v for n, v in o["model_us"].items()},
+                    **{f"{n} inner steps": v[0] for n, v in o["inner_us"].items()},
+                    **{f"{n} inner state copies": v[1] for n, v in o["inner_us"].items()}}
+            for key, v in rows.items():
+                best[k][key] = min(best[k].get(key, v), v)
+    return best
+
+
+def scene_costs(rounds: int) -> dict[str, dict]:
+    """Per kernel: :func:`fmi_overhead` (FMI and direct in CPU time, fastest of ``rounds``; the two
+    kernels measured one after the other, each interleaving its FMI and direct runs)."""
+    return {k: fmi_overhead(SCENE, repeats=rounds, sets=sets_for(k)) for k in KERNELS}
+
+
+def load_line() -> str:
+    try:
+        one, five, _ = os.getloadavg()
+    except OSError:
+        return "load average unknown"
+    return f"load average {one:.1f} (1 min), {five:.1f} (5 min) on {os.cpu_count()} cores"
+
+
+def run(rounds: int = 5) -> int:
+    """Measure and print."""
+    kernel_library()
+    print(f"{SCENE}: the car and the wheels stepped in Python (solver.kernel = python) and compiled, "
+          f"A/B in one process ({load_line()})")
+    best = part_costs(rounds)
+    print(f"per 5 ms communication step, direct run (us, CPU time of the stepping thread, fastest of {rounds} x 3):")
+    keys = [k for k in best["compiled"] if " " not in k] + [k for k in best["compiled"] if " " in k]
+    print(f"  {'part':28s} {'python':>8s} {'compiled':>9s}")
+    for key in keys:
+        print(f"  {key:28s} {best['python'].get(key, float('nan')):8.1f} {best['compiled'][key]:9.1f}")
+    for k in KERNELS:
+        tot = sum(v for n, v in best[k].items() if " " not in n)
+        print(f"  sum of the instances, {k}: {tot:.1f} us")
+    sc = scene_costs(rounds)
+    print(f"the whole scene (CPU time, fastest of {rounds}; FMI and direct interleaved):")
+    for k, o in sc.items():
+        steps = round(o["simulated_s"] / o["step"])
+        print(f"  {k:8s}  FMI {1e6 * o['fmi_cpu_s'] / steps:6.1f} us/step  direct {1e6 * o['direct_cpu_s'] / steps:6.1f}"
+              f" us/step  FMI / direct {o['ratio_cpu']:.3f}  real-time factor FMI {o['simulated_s'] / o['fmi_cpu_s']:6.1f}"
+              f"  direct {o['simulated_s'] / o['direct_cpu_s']:6.1f}")
+    path = fmi_path_cost(SCENE, repeats=rounds)
+    print(f"the FMI path without the physics (every do_step a no-op, CPU time, fastest of {rounds}): FMI "
+          f"{path['fmi_us']:.1f} us, direct {path['direct_us']:.1f} us per step: {path['per_instance_us']:.1f} us "
+          f"per instance and step")
+    print(f"({load_line()})")
+    return 0
