@@ -316,7 +316,10 @@ def _compile_kernels(name: str, pkg: Path, notes: list[str]) -> None:
 
 # the win64 kernels: their shipped name -> (sources, place in the package), beside the .so ones
 WIN64_KERNELS = {"mesh_kernel.dll": (KERNEL_SOURCES, "differential/mesh/mesh_kernel.dll"),
-                 "librigid_kernel.dll": (RIGID_KERNEL_SOURCES, "differential/librigid_kernel.dll")}
+                 "librigid_kernel.dll": (RIGID_KERNEL_SOURCES, "differential/librigid_kernel.dll"),
+                 "libvehicle_kernel.dll": (VEHICLE_KERNEL_SOURCES, "vehicle/libvehicle_kernel.dll")}
+WIN64_KERNEL_FMUS = {"mesh_kernel.dll": MESH_KERNEL_FMUS, "librigid_kernel.dll": MESH_KERNEL_FMUS,
+                     "libvehicle_kernel.dll": VEHICLE_KERNEL_FMUS}
 _WIN64: dict[str, object] = {}    # "parts": the Win64 parts, or "why": the reason there are none (one per process)
 
 
@@ -433,9 +436,10 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
                 raise BuildError(f"{name}: the FMU's Python runtime: {e}") from None
         pkg = _stage(name, tmp, runtime is not None, notes)
         win64 = _win64_parts() if runtime is not None else None
-        if win64 is not None and name in MESH_KERNEL_FMUS:
+        if win64 is not None:
             for shipped, (_, place) in WIN64_KERNELS.items():
-                shutil.copyfile(win64.kernels[shipped], pkg / place)
+                if name in WIN64_KERNEL_FMUS[shipped]:
+                    shutil.copyfile(win64.kernels[shipped], pkg / place)
         try:
             raw = FmuBuilder.build_FMU(script, dest=tmp / "raw", project_files=[] if runtime else [pkg],
                                        canGetAndSetFMUstate=True, canSerializeFMUstate=True)
