@@ -171,7 +171,14 @@ else:
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                          env={**os.environ, "SPURDIFF_FMU_PROCESS": "out"})
     try:
-        assert p.stdout.readline().strip() == "READY", p.stderr.read()
+        seen = []                       # the FMU's log lines (fmpy prints them on stdout) come first
+        for line in p.stdout:
+            seen.append(line)
+            if line.strip() == "READY":
+                break
+        if not seen or seen[-1].strip() != "READY":
+            p.kill()                    # never wait on a host that waits on us
+            raise AssertionError(f"no READY from the host: {''.join(seen)[-2000:]}{p.stderr.read()[-2000:]}")
         servers = _children(p.pid)
         assert len(servers) == 1, f"expected one model process, found {servers}"
         if how == "SIGKILL":
