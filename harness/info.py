@@ -3,7 +3,9 @@ from __future__ import annotations
 
 import math
 
+from spurdiff.gears.capacity import CapacityParams, capacity_report, nominal_mesh_forces
 from spurdiff.gears.design import derive
+from spurdiff.gears.design_sets import gear_set
 from spurdiff.gears.geometry import MM, GearTable
 from spurdiff.differential.inertia import mass_properties
 from spurdiff.differential.params import DifferentialParams
@@ -86,6 +88,39 @@ def bushing_rows(geo, mu_flank: float) -> list[str]:
                     "backup ratio", "p MPa", "pv MPa m/s"], rows),
             "Bushing findings" + (f" (limits: backup ratio >= {BACKUP_RATIO_MIN:g}, C93200 bronze p, pv)"),
             *(finds or ["  none"]), ""]
+
+
+def capacity_rows(geo) -> list[str]:
+    """ISO 6336 safety factors and capacity findings (spurdiff.gears.capacity, method B) of the
+    given gear set (the paper's by default) and of the designed one (spurdiff/data/gear_set_designed.toml), each on the pins of
+    both pin data sets (bore 2 (r_j + bushing wall)), at the FMU's rating torque capacity.T0."""
+    T0 = CapacityParams().T0
+    sets = [("paper (default)" if geo.table == GearTable.paper() else "given", geo),
+            ("designed", derive(gear_set("designed")))]
+    rows, reports = [], []
+    for label, g in sets:
+        F = nominal_mesh_forces(g, T0)
+        for pins in PIN_SETS:
+            b = bushing(pins)
+            bore = 2.0 * (b.journalRadius + b.bushingWall)
+            rep = capacity_report(g, F, bores={"planet1": bore, "planet2": bore})
+            gs = [x for r in rep.meshes for x in r.gears]
+            n_err = sum(f.level == "error" for f in rep.findings)
+            rows.append([label, f"{pins} ({bore / MM:g})", f"{max(x.sigma_H for x in gs) / 1e6:.0f}",
+                         f"{max(x.sigma_F for x in gs) / 1e6:.0f}", f"{rep.S_H:.3f} / {rep.S_H_static:.3f}",
+                         f"{rep.S_F:.3f} / {rep.S_F_static:.3f}", f"{n_err} / {len(rep.findings) - n_err}"])
+            reports.append((f"{label}, {pins} pins ({bore / MM:g} mm bore)", rep))
+    out = [f"Load capacity, ISO 6336 method B (spurdiff.gears.capacity, docs/capacity.md) at the rating torque "
+           f"capacity.T0 = {T0:g} N m split equally between the suns, nominal mesh forces; the given set and the designed "
+           f"one (spurdiff design, spurdiff/data/gear_set_designed.toml), each on the planet pins of both pin data "
+           f"sets; safety factors S (smallest over meshes and gears) long life / static; findings: errors (static "
+           f"< 1) / warnings (long life < 1, thin rim)",
+           render(["gear set", "pins (bore mm)", "sigma_H max MPa", "sigma_F max MPa", "S_H", "S_F",
+                   "findings"], rows)]
+    for label, rep in reports:
+        out.append(f"Capacity of {label}:")
+        out += [f"  {line}" for line in rep.lines()]
+    return out + [""]
 
 
 WHEEL_RADIUS = 0.3266      # m, the Chrono sedan's tyre (shared/docs/model-references.md): carrier = wheel speed
@@ -188,6 +223,7 @@ def info_text(table: GearTable | None = None, params: DifferentialParams | None 
     out += flank_rows(geo, pf, Kd, Kc, mu_flank)
     out += bushing_rows(geo, mu_flank)
     out += speed_rows(p, geo, pf)
+    out += capacity_rows(geo)
 
     T0 = PAPER_T0 * 1e-3  # N m
     K = Kp

@@ -12,7 +12,9 @@ Top-level keys::
     algorithm                     "gauss-seidel" (default) | "jacobi"
     order                         list of instance names: Gauss-Seidel order (default: as declared)
     effects                       table of structural parameters of the differential (meshModel, ...)
-    [fmus.<instance>]             fmu = "SpurDifferential" | ..., parameters = {name = value}
+    [fmus.<instance>]             fmu = "SpurDifferential" | ..., parameters = {name = value},
+                                  gearSet = "paper" | "designed" (SpurDifferential only: the named gear set's
+                                  parameters, spurdiff.gears.design_sets.fmu_parameters, under its own parameters)
     inputs                        {"inst.var" = number | {table = [[t, v], ...]} | {step = {...}}}
     connections                   {"to_inst.var" = "from_inst.var"}
     couplings                     [[couplings]]: power bonds to monitor (name, torque, w_from, w_to)
@@ -59,7 +61,7 @@ TOP_KEYS = {"name", "description", "duration", "step", "output_interval", "algor
             "fmus", "inputs", "connections", "couplings", "record", "table", "checks", "fidelity",
             "extends"}
 FIDELITY_KEYS = {"mode", "outputs", "tolerance", "data"}
-FMU_KEYS = {"fmu", "parameters"}
+FMU_KEYS = {"fmu", "parameters", "gearSet"}
 TABLE_KEYS = {"label", "var", "scale", "unit", "paper", "theory", "paper_max", "paper_min", "window"}
 CHECK_KEYS = {"name", "stat", "var", "window", "expect", "rtol", "atol", "below", "above", "expect_var", "fidelity"}
 COUPLING_KEYS = {"name", "torque", "w_from", "w_to", "sign"}
@@ -86,6 +88,8 @@ class FmuInstance:
     name: str
     fmu: str
     parameters: dict[str, Any] = field(default_factory=dict)
+    gear_set: str | None = None          # the named gear set (``gearSet``), SpurDifferential only
+    gear_parameters: dict[str, Any] = field(default_factory=dict)   # its parameters (fmu_parameters)
 
 
 @dataclass
@@ -115,10 +119,14 @@ class Scene:
 
     def parameter_sources(self, instance: str) -> list[tuple[str, dict[str, Any]]]:
         """Where an instance's parameter values come from, lowest priority first, as (prefix for
-        messages, table): the scene's ``effects`` for the differential, then its own parameters."""
+        messages, table): the scene's ``effects`` for the differential, then its named gear set's
+        parameters (``gearSet``), then its own parameters."""
         spec = self.instance(instance)
         own = (f"{spec.name}.", spec.parameters)
-        return [("effects.", self.effects), own] if spec.fmu == EFFECTS_FMU else [own]
+        if spec.fmu != EFFECTS_FMU:
+            return [own]
+        gear = [(f"{spec.name}.gearSet = {spec.gear_set}: ", spec.gear_parameters)] if spec.gear_set else []
+        return [("effects.", self.effects), *gear, own]
 
     def parameters_of(self, instance: str) -> dict[str, Any]:
         """The parameter values an instance is given (its own over the scene's effects)."""
@@ -208,6 +216,20 @@ def _quantity(where: str, q, names: set[str]) -> list[str]:
 _INSTANCE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,63}$")
 
 
+def _gear_set(where: str, fmu: str, spec: dict) -> tuple[str | None, dict[str, Any]]:
+    """An instance's ``gearSet`` and the SpurDifferential parameters that select it (None, {}
+    without one); a gear set on another FMU or an unknown set's name is one line."""
+    if "gearSet" not in spec:
+        return None, {}
+    from spurdiff.gears.design_sets import SETS, fmu_parameters
+    name = _text(where, spec["gearSet"])
+    if fmu != EFFECTS_FMU:
+        raise SceneError(f"{where} = {shown(name)}: only a {EFFECTS_FMU} instance has a gear set")
+    if name not in SETS:
+        raise SceneError(f"{where} = {shown(name)}; allowed: {' | '.join(SETS)}")
+    return name, fmu_parameters(name)
+
+
 def parse_scene(data: dict, source: Path | None = None) -> Scene:
     where = str(source.name) if source else "scene"
     _table_of(where, data)
@@ -238,7 +260,8 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
             raise SceneError(f"{where}: fmus.{iname}: missing key 'fmu'")
         fmu = _text(f"{where}: fmus.{iname}.fmu", spec["fmu"])
         params = _table_of(f"{where}: fmus.{iname}.parameters", spec.get("parameters", {}))
-        instances.append(FmuInstance(iname, fmu, dict(params)))
+        gear_set, gear_params = _gear_set(f"{where}: fmus.{iname}.gearSet", fmu, spec)
+        instances.append(FmuInstance(iname, fmu, dict(params), gear_set, gear_params))
     names = {i.name for i in instances}
     order = data.get("order")
     if order is not None:

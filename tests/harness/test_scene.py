@@ -64,3 +64,46 @@ def test_a_missing_variable_is_named_with_its_instance():
     del v["diff"]["lockingTorque"]
     with pytest.raises(SceneError, match="diff: FMU has no variable 'lockingTorque'"):
         parse_scene(DATA).check_wiring(v)
+
+
+def _with_diff(**spec):
+    data = {**DATA, "fmus": {**DATA["fmus"], "diff": {**DATA["fmus"]["diff"], **spec}}}
+    return data
+
+
+def test_a_named_gear_set_gives_its_parameters_between_the_effects_and_the_instance_own():
+    """``gearSet = "designed"`` in [fmus.diff] sets the designed set's geometry (fmu_parameters),
+    the instance's own parameters still win; no gearSet, no gear parameters."""
+    from spurdiff.gears.design_sets import fmu_parameters
+
+    designed = fmu_parameters("designed")
+    assert designed["planet2.x"] != fmu_parameters("paper")["planet2.x"]
+    sc = parse_scene(_with_diff(gearSet="designed", parameters={"mu_pin": 0.2, "sunA.b": 0.02}))
+    got = sc.parameters_of("diff")
+    assert got == {"meshModel": "compliant", "backlash": True, **designed, "mu_pin": 0.2, "sunA.b": 0.02}
+    assert [p for p, _ in sc.parameter_sources("diff")] == ["effects.", "diff.gearSet = designed: ", "diff."]
+    assert sc.instance("diff").gear_set == "designed"
+    assert "sunA.x" not in parse_scene(DATA).parameters_of("diff")
+
+
+@pytest.mark.parametrize("where, value, words", [
+    ("diff", "bronze", "gearSet = 'bronze'; allowed: paper | designed"),
+    ("diff", 3, "allowed a string"),
+    ("wheel", "designed", "only a SpurDifferential instance has a gear set"),
+])
+def test_a_bad_gear_set_is_one_line_naming_it(where, value, words):
+    data = {**DATA, "fmus": {**DATA["fmus"], where: {**DATA["fmus"][where], "gearSet": value}}}
+    with pytest.raises(SceneError) as e:
+        parse_scene(data)
+    assert words in str(e.value) and f"fmus.{where}.gearSet" in str(e.value) and "\n" not in str(e.value)
+
+
+def test_the_vehicle_scenes_run_the_designed_gear_set_and_the_paper_scenes_the_paper_set():
+    """Issue 27: the designed set is the data set the vehicle scenes use; the paper scenes keep the
+    paper's (no gearSet: the defaults of differential.toml, the paper's table)."""
+    from harness.scene import available, load_scene
+
+    for name in available():
+        sc = load_scene(name)
+        want = None if name.startswith("paper-") else "designed"
+        assert sc.instance("diff").gear_set == want, name
