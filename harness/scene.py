@@ -19,7 +19,8 @@ Top-level keys::
     connections                   {"to_inst.var" = "from_inst.var"}
     couplings                     [[couplings]]: power bonds to monitor (name, torque, w_from, w_to)
     record                        list of "inst.var" to record (default: every connected/profiled var)
-    table                         [[table]] rows of the results table (label, var, scale, unit, paper, theory, window)
+    table                         [[table]] rows of the results table (label, var, scale, unit, paper, theory, window;
+                                  accuracy = false: a flag, not one of the quantities `spurdiff accuracy` compares)
     checks                        [[checks]] physical checks (name, stat, var, window, expect/rtol/atol/below/above,
                                   fidelity: the mesh models it holds at, others report it as not checked)
     fidelity                      "fixed" (default) | {mode = "auto", outputs = ["inst.var", ...], tolerance = 0.01,
@@ -62,7 +63,7 @@ TOP_KEYS = {"name", "description", "duration", "step", "output_interval", "algor
             "extends"}
 FIDELITY_KEYS = {"mode", "outputs", "tolerance", "data"}
 FMU_KEYS = {"fmu", "parameters", "gearSet"}
-TABLE_KEYS = {"label", "var", "scale", "unit", "paper", "theory", "paper_max", "paper_min", "window"}
+TABLE_KEYS = {"label", "var", "scale", "unit", "paper", "theory", "paper_max", "paper_min", "window", "accuracy"}
 CHECK_KEYS = {"name", "stat", "var", "window", "expect", "rtol", "atol", "below", "above", "expect_var", "fidelity"}
 COUPLING_KEYS = {"name", "torque", "w_from", "w_to", "sign"}
 STATS = {"mean", "max", "min", "final", "absmax", "span"}
@@ -317,6 +318,8 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
             _number(f"{at}.theory", row["theory"])
         if "window" in row:
             _window(f"{at}.window", row["window"])
+        if "accuracy" in row and not isinstance(row["accuracy"], bool):
+            raise SceneError(f"{at}.accuracy = {shown(row['accuracy'])}: allowed true or false")
         table.append(dict(row))
     checks = []
     for i, c in enumerate(_tables(f"{where}: checks", data.get("checks", []))):

@@ -20,9 +20,10 @@ def metrics_of(scene: Scene) -> list[tuple[str, list | None]]:
     """Quantities whose mean/max/min are compared, with their windows: the rows of the scene's
     results table (torques, forces, speeds ... over the window the scene reports them in). The
     checks are left out: many are residuals (a kinematic constraint that is zero to round-off),
-    whose relative error says nothing about accuracy."""
+    whose relative error says nothing about accuracy; so are rows marked ``accuracy = false``
+    (flags: when a 0/1 flag first shows depends on the communication step, not on accuracy)."""
     return list(dict.fromkeys((row["var"], tuple(row["window"]) if row.get("window") else None)
-                              for row in scene.table))
+                              for row in scene.table if row.get("accuracy", True)))
 
 
 def metric_values(result: Result, quantities, window=None) -> dict[str, float]:
