@@ -284,7 +284,11 @@ VARIABLES: list[Var] = [
     _p("nPairs", "diff.table.nPairs", "Number of planet pairs (3: the paper's figures)", None, kind="Integer"),
     # --- friction, mass
     _p("mu_pin", "diff.mu_pin", "Friction coefficient of the planet pin bushings at break-away, with the "
-       "friction-circle correction mu/sqrt(1+mu^2) where the data set has it (spurdiff/data/pin_bushing.toml)", "1"),
+       "friction-circle correction mu/sqrt(1+mu^2) where the data set has it (spurdiff/data/pin_bushing.toml); "
+       "holds the stuck differential and sets its break-away", "1"),
+    _p("mu_pinDynamic", "diff.mu_pinDynamic", "Sliding friction coefficient of the planet pin bushings, the friction "
+       "while the differential slips (friction-circle correction as mu_pin); 0 <= mu_pinDynamic <= mu_pin, "
+       "0: equal to mu_pin (one coefficient, the paper's data)", "1"),
     _p("pinSpeedLoads", "diff.pinSpeedLoads", "The planets' centrifugal forces m a w_c^2 load their pins (carrier speed "
        "at each step's start; lockingLaw = pinFriction): the locking grows with carrier speed", kind="Boolean"),
     _p("r_collar", "diff.r_collar", "Journal radius of the planet pins, the friction lever's radius (the paper's "
@@ -343,6 +347,13 @@ VARIABLES: list[Var] = [
         "Locking coefficient in coast (load on the coast flanks: the suns drive the carrier), flank friction "
         "as in lockingCoefficient; equals the drive value with lockingLaw = paper", "1",
         bind="K_coast"),
+    Var("lockingCoefficientSliding", "calculatedParameter",
+        "Locking coefficient in drive while the differential slips: |T_A - T_B| / (T_A + T_B) with the pins at "
+        "mu_pinDynamic (flankFriction: the flanks at flank.muDynamic); equals lockingCoefficient with one "
+        "coefficient", "1", bind="K_slide"),
+    Var("lockingCoefficientCoastSliding", "calculatedParameter",
+        "Locking coefficient in coast while the differential slips (as lockingCoefficientSliding)", "1",
+        bind="K_slide_coast"),
     Var("torqueBiasRatio", "calculatedParameter",
         "Torque bias ratio in drive, largest T_slow / T_fast the locking holds: (1 + K) / (1 - K)", "1"),
     Var("torqueBiasRatioCoast", "calculatedParameter",
@@ -461,7 +472,7 @@ def build_model(values: dict):
     params = s.diff
     if s.mesh.level == "rigid":
         if not s.mesh.pinFriction:
-            params = replace(params, mu_pin=0.0, lockingPreload=0.0)
+            params = replace(params, mu_pin=0.0, mu_pinDynamic=0.0, lockingPreload=0.0)
         model = RigidDifferential(params)
         model.kernel = s.mesh.kernel     # the pin-load solve's implementation (spurdiff.differential.rigid_kernel)
     else:
