@@ -35,6 +35,11 @@ Pin-bushing friction (the locking), two laws (:mod:`spurdiff.differential.lockin
   the sign of ``T_0`` checked afterwards (after Pelchen, Schweiger and Otter 2002, as in
   Modelica's LossyGear).
 
+Static and dynamic coefficients: the capacities of the stuck mode and the break-away use the
+static lever ``pf.c`` (``mu_pin``); the slipping mode uses the sliding lever ``c_slide``
+(``mu_pinDynamic``; the paper law: ``K_slide``). A slip that stops re-sticks with the static one;
+since ``c_slide <= pf.c`` a re-stuck differential holds the loads it stopped under (no chattering).
+
 Stick-slip is exact, with no regularisation: in the stuck mode ``w_d`` is exactly 0 and the
 friction is whatever holds it (``dw_d = 0``) as long as that stays within the capacity; above it
 the differential breaks away in the direction the excess pushes. While slipping, ``Q_f = -s C``

@@ -70,7 +70,8 @@ class PinLoadLaw:
 
     def _slip_exact(self, ac_given: float | None, s: float) -> tuple[float, float, float]:
         """Slipping in direction s with the pin-load law: solve the planets' moment balances
-        for (a_d, F_12) by Newton; returns (ac, ad, Q_f) and leaves F12, cap set.
+        for (a_d, F_12) by Newton, the pins at the sliding lever ``c_slide`` (``mu_pinDynamic``);
+        returns (ac, ad, Q_f) and leaves F12, cap (the sliding friction) set.
 
         The hot path of the rigid level (one solve per inner step): the sun forces
         (:meth:`_sun_forces`) and the pin capacities (:meth:`spurdiff.differential.locking.PinFriction.capacity`)

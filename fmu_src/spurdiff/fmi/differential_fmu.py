@@ -183,8 +183,9 @@ VARIABLES: list[Var] = [
         "Pin-bushing friction torque on the differential motion, as a sun-torque difference (positive speeds sun A up)",
         "N.m", "N.mm", bind="locking_torque"),
     Var("lockingCapacity", "output",
-        "Largest torque difference the friction can hold now: n sum_i |rho_i| (mu r_d |F_pin,i| + preload share) "
-        "from the pin loads (lockingLaw = pinFriction), K |T_A + T_B| + preload (paper)", "N.m", "N.mm",
+        "Limit of the friction in its present mode as a torque difference: stuck, the largest it can hold "
+        "(break-away, mu_pin); slipping, the sliding friction (mu_pinDynamic): n sum_i |rho_i| (mu r_d |F_pin,i| "
+        "+ preload share) from the pin loads (lockingLaw = pinFriction), K |T_A + T_B| + preload (paper)", "N.m", "N.mm",
         bind="locking_capacity"),
     Var("powerLoss", "output", "Friction power, mean over the last step (>= 0)", "W", bind="power_loss"),
     Var("energyLoss", "output", "Friction energy dissipated since the start", "J", bind="energy_loss"),
