@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 
-from spurdiff.gears.capacity import CapacityParams, capacity_report, nominal_mesh_forces
+from spurdiff.gears.capacity import CapacityParams, capacity_report, nominal_mesh_forces, pin_bores
 from spurdiff.gears.design import derive
 from spurdiff.gears.design_sets import gear_set
 from spurdiff.gears.geometry import MM, GearTable
@@ -104,8 +104,9 @@ def capacity_rows(geo) -> list[str]:
         F = nominal_mesh_forces(g, T0)
         for pins in PIN_SETS:
             b = bushing(pins)
-            bore = 2.0 * (b.journalRadius + b.bushingWall)
-            rep = capacity_report(g, F, bores={"planet1": bore, "planet2": bore})
+            bores = pin_bores(b.journalRadius, b.bushingWall)   # as the FMU with capacity.bushingWall
+            bore = bores["planet1"]
+            rep = capacity_report(g, F, bores=bores)
             gs = [x for r in rep.meshes for x in r.gears]
             n_err = sum(f.level == "error" for f in rep.findings)
             rows.append([label, f"{pins} ({bore / MM:g})", f"{max(x.sigma_H for x in gs) / 1e6:.0f}",

@@ -378,6 +378,9 @@ VARIABLES += [
        "the run's stresses are scaled (the paper's load: 2100 N m)", "N.m"),
     _p("capacity.material", "capacity.material", "Gear material of the ISO 6336 check (spurdiff/data/materials.toml): "
        "18CrNiMo7-6 | 20MnCr5 | 40CrNi2Mo-paper", kind="String"),
+    _p("capacity.bushingWall", "capacity.bushingWall", "Wall of the planets' pin bushings: the planets' bore is "
+       "2 (r_collar + capacity.bushingWall), which sets the rim factor Y_B of their root stress (0: the pin runs "
+       "in the planet's bore, the paper's set; 1.5 mm: spurdiff/data/pin_bushing.toml's bronze set)", "m", "mm"),
     *[Var(f"capacity.mesh{k}.{g}.{S}", "calculatedParameter",
           f"ISO 6336 {what} safety factor of {g} in mesh {k} at capacity.T0, long life (< 1: a finding, logged)", "1")
       for k, g1, g2 in CAPACITY_MESHES for g in (g1, g2)
@@ -404,8 +407,10 @@ def _attach_capacity(model, values: dict) -> None:
     from spurdiff.gears import capacity as cap
     T0 = require_positive("capacity.T0", values["capacity.T0"])
     mat = cap.material(values["capacity.material"])
-    r_pin = values.get("r_collar", 0.0)          # the planets turn on journals of this radius (Y_B)
-    bores = {"planet1": 2.0 * r_pin, "planet2": 2.0 * r_pin} if r_pin > 0.0 else None
+    wall = values["capacity.bushingWall"]
+    if not (wall >= 0.0 and wall < 0.1):
+        raise ParameterError("capacity.bushingWall", wall, ">= 0 m and < 0.1 m")
+    bores = cap.pin_bores(values.get("r_collar", 0.0), wall)   # the planets turn on journals (Y_B)
     forces = cap.nominal_mesh_forces(model.geometry, T0)
     rep = cap.capacity_report(model.geometry, forces, mat, None, bores)
     for r in rep.meshes:
@@ -440,7 +445,7 @@ def _attach_capacity(model, values: dict) -> None:
             first = next((f for f in rep.findings if f.level == "error"), rep.findings[0])
             log(f"load capacity at capacity.T0 = {T0:g} N m ({mat.name}): smallest safety factors S_H "
                 f"{rep.S_H:.3f} (static {rep.S_H_static:.3f}), S_F {rep.S_F:.3f} (static {rep.S_F_static:.3f}); "
-                f"{n_err} errors, {len(rep.findings) - n_err} warnings, first: {first}", 1)
+                f"{n_err} errors, {len(rep.findings) - n_err} warnings, first: {first}", 0)
 
     model.do_step, model.get_state, model.set_state, model.log_to = do_step, get_state, set_state, log_to
 # ---------------------------------------------------------------------------------------------------
