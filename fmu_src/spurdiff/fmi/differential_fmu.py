@@ -21,6 +21,7 @@ from spurdiff.fmi.binding import bindings, build_params, renamed, resolve
 from spurdiff.errors import ParameterError
 from spurdiff.fmi.variables import Var
 from spurdiff.differential.bushing import bushing
+from spurdiff.differential.derivatives import output_rates  # noqa: F401 (the FMI 3.0 output derivatives)
 from spurdiff.differential.locking import torque_bias_ratio
 from spurdiff.gears.phasing import mesh_phases
 from spurdiff.differential.mesh import MeshDifferential, MeshParams
@@ -42,6 +43,11 @@ DEFAULT_EXPERIMENT = {"startTime": 0.0, "stopTime": 0.3, "stepSize": 1e-3}
 DEFAULT_CARRIER_SPEED = 1.389      # rad/s, the paper's carrier speed
 DEFAULT_SUN_LOAD = -1050.0         # N m on each sun, the paper's straight-line load
 
+# FMI 3.0: first derivatives of the outputs output_rates answers (shaft torques and twists, flange
+# and carrier speeds and angles; spurdiff.differential.derivatives), the others refused by name
+MAX_OUTPUT_DERIVATIVE_ORDER = 1
+# FMI 3.0: with earlyReturnAllowed, fmi3DoStep ends at a stick/slip transition (adapter.fmi2_do_step_early)
+MIGHT_RETURN_EARLY = True
 MESH_MODELS = ("rigid", "compliant", "contact")
 EFFECTS = ("backlash", "meshStiffnessVariation", "pinFriction", "flankFriction")
 
