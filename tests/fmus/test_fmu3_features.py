@@ -85,6 +85,26 @@ def test_derivatives_are_the_limit_of_finite_differences(over):
     assert fine["w_L"] < 3e-3 and fine["w_R"] < 3e-3   # the suns' acceleration moves fastest (the shaft mode)
 
 
+def test_a_mesh_levels_speed_derivatives():
+    """The compliant mesh level's flange and carrier accelerations from its right-hand side."""
+    values = {"meshModel": "compliant", "shaftCoupling": "torque", "carrierDrive": "torque", "carrier.tau": 200.0,
+              "J_carrier": 2.0, "left.tau": -120.0, "right.tau": -60.0, "differential.w_start": 0.5,
+              "carrier.w_start": 5.0}
+    m = model_of(**values)
+    t, h = 0.0, 1e-6
+    for _ in range(200):
+        m.do_step(t, h)
+        t += h
+    seen = []
+    for _ in range(3):
+        m.do_step(t, h)
+        t += h
+        seen.append(({k: getattr(m, k) for k in ("w_L", "w_R", "wc")}, D.output_rates(m)))
+    for k in ("w_L", "w_R", "wc"):
+        fd = (seen[2][0][k] - seen[0][0][k]) / (2.0 * h)
+        assert abs(fd - seen[1][1][k]) < 1e-3 * abs(fd), (k, fd, seen[1][1][k])
+
+
 def test_a_step_ends_at_the_stick_switch():
     m = model_of(**STICKING)
     t_cross = -m.wd / m.ad   # the rigid level: constant accelerations until w_d reaches 0

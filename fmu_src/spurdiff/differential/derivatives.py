@@ -22,30 +22,30 @@ interface maps its variables onto these attributes (``spurdiff.fmi.differential_
 """
 from __future__ import annotations
 
+from typing import Callable
+
 from spurdiff.errors import StepError
 
 
-def sun_accelerations(model) -> tuple[float, float, float]:
+def sun_accelerations(model, level_accelerations: Callable | None = None) -> tuple[float, float, float]:
     """(a_c, a_L, a_R): carrier and sun (flange) accelerations at the end of the last step of a
-    torque-coupled differential model (rigid or mesh level)."""
+    torque-coupled differential model: the rigid level's own, another level's from
+    ``level_accelerations(model)`` (a mesh level's: :func:`spurdiff.differential.mesh.rates.sun_accelerations`)."""
     if getattr(model, "mesh_model", "") == "rigid":
         ac, ad = model.ac, model.ad
         return ac, ac + ad, ac + model.lam * ad
-    rhs = getattr(model, "rhs", None)
-    if rhs is None:
-        raise StepError(f"no accelerations for the {type(model).__name__} model")
-    from spurdiff.differential.mesh.layout import VA, VB, WC
-    f = rhs(model.t, model.y)
-    ac = 0.0 if model.speed_drive else float(f[WC])
-    return ac, ac + float(f[VA]), ac + float(f[VB])
+    if level_accelerations is None:
+        raise StepError(f"no accelerations for the {getattr(model, 'mesh_model', '') or type(model).__name__} level")
+    return level_accelerations(model)
 
 
-def output_rates(model) -> dict[str, float]:
+def output_rates(model, level_accelerations: Callable | None = None) -> dict[str, float]:
     """{attribute name: its time derivative at the end of the last step} of a differential model
-    (a torque-coupled level or :class:`~spurdiff.differential.shafts.ShaftedDifferential`)."""
+    (a torque-coupled level or :class:`~spurdiff.differential.shafts.ShaftedDifferential`);
+    ``level_accelerations`` as for :func:`sun_accelerations`."""
     inner = getattr(model, "inner", None)
     level = inner if inner is not None else model
-    ac, aL, aR = sun_accelerations(level)
+    ac, aL, aR = sun_accelerations(level, level_accelerations)
     wL, wR = level.w_L, level.w_R
     rates = {"wc": ac, "w_L": aL, "w_R": aR, "phic": level.wc, "phi_L": wL, "phi_R": wR}
     if inner is None:   # shaftCoupling = torque: no shafts (their outputs are the inputs or 0)
