@@ -11,7 +11,9 @@ from pathlib import Path
 
 
 def main(argv: list[str] | None = None) -> int:
+    from harness.cli import fail
     from harness.fmi3_features import ER_VARIANTS, FOH_VARIANTS, markdown, measure
+    from harness.scene import SceneError
 
     p = argparse.ArgumentParser(prog="python -m harness.cli.fmi3_features",
                                 description="measure first-order hold and early return with the FMI 3.0 FMUs")
@@ -24,12 +26,21 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--repeats", type=int, default=3, help="runs per point for the CPU time (median)")
     p.add_argument("--out", type=Path, default=None, help="also write the table here")
     args = p.parse_args(argv)
+    if not args.steps or not all(0.0 < s < float("inf") for s in args.steps):
+        p.error(f"--steps must be > 0 ms, got {args.steps}")
+    if args.repeats < 1:
+        p.error(f"--repeats must be >= 1, got {args.repeats}")
     steps = [s * 1e-3 for s in args.steps]
     rows = []
-    for name in args.foh:
-        rows += measure(name, steps, FOH_VARIANTS, duration=args.duration, repeats=args.repeats, log=lambda m: print(m, file=sys.stderr))
-    for name in args.early:
-        rows += measure(name, steps, ER_VARIANTS, duration=args.duration, repeats=args.repeats, log=lambda m: print(m, file=sys.stderr))
+    try:
+        for name in args.foh:
+            rows += measure(name, steps, FOH_VARIANTS, duration=args.duration, repeats=args.repeats,
+                            log=lambda m: print(m, file=sys.stderr))
+        for name in args.early:
+            rows += measure(name, steps, ER_VARIANTS, duration=args.duration, repeats=args.repeats,
+                            log=lambda m: print(m, file=sys.stderr))
+    except (SceneError, RuntimeError) as e:
+        return fail("fmi3_features", str(e), 1)
     cmd = "python -m harness.cli.fmi3_features" + ("" if argv is None else " " + " ".join(argv))
     if argv is None:
         cmd = "python -m harness.cli.fmi3_features " + " ".join(sys.argv[1:])
