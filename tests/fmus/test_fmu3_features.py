@@ -132,6 +132,21 @@ def test_a_step_ends_at_the_stick_switch():
     assert transition_step(step_on, h, n0 + 1) is None and m.t == pytest.approx(t1 + h) and m.stuck
 
 
+def test_a_mesh_levels_pin_stiction_ends_the_step_too():
+    m = model_of(**STICKING, meshModel="compliant")
+    saved, n0 = m.get_state(), m.n_mode_switches
+
+    def step(hh):
+        m.set_state(saved)
+        m.do_step(0.0, hh)
+        return m.n_mode_switches
+
+    h = 5e-3
+    hx = transition_step(step, h, n0)
+    assert hx is not None and 0.0 < hx < h and m.stuck
+    assert step(hx - 2e-6 * h) == n0 and not m.stuck   # just before it: still slipping
+
+
 # ------------------------------------------------------------------ through the FMU
 @pytest.fixture(scope="module")
 def diff3(fmu_files):
