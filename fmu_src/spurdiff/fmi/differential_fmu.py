@@ -21,9 +21,11 @@ from spurdiff.fmi.binding import bindings, build_params, renamed, resolve
 from spurdiff.errors import ParameterError
 from spurdiff.fmi.variables import Var
 from spurdiff.differential.bushing import bushing
+from spurdiff.differential import derivatives
 from spurdiff.differential.locking import torque_bias_ratio
 from spurdiff.gears.phasing import mesh_phases
 from spurdiff.differential.mesh import MeshDifferential, MeshParams
+from spurdiff.differential.mesh import rates as mesh_rates
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.rigid import RigidDifferential
 from spurdiff.differential.shafts import SHAFT_COUPLINGS, ShaftedDifferential, ShaftsParams
@@ -41,6 +43,18 @@ DESCRIPTION = ("Spur-gear planetary inter-wheel differential: two suns on the ha
 DEFAULT_EXPERIMENT = {"startTime": 0.0, "stopTime": 0.3, "stepSize": 1e-3}
 DEFAULT_CARRIER_SPEED = 1.389      # rad/s, the paper's carrier speed
 DEFAULT_SUN_LOAD = -1050.0         # N m on each sun, the paper's straight-line load
+
+# FMI 3.0: first derivatives of the outputs output_rates answers (shaft torques and twists, flange
+# and carrier speeds and angles; spurdiff.differential.derivatives), the others refused by name
+MAX_OUTPUT_DERIVATIVE_ORDER = 1
+# FMI 3.0: with earlyReturnAllowed, fmi3DoStep ends at a stick/slip transition (adapter.fmi2_do_step_early)
+MIGHT_RETURN_EARLY = True
+
+
+def output_rates(model) -> dict[str, float]:
+    """The FMI 3.0 output derivatives of ``model`` (any level; spurdiff.differential.derivatives)."""
+    return derivatives.output_rates(model, mesh_rates.sun_accelerations)
+
 
 MESH_MODELS = ("rigid", "compliant", "contact")
 EFFECTS = ("backlash", "meshStiffnessVariation", "pinFriction", "flankFriction")
