@@ -105,33 +105,42 @@ def methods(tols=(1e-4, 1e-6, 1e-8), repeats: int = 3) -> list[dict]:
     return rows
 
 
-def tight_tolerances(tols=(1e-8, 1e-9, 1e-10), t_end: float = 0.02) -> list[dict]:
-    """Where tight tolerances end: paper-cornering at the contact level from unloaded meshes,
-    every effect and each phase effect alone, 1 ms steps over ``t_end``, both methods; per case
-    the internal steps or the failure (StepError: the internal step fell below 1e-13 s at a mesh
-    phase boundary). Printed and returned. Command: ``python -m harness.cli.mesh_bench --section
+def tight_tolerances(tols=(1e-8, 1e-9, 1e-10), t_end: float = 0.02,
+                     scenes=("paper-cornering", "paper-straight")) -> list[dict]:
+    """Tight tolerances through the mesh-phase boundaries: the paper scenes at the contact level
+    from unloaded meshes, every effect and each phase effect alone, 1 ms steps over ``t_end``,
+    both methods; per case the internal steps (rejected), the loaded flanks' single/double
+    contact switches, the CPU time of the run (compiled kernel where it loads) or the failure
+    (StepError). Printed and returned. Command: ``python -m harness.cli.mesh_bench --section
     tight``."""
-    spec = paper_case("paper-cornering")
     cases = {"all effects": dict(backlash=True, meshStiffnessVariation=True, flankFriction=True),
              "stiffness wave": dict(meshStiffnessVariation=True), "flank friction": dict(flankFriction=True),
              "backlash": dict(backlash=True)}
     rows = []
-    for name, eff in cases.items():
-        for method in METHODS:
-            for tol in tols:
-                m = make("contact", spec, preload=False, tolerance=tol, method=method, maxInternalSteps=10 ** 6,
-                         **eff)
-                try:
-                    for k in range(int(round(t_end / 1e-3))):
-                        m.do_step(k * 1e-3, 1e-3)
-                    how = f"{m.n_internal_steps} steps"
-                except StepError as e:
-                    how = f"fails: {e}"
-                rows.append({"case": name, "method": method, "tolerance": tol, "result": how})
-    print(f"## Tight tolerances (paper-cornering, contact, unloaded, {t_end:g} s at 1 ms)\n")
-    print("| effects | method | tolerance | result |\n|---|---|---|---|")
+    for scene in scenes:
+        spec = paper_case(scene)
+        for name, eff in cases.items():
+            for method in METHODS:
+                for tol in tols:
+                    m = make("contact", spec, preload=False, tolerance=tol, method=method,
+                             maxInternalSteps=10 ** 6, **eff)
+                    t0 = time.process_time()
+                    try:
+                        for k in range(int(round(t_end / 1e-3))):
+                            m.do_step(k * 1e-3, 1e-3)
+                        how = "ok"
+                    except StepError as e:
+                        how = f"fails: {e}"
+                    cpu = time.process_time() - t0
+                    rows.append({"scene": scene, "case": name, "method": method, "tolerance": tol,
+                                 "steps": m.n_internal_steps, "rejected": m.n_rejected_steps,
+                                 "switches": m.solver_counts()["phase_switches"], "cpu": cpu, "result": how})
+    print(f"## Tight tolerances (contact, unloaded, {t_end:g} s at 1 ms; CPU s of the run)\n")
+    print("| scene | effects | method | tolerance | internal steps (rejected) | phase switches | CPU s | result |")
+    print("|---|---|---|---|---|---|---|---|")
     for r in rows:
-        print(f"| {r['case']} | {r['method']} | {r['tolerance']:g} | {r['result']} |")
+        print(f"| {r['scene']} | {r['case']} | {r['method']} | {r['tolerance']:g} | {r['steps']} ({r['rejected']}) | "
+              f"{r['switches']} | {r['cpu']:.3f} | {r['result']} |")
     print()
     return rows
 
