@@ -148,8 +148,8 @@ def tight_tolerances(tols=(1e-8, 1e-9, 1e-10), t_end: float = 0.02,
 def step_bound(tols=(1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8), case: str = "contact, unloaded start",
                quadrature_state: str | None = None, t_end: float = 0.3, h: float = 1e-3,
                ref_tol: float = 1e-11) -> list[dict]:
-    """Which error estimate sets the step of our solver over ``case`` in one call (run_dense, the
-    states at the 1 ms points), measured on the Python reference (the kernel's arithmetic bit for
+    """Which error estimate sets the step of ROS34PW2 (solver.method = ros34pw2) over ``case`` in one
+    call (run_dense, the states at the 1 ms points), measured on the Python reference (the kernel's arithmetic bit for
     bit) by wrapping the driver's two tests: per trial step, the state error norm (rejects if > 1)
     and then the loss quadrature's (rejects if > 1); of the trials that pass both, ``loss_limited``
     counts those where the loss estimate is the larger (it then sets the next step size). With
@@ -170,7 +170,7 @@ def step_bound(tols=(1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8), case: str = "contact, 
     from spurdiff.differential.mesh.integrator import METHOD, RosenbrockW
 
     times = np.arange(1, int(round(t_end / h)) + 1) * h
-    ref = ivp_model(case, ref_tol)
+    ref = ivp_model(case, ref_tol, method="ros34pw2")
     ref.run_dense(t_end, times)
     trials: list[tuple[str, float]] = []
     stage_P: list[float] = []
@@ -226,7 +226,7 @@ def step_bound(tols=(1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8), case: str = "contact, 
     try:
         for tol in tols:
             trials.clear()
-            m = ivp_model(case, tol, "python")
+            m = ivp_model(case, tol, "python", "ros34pw2")
             m.run_dense(t_end, times)
             rej_s = rej_l = lim_l = lim_s = 0
             ratios = []

@@ -170,7 +170,7 @@ class MeshDifferential(DifferentialModel):
         N = self.n_states = 8 if self.speed_drive else 10
         self._N = N
         self.y = np.zeros(N)
-        self._integ = RosenbrockW(N, partial(evaluate, self), METHODS[mp_.method])
+        self._integ = RosenbrockW(N, partial(evaluate, self), METHODS[mp_.method_in_use()])
         self._f0 = np.zeros(N)
         self._f1 = np.zeros(N)
         self._J1 = np.zeros((N, N))
