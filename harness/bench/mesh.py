@@ -105,33 +105,42 @@ def methods(tols=(1e-4, 1e-6, 1e-8), repeats: int = 3) -> list[dict]:
     return rows
 
 
-def tight_tolerances(tols=(1e-8, 1e-9, 1e-10), t_end: float = 0.02) -> list[dict]:
-    """Where tight tolerances end: paper-cornering at the contact level from unloaded meshes,
-    every effect and each phase effect alone, 1 ms steps over ``t_end``, both methods; per case
-    the internal steps or the failure (StepError: the internal step fell below 1e-13 s at a mesh
-    phase boundary). Printed and returned. Command: ``python -m harness.cli.mesh_bench --section
+def tight_tolerances(tols=(1e-8, 1e-9, 1e-10), t_end: float = 0.02,
+                     scenes=("paper-cornering", "paper-straight")) -> list[dict]:
+    """Tight tolerances through the mesh-phase boundaries: the paper scenes at the contact level
+    from unloaded meshes, every effect and each phase effect alone, 1 ms steps over ``t_end``,
+    both methods; per case the internal steps (rejected), the loaded flanks' single/double
+    contact switches, the CPU time of the run (compiled kernel where it loads) or the failure
+    (StepError). Printed and returned. Command: ``python -m harness.cli.mesh_bench --section
     tight``."""
-    spec = paper_case("paper-cornering")
     cases = {"all effects": dict(backlash=True, meshStiffnessVariation=True, flankFriction=True),
              "stiffness wave": dict(meshStiffnessVariation=True), "flank friction": dict(flankFriction=True),
              "backlash": dict(backlash=True)}
     rows = []
-    for name, eff in cases.items():
-        for method in METHODS:
-            for tol in tols:
-                m = make("contact", spec, preload=False, tolerance=tol, method=method, maxInternalSteps=10 ** 6,
-                         **eff)
-                try:
-                    for k in range(int(round(t_end / 1e-3))):
-                        m.do_step(k * 1e-3, 1e-3)
-                    how = f"{m.n_internal_steps} steps"
-                except StepError as e:
-                    how = f"fails: {e}"
-                rows.append({"case": name, "method": method, "tolerance": tol, "result": how})
-    print(f"## Tight tolerances (paper-cornering, contact, unloaded, {t_end:g} s at 1 ms)\n")
-    print("| effects | method | tolerance | result |\n|---|---|---|---|")
+    for scene in scenes:
+        spec = paper_case(scene)
+        for name, eff in cases.items():
+            for method in METHODS:
+                for tol in tols:
+                    m = make("contact", spec, preload=False, tolerance=tol, method=method,
+                             maxInternalSteps=10 ** 6, **eff)
+                    t0 = time.process_time()
+                    try:
+                        for k in range(int(round(t_end / 1e-3))):
+                            m.do_step(k * 1e-3, 1e-3)
+                        how = "ok"
+                    except StepError as e:
+                        how = f"fails: {e}"
+                    cpu = time.process_time() - t0
+                    rows.append({"scene": scene, "case": name, "method": method, "tolerance": tol,
+                                 "steps": m.n_internal_steps, "rejected": m.n_rejected_steps,
+                                 "switches": m.solver_counts()["phase_switches"], "cpu": cpu, "result": how})
+    print(f"## Tight tolerances (contact, unloaded, {t_end:g} s at 1 ms; CPU s of the run)\n")
+    print("| scene | effects | method | tolerance | internal steps (rejected) | phase switches | CPU s | result |")
+    print("|---|---|---|---|---|---|---|---|")
     for r in rows:
-        print(f"| {r['case']} | {r['method']} | {r['tolerance']:g} | {r['result']} |")
+        print(f"| {r['scene']} | {r['case']} | {r['method']} | {r['tolerance']:g} | {r['steps']} ({r['rejected']}) | "
+              f"{r['switches']} | {r['cpu']:.3f} | {r['result']} |")
     print()
     return rows
 
@@ -139,8 +148,8 @@ def tight_tolerances(tols=(1e-8, 1e-9, 1e-10), t_end: float = 0.02) -> list[dict
 def step_bound(tols=(1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8), case: str = "contact, unloaded start",
                quadrature_state: str | None = None, t_end: float = 0.3, h: float = 1e-3,
                ref_tol: float = 1e-11) -> list[dict]:
-    """Which error estimate sets the step of our solver over ``case`` in one call (run_dense, the
-    states at the 1 ms points), measured on the Python reference (the kernel's arithmetic bit for
+    """Which error estimate sets the step of ROS34PW2 (solver.method = ros34pw2) over ``case`` in one
+    call (run_dense, the states at the 1 ms points), measured on the Python reference (the kernel's arithmetic bit for
     bit) by wrapping the driver's two tests: per trial step, the state error norm (rejects if > 1)
     and then the loss quadrature's (rejects if > 1); of the trials that pass both, ``loss_limited``
     counts those where the loss estimate is the larger (it then sets the next step size). With
@@ -161,7 +170,7 @@ def step_bound(tols=(1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8), case: str = "contact, 
     from spurdiff.differential.mesh.integrator import METHOD, RosenbrockW
 
     times = np.arange(1, int(round(t_end / h)) + 1) * h
-    ref = ivp_model(case, ref_tol)
+    ref = ivp_model(case, ref_tol, method="ros34pw2")
     ref.run_dense(t_end, times)
     trials: list[tuple[str, float]] = []
     stage_P: list[float] = []
@@ -217,7 +226,7 @@ def step_bound(tols=(1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8), case: str = "contact, 
     try:
         for tol in tols:
             trials.clear()
-            m = ivp_model(case, tol, "python")
+            m = ivp_model(case, tol, "python", "ros34pw2")
             m.run_dense(t_end, times)
             rej_s = rej_l = lim_l = lim_s = 0
             ratios = []

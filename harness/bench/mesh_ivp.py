@@ -24,14 +24,14 @@ IVP_CASES = {
 IVP_METHODS = ("Radau", "BDF", "LSODA")
 
 
-def ivp_model(case: str, tol: float = 1e-6, kernel: str = "auto", method: str = "ros34pw2") -> MeshDifferential:
+def ivp_model(case: str, tol: float = 1e-6, kernel: str = "auto", method: str | None = None) -> MeshDifferential:
     """A model of one of IVP_CASES: paper-straight's carrier speed and loads (default locking
     law; pin friction off), initialized with the loads, then the case's loads applied from t = 0
     (the same loads from unloaded meshes, or reversed); ``method``: solver.method."""
     mesh, sign = IVP_CASES[case]
     spec = paper_case("paper-straight")
     m = MeshDifferential(DifferentialParams(), MeshParams(tolerance=tol, maxInternalSteps=10 ** 7, kernel=kernel,
-                                                         method=method, **mesh))
+                                                         method=method or "auto", **mesh))
     m.w_ref, m.w_start_carrier = spec["w0"], spec["w0"]
     m.tau_L, m.tau_R = spec["loads"]
     m.initialize()
@@ -56,7 +56,7 @@ def ours_trajectory(case: str, tol: float, impl: str, t_end: float = 0.3, h: flo
     (``impl`` a key of OURS, or a way alone: "compiled", "python", "one call", "states only", the
     default method)."""
     first, _, rest = impl.partition(" ")
-    method, impl = (first, rest) if first in METHODS else ("ros34pw2", impl)
+    method, impl = (first, rest) if first in METHODS else ("auto", impl)
     m = ivp_model(case, tol, "python" if impl == "python" else "compiled", method)
     if impl in ("compiled", "python"):
         ys, wall = trajectory(m, t_end, h)

@@ -17,7 +17,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--section", choices=SECTIONS, action="append",
                     help="default: paper, tolerance, ivp, kernel; step-bound (which error estimate sets the "
                          "step, about 6 s), methods (ROS34PW2 against RODAS5P in the do_step loop, a few "
-                         "seconds) and tight (where tight tolerances fail, about 30 s) only when named")
+                         "seconds) and tight (tight tolerances through the mesh-phase boundaries, about 30 s) only when named")
     ap.add_argument("--repeats", type=int, default=3)
     a = ap.parse_args(argv)
     mesh.run(a.full, a.section or ["paper", "tolerance", "ivp", "kernel"], a.repeats)

@@ -154,6 +154,8 @@ static double new_step_size(const MkParams *P, double h, double err, int rejecte
 #define JAC_AGE_MAX 10     /* stepper.JAC_AGE_MAX */
 #define H_KEEP 1.2         /* stepper.H_KEEP */
 #define STICK_RTOL 1e-9
+#define PHASE_RTOL 1e-8    /* events.PHASE_RTOL */
+#define PHASE_PAST 1e-9    /* events.PHASE_PAST */
 
 static void contact_flags(const MkParams *P, const double *y, int64_t *fl) {
     for (int i = 0; i < 3; i++) {
@@ -236,7 +238,8 @@ static double phase_limit(const MkParams *P, const MkState *S, const double *y) 
             us[0] = P->rbA * y[PSI]; us[1] = P->rbB * psiB; us[2] = P->rb1 * th1;
             have_us = 1;
         }
-        double xi = mk_pymod((sgn < 0.0 ? m->xi0 : m->xi0c) + sgn * m->sigma * us[mi] / m->pb, 1.0);
+        double z = (sgn < 0.0 ? m->xi0 : m->xi0c) + sgn * m->sigma * us[mi] / m->pb;
+        double xi = mk_pymod(z, 1.0);
         double ar = fabs(rate);
         double bounds[3] = {0.0, m->eps - 1.0, m->xip};
         int nb = P->flank ? 3 : 2;
@@ -244,7 +247,8 @@ static double phase_limit(const MkParams *P, const MkState *S, const double *y) 
             double dist = rate > 0.0 ? mk_pymod(bounds[j] - xi, 1.0) : mk_pymod(xi - bounds[j], 1.0);
             if (dist == 0.0) dist = 1.0;
             double dt = dist / ar;
-            dt += 1e-7 * dt + 1e-12;
+            dt += PHASE_PAST * dt + 4e-16 * (fabs(z) + 1.0) / ar;
+            if (dt < 1e-12) dt = 1e-12;
             if (j == 2) {
                 double grad = fabs(om[mi][0] - om[mi][1]) * ar * m->pb;
                 if (grad > 0.0) dt += 1.5 * P->v_s / grad;
@@ -253,6 +257,57 @@ static double phase_limit(const MkParams *P, const MkState *S, const double *y) 
         }
     }
     return best;
+}
+
+/* events.leave: the fraction of the step where x leaves [lo, hi) */
+static double leave(double x0, double xm, double x1, double lo, double hi) {
+    if (xm < lo) return 0.5 * (x0 - lo) / (x0 - xm);
+    if (xm >= hi) return 0.5 * (hi - x0) / (xm - x0);
+    if (x1 < lo) return 0.5 + 0.5 * (xm - lo) / (xm - x1);
+    if (x1 >= hi) return 0.5 + 0.5 * (hi - xm) / (x1 - xm);
+    return 1.0;
+}
+
+static void rolls(const MkParams *P, const MkState *S, const double *y, double *u) {
+    double psiB, th1, th2;
+    mk_relative_angles(S, P, y, &psiB, &th1, &th2);
+    u[0] = P->rbA * y[PSI]; u[1] = P->rbB * psiB; u[2] = P->rb1 * th1;
+}
+
+/* events.phase_events: where a loaded flank leaves the interval of its held phase mode */
+static double phase_events(const MkParams *P, const MkState *S, const double *y0, const double *ym, const double *y1) {
+    double u0[3], um[3], u1[3], theta = 1.0;
+    int unilateral = P->bl || P->contact;
+    rolls(P, S, y0, u0);
+    rolls(P, S, ym, um);
+    rolls(P, S, y1, u1);
+    for (int i = 0; i < 3; i++) {
+        const MkMesh *m = &P->md[i];
+        double a = y0[m->d], b = y1[m->d], e1 = m->eps - 1.0;
+        int drive, coast;
+        if (unilateral) {
+            drive = a > 0.0 || b > 0.0;
+            coast = -(a + m->jn) > 0.0 || -(b + m->jn) > 0.0;
+        } else {
+            drive = a >= 0.0 || b >= 0.0;
+            coast = a < 0.0 || b < 0.0;
+        }
+        if (drive) {
+            double k = S->pk[2 * i], lo = S->pnc[2 * i] == 2 ? 0.0 : e1, hi = S->pnc[2 * i] == 2 ? e1 : 1.0;
+            double x0 = (m->xi0 - m->sigma * u0[i] / m->pb) - k;
+            double xm = (m->xi0 - m->sigma * um[i] / m->pb) - k;
+            double x1 = (m->xi0 - m->sigma * u1[i] / m->pb) - k;
+            theta = min2(theta, leave(x0, xm, x1, lo, hi));
+        }
+        if (coast) {
+            double k = S->pk[2 * i + 1], lo = S->pnc[2 * i + 1] == 2 ? 0.0 : e1, hi = S->pnc[2 * i + 1] == 2 ? e1 : 1.0;
+            double x0 = (m->xi0c + m->sigma * u0[i] / m->pb) - k;
+            double xm = (m->xi0c + m->sigma * um[i] / m->pb) - k;
+            double x1 = (m->xi0c + m->sigma * u1[i] / m->pb) - k;
+            theta = min2(theta, leave(x0, xm, x1, lo, hi));
+        }
+    }
+    return theta;
 }
 
 /* ------------------------------------------------------------ stick-slip (spurdiff.differential.mesh.stickslip) */
@@ -355,6 +410,10 @@ static int advance(const MkParams *P, MkState *S0, double t, double h, int64_t n
     static __thread Work wk;      /* per thread: FMU instances may step in parallel */
     MkState S1 = *S0, *S = &S1;
     const int N = (int)P->N;
+    if (P->tracked) {                  /* the phase modes, held over each internal step (stepper.advance) */
+        mk_phase_mode(P, S, S->y, S->pk, S->pnc);
+        S->phold = 1;
+    }
     double *y = S->y, sv0[13], sv1[13], svm[13];
     const int speed = (int)P->speed_drive;
     double wc_start = S->wc;
@@ -451,6 +510,16 @@ static int advance(const MkParams *P, MkState *S0, double t, double h, int64_t n
             }
             double theta = state_events(P, S, y, wk.ym, yn);
             if (P->pin && theta >= 1.0 - 1e-6) theta = breakaway(P, S, sv0, svm, sv1, theta);
+            if (P->tracked && located < 4) {      /* a loaded flank left its held phase mode */
+                double thp = phase_events(P, S, y, wk.ym, yn);
+                if (thp < theta && thp < 1.0 - PHASE_RTOL && thp * hi > hmin) {
+                    located++;
+                    S->n_rejected_steps++;
+                    hi = hi * thp * (1.0 + PHASE_PAST) + 1e-15;
+                    truncated = 1;
+                    continue;
+                }
+            }
             if (theta < 1.0 - 1e-6 && located < 4 && theta * hi > hmin) {
                 located++;
                 S->n_rejected_steps++;
@@ -501,6 +570,26 @@ static int advance(const MkParams *P, MkState *S0, double t, double h, int64_t n
                 S->flags[k] = fl[k];
             }
         }
+        int phase_switched = 0;
+        if (P->tracked) {                         /* the phase modes switch where the step ended */
+            double pk[6];
+            int64_t pnc[6];
+            mk_phase_mode(P, S, y, pk, pnc);
+            for (int k = 0; k < 6; k++)
+                if (pk[k] != S->pk[k] || pnc[k] != S->pnc[k]) phase_switched = 1;
+            if (phase_switched) {                 /* events.phase_switches: count the loaded flanks' */
+                int unilateral = P->bl || P->contact;
+                for (int i = 0; i < 3; i++) {
+                    double d = y[P->md[i].d];
+                    int drive = unilateral ? d > 0.0 : d >= 0.0;
+                    int coast = unilateral ? -(d + P->md[i].jn) > 0.0 : d < 0.0;
+                    if (drive && (pk[2 * i] != S->pk[2 * i] || pnc[2 * i] != S->pnc[2 * i])) S->n_psw++;
+                    if (coast && (pk[2 * i + 1] != S->pk[2 * i + 1] || pnc[2 * i + 1] != S->pnc[2 * i + 1])) S->n_psw++;
+                }
+                memcpy(S->pk, pk, sizeof pk);
+                memcpy(S->pnc, pnc, sizeof pnc);
+            }
+        }
         int switched = 0;
         if (P->pin) {
             int zeroed[2], nz = 0;
@@ -524,6 +613,19 @@ static int advance(const MkParams *P, MkState *S0, double t, double h, int64_t n
                 S->jac_age++;
             }
             memcpy(sv0, sv1, sizeof sv0);
+            if (phase_switched) {                 /* f and side values (and the fresh Jacobian) in the new modes */
+                mk_eval(P, S, y, f0, fresh ? S->Jf : NULL, sv0);
+                S->n_jac += fresh;
+                if (P->pin) {                     /* the forces jumped: a stuck planet may break away */
+                    double m0[2];
+                    margins(P, S, sv0, m0);
+                    double tolc = -STICK_RTOL * (sv0[SV_CAP1] + sv0[SV_CAP2]);
+                    if (m0[0] < tolc || m0[1] < tolc) {
+                        S->n_mode_switches += settle_modes(P, S, y, NULL, 0, &wk, sv0);
+                        f0 = wk.f0; f1 = wk.f1;
+                    }
+                }
+            }
         } else {
             f0 = wk.f0; f1 = wk.f1;   /* settle_modes evaluated f0, J and sv0 at y */
         }
@@ -540,6 +642,7 @@ static int advance(const MkParams *P, MkState *S0, double t, double h, int64_t n
     S->loss_last_step = S->energy_loss - loss0;
     S->last_h = h;
     S->n_steps++;
+    S->phold = 0;
     /* outputs: the speed drive reports the torque that holds the reached speed (a_c = 0) */
     if (!speed || S->ac == 0.0) {
         memcpy(S->sv, sv0, sizeof sv0);

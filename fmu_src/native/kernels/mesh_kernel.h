@@ -10,7 +10,7 @@
 #include <stdint.h>
 #include <string.h>
 
-#define MK_ABI 6
+#define MK_ABI 7
 #define NMAX 10
 #define SMAX 8        /* the most stages of a method (spurdiff.differential.mesh.integrator.SMAX) */
 enum { PSI, DA, DB, D12, VA, VB, W1, W2, WC, PHIC };
@@ -58,10 +58,15 @@ typedef struct {
     int64_t n_jac, n_lu;      /* Jacobian evaluations and factorizations of W (diagnostics) */
     double gpin[4];           /* the planets' inertial forces (g1x g1y g2x g2y, N): centrifugal at the step's start
                                  speed plus tangential at the carrier acceleration held over the step */
+    /* the phase modes held over an internal step (forces.MeshPhase.mode; model._mode): per mesh the drive
+     * and coast flanks' tooth count k and pairs in contact n_c; phold = 0: from the state at each evaluation */
+    double pk[6];
+    int64_t pnc[6], phold;
+    int64_t n_psw;            /* loaded flanks' phase-mode switches (diagnostics, as n_jac) */
 } MkState;
 
-typedef struct { double F, dF_dd, dF_dv, Fc, xi; } Force;
-typedef struct { double M1, M2, dM1F, dM2F, d11, d12, d22, P; } Moments;
+typedef struct { double F, dF_dd, dF_dv, Fc, xi, sx; int64_t nc; } Force;
+typedef struct { double M1, M2, dM1F, dM2F, d11, d12, d22, P, dM1x, dM2x; } Moments;
 enum { SV_FA, SV_FB, SV_F12, SV_QA, SV_QB, SV_Q1, SV_Q2, SV_M1, SV_M2, SV_CAP1, SV_CAP2, SV_P, SV_AC };
 
 #define MK_HIDDEN __attribute__((visibility("hidden")))
@@ -70,6 +75,7 @@ MK_HIDDEN double mk_wave_factor(const MkParams *P, const MkMesh *m, double xi);
 MK_HIDDEN double mk_law_potential(const MkParams *P, const MkMesh *m, double d, double kp, double kn);
 MK_HIDDEN void mk_relative_angles(const MkState *S, const MkParams *P, const double *y, double *psiB, double *th1,
                                   double *th2);
+MK_HIDDEN void mk_phase_mode(const MkParams *P, const MkState *S, const double *y, double *pk, int64_t *pnc);
 MK_HIDDEN void mk_eval(const MkParams *P, const MkState *S, const double *y, double *f, double *J, double *sv);
 
 #endif

@@ -69,17 +69,47 @@ MK_HIDDEN double mk_wave_factor(const MkParams *P, const MkMesh *m, double xi) {
     return (xi < m->eps - 1.0 ? 2.0 : 1.0) / m->eps;
 }
 
-static void phase(const MkParams *P, const MkMesh *m, double u, double *xp, double *xn, double *kp, double *kn) {
-    if (!P->tracked) { *xp = m->xi0; *xn = m->xi0c; *kp = *kn = 1.0; return; }
+/* MeshPhase.phase: phases, stiffness factors and pairs in contact of mesh i's drive and coast flanks at roll u,
+ * in the held phase modes (S->phold) or in the modes at u */
+static void phase(const MkParams *P, const MkState *S, int i, const MkMesh *m, double u, double *xp, double *xn,
+                  double *kp, double *kn, int64_t *np, int64_t *nn) {
+    if (!P->tracked) { *xp = m->xi0; *xn = m->xi0c; *kp = *kn = 1.0; *np = *nn = 1; return; }
     double r = m->sigma * u / m->pb;
-    *xp = mk_pymod(m->xi0 - r, 1.0);
-    *xn = mk_pymod(m->xi0c + r, 1.0);
-    if (P->wave) {
+    double zp = m->xi0 - r, zn = m->xi0c + r;
+    if (S->phold) {
+        *np = S->pnc[2 * i];
+        *nn = S->pnc[2 * i + 1];
+        *xp = zp - S->pk[2 * i];
+        *xn = zn - S->pk[2 * i + 1];
+    } else {
         double e1 = m->eps - 1.0;
-        *kp = (*xp < e1 ? 2.0 : 1.0) / m->eps;
-        *kn = (*xn < e1 ? 2.0 : 1.0) / m->eps;
+        *xp = zp - floor(zp);
+        *xn = zn - floor(zn);
+        *np = *xp < e1 ? 2 : 1;
+        *nn = *xn < e1 ? 2 : 1;
+    }
+    if (P->wave) {
+        *kp = (*np == 2 ? 2.0 : 1.0) / m->eps;
+        *kn = (*nn == 2 ? 2.0 : 1.0) / m->eps;
     } else {
         *kp = *kn = 1.0;
+    }
+}
+
+/* MeshPhase.mode of every mesh at y (events.phase_mode) */
+MK_HIDDEN void mk_phase_mode(const MkParams *P, const MkState *S, const double *y, double *pk, int64_t *pnc) {
+    double psiB, th1, th2;
+    mk_relative_angles(S, P, y, &psiB, &th1, &th2);
+    double us[3] = {P->rbA * y[PSI], P->rbB * psiB, P->rb1 * th1};
+    for (int i = 0; i < 3; i++) {
+        const MkMesh *m = &P->md[i];
+        double r = m->sigma * us[i] / m->pb;
+        double zp = m->xi0 - r, zn = m->xi0c + r, e1 = m->eps - 1.0;
+        double kp = floor(zp), kn = floor(zn);
+        pk[2 * i] = kp;
+        pnc[2 * i] = zp - kp < e1 ? 2 : 1;
+        pk[2 * i + 1] = kn;
+        pnc[2 * i + 1] = zn - kn < e1 ? 2 : 1;
     }
 }
 
@@ -88,27 +118,30 @@ static void flank_law(const MkParams *P, const MkMesh *m, double p, double v, do
     else elasto_backlash(p, v, m->k * kf, m->c, out);
 }
 
-static Force mesh_force(const MkParams *P, const MkMesh *m, double d, double dd, double u) {
+static Force mesh_force(const MkParams *P, const MkState *S, int i, const MkMesh *m, double d, double dd, double u) {
     double xp, xn, kp, kn, o[4];
+    int64_t np, nn;
     Force f;
-    phase(P, m, u, &xp, &xn, &kp, &kn);
+    phase(P, S, i, m, u, &xp, &xn, &kp, &kn, &np, &nn);
     if (P->law == LAW_BILATERAL) {
         double kk = d >= 0.0 ? m->k * kp : m->k * kn;
-        f.F = kk * d + m->c * dd; f.dF_dd = kk; f.dF_dv = m->c; f.Fc = kk * d; f.xi = d >= 0.0 ? xp : xn;
+        f.F = kk * d + m->c * dd; f.dF_dd = kk; f.dF_dv = m->c; f.Fc = kk * d;
+        if (d >= 0.0) { f.xi = xp; f.nc = np; f.sx = -m->sigma; }
+        else { f.xi = xn; f.nc = nn; f.sx = m->sigma; }
         return f;
     }
     if (d > 0.0) {
         flank_law(P, m, d, dd, kp, o);
-        f.F = o[0]; f.dF_dd = o[1]; f.dF_dv = o[2]; f.Fc = o[3]; f.xi = xp;
+        f.F = o[0]; f.dF_dd = o[1]; f.dF_dv = o[2]; f.Fc = o[3]; f.xi = xp; f.nc = np; f.sx = -m->sigma;
         return f;
     }
     double pen = -(d + m->jn);
     if (pen > 0.0) {
         flank_law(P, m, pen, -dd, kn, o);
-        f.F = -o[0]; f.dF_dd = o[1]; f.dF_dv = o[2]; f.Fc = -o[3]; f.xi = xn;
+        f.F = -o[0]; f.dF_dd = o[1]; f.dF_dv = o[2]; f.Fc = -o[3]; f.xi = xn; f.nc = nn; f.sx = m->sigma;
         return f;
     }
-    f.F = f.dF_dd = f.dF_dv = f.Fc = 0.0; f.xi = xp;
+    f.F = f.dF_dd = f.dF_dv = f.Fc = 0.0; f.xi = xp; f.nc = np; f.sx = -m->sigma;
     return f;
 }
 
@@ -123,12 +156,14 @@ MK_HIDDEN double mk_law_potential(const MkParams *P, const MkMesh *m, double d, 
     return pen > 0.0 ? 0.5 * m->k * kn * pen * pen : 0.0;
 }
 
-static Moments flank_moments(const MkParams *P, const MkMesh *m, double F, double xi, double W1_, double W2_) {
-    Moments r = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+/* FlankFriction.moments with nc pairs in contact (the lever arms' derivatives by the contact position too) */
+static Moments flank_moments(const MkParams *P, const MkMesh *m, double F, double xi, double W1_, double W2_,
+                             int64_t ncp) {
+    Moments r = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
     if (F == 0.0) return r;
     double x0 = xi * m->pb;
-    int nc = x0 + m->pb <= m->galpha ? 2 : 1;
-    double aF = fabs(F), sF = F > 0.0 ? 1.0 : -1.0, share = aF / nc, x = x0;
+    int nc = (int)ncp;
+    double aF = fabs(F), sF = F > 0.0 ? 1.0 : -1.0, share = aF / nc, x = x0, dW = W1_ - W2_;
     for (int j = 0; j < nc; j++) {
         double l1 = m->l1min + x, l2 = m->L - l1, v = W1_ * l1 + W2_ * l2, mu, dmu;
         friction_coefficient(v, P->mu_s, P->mu_d, P->v_s, P->v_d, &mu, &dmu);
@@ -141,6 +176,9 @@ static Moments flank_moments(const MkParams *P, const MkMesh *m, double F, doubl
         r.d12 -= g * l1 * l2;
         r.d22 -= g * l2 * l2;
         r.P += mu * share * v;
+        double gx = g * dW;
+        r.dM1x -= gx * l1 + mu * share;
+        r.dM2x -= gx * l2 - mu * share;
         x += m->pb;
     }
     return r;
@@ -184,21 +222,29 @@ MK_HIDDEN void mk_eval(const MkParams *P, const MkState *S, const double *y, dou
     for (int i = 0; i < 3; i++) {
         const MkMesh *m = &P->md[i];
         dds[i] = m->a1 * W[m->g1] + m->a2 * W[m->g2];
-        mf[i] = mesh_force(P, m, y[m->d], dds[i], us[i]);
+        mf[i] = mesh_force(P, S, i, m, y[m->d], dds[i], us[i]);
     }
     double FA = mf[0].F, FB = mf[1].F, F12 = mf[2].F;
     double Pw = n * ((FA - mf[0].Fc) * dds[0] + (FB - mf[1].Fc) * dds[1] + (F12 - mf[2].Fc) * dds[2]);
     const double rbA = P->rbA, rb1 = P->rb1, rbB = P->rbB, rb2 = P->rb2;
     double Q[4] = {rbA * FA, rbB * FB, rb1 * (FA - F12), rb2 * (FB - F12)};
     double C[4][3] = {{rbA, 0.0, 0.0}, {0.0, rbB, 0.0}, {rb1, 0.0, -rb1}, {0.0, rb2, -rb2}};
-    double G[4][4];
+    double G[4][4], Lx[4][4];   /* flank friction: velocity coefficients; lever arms on (psi_A, d_A1, d_B2, d_12) */
     memset(G, 0, sizeof G);
+    memset(Lx, 0, sizeof Lx);
     if (P->flank) {
         double Pf = 0.0;
+        /* layout.roll_gradients: d(u_A1, u_B2, u_12)/d(psi_A, d_A1, d_B2, d_12) */
+        const double du[3][4] = {{rbA, 0.0, 0.0, 0.0}, {-rbA, -1.0, -1.0, -1.0}, {-rbA, -1.0, 0.0, 0.0}};
         for (int i = 0; i < 3; i++) {
             const MkMesh *m = &P->md[i];
             int g1 = (int)m->g1, g2 = (int)m->g2;
-            Moments fm = flank_moments(P, m, mf[i].F, mf[i].xi, W[g1], W[g2]);
+            Moments fm = flank_moments(P, m, mf[i].F, mf[i].xi, W[g1], W[g2], mf[i].nc);
+            double a1 = fm.dM1x * mf[i].sx, a2 = fm.dM2x * mf[i].sx;
+            for (int k = 0; k < 4; k++) {
+                Lx[g1][k] += a1 * du[i][k];
+                Lx[g2][k] += a2 * du[i][k];
+            }
             Q[g1] += fm.M1;
             Q[g2] += fm.M2;
             C[g1][i] += fm.dM1F;
@@ -269,7 +315,7 @@ MK_HIDDEN void mk_eval(const MkParams *P, const MkState *S, const double *y, dou
         sv[SV_AC] = ac;
     }
     if (!J) return;
-    double rows[4][7];
+    double rows[4][7], rpsi[4] = {0.0, 0.0, 0.0, 0.0};
     for (int g = 0; g < 4; g++) {
         double sc = g < 2 ? (double)n : 1.0;
         double *r = rows[g];
@@ -283,7 +329,14 @@ MK_HIDDEN void mk_eval(const MkParams *P, const MkState *S, const double *y, dou
             r[m->g2 + 3] += coef * (dv * m->a2);
         }
         for (int k = 3; k < 7; k++) r[k] = P->flank ? sc * (r[k] + G[g][k - 3]) : sc * r[k];
+        if (P->flank) {
+            r[0] += sc * Lx[g][1];
+            r[1] += sc * Lx[g][2];
+            r[2] += sc * Lx[g][3];
+            rpsi[g] = sc * Lx[g][0];
+        }
     }
+    double gacp = 0.0;
     double gac[7] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
     if (!P->speed_drive) {
         for (int k = 0; k < 7; k++) {
@@ -293,6 +346,13 @@ MK_HIDDEN void mk_eval(const MkParams *P, const MkState *S, const double *y, dou
             gac[k] = -a / Jeff;
             J[WC * N + 1 + k] = gac[k];
         }
+        if (P->flank) {
+            double a = rpsi[0] + rpsi[1];
+            if (!stuck1) a += n * rpsi[2];
+            if (!stuck2) a += n * rpsi[3];
+            gacp = -a / Jeff;
+            J[WC * N] = gacp;
+        }
     }
     double iA = 1.0 / P->JA, iB = 1.0 / P->JB, i1 = 1.0 / P->J1, i2 = 1.0 / P->J2;
     for (int k = 0; k < 7; k++) {
@@ -300,5 +360,11 @@ MK_HIDDEN void mk_eval(const MkParams *P, const MkState *S, const double *y, dou
         J[VB * N + 1 + k] = rows[1][k] * iB - gac[k];
         J[W1 * N + 1 + k] = stuck1 ? 0.0 : rows[2][k] * i1 - gac[k];
         J[W2 * N + 1 + k] = stuck2 ? 0.0 : rows[3][k] * i2 - gac[k];
+    }
+    if (P->flank) {           /* the column of psi_A (only the lever arms depend on it) */
+        J[VA * N] = rpsi[0] * iA - gacp;
+        J[VB * N] = rpsi[1] * iB - gacp;
+        J[W1 * N] = stuck1 ? 0.0 : rpsi[2] * i1 - gacp;
+        J[W2 * N] = stuck2 ? 0.0 : rpsi[3] * i2 - gacp;
     }
 }

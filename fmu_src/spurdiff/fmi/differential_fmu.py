@@ -255,10 +255,10 @@ VARIABLES: list[Var] = [
        "pin-load solve: auto (the compiled kernel shipped in the FMU when it loads, else the Python reference, "
        "with the reason logged) | compiled (refuse to start without it) | python (the pure-Python reference; "
        "same results, slower)", kind="String"),
-    _p("solver.method", "mesh.method", "Integration method of the compliant/contact levels: ros34pw2 (ROS34PW2, "
-       "order 3, a Rosenbrock-W method that reuses its Jacobian) | rodas5p (RODAS5P, order 5, a Jacobian every "
-       "internal step; several times fewer internal steps from tolerance 1e-4 down, docs/accuracy.md; its "
-       "analytic Jacobian is not exact with flankFriction: use ros34pw2 there)",
+    _p("solver.method", "mesh.method", "Integration method of the compliant/contact levels: auto (RODAS5P at "
+       "the contact level, ROS34PW2 at the compliant level) | ros34pw2 (ROS34PW2, order 3, a Rosenbrock-W "
+       "method that reuses its Jacobian) | rodas5p (RODAS5P, order 5, a Jacobian every internal step; several "
+       "times fewer internal steps from tolerance 1e-4 down, docs/accuracy.md)",
        kind="String"),
     Var("solver.kernelInUse", "calculatedParameter", "Implementation that runs the compliant/contact levels, "
         "or the rigid level's pin-load solve: compiled | python (and why) | none (rigid without a pin-load "

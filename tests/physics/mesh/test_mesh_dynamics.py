@@ -113,16 +113,24 @@ def test_paper_cornering_slips_like_the_rigid_level(level):
 
 
 # ------------------------------------------------------------------ convergence
-def _transient_means(tol, h, t_end=0.1, level="contact"):
-    m = model(level, preload=False, tolerance=tol)  # start with unloaded meshes: a real transient
+def _transient_means(tol, h, t_end=0.1, level="contact", method="auto"):
+    m = model(level, preload=False, tolerance=tol, method=method)  # unloaded meshes: a real transient
     return means(run(m, t_end, h), h)[:6]
 
 
-def test_contact_means_converge_with_tolerance():
-    ref = _transient_means(1e-10, 1e-3)
-    errs = [np.max(np.abs(_transient_means(tol, 1e-3) - ref) / np.abs(ref)) for tol in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7)]
-    assert all(b < a for a, b in zip(errs, errs[1:])), errs
-    assert errs[-1] < 1e-8
+@pytest.mark.parametrize("method", ["ros34pw2", "rodas5p"])
+def test_contact_means_converge_with_tolerance(method):
+    ref = _transient_means(1e-10, 1e-3, method=method)
+    errs = [np.max(np.abs(_transient_means(tol, 1e-3, method=method) - ref) / np.abs(ref))
+            for tol in (1e-3, 1e-4, 1e-5, 1e-6, 1e-7)]
+    if method == "ros34pw2":
+        assert all(b < a for a, b in zip(errs, errs[1:])), errs
+        assert errs[-1] < 1e-8
+    else:
+        # RODAS5P (the contact level's default): monotone down to 1e-6, where it reaches 3e-11,
+        # the level of its reference; at 1e-7 it stays there (3.3e-11, not below 1e-6's 2.6e-11)
+        assert all(b < a for a, b in zip(errs[:4], errs[1:4])), errs
+        assert errs[3] < 1e-10 and errs[4] < 1e-10, errs
     # the start transient matters: the means are not those of the preloaded start
     assert abs(ref[0] / 2100.0 - 1.0) > 1e-3
 

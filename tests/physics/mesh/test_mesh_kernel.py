@@ -275,13 +275,14 @@ def test_the_fmu_runs_the_kernel_with_the_reference_results(differential_fmu, me
 
 def test_the_fmu_parameter_solver_method_reaches_the_integrator(differential_fmu):
     """solver.method = rodas5p through fmpy takes the steps of a direct RODAS5P run (fewer than
-    ROS34PW2's over the unloaded start); an unknown method is refused, naming the parameter."""
+    ROS34PW2's over the unloaded start), auto (the default) RODAS5P's at the contact level; an
+    unknown method is refused, naming the parameter."""
     from fmpy import simulate_fmu
 
     start = {"meshModel": "contact", "mesh.preload": False, "carrier.w_ref": 1.389, "left.tau": -1050.0,
              "right.tau": -1050.0, "tolerance": 1e-8}
     steps = {}
-    for method in METHODS:
+    for method in ("auto",) + METHODS:
         res = simulate_fmu(str(differential_fmu), stop_time=0.01, output_interval=1e-3,
                            start_values={**start, "solver.method": method})
         steps[method] = int(res["internalSteps"][-1])
@@ -293,12 +294,12 @@ def test_the_fmu_parameter_solver_method_reaches_the_integrator(differential_fmu
         for k in range(10):
             m.do_step(k * 1e-3, 1e-3)
         assert steps[method] == m.n_internal_steps, method
-    assert steps["rodas5p"] < steps["ros34pw2"] / 2, steps
+    assert steps["rodas5p"] < steps["ros34pw2"] / 2 and steps["auto"] == steps["rodas5p"], steps
     logs = []
     with pytest.raises(Exception, match="ExitInitializationMode"):
         simulate_fmu(str(differential_fmu), stop_time=0.01, start_values={**start, "solver.method": "rk4"},
                      logger=lambda *a: logs.append(str(a[-1])), debug_logging=True)
-    assert any("solver.method = 'rk4' is invalid: allowed ros34pw2 | rodas5p" in s for s in logs), logs[-5:]
+    assert any("solver.method = 'rk4' is invalid: allowed auto | ros34pw2 | rodas5p" in s for s in logs), logs[-5:]
 
 
 HOSTS = Path(__file__).resolve().parents[4] / "shared" / "hosts"   # ../shared/hosts beside the checkout

@@ -15,7 +15,7 @@ CASE = "contact, unloaded start"
 
 
 def _plain(tol: float, t_end: float) -> dict:
-    m = ivp_model(CASE, tol, "python")
+    m = ivp_model(CASE, tol, "python", "ros34pw2")    # the measurement is of ROS34PW2's steps
     m.run_dense(t_end, np.arange(1, int(round(t_end / 1e-3)) + 1) * 1e-3)
     return {**m.solver_counts(), "loss": m.energy_loss}
 

@@ -1,14 +1,18 @@
 """Events of the mesh model, found by the stepper (:mod:`spurdiff.differential.mesh.stepper`): a contact flank
 opening or closing, a slipping planet reaching zero slip speed, a stuck planet's required friction
-exceeding its capacity (state events, located inside a step from its start, dense-output middle
-and end), and the mesh-phase boundaries (time events, predicted from the rolling speeds)."""
+exceeding its capacity, a loaded flank leaving the interval of its held phase mode (single/double
+contact; state events, located inside a step from its start, dense-output middle and end), and
+the mesh-phase boundaries predicted from the rolling speeds (a step limit, so most steps end just
+past a boundary without a located event)."""
 from __future__ import annotations
 
 import math
 
-from spurdiff.differential.mesh.layout import PSI, VA, VB, W1, W2, relative_angles
+from spurdiff.differential.mesh.layout import PSI, VA, VB, W1, W2, relative_angles, rolls
 
 STICK_RTOL = 1e-9  # relative margin of the stick test |M_i| <= c_pin |F_pin,i| (rounding only)
+PHASE_RTOL = 1e-8  # a step may overrun a phase boundary by this fraction (the held mode's error there)
+PHASE_PAST = 1e-9  # relative margin by which a step predicted or located to a phase boundary lands past it
 
 
 def contact_flags(c, y) -> list[int]:
@@ -112,7 +116,8 @@ def phase_limit(c, y) -> float:
         if us is None:
             psiB, th1, _ = relative_angles(c, yl)
             us = (c.rbA * yl[PSI], c.rbB * psiB, c.rb1 * th1)
-        xi = ((m.xi0 if sgn < 0.0 else m.xi0c) + sgn * m.sigma * us[mi] / m.pb) % 1.0
+        z = (m.xi0 if sgn < 0.0 else m.xi0c) + sgn * m.sigma * us[mi] / m.pb
+        xi = z % 1.0
         ar = abs(rate)
         bounds = (0.0, m.eps - 1.0, m.xip) if flank is not None else (0.0, m.eps - 1.0)
         for j, xb in enumerate(bounds):
@@ -120,7 +125,10 @@ def phase_limit(c, y) -> float:
             if dist == 0.0:
                 dist = 1.0
             dt = dist / ar
-            dt += 1e-7 * dt + 1e-12
+            # just past: relative margin, the rounding of the phase (|z| ulps), at least 1e-12 s
+            dt += PHASE_PAST * dt + 4e-16 * (abs(z) + 1.0) / ar
+            if dt < 1e-12:
+                dt = 1e-12
             if j == 2:
                 o1, o2 = omegas[mi]
                 grad = abs(o1 - o2) * ar * m.pb      # d|v|/dt of the sliding speed at the pitch
@@ -129,3 +137,76 @@ def phase_limit(c, y) -> float:
             if dt < best:
                 best = dt
     return best
+
+
+def phase_mode(c, y) -> tuple:
+    """The phase mode of each mesh at y (:meth:`spurdiff.differential.mesh.forces.MeshPhase.mode`:
+    the tooth count and pairs in contact of its drive and coast flanks), held over the next step."""
+    us = rolls(c, y.tolist())
+    return tuple(c.phase_obj.mode(m, us[i]) for i, m in enumerate(c.md))
+
+
+def phase_switches(c, y, old: tuple, new: tuple) -> int:
+    """How many loaded flanks (at y) changed their phase mode from ``old`` to ``new``: the
+    single/double contact boundaries an accepted step crossed (a diagnostic)."""
+    unilateral = c._bl or c._contact
+    count = 0
+    for i, m in enumerate(c.md):
+        d = float(y[m.d])
+        if unilateral:
+            drive, coast = d > 0.0, -(d + m.jn) > 0.0
+        else:
+            drive, coast = d >= 0.0, d < 0.0
+        a, b = old[i], new[i]
+        if drive and (a[0] != b[0] or a[1] != b[1]):
+            count += 1
+        if coast and (a[2] != b[2] or a[3] != b[3]):
+            count += 1
+    return count
+
+
+def leave(x0: float, xm: float, x1: float, lo: float, hi: float) -> float:
+    """Fraction of the step where x (at the start, middle and end of the step; piecewise linear)
+    leaves [lo, hi); 1.0 if it does not."""
+    if xm < lo:
+        return 0.5 * (x0 - lo) / (x0 - xm)
+    if xm >= hi:
+        return 0.5 * (hi - x0) / (xm - x0)
+    if x1 < lo:
+        return 0.5 + 0.5 * (xm - lo) / (xm - x1)
+    if x1 >= hi:
+        return 0.5 + 0.5 * (hi - xm) / (x1 - xm)
+    return 1.0
+
+
+def phase_events(c, y0, ym, y1) -> float:
+    """Smallest fraction of the step at which a loaded flank (at the start or the end of the
+    step) leaves the interval of its held phase mode ``c._mode``: ``[0, eps - 1)`` (two pairs)
+    or ``[eps - 1, 1)`` (one pair) of ``xi = z - k``; 1.0 if none."""
+    mode = c._mode
+    unilateral = c._bl or c._contact
+    u0, um, u1 = rolls(c, y0.tolist()), rolls(c, ym.tolist()), rolls(c, y1.tolist())
+    theta = 1.0
+    for i, m in enumerate(c.md):
+        a, b = float(y0[m.d]), float(y1[m.d])
+        if unilateral:
+            drive = a > 0.0 or b > 0.0
+            coast = -(a + m.jn) > 0.0 or -(b + m.jn) > 0.0
+        else:
+            drive = a >= 0.0 or b >= 0.0
+            coast = a < 0.0 or b < 0.0
+        kp, np_, kn, nn = mode[i]
+        e1 = m.eps - 1.0
+        if drive:
+            lo, hi = (0.0, e1) if np_ == 2 else (e1, 1.0)
+            x0 = (m.xi0 - m.sigma * u0[i] / m.pb) - kp
+            xm = (m.xi0 - m.sigma * um[i] / m.pb) - kp
+            x1 = (m.xi0 - m.sigma * u1[i] / m.pb) - kp
+            theta = min(theta, leave(x0, xm, x1, lo, hi))
+        if coast:
+            lo, hi = (0.0, e1) if nn == 2 else (e1, 1.0)
+            x0 = (m.xi0c + m.sigma * u0[i] / m.pb) - kn
+            xm = (m.xi0c + m.sigma * um[i] / m.pb) - kn
+            x1 = (m.xi0c + m.sigma * u1[i] / m.pb) - kn
+            theta = min(theta, leave(x0, xm, x1, lo, hi))
+    return theta

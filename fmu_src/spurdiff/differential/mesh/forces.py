@@ -19,6 +19,7 @@ Equations and signs: :mod:`spurdiff.differential.mesh.model`.
 """
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 from spurdiff.differential.mesh.laws import elasto_backlash, friction_coefficient, impact, impact_potential
@@ -27,27 +28,33 @@ from spurdiff.differential.mesh.layout import GEAR_1, GEAR_2, GEAR_A, GEAR_B, VA
 
 class MeshForce(NamedTuple):
     """Normal force of one pair (N), its partial derivatives by the deflection and its rate, its
-    conservative part, and the phase of the flank in contact."""
+    conservative part, the phase of the flank in contact, its number of pairs in contact and
+    ``sx = d(xi p_b)/du`` (-sigma on the drive flank, +sigma on the coast flank)."""
 
     F: float
     dF_dd: float
     dF_dv: float
     Fc: float
     xi: float
+    nc: int
+    sx: float
 
 
 class Phase(NamedTuple):
-    """Phases of the drive and coast flanks and their stiffness factors (n_c / eps)."""
+    """Phases of the drive and coast flanks, their stiffness factors (n_c / eps) and their numbers
+    of pairs in contact n_c."""
 
     xp: float
     xn: float
     kp: float
     kn: float
+    np: int
+    nn: int
 
 
 class FlankMoments(NamedTuple):
-    """Flank friction of one pair: moments on gear 1 and 2, their derivatives by F and by the gear
-    speeds, and the dissipated power."""
+    """Flank friction of one pair: moments on gear 1 and 2, their derivatives by F, by the gear
+    speeds and by the contact position ``x = xi p_b`` (the lever arms), and the dissipated power."""
 
     M1: float
     M2: float
@@ -57,6 +64,8 @@ class FlankMoments(NamedTuple):
     d12: float
     d22: float
     P: float
+    dM1_dx: float = 0.0
+    dM2_dx: float = 0.0
 
 
 class SideValues(NamedTuple):
@@ -78,7 +87,7 @@ class SideValues(NamedTuple):
     ac: float
 
 
-NO_MOMENTS = FlankMoments(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+NO_MOMENTS = FlankMoments(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
 # ---------------------------------------------------------------- mesh laws
@@ -88,9 +97,9 @@ class BilateralSpring:
     def force(self, m: MeshData, d: float, dd: float, ph: Phase) -> MeshForce:
         if d >= 0.0:
             kk = m.k * ph.kp
-            return MeshForce(kk * d + m.c * dd, kk, m.c, kk * d, ph.xp)
+            return MeshForce(kk * d + m.c * dd, kk, m.c, kk * d, ph.xp, ph.np, -m.sigma)
         kk = m.k * ph.kn
-        return MeshForce(kk * d + m.c * dd, kk, m.c, kk * d, ph.xn)
+        return MeshForce(kk * d + m.c * dd, kk, m.c, kk * d, ph.xn, ph.nn, m.sigma)
 
     def potential(self, m: MeshData, d: float, kp: float, kn: float) -> float:
         return 0.5 * m.k * (kp if d >= 0.0 else kn) * d * d
@@ -106,12 +115,12 @@ class _Unilateral:
     def force(self, m: MeshData, d: float, dd: float, ph: Phase) -> MeshForce:
         if d > 0.0:
             F, dFp, dFv, Fc = self.flank(m, d, dd, ph.kp)
-            return MeshForce(F, dFp, dFv, Fc, ph.xp)
+            return MeshForce(F, dFp, dFv, Fc, ph.xp, ph.np, -m.sigma)
         pen = -(d + m.jn)
         if pen > 0.0:
             F, dFp, dFv, Fc = self.flank(m, pen, -dd, ph.kn)
-            return MeshForce(-F, dFp, dFv, -Fc, ph.xn)
-        return MeshForce(0.0, 0.0, 0.0, 0.0, ph.xp)
+            return MeshForce(-F, dFp, dFv, -Fc, ph.xn, ph.nn, m.sigma)
+        return MeshForce(0.0, 0.0, 0.0, 0.0, ph.xp, ph.np, -m.sigma)
 
 
 class ElastoBacklash(_Unilateral):
@@ -151,9 +160,16 @@ class Impact(_Unilateral):
 # ---------------------------------------------------------------- mesh phase and stiffness wave
 class MeshPhase:
     """Phase of the drive flanks ``xi = frac(xi_0 - sigma u / p_b)`` and of the coast flanks
-    ``frac(xi_0c + sigma u / p_b)``; with the stiffness wave the stiffness factor
-    ``n_c / eps`` (two pairs for ``xi < eps - 1``). Without either phase effect the phases stay
-    at their start values (nothing reads them)."""
+    ``frac(xi_0c + sigma u / p_b)``; the number of pairs in contact (two for ``xi < eps - 1``)
+    and with the stiffness wave the stiffness factor ``n_c / eps``. Without either phase effect
+    the phases stay at their start values (nothing reads them).
+
+    The phase mode of a flank (:meth:`mode`): the tooth count ``k = floor(z)`` of its unwrapped
+    phase ``z`` (``xi = z - k``) and whether two pairs are in contact. Held over an internal step
+    (``mode`` given to :meth:`phase`), the phase runs on continuously (``z - k``, it may leave
+    [0, 1) by what the step overruns a boundary) and n_c and the stiffness factor stay: the
+    right-hand side is smooth within the step; the stepper switches the mode at the located
+    boundary (:func:`spurdiff.differential.mesh.events.phase_events`)."""
 
     def __init__(self, wave: bool, tracked: bool):
         self.wave, self.tracked = wave, tracked
@@ -163,16 +179,38 @@ class MeshPhase:
             return 1.0
         return (2.0 if xi < m.eps - 1.0 else 1.0) / m.eps
 
-    def phase(self, m: MeshData, u: float) -> Phase:
-        if not self.tracked:
-            return Phase(m.xi0, m.xi0c, 1.0, 1.0)
+    def mode(self, m: MeshData, u: float) -> tuple[float, int, float, int]:
+        """(k_p, n_c,p, k_n, n_c,n) of the drive and coast flanks at roll u."""
         r = m.sigma * u / m.pb
-        xp = (m.xi0 - r) % 1.0
-        xn = (m.xi0c + r) % 1.0
-        if self.wave:
+        zp = m.xi0 - r
+        zn = m.xi0c + r
+        kp = float(math.floor(zp))
+        kn = float(math.floor(zn))
+        e1 = m.eps - 1.0
+        return kp, 2 if zp - kp < e1 else 1, kn, 2 if zn - kn < e1 else 1
+
+    def phase(self, m: MeshData, u: float, mode=None) -> Phase:
+        """Phases at roll u; in the phase mode ``mode`` (:meth:`mode`), else in the mode at u."""
+        if not self.tracked:
+            return Phase(m.xi0, m.xi0c, 1.0, 1.0, 1, 1)
+        r = m.sigma * u / m.pb
+        zp = m.xi0 - r
+        zn = m.xi0c + r
+        if mode is None:
+            kp = float(math.floor(zp))
+            kn = float(math.floor(zn))
+            xp = zp - kp
+            xn = zn - kn
             e1 = m.eps - 1.0
-            return Phase(xp, xn, (2.0 if xp < e1 else 1.0) / m.eps, (2.0 if xn < e1 else 1.0) / m.eps)
-        return Phase(xp, xn, 1.0, 1.0)
+            np_ = 2 if xp < e1 else 1
+            nn = 2 if xn < e1 else 1
+        else:
+            kp, np_, kn, nn = mode
+            xp = zp - kp
+            xn = zn - kn
+        if self.wave:
+            return Phase(xp, xn, (2.0 if np_ == 2 else 1.0) / m.eps, (2.0 if nn == 2 else 1.0) / m.eps, np_, nn)
+        return Phase(xp, xn, 1.0, 1.0, np_, nn)
 
     def factors(self, m: MeshData, u: float) -> tuple[float, float]:
         """Stiffness factors of the drive and coast flanks at roll u (for the elastic energy)."""
@@ -188,16 +226,22 @@ class FlankFriction:
     def __init__(self, mu_s: float, mu_d: float, v_s: float, v_d: float):
         self.mu_s, self.mu_d, self.v_s, self.v_d = mu_s, mu_d, v_s, v_d
 
-    def moments(self, m: MeshData, F: float, xi: float, W1: float, W2: float) -> FlankMoments:
+    def moments(self, m: MeshData, F: float, xi: float, W1: float, W2: float, nc: int = 0) -> FlankMoments:
+        """The moments at phase xi with ``nc`` pairs in contact (0: from xi). The lever arms
+        ``l_1 = l1min + x + j p_b``, ``l_2 = L - l_1`` move with the contact position ``x = xi p_b``:
+        ``dM_1/dx = -share sum (mu + mu'(v) (W_1 - W_2) l_1)``,
+        ``dM_2/dx = -share sum (mu'(v) (W_1 - W_2) l_2 - mu)``."""
         if F == 0.0:
             return NO_MOMENTS
         mu_s, mu_d, v_s, v_d = self.mu_s, self.mu_d, self.v_s, self.v_d
         x0 = xi * m.pb
-        nc = 2 if x0 + m.pb <= m.galpha else 1
+        if nc == 0:
+            nc = 2 if x0 + m.pb <= m.galpha else 1
         aF = abs(F)
         sF = 1.0 if F > 0.0 else -1.0
         share = aF / nc
-        M1 = M2 = dM1F = dM2F = d11 = d12 = d22 = P = 0.0
+        M1 = M2 = dM1F = dM2F = d11 = d12 = d22 = P = dM1x = dM2x = 0.0
+        dW = W1 - W2
         x = x0
         for _ in range(nc):
             l1 = m.l1min + x
@@ -213,8 +257,11 @@ class FlankFriction:
             d12 -= g * l1 * l2
             d22 -= g * l2 * l2
             P += mu * share * v
+            gx = g * dW
+            dM1x -= gx * l1 + mu * share
+            dM2x -= gx * l2 - mu * share
             x += m.pb
-        return FlankMoments(M1, M2, dM1F, dM2F, d11, d12, d22, P)
+        return FlankMoments(M1, M2, dM1F, dM2F, d11, d12, d22, P, dM1x, dM2x)
 
 
 # ---------------------------------------------------------------- the right-hand side
@@ -239,11 +286,12 @@ def evaluate(c, y, f, J) -> SideValues:
     else:
         us = (0.0, 0.0, 0.0)
     law, phase = c.law_obj, c.phase_obj
+    mode = c._mode                          # the phase modes held over an internal step, or None
     dds, mf = [], []
     for i, m in enumerate(md):
         dd = m.a1 * W[m.g1] + m.a2 * W[m.g2]
         dds.append(dd)
-        mf.append(law.force(m, yl[m.d], dd, phase.phase(m, us[i])))
+        mf.append(law.force(m, yl[m.d], dd, phase.phase(m, us[i], mode[i] if mode is not None else None)))
     fA, fB, f12 = mf
     FA, FB, F12 = fA.F, fB.F, f12.F
     P = n * ((FA - fA.Fc) * dds[0] + (FB - fB.Fc) * dds[1] + (F12 - f12.Fc) * dds[2])
@@ -252,12 +300,23 @@ def evaluate(c, y, f, J) -> SideValues:
     Q = [rbA * FA, rbB * FB, rb1 * (FA - F12), rb2 * (FB - F12)]
     C = [[rbA, 0.0, 0.0], [0.0, rbB, 0.0], [rb1, 0.0, -rb1], [0.0, rb2, -rb2]]
     G = None     # velocity coefficients of the flank friction, G[gear][gear]
+    Lx = None    # its lever arms' coefficients on (psi_A, d_A1, d_B2, d_12), Lx[gear]
     if c.flank_obj is not None:
         G = [[0.0] * 4 for _ in range(4)]
+        Lx = [[0.0] * 4 for _ in range(4)]
         Pf = 0.0
         for i, m in enumerate(md):
-            fm = c.flank_obj.moments(m, mf[i].F, mf[i].xi, W[m.g1], W[m.g2])
+            fi = mf[i]
+            fm = c.flank_obj.moments(m, fi.F, fi.xi, W[m.g1], W[m.g2], fi.nc)
             g1, g2 = m.g1, m.g2
+            # the contact position x = xi p_b moves with the roll u of the mesh (dx/du = sx), and
+            # u is linear in (psi_A, d_A1, d_B2, d_12) (c._du, layout.roll_gradients)
+            a1, a2 = fm.dM1_dx * fi.sx, fm.dM2_dx * fi.sx
+            du = c._du[i]
+            L1, L2 = Lx[g1], Lx[g2]
+            for k in range(4):
+                L1[k] += a1 * du[k]
+                L2[k] += a2 * du[k]
             Q[g1] += fm.M1
             Q[g2] += fm.M2
             C[g1][i] += fm.dM1_dF
@@ -336,6 +395,7 @@ def evaluate(c, y, f, J) -> SideValues:
     # rows of dQ/dy over the columns (dA, dB, d12, vA, vB, w1, w2): through the mesh forces
     # (dF/dd on the mesh's deflection, dF/dd' a on the speeds of its gears) and the flank friction
     rows = []
+    rpsi = []
     for g, touching in enumerate(c.gear_meshes):
         sc = n if g < 2 else 1            # the suns carry the n pairs
         r = [0.0] * 7
@@ -348,10 +408,17 @@ def evaluate(c, y, f, J) -> SideValues:
             r[m.g2 + 3] += coef * (dv * m.a2)
         for k in range(3, 7):
             r[k] = sc * (r[k] + G[g][k - 3]) if G is not None else sc * r[k]
+        if Lx is not None:
+            lx = Lx[g]
+            r[0] += sc * lx[1]
+            r[1] += sc * lx[2]
+            r[2] += sc * lx[3]
+            rpsi.append(sc * lx[0])
         rows.append(r)
     gQA, gQB, gQ1, gQ2 = rows
     if c.speed_drive:
         gac = (0.0,) * 7
+        gacp = 0.0
     else:
         acc = [gQA[k] + gQB[k] for k in range(7)]
         if not stuck1:
@@ -362,6 +429,19 @@ def evaluate(c, y, f, J) -> SideValues:
                 acc[k] += n * gQ2[k]
         gac = tuple(-a / Jeff for a in acc)
         J[WC, 1:8] = gac
+        if Lx is not None:
+            accp = rpsi[0] + rpsi[1]
+            if not stuck1:
+                accp += n * rpsi[2]
+            if not stuck2:
+                accp += n * rpsi[3]
+            gacp = -accp / Jeff
+            J[WC, 0] = gacp
+    if Lx is not None:       # the column of psi_A (only the lever arms depend on it)
+        J[VA, 0] = rpsi[0] * (1.0 / c.JA) - gacp
+        J[VB, 0] = rpsi[1] * (1.0 / c.JB) - gacp
+        J[W1, 0] = 0.0 if stuck1 else rpsi[2] * (1.0 / J1_) - gacp
+        J[W2, 0] = 0.0 if stuck2 else rpsi[3] * (1.0 / J2_) - gacp
     iA, iB = 1.0 / c.JA, 1.0 / c.JB
     J[VA, 1:8] = [gQA[k] * iA - gac[k] for k in range(7)]
     J[VB, 1:8] = [gQB[k] * iB - gac[k] for k in range(7)]

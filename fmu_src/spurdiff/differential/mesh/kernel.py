@@ -28,7 +28,7 @@ from spurdiff import native_library
 from spurdiff.errors import ParameterError, StepError
 from spurdiff.differential.mesh.integrator import SMAX      # mesh_kernel.h SMAX: the most stages of a tableau
 
-ABI = 6
+ABI = 7
 LIB_NAME = "mesh_kernel.so"
 SEARCH_PATH: list[Path] = []
 _HERE = Path(__file__).resolve().parent
@@ -64,7 +64,9 @@ class MkState(C.Structure):
                 # factored W, the cached f and side values at y with their inputs, the Jacobian's age)
                 + [("Jf", _d * 100), ("LU", _d * 100), ("f0c", _d * 10), ("sv0c", _d * 13), ("key", _d * 4),
                    ("lu_h", _d), ("piv", C.c_int32 * 10), ("key_s", _i * 2), ("cache_ok", _i), ("jac_age", _i),
-                   ("n_jac", _i), ("n_lu", _i), ("gpin", _d * 4)])
+                   ("n_jac", _i), ("n_lu", _i), ("gpin", _d * 4)]
+                # the phase modes held over an internal step (the model's _mode), phold = 0: none
+                + [("pk", _d * 6), ("pnc", _i * 6), ("phold", _i), ("n_psw", _i)])
 
 
 def source_digest(native: Path) -> str:
@@ -217,6 +219,7 @@ class Kernel:
             self.J[:] = c._integ.J
             S.jac_age, S.lu_h = c._jac_age, 0.0
             S.n_jac, S.n_lu = c.n_jacobians, c._integ.n_factorizations
+            S.n_psw = c.n_phase_switches
         if c.y is not self.y:
             D[:c._N] = c.y
         D[10:27] = (c.w_ref, c.tau_c, c.tau_L, c.tau_R, c._ac, c.wc, c.phic, c.t, c.h_next, c.work_in, c.energy_loss,
@@ -229,6 +232,11 @@ class Kernel:
         I[8] = nf
         I[9:14] = (c.n_internal_steps, c.n_rejected_steps, c.n_mode_switches, c.n_contact_transitions, c.n_steps)
         S.gpin[:] = c._g
+        mode = c._mode
+        S.phold = int(mode is not None)
+        if mode is not None:
+            for i, (kp, np_, kn, nn) in enumerate(mode):
+                S.pk[2 * i], S.pnc[2 * i], S.pk[2 * i + 1], S.pnc[2 * i + 1] = kp, np_, kn, nn
         return S
 
     def set_speed_loads(self, g) -> None:

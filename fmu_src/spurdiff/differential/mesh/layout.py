@@ -100,6 +100,13 @@ def rolls(c, yl) -> tuple[float, float, float]:
     return c.rbA * yl[PSI], c.rbB * psiB, c.rb1 * th1
 
 
+def roll_gradients(rbA: float) -> tuple[tuple[float, float, float, float], ...]:
+    """d(u_A1, u_B2, u_12)/d(psi_A, d_A1, d_B2, d_12): the rolls of :func:`rolls` are linear,
+    ``u_A1 = rb_A psi_A``, ``u_12 = rb_1 theta_1 = d_A0 - d_A1 - rb_A psi_A``,
+    ``u_B2 = rb_B psi_B = d_B0 - d_B2 - d_12 + d_120 + d_A0 - d_A1 - rb_A psi_A``."""
+    return ((rbA, 0.0, 0.0, 0.0), (-rbA, -1.0, -1.0, -1.0), (-rbA, -1.0, 0.0, 0.0))
+
+
 def constant_jacobian(J, rbA: float, rb1: float, rbB: float, rb2: float, speed_drive: bool) -> None:
     """The rows of df/dy that do not depend on y (the kinematic rows)."""
     J[:] = 0.0

@@ -52,7 +52,8 @@ from spurdiff.differential.mesh import kernel as compiled
 from spurdiff.differential.mesh.forces import (BilateralSpring, ElastoBacklash, FlankFriction, Impact, MeshPhase, SideValues, evaluate,
                      gear_meshes, potential)
 from spurdiff.differential.mesh.integrator import METHODS, RosenbrockW
-from spurdiff.differential.mesh.layout import D12, DA, DB, PSI, VA, VB, W1, W2, WC, constant_jacobian, mesh_data, relative_angles
+from spurdiff.differential.mesh.layout import (D12, DA, DB, PSI, VA, VB, W1, W2, WC, constant_jacobian, mesh_data,
+                                              relative_angles, roll_gradients)
 from spurdiff.differential.mesh.params import MeshParams
 from spurdiff.differential.mesh.events import contact_flags
 from spurdiff.differential.mesh.stepper import advance
@@ -161,6 +162,8 @@ class MeshDifferential(DifferentialModel):
                                         float(mp_.vTransition)) if self._flank else None)
         self.md = mesh_data(geo, ms, mp_)
         self.gear_meshes = gear_meshes(self.md)
+        self._du = roll_gradients(self.rbA)
+        self._mode = None          # the phase modes held over an internal step (stepper), else None
         # pin friction: layout of one planet pair and the constants (spurdiff.differential.locking)
         # the planets' centrifugal pin loads per unit w_c^2 (pinSpeedLoads, as the rigid level)
         th = pf.layout.theta
@@ -185,7 +188,7 @@ class MeshDifferential(DifferentialModel):
         N = self.n_states = 8 if self.speed_drive else 10
         self._N = N
         self.y = np.zeros(N)
-        self._integ = RosenbrockW(N, partial(evaluate, self), METHODS[mp_.method])
+        self._integ = RosenbrockW(N, partial(evaluate, self), METHODS[mp_.method_in_use()])
         self._f0 = np.zeros(N)
         self._f1 = np.zeros(N)
         self._J1 = np.zeros((N, N))
@@ -210,6 +213,7 @@ class MeshDifferential(DifferentialModel):
         self._kernel, self.kernel_in_use = compiled.choose(self)
         if self._kernel is not None:
             self.y = self._kernel.y       # the state lives in the kernel's structure
+        self.n_phase_switches = 0   # loaded flanks' single/double contact switches (diagnostic, solver_counts)
         initial_state(self, t0)
         self._ready = True
 
@@ -332,12 +336,14 @@ class MeshDifferential(DifferentialModel):
 
     def solver_counts(self) -> dict[str, int]:
         """The internal solver's work since initialize: accepted and rejected internal steps,
-        Jacobian evaluations and factorizations of W (diagnostics; not part of the FMU state)."""
+        Jacobian evaluations and factorizations of W, and the loaded flanks' single/double contact
+        switches at the located phase boundaries (diagnostics; not part of the FMU state)."""
         k = self._kernel is not None and not self._jac_dirty
         S = self._kernel.state if k else None
         return {"steps": self.n_internal_steps, "rejected": self.n_rejected_steps,
                 "jacobians": int(S.n_jac) if k else self.n_jacobians,
-                "factorizations": int(S.n_lu) if k else self._integ.n_factorizations}
+                "factorizations": int(S.n_lu) if k else self._integ.n_factorizations,
+                "phase_switches": int(S.n_psw) if k else self.n_phase_switches}
 
     def states_only(self) -> None:
         """From now on integrate the states alone: no loss quadrature (the dissipated energy is

@@ -15,7 +15,9 @@ from spurdiff.differential.mesh.integrator import METHODS as _TABLEAUX
 
 LEVELS = ("compliant", "contact")
 KERNELS = ("auto", "compiled", "python")
-METHODS = tuple(_TABLEAUX)            # solver.method: the integrator's tableaux by name
+METHODS = tuple(_TABLEAUX)            # the integrator's tableaux by name
+METHOD_CHOICES = ("auto",) + METHODS  # solver.method (auto: by the level, MeshParams.method_in_use)
+AUTO_METHOD = {"contact": "rodas5p", "compliant": "ros34pw2"}   # what auto selects per level
 N_PER_MM15 = 1e3 ** 1.5  # 1 N/mm^1.5 in N/m^1.5
 SWITCHES = ("backlash", "meshStiffnessVariation", "pinFriction", "flankFriction", "preload")
 
@@ -60,8 +62,13 @@ class MeshParams:
     # implementation: auto (the compiled kernel if it loads, else Python) | compiled | python
     kernel: str = _d("solver.kernel")
     # integration method: ros34pw2 (order 3, a W-method: Jacobian reused) | rodas5p (order 5,
-    # a Jacobian every step; fewer steps from tolerance 1e-4 down, docs/accuracy.md)
+    # a Jacobian every step; fewer steps from tolerance 1e-4 down, docs/accuracy.md) | auto
+    # (default: rodas5p at the contact level, ros34pw2 at the compliant level)
     method: str = _d("solver.method")
+
+    def method_in_use(self) -> str:
+        """The integration method that runs: ``method``, or with ``auto`` the level's (AUTO_METHOD)."""
+        return AUTO_METHOD.get(self.level, "ros34pw2") if self.method == "auto" else self.method
 
     def validate(self) -> None:
         """Raise ParameterError naming the first invalid field (checked in the order of LIMITS)."""
@@ -69,8 +76,8 @@ class MeshParams:
             raise ParameterError("level", self.level, " | ".join(LEVELS))
         if self.kernel not in KERNELS:
             raise ParameterError("kernel", self.kernel, " | ".join(KERNELS))
-        if self.method not in METHODS:
-            raise ParameterError("method", self.method, " | ".join(METHODS))
+        if self.method not in METHOD_CHOICES:
+            raise ParameterError("method", self.method, " | ".join(METHOD_CHOICES))
         for name in SWITCHES:
             v = getattr(self, name)
             if not isinstance(v, (bool, np.bool_)) and v not in (0, 1):

@@ -22,8 +22,9 @@ step (and so the factorization).
 """
 from __future__ import annotations
 
-from spurdiff.differential.mesh.events import (STICK_RTOL, breakaway, contact_flags, friction_margins, phase_limit,
-                     state_events)
+from spurdiff.differential.mesh.events import (PHASE_PAST, PHASE_RTOL, STICK_RTOL, breakaway, contact_flags,
+                                               friction_margins, phase_events, phase_limit, phase_mode,
+                                               phase_switches, state_events)
 from spurdiff.differential.mesh.forces import evaluate
 from spurdiff.differential.mesh.integrator import _combine, error_norm, new_step_size
 from spurdiff.differential.mesh.layout import PHIC, PSI, VA, VB, W1, W2, WC, relative_angles
@@ -131,7 +132,22 @@ def dense_output(tr, U, y, yn, tin: float, hi: float, k: int, tq: list, yq, tmp)
 def advance(c, t: float, h: float, dense=None) -> None:
     """Advance the model ``c`` from t to t + h (inputs held); raises StepError. ``dense``: None or
     (times into the step, increasing, in (0, h]; an array with a row per time) for the states
-    there by the dense output."""
+    there by the dense output.
+
+    With a mesh-phase effect the phase modes (pairs in contact, tooth count) are held over each
+    internal step (``c._mode``), so the right-hand side is smooth within it; a step that a loaded
+    flank's phase leaves its interval in is cut to land just past the boundary (as the other
+    events), and the modes switch where an accepted step ended: f, the side values and a fresh
+    Jacobian (where one was due) are evaluated again there in the new modes."""
+    if c._need_phase:
+        c._mode = phase_mode(c, c.y)
+    try:
+        _advance(c, t, h, dense)
+    finally:
+        c._mode = None
+
+
+def _advance(c, t: float, h: float, dense) -> None:
     integ = c._integ
     exponent = integ.method.err_exp
     every_step = not integ.method.w_method    # not a W-method: a Jacobian at every step's start
@@ -229,6 +245,16 @@ def advance(c, t: float, h: float, dense=None) -> None:
             # locate the contact first
             if c._pin and theta >= 1.0 - 1e-6:        # (pin friction dissipates: svm is there)
                 theta = breakaway(c, sv0, svm, sv1, theta)
+            if c._need_phase and located < 4:
+                # a loaded flank left its held phase mode inside the step: land just past the
+                # boundary (its overrun carries the held mode's error, PHASE_RTOL of the step)
+                thp = phase_events(c, y, ym, yn)
+                if thp < theta and thp < 1.0 - PHASE_RTOL and thp * hi > H_MIN:
+                    located += 1
+                    c.n_rejected_steps += 1
+                    hi = hi * thp * (1.0 + PHASE_PAST) + 1e-15
+                    truncated = True
+                    continue
             if theta < 1.0 - 1e-6 and located < 4 and theta * hi > H_MIN:
                 located += 1
                 c.n_rejected_steps += 1
@@ -266,6 +292,13 @@ def advance(c, t: float, h: float, dense=None) -> None:
             fl = contact_flags(c, y)
             c.n_contact_transitions += sum(1 for a, b in zip(fl, c._contact_flags) if a != b)
             c._contact_flags = fl
+        phase_switched = False
+        if c._need_phase:                     # the phase modes switch where the step ended
+            mode = phase_mode(c, y)
+            if mode != c._mode:
+                c.n_phase_switches += phase_switches(c, y, c._mode, mode)
+                c._mode = mode
+                phase_switched = True
         switched = False
         if c._pin:
             zeroed = []
@@ -287,6 +320,16 @@ def advance(c, t: float, h: float, dense=None) -> None:
                 c._jac_age += 1
             c._f0, c._f1 = f0, f1
             sv0 = sv1
+            if phase_switched:                # f and side values (and the fresh Jacobian) in the new modes
+                sv0 = evaluate(c, y, f0, integ.J if fresh else None)
+                c.n_jacobians += fresh
+                if c._pin:                    # the forces jumped: a stuck planet may break away
+                    m0 = friction_margins(c, sv0)
+                    tolc = -STICK_RTOL * (sv0.cap_1 + sv0.cap_2)
+                    if m0[0] < tolc or m0[1] < tolc:
+                        c.n_mode_switches += settle_modes(c, y, [])
+                        f0, f1 = c._f0, c._f1
+                        sv0 = c._sv
         else:
             f0, f1 = c._f0, c._f1
             sv0 = c._sv                                # (and J: settle_modes)
