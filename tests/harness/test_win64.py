@@ -312,3 +312,86 @@ def test_the_coupled_scene_under_a_windows_master_equals_linux64(wine, windows_p
         mine = {n: d for n, d in worst.items() if n.split(".")[0] == inst}
         print(f"  {inst}: {max(mine.values()):.3g} ({', '.join(f'{n} {d:.2g}' for n, d in mine.items())})")
     assert max(worst.values()) <= 1e-9
+
+
+# ---------------------------------------------------------------- FMI 3.0: binaries/x86_64-windows
+HOST3 = HERE / "c_host" / "fmi3_host.c"
+
+
+@pytest.fixture(scope="module")
+def fmi3_under_wine(fmu_files, wine, tmp_path_factory):
+    """The FMI 3.0 FMUs unzipped into C:/spurdiff wine ü/<name>-fmi3/, and tests/c_host/fmi3_host.c
+    built for linux64 and (with mingw-w64, -municode) for win64."""
+    from harness.build import _fmi2_headers
+    from harness.build3 import build
+
+    _, prefix = wine
+    paths = dict(zip(fmu_files, build(list(fmu_files), quiet=True)))
+    root = prefix / "drive_c" / ODD
+    out = {}
+    for name, path in paths.items():
+        with zipfile.ZipFile(path) as z:
+            if f"binaries/x86_64-windows/{name}.dll" not in z.namelist():
+                pytest.skip(f"{path.name} has no binaries/x86_64-windows (built where mingw-w64 was missing)")
+            shutil.rmtree(root / f"{name}-fmi3", ignore_errors=True)
+            z.extractall(root / f"{name}-fmi3")
+        out[name] = root / f"{name}-fmi3"
+    bins = tmp_path_factory.mktemp("hosts3")
+    exe, elf = bins / "fmi3_host.exe", bins / "fmi3_host"
+    subprocess.run([MINGW, "-O2", "-Wall", "-municode", "-D__USE_MINGW_ANSI_STDIO=1", "-static", f"-I{_fmi2_headers()}",
+                    "-o", str(exe), str(HOST3)], check=True)
+    subprocess.run(["gcc", "-O2", "-Wall", f"-I{_fmi2_headers()}", "-o", str(elf), str(HOST3), "-ldl"], check=True)
+    yield out, exe, elf
+    for folder in out.values():
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def _gets(stdout: str) -> dict[int, float]:
+    return {int(line.split()[1]): float(line.split()[2]) for line in stdout.splitlines() if line.startswith("get ")}
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_each_fmi3_fmu_runs_under_wine_and_equals_linux64(name, wine, fmi3_under_wine):
+    """The FMI 3.0 loader cross-built for Windows (binaries/x86_64-windows/<model>.dll, fmi3_loader.c
+    on the FMI 2.0 loader) run by our FMI 3.0 C host under wine, resourcePath a native path with a
+    drive letter, a space and a non-ASCII character; the linux64 binary's outputs from the same host."""
+    from fmpy import read_model_description
+
+    env, _ = wine
+    folders, exe, elf = fmi3_under_wine
+    folder = folders[name]
+    md = read_model_description(str(folder))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    outs = [v.valueReference for v in md.modelVariables if v.causality == "output" and v.type == "Float64"][:64]
+    rest = [str(STOP), str(STEP), *(f"set:{vr[k]}={v!r}" for k, v in CASES[name].items()), *(f"get:{o}" for o in outs)]
+    linux = _run([str(elf), str(folder / "binaries" / "x86_64-linux" / f"{name}.so"), md.guid,
+                  str(folder / "resources"), *rest])
+    assert linux.returncode == 0 and "freed" in linux.stdout, linux.stdout[-2000:]
+    ref = _gets(linux.stdout)
+    assert len(ref) == len(outs)
+    win_dir = f"C:\\{ODD}\\{name}-fmi3\\"
+    clean, worst = 0, 0.0
+    for _ in range(PROCESSES):
+        r = _run(["wine", str(exe), f"{win_dir}binaries\\x86_64-windows\\{name}.dll", md.guid, f"{win_dir}resources\\",
+                  *rest], env=env)
+        assert r.returncode == 0 and "status 0" in r.stdout and "freed" in r.stdout, r.stdout[-3000:]
+        got = _gets(r.stdout)
+        assert got.keys() == ref.keys()
+        worst = max([worst, *(abs(got[k] - y) / max(1.0, abs(y)) for k, y in ref.items())])
+        clean += 1
+    print(f"{name}-fmi3: {clean} of {PROCESSES} wine processes exited 0; largest difference to linux64 over "
+          f"{len(ref)} outputs: {worst:.3g} (relative, or absolute below 1)")
+    assert worst <= 1e-9
+
+
+def test_an_fmi3_resource_path_without_a_drive_letter_is_refused_under_wine(wine, fmi3_under_wine):
+    env, _ = wine
+    folders, exe, _ = fmi3_under_wine
+    from fmpy import read_model_description
+
+    md = read_model_description(str(folders["WheelLoad"]))
+    win_dir = f"C:\\{ODD}\\WheelLoad-fmi3\\"
+    r = _run(["wine", str(exe), f"{win_dir}binaries\\x86_64-windows\\WheelLoad.dll", md.guid,
+              f"{ODD}\\WheelLoad-fmi3\\resources\\", str(STOP), str(STEP)], env=env)
+    assert r.returncode == 4, r.stdout[-2000:]    # the host's "instantiate failed"
+    assert "is not an absolute path to the FMU's extracted resources folder" in r.stdout, r.stdout
