@@ -8,7 +8,8 @@ when it can) or the FMUs were built without their win64 side. One wineserver (``
 in a prefix of the per-user cache serves every run; it is stopped at the end. Each process runs
 the FMU several times; ``SPURDIFF_WINE_PROCESSES`` sets how many processes per FMU (default 1;
 the closing note of issue 33 ran 20). The coupled scene (vehicle-cornering) runs under the harness's own
-master on a Windows CPython with fmpy (tests/harness/win64_master.py), one wine process per count.
+master on a Windows CPython with fmpy (tests/harness/win64_master.py), one wine process per count;
+the FMI 3.0 FMUs' binaries/x86_64-windows under our FMI 3.0 C host (tests/c_host/fmi3_host.c).
 """
 from __future__ import annotations
 
@@ -300,7 +301,8 @@ def test_the_coupled_scene_under_a_windows_master_equals_linux64(wine, windows_p
                 d = max(abs(a[i] - b[i]) / max(1.0, abs(a[i])) for a, b in zip(ref["rows"], got["rows"]))
                 worst[name] = max(worst.get(name, 0.0), d)
             differ = [a[0] for a, b in zip(ref["rows"], got["rows"]) if a != b]
-            first = min(first, differ[0]) if first is not None and differ else (differ[0] if differ else first)
+            if differ:
+                first = differ[0] if first is None else min(first, differ[0])
             clean += 1
     finally:
         shutil.rmtree(extract, ignore_errors=True)
