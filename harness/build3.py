@@ -46,7 +46,7 @@ FMI_VERSIONS = (2, 3)
 
 # the FMI 2.0 FMU's Windows side: under binaries/x86_64-windows/ with the FMI 3.0 loader as the model's DLL
 WIN64_ONLY = ("binaries/win64/", "resources/python-win64/", "resources/python_runtime_win64.cfg")
-WINDOWS_PLATFORM = "x86_64-windows"     # FMI 3.0 section 2.5.1.1: the platform tuple of 64-bit Windows
+WINDOWS_PLATFORM = "x86_64-windows"     # the FMI 3.0 platform tuple of 64-bit Windows
 
 
 def fmu_path(name: str, dest: Path | None = None) -> Path:
