@@ -270,17 +270,24 @@ def _recorded(path: Path) -> dict:
     return data
 
 
-def test_the_coupled_scene_under_a_windows_master_equals_linux64(wine, windows_python, fmu_files, tmp_path):
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_the_coupled_scene_under_a_windows_master_equals_linux64(fmi, wine, windows_python, fmu_files, tmp_path):
     """vehicle-cornering (car, differential, two wheels) run by the harness's own master on a Windows
-    CPython with fmpy under wine, loading the FMUs' win64 binaries, extracted into a folder with a
-    space and a non-ASCII character on drive C:; every recorded variable against the same master on
-    linux64 (relative difference, or absolute below 1, at most 1e-9)."""
+    CPython with fmpy under wine, loading the FMUs' Windows binaries (FMI 2.0: binaries/win64, FMI
+    3.0: binaries/x86_64-windows), extracted into a folder with a space and a non-ASCII character on
+    drive C:; every recorded variable against the same master on linux64 (relative difference, or
+    absolute below 1, at most 1e-9)."""
+    from harness.build3 import WINDOWS_PLATFORM, build
+
     env, prefix = wine
-    for name in ("SpurDifferential", "WheelLoad", "Vehicle"):
-        with zipfile.ZipFile(fmu_files[name]) as z:
-            if f"binaries/win64/{name}.dll" not in z.namelist():
-                pytest.skip(f"{name}.fmu has no binaries/win64 (built where mingw-w64 was missing)")
-    pairs = {n: fmu_files[n] for n in ("SpurDifferential", "WheelLoad", "Vehicle")}
+    names = ("SpurDifferential", "WheelLoad", "Vehicle")
+    files = {n: fmu_files[n] for n in names} if fmi == 2 else dict(zip(names, build(list(names), quiet=True)))
+    platform = "win64" if fmi == 2 else WINDOWS_PLATFORM
+    for name, path in files.items():
+        with zipfile.ZipFile(path) as z:
+            if f"binaries/{platform}/{name}.dll" not in z.namelist():
+                pytest.skip(f"{path.name} has no binaries/{platform} (built where mingw-w64 was missing)")
+    pairs = files
     linux_out = tmp_path / "linux64.json"
     r = _run([sys.executable, str(MASTER), SCENE, str(linux_out), str(tmp_path), *(f"{n}={p}" for n, p in pairs.items())])
     assert r.returncode == 0, r.stdout[-3000:]
@@ -306,7 +313,7 @@ def test_the_coupled_scene_under_a_windows_master_equals_linux64(wine, windows_p
             clean += 1
     finally:
         shutil.rmtree(extract, ignore_errors=True)
-    print(f"{SCENE}: {clean} of {PROCESSES} wine processes (Windows CPython {got['python']}, fmpy "
+    print(f"{SCENE}, FMI {fmi}.0: {clean} of {PROCESSES} wine processes (Windows CPython {got['python']}, fmpy "
           f"{_versions()['fmpy']}) exited 0; {len(ref['rows'])} rows of {len(ref['names'])} variables; "
           f"first row differing from linux64: {'none' if first is None else f't = {first:g} s'}; largest difference "
           f"(relative, or absolute below 1) per instance:")
