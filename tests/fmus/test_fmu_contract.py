@@ -419,6 +419,29 @@ def test_a_missing_resources_folder_is_refused_with_the_reason(fmu, tmp_path):
     assert any("resources" in m and "does not exist" in m for _, m in messages), messages
 
 
+@pytest.mark.parametrize("uri", ["http://example.invalid/resources", "ftp://host/resources", "urn:x:resources",
+                                 "file://host/resources"])
+def test_a_resource_uri_that_is_no_local_file_is_refused_as_such(fmu, tmp_path, uri):
+    """A URI of another scheme or host: "not a local file URI", not "does not exist" (a plain path)."""
+    from ctypes import byref
+
+    from fmpy.fmi2 import fmi2CallbackFunctions
+    name, path, case = fmu
+    md = read_model_description(str(path))
+    with zipfile.ZipFile(path) as z:
+        z.extractall(tmp_path / "fmu")
+    messages = []
+    cb = fmi2CallbackFunctions()
+    cb.logger = _make_logger(messages)
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=str(tmp_path / "fmu"),
+                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName="raw")
+    try:
+        assert not slave.fmi2Instantiate(b"raw", 1, md.guid.encode(), uri.encode(), byref(cb), 0, 0)
+    finally:
+        slave.freeLibrary()
+    assert [m for _, m in messages] == [f"fmi2Instantiate: fmuResourceLocation '{uri}' is not a local file URI"], messages
+
+
 def test_a_reused_value_reference_buffer_is_read_for_what_it_holds_now(fmu):
     """A host that keeps one value-reference array and rewrites it in place between calls (as a
     master's preallocated ports may) gets the variables the array names at each call: the bridge

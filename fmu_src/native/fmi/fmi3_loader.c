@@ -117,8 +117,15 @@ static char *resource_uri(const char *path)
     if (!uri) return NULL;
     memcpy(q, "file://", 7);
     q += 7;
+#ifdef _WIN32   /* C:\dir\resources\ -> file:///C:/dir/resources/ (runtime_cfg.h reads /C:/ as C:/); the
+                 * extra '/' fits: the drive letter and ':' take one byte each where 3 were allowed */
+    if (path[0] != '/') *q++ = '/';
+#endif
     for (const char *p = path; *p; p++) {
         if (*p == '%') { memcpy(q, "%25", 3); q += 3; }
+#ifdef _WIN32
+        else if (*p == '\\') *q++ = '/';
+#endif
         else *q++ = *p;
     }
     *q = 0;
@@ -149,7 +156,12 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
              nRequiredIntermediateVariables);
         return NULL;
     }
+#ifdef _WIN32   /* absolute on Windows: a drive letter, ':' and a separator (C:\ or C:/) */
+    if (!resourcePath || !((resourcePath[0] | 32) >= 'a' && (resourcePath[0] | 32) <= 'z' && resourcePath[1] == ':'
+                           && (resourcePath[2] == '\\' || resourcePath[2] == '/'))) {
+#else
     if (!resourcePath || resourcePath[0] != '/') {
+#endif
         sayf(&probe, fmi3Error, "fmi3InstantiateCoSimulation: resourcePath '%.1000s' is not an absolute path "
              "to the FMU's extracted resources folder", resourcePath ? resourcePath : "(null)");
         return NULL;

@@ -68,13 +68,28 @@ CFG_FN char *cfg_strdup(const char *s)
     return d;
 }
 
+/* The length of the URI scheme `p` starts with (RFC 3986: a letter, then letters, digits, '+', '-'
+ * or '.', then ':'), 0 when it has none. A one-letter "scheme" is a Windows drive (C:\dir). */
+CFG_FN size_t cfg_uri_scheme(const char *p)
+{
+    size_t n = 0;
+    if (!isalpha((unsigned char)p[0])) return 0;
+    while (isalnum((unsigned char)p[n]) || p[n] == '+' || p[n] == '-' || p[n] == '.') n++;
+    return p[n] == ':' && n >= 2 ? n : 0;
+}
+
 /* Decode a resource location (file URI, RFC 8089 forms file:/p, file:///p, file://localhost/p,
- * with %XX escapes) or a plain path into `out`. Returns 0 on success. */
+ * with %XX escapes) or a plain path into `out`. Returns 0 on success; -1 for a URI of another
+ * scheme (http:, ftp:, ...) or of a remote host (file://host/p): not a local file. */
 CFG_FN int cfg_uri_to_path(const char *uri, char *out, size_t size)
 {
     const char *p = uri;
     if (!uri || !*uri) return -1;
-    if (strncmp(p, "file:", 5) == 0) {
+    size_t scheme = cfg_uri_scheme(p);
+    int file = scheme == 4 && tolower((unsigned char)p[0]) == 'f' && tolower((unsigned char)p[1]) == 'i'
+               && tolower((unsigned char)p[2]) == 'l' && tolower((unsigned char)p[3]) == 'e';   /* any case */
+    if (scheme && !file) return -1;   /* http:, ftp:, urn:...: not a local file */
+    if (file) {
         p += 5;
         if (strncmp(p, "//", 2) == 0) {
             p += 2;
