@@ -56,6 +56,7 @@ import operator
 
 from spurdiff.errors import StepError, require_finite, require_positive
 from spurdiff.differential.shaft_params import SHAFT_COUPLINGS, ShaftParams, ShaftsParams, WheelSurrogate  # noqa: F401 (re-exported)
+from spurdiff.differential import shaft_kernel
 from spurdiff.differential.shaft_solver import ShaftSolver
 
 _STATE_KEYS = (
@@ -82,6 +83,8 @@ class ShaftedDifferential(ShaftSolver):
 
     ATOMIC_STEP = True
     _rigid = False   # the inner model is the rigid one (set by initialize)
+    _sk = None       # the compiled step (spurdiff.differential.shaft_kernel), set by initialize
+    shaft_kernel_note = "none (not initialized)"
 
     def __init__(self, inner, params: ShaftsParams | None = None):
         self.__dict__["inner"] = inner
@@ -153,6 +156,8 @@ class ShaftedDifferential(ShaftSolver):
         # integration), to the integrator's relative tolerance for the mesh models
         mesh = getattr(inner, "mesh", None)
         self._accept = max(1e-6, 10.0 * float(mesh.tolerance)) if mesh is not None else 1e-6
+        # the step in C with a rigid inner model (its kernel switch decides: auto | compiled | python)
+        self._sk, self.shaft_kernel_note = shaft_kernel.choose(self)
         self._ready = True
 
     # ------------------------------------------------------------------ stepping (the sub-step: ShaftSolver)
@@ -165,6 +170,9 @@ class ShaftedDifferential(ShaftSolver):
         pL, wL, pR, wR = self._wheel_inputs()
         self.wheelL_model.checked("left")
         self.wheelR_model.checked("right")
+        sk = self._sk
+        if sk is not None and sk.step(self, t, h, pL, wL, pR, wR):
+            return      # the compiled step (bit for bit this one); False: not taken, nothing changed
         inner = self.inner
         saved_inner = inner.get_state()
         saved = _get_own_values(self), {k: list(v) for k, v in self.jac.items()}   # the rollback point
