@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import ctypes as C
 import logging
+import operator
+import struct
 import sys
 from pathlib import Path
 
@@ -135,58 +137,91 @@ class Kernel:
         self.fp = (C.c_void_p * 2)(C.cast(rlib.rk_slip, C.c_void_p).value, C.cast(rlib.rk_step_slip, C.c_void_p).value)
         self.fn = lib.sk_step
         self.k = inner._rk.const
+        # what the last compiled step wrote: the two models' time values and the Jacobian cache
+        self._rt = self._st = self._jac = None
 
     def step(self, m, t: float, h: float, pL: float, wL: float, pR: float, wR: float) -> bool:
         """The step of ``m`` (inputs checked by the caller): True when done (the state of ``m`` and
-        of its inner model updated), False when the kernel did not take it (nothing changed)."""
-        inner = m.inner
-        d = inner.__dict__
-        adg, key, val, g = d["_ad_guess"], d["_slip_key"], d["_slip_val"], d["_g"]
-        rs = [d["t"], d["wc"], d["wd"], d["phic"], d["phid"], d["ac"], d["ad"], d["Qf"], d["slip_dir"], d["F12"],
-              d["cap"], 0.0 if adg is None else 1.0, 0.0 if adg is None else adg]
-        if key is None:
-            rs += (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-        else:
-            acg = key[1]
-            rs += (1.0, key[0], 0.0 if acg is None else 1.0, 0.0 if acg is None else acg, key[2], key[3], key[4],
-                   key[5])
-        rs += (0.0, 0.0, 0.0, 0.0, 0.0, 0.0) if val is None else val
-        rs += (d["work_in"], d["energy_loss"], d["loss_last_step"], d["n_mode_switches"], d["n_steps"])
-        rs += g
-        rs += (d["_g_wc"], d["w_ref"], d["tau_c"], d["tau_L"], d["tau_R"], d.get("_last_h", 0.0))
+        of its inner model updated), False when the kernel did not take it (nothing changed).
+
+        The arrays keep the state the last compiled step left: they are packed from the models only
+        when the state is not that one any more (the time values are not the objects that step
+        wrote, or the Jacobian cache is another dict: a set_state, an initialize, a step the Python
+        code ran); else only the carrier inputs go in. States go in and out with struct."""
+        d = m.inner.__dict__
         md = m.__dict__
-        jac = md["jac"]
-        ss = [md[k] for k in _S_KEYS] + [md[k] for k in _S_COUNTS] + [md["dw_pred_L"], md["dw_pred_R"]]
-        slots = [0.0] * 40
-        for k, v in jac.items():
-            i = _JAC_SLOT.get(k)
-            if i is None or len(v) != 4:
-                return False       # not a rigid model's key: the Python code keeps it
-            slots[5 * i:5 * i + 5] = (1.0, *v)
-        try:
-            self.rs[:] = rs
-            self.ss[:] = ss + slots
-        except TypeError:          # a value that is not a number (a state from elsewhere): Python
+        j = md["_jac"]
+        if d["t"] is self._rt and md["t"] is self._st and (j is None or j is self._jac):
+            rs = self.rs
+            rs[37] = d["w_ref"]
+            rs[38] = d["tau_c"]
+        elif not self._pack(d, md):
             return False
         mL, mR = m.wheelL_model, m.wheelR_model
-        self.inp[:] = (t, h, pL, wL, pR, wR, mL.a_free, mL.inv_J, mL.dadw, mL.q_rate, mL.c_t, mL.r_t,
-                       mR.a_free, mR.inv_J, mR.dadw, mR.q_rate, mR.c_t, mR.r_t)
+        _IN.pack_into(self.inp, 0, t, h, pL, wL, pR, wR, mL.a_free, mL.inv_J, mL.dadw, mL.q_rate, mL.c_t, mL.r_t,
+                      mR.a_free, mR.inv_J, mR.dadw, mR.q_rate, mR.c_t, mR.r_t)
         if self.fn(self.sc, self.k, self.rs, self.ss, self.inp, self.fp):
             return False
-        r = self.rs[:]
-        d.update(zip(_R_HEAD, r[0:11]))
+        r = _RS.unpack_from(self.rs)
+        d.update(zip(_R_PLAIN, _pick_plain(r)))
         d["_ad_guess"] = r[12] if r[11] else None
-        d["_slip_key"] = ((r[14], r[16] if r[15] else None, r[17], r[18], r[19], r[20]) if r[13] else None)
-        d["_slip_val"] = tuple(r[21:27]) if r[13] else val
-        d.update(zip(_R_MID, r[27:30]))
+        if r[13]:
+            d["_slip_key"] = (r[14], r[16] if r[15] else None, r[17], r[18], r[19], r[20])
+            d["_slip_val"] = r[21:27]
         d["n_mode_switches"] = int(r[30])
         d["n_steps"] = int(r[31])
-        d["_g"] = tuple(r[32:36])
-        d["_g_wc"] = r[36]
-        d.update(zip(_R_TAIL, r[37:42]))
-        s = self.ss[:]
-        md.update(zip(_S_KEYS, s[0:15]))
+        d["_g"] = r[32:36]
+        s = _SS.unpack_from(self.ss)
+        md.update(zip(_S_PLAIN, _pick_s(s)))
         md["n_steps"], md["n_substeps"], md["n_evals"], md["n_jacobians"], md["n_halvings"] = map(int, s[15:20])
-        md["dw_pred_L"], md["dw_pred_R"] = s[20], s[21]
-        md["jac"] = {_JAC_KEYS[i]: s[23 + 5 * i:27 + 5 * i] for i in range(8) if s[22 + 5 * i]}
+        md["_jac"] = None          # the arrays hold the Jacobian cache (ShaftedDifferential.jac reads it)
+        self._rt, self._st = r[0], s[0]
         return True
+
+    def jac_dict(self) -> dict:
+        """The Jacobian cache as the last compiled step left it (mode key -> S_n), as a dict."""
+        s = self.ss[22:]
+        self._jac = j = {_JAC_KEYS[i]: s[5 * i + 1:5 * i + 5] for i in _SLOTS if s[5 * i]}
+        return j
+
+    def _pack(self, d: dict, md: dict) -> bool:
+        """The models' state into the arrays; False when it does not fit (the Python code runs)."""
+        adg, key, val = d["_ad_guess"], d["_slip_key"], d["_slip_val"]
+        if key is None:
+            key8 = _NO_KEY
+        else:
+            acg = key[1]
+            key8 = ((1.0, key[0], 0.0, 0.0) if acg is None else (1.0, key[0], 1.0, acg)) + tuple(key[2:6])
+        slots = [0.0] * 40
+        jac = md["_jac"]
+        for k, v in (jac if jac is not None else self.jac_dict()).items():
+            i = _JAC_SLOT.get(k)
+            if i is None or len(v) != 4:
+                return False    # not a rigid model's key: the Python code keeps it
+            slots[5 * i:5 * i + 5] = (1.0, *v)
+        try:
+            _RS.pack_into(self.rs, 0, *_get_head(d), *((0.0, 0.0) if adg is None else (1.0, adg)), *key8,
+                          *(_NO_VAL if val is None else val), *_get_mid(d), *d["_g"], *_get_tail(d),
+                          d.get("_last_h", 0.0))
+            _SS.pack_into(self.ss, 0, *_get_s(md), *slots)
+        except (struct.error, TypeError):   # a value that is not a number (a state from elsewhere)
+            return False
+        return True
+
+    def forget(self) -> None:
+        """The Python code runs a step (it updates the Jacobian cache in place): pack anew next time."""
+        self._rt = self._st = self._jac = None
+
+
+_RS, _SS, _IN = struct.Struct(f"{NRS}d"), struct.Struct(f"{NSS}d"), struct.Struct(f"{NIN}d")
+_NO_KEY, _NO_VAL = (0.0,) * 8, (0.0,) * 6
+_SLOTS = range(8)
+_get_head = operator.itemgetter(*_R_HEAD)
+_get_mid = operator.itemgetter(*_R_MID, "n_mode_switches", "n_steps")
+_get_tail = operator.itemgetter("_g_wc", *_R_TAIL[:-1])
+_get_s = operator.itemgetter(*_S_KEYS, *_S_COUNTS, "dw_pred_L", "dw_pred_R")
+# the plain numbers of the rigid state in the array and their keys
+_R_PLAIN = _R_HEAD + _R_MID + ("_g_wc",) + _R_TAIL
+_pick_plain = operator.itemgetter(*range(0, 11), 27, 28, 29, *range(36, 42))
+_S_PLAIN = _S_KEYS + ("dw_pred_L", "dw_pred_R")
+_pick_s = operator.itemgetter(*range(0, 15), 20, 21)

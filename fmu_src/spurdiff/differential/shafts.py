@@ -171,8 +171,10 @@ class ShaftedDifferential(ShaftSolver):
         self.wheelL_model.checked("left")
         self.wheelR_model.checked("right")
         sk = self._sk
-        if sk is not None and sk.step(self, t, h, pL, wL, pR, wR):
-            return      # the compiled step (bit for bit this one); False: not taken, nothing changed
+        if sk is not None:
+            if sk.step(self, t, h, pL, wL, pR, wR):
+                return      # the compiled step (bit for bit this one)
+            sk.forget()     # not taken, nothing changed: the Python code runs it
         inner = self.inner
         saved_inner = inner.get_state()
         saved = _get_own_values(self), {k: list(v) for k, v in self.jac.items()}   # the rollback point
@@ -212,6 +214,23 @@ class ShaftedDifferential(ShaftSolver):
         self.tau_end_L, self.tau_end_R = -self.T_L, -self.T_R
         self.t = t + h
         self.n_steps += 1
+
+    # ------------------------------------------------------------------ the Jacobian cache
+    @property
+    def jac(self) -> dict:
+        """The Jacobian cache: mode key -> the inner model's normalized sun-angle sensitivity (see
+        :meth:`ShaftSolver._substep`). While the compiled step holds it (``_jac`` None), read from
+        its arrays when asked for (``get_state``, a step of the Python code)."""
+        d = self.__dict__
+        j = d.get("_jac")
+        if j is None:
+            sk = d.get("_sk")
+            j = d["_jac"] = sk.jac_dict() if sk is not None else {}
+        return j
+
+    @jac.setter
+    def jac(self, value: dict) -> None:
+        self.__dict__["_jac"] = value
 
     # ------------------------------------------------------------------ energy
     @property

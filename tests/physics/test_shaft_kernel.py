@@ -1,0 +1,239 @@
+"""The compiled step of the differential owning its half-shafts (fmu_src/native/kernels/shaft_kernel.c
+through spurdiff.differential.shaft_kernel) against its Python reference: the differential's whole
+state (the shafts' and the rigid inner model's, with the Jacobian cache) after every step of the
+vehicle scenes, directly and through FMI, with solver.kernel = python (the Python reference all
+through) and compiled, bit for bit; a model driven on its own through stick-slip, both carrier
+drives and halved sub-steps; the state round trip; the fallback to Python; the switch."""
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+
+import numpy as np
+import pytest
+
+import harness.direct as hd
+from harness.build import BuildError, kernel_library
+from harness.direct import run_direct
+from harness.runner import fmu_files_for, prepare_scene
+from spurdiff.differential import shaft_kernel
+from spurdiff.differential.params import DifferentialParams
+from spurdiff.differential.rigid import RigidDifferential
+from spurdiff.differential.shafts import ShaftedDifferential, ShaftsParams, WheelSurrogate
+from spurdiff.errors import ParameterError
+
+VEHICLE_SCENES = ["vehicle-cornering", "tip-in-tip-out", "split-mu-launch", "wheel-lift", "standstill-launch"]
+
+
+@pytest.fixture(scope="module")
+def library():
+    try:
+        kernel_library()          # every kernel for the direct runs, the shaft kernel with them
+    except BuildError as e:      # no compiler here: nothing to compare
+        pytest.skip(f"the kernels cannot be compiled here: {e}")
+    lib, where = shaft_kernel.load()
+    assert lib is not None, where
+    return where
+
+
+def _flat(d: dict, pre: str = "") -> dict:
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, dict):
+            out.update(_flat(v, f"{pre}{k}."))
+        else:
+            out[pre + k] = v
+    return out
+
+
+def _differ(a: dict, b: dict) -> list[str]:
+    """The keys whose values differ bit for bit (repr: NaN equal to NaN, 0.0 not -0.0, 1 not 1.0)."""
+    return sorted(set(a) ^ set(b)) + [k for k in a if k in b and repr(a[k]) != repr(b[k])]
+
+
+def _states_of_scene(name: str, kernel: str) -> tuple[list[dict], list[str]]:
+    """The differential's whole state after every step of a direct run, and its implementation notes."""
+    states, notes = [], []
+    orig = hd.DirectInstance.step
+
+    def step(self, t, h):
+        orig(self, t, h)
+        if self.name == "diff":
+            m = self.model
+            if not notes:
+                notes[:] = [m.inner.kernel_note, m.shaft_kernel_note]
+            states.append(_flat(m.get_state()))
+
+    hd.DirectInstance.step = step
+    try:
+        r = run_direct(prepare_scene(name, sets=[f"diff.solver.kernel={kernel}"]))
+    finally:
+        hd.DirectInstance.step = orig
+    assert r.failure is None, r.failure
+    return states, notes
+
+
+@pytest.mark.parametrize("name", VEHICLE_SCENES)
+def test_scene_states_identical(library, name, monkeypatch):
+    """Every step of the scene, the differential's state with the compiled step equals the Python
+    reference's, and the compiled step took every step (no fallback)."""
+    taken = []
+    step = shaft_kernel.Kernel.step
+    monkeypatch.setattr(shaft_kernel.Kernel, "step", lambda self, *a: taken.append(step(self, *a)) or taken[-1])
+    ref, ref_notes = _states_of_scene(name, "python")
+    assert not taken
+    cmp_, cmp_notes = _states_of_scene(name, "compiled")
+    assert ref_notes == ["python (kernel = python)", "python (kernel = python)"]
+    assert cmp_notes == ["compiled", "compiled"]
+    assert len(ref) == len(cmp_) > 100 and len(taken) == len(cmp_) and all(taken)
+    bad = [(i, _differ(a, b)) for i, (a, b) in enumerate(zip(ref, cmp_)) if _differ(a, b)]
+    assert not bad, bad[:3]
+    assert any(k.startswith("shafts.jac.") for k in ref[-1])      # the Jacobian cache is part of the state
+
+
+def test_the_scenes_visit_the_stuck_path_and_switch_modes(library):
+    """What the comparisons above cover: stuck steps, mode switches inside steps, Jacobians."""
+    ref, _ = _states_of_scene("wheel-lift", "compiled")
+    assert any(s["inner.slip_dir"] == 0.0 for s in ref) and any(s["inner.slip_dir"] != 0.0 for s in ref)
+    assert ref[-1]["inner.n_mode_switches"] >= 2 and ref[-1]["shafts.n_jacobians"] > 0
+
+
+# ---------------------------------------------------------------- a model on its own
+def _model(kernel: str, drive: str = "torque", h_max: float = 0.005, **diff) -> ShaftedDifferential:
+    p = DifferentialParams(carrierDrive=drive, **diff)
+    inner = RigidDifferential(p)
+    inner.kernel = kernel
+    inner.w_start_carrier = 20.0
+    inner.w_start_left = 20.0
+    inner.w_ref = 20.0
+    m = ShaftedDifferential(inner, ShaftsParams(h_max=h_max))
+    m.wheelL_w = m.wheelR_w = 20.0
+    m.initialize(0.0)
+    return m
+
+
+def _drive(m: ShaftedDifferential, n: int, h: float, every=None) -> list[dict]:
+    """n steps with a drive torque and wheel sides that slip apart and come together (stick-slip)."""
+    out = []
+    pL = pR = 0.0
+    for i in range(n):
+        t = i * h
+        wL = 20.0 + 3.0 * math.sin(2.0 * t) + (2.0 if (i // 40) % 2 else 0.0)
+        wR = 20.0 - 3.0 * math.sin(2.0 * t)
+        m.wheelL_phi, m.wheelL_w, m.wheelR_phi, m.wheelR_w = pL, wL, pR, wR
+        m.tau_c = 400.0 * math.sin(1.3 * t) + (150.0 if i % 97 < 50 else -80.0)
+        m.w_ref = 20.0 + 2.0 * math.sin(0.9 * t)
+        m.wheelL_model = WheelSurrogate(a_free=5.0 * math.sin(t), inv_J=0.8, dadw=-2.0, q_rate=30.0 * math.cos(t),
+                                        c_t=400.0, r_t=20.0)
+        m.wheelR_model = WheelSurrogate(a_free=-3.0, inv_J=0.8, dadw=-1.0, q_rate=0.0, c_t=300.0, r_t=10.0)
+        m.do_step(t, h)
+        pL += wL * h
+        pR += wR * h
+        out.append(_flat(m.get_state()))
+        if every is not None:
+            every(i, m)
+    return out
+
+
+@pytest.mark.parametrize("drive, h, h_max", [("torque", 0.005, 0.005), ("speed", 0.005, 0.005),
+                                              ("torque", 0.004, 0.001), ("speed", 0.0023, 0.001)])
+def test_model_state_after_every_step(library, drive, h, h_max):
+    ref, cmp_ = _model("python", drive, h_max), _model("compiled", drive, h_max)
+    assert ref._sk is None and cmp_._sk is not None and cmp_.shaft_kernel_note == "compiled"
+    a, b = _drive(ref, 600, h), _drive(cmp_, 600, h)
+    bad = [(i, _differ(x, y)) for i, (x, y) in enumerate(zip(a, b)) if _differ(x, y)]
+    assert not bad, bad[:3]
+    assert {x["inner.slip_dir"] for x in a} >= {0.0, 1.0} or {x["inner.slip_dir"] for x in a} >= {0.0, -1.0}
+    assert a[-1]["inner.n_mode_switches"] >= 1                       # it sticks and slips
+    assert a[-1]["shafts.n_substeps"] > a[-1]["shafts.n_steps"] or h_max == h
+
+
+def test_state_round_trip_and_rollback(library):
+    """get_state / set_state around compiled steps, and a Python step in between (the kernel packs the
+    state again): the same trajectory as the reference."""
+    ref, cmp_ = _model("python"), _model("compiled")
+    saved = {}
+
+    def meddle(i, m):
+        if i == 100:
+            saved["s"] = m.get_state()
+        if i == 200:
+            m.set_state(saved["s"])          # back to step 100; the driver's inputs go on
+        if i == 300:
+            m._sk, sk = None, m._sk         # one step of the Python code, then the kernel again
+            m.do_step(1.5, 0.005)
+            m._sk = sk
+
+    a, b = _drive(ref, 400, 0.005, meddle), _drive(cmp_, 400, 0.005, meddle)
+    bad = [(i, _differ(x, y)) for i, (x, y) in enumerate(zip(a, b)) if _differ(x, y)]
+    assert not bad, bad[:3]
+
+
+def test_a_step_the_kernel_refuses_runs_in_python(library, caplog):
+    """An error the Python code names (a non-finite drive torque) comes from the Python code, the
+    state kept; a Jacobian cache key the kernel has no slot for: the Python code steps."""
+    m = _model("compiled")
+    _drive(m, 20, 0.005)
+    before = _flat(m.get_state())
+    m.tau_c = math.nan
+    with pytest.raises(ParameterError, match="carrier.tau"):
+        m.do_step(0.1, 0.005)
+    assert _differ(before, _flat(m.get_state())) == ["inner.tau_c"]      # the input only
+    m.tau_c = 10.0
+    m.jac = {**m.jac, "m": [0.0, 0.0, 0.0, 0.0]}
+    n = m.n_steps
+    sk_step = m._sk.step
+    taken = []
+    m._sk.step = lambda *a: taken.append(sk_step(*a)) or taken[-1]
+    m.do_step(0.1, 0.005)
+    assert taken == [False] and m.n_steps == n + 1 and "m" in m.jac
+
+
+def test_switch_and_missing_library(library, monkeypatch, caplog):
+    m = _model("python")
+    assert m._sk is None and m.shaft_kernel_note == "python (kernel = python)"
+    monkeypatch.setattr(shaft_kernel, "_LIB", None)
+    monkeypatch.setattr(shaft_kernel, "_candidates", lambda: [])
+    monkeypatch.setattr(shaft_kernel, "_REPORTED", set())
+    with caplog.at_level(logging.WARNING, logger="spurdiff.shafts"):
+        for _ in range(2):
+            m = _model("auto")
+            assert m._sk is None and m.shaft_kernel_note == f"python ({shaft_kernel.MISSING})"
+    assert sum(shaft_kernel.MISSING in r.getMessage() for r in caplog.records) == 1
+    with pytest.raises(ParameterError, match="solver.kernel"):
+        _model("compiled")
+
+
+def test_fmu_interface_names_the_half_shafts_implementation(library):
+    from spurdiff.fmi import differential_fmu
+
+    for kernel, want in (("auto", "compiled; half-shafts: compiled"),
+                         ("python", "python (kernel = python); half-shafts: python (kernel = python)")):
+        values = {v.name: v.start for v in differential_fmu.VARIABLES}
+        values.update({"solver.kernel": kernel, "shaftCoupling": "wheel", "carrierDrive": "torque"})
+        differential_fmu.build_model(values)
+        assert values["solver.kernelInUse"] == want
+    values = {v.name: v.start for v in differential_fmu.VARIABLES}
+    values["shaftCoupling"] = "torque"
+    differential_fmu.build_model(values)
+    assert "half-shafts" not in values["solver.kernelInUse"]
+
+
+# ---------------------------------------------------------------- through FMI
+@pytest.mark.parametrize("name", ["vehicle-cornering", "wheel-lift"])
+def test_scene_through_fmi_identical(library, name):
+    """The scene through FMI (the SpurDifferential FMU carries the shaft kernel): every recorded
+    variable identical with the differential's solver.kernel = python and compiled, and the FMU says
+    which runs."""
+    from harness.master import run_scene
+
+    runs = {}
+    for kernel in ("python", "compiled"):
+        scene = prepare_scene(name, sets=[f"diff.solver.kernel={kernel}"])
+        r = run_scene(scene, fmu_files_for(scene))
+        assert r.failure is None, r.failure
+        runs[kernel] = r
+    a, b = runs["python"].data, runs["compiled"].data
+    assert a.shape == b.shape and a.shape[0] > 100
+    assert np.array_equal(a, b), float(np.nanmax(np.abs(a - b)))
