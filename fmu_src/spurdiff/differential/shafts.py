@@ -158,6 +158,7 @@ class ShaftedDifferential(ShaftSolver):
         self._accept = max(1e-6, 10.0 * float(mesh.tolerance)) if mesh is not None else 1e-6
         # the step in C with a rigid inner model (its kernel switch decides: auto | compiled | python)
         self._sk, self.shaft_kernel_note = shaft_kernel.choose(self)
+        self._mf = None
         self._ready = True
 
     # ------------------------------------------------------------------ stepping (the sub-step: ShaftSolver)
@@ -167,6 +168,7 @@ class ShaftedDifferential(ShaftSolver):
             raise StepError("do_step called before initialize")
         if not (h.__class__ is float and 0.0 < h < math.inf):
             h = require_positive("communicationStepSize", h)
+        self._mf = None     # the mesh forces of the new state (computed when asked for)
         pL, wL, pR, wR = self._wheel_inputs()
         self.wheelL_model.checked("left")
         self.wheelR_model.checked("right")
@@ -260,6 +262,7 @@ class ShaftedDifferential(ShaftSolver):
         return s
 
     def set_own_state(self, s: dict) -> None:
+        self._mf = None
         for k in _STATE_KEYS:
             object.__setattr__(self, k, s[k])
         self.jac = {k: list(v) for k, v in s["jac"].items()}
@@ -284,6 +287,20 @@ INNER_OUTPUTS = ("wc", "phic", "w_L", "phi_L", "w_R", "phi_R", "tau_drive", "tau
 for _name in INNER_OUTPUTS:
     setattr(ShaftedDifferential, _name,
             property(operator.attrgetter("inner." + _name), doc=f"The inner model's ``{_name}``."))
+
+
+
+def _mesh_forces(self):
+    """The inner model's ``mesh_forces``, computed once per state: three outputs and the load-capacity
+    watch read it after every step (``_mf`` is dropped by ``do_step``, ``set_own_state``, ``initialize``)."""
+    d = self.__dict__
+    mf = d.get("_mf")
+    if mf is None:
+        mf = d["_mf"] = self.inner.mesh_forces
+    return mf
+
+
+ShaftedDifferential.mesh_forces = property(_mesh_forces)
 
 
 def _n_internal_steps(self) -> int:
