@@ -220,8 +220,8 @@ _get_head = operator.itemgetter(*_R_HEAD)
 _get_mid = operator.itemgetter(*_R_MID, "n_mode_switches", "n_steps")
 _get_tail = operator.itemgetter("_g_wc", *_R_TAIL[:-1])
 _get_s = operator.itemgetter(*_S_KEYS, *_S_COUNTS, "dw_pred_L", "dw_pred_R")
-# the plain numbers of the rigid state in the array and their keys
-_R_PLAIN = _R_HEAD + _R_MID + ("_g_wc",) + _R_TAIL
-_pick_plain = operator.itemgetter(*range(0, 11), 27, 28, 29, *range(36, 42))
+# the plain numbers of the rigid state the kernel changes (not the carrier inputs w_ref, tau_c) and their keys
+_R_PLAIN = _R_HEAD + _R_MID + ("_g_wc",) + _R_TAIL[2:]
+_pick_plain = operator.itemgetter(*range(0, 11), 27, 28, 29, 36, 39, 40, 41)
 _S_PLAIN = _S_KEYS + ("dw_pred_L", "dw_pred_R")
 _pick_s = operator.itemgetter(*range(0, 15), 20, 21)

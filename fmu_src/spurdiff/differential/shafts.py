@@ -289,6 +289,9 @@ for _name in INNER_OUTPUTS:
             property(operator.attrgetter("inner." + _name), doc=f"The inner model's ``{_name}``."))
 
 
+# the differential speed, read by the FMU's overspeed watch after every step (not through __getattr__)
+ShaftedDifferential.wd = property(operator.attrgetter("inner.wd"), doc="The inner model's ``wd``.")
+
 
 def _mesh_forces(self):
     """The inner model's ``mesh_forces``, computed once per state: three outputs and the load-capacity
