@@ -114,8 +114,9 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
                 data = zin.read(item.filename)
                 target = item.filename
                 if item.filename == "modelDescription.xml":
-                    data = fmi3_description(data.decode("utf-8"), iface.VARIABLES,
-                                            iface.DEFAULT_EXPERIMENT).encode("utf-8")
+                    data = fmi3_description(data.decode("utf-8"), iface.VARIABLES, iface.DEFAULT_EXPERIMENT,
+                                            getattr(iface, "MAX_OUTPUT_DERIVATIVE_ORDER", 0),
+                                            getattr(iface, "MIGHT_RETURN_EARLY", False)).encode("utf-8")
                 elif item.filename.startswith("binaries/linux64/"):
                     base = item.filename.rsplit("/", 1)[1]
                     target = f"binaries/{PLATFORM}/{base}"

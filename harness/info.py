@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 
-from spurdiff.gears.capacity import CapacityParams, capacity_report, nominal_mesh_forces
+from spurdiff.gears.capacity import CapacityParams, capacity_report, nominal_mesh_forces, pin_bores
 from spurdiff.gears.design import derive
 from spurdiff.gears.design_sets import gear_set
 from spurdiff.gears.geometry import MM, GearTable
@@ -68,11 +68,12 @@ def bushing_rows(geo, mu_flank: float) -> list[str]:
         b = bushing(name)
         pf = pin_friction(geo, b.mu_effective, b.journalRadius, 0.0, "pinFriction")
         Kd, Kc = locking_coefficients(pf)
+        Ksd, Ksc = locking_coefficients(pin_friction(geo, b.mu_effective_dynamic, b.journalRadius, 0.0, "pinFriction"))
         Kfd, Kfc = (locking_coefficient_flank(geo, pf, mu_flank, sg) for sg in (1.0, -1.0))
         ba = breakaway(pf, PAPER_T0 * 1e-3, -1.0)
         checks = check(geo, b, ba.F_pin, CORNERING_W_REL, rho)
         rows.append([name, f"{b.muStatic:g} / {b.muDynamic:g}", f"{b.mu_effective:.4f}", f"{b.journalRadius / MM:g}",
-                     f"{b.lever / MM:.4f}", f"{Kd:.4f} / {Kc:.4f}",
+                     f"{b.lever / MM:.4f}", f"{Kd:.4f} / {Kc:.4f}", f"{Ksd:.4f} / {Ksc:.4f}",
                      f"{torque_bias_ratio(Kd):.3f} / {torque_bias_ratio(Kc):.3f}", f"{Kfd:.4f} / {Kfc:.4f}",
                      f"{torque_bias_ratio(Kfd):.3f} / {torque_bias_ratio(Kfc):.3f}",
                      " / ".join(f"{c.backup_ratio:.2f}" for c in checks),
@@ -80,11 +81,12 @@ def bushing_rows(geo, mu_flank: float) -> list[str]:
                      " / ".join(f"{c.pv / 1e6:.3f}" for c in checks)])
         finds += [f"  {name}: {f}" for c in checks for f in c.findings(b)]
     return ["Pin bushings (spurdiff/data/pin_bushing.toml, sources there): lever mu' r_j, mu' = mu_s/sqrt(1+mu_s^2) "
-            "with the friction-circle correction (bronze), as published (paper); K and bias drive / coast, pins "
+            "with the friction-circle correction (bronze), as published (paper); K (break-away, mu_s), K sliding "
+            "(mu_d: the locking while the differential slips) and bias drive / coast, pins "
             f"alone and with flank friction {mu_flank:g} (cycle mean); backup ratio s_R/h_t planet 1 / 2; p at the "
             f"break-away pin loads at T0 = {PAPER_T0 * 1e-3:g} N m (drive); pv with sun A at "
             f"{CORNERING_W_REL:g} rad/s relative to the carrier (vehicle-cornering)",
-            render(["set", "mu_s / mu_d", "mu'", "r_j mm", "lever mm", "K", "bias", "K + flanks", "bias + flanks",
+            render(["set", "mu_s / mu_d", "mu'", "r_j mm", "lever mm", "K", "K sliding", "bias", "K + flanks", "bias + flanks",
                     "backup ratio", "p MPa", "pv MPa m/s"], rows),
             "Bushing findings" + (f" (limits: backup ratio >= {BACKUP_RATIO_MIN:g}, C93200 bronze p, pv)"),
             *(finds or ["  none"]), ""]
@@ -102,8 +104,9 @@ def capacity_rows(geo) -> list[str]:
         F = nominal_mesh_forces(g, T0)
         for pins in PIN_SETS:
             b = bushing(pins)
-            bore = 2.0 * (b.journalRadius + b.bushingWall)
-            rep = capacity_report(g, F, bores={"planet1": bore, "planet2": bore})
+            bores = pin_bores(b.journalRadius, b.bushingWall)   # as the FMU with capacity.bushingWall
+            bore = bores["planet1"]
+            rep = capacity_report(g, F, bores=bores)
             gs = [x for r in rep.meshes for x in r.gears]
             n_err = sum(f.level == "error" for f in rep.findings)
             rows.append([label, f"{pins} ({bore / MM:g})", f"{max(x.sigma_H for x in gs) / 1e6:.0f}",

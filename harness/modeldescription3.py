@@ -11,8 +11,10 @@ range, description, the outputs' dependencies. The unit definitions are the same
   answered by the FMI 3.0 binary itself (``fmu_src/native/fmi/fmi3_loader.c``);
 * types by size: Real -> ``Float64``, Integer -> ``Int32``; a String's start is a ``Start`` element;
 * ``ModelStructure`` by value reference: ``Output``, ``InitialUnknown``;
-* the Co-Simulation capabilities of the FMI 3.0 binary: no Event Mode, no intermediate update, no
-  early return, ``maxOutputDerivativeOrder`` as given.
+* the Co-Simulation capabilities of the FMI 3.0 binary: no Event Mode, no intermediate update;
+  ``maxOutputDerivativeOrder`` and ``mightReturnEarlyFromDoStep`` as the interface module declares
+  them (``MAX_OUTPUT_DERIVATIVE_ORDER``, ``MIGHT_RETURN_EARLY``; SpurDifferential: 1 and true, the
+  others 0 and false).
 """
 from __future__ import annotations
 
@@ -34,7 +36,7 @@ CATEGORIES = (("logStatusWarning", "Log messages with fmi3Warning status."),
 
 
 def fmi3_description(fmi2_xml: str, variables: Sequence[Var], default_experiment: dict | None = None,
-                     max_output_derivative_order: int = 0) -> str:
+                     max_output_derivative_order: int = 0, might_return_early: bool = False) -> str:
     """The FMI 3.0 modelDescription.xml text of the FMU whose FMI 2.0 one is ``fmi2_xml``."""
     md2 = ET.fromstring(fmi2_xml)
     cs2 = md2.find("CoSimulation")
@@ -54,7 +56,8 @@ def fmi3_description(fmi2_xml: str, variables: Sequence[Var], default_experiment
         "canGetAndSetFMUState": "true", "canSerializeFMUState": "true",
         "canHandleVariableCommunicationStepSize": "true",
         "maxOutputDerivativeOrder": str(int(max_output_derivative_order)),
-        "providesIntermediateUpdate": "false", "mightReturnEarlyFromDoStep": "false",
+        "providesIntermediateUpdate": "false",
+        "mightReturnEarlyFromDoStep": "true" if might_return_early else "false",
         "canReturnEarlyAfterIntermediateUpdate": "false", "hasEventMode": "false"})
     used_units = {"s"} | {v.unit for v in variables if v.kind == "Real" and v.unit}
     add_unit_definitions(root, used_units)

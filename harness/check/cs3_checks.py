@@ -208,6 +208,130 @@ def check_default_experiment(s: Session3):
     return PASS, f"{n} doSteps of {s.h:g} s from {s.t0:g} to the stop time {s.t_stop:g} s accepted, outputs finite"
 
 
+# ------------------------------------------------------------------ output derivatives, early return
+def _continuous_floats(s: Session3) -> list:
+    return [v for v in s.outputs if v.type == "Float64" and v.variability == "continuous" and s.size(v) == 1]
+
+
+def _derivative_status(a, v, order: int) -> int:
+    return a.status(f"fmi3GetOutputDerivatives({v.name}, order {order})", a.fmu.getOutputDerivatives,
+                    [v.valueReference], [order])
+
+
+def check_output_derivative_orders(s: Session3):
+    top = int(s.iface.maxOutputDerivativeOrder or 0)
+    if top < 1:
+        return SKIP, "maxOutputDerivativeOrder is 0"
+    outs = _continuous_floats(s)
+    if not outs:
+        return SKIP, "no continuous scalar Float64 outputs"
+    a = s.instance("derivativeOrders")
+    a.initialize()
+    a.run(s.t0, 1)
+    v = next((v for v in outs if _derivative_status(a, v, 1) <= 1), None)
+    if v is None:
+        return SKIP, f"no continuous Float64 output gives its first derivative (of {len(outs)})"
+    for order in (0, top + 1):
+        verdict = _illegal(a, _derivative_status(a, v, order), f"fmi3GetOutputDerivatives({v.name}, order {order})")
+        if verdict[0] != PASS:
+            return verdict
+    a.terminate()
+    a.free()
+    return PASS, (f"fmi3GetOutputDerivatives({v.name}) with order 0 and order {top + 1} (maxOutputDerivativeOrder "
+                  f"= {top}) refused with fmi3Error")
+
+
+def check_output_derivatives(s: Session3):
+    if int(s.iface.maxOutputDerivativeOrder or 0) < 1:
+        return SKIP, "maxOutputDerivativeOrder is 0"
+    outs = _continuous_floats(s)
+    if not outs:
+        return SKIP, "no continuous scalar Float64 outputs"
+    a = s.instance("outputDerivatives")
+    a.initialize()
+    a.run(s.t0, 1)
+    given, refused, bad = [], [], []
+    for v in outs:
+        if _derivative_status(a, v, 1) > 1:
+            refused.append(v.name)
+            continue
+        x = a.call(f"fmi3GetOutputDerivatives({v.name}, order 1)", a.fmu.getOutputDerivatives,
+                   [v.valueReference], [1])[0]
+        (given if math.isfinite(x) else bad).append(v.name)
+    a.terminate()
+    a.free()
+    if bad:
+        return FAIL, f"non-finite first derivatives: {', '.join(bad[:6])}"
+    if refused:
+        return FAIL, (f"first derivatives given for {len(given)} of {len(outs)} continuous Float64 outputs, refused "
+                      f"for {', '.join(refused[:6])}{' ...' if len(refused) > 6 else ''}")
+    return PASS, f"first derivatives of all {len(outs)} continuous Float64 outputs given, finite"
+
+
+def _experiment_steps(s: Session3):
+    total = max(1, int(round((s.t_stop - s.t0) / s.h)))
+    return min(total, MAX_DEFAULT_STEPS), time.monotonic() + BUDGET_FRACTION * float(s.payload.get("timeout", 60.0))
+
+
+def check_early_return_not_allowed(s: Session3):
+    if not s.iface.mightReturnEarlyFromDoStep:
+        return SKIP, "mightReturnEarlyFromDoStep is false"
+    a = s.instance("noEarlyReturn")
+    a.initialize(stop_time=s.t_stop)
+    n_max, deadline = _experiment_steps(s)
+    t, n = s.t0, 0
+    for i in range(n_max):
+        if s.inputs:
+            a.set_values(s.inputs)
+        t = s.t0 + i * s.h
+        _, terminate, early, last = a.call(f"fmi3DoStep(t={t:.9g}, h={s.h:.9g})", a.fmu.doStep, t, s.h, True)
+        n = i + 1
+        if early:
+            return FAIL, (f"fmi3DoStep(t={t:.9g}, h={s.h:.9g}) returned earlyReturn = true (lastSuccessfulTime "
+                          f"{last:.9g}) although the instance was made with earlyReturnAllowed = false")
+        if terminate or time.monotonic() > deadline:
+            break
+    a.terminate()
+    a.free()
+    return PASS, f"{n} doSteps of {s.h:g} s with earlyReturnAllowed = false: none returned early"
+
+
+def check_early_return_time(s: Session3):
+    if not s.iface.mightReturnEarlyFromDoStep:
+        return SKIP, "mightReturnEarlyFromDoStep is false"
+    a = s.instance("earlyReturn")
+    a.initialize(stop_time=s.t_stop, early_return=True)
+    n_max, deadline = _experiment_steps(s)
+    t, n, early_n, at_end = s.t0, 0, 0, 0
+    while n < 4 * n_max and t < s.t_stop - 1e-9 * max(1.0, abs(s.t_stop)):
+        if s.inputs:
+            a.set_values(s.inputs)
+        h = min(s.h, s.t_stop - t)
+        _, terminate, early, last = a.call(f"fmi3DoStep(t={t:.9g}, h={h:.9g})", a.fmu.doStep, t, h, True)
+        n += 1
+        if early:
+            early_n += 1
+            # t_i <= t_{i+1} < t_i + h, to the rounding of a time the FMU sums itself (the Reference
+            # BouncingBall returns early at an event on the step's end with its own t + h)
+            tol = 1e-9 * max(1.0, abs(t)) + 1e-9 * h
+            if not (t - tol <= last <= t + h + tol):
+                return FAIL, (f"fmi3DoStep(t={t:.9g}, h={h:.9g}) returned earlyReturn = true with lastSuccessfulTime "
+                              f"{last!r}, not in [t, t + h)")
+            at_end += last >= t + h - tol
+            t = last
+        else:
+            t = t + h
+        if terminate or time.monotonic() > deadline:
+            break
+    a.terminate()
+    a.free()
+    if not early_n:
+        return PASS, f"{n} doSteps of {s.h:g} s with earlyReturnAllowed = true: none returned early"
+    return PASS, (f"{n} doSteps with earlyReturnAllowed = true: {early_n} returned early, each with lastSuccessfulTime "
+                  f"in [t, t + h)" + (f" ({at_end} at t + h to rounding: an event on the step's end)" if at_end else "")
+                  + ", and the doStep from there was accepted")
+
+
 TASKS = {
     "cs3.basic": check_basic,
     "cs3.version": check_version,
@@ -220,4 +344,8 @@ TASKS = {
     "cs3.step-before-init": check_step_before_init,
     "cs3.zero-step-size": check_zero_step_size,
     "cs3.default-experiment": check_default_experiment,
+    "cs3.output-derivative-orders": check_output_derivative_orders,
+    "cs3.output-derivatives": check_output_derivatives,
+    "cs3.early-return-not-allowed": check_early_return_not_allowed,
+    "cs3.early-return-time": check_early_return_time,
 }

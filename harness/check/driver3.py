@@ -141,13 +141,13 @@ class Instance3:
         except Exception:
             pass
 
-    def instantiate(self, raise_on_null: bool = True) -> bool:
-        self.s.trace(f"fmi3Instantiate{'CoSimulation' if self.s.kind == 'cs3' else 'ModelExchange'} "
-                     f"[instance {self.name}]")
+    def instantiate(self, raise_on_null: bool = True, early_return: bool = False) -> bool:
+        self.s.trace(f"fmi3Instantiate{'CoSimulation' if self.s.kind == 'cs3' else 'ModelExchange'}"
+                     f"{'(earlyReturnAllowed)' if early_return else ''} [instance {self.name}]")
         try:
             if self.s.kind == "cs3":
-                self.fmu.instantiate(visible=False, loggingOn=True, eventModeUsed=False, earlyReturnAllowed=False,
-                                     logMessage=self._log)
+                self.fmu.instantiate(visible=False, loggingOn=True, eventModeUsed=False,
+                                     earlyReturnAllowed=early_return, logMessage=self._log)
             else:
                 self.fmu.instantiate(visible=False, loggingOn=True, logMessage=self._log)
         except Exception:
@@ -173,10 +173,10 @@ class Instance3:
             f", stopTime={stop_time:g})" if stop_time is not None else ")")
         self.call(label, self.fmu.enterInitializationMode, None, self.s.t0, stop_time)
 
-    def initialize(self, stop_time: float | None = None, instantiate: bool = True) -> None:
+    def initialize(self, stop_time: float | None = None, instantiate: bool = True, early_return: bool = False) -> None:
         """[instantiate,] start values, enter and exit Initialization Mode."""
         if instantiate:
-            self.instantiate()
+            self.instantiate(early_return=early_return)
         self.set_values(self.s.start_vars, " start values")
         self.enter_init(stop_time)
         self.call("fmi3ExitInitializationMode", self.fmu.exitInitializationMode)

@@ -171,6 +171,39 @@ RULES3: tuple[Rule, ...] = (
             "that startTime, stopTime, tolerance and stepSize have already a meaningful default value for the model at "
             "hand.] Furthermore, for Co-Simulation FMUs the stepSize defines the preferred communicationStepSize.",
       groups=("experiment",)),
+    R("cs3.output-derivative-orders", "4.1.2, 2.2.4", ERROR, "fmi3GetOutputDerivatives(orders = 0, max + 1)",
+      "(maxOutputDerivativeOrder >= 1) after a doStep, fmi3GetOutputDerivatives of a continuous Float64 output with "
+      "order 0 and with order maxOutputDerivativeOrder + 1 is refused with fmi3Error; refused with another status: "
+      "error; accepted: a warning (the sentence binds an FMU that detects the illegal argument)",
+      quote="4.1.2: Whether the FMU is able to provide the derivatives of outputs is given by the capability flag "
+            "maxOutputDerivativeOrder that represents the maximum order of the output derivatives. ... orders "
+            "contains the orders of the respective derivative (1 means the first derivative, 2 means the second "
+            "derivative, ..., 0 is not allowed). " + Q_ILLEGAL, groups=("derivatives",)),
+    R("cs3.output-derivatives", "4.1.2", WARNING, "fmi3DoStep, fmi3GetOutputDerivatives(orders = 1)",
+      "(maxOutputDerivativeOrder >= 1) after a doStep the first derivatives of the continuous Float64 outputs are "
+      "given and finite; an output refused is named (4.1.2 says they \"may be retrieved\", no shall: a warning)",
+      quote="4.1.2: In FMI for Co-Simulation, the n-th derivatives with respect to time of continuous outputs may "
+            "be retrieved with fmi3GetOutputDerivatives, for example, to allow interpolation/extrapolation of "
+            "connected input variables between communication points by the importer. ... The returned values "
+            "correspond to the derivatives at the current time of the FMU.", groups=("derivatives",)),
+    R("cs3.early-return-not-allowed", "4.2.1, 4.1.3", ERROR, "fmi3InstantiateCoSimulation(earlyReturnAllowed = "
+      "false), fmi3DoStep",
+      "(mightReturnEarlyFromDoStep) instantiated with earlyReturnAllowed = false, no doStep of the default experiment "
+      "(within half the rule's timeout) returns earlyReturn = true, and each reaches t + h",
+      quote="4.2.1: earlyReturn signals to the importer that the FMU returns at t_{i+1} < t_i + communicationStepSize. "
+            "earlyReturn = fmi3True is only allowed if earlyReturnAllowed = fmi3True in fmi3InstantiateCoSimulation. "
+            "4.1.3: The argument earlyReturnAllowed of fmi3InstantiateCoSimulation signals to the FMU if the "
+            "importer allows early return.", groups=("early",)),
+    R("cs3.early-return-time", "4.2.1", ERROR, "fmi3InstantiateCoSimulation(earlyReturnAllowed = true), fmi3DoStep",
+      "(mightReturnEarlyFromDoStep) instantiated with earlyReturnAllowed = true, over the default experiment (within "
+      "half the rule's timeout, the importer going on from each lastSuccessfulTime): a doStep with earlyReturn = true "
+      "has t_i <= lastSuccessfulTime < t_i + h (t_i + h to rounding accepted: an event on the step's end), and the "
+      "doStep from there is accepted",
+      quote="4.2.1: earlyReturn signals to the importer that the FMU returns at t_{i+1} < t_i + communicationStepSize. "
+            "... The time reached is specified in lastSuccessfulTime. ... lastSuccessfulTime represents the internal "
+            "time t_{i+1} of the FMU when fmi3DoStep returns, for any value of earlyReturn. It is possible that the "
+            "lastSuccessfulTime is equal to currentCommunicationPoint when earlyReturn = fmi3True ...",
+      groups=("early",)),
     # ------------------------------------------------------------------ model exchange
     R("me3.basic", "3.2, 2.3.5", ERROR,
       "fmi3InstantiateModelExchange, fmi3EnterInitializationMode, fmi3ExitInitializationMode, fmi3UpdateDiscreteStates, "

@@ -12,7 +12,9 @@ types read as FMI 2.0's (Float64 is Real, Int32 Integer: :func:`harness.fmi.inst
 the independent variable ``time`` is left out of ``vars``.
 
 The FMU is instantiated with ``eventModeUsed`` and ``earlyReturnAllowed`` false: the FMI 2.0
-semantics, whose results an FMI 3.0 run must reproduce to the last bit.
+semantics, whose results an FMI 3.0 run must reproduce to the last bit. The FMI 3.0 master
+(:mod:`harness.master3`) asks for early return (``early_return=True``: ``last_step`` then says
+where a step ended) and reads output derivatives (:meth:`Instance3.output_derivatives`).
 """
 from __future__ import annotations
 
@@ -79,7 +81,7 @@ class Instance3(Instance):
 
     def __init__(self, name: str, fmu_file: Path | str | None = None, *, unzipdir: str | None = None, md=None,
                  kind: str = "cs", guid: str | None = None, trace: Callable[[str], None] | None = None,
-                 instantiate: bool = True):
+                 instantiate: bool = True, early_return: bool = False):
         from fmpy.fmi3 import FMU3Slave
 
         if kind != "cs":
@@ -97,7 +99,7 @@ class Instance3(Instance):
         self._c: dict[str, Callable] = {}
         self.last_step = (False, False, False, 0.0)   # eventHandlingNeeded, terminateSimulation, earlyReturn, lastSuccessfulTime
         if instantiate:
-            self.instantiate()
+            self.instantiate(early_return=early_return)
 
     def instantiate(self, logger=None, environment: int | None = None, format_messages: bool = False,
                     raise_on_null: bool = True, early_return: bool = False) -> bool:
@@ -164,6 +166,33 @@ class Instance3(Instance):
         def values_call(component, vr, n, values):
             return c_fn(component, vr, n, values, n)
         return values_call
+
+    @property
+    def max_output_derivative_order(self) -> int:
+        return int(self.md.coSimulation.maxOutputDerivativeOrder or 0)
+
+    @property
+    def might_return_early(self) -> bool:
+        return bool(self.md.coSimulation.mightReturnEarlyFromDoStep)
+
+    def output_derivatives(self, vrs: list[int], fail: Callable[[str], None] | None = None) -> Callable[[], list]:
+        """A function returning the first derivatives of the Float64 outputs ``vrs`` now
+        (fmi3GetOutputDerivatives with its arrays made once); a refusal calls ``fail(reason)``
+        (default: raises :class:`CallFailed`)."""
+        from ctypes import c_double, c_int32, c_uint32
+
+        n = len(vrs)
+        refs, orders, values = (c_uint32 * n)(*vrs), (c_int32 * n)(*([1] * n)), (c_double * n)()
+        fn, comp = self.slave._fmu.dll.fmi3GetOutputDerivatives, self.component
+
+        def read() -> list:
+            status = fn(comp, refs, n, orders, values, n)
+            if status > 1:
+                if fail is not None:
+                    fail(self.last_message())
+                raise CallFailed("fmi3GetOutputDerivatives", self.name, status, self.last_message())
+            return values[:]
+        return read
 
     def step_status(self, t: float, h: float) -> int:
         return self.status(f"fmi3DoStep(t={t:.9g}, h={h:.9g})", self.c_function("fmi2DoStep"), self.component, t, h, 1)

@@ -55,8 +55,10 @@ def static_variant(name: str, base: str, edits: list[tuple[str, str]], out: Path
     return _rewrite(reference(base), out / f"{name}.fmu", text.encode("utf-8"), drop, add)
 
 
-def shim_variant(name: str, base: str, breaks: str, out: Path, defines: dict[str, str] | None = None) -> Path:
-    """``base`` Reference FMU whose binary is wrapped by chk3_shim.c built with ``-DBREAK_<breaks>``."""
+def shim_variant(name: str, base: str, breaks: str, out: Path, defines: dict[str, str] | None = None,
+                 edits: list[tuple[str, str]] | None = None) -> Path:
+    """``base`` Reference FMU whose binary is wrapped by chk3_shim.c built with ``-DBREAK_<breaks>``, its
+    modelDescription.xml with ``edits`` (old, new) applied (each must match once)."""
     from fmpy import platform_tuple, read_model_description
     work = out / f"{name}.build"
     shutil.rmtree(work, ignore_errors=True)
@@ -76,5 +78,14 @@ def shim_variant(name: str, base: str, breaks: str, out: Path, defines: dict[str
     shim = work / f"{mid}.so"
     subprocess.run(["gcc", "-shared", "-fPIC", "-O1", *flags, "-o", str(shim), str(HERE / "chk3_shim.c"),
                     f"-L{work}", "-Wl,--no-as-needed", f"-l:{renamed}", "-Wl,-rpath,$ORIGIN", "-ldl"], check=True, capture_output=True)
-    return _rewrite(reference(base), out / f"{name}.fmu", replace={member: shim.read_bytes()},
+    md_text = None
+    if edits:
+        with zipfile.ZipFile(reference(base)) as z:
+            text = z.read("modelDescription.xml").decode("utf-8")
+        for old, new in edits:
+            if len(re.findall(re.escape(old), text)) != 1:
+                raise ValueError(f"{name}: edit {old!r} does not match once in {base}'s modelDescription.xml")
+            text = text.replace(old, new)
+        md_text = text.encode("utf-8")
+    return _rewrite(reference(base), out / f"{name}.fmu", md_text, replace={member: shim.read_bytes()},
                     add={f"binaries/{platform_tuple}/{renamed}": (work / renamed).read_bytes()})

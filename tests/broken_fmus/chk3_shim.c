@@ -18,6 +18,12 @@
  *   BREAK_ZERO_STEP       fmi3DoStep with step size <= 0 returns fmi3Discard            -> cs3.zero-step-size
  *   BREAK_LATE_STEP       fmi3DoStep refused (fmi3Error) from t >= LATE_T on            -> cs3.default-experiment
  *   BREAK_ME              fmi3CompletedIntegratorStep returns fmi3Error                 -> me3.basic
+ *   BREAK_DERIV_ORDER     fmi3GetOutputDerivatives gives 0 for order 1, fmi3Discard for    -> cs3.output-derivative-orders
+ *                         the orders it must refuse with fmi3Error (0, > 1)
+ *   BREAK_DERIV_NAN       fmi3GetOutputDerivatives gives NaN for order 1 (fmi3Error else)  -> cs3.output-derivatives
+ *                         (both with maxOutputDerivativeOrder="1" in modelDescription.xml: chk3_build)
+ *   BREAK_EARLY_ANYWAY    fmi3InstantiateCoSimulation passes earlyReturnAllowed = true      -> cs3.early-return-not-allowed
+ *   BREAK_EARLY_TIME      an early return reports lastSuccessfulTime = t + 2 h              -> cs3.early-return-time
  */
 #define _GNU_SOURCE
 #include <dlfcn.h>
@@ -63,6 +69,9 @@ inst_t fmi3InstantiateCoSimulation(const char *name, const char *token, const ch
     in_init = terminated = initialized = 0;
 #ifdef BREAK_TOKEN
     token = TOKEN;
+#endif
+#ifdef BREAK_EARLY_ANYWAY
+    earlyReturn = true;
 #endif
     return ORIG(inst_cs_t, "fmi3InstantiateCoSimulation")(name, token, res, visible, logging, eventMode, earlyReturn,
                                                           req, nreq, env, log, update);
@@ -137,8 +146,35 @@ int fmi3DoStep(inst_t c, double t, double h, bool noSet, bool *event, bool *term
 #ifdef BREAK_LATE_STEP
     if (t >= LATE_T) return 3;
 #endif
+#ifdef BREAK_EARLY_TIME
+    int st = ORIG(do_step_t, "fmi3DoStep")(c, t, h, noSet, event, terminate, early, last);
+    if (*early) *last = t + 2 * h;
+    return st;
+#endif
     return ORIG(do_step_t, "fmi3DoStep")(c, t, h, noSet, event, terminate, early, last);
 }
+
+#if defined(BREAK_DERIV_ORDER) || defined(BREAK_DERIV_NAN)
+int fmi3GetOutputDerivatives(inst_t c, const uint32_t *vr, size_t nvr, const int32_t *orders, double *values,
+                             size_t nValues) {
+    (void)c; (void)vr; (void)nValues;
+    for (size_t i = 0; i < nvr; i++) {
+        if (orders[i] != 1) {
+#ifdef BREAK_DERIV_ORDER
+            return 2;
+#else
+            return 3;
+#endif
+        }
+#ifdef BREAK_DERIV_ORDER
+        values[i] = 0.0;
+#else
+        values[i] = 0.0 / 0.0;
+#endif
+    }
+    return 0;
+}
+#endif
 
 int fmi3SetFMUState(inst_t c, void *state) {
 #ifdef BREAK_STATE_NOOP

@@ -111,3 +111,39 @@ def test_locking_coefficient_includes_flank_friction_where_it_is_on(differential
                    out=["lockingCoefficient", "torqueBiasRatio"])
         assert res["lockingCoefficient"][-1] == pytest.approx(expect, rel=1e-12)
         assert res["torqueBiasRatio"][-1] == pytest.approx((1 + expect) / (1 - expect), rel=1e-12)
+
+
+def test_sliding_locking_coefficient_and_the_dynamic_parameter(differential_fmu):
+    """mu_pinDynamic: 0 (default) = mu_pin, the sliding K equals the break-away K; 0.13 halves the
+    lever while slipping: lockingCoefficientSliding is the pin law's K at 0.13, lockingCoefficient
+    stays the break-away value; a value above mu_pin is refused naming the parameter and the range."""
+    from spurdiff.differential.locking import locking_coefficients
+
+    p = DifferentialParams()
+    geo = p.validate()
+    out = ["lockingCoefficient", "lockingCoefficientSliding", "lockingCoefficientCoast",
+           "lockingCoefficientCoastSliding"]
+    one = _sim(differential_fmu, {}, stop=0.002, out=out)
+    assert one["lockingCoefficientSliding"][-1] == one["lockingCoefficient"][-1] == 0.17789422667429886
+    Kd, Kdc = locking_coefficients(pin_friction(geo, 0.13, p.r_collar))
+    for level in ("rigid", "compliant"):
+        split = _sim(differential_fmu, {"meshModel": level, "mu_pinDynamic": 0.13}, stop=0.002, out=out)
+        assert split["lockingCoefficient"][-1] == 0.17789422667429886
+        assert split["lockingCoefficientSliding"][-1] == pytest.approx(Kd, rel=1e-12)
+        assert split["lockingCoefficientCoastSliding"][-1] == pytest.approx(Kdc, rel=1e-12)
+    logs = []
+    with pytest.raises(Exception):
+        _sim(differential_fmu, {"mu_pinDynamic": 0.3}, stop=0.01, logs=logs)
+    assert any("mu_pinDynamic" in s and "between 0 and mu_pin = 0.26" in s for s in logs), logs
+
+
+def test_a_slipping_differential_locks_with_the_sliding_coefficient(differential_fmu):
+    """Paper load, carrier held at rest, 1.01 of the break-away torque difference: the FMU breaks
+    away and its locking torque falls to the sliding value, about mu_d / mu_s of the break-away one."""
+    K = 0.17789422667429886
+    D = 1.01 * K * 2100.0
+    start = {"carrier.w_ref": 0.0, "left.tau": -1050.0 - D / 2, "right.tau": -1050.0 + D / 2, "mu_pinDynamic": 0.13}
+    res = _sim(differential_fmu, start, stop=0.02, out=["lockingTorque", "stuck", "left.tauMesh", "right.tauMesh"])
+    assert res["stuck"][-1] == 0.0
+    T0 = res["left.tauMesh"][-1] + res["right.tauMesh"][-1]
+    assert 0.45 * K * abs(T0) < abs(res["lockingTorque"][-1]) < 0.55 * K * abs(T0)

@@ -68,3 +68,23 @@ def test_p_and_pv_by_hand(geo):
     assert c2.v == pytest.approx(1.0 * 36 / 13 * 0.0055, rel=1e-12)
     assert c1.pv == pytest.approx(c1.p * c1.v, rel=1e-12)
     assert any("bushing pressure" in f for f in c1.findings(b))      # 2100 N m on an 11 mm x 22 mm bushing
+
+
+def test_sliding_coefficients_and_info_prints_the_sliding_K(geo):
+    """The sliding coefficient with the friction circle, sin(atan(0.08)) for the bronze set, and
+    `spurdiff info` prints the sliding K (the pin law at mu_d') beside the break-away K of both sets."""
+    from harness.info import bushing_rows
+
+    b = bushing("bronze")
+    assert b.mu_effective_dynamic == pytest.approx(math.sin(math.atan(0.08)), rel=1e-14)
+    assert bushing("paper").mu_effective_dynamic == bushing("paper").mu_effective == 0.26
+    text = "\n".join(bushing_rows(geo, 0.05))
+    for name in PIN_SETS:
+        bs = bushing(name)
+        Ks = locking_coefficients(pin_friction(geo, bs.muStatic / math.sqrt(1 + bs.muStatic ** 2)
+                                               if bs.frictionCircle else bs.muStatic, bs.journalRadius))
+        Kd = locking_coefficients(pin_friction(geo, bs.muDynamic / math.sqrt(1 + bs.muDynamic ** 2)
+                                               if bs.frictionCircle else bs.muDynamic, bs.journalRadius))
+        row = next(line for line in text.splitlines() if line.startswith(name))
+        assert f"{Ks[0]:.4f} / {Ks[1]:.4f}  {Kd[0]:.4f} / {Kd[1]:.4f}" in row, row
+    assert "K sliding" in text

@@ -1,6 +1,7 @@
 """The load-capacity block of SpurDifferential (spurdiff.fmi.differential_fmu): safety factors as
 calculated parameters equal to spurdiff.gears.capacity's report, the run's largest stresses as
-outputs, one logged warning when a run exceeds the static strength, carried by the FMU state."""
+outputs, one logged warning when a run exceeds the static strength, carried by the FMU state; the
+rating's findings at initialization are logged once as information (fmi2OK), not as a warning."""
 import pytest
 
 from spurdiff.fmi import differential_fmu as D
@@ -45,7 +46,26 @@ def test_safety_factors_are_the_reports():
             assert f.values[f"capacity.mesh{r.mesh}.{g.gear}.S_H"] == g.S_H
             assert f.values[f"capacity.mesh{r.mesh}.{g.gear}.S_F"] == g.S_F
     assert f.values["capacity.S_H_static"] == rep.S_H_static
-    assert any("load capacity at capacity.T0 = 1000 N m" in m for _, m in f.logged)
+    assert [s for s, m in f.logged if "load capacity at capacity.T0 = 1000 N m" in m] == [0]
+
+
+def test_the_bushing_wall_sets_the_planets_bore_as_spurdiff_info_does():
+    """capacity.bushingWall: the planets' bore is 2 (r_collar + wall), as harness.info rates the
+    bronze pin set; a thicker wall leaves a thinner rim, so the planets' root safety falls."""
+    from spurdiff.differential.bushing import bushing
+    b = bushing("bronze")
+    f, status = _fmu(**{"r_collar": b.journalRadius, "capacity.bushingWall": b.bushingWall})
+    assert status == 0
+    geo = f.model.geometry
+    bore = 2.0 * (b.journalRadius + b.bushingWall)
+    rep = cap.capacity_report(geo, cap.nominal_mesh_forces(geo, f.values["capacity.T0"]),
+                              bores={"planet1": bore, "planet2": bore})
+    for r in rep.meshes:
+        for g in r.gears:
+            assert f.values[f"capacity.mesh{r.mesh}.{g.gear}.S_F"] == g.S_F
+    thin, _ = _fmu(**{"r_collar": b.journalRadius, "capacity.bushingWall": 4.0 * b.bushingWall})
+    assert thin.values["capacity.meshB2.planet2.S_F"] < f.values["capacity.meshB2.planet2.S_F"]
+    assert thin.values["capacity.meshB2.sunB.S_F"] == f.values["capacity.meshB2.sunB.S_F"]
 
 
 def test_largest_stress_output_and_one_warning_when_the_limit_is_exceeded():
@@ -82,6 +102,8 @@ def test_largest_stress_output_and_one_warning_when_the_limit_is_exceeded():
 @pytest.mark.parametrize("name,value,needle", [
     ("capacity.material", "unobtainium", "capacity.material"),
     ("capacity.T0", 0.0, "capacity.T0"),
+    ("capacity.bushingWall", -1e-3, "capacity.bushingWall"),
+    ("capacity.bushingWall", float("nan"), "capacity.bushingWall"),
 ])
 def test_bad_capacity_parameters_fail_initialization_naming_them(name, value, needle):
     f, status = _fmu(**{name: value})
@@ -90,8 +112,9 @@ def test_bad_capacity_parameters_fail_initialization_naming_them(name, value, ne
 
 
 def test_through_the_built_fmu_the_warning_reaches_the_hosts_logger_once(differential_fmu):
-    """The built FMU (our C bridge, fmpy): the findings' line at initialization and one fmi2Warning
-    message when the default experiment (the paper's 2100 N m) exceeds the static contact strength."""
+    """The built FMU (our C bridge, fmpy): the findings' line at initialization as information and one
+    fmi2Warning message when the default experiment (the paper's 2100 N m) exceeds the static contact
+    strength."""
     from harness.fmi.instance import Instance
 
     inst = Instance("capacity", differential_fmu)
@@ -103,7 +126,7 @@ def test_through_the_built_fmu_the_warning_reaches_the_hosts_logger_once(differe
         inst.do_step(t, H)
         t += H
     warnings = [m for s, m in inst.messages if s == 1]
-    assert sum("load capacity at capacity.T0 = 2100 N m" in m for m in warnings) == 1
+    assert [s for s, m in inst.messages if "load capacity at capacity.T0 = 2100 N m" in m] == [0]
     assert sum("exceed the static strength" in m for m in warnings) == 1
     (sH,), (ex,) = inst.read([inst.var("capacity.sigmaHMax")], "x"), inst.read([inst.var("capacity.exceeded")], "x")
     assert ex == 1.0 and sH > 2.2e9

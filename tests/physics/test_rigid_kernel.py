@@ -76,7 +76,11 @@ SCENES = [
     ("paper-straight", ["diff.lockingLaw=pinFriction"]),
     ("paper-cornering", ["diff.lockingLaw=pinFriction"]),
     ("paper-cornering", []),
+    # the static / dynamic split of the pin friction (mu_pinDynamic < mu_pin)
+    ("vehicle-cornering", ["diff.mu_pinDynamic=0.15"]),
+    ("tip-in-tip-out", ["diff.mu_pinDynamic=0.13"]),
 ]
+SPLIT = SCENES[-2:]
 STUCK = ("paper-straight", "paper-cornering")
 
 
@@ -99,13 +103,15 @@ def _same(a: dict, b: dict) -> bool:
     return a.keys() == b.keys() and all(x == y or (x != x and y != y) for x, y in zip(a.values(), b.values()))
 
 
-@pytest.mark.parametrize("w_ref,preload", [(10.0, 0.0), (10.0, 5.0), (-10.0, 5.0)])
-def test_speed_drive_stick_and_slip(both_ways, w_ref, preload):
-    """Carrier speed-driven (its acceleration given) from stuck through slip either way: every
-    solve agrees, and the compiled and the Python model's states are equal after every step."""
+@pytest.mark.parametrize("w_ref,preload,mu_d,ramp", [(10.0, 0.0, 0.0, 0.0), (10.0, 5.0, 0.0, 0.0),
+                                                    (-10.0, 5.0, 0.0, 0.0), (10.0, 5.0, 0.1, 2000.0)])
+def test_speed_drive_stick_and_slip(both_ways, w_ref, preload, mu_d, ramp):
+    """Carrier speed-driven (its acceleration given) from stuck through slip either way (and with
+    the pin friction split and the carrier speeding up at ``ramp`` rad/s^2: the tangential pin
+    loads): every solve agrees, and the compiled and the Python model's states are equal after every step."""
     models = []
     for kernel in ("compiled", "python"):
-        m = RigidDifferential(DifferentialParams(carrierDrive="speed", lockingPreload=preload))
+        m = RigidDifferential(DifferentialParams(carrierDrive="speed", lockingPreload=preload, mu_pinDynamic=mu_d))
         m.kernel = kernel
         m.w_ref = w_ref
         m.initialize()
@@ -115,6 +121,7 @@ def test_speed_drive_stick_and_slip(both_ways, w_ref, preload):
     for k in range(200):
         t = k * 1e-3
         for m in models:
+            m.w_ref = w_ref + ramp * (t + 1e-3)
             d = 300.0 * math.sin(2.0 * math.pi * 5.0 * t)
             m.tau_L, m.tau_R = -200.0 + d, -200.0 - d
             m.do_step(t, 1e-3)
@@ -124,7 +131,7 @@ def test_speed_drive_stick_and_slip(both_ways, w_ref, preload):
     assert {(True, 1.0), (True, -1.0)} <= both_ways["modes"] and both_ways["maxrel"] == 0.0
 
 
-@pytest.mark.parametrize("name,sets", SCENES[:6], ids=[f"{n}{''.join(s)}" for n, s in SCENES[:6]])
+@pytest.mark.parametrize("name,sets", SCENES[:6] + SPLIT, ids=[f"{n}{''.join(s)}" for n, s in SCENES[:6] + SPLIT])
 def test_whole_runs_identical(library, monkeypatch, name, sets):
     """Every recorded variable of the scene, through the compiled step and solve and through the
     Python reference, equal bit for bit; the compiled step is taken in most steps that start slipping."""
@@ -148,12 +155,15 @@ def test_whole_runs_identical(library, monkeypatch, name, sets):
     assert used["compiled"] > 0.5 * used["steps"] > 0 or (name == "standstill-launch" and used["compiled"] == 0)
 
 
-def test_torque_drive_states_equal_after_every_step(library):
-    """Carrier torque-driven through stick and slip either way with a preload: the compiled and the
-    Python model's whole states equal after every step."""
+@pytest.mark.parametrize("mu_d", [0.0, 0.12])
+def test_torque_drive_states_equal_after_every_step(library, mu_d):
+    """Carrier torque-driven through stick and slip either way with a preload (and with the pin
+    friction split, mu_pinDynamic 0.12 against mu_pin 0.26; the carrier's acceleration in the
+    tangential pin loads): the compiled and the Python model's whole states equal after every step."""
     models = []
     for kernel in ("compiled", "python"):
-        m = RigidDifferential(DifferentialParams(carrierDrive="torque", lockingPreload=5.0, J_carrier=5.0))
+        m = RigidDifferential(DifferentialParams(carrierDrive="torque", lockingPreload=5.0, J_carrier=5.0,
+                                                 mu_pinDynamic=mu_d))
         m.kernel = kernel
         m.initialize()
         models.append(m)

@@ -170,3 +170,32 @@ def test_mesh_kernel_agrees_with_the_reference_at_speed(case):
         runs[kernel] = out
     assert runs["compiled"] == runs["python"]
     assert runs["python"][-1][0] < 0.0
+
+
+# ------------------------------------------------------------------ the carrier's acceleration in the pin loads
+@pytest.mark.parametrize("alpha", [2.0e4, -2.0e4])
+def test_rigid_level_breaks_away_where_the_theory_says_with_carrier_acceleration(alpha):
+    """Carrier speed-driven from 20 rad/s at +-2e4 rad/s^2 over the step (a hard tip-in: the planets'
+    tangential loads m_i a_i alpha_c of several hundred N), no input torque: the rigid level holds
+    0.995 of speed_law's locking torque at (w_c, alpha_c) and slips at 1.005 (sun and planet spin
+    inertias negligible, so the quasi-static theory is the model's law); the theory without the
+    tangential term is far off (the term is measured, not a rounding matter)."""
+    from spurdiff.differential.rigid import RigidDifferential
+
+    p = DifferentialParams(carrierDrive="speed", J_sunA=1e-12, J_sunB=1e-12, J_planet1=1e-15, J_planet2=1e-15)
+    w0, h = 20.0, 1e-3
+    probe = RigidDifferential(p)
+    probe.w_ref = w0
+    probe.initialize()
+    geo, ms = probe.geometry, (probe.mass.m_planet1, probe.mass.m_planet2)
+    D = breakaway_at_speed(probe.pf, geo, ms, w0, 0.0, -1.0, alpha).locking_torque
+    D0 = breakaway_at_speed(probe.pf, geo, ms, w0, 0.0, -1.0).locking_torque
+    assert abs(D / D0 - 1.0) > 0.2
+    for frac, stuck in ((0.995, True), (1.005, False)):
+        m = RigidDifferential(p)
+        m.w_ref = w0
+        m.tau_L, m.tau_R = -frac * D / 2, frac * D / 2
+        m.initialize()
+        m.w_ref = w0 + alpha * h
+        m.do_step(0.0, h)
+        assert (m.wd == 0.0) == stuck, frac

@@ -15,6 +15,7 @@
 #define BRIDGE_PREFIX "spurdiff_bridge_"
 
 static Fmi2Table B;
+static spurdiffDoStepEarlyTYPE *B_do_step_early;   /* the bridge's FMI 3.0 extension */
 static int B_loaded;
 static pthread_mutex_t load_lock = PTHREAD_MUTEX_INITIALIZER;
 
@@ -85,6 +86,11 @@ static int load_bridge(const char *bindir, char *err, size_t errsize)
     LOAD(fmi2FreeInstance)
     LOAD(fmi2GetString)
     LOAD(fmi2Instantiate)
+    if (!(sym = plat_symbol(h, BRIDGE_PREFIX "spurdiffDoStepEarly"))) {
+        snprintf(err, errsize, "the bridge %s lacks %s", file, BRIDGE_PREFIX "spurdiffDoStepEarly");
+        return -1;
+    }
+    memcpy(&B_do_step_early, &sym, sizeof sym);
 #undef X_LOAD
 #undef LOAD
     return 0;
@@ -110,4 +116,9 @@ int inproc_load(const RuntimeCfg *cfg, const char *resources, const char *bindir
     pthread_mutex_unlock(&load_lock);
     if (rc == 0) *table = &B;
     return rc;
+}
+
+fmi2Status inproc_do_step_early(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end)
+{
+    return B_do_step_early ? B_do_step_early(c, t, h, nsp, end) : fmi2Error;
 }

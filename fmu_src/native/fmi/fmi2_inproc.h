@@ -20,4 +20,9 @@ int inproc_host_python(const RuntimeCfg *cfg, char *version, size_t size);
 int inproc_load(const RuntimeCfg *cfg, const char *resources, const char *bindir, const Fmi2Table **table,
                 char *err, size_t errsize);
 
+/* The bridge's FMI 3.0 extension (fmi2_pybridge.c): fmi2DoStep that may end early at a stick/slip
+ * transition, with the time reached in *end (the FMI 3.0 binary's fmi3DoStep with earlyReturnAllowed). */
+typedef fmi2Status spurdiffDoStepEarlyTYPE(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end);
+fmi2Status inproc_do_step_early(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end);
+
 #endif

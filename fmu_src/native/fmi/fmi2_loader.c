@@ -40,6 +40,7 @@ typedef struct {
     fmi2Component inner;
     fmi2CallbackFunctions cb;
     char *iname;
+    int fmi3;                  /* the FMI 3.0 binary's instance (spurdiffEnableFmi3): output derivatives */
 } Handle;
 
 static void log_error(const fmi2CallbackFunctions *f, fmi2String name, const char *fmt, ...)
@@ -211,13 +212,47 @@ fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
 FMI2_FORWARDED_ARRAYS(X_ARRAYS)
 #undef X_ARRAYS
 
+/* fmi2GetRealOutputDerivatives: the FMI 2.0 FMU declares maxOutputDerivativeOrder = 0 and refuses
+ * it here, as the bridge did before it answered the FMI 3.0 binary's fmi3GetOutputDerivatives
+ * (the strcmp of two literals is folded by the compiler) */
+static int refused_in_fmi2(const Handle *h, const char *fn)
+{
+    if (h->fmi3 || strcmp(fn, "fmi2GetRealOutputDerivatives")) return 0;
+    log_error(&h->cb, h->iname, "fmi2GetRealOutputDerivatives: not offered (maxOutputDerivativeOrder is 0)");
+    return 1;
+}
+
 #define X_PLAIN(name, params, args)                                                                \
     fmi2Status name params                                                                         \
     {                                                                                              \
         Handle *hd_ = handle(c);                                                                     \
-        if (!hd_) return fmi2Error;                                                                  \
+        if (!hd_ || refused_in_fmi2(hd_, #name)) return fmi2Error;                                 \
         c = hd_->inner;                                                                              \
         return hd_->t->name args;                                                                    \
     }
 FMI2_FORWARDED_PLAIN(X_PLAIN)
 #undef X_PLAIN
+
+/* ------------------------------------------------------------------------------ FMI 3.0 extensions
+ * Called by the FMI 3.0 binary's fmi3_loader.c only (linked with this file; the FMI 2.0 FMU's hosts
+ * never know these names). */
+
+/* The instance belongs to the FMI 3.0 binary: fmi2GetRealOutputDerivatives reaches the model. */
+fmi2Status spurdiffEnableFmi3(fmi2Component c)
+{
+    Handle *h = handle(c);
+    if (!h) return fmi2Error;
+    h->fmi3 = 1;
+    return fmi2OK;
+}
+
+/* fmi2DoStep that may end early at a stick/slip transition, *end the time reached. */
+fmi2Status spurdiffDoStepEarly(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end)
+{
+    Handle *hd = handle(c);
+    if (!hd) return fmi2Error;
+#ifndef _WIN32
+    if (hd->t == &REMOTE_TABLE) return remote_do_step_early(hd->inner, t, h, nsp, end);
+#endif
+    return inproc_do_step_early(hd->inner, t, h, nsp, end);
+}

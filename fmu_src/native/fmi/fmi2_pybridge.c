@@ -74,6 +74,7 @@
 #define fmi2GetIntegerStatus spurdiff_bridge_fmi2GetIntegerStatus
 #define fmi2GetBooleanStatus spurdiff_bridge_fmi2GetBooleanStatus
 #define fmi2GetStringStatus spurdiff_bridge_fmi2GetStringStatus
+#define spurdiffDoStepEarly spurdiff_bridge_spurdiffDoStepEarly
 
 #define INSTANCE_MAGIC 0x5350444Du  /* "SPDM" */
 #define STATE_MAGIC 0x53544154u     /* "STAT" */
@@ -1071,6 +1072,62 @@ NOT_OFFERED(fmi2GetDirectionalDerivative,
 NOT_OFFERED(fmi2SetRealInputDerivatives,
             (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer o[], const fmi2Real v[]),
             "not offered (canInterpolateInputs is false)")
-NOT_OFFERED(fmi2GetRealOutputDerivatives,
-            (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer o[], fmi2Real v[]),
-            "not offered (maxOutputDerivativeOrder is 0)")
+
+/* ------------------------------------------------------------------------------ FMI 3.0 extensions */
+/* fmi2GetRealOutputDerivatives: the slave's fmi2_get_real_output_derivatives(vrs, orders) returns
+ * (status, values). Only the FMI 3.0 binary reaches it (fmi3GetOutputDerivatives): the FMI 2.0
+ * loader refuses it itself (maxOutputDerivativeOrder is 0 in the FMI 2.0 modelDescription). */
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t n,
+                                        const fmi2Integer o[], fmi2Real v[])
+{
+    ENTER
+    PyObject *vrs = PyTuple_New((Py_ssize_t)n), *ords = PyTuple_New((Py_ssize_t)n), *r = NULL;
+    for (size_t i = 0; vrs && ords && i < n; i++) {
+        PyTuple_SET_ITEM(vrs, (Py_ssize_t)i, PyLong_FromUnsignedLong(vr[i]));
+        PyTuple_SET_ITEM(ords, (Py_ssize_t)i, PyLong_FromLong(o[i]));
+    }
+    if (vrs && ords && !PyErr_Occurred())
+        r = PyObject_CallMethod(I->slave, "fmi2_get_real_output_derivatives", "OO", vrs, ords);
+    Py_XDECREF(vrs);
+    Py_XDECREF(ords);
+    PyObject *st = NULL, *vals = NULL;
+    if (r && PyArg_ParseTuple(r, "OO", &st, &vals)) {
+        Py_INCREF(st);
+        s = status_of(I, st, "fmi2GetRealOutputDerivatives");
+        if (s <= fmi2Warning) {
+            PyObject *seq = PySequence_Fast(vals, "the slave's derivatives are not a sequence");
+            if (seq && (size_t)PySequence_Fast_GET_SIZE(seq) == n) {
+                for (size_t i = 0; i < n; i++) v[i] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(seq, (Py_ssize_t)i));
+                if (PyErr_Occurred()) s = status_of(I, NULL, "fmi2GetRealOutputDerivatives");
+            } else {
+                if (seq) emitf(&I->cb, I->name, fmi2Error, "fmi2GetRealOutputDerivatives: the slave returned %zd "
+                               "values for %zu references", PySequence_Fast_GET_SIZE(seq), n);
+                s = seq ? fmi2Error : status_of(I, NULL, "fmi2GetRealOutputDerivatives");
+            }
+            Py_XDECREF(seq);
+        }
+    } else {
+        s = status_of(I, NULL, "fmi2GetRealOutputDerivatives");
+    }
+    Py_XDECREF(r);
+    LEAVE
+}
+
+/* spurdiffDoStepEarly: fmi2DoStep that may end early at a stick/slip transition (FMI 3.0
+ * earlyReturnAllowed): the slave's fmi2_do_step_early(t, h, nsp) returns (status, end time). */
+fmi2Status spurdiffDoStepEarly(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end)
+{
+    ENTER
+    PyObject *r = PyObject_CallMethod(I->slave, "fmi2_do_step_early", "ddO", t, h, nsp ? Py_True : Py_False);
+    PyObject *st = NULL;
+    double e = t;
+    if (r && PyArg_ParseTuple(r, "Od", &st, &e)) {
+        Py_INCREF(st);
+        s = status_of(I, st, "fmi2DoStep");
+        if (end) *end = e;
+    } else {
+        s = status_of(I, NULL, "fmi2DoStep");
+    }
+    Py_XDECREF(r);
+    LEAVE
+}

@@ -638,6 +638,18 @@ static fmi2Status remote_fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi
     return s;
 }
 
+fmi2Status remote_do_step_early(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end)
+{
+    R_ENTER
+    ipc_f64(&b, t);
+    ipc_f64(&b, h);
+    ipc_i32(&b, nsp);
+    R_SEND(CALL_DO_STEP_EARLY, "fmi2DoStep")
+    double e = ipc_get_f64(&a);
+    if (end) *end = a.bad ? t : e;
+    return s;
+}
+
 static fmi2Status r_status(fmi2Component c, uint32_t call, fmi2StatusKind k, IpcBuf *answer, Remote **out)
 {
     R_ENTER

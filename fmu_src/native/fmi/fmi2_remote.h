@@ -15,4 +15,7 @@ fmi2Component remote_instantiate(fmi2String name, fmi2Type type, fmi2String guid
 /* Every other function, on the fmi2Component remote_instantiate returned (fmi2Instantiate unused). */
 extern const Fmi2Table REMOTE_TABLE;
 
+/* The bridge's FMI 3.0 extension spurdiffDoStepEarly (fmi2_inproc.h) in the model's process. */
+fmi2Status remote_do_step_early(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end);
+
 #endif

@@ -292,6 +292,14 @@ static int serve(uint32_t call, IpcBuf *in, IpcBuf *out)
         if (!in->bad) s = T->fmi2DoStep(C, t, h, nsp);
         break;
     }
+    case CALL_DO_STEP_EARLY: {
+        double t = ipc_get_f64(in), h = ipc_get_f64(in);
+        int32_t nsp = ipc_get_i32(in);
+        fmi2Real end = t;
+        if (!in->bad) s = inproc_do_step_early(C, t, h, nsp, &end);
+        ipc_f64(out, end);
+        break;
+    }
     case CALL_GET_STATUS: case CALL_GET_REAL_STATUS: case CALL_GET_INTEGER_STATUS:
     case CALL_GET_BOOLEAN_STATUS: case CALL_GET_STRING_STATUS: {
         fmi2StatusKind k = (fmi2StatusKind)ipc_get_i32(in);

@@ -13,7 +13,12 @@
  *   fmi3ExitInitializationMode        fmi2ExitInitializationMode (then Step Mode)
  *   fmi3DoStep                        fmi2DoStep; lastSuccessfulTime and terminateSimulation from
  *                                     fmi2GetRealStatus / fmi2GetBooleanStatus after a refused
- *                                     step; eventHandlingNeeded and earlyReturn false
+ *                                     step; eventHandlingNeeded false. With earlyReturnAllowed:
+ *                                     the loader's spurdiffDoStepEarly (the model ends the step
+ *                                     just past a stick/slip switch: earlyReturn true,
+ *                                     lastSuccessfulTime the time reached)
+ *   fmi3GetOutputDerivatives          fmi2GetRealOutputDerivatives (the loader passes it on for
+ *                                     this binary's instances only: spurdiffEnableFmi3)
  *   fmi3Get/SetFloat64, Int32,        fmi2Get/SetReal, Integer, Boolean (converted), String;
  *   Boolean, String                   nValues must equal nValueReferences (no arrays); the
  *                                     independent variable `time` (TIME_VR) is answered here
@@ -44,6 +49,10 @@
 #define INSTANCE3_MAGIC 0x53504433u   /* "SPD3" */
 /* the value reference of the independent variable `time` (harness/modeldescription3.py writes the same) */
 #define TIME_VR 2147483647u
+
+/* the FMI 2.0 loader's FMI 3.0 extensions (fmi2_loader.c) */
+fmi2Status spurdiffEnableFmi3(fmi2Component c);
+fmi2Status spurdiffDoStepEarly(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end);
 
 typedef struct {
     unsigned magic;
@@ -168,6 +177,7 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
         free(I);
         return NULL;
     }
+    spurdiffEnableFmi3(I->inner);
     return I;
 }
 
@@ -276,12 +286,22 @@ fmi3Status fmi3DoStep(fmi3Instance instance, fmi3Float64 currentCommunicationPoi
              currentCommunicationPoint, communicationStepSize);
         return fmi3Error;
     }
-    fmi2Status s = fmi2DoStep(I->inner, currentCommunicationPoint, communicationStepSize,
-                              noSetFMUStatePriorToCurrentPoint ? fmi2True : fmi2False);
+    fmi2Status s;
+    fmi2Real end = currentCommunicationPoint + communicationStepSize;
+    if (I->early_return_allowed)   /* the model may stop at a stick/slip switch (FMI 3.0 4.1.3, 4.2.1) */
+        s = spurdiffDoStepEarly(I->inner, currentCommunicationPoint, communicationStepSize,
+                                noSetFMUStatePriorToCurrentPoint ? fmi2True : fmi2False, &end);
+    else
+        s = fmi2DoStep(I->inner, currentCommunicationPoint, communicationStepSize,
+                       noSetFMUStatePriorToCurrentPoint ? fmi2True : fmi2False);
     *eventHandlingNeeded = false;
     *earlyReturn = false;
     if (s <= fmi2Warning) {
         I->time = currentCommunicationPoint + communicationStepSize;
+        if (I->early_return_allowed && end < I->time) {
+            I->time = end;
+            *earlyReturn = true;
+        }
         *terminateSimulation = false;
         *lastSuccessfulTime = I->time;
         return (fmi3Status)s;
@@ -312,15 +332,6 @@ fmi3Status fmi3EnterEventMode(fmi3Instance instance)
     return fmi3Error;
 }
 
-fmi3Status fmi3GetOutputDerivatives(fmi3Instance instance, const fmi3ValueReference valueReferences[],
-                                    size_t nValueReferences, const fmi3Int32 orders[], fmi3Float64 values[],
-                                    size_t nValues)
-{
-    ENTER3
-    (void)valueReferences; (void)nValueReferences; (void)orders; (void)values; (void)nValues;
-    sayf(I, fmi3Error, "fmi3GetOutputDerivatives: not offered (maxOutputDerivativeOrder is 0)");
-    return fmi3Error;
-}
 
 /* ------------------------------------------------------------------------------ values */
 /* NULL arrays and nValues: the same rule for every getter and setter. */
@@ -345,6 +356,31 @@ static long time_index(const fmi3ValueReference vr[], size_t n)
     for (size_t i = 0; i < n; i++)
         if (vr[i] == TIME_VR) return (long)i;
     return -1;
+}
+
+/* The derivatives of Float64 outputs at the FMU's time (FMI 3.0 section 4.1.2: after fmi3DoStep,
+ * at the end of the communication step): the model answers them (spurdiff/fmi/adapter.py, the orders and references
+ * checked there against maxOutputDerivativeOrder and the outputs, each refusal naming them);
+ * the independent variable is refused here. */
+fmi3Status fmi3GetOutputDerivatives(fmi3Instance instance, const fmi3ValueReference valueReferences[],
+                                    size_t nValueReferences, const fmi3Int32 orders[], fmi3Float64 values[],
+                                    size_t nValues)
+{
+    ENTER3
+    if (!arrays_ok(I, "fmi3GetOutputDerivatives", valueReferences, nValueReferences, values, nValues))
+        return fmi3Error;
+    if (nValueReferences && !orders) {
+        sayf(I, fmi3Error, "fmi3GetOutputDerivatives: orders is NULL for nValueReferences = %zu", nValueReferences);
+        return fmi3Error;
+    }
+    if (nValueReferences && time_index(valueReferences, nValueReferences) >= 0) {
+        sayf(I, fmi3Error, "fmi3GetOutputDerivatives: value reference %u is the independent variable time, not an "
+             "output", TIME_VR);
+        return fmi3Error;
+    }
+    if (!nValueReferences) return fmi3OK;
+    return (fmi3Status)fmi2GetRealOutputDerivatives(I->inner, valueReferences, nValueReferences,
+                                                    (const fmi2Integer *)orders, values);
 }
 
 fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,

@@ -10,7 +10,7 @@
 #include <stdint.h>
 #include <string.h>
 
-#define MK_ABI 5
+#define MK_ABI 6
 #define NMAX 10
 #define SMAX 8        /* the most stages of a method (spurdiff.differential.mesh.integrator.SMAX) */
 enum { PSI, DA, DB, D12, VA, VB, W1, W2, WC, PHIC };
@@ -36,6 +36,7 @@ typedef struct {
     double dq[2][SMAX];                      /* dense output at theta = 1/4, 3/4 (loss5) */
     MkMesh md[3];
     double bint[SMAX][4], ginv[SMAX][SMAX];  /* dense output: the tableau's binterp and Gamma^-1 */
+    double c_pind;                           /* the pins' sliding lever (mu_pinDynamic); c_pin: stuck, break-away */
 } MkParams;
 
 typedef struct {
@@ -55,7 +56,8 @@ typedef struct {
     int32_t piv[NMAX];
     int64_t key_s[2], cache_ok, jac_age;  /* jac_age: accepted steps since Jf was evaluated, -1: none */
     int64_t n_jac, n_lu;      /* Jacobian evaluations and factorizations of W (diagnostics) */
-    double gpin[4];           /* the planets' centrifugal forces (g1x g1y g2x g2y, N) at the step's start speed */
+    double gpin[4];           /* the planets' inertial forces (g1x g1y g2x g2y, N): centrifugal at the step's start
+                                 speed plus tangential at the carrier acceleration held over the step */
 } MkState;
 
 typedef struct { double F, dF_dd, dF_dv, Fc, xi; } Force;

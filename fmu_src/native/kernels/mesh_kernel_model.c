@@ -213,31 +213,32 @@ MK_HIDDEN void mk_eval(const MkParams *P, const MkState *S, const double *y, dou
     }
     double QA = n * Q[0], QB = n * Q[1], Q1 = Q[2], Q2 = Q[3];
     int s1 = (int)S->s[0], s2 = (int)S->s[1];
-    double cap1 = 0.0, cap2 = 0.0, cp = P->c_pin, dp1S = 0.0, dp112 = 0.0, dp2S = 0.0, dp212 = 0.0;
+    double cap1 = 0.0, cap2 = 0.0, cp = P->c_pin, cd = P->c_pind, dp1S = 0.0, dp112 = 0.0, dp2S = 0.0, dp212 = 0.0;
     int stuck1 = 0, stuck2 = 0;
     if (P->pin) {
         double Fp1, Fp2;
         pin_force(P, S->gpin, 0, FA, F12, &Fp1, &dp1S, &dp112);
         pin_force(P, S->gpin, 1, FB, F12, &Fp2, &dp2S, &dp212);
-        cap1 = cp * Fp1 + P->M01;
-        cap2 = cp * Fp2 + P->M02;
         stuck1 = s1 == 0;
         stuck2 = s2 == 0;
+        /* the limit of each pin's friction in its mode: static (c_pin) stuck, sliding (c_pind) slipping */
+        cap1 = (stuck1 ? cp : cd) * Fp1 + P->M01;
+        cap2 = (stuck2 ? cp : cd) * Fp2 + P->M02;
     }
     double Q1nf = Q1, Q2nf = Q2, M1 = 0.0, M2 = 0.0;
     if (P->pin) {
         if (!stuck1) {
             M1 = -s1 * cap1;
             Q1 += M1;
-            C[2][0] -= s1 * cp * dp1S;
-            C[2][2] -= s1 * cp * dp112;
+            C[2][0] -= s1 * cd * dp1S;
+            C[2][2] -= s1 * cd * dp112;
             Pw += n * fabs(M1 * W[2]);
         }
         if (!stuck2) {
             M2 = -s2 * cap2;
             Q2 += M2;
-            C[3][1] -= s2 * cp * dp2S;
-            C[3][2] -= s2 * cp * dp212;
+            C[3][1] -= s2 * cd * dp2S;
+            C[3][2] -= s2 * cd * dp212;
             Pw += n * fabs(M2 * W[3]);
         }
     }

@@ -6,11 +6,15 @@
  * multiply-adds), so the two agree bit for bit (tests/test_rigid_kernel.py).
  *
  * Constants (rk_nconst() doubles, set once per initialized model; see spurdiff/differential/rigid_kernel.py):
- *   0 rb1, 1 rb2, 2 n rbA, 3 n rbB, 4 c (pin friction lever), 5 M01, 6 M02, 7 J_A, 8 J_B, 9 lam,
+ *   0 rb1, 1 rb2, 2 n rbA, 3 n rbB, 4 c (the static pin-friction lever mu_pin r_d: stuck and at break-away;
+ *   not used by these two functions, which solve the slipping motion), 5 M01, 6 M02, 7 J_A, 8 J_B, 9 lam,
  *   10 J_1, 11 J_2, 12 rho1, 13 rho2, 14 Mcd, 15 Mcc, 16 n, 17..32 planet 1's pin constants,
  *   33..48 planet 2's (tx ty rx ry ux uy qx qy, then the sums and differences, as _pin_constants),
  *   49..52 the planets' centrifugal forces (g1x g1y g2x g2y, N: m_i a_i w_c^2 e_r,i at the carrier
- *   speed of the step's start, added to the pin force vectors; written per step by the binding).
+ *   speed of the step's start, added to the pin force vectors; written per step by the binding),
+ *   53 c_slide (the dynamic pin-friction lever mu_pinDynamic r_d: the friction while slipping, used here),
+ *   54..57 the planets' tangential forces (h1x h1y h2x h2y, N: -m_i a_i alpha_c e_t,i at the carrier
+ *   acceleration held over the step, added to the pin force vectors after 49..52; written per step).
  * io (rk_nio() doubles): in 0 s, 1 given (1: carrier acceleration given), 2 ac_given, 3 tau_c,
  *   4 tau_L, 5 tau_R, 6 a_d start, 7 F_12 start (NaN: from the sun forces);
  *   out 8 ac, 9 ad, 10 F12, 11 cap (n sum_i |rho_i| M_i,max).
@@ -18,8 +22,8 @@
 #include <math.h>
 #include <stdint.h>
 
-#define RK_ABI 3
-#define RK_NCONST 53
+#define RK_ABI 4
+#define RK_NCONST 58
 #define RK_NIO 12
 
 int64_t rk_abi(void) { return RK_ABI; }
@@ -27,7 +31,8 @@ int64_t rk_nconst(void) { return RK_NCONST; }
 int64_t rk_nio(void) { return RK_NIO; }
 int64_t rk_nio_step(void) { return 24; }
 
-/* returns the number of Newton iterations (51: the iteration limit was reached) */
+/* Slipping: the friction of each pin at its sliding limit with the dynamic lever (constant 53).
+ * Returns the number of Newton iterations (51: the iteration limit was reached). */
 int64_t rk_slip(const double *k, double *io);
 
 /* One communication step of a carrier torque-driven model slipping in direction s (w_d != 0) when
@@ -79,18 +84,19 @@ int64_t rk_step_slip(const double *k, double *io)
         FA = (J_A * (ac + ad) - tau_L) / nrbA;                           \
         FB = (J_B * (ac + lam * ad) - tau_R) / nrbB;                     \
         aA = fabs(FA); aB = fabs(FB); a12 = fabs(F12);                   \
-        f1x = FA * t1x + aA * r1x + F12 * u1x + a12 * q1x + g1x;         \
-        f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y + g1y;         \
-        f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x + g2x;         \
-        f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y + g2y;         \
+        f1x = FA * t1x + aA * r1x + F12 * u1x + a12 * q1x + g1x + h1x;   \
+        f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y + g1y + h1y;   \
+        f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x + g2x + h2x;   \
+        f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y + g2y + h2y;   \
     } while (0)
 
 int64_t rk_slip(const double *k, double *io)
 {
-    const double rb1 = k[0], rb2 = k[1], nrbA = k[2], nrbB = k[3], cpin = k[4], M01 = k[5], M02 = k[6];
+    const double rb1 = k[0], rb2 = k[1], nrbA = k[2], nrbB = k[3], cpin = k[53], M01 = k[5], M02 = k[6];
     const double J_A = k[7], J_B = k[8], lam = k[9], J1 = k[10], J2 = k[11], rho1 = k[12], rho2 = k[13];
     const double Mcd = k[14], Mcc = k[15], n = k[16];
     const double g1x = k[49], g1y = k[50], g2x = k[51], g2y = k[52];
+    const double h1x = k[54], h1y = k[55], h2x = k[56], h2y = k[57];
     const double *p1 = k + 17, *p2 = k + 33;
     const double t1x = p1[0], t1y = p1[1], r1x = p1[2], r1y = p1[3], u1x = p1[4], u1y = p1[5], q1x = p1[6],
                  q1y = p1[7], p1x = p1[8], p1y = p1[9], m1x = p1[10], m1y = p1[11], P1x = p1[12], P1y = p1[13],

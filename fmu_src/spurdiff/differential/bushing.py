@@ -5,8 +5,10 @@ raise (rim backup ratio of the planets, bushing pressure p and pv against the ma
 The lever of the pin-load law (:mod:`spurdiff.differential.locking`) is ``mu' r_j``: ``r_j`` the
 journal radius, ``mu' = mu_s / sqrt(1 + mu_s^2)`` the friction-circle coefficient of a journal
 bearing where the data set says so (the paper's set uses its ``mu`` as published). The static
-coefficient is used: the locking coefficient is a break-away value; the dynamic coefficient is
-recorded in the data and not used by the dynamics (one coefficient per run).
+coefficient gives the break-away lever (``mu_pin`` of the model: the stuck differential and its
+break-away, the locking coefficient K), the dynamic one the sliding lever (``mu_pinDynamic``: the
+friction while the differential slips, the sliding K), each with the friction-circle correction
+where the data set has it.
 
 Bushing length: the planet's face width (planet 1: 22 mm, planet 2: 40 mm in the paper's set).
 Backup ratio ``m_B = s_R / h_t`` with the rim ``s_R = (d_f - d_bore) / 2`` under the tooth root
@@ -53,6 +55,17 @@ class Bushing:
     @property
     def lever(self) -> float:
         return self.mu_effective * self.journalRadius
+
+    @property
+    def mu_effective_dynamic(self) -> float:
+        """The sliding coefficient the dynamics use while slipping (the model's ``mu_pinDynamic``):
+        mu_d / sqrt(1 + mu_d^2) with the friction-circle correction, else mu_d."""
+        mu = self.muDynamic
+        return mu / math.sqrt(1.0 + mu * mu) if self.frictionCircle else mu
+
+    @property
+    def lever_dynamic(self) -> float:
+        return self.mu_effective_dynamic * self.journalRadius
 
 
 def bushing(name: str) -> Bushing:

@@ -49,7 +49,9 @@ Two laws (the FMU's structural parameter ``lockingLaw``):
 
 The lever ``mu r_d``: ``r_d`` is the journal radius of the pin (the pin load of a spur-gear planet
 is radial), ``mu`` the bushing's coefficient, with the friction-circle correction where the data set
-has it (:mod:`spurdiff.differential.bushing`, ``spurdiff/data/pin_bushing.toml``). Not in this law:
+has it (:mod:`spurdiff.differential.bushing`, ``spurdiff/data/pin_bushing.toml``). K is a break-away
+value (the static coefficient, ``mu_pin``); the dynamics slip with the lever of ``mu_pinDynamic``,
+whose K (the same law with that lever) is the sliding K. Not in this law:
 flank friction (:mod:`spurdiff.differential.flank_law`) and the planets' centrifugal pin loads
 (:mod:`spurdiff.differential.speed_law`); docs/locking-law.md.
 

@@ -22,7 +22,8 @@ class DifferentialParams:
     """
 
     table: GearTable = field(default_factory=GearTable)
-    mu_pin: float = _d("mu_pin")          # pin-bushing sliding friction coefficient (paper)
+    mu_pin: float = _d("mu_pin")          # pin-bushing friction coefficient at break-away (paper: one coefficient)
+    mu_pinDynamic: float = _d("mu_pinDynamic")   # sliding coefficient, 0 <= it <= mu_pin (0: equal to mu_pin)
     r_collar: float = _d("r_collar")      # thrust-collar radius r_d of the pinion shaft, m (paper)
     lockingLaw: str = _d("lockingLaw")    # "pinFriction": from the pin loads | "paper": the paper's K
     lockingPreload: float = _d("lockingPreload")   # N m, spring preload of the locking friction (0: none)
@@ -44,6 +45,10 @@ class DifferentialParams:
         mu = require_nonnegative("mu_pin", self.mu_pin)
         if mu > 1.0:
             raise ParameterError("mu_pin", self.mu_pin, "between 0 and 1")
+        mu_d = self.mu_pinDynamic
+        if not 0.0 <= mu_d <= mu:            # (NaN fails too)
+            raise ParameterError("mu_pinDynamic", self.mu_pinDynamic,
+                                 f"between 0 and mu_pin = {mu:g} (0: equal to mu_pin)")
         require_nonnegative("r_collar", self.r_collar)
         if self.lockingLaw not in LOCKING_LAWS:
             raise ParameterError("lockingLaw", self.lockingLaw, " or ".join(LOCKING_LAWS))
@@ -61,6 +66,12 @@ class DifferentialParams:
         for name in ("J_carrier", "J_sunA", "J_sunB", "J_planet1", "J_planet2", "m_planet1", "m_planet2"):
             require_nonnegative(name, getattr(self, name))
         return geo
+
+    @property
+    def mu_sliding(self) -> float:
+        """The pins' coefficient while the differential slips: ``mu_pinDynamic``, or ``mu_pin``
+        where that is 0 (one coefficient)."""
+        return self.mu_pinDynamic if self.mu_pinDynamic > 0.0 else self.mu_pin
 
 
 def degrees(rad: float) -> float:

@@ -35,6 +35,11 @@ Pin-bushing friction (the locking), two laws (:mod:`spurdiff.differential.lockin
   the sign of ``T_0`` checked afterwards (after Pelchen, Schweiger and Otter 2002, as in
   Modelica's LossyGear).
 
+Static and dynamic coefficients: the capacities of the stuck mode and the break-away use the
+static lever ``pf.c`` (``mu_pin``); the slipping mode uses the sliding lever ``c_slide``
+(``mu_pinDynamic``; the paper law: ``K_slide``). A slip that stops re-sticks with the static one;
+since ``c_slide <= pf.c`` a re-stuck differential holds the loads it stopped under (no chattering).
+
 Stick-slip is exact, with no regularisation: in the stuck mode ``w_d`` is exactly 0 and the
 friction is whatever holds it (``dw_d = 0``) as long as that stays within the capacity; above it
 the differential breaks away in the direction the excess pushes. While slipping, ``Q_f = -s C``
@@ -47,6 +52,7 @@ from __future__ import annotations
 
 import math
 import operator
+from dataclasses import replace
 
 from spurdiff.differential import rigid_kernel
 from spurdiff.errors import StepError, require_finite, require_positive
@@ -61,10 +67,10 @@ from spurdiff.gears.layout import kinematics
 
 _STATE_KEYS = (
     "t", "wc", "wd", "phic", "phid", "ac", "ad", "Qf", "slip_dir", "F12", "cap", "_ad_guess", "_slip_key", "_slip_val",
-    "work_in", "energy_loss", "loss_last_step", "n_mode_switches", "n_steps", "_g", "_g_wc",
+    "work_in", "energy_loss", "loss_last_step", "n_mode_switches", "n_steps", "_g", "_g_wc", "_gt", "_g_ac",
 )
 _get_state_values = operator.itemgetter(*_STATE_KEYS)
-_TUPLE_KEYS = ("_slip_key", "_slip_val", "_g")   # the only state entries that are not numbers or None
+_TUPLE_KEYS = ("_slip_key", "_slip_val", "_g", "_gt")   # the only state entries that are not numbers or None
 
 
 class RigidDifferential(PinLoadLaw, DifferentialModel):
@@ -118,10 +124,19 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
         self.preload = float(p.lockingPreload)
         self.pf = pin_friction(geo, p.mu_pin, p.r_collar, self.preload, self.law)
         self.K_paper = paper_locking_coefficient(p.mu_pin, p.r_collar, n, geo.r_a, geo.r_1, geo.r_b, geo.r_2)
+        # the static / dynamic split: pf.c (mu_pin) holds while stuck and decides the break-away;
+        # c_slide (mu_pinDynamic, equal to mu_pin where that is 0) acts while slipping
+        mu_d = p.mu_sliding
+        self.c_slide = pf_d_c = pin_friction(geo, mu_d, p.r_collar, self.preload, self.law).c
         if self.law == "paper":
             self.K = self.K_coast = self.K_paper
+            self.K_slide = self.K_slide_coast = paper_locking_coefficient(mu_d, p.r_collar, n, geo.r_a, geo.r_1,
+                                                                          geo.r_b, geo.r_2)
         else:
             self.K, self.K_coast = locking_coefficients(self.pf)
+            self.K_slide, self.K_slide_coast = (
+                (self.K, self.K_coast) if pf_d_c == self.pf.c
+                else locking_coefficients(replace(self.pf, c=pf_d_c)))
         # the exact pin law (pinFriction with friction or preload), else the paper's linear capacity
         self._exact = self.law == "pinFriction" and (self.pf.c > 0.0 or self.preload > 0.0)
         self._pin_constants()
@@ -131,7 +146,12 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
         self._cf = ((mp.m_planet1 * geo.meshA1.a, 0.0),
                     (mp.m_planet2 * geo.meshB2.a * math.cos(th), mp.m_planet2 * geo.meshB2.a * math.sin(th))) \
             if speed else ((0.0, 0.0), (0.0, 0.0))
+        # and their tangential (carrier-acceleration) pin loads -m_i a_i alpha_c e_t,i per unit alpha_c
+        self._ct = ((0.0, -mp.m_planet1 * geo.meshA1.a),
+                    (mp.m_planet2 * geo.meshB2.a * math.sin(th), -mp.m_planet2 * geo.meshB2.a * math.cos(th))) \
+            if speed else ((0.0, 0.0), (0.0, 0.0))
         self._g, self._g_wc = (0.0, 0.0, 0.0, 0.0), 0.0
+        self._gt, self._g_ac = (0.0, 0.0, 0.0, 0.0), 0.0
         self._rk, self.kernel_note = (rigid_kernel.choose(self) if self._exact
                                       else (None, "none (no pin-load solve)"))
         self.F12 = float("nan")
@@ -148,7 +168,7 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
         self.n_mode_switches = 0
         self.n_steps = 0
         self.slip_dir = 0.0 if wd0 == 0.0 else math.copysign(1.0, wd0)
-        self._set_speed_loads(self.wc)
+        self._set_speed_loads(self.wc, 0.0)
         ac = 0.0 if self.speed_drive else None
         self.ac, self.ad, self.Qf, self.slip_dir = self._accelerations(ac)
         self._ready = True
@@ -167,8 +187,9 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
         return (self.J_A * (ac + ad) - self.tau_L) + (self.J_B * (ac + self.lam * ad) - self.tau_R)
 
     def _solve_slip(self, ac_given: float | None, s: float, sigma: float) -> tuple[float, float]:
-        """Accelerations with Q_f = -s K sigma T0(ac, ad) (sigma = assumed sign of T0)."""
-        kf = s * self.K * sigma
+        """Accelerations with Q_f = -s K_slide sigma T0(ac, ad) (sigma = assumed sign of T0; K_slide the
+        sliding coefficient, mu_pinDynamic)."""
+        kf = s * self.K_slide * sigma
         Fd = self.tau_L + self.lam * self.tau_R - s * self.preload
         alpha0 = -self.tau_L - self.tau_R
         alpha_c = self.J_A + self.J_B
@@ -189,7 +210,7 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
             ac, ad = self._solve_slip(ac_given, s, sigma)
             T0 = self._T0(ac, ad)
             if T0 * sigma >= 0.0:
-                return ac, ad, -s * (self.K * abs(T0) + self.preload)
+                return ac, ad, -s * (self.K_slide * abs(T0) + self.preload)
         ac, ad = self._solve_slip(ac_given, s, 0.0)  # T0 changes sign with the friction: preload only
         return ac, ad, -s * self.preload
 
@@ -224,7 +245,9 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
             h = require_positive("communicationStepSize", h)
         self._check_inputs()
         if self._exact:
-            self._set_speed_loads(self.wc)      # the carrier speed at the step's start, held over it
+            # the carrier speed at the step's start and its acceleration (speed drive: the ramp of this
+            # step; torque drive: the acceleration at the end of the last step), held over the step
+            self._set_speed_loads(self.wc, (self.w_ref - self.wc) / h if self.speed_drive else self.ac)
         rk = self._rk
         if rk is not None and self.wd != 0.0 and not self.speed_drive and self._step_compiled(rk, t, h):
             return
@@ -268,7 +291,7 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
         step, nothing changed (the Python path runs it)."""
         s = math.copysign(1.0, self.wd)
         tau_c, tau_L, tau_R = self.tau_c, self.tau_L, self.tau_R
-        key = (s, None, tau_c, tau_L, tau_R, self._g_wc)
+        key = (s, None, tau_c, tau_L, tau_R, self._g_wc, self._g_ac)
         if key == self._slip_key:
             return False
         io = rk.sio
@@ -357,7 +380,8 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
         ``K |T_A + T_B| + T_pre``, or ``n sum_i |rho_i| M_i,max`` from the pin loads."""
         if self._exact:
             return self.cap
-        return self.K * abs(self.tau_mesh_L + self.tau_mesh_R) + self.preload
+        K = self.K_slide if self.slip_dir != 0.0 else self.K
+        return K * abs(self.tau_mesh_L + self.tau_mesh_R) + self.preload
 
     @property
     def power_loss(self) -> float:
@@ -399,5 +423,5 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
         d["_last_h"] = state["last_h"]
         rk = d.get("_rk")
         if rk is not None:
-            rk.set_speed_loads(d["_g"])
+            rk.set_speed_loads(d["_g"], d["_gt"])
 

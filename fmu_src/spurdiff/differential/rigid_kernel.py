@@ -24,8 +24,8 @@ from pathlib import Path
 from spurdiff import native_library
 from spurdiff.errors import ParameterError
 
-ABI = 3
-NCONST = 53
+ABI = 4
+NCONST = 58
 NIO = 12
 NIO_STEP = 24
 LIB_NAME = "librigid_kernel.so"   # not rigid_kernel.so: Python would import that for this module
@@ -107,7 +107,7 @@ class Kernel:
         _, rb1, _, rb2 = pf.rb
         M01, M02 = pf.M0
         const = (rb1, rb2, m._nrbA, m._nrbB, pf.c, M01, M02, m.J_A, m.J_B, m.lam, m.J_1, m.J_2, m.rho1, m.rho2,
-                 m.Mcd, m.Mcc, pf.n) + tuple(m._pin1) + tuple(m._pin2) + tuple(m._g)
+                 m.Mcd, m.Mcc, pf.n) + tuple(m._pin1) + tuple(m._pin2) + tuple(m._g) + (m.c_slide,) + tuple(m._gt)
         assert len(const) == NCONST
         self.const = (C.c_double * NCONST)(*(float(v) for v in const))
         self.io = (C.c_double * NIO)()
@@ -116,6 +116,9 @@ class Kernel:
         self.sio = (C.c_double * NIO_STEP)()
         self.step = lib.rk_step_slip   # step(const, sio): 0 done, 1 not that kind of step
 
-    def set_speed_loads(self, g) -> None:
-        """The planets' centrifugal force vectors (constants 49..52) for the next solves."""
-        self.const[49], self.const[50], self.const[51], self.const[52] = g
+    def set_speed_loads(self, g, gt) -> None:
+        """The planets' centrifugal (constants 49..52) and tangential (54..57) force vectors for the
+        next solves."""
+        k = self.const
+        k[49], k[50], k[51], k[52] = g
+        k[54], k[55], k[56], k[57] = gt

@@ -34,25 +34,32 @@ class PinLoadLaw:
         self._nrbA, self._nrbB = pf.n * rbA, pf.n * rbB
 
     def _capacity(self, i: int, Fs: float, F12: float) -> float:
-        """Friction capacity of planet i's pin (N m): ``c |F_mesh + g_i| + M_0,i`` with the
-        planet's centrifugal force ``g_i`` (:meth:`_set_speed_loads`)."""
+        """Static (break-away) friction capacity of planet i's pin (N m): ``c |F_mesh + g_i + h_i| + M_0,i``
+        with the planet's centrifugal and tangential forces ``g_i``, ``h_i`` (:meth:`_set_speed_loads`)."""
         tx, ty, rx, ry, ux, uy, qx, qy = self.pf.layout._flat[i]
         aS, a12 = abs(Fs), abs(F12)
-        fx = Fs * tx + aS * rx + F12 * ux + a12 * qx + self._g[2 * i]
-        fy = Fs * ty + aS * ry + F12 * uy + a12 * qy + self._g[2 * i + 1]
+        fx = Fs * tx + aS * rx + F12 * ux + a12 * qx + self._g[2 * i] + self._gt[2 * i]
+        fy = Fs * ty + aS * ry + F12 * uy + a12 * qy + self._g[2 * i + 1] + self._gt[2 * i + 1]
         return self.pf.c * math.sqrt(fx * fx + fy * fy) + self.pf.M0[i]
 
-    def _set_speed_loads(self, wc: float) -> None:
-        """The planets' centrifugal pin loads ``m_i a_i w_c^2 e_r,i`` at the carrier speed ``wc``
-        (held over a step; zero without ``pinSpeedLoads``). A change drops the cached slip solve."""
-        if wc == self._g_wc:
+    def _set_speed_loads(self, wc: float, alpha: float) -> None:
+        """The planets' inertial pin loads at the carrier speed ``wc`` and acceleration ``alpha``
+        (held over a step; zero without ``pinSpeedLoads``): centrifugal ``m_i a_i w_c^2 e_r,i`` and
+        tangential ``-m_i a_i alpha_c e_t,i`` (:mod:`spurdiff.differential.speed_law`). A change
+        drops the cached slip solve (its key holds both)."""
+        if wc == self._g_wc and alpha == self._g_ac:
             return
-        w2 = wc * wc
-        (c1x, c1y), (c2x, c2y) = self._cf
-        self._g = (c1x * w2, c1y * w2, c2x * w2, c2y * w2)
-        self._g_wc = wc
+        if wc != self._g_wc:
+            w2 = wc * wc
+            (c1x, c1y), (c2x, c2y) = self._cf
+            self._g = (c1x * w2, c1y * w2, c2x * w2, c2y * w2)
+            self._g_wc = wc
+        if alpha != self._g_ac:
+            (t1x, t1y), (t2x, t2y) = self._ct
+            self._gt = (t1x * alpha, t1y * alpha, t2x * alpha, t2y * alpha)
+            self._g_ac = alpha
         if self._rk is not None:
-            self._rk.set_speed_loads(self._g)
+            self._rk.set_speed_loads(self._g, self._gt)
 
     def _sun_forces(self, ac: float, ad: float) -> tuple[float, float]:
         """Normal mesh forces per pair of the sun meshes from the sun torques."""
@@ -63,7 +70,8 @@ class PinLoadLaw:
 
     def _slip_exact(self, ac_given: float | None, s: float) -> tuple[float, float, float]:
         """Slipping in direction s with the pin-load law: solve the planets' moment balances
-        for (a_d, F_12) by Newton; returns (ac, ad, Q_f) and leaves F12, cap set.
+        for (a_d, F_12) by Newton, the pins at the sliding lever ``c_slide`` (``mu_pinDynamic``);
+        returns (ac, ad, Q_f) and leaves F12, cap (the sliding friction) set.
 
         The hot path of the rigid level (one solve per inner step): the sun forces
         (:meth:`_sun_forces`) and the pin capacities (:meth:`spurdiff.differential.locking.PinFriction.capacity`)
@@ -87,13 +95,14 @@ class PinLoadLaw:
         n = pf.n
         _, rb1, _, rb2 = pf.rb
         nrbA, nrbB = self._nrbA, self._nrbB
-        cpin = pf.c
+        cpin = self.c_slide                 # sliding: the dynamic lever (mu_pinDynamic)
         M01, M02 = pf.M0
         (t1x, t1y, r1x, r1y, u1x, u1y, q1x, q1y, p1x, p1y, m1x, m1y, P1x, P1y, N1x, N1y) = self._pin1
         (t2x, t2y, r2x, r2y, u2x, u2y, q2x, q2y, p2x, p2y, m2x, m2y, P2x, P2y, N2x, N2y) = self._pin2
         J_A, J_B, lam = self.J_A, self.J_B, self.lam
         J1, J2 = self.J_1, self.J_2
         g1x, g1y, g2x, g2y = self._g
+        h1x, h1y, h2x, h2y = self._gt
         rho1, rho2 = self.rho1, self.rho2
         tau_L, tau_R = self.tau_L, self.tau_R
         Mcd, Mcc = self.Mcd, self.Mcc
@@ -120,10 +129,10 @@ class PinLoadLaw:
             FB = (J_B * (ac + lam * ad) - tau_R) / nrbB
             aA, aB, a12 = abs(FA), abs(FB), abs(F12)
             # pin force of planet 1 (sun A mesh FA, planet mesh F12) and of planet 2 (FB, F12)
-            f1x = FA * t1x + aA * r1x + F12 * u1x + a12 * q1x + g1x
-            f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y + g1y
-            f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x + g2x
-            f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y + g2y
+            f1x = FA * t1x + aA * r1x + F12 * u1x + a12 * q1x + g1x + h1x
+            f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y + g1y + h1y
+            f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x + g2x + h2x
+            f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y + g2y + h2y
             mag1 = sqrt(f1x * f1x + f1y * f1y)
             mag2 = sqrt(f2x * f2x + f2y * f2y)
             c1 = cpin * mag1 + M01
@@ -161,10 +170,10 @@ class PinLoadLaw:
                 FA = (J_A * (ac + ad) - tau_L) / nrbA
                 FB = (J_B * (ac + lam * ad) - tau_R) / nrbB
                 aA, aB, a12 = abs(FA), abs(FB), abs(F12)
-                f1x = FA * t1x + aA * r1x + F12 * u1x + a12 * q1x + g1x
-                f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y + g1y
-                f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x + g2x
-                f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y + g2y
+                f1x = FA * t1x + aA * r1x + F12 * u1x + a12 * q1x + g1x + h1x
+                f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y + g1y + h1y
+                f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x + g2x + h2x
+                f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y + g2y + h2y
                 c1 = cpin * sqrt(f1x * f1x + f1y * f1y) + M01
                 c2 = cpin * sqrt(f2x * f2x + f2y * f2y) + M02
                 break
@@ -196,7 +205,8 @@ class PinLoadLaw:
             return Fstar, Fstar
         aS = abs(Fs)
         gx, gy = self._g[2 * i], self._g[2 * i + 1]
-        ax, ay = Fs * tx + aS * rx + gx, Fs * ty + aS * ry + gy      # P(0), with the centrifugal force
+        hx, hy = self._gt[2 * i], self._gt[2 * i + 1]
+        ax, ay = Fs * tx + aS * rx + gx + hx, Fs * ty + aS * ry + gy + hy   # P(0), with the inertial forces
         c_a0 = c * math.sqrt(ax * ax + ay * ay)             # c |P(0)|
         ends = []
         for sign in (1.0, -1.0):                            # upper end, lower end
@@ -247,7 +257,7 @@ class PinLoadLaw:
         """As :meth:`_accelerations`, with the pin-load law."""
         if self.wd != 0.0:
             s = math.copysign(1.0, self.wd)
-            key = (s, ac_given, self.tau_c, self.tau_L, self.tau_R, self._g_wc)
+            key = (s, ac_given, self.tau_c, self.tau_L, self.tau_R, self._g_wc, self._g_ac)
             if key == self._slip_key:          # same mode and inputs: same accelerations
                 ac, ad, Qf, s, self.F12, self.cap = self._slip_val
                 return ac, ad, Qf, s

@@ -85,6 +85,7 @@ class ShaftedDifferential(ShaftSolver):
     _rigid = False   # the inner model is the rigid one (set by initialize)
     _sk = None       # the compiled step (spurdiff.differential.shaft_kernel), set by initialize
     shaft_kernel_note = "none (not initialized)"
+    q_end_L = q_end_R = 0.0   # the wheel sides' tyre-torque deviations at the end of the last step (derivatives.py)
 
     def __init__(self, inner, params: ShaftsParams | None = None):
         self.__dict__["inner"] = inner
@@ -212,6 +213,7 @@ class ShaftedDifferential(ShaftSolver):
         for i in range(n):
             self._advance(t + i * hs, hs, wL, wR, xL, xR, acc, 0, snap if i == 0 else None)
         self.dw_pred_L, self.dw_pred_R = xL[0], xR[0]
+        self.q_end_L, self.q_end_R = xL[1], xR[1]
         self.tau_mean_L, self.tau_mean_R = -acc[0] / h, -acc[1] / h
         self.tau_end_L, self.tau_end_R = -self.T_L, -self.T_R
         self.t = t + h

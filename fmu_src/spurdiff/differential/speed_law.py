@@ -1,6 +1,7 @@
 """Carrier speed in the pin loads: the centrifugal and carrier-acceleration forces of the planets
 add to the bearing force of each pin, so the locking torque depends on the carrier speed
-(quasi-static theory; the dynamic levels do not carry these forces yet, see docs/locking-law.md).
+(quasi-static theory; the dynamic levels carry both with ``pinSpeedLoads``, the speed of the step's
+start and the acceleration held over the step, see docs/locking-law.md).
 
 In the carrier's frame a planet of mass ``m_i`` whose centre is at radius ``a_i`` from the carrier
 axis (``a_A1`` for planet 1, ``a_B2`` for planet 2; :class:`spurdiff.gears.layout.PinLayout`

@@ -21,9 +21,11 @@ from spurdiff.fmi.binding import bindings, build_params, renamed, resolve
 from spurdiff.errors import ParameterError
 from spurdiff.fmi.variables import Var
 from spurdiff.differential.bushing import bushing
+from spurdiff.differential import derivatives
 from spurdiff.differential.locking import torque_bias_ratio
 from spurdiff.gears.phasing import mesh_phases
 from spurdiff.differential.mesh import MeshDifferential, MeshParams
+from spurdiff.differential.mesh import rates as mesh_rates
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.rigid import RigidDifferential
 from spurdiff.differential.shafts import SHAFT_COUPLINGS, ShaftedDifferential, ShaftsParams
@@ -41,6 +43,18 @@ DESCRIPTION = ("Spur-gear planetary inter-wheel differential: two suns on the ha
 DEFAULT_EXPERIMENT = {"startTime": 0.0, "stopTime": 0.3, "stepSize": 1e-3}
 DEFAULT_CARRIER_SPEED = 1.389      # rad/s, the paper's carrier speed
 DEFAULT_SUN_LOAD = -1050.0         # N m on each sun, the paper's straight-line load
+
+# FMI 3.0: first derivatives of the outputs output_rates answers (shaft torques and twists, flange
+# and carrier speeds and angles; spurdiff.differential.derivatives), the others refused by name
+MAX_OUTPUT_DERIVATIVE_ORDER = 1
+# FMI 3.0: with earlyReturnAllowed, fmi3DoStep ends at a stick/slip transition (adapter.fmi2_do_step_early)
+MIGHT_RETURN_EARLY = True
+
+
+def output_rates(model) -> dict[str, float]:
+    """The FMI 3.0 output derivatives of ``model`` (any level; spurdiff.differential.derivatives)."""
+    return derivatives.output_rates(model, mesh_rates.sun_accelerations)
+
 
 MESH_MODELS = ("rigid", "compliant", "contact")
 EFFECTS = ("backlash", "meshStiffnessVariation", "pinFriction", "flankFriction")
@@ -183,8 +197,9 @@ VARIABLES: list[Var] = [
         "Pin-bushing friction torque on the differential motion, as a sun-torque difference (positive speeds sun A up)",
         "N.m", "N.mm", bind="locking_torque"),
     Var("lockingCapacity", "output",
-        "Largest torque difference the friction can hold now: n sum_i |rho_i| (mu r_d |F_pin,i| + preload share) "
-        "from the pin loads (lockingLaw = pinFriction), K |T_A + T_B| + preload (paper)", "N.m", "N.mm",
+        "Limit of the friction in its present mode as a torque difference: stuck, the largest it can hold "
+        "(break-away, mu_pin); slipping, the sliding friction (mu_pinDynamic): n sum_i |rho_i| (mu r_d |F_pin,i| "
+        "+ preload share) from the pin loads (lockingLaw = pinFriction), K |T_A + T_B| + preload (paper)", "N.m", "N.mm",
         bind="locking_capacity"),
     Var("powerLoss", "output", "Friction power, mean over the last step (>= 0)", "W", bind="power_loss"),
     Var("energyLoss", "output", "Friction energy dissipated since the start", "J", bind="energy_loss"),
@@ -285,7 +300,11 @@ VARIABLES: list[Var] = [
     _p("nPairs", "diff.table.nPairs", "Number of planet pairs (3: the paper's figures)", None, kind="Integer"),
     # --- friction, mass
     _p("mu_pin", "diff.mu_pin", "Friction coefficient of the planet pin bushings at break-away, with the "
-       "friction-circle correction mu/sqrt(1+mu^2) where the data set has it (spurdiff/data/pin_bushing.toml)", "1"),
+       "friction-circle correction mu/sqrt(1+mu^2) where the data set has it (spurdiff/data/pin_bushing.toml); "
+       "holds the stuck differential and sets its break-away", "1"),
+    _p("mu_pinDynamic", "diff.mu_pinDynamic", "Sliding friction coefficient of the planet pin bushings, the friction "
+       "while the differential slips (friction-circle correction as mu_pin); 0 <= mu_pinDynamic <= mu_pin, "
+       "0: equal to mu_pin (one coefficient, the paper's data)", "1"),
     _p("pinSpeedLoads", "diff.pinSpeedLoads", "The planets' centrifugal forces m a w_c^2 load their pins (carrier speed "
        "at each step's start; lockingLaw = pinFriction): the locking grows with carrier speed", kind="Boolean"),
     _p("r_collar", "diff.r_collar", "Journal radius of the planet pins, the friction lever's radius (the paper's "
@@ -344,6 +363,13 @@ VARIABLES: list[Var] = [
         "Locking coefficient in coast (load on the coast flanks: the suns drive the carrier), flank friction "
         "as in lockingCoefficient; equals the drive value with lockingLaw = paper", "1",
         bind="K_coast"),
+    Var("lockingCoefficientSliding", "calculatedParameter",
+        "Locking coefficient in drive while the differential slips: |T_A - T_B| / (T_A + T_B) with the pins at "
+        "mu_pinDynamic (flankFriction: the flanks at flank.muDynamic); equals lockingCoefficient with one "
+        "coefficient", "1", bind="K_slide"),
+    Var("lockingCoefficientCoastSliding", "calculatedParameter",
+        "Locking coefficient in coast while the differential slips (as lockingCoefficientSliding)", "1",
+        bind="K_slide_coast"),
     Var("torqueBiasRatio", "calculatedParameter",
         "Torque bias ratio in drive, largest T_slow / T_fast the locking holds: (1 + K) / (1 - K)", "1"),
     Var("torqueBiasRatioCoast", "calculatedParameter",
@@ -367,6 +393,9 @@ VARIABLES += [
        "the run's stresses are scaled (the paper's load: 2100 N m)", "N.m"),
     _p("capacity.material", "capacity.material", "Gear material of the ISO 6336 check (spurdiff/data/materials.toml): "
        "18CrNiMo7-6 | 20MnCr5 | 40CrNi2Mo-paper", kind="String"),
+    _p("capacity.bushingWall", "capacity.bushingWall", "Wall of the planets' pin bushings: the planets' bore is "
+       "2 (r_collar + capacity.bushingWall), which sets the rim factor Y_B of their root stress (0: the pin runs "
+       "in the planet's bore, the paper's set; 1.5 mm: spurdiff/data/pin_bushing.toml's bronze set)", "m", "mm"),
     *[Var(f"capacity.mesh{k}.{g}.{S}", "calculatedParameter",
           f"ISO 6336 {what} safety factor of {g} in mesh {k} at capacity.T0, long life (< 1: a finding, logged)", "1")
       for k, g1, g2 in CAPACITY_MESHES for g in (g1, g2)
@@ -393,8 +422,10 @@ def _attach_capacity(model, values: dict) -> None:
     from spurdiff.gears import capacity as cap
     T0 = require_positive("capacity.T0", values["capacity.T0"])
     mat = cap.material(values["capacity.material"])
-    r_pin = values.get("r_collar", 0.0)          # the planets turn on journals of this radius (Y_B)
-    bores = {"planet1": 2.0 * r_pin, "planet2": 2.0 * r_pin} if r_pin > 0.0 else None
+    wall = values["capacity.bushingWall"]
+    if not (wall >= 0.0 and wall < 0.1):
+        raise ParameterError("capacity.bushingWall", wall, ">= 0 m and < 0.1 m")
+    bores = cap.pin_bores(values.get("r_collar", 0.0), wall)   # the planets turn on journals (Y_B)
     forces = cap.nominal_mesh_forces(model.geometry, T0)
     rep = cap.capacity_report(model.geometry, forces, mat, None, bores)
     for r in rep.meshes:
@@ -429,7 +460,7 @@ def _attach_capacity(model, values: dict) -> None:
             first = next((f for f in rep.findings if f.level == "error"), rep.findings[0])
             log(f"load capacity at capacity.T0 = {T0:g} N m ({mat.name}): smallest safety factors S_H "
                 f"{rep.S_H:.3f} (static {rep.S_H_static:.3f}), S_F {rep.S_F:.3f} (static {rep.S_F_static:.3f}); "
-                f"{n_err} errors, {len(rep.findings) - n_err} warnings, first: {first}", 1)
+                f"{n_err} errors, {len(rep.findings) - n_err} warnings, first: {first}", 0)
 
     model.do_step, model.get_state, model.set_state, model.log_to = do_step, get_state, set_state, log_to
 # ---------------------------------------------------------------------------------------------------
@@ -462,7 +493,7 @@ def build_model(values: dict):
     params = s.diff
     if s.mesh.level == "rigid":
         if not s.mesh.pinFriction:
-            params = replace(params, mu_pin=0.0, lockingPreload=0.0)
+            params = replace(params, mu_pin=0.0, mu_pinDynamic=0.0, lockingPreload=0.0)
         model = RigidDifferential(params)
         model.kernel = s.mesh.kernel     # the pin-load solve's implementation (spurdiff.differential.rigid_kernel)
     else:

@@ -131,6 +131,16 @@ class CapacityParams:
 
     T0: float = tomllib.loads(_MATERIALS_TEXT)["rating"]["T0"]
     material: str = tomllib.loads(_MATERIALS_TEXT)["default"]
+    bushingWall: float = 0.0     # m, wall of the planets' pin bushings: the bore is 2 (r_j + bushingWall)
+
+
+def pin_bores(journal_radius: float, bushing_wall: float) -> dict[str, float] | None:
+    """Bore diameters (m) of the planets, which turn on pins of ``journal_radius`` in bushings of
+    ``bushing_wall`` (the rims under their roots set the rim factor Y_B); None without pins."""
+    if not journal_radius > 0.0:
+        return None
+    bore = 2.0 * (journal_radius + bushing_wall)
+    return {"planet1": bore, "planet2": bore}
 
 
 def materials_data() -> dict:

@@ -69,7 +69,14 @@ SHIM = {
     "Chk3CZeroStep": ("ZERO_STEP", {"cs3.zero-step-size": "error"}),
     "Chk3CLateStep": ("LATE_STEP", {"cs3.default-experiment": "warning"}),
     "Chk3CModelExchange": ("ME", {"me3.basic": "error"}),
+    "Chk3CDerivOrder": ("DERIV_ORDER", {"cs3.output-derivative-orders": "error"}),
+    "Chk3CDerivNaN": ("DERIV_NAN", {"cs3.output-derivatives": "warning"}),
+    "Chk3CEarlyAnyway": ("EARLY_ANYWAY", {"cs3.early-return-not-allowed": "error"}),
+    "Chk3CEarlyTime": ("EARLY_TIME", {"cs3.early-return-time": "error"}),
 }
+# shims whose modelDescription.xml is edited too: BouncingBall declares output derivatives
+SHIM_EDITS = {n: [('mightReturnEarlyFromDoStep="true"', 'mightReturnEarlyFromDoStep="true"\n    '
+                   'maxOutputDerivativeOrder="1"')] for n in ("Chk3CDerivOrder", "Chk3CDerivNaN")}
 
 
 @pytest.fixture(scope="module")
@@ -91,7 +98,8 @@ def shim_results(tmp_path_factory):
     out = tmp_path_factory.mktemp("fmi3-shim")
     jobs = []
     for name, (breaks, expected) in SHIM.items():
-        path = chk3_build.shim_variant(name, "BouncingBall", breaks, out, defines={"LATE_T": "1.5"})
+        path = chk3_build.shim_variant(name, "BouncingBall", breaks, out, defines={"LATE_T": "1.5"},
+                                       edits=SHIM_EDITS.get(name))
         ids = set(expected) | {"cs3.basic"} | ({"me3.basic"} if any(r.startswith("me3") for r in expected) else set())
         jobs.append((path, name, sorted({r.split(".")[0] for r in ids}), ids))
     return run_lifecycle_checks_many(jobs, LifecycleOptions(timeout=60.0, jobs=2))

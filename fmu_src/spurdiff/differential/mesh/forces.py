@@ -273,11 +273,12 @@ def evaluate(c, y, f, J) -> SideValues:
     s1, s2 = c.s
     pin = c._pin
     if pin:
-        cp = c.c_pin
+        cp, cd = c.c_pin, c.c_pin_slide
         Fp1, dp1S, dp112 = c._pin_force(0, FA, F12)
         Fp2, dp2S, dp212 = c._pin_force(1, FB, F12)
-        cap1, cap2 = cp * Fp1 + c._M01, cp * Fp2 + c._M02
         stuck1, stuck2 = s1 == 0, s2 == 0
+        # the limit of each pin's friction in its mode: static (c_pin) stuck, sliding (c_pin_slide) slipping
+        cap1, cap2 = (cp if stuck1 else cd) * Fp1 + c._M01, (cp if stuck2 else cd) * Fp2 + c._M02
     else:
         cap1 = cap2 = 0.0
         stuck1 = stuck2 = False
@@ -287,14 +288,14 @@ def evaluate(c, y, f, J) -> SideValues:
         if not stuck1:
             M1 = -s1 * cap1
             Q1 += M1
-            C[2][0] -= s1 * cp * dp1S
-            C[2][2] -= s1 * cp * dp112
+            C[2][0] -= s1 * cd * dp1S
+            C[2][2] -= s1 * cd * dp112
             P += n * abs(M1 * W[2])
         if not stuck2:
             M2 = -s2 * cap2
             Q2 += M2
-            C[3][1] -= s2 * cp * dp2S
-            C[3][2] -= s2 * cp * dp212
+            C[3][1] -= s2 * cd * dp2S
+            C[3][2] -= s2 * cd * dp212
             P += n * abs(M2 * W[3])
     # carrier acceleration
     J1_, J2_ = c.J1, c.J2

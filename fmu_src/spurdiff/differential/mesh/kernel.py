@@ -28,7 +28,7 @@ from spurdiff import native_library
 from spurdiff.errors import ParameterError, StepError
 from spurdiff.differential.mesh.integrator import SMAX      # mesh_kernel.h SMAX: the most stages of a tableau
 
-ABI = 5
+ABI = 6
 LIB_NAME = "mesh_kernel.so"
 SEARCH_PATH: list[Path] = []
 _HERE = Path(__file__).resolve().parent
@@ -48,7 +48,7 @@ class MkParams(C.Structure):
                 + [("pin_flat", _d * 8 * 2), ("Minv", _d * 5 * 5), ("atol", _d * 10), ("rtol", _d), ("w_stick", _d),
                    ("gamma", _d), ("err_exp", _d), ("a", _d * SMAX * SMAX), ("cc", _d * SMAX * SMAX), ("m", _d * SMAX),
                    ("ew", _d * SMAX), ("dmid", _d * SMAX), ("dq", _d * SMAX * 2),
-                   ("md", MkMesh * 3), ("bint", _d * 4 * SMAX), ("ginv", _d * SMAX * SMAX)])
+                   ("md", MkMesh * 3), ("bint", _d * 4 * SMAX), ("ginv", _d * SMAX * SMAX), ("c_pind", _d)])
 
 
 class MkState(C.Structure):
@@ -151,6 +151,7 @@ class Kernel:
         for k in ("rbA", "rb1", "rbB", "rb2", "JA", "JB", "J1", "J2", "Jc", "Jtot", "lam", "c_pin"):
             setattr(P, k, float(getattr(c, k)))
         P.M01, P.M02 = float(c._M01), float(c._M02)
+        P.c_pind = float(c.c_pin_slide)
         law, fl = c.law_obj, c.flank_obj
         if c._contact:
             P.e, P.C, P.dmax = law.e, law.C, law.dmax
@@ -231,7 +232,7 @@ class Kernel:
         return S
 
     def set_speed_loads(self, g) -> None:
-        """The planets' centrifugal forces for the next steps; the cached f at y no longer holds."""
+        """The planets' inertial forces for the next steps; the cached f at y no longer holds."""
         S = self.state
         S.gpin[:] = g
         S.cache_ok = 0

@@ -34,6 +34,7 @@ laws, events, stick-slip, integrator and stepper are modules of their own.)
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from functools import partial
 
 import numpy as np
@@ -118,10 +119,18 @@ class MeshDifferential(DifferentialModel):
         self.preload = float(p.lockingPreload)
         pf = self._pf = pin_friction(geo, p.mu_pin, p.r_collar, self.preload, self.law)
         self.K_paper = paper_locking_coefficient(p.mu_pin, p.r_collar, n, geo.r_a, geo.r_1, geo.r_b, geo.r_2)
+        # the static / dynamic split of the pins (as the rigid level): pf.c (mu_pin) stuck and at
+        # break-away, c_pin_slide (mu_pinDynamic, equal to mu_pin where that is 0) while a planet slips
+        mu_d = p.mu_sliding
+        c_d = pin_friction(geo, mu_d, p.r_collar, self.preload, self.law).c
         if self.law == "paper":
             self.K = self.K_coast = self.K_paper
+            self.K_slide = self.K_slide_coast = paper_locking_coefficient(mu_d, p.r_collar, n, geo.r_a, geo.r_1,
+                                                                          geo.r_b, geo.r_2)
         else:
             self.K, self.K_coast = locking_coefficients(pf)
+            self.K_slide, self.K_slide_coast = ((self.K, self.K_coast) if c_d == pf.c
+                                                else locking_coefficients(replace(pf, c=c_d)))
         self.speed_drive = p.carrierDrive == "speed"
         mA, mB = geo.meshA1, geo.meshB2
         self.rbA, self.rb1, self.rbB, self.rb2 = mA.rb1, mA.rb2, mB.rb1, mB.rb2
@@ -141,6 +150,10 @@ class MeshDifferential(DifferentialModel):
             pf_f = pf if self._pin else PinFriction(pf.layout, 0.0, (0.0, 0.0), pf.rho, pf.rb, pf.n)
             self.K, self.K_coast = (locking_coefficient_flank(geo, pf_f, float(mp_.muStatic), sg)
                                     for sg in (1.0, -1.0))
+            # sliding: the pins at mu_pinDynamic, the flanks at flank.muDynamic
+            pf_fd = replace(pf_f, c=c_d if self._pin else 0.0)
+            self.K_slide, self.K_slide_coast = (locking_coefficient_flank(geo, pf_fd, float(mp_.muDynamic), sg)
+                                                for sg in (1.0, -1.0))
         self.law_obj = (Impact(float(mp_.contactExponent), float(mp_.contactDamping), float(mp_.contactDepth))
                         if self._contact else ElastoBacklash() if self._bl else BilateralSpring())
         self.phase_obj = MeshPhase(self._var, self._need_phase)
@@ -154,11 +167,16 @@ class MeshDifferential(DifferentialModel):
         self._cf = (((ms.m_planet1 * geo.meshA1.a, 0.0),
                      (ms.m_planet2 * geo.meshB2.a * math.cos(th), ms.m_planet2 * geo.meshB2.a * math.sin(th)))
                     if p.pinSpeedLoads and self._pin and self.law == "pinFriction" else ((0.0, 0.0), (0.0, 0.0)))
-        self._g, self._g_wc = (0.0, 0.0, 0.0, 0.0), 0.0
+        # and their tangential (carrier-acceleration) pin loads -m_i a_i alpha_c e_t,i per unit alpha_c
+        self._ct = (((0.0, -ms.m_planet1 * geo.meshA1.a),
+                     (ms.m_planet2 * geo.meshB2.a * math.sin(th), -ms.m_planet2 * geo.meshB2.a * math.cos(th)))
+                    if p.pinSpeedLoads and self._pin and self.law == "pinFriction" else ((0.0, 0.0), (0.0, 0.0)))
+        self._g, self._g_wc, self._g_ac = (0.0, 0.0, 0.0, 0.0), 0.0, 0.0
         self._pin_flat = pf.layout._flat
         self.layout_angle = pf.layout.theta
         self.pin_unit = pf.layout.unit_pin_loads(1.0)
         self.c_pin = pf.c
+        self.c_pin_slide = c_d if self._pin else pf.c
         self._M01, self._M02 = pf.M0
         # dissipation present at all? (else the loss is identically 0 and not integrated)
         self._dissipative = (self._pin or self._flank
@@ -258,17 +276,27 @@ class MeshDifferential(DifferentialModel):
         return (mag, (fx * (tx + sgS * rx) + fy * (ty + sgS * ry)) / mag,
                 (fx * (ux + sg12 * qx) + fy * (uy + sg12 * qy)) / mag)
 
-    def _set_speed_loads(self, wc: float) -> None:
-        """The planets' centrifugal pin loads at carrier speed ``wc``, held over the next step."""
-        if wc == self._g_wc:
+    def _set_speed_loads(self, wc: float, alpha: float) -> None:
+        """The planets' inertial pin loads at carrier speed ``wc`` and carrier acceleration ``alpha``,
+        held over the next step: centrifugal ``m_i a_i w_c^2 e_r,i`` plus tangential
+        ``-m_i a_i alpha_c e_t,i`` (:mod:`spurdiff.differential.speed_law`), one vector per planet."""
+        if wc == self._g_wc and alpha == self._g_ac:
             return
-        w2 = wc * wc
-        (c1x, c1y), (c2x, c2y) = self._cf
-        self._g = (c1x * w2, c1y * w2, c2x * w2, c2y * w2)
-        self._g_wc = wc
+        self._g_wc, self._g_ac = wc, alpha
+        self._g = self._inertial_loads()
         self._f0_key = None
         if self._kernel is not None:
             self._kernel.set_speed_loads(self._g)
+
+    def _inertial_loads(self) -> tuple:
+        """The pin loads of :meth:`_set_speed_loads` at ``_g_wc`` and ``_g_ac`` (g1x g1y g2x g2y, N)."""
+        wc, a = self._g_wc, self._g_ac
+        w2 = wc * wc
+        (c1x, c1y), (c2x, c2y) = self._cf
+        if a == 0.0:
+            return (c1x * w2, c1y * w2, c2x * w2, c2y * w2)
+        (t1x, t1y), (t2x, t2y) = self._ct
+        return (c1x * w2 + t1x * a, c1y * w2 + t1y * a, c2x * w2 + t2x * a, c2y * w2 + t2y * a)
 
     # ================================================================== stepping
     def do_step(self, t: float, h: float) -> None:
@@ -279,7 +307,12 @@ class MeshDifferential(DifferentialModel):
             raise StepError("do_step called before initialize")
         h = require_positive("communicationStepSize", h)
         self._check_inputs()
-        self._set_speed_loads(self.wc if self.speed_drive else float(self.y[WC]))
+        # carrier speed at the step's start and acceleration (speed drive: this step's ramp; torque
+        # drive: the acceleration at the end of the last step), held over the step
+        if self.speed_drive:
+            self._set_speed_loads(self.wc, (self.w_ref - self.wc) / h)
+        else:
+            self._set_speed_loads(float(self.y[WC]), self._out.ac)
         if self._kernel is not None:   # the whole step in C (which changes nothing on failure), outputs included
             self._refresh_outputs(SideValues(*self._kernel.advance(self, t, h)))
             return
@@ -449,7 +482,7 @@ class MeshDifferential(DifferentialModel):
     _SCALARS = ("t", "wc", "phic", "_ac", "h_next", "_dA0", "_dB0", "_d120", "work_in", "energy_loss",
                 "loss_last_step", "parametric_work", "n_mode_switches", "n_contact_transitions",
                 "n_internal_steps", "n_rejected_steps", "n_steps", "_last_h",
-                "w_ref", "tau_c", "tau_L", "tau_R", "_g_wc")
+                "w_ref", "tau_c", "tau_L", "tau_R", "_g_wc", "_g_ac")
 
     def get_state(self) -> dict:
         """Full state (JSON-serialisable): continuous state, friction modes, contact flags,
@@ -469,9 +502,7 @@ class MeshDifferential(DifferentialModel):
     def set_state(self, state: dict) -> None:
         for k in self._SCALARS:
             setattr(self, k, state[k])
-        w2 = self._g_wc * self._g_wc                  # the speed loads are a function of _g_wc
-        (c1x, c1y), (c2x, c2y) = self._cf
-        self._g = (c1x * w2, c1y * w2, c2x * w2, c2y * w2)
+        self._g = self._inertial_loads()              # the speed loads are a function of _g_wc, _g_ac
         self.y[:] = state["y"]
         self.s = [int(v) for v in state["modes"]]
         self._contact_flags = [int(v) for v in state["contact_flags"]]

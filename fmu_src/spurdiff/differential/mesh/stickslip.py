@@ -100,7 +100,7 @@ def initial_forces(c, ac: float, ad: float, slip_dir: float, wd0: float):
     sd = slip_dir if slip_dir != 0.0 else (math.copysign(1.0, wd0) if wd0 != 0.0 else 1.0)
     s1 = math.copysign(1.0, c.rho1) * sd if c._pin else 0.0
     s2 = math.copysign(1.0, c.rho2) * sd if c._pin else 0.0
-    cp = c.c_pin if c._pin else 0.0
+    cp = c.c_pin_slide if c._pin else 0.0      # slipping: the sliding lever (mu_pinDynamic)
     speed = c.speed_drive
 
     def res(x):
@@ -148,7 +148,7 @@ def initial_state(c, t0: float) -> None:
     if not c.speed_drive:
         y[WC] = wc0
     ac = 0.0 if c.speed_drive else rig.ac
-    c._set_speed_loads(float(wc0))      # the planets' centrifugal pin loads at the start speed
+    c._set_speed_loads(float(wc0), 0.0)     # the planets' centrifugal pin loads at the start speed
     c.s = [0, 0]
     FA, FB, F12, ac = initial_forces(c, ac, rig.ad, rig.slip_dir, wd0)
     preload = c.mesh.preload
