@@ -10,17 +10,21 @@
  * can be rebuilt alone).
  *
  * Covered: the pin-load locking law (the rigid model's _exact with its compiled kernel), either
- * carrier drive, the stuck path (the planets' F_12 intervals, rigid_stuck_exact below: a
- * transcription of rigid_pinload.PinLoadLaw._stuck_exact/_planet_interval/_capacity as on main,
- * kept apart so the pin law's changes are applied in one place), the slip path (rk_slip /
- * rk_step_slip), mode switches, the sub-steps, the Newton/Broyden iteration with its finite-difference
+ * carrier drive, the static / dynamic split of the pin friction (the stuck path and the break-away
+ * test at the static lever, constant 4; the slip path at the sliding lever, constant 53, in
+ * rk_slip), the planets' speed loads (centrifugal at the step's start speed, tangential at the
+ * carrier acceleration held over the step: set_speed_loads, as RigidDifferential.do_step), the
+ * stuck path (the planets' F_12 intervals, rigid_stuck_exact below: a transcription of
+ * rigid_pinload.PinLoadLaw._stuck_exact/_planet_interval/_capacity, kept apart so the pin law's
+ * changes are applied in one place), the slip path (rk_slip / rk_step_slip), mode switches, the sub-steps, the Newton/Broyden iteration with its finite-difference
  * Jacobian and its cache per mode, the halving. Anything else (an error the Python code raises, a
  * state this layout cannot hold) returns SK_FALLBACK with the caller's arrays unchanged: the caller
  * then runs the Python reference from the same state.
  *
  * Arrays (doubles; layouts named in spurdiff/differential/shaft_kernel.py, which packs them):
  *   sc  constants of the shafts and the rigid model (SC_*), set once per initialized model;
- *   k   the rigid kernel's constants (RK_NCONST, rigid_kernel.c's layout; 49..52 written on success);
+ *   k   the rigid kernel's constants (RK_NCONST, rigid_kernel.c's layout; the speed loads 49..52 and
+ *       54..57 written on success);
  *   rs  the rigid model's state (R_*), ss the shafts' state (S_*), in: the step's inputs (I_*);
  *   fp  two function pointers: rk_slip, rk_step_slip.
  */
@@ -28,11 +32,11 @@
 #include <stdint.h>
 #include <string.h>
 
-#define SK_ABI 1
+#define SK_ABI 2
 #define SK_OK 0
 #define SK_FALLBACK 1
 #define SK_NOTCONV 2
-#define RK_NCONST 53
+#define RK_NCONST 58
 
 typedef int64_t (*rk_fn)(const double *k, double *io);
 
@@ -40,22 +44,27 @@ typedef int64_t (*rk_fn)(const double *k, double *io);
 enum {
     R_T, R_WC, R_WD, R_PHIC, R_PHID, R_AC, R_AD, R_QF, R_SD, R_F12, R_CAP,
     R_HAS_ADG, R_ADG,                                   /* _ad_guess (flag: not None) */
-    R_HAS_SK, R_SK_S, R_SK_HAS_ACG, R_SK_ACG, R_SK_TAUC, R_SK_TAUL, R_SK_TAUR, R_SK_GWC,   /* _slip_key */
+    R_HAS_SK, R_SK_S, R_SK_HAS_ACG, R_SK_ACG, R_SK_TAUC, R_SK_TAUL, R_SK_TAUR, R_SK_GWC, R_SK_GAC, /* _slip_key */
     R_SV_AC, R_SV_AD, R_SV_QF, R_SV_S, R_SV_F12, R_SV_CAP,                              /* _slip_val */
-    R_WORK, R_LOSS, R_LOSS_LAST, R_NSW, R_NSTEPS, R_G1X, R_G1Y, R_G2X, R_G2Y, R_GWC,
+    R_WORK, R_LOSS, R_LOSS_LAST, R_NSW, R_NSTEPS, R_G1X, R_G1Y, R_G2X, R_G2Y, R_GWC,    /* _g, _g_wc */
+    R_GT1X, R_GT1Y, R_GT2X, R_GT2Y, R_GAC,                                              /* _gt, _g_ac */
     R_WREF, R_TAUC, R_TAUL, R_TAUR, R_LASTH, RS_N
 };
-/* the shafts' state: ShaftedDifferential's _STATE_KEYS without jac, then the Jacobian cache: 8 mode
- * slots (index: slip direction +1, -1, +0, -0, plus 4 when the mode switched inside), each a flag
- * and S_n (4) */
+/* the shafts' state: ShaftedDifferential's _STATE_KEYS without jac, the wheel sides' tyre-torque
+ * deviations at the end of the step (q_end_L, q_end_R: written, not read), then the Jacobian cache:
+ * 8 mode slots (index: slip direction +1, -1, +0, -0, plus 4 when the mode switched inside), each a
+ * flag and S_n (4) */
 enum {
     S_T, S_OFFL, S_OFFR, S_THL, S_THR, S_TL, S_TR, S_TMEANL, S_TMEANR, S_TENDL, S_TENDR, S_WWHEELS,
-    S_WSUNS, S_LOSS, S_PE0, S_NSTEPS, S_NSUB, S_NEVALS, S_NJAC, S_NHALV, S_DWPL, S_DWPR, S_JAC,
+    S_WSUNS, S_LOSS, S_PE0, S_NSTEPS, S_NSUB, S_NEVALS, S_NJAC, S_NHALV, S_DWPL, S_DWPR, S_QENDL, S_QENDR, S_JAC,
     SS_N = S_JAC + 8 * 5
 };
 /* constants: the shafts (c, d each side, h_max), the accepted residual, the carrier drive, the
- * planets' centrifugal constants (rigid.py's _cf) */
-enum { SC_CL, SC_DL, SC_CR, SC_DR, SC_HMAX, SC_ACCEPT, SC_SPEED, SC_CF1X, SC_CF1Y, SC_CF2X, SC_CF2Y, SC_N };
+ * planets' centrifugal constants (rigid.py's _cf) and tangential constants (_ct) */
+enum {
+    SC_CL, SC_DL, SC_CR, SC_DR, SC_HMAX, SC_ACCEPT, SC_SPEED, SC_CF1X, SC_CF1Y, SC_CF2X, SC_CF2Y,
+    SC_CT1X, SC_CT1Y, SC_CT2X, SC_CT2Y, SC_N
+};
 /* inputs: time, step, wheel-side angles and speeds, the wheel surrogates (a_free inv_J dadw q_rate c_t r_t) */
 enum { I_T, I_H, I_PL, I_WL, I_PR, I_WR, I_ML, I_MR = I_ML + 6, IN_N = I_MR + 6 };
 
@@ -78,16 +87,30 @@ typedef struct {
 static inline double py_max(double a, double b) { return b > a ? b : a; }   /* Python's max(a, b) */
 static inline double py_min(double a, double b) { return b < a ? b : a; }   /* Python's min(a, b) */
 
-/* PinLoadLaw._set_speed_loads */
-static void set_speed_loads(Ctx *c, double *s, double wc)
+/* the rigid kernel's speed-load constants (49..52 centrifugal, 54..57 tangential) from the state */
+static void speed_load_constants(Ctx *c, const double *s)
 {
-    if (wc == s[R_GWC])
-        return;
-    const double w2 = wc * wc;
-    const double *cf = c->sc + SC_CF1X;
-    s[R_G1X] = cf[0] * w2; s[R_G1Y] = cf[1] * w2; s[R_G2X] = cf[2] * w2; s[R_G2Y] = cf[3] * w2;
-    s[R_GWC] = wc;
     c->k[49] = s[R_G1X]; c->k[50] = s[R_G1Y]; c->k[51] = s[R_G2X]; c->k[52] = s[R_G2Y];
+    c->k[54] = s[R_GT1X]; c->k[55] = s[R_GT1Y]; c->k[56] = s[R_GT2X]; c->k[57] = s[R_GT2Y];
+}
+
+/* PinLoadLaw._set_speed_loads: centrifugal at the carrier speed wc, tangential at its acceleration alpha */
+static void set_speed_loads(Ctx *c, double *s, double wc, double alpha)
+{
+    if (wc == s[R_GWC] && alpha == s[R_GAC])
+        return;
+    if (wc != s[R_GWC]) {
+        const double w2 = wc * wc;
+        const double *cf = c->sc + SC_CF1X;
+        s[R_G1X] = cf[0] * w2; s[R_G1Y] = cf[1] * w2; s[R_G2X] = cf[2] * w2; s[R_G2Y] = cf[3] * w2;
+        s[R_GWC] = wc;
+    }
+    if (alpha != s[R_GAC]) {
+        const double *ct = c->sc + SC_CT1X;
+        s[R_GT1X] = ct[0] * alpha; s[R_GT1Y] = ct[1] * alpha; s[R_GT2X] = ct[2] * alpha; s[R_GT2Y] = ct[3] * alpha;
+        s[R_GAC] = alpha;
+    }
+    speed_load_constants(c, s);
 }
 
 /* PinLoadLaw._slip_exact through the compiled solve (rk_slip): (ac, ad, Q_f), F12 and cap set */
@@ -105,15 +128,16 @@ static void slip_exact(Ctx *c, double *s, int given, double ac_given, double sd,
 }
 
 /* ---- the stuck path: PinLoadLaw._capacity, _planet_interval, _stuck_exact (rigid_pinload.py as on
- * main; the pin law's static lever is the rigid kernel's constant 4) ---- */
+ * main: the static lever mu_pin r_d, the rigid kernel's constant 4, and the planets' centrifugal and
+ * tangential forces, added in that order, in the pin force) ---- */
 
 static double stuck_capacity(const Ctx *c, const double *s, int i, double Fs, double F12)
 {
     const double *p = c->k + (i == 0 ? 17 : 33);
     const double tx = p[0], ty = p[1], rx = p[2], ry = p[3], ux = p[4], uy = p[5], qx = p[6], qy = p[7];
     const double aS = fabs(Fs), a12 = fabs(F12);
-    const double fx = Fs * tx + aS * rx + F12 * ux + a12 * qx + s[R_G1X + 2 * i];
-    const double fy = Fs * ty + aS * ry + F12 * uy + a12 * qy + s[R_G1X + 2 * i + 1];
+    const double fx = Fs * tx + aS * rx + F12 * ux + a12 * qx + s[R_G1X + 2 * i] + s[R_GT1X + 2 * i];
+    const double fy = Fs * ty + aS * ry + F12 * uy + a12 * qy + s[R_G1X + 2 * i + 1] + s[R_GT1X + 2 * i + 1];
     return c->k[4] * sqrt(fx * fx + fy * fy) + c->k[5 + i];
 }
 
@@ -132,7 +156,8 @@ static void stuck_planet_interval(const Ctx *c, const double *s, int i, double F
     }
     const double aS = fabs(Fs);
     const double gx = s[R_G1X + 2 * i], gy = s[R_G1X + 2 * i + 1];
-    const double ax = Fs * tx + aS * rx + gx, ay = Fs * ty + aS * ry + gy;
+    const double hx = s[R_GT1X + 2 * i], hy = s[R_GT1X + 2 * i + 1];
+    const double ax = Fs * tx + aS * rx + gx + hx, ay = Fs * ty + aS * ry + gy + hy;
     const double c_a0 = cl * sqrt(ax * ax + ay * ay);
     double ends[2];
     for (int e = 0; e < 2; e++) {
@@ -199,7 +224,7 @@ static void accelerations(Ctx *c, double *s, int given, double ac_given, double 
         const double sd = copysign(1.0, s[R_WD]);
         if (s[R_HAS_SK] != 0.0 && s[R_SK_S] == sd && (s[R_SK_HAS_ACG] != 0.0) == (given != 0)
             && (!given || s[R_SK_ACG] == ac_given) && s[R_SK_TAUC] == s[R_TAUC] && s[R_SK_TAUL] == s[R_TAUL]
-            && s[R_SK_TAUR] == s[R_TAUR] && s[R_SK_GWC] == s[R_GWC]) {
+            && s[R_SK_TAUR] == s[R_TAUR] && s[R_SK_GWC] == s[R_GWC] && s[R_SK_GAC] == s[R_GAC]) {
             out[0] = s[R_SV_AC]; out[1] = s[R_SV_AD]; out[2] = s[R_SV_QF]; out[3] = s[R_SV_S];
             s[R_F12] = s[R_SV_F12]; s[R_CAP] = s[R_SV_CAP];
             return;
@@ -209,6 +234,7 @@ static void accelerations(Ctx *c, double *s, int given, double ac_given, double 
         s[R_HAS_ADG] = 1.0; s[R_ADG] = ad;
         s[R_HAS_SK] = 1.0; s[R_SK_S] = sd; s[R_SK_HAS_ACG] = given ? 1.0 : 0.0; s[R_SK_ACG] = given ? ac_given : 0.0;
         s[R_SK_TAUC] = s[R_TAUC]; s[R_SK_TAUL] = s[R_TAUL]; s[R_SK_TAUR] = s[R_TAUR]; s[R_SK_GWC] = s[R_GWC];
+        s[R_SK_GAC] = s[R_GAC];
         s[R_SV_AC] = ac; s[R_SV_AD] = ad; s[R_SV_QF] = Qf; s[R_SV_S] = sd; s[R_SV_F12] = s[R_F12]; s[R_SV_CAP] = s[R_CAP];
         out[0] = ac; out[1] = ad; out[2] = Qf; out[3] = sd;
         return;
@@ -260,13 +286,15 @@ static int rigid_step(Ctx *c, double *s, double t, double h)
         return SK_FALLBACK;
     if (!(isfinite(s[R_WREF]) && isfinite(s[R_TAUC]) && isfinite(s[R_TAUL]) && isfinite(s[R_TAUR])))
         return SK_FALLBACK;          /* the Python code names the input */
-    set_speed_loads(c, s, s[R_WC]);
+    /* the carrier speed at the step's start and its acceleration (speed drive: the ramp of this step;
+     * torque drive: the acceleration at the end of the last step), held over the step */
+    set_speed_loads(c, s, s[R_WC], speed ? (s[R_WREF] - s[R_WC]) / h : s[R_AC]);
     if (s[R_WD] != 0.0 && !speed) {
         /* _step_compiled: a new solve (key other than the cached one), slipping throughout */
         const double sd = copysign(1.0, s[R_WD]);
         const int same = s[R_HAS_SK] != 0.0 && s[R_SK_S] == sd && s[R_SK_HAS_ACG] == 0.0
                          && s[R_SK_TAUC] == s[R_TAUC] && s[R_SK_TAUL] == s[R_TAUL] && s[R_SK_TAUR] == s[R_TAUR]
-                         && s[R_SK_GWC] == s[R_GWC];
+                         && s[R_SK_GWC] == s[R_GWC] && s[R_SK_GAC] == s[R_GAC];
         if (!same) {
             double io[24];
             const double loss0 = s[R_LOSS];
@@ -280,6 +308,7 @@ static int rigid_step(Ctx *c, double *s, double t, double h)
                 s[R_F12] = F12; s[R_CAP] = cap; s[R_HAS_ADG] = 1.0; s[R_ADG] = ad;
                 s[R_HAS_SK] = 1.0; s[R_SK_S] = sd; s[R_SK_HAS_ACG] = 0.0; s[R_SK_ACG] = 0.0;
                 s[R_SK_TAUC] = s[R_TAUC]; s[R_SK_TAUL] = s[R_TAUL]; s[R_SK_TAUR] = s[R_TAUR]; s[R_SK_GWC] = s[R_GWC];
+                s[R_SK_GAC] = s[R_GAC];
                 s[R_SV_AC] = ac; s[R_SV_AD] = ad; s[R_SV_QF] = Qf; s[R_SV_S] = sd; s[R_SV_F12] = F12; s[R_SV_CAP] = cap;
                 if (s[R_SD] == 0.0)
                     s[R_NSW] += 1.0;
@@ -355,11 +384,12 @@ static void midpoint(const double *m, double hs, const double x0[2], double out[
     out[3] = -m21 * hs * inv_J / det;
 }
 
-/* inner.set_state(snap): the state and the rigid kernel's speed-load constants (rigid.py's set_state) */
+/* inner.set_state(snap): the state and the rigid kernel's speed-load constants, centrifugal and
+ * tangential (rigid.py's set_state) */
 static void restore_state(Ctx *c, double *cur, const double *snap)
 {
     memcpy(cur, snap, RS_N * sizeof(double));
-    c->k[49] = cur[R_G1X]; c->k[50] = cur[R_G1Y]; c->k[51] = cur[R_G2X]; c->k[52] = cur[R_G2Y];
+    speed_load_constants(c, cur);
 }
 
 /* ShaftSolver._eval: residuals and twist changes r[4] for (TL, TR) held over the sub-step from snap */
@@ -570,7 +600,7 @@ static int shaft_advance(Ctx *c, double t, double hs, double wL, double wR, doub
     return SK_OK;
 }
 
-/* ShaftedDifferential._do_step. Returns SK_OK with rs, ss (and k's 49..52) updated, or SK_FALLBACK
+/* ShaftedDifferential._do_step. Returns SK_OK with rs, ss (and k's 49..52, 54..57) updated, or SK_FALLBACK
  * with nothing changed (the caller runs the Python reference). */
 int64_t sk_step(const double *sc, double *k, double *rs, double *ss, const double *in, void **fp)
 {
@@ -608,6 +638,8 @@ int64_t sk_step(const double *sc, double *k, double *rs, double *ss, const doubl
     }
     S[S_DWPL] = xL[0];
     S[S_DWPR] = xR[0];
+    S[S_QENDL] = xL[1];
+    S[S_QENDR] = xR[1];
     S[S_TMEANL] = -acc[0] / h;
     S[S_TMEANR] = -acc[1] / h;
     S[S_TENDL] = -S[S_TL];
@@ -621,5 +653,6 @@ int64_t sk_step(const double *sc, double *k, double *rs, double *ss, const doubl
     memcpy(rs, cur, sizeof cur);
     memcpy(ss, S, sizeof S);
     k[49] = c.k[49]; k[50] = c.k[50]; k[51] = c.k[51]; k[52] = c.k[52];
+    k[54] = c.k[54]; k[55] = c.k[55]; k[56] = c.k[56]; k[57] = c.k[57];
     return SK_OK;
 }

@@ -32,8 +32,8 @@ from spurdiff import native_library
 from spurdiff.differential import rigid_kernel
 from spurdiff.errors import ParameterError
 
-ABI = 1
-NRS, NSS, NSC, NIN = 42, 62, 11, 18
+ABI = 2
+NRS, NSS, NSC, NIN = 48, 64, 15, 18
 LIB_NAME = "libshaft_kernel.so"
 KERNELS = ("auto", "compiled", "python")
 SEARCH_PATH: list[Path] = []
@@ -45,13 +45,18 @@ _LIB: tuple | None = None
 
 # the rigid model's state as the kernel holds it (shaft_kernel.c's R_* layout): plain numbers first
 _R_HEAD = ("t", "wc", "wd", "phic", "phid", "ac", "ad", "Qf", "slip_dir", "F12", "cap")     # 0..10
-_R_MID = ("work_in", "energy_loss", "loss_last_step")                                       # 27..29
-_R_TAIL = ("w_ref", "tau_c", "tau_L", "tau_R", "_last_h")                                   # 37..41
-# the shafts' state (S_* layout): ShaftedDifferential's _STATE_KEYS without jac, which follows
+# 11, 12 _ad_guess (flag, value); 13..21 _slip_key (flag, s, flag and ac_given, tau_c, tau_L, tau_R,
+# _g_wc, _g_ac); 22..27 _slip_val
+_R_MID = ("work_in", "energy_loss", "loss_last_step")                                       # 28..30
+# 31, 32 n_mode_switches, n_steps; 33..36 _g, 37 _g_wc, 38..41 _gt, 42 _g_ac
+_R_TAIL = ("w_ref", "tau_c", "tau_L", "tau_R", "_last_h")                                   # 43..47
+# the shafts' state (S_* layout): ShaftedDifferential's _STATE_KEYS without jac, then q_end_L/R,
+# then the Jacobian cache
 _S_KEYS = ("t", "off_L", "off_R", "theta_L", "theta_R", "T_L", "T_R", "tau_mean_L", "tau_mean_R", "tau_end_L",
            "tau_end_R", "work_wheels", "work_suns", "shaft_loss", "PE0_shaft")               # 0..14
 _S_COUNTS = ("n_steps", "n_substeps", "n_evals", "n_jacobians", "n_halvings")               # 15..19
-_JAC_KEYS = ("+1", "-1", "+0", "-0", "+1x", "-1x", "+0x", "-0x")                            # slots of 22..61
+# 20, 21 dw_pred_L/R; 22, 23 q_end_L/R (the kernel writes them, never reads them)
+_JAC_KEYS = ("+1", "-1", "+0", "-0", "+1x", "-1x", "+0x", "-0x")                            # slots of 24..63
 _JAC_SLOT = {k: i for i, k in enumerate(_JAC_KEYS)}
 
 
@@ -127,8 +132,9 @@ class Kernel:
         inner = m.inner
         sp = m.shafts
         (c1x, c1y), (c2x, c2y) = inner._cf
+        (t1x, t1y), (t2x, t2y) = inner._ct
         const = (sp.left.c, sp.left.d, sp.right.c, sp.right.d, sp.h_max, m._accept,
-                 1.0 if inner.speed_drive else 0.0, c1x, c1y, c2x, c2y)
+                 1.0 if inner.speed_drive else 0.0, c1x, c1y, c2x, c2y, t1x, t1y, t2x, t2y)
         assert len(const) == NSC
         self.sc = (C.c_double * NSC)(*(float(v) for v in const))
         self.rs = (C.c_double * NRS)()
@@ -153,8 +159,8 @@ class Kernel:
         j = md["_jac"]
         if d["t"] is self._rt and md["t"] is self._st and (j is None or j is self._jac):
             rs = self.rs
-            rs[37] = d["w_ref"]
-            rs[38] = d["tau_c"]
+            rs[43] = d["w_ref"]
+            rs[44] = d["tau_c"]
         elif not self._pack(d, md):
             return False
         mL, mR = m.wheelL_model, m.wheelR_model
@@ -166,11 +172,12 @@ class Kernel:
         d.update(zip(_R_PLAIN, _pick_plain(r)))
         d["_ad_guess"] = r[12] if r[11] else None
         if r[13]:
-            d["_slip_key"] = (r[14], r[16] if r[15] else None, r[17], r[18], r[19], r[20])
-            d["_slip_val"] = r[21:27]
-        d["n_mode_switches"] = int(r[30])
-        d["n_steps"] = int(r[31])
-        d["_g"] = r[32:36]
+            d["_slip_key"] = (r[14], r[16] if r[15] else None, r[17], r[18], r[19], r[20], r[21])
+            d["_slip_val"] = r[22:28]
+        d["n_mode_switches"] = int(r[31])
+        d["n_steps"] = int(r[32])
+        d["_g"] = r[33:37]
+        d["_gt"] = r[38:42]
         s = _SS.unpack_from(self.ss)
         md.update(zip(_S_PLAIN, _pick_s(s)))
         md["n_steps"], md["n_substeps"], md["n_evals"], md["n_jacobians"], md["n_halvings"] = map(int, s[15:20])
@@ -180,7 +187,7 @@ class Kernel:
 
     def jac_dict(self) -> dict:
         """The Jacobian cache as the last compiled step left it (mode key -> S_n), as a dict."""
-        s = self.ss[22:]
+        s = self.ss[24:]
         self._jac = j = {_JAC_KEYS[i]: s[5 * i + 1:5 * i + 5] for i in _SLOTS if s[5 * i]}
         return j
 
@@ -188,10 +195,10 @@ class Kernel:
         """The models' state into the arrays; False when it does not fit (the Python code runs)."""
         adg, key, val = d["_ad_guess"], d["_slip_key"], d["_slip_val"]
         if key is None:
-            key8 = _NO_KEY
+            key9 = _NO_KEY
         else:
             acg = key[1]
-            key8 = ((1.0, key[0], 0.0, 0.0) if acg is None else (1.0, key[0], 1.0, acg)) + tuple(key[2:6])
+            key9 = ((1.0, key[0], 0.0, 0.0) if acg is None else (1.0, key[0], 1.0, acg)) + tuple(key[2:7])
         slots = [0.0] * 40
         jac = md["_jac"]
         for k, v in (jac if jac is not None else self.jac_dict()).items():
@@ -200,10 +207,10 @@ class Kernel:
                 return False    # not a rigid model's key: the Python code keeps it
             slots[5 * i:5 * i + 5] = (1.0, *v)
         try:
-            _RS.pack_into(self.rs, 0, *_get_head(d), *((0.0, 0.0) if adg is None else (1.0, adg)), *key8,
-                          *(_NO_VAL if val is None else val), *_get_mid(d), *d["_g"], *_get_tail(d),
-                          d.get("_last_h", 0.0))
-            _SS.pack_into(self.ss, 0, *_get_s(md), *slots)
+            _RS.pack_into(self.rs, 0, *_get_head(d), *((0.0, 0.0) if adg is None else (1.0, adg)), *key9,
+                          *(_NO_VAL if val is None else val), *_get_mid(d), *d["_g"], d["_g_wc"], *d["_gt"],
+                          *_get_tail(d), d.get("_last_h", 0.0))
+            _SS.pack_into(self.ss, 0, *_get_s(md), 0.0, 0.0, *slots)
         except (struct.error, TypeError):   # a value that is not a number (a state from elsewhere)
             return False
         return True
@@ -214,14 +221,16 @@ class Kernel:
 
 
 _RS, _SS, _IN = struct.Struct(f"{NRS}d"), struct.Struct(f"{NSS}d"), struct.Struct(f"{NIN}d")
-_NO_KEY, _NO_VAL = (0.0,) * 8, (0.0,) * 6
+_NO_KEY, _NO_VAL = (0.0,) * 9, (0.0,) * 6
 _SLOTS = range(8)
 _get_head = operator.itemgetter(*_R_HEAD)
 _get_mid = operator.itemgetter(*_R_MID, "n_mode_switches", "n_steps")
-_get_tail = operator.itemgetter("_g_wc", *_R_TAIL[:-1])
+_get_tail = operator.itemgetter("_g_ac", *_R_TAIL[:-1])
 _get_s = operator.itemgetter(*_S_KEYS, *_S_COUNTS, "dw_pred_L", "dw_pred_R")
 # the plain numbers of the rigid state the kernel changes (not the carrier inputs w_ref, tau_c) and their keys
-_R_PLAIN = _R_HEAD + _R_MID + ("_g_wc",) + _R_TAIL[2:]
-_pick_plain = operator.itemgetter(*range(0, 11), 27, 28, 29, 36, 39, 40, 41)
-_S_PLAIN = _S_KEYS + ("dw_pred_L", "dw_pred_R")
-_pick_s = operator.itemgetter(*range(0, 15), 20, 21)
+_R_PLAIN = _R_HEAD + _R_MID + ("_g_wc", "_g_ac") + _R_TAIL[2:]
+_pick_plain = operator.itemgetter(*range(0, 11), 28, 29, 30, 37, 42, 45, 46, 47)
+# the shafts' plain numbers the kernel changes, with the end-of-step tyre-torque deviations (outputs
+# derivatives.py reads; not part of the state)
+_S_PLAIN = _S_KEYS + ("dw_pred_L", "dw_pred_R", "q_end_L", "q_end_R")
+_pick_s = operator.itemgetter(*range(0, 15), 20, 21, 22, 23)
