@@ -22,6 +22,7 @@ from harness.direct import run_direct
 from harness.runner import fmu_files_for, prepare_scene
 from spurdiff.differential import shaft_kernel
 from spurdiff.differential.bushing import bushing
+from spurdiff.differential.derivatives import output_rates
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.rigid import RigidDifferential
 from spurdiff.differential.shafts import ShaftedDifferential, ShaftsParams, WheelSurrogate
@@ -57,9 +58,10 @@ def _differ(a: dict, b: dict) -> list[str]:
 
 
 def _state(m: ShaftedDifferential) -> dict:
-    """The model's whole state, flat, with the end-of-step outputs that are not part of it."""
+    """The model's whole state, flat, with the end-of-step outputs that are not part of it: the
+    tyre-torque deviations, the locking capacity, the outputs' time derivatives (FMI 3.0)."""
     return {**_flat(m.get_state()), "q_end_L": m.q_end_L, "q_end_R": m.q_end_R,
-            "locking_capacity": m.locking_capacity}
+            "locking_capacity": m.locking_capacity, **{"rate." + k: v for k, v in output_rates(m).items()}}
 
 
 def _states_of_scene(name: str, kernel: str, sets: tuple = ()) -> tuple[list[dict], list[str]]:

@@ -16,8 +16,9 @@
  * carrier acceleration held over the step: set_speed_loads, as RigidDifferential.do_step), the
  * stuck path (the planets' F_12 intervals, rigid_stuck_exact below: a transcription of
  * rigid_pinload.PinLoadLaw._stuck_exact/_planet_interval/_capacity, kept apart so the pin law's
- * changes are applied in one place), the slip path (rk_slip / rk_step_slip), mode switches, the sub-steps, the Newton/Broyden iteration with its finite-difference
- * Jacobian and its cache per mode, the halving. Anything else (an error the Python code raises, a
+ * changes are applied in one place), the slip path (rk_slip / rk_step_slip), mode switches, the
+ * sub-steps, the Newton/Broyden iteration with its finite-difference Jacobian and its cache per
+ * mode, the halving, the end-of-step outputs (q_end_L/R with them). Anything else (an error the Python code raises, a
  * state this layout cannot hold) returns SK_FALLBACK with the caller's arrays unchanged: the caller
  * then runs the Python reference from the same state.
  *
