@@ -211,6 +211,9 @@ KERNEL_FLAGS = ["-shared", "-fPIC", "-O2", "-Wall", "-ffp-contract=off"]
 KERNEL_SOURCES = ("mesh_kernel.c", "mesh_kernel_model.c")
 # the compiled pin-load solve of the rigid level (fmu_src/native/kernels/rigid_kernel.c), same flags, same FMUs
 RIGID_KERNEL_SOURCES = ("rigid_kernel.c",)
+# the compiled step of the differential owning its half-shafts (fmu_src/native/kernels/shaft_kernel.c; it calls
+# the rigid kernel's solves through pointers its binding passes, so it does not link rigid_kernel.c), same FMUs
+SHAFT_KERNEL_SOURCES = ("shaft_kernel.c",)
 # the compiled steps of the car and the wheel (fmu_src/native/kernels/vehicle_kernel.c), same flags, in the
 # Vehicle and WheelLoad FMUs
 VEHICLE_KERNEL_SOURCES = ("vehicle_kernel.c",)
@@ -255,6 +258,7 @@ def kernel_library(dest: Path | None = None) -> Path:
 
     out = _direct_kernel(kernel, "mesh_kernel", KERNEL_SOURCES, dest)
     rigid_kernel_library(dest)
+    shaft_kernel_library(dest)
     vehicle_kernel_library(dest)
     return out
 
@@ -264,6 +268,13 @@ def rigid_kernel_library(dest: Path | None = None) -> Path:
     from spurdiff.differential import rigid_kernel
 
     return _direct_kernel(rigid_kernel, "rigid_kernel", RIGID_KERNEL_SOURCES, dest)
+
+
+def shaft_kernel_library(dest: Path | None = None) -> Path:
+    """The half-shaft step of the differential for direct runs: ``shaft_kernel-<digest>.so`` in the FMU folder."""
+    from spurdiff.differential import shaft_kernel
+
+    return _direct_kernel(shaft_kernel, "shaft_kernel", SHAFT_KERNEL_SOURCES, dest)
 
 
 def vehicle_kernel_library(dest: Path | None = None) -> Path:
@@ -312,13 +323,20 @@ def _compile_kernels(name: str, pkg: Path, notes: list[str]) -> None:
         notes.append("rigid kernel compiled")
     except BuildError as e:
         notes.append(f"WARNING: the rigid kernel was not built ({e}); the rigid level runs the Python reference")
+    try:             # the half-shaft step beside spurdiff.differential.shaft_kernel
+        compile_kernel(pkg / "differential" / "libshaft_kernel.so", SHAFT_KERNEL_SOURCES)
+        notes.append("shaft kernel compiled")
+    except BuildError as e:
+        notes.append(f"WARNING: the shaft kernel was not built ({e}); the half-shaft step runs the Python reference")
 
 
 # the win64 kernels: their shipped name -> (sources, place in the package), beside the .so ones
 WIN64_KERNELS = {"mesh_kernel.dll": (KERNEL_SOURCES, "differential/mesh/mesh_kernel.dll"),
                  "librigid_kernel.dll": (RIGID_KERNEL_SOURCES, "differential/librigid_kernel.dll"),
+                 "libshaft_kernel.dll": (SHAFT_KERNEL_SOURCES, "differential/libshaft_kernel.dll"),
                  "libvehicle_kernel.dll": (VEHICLE_KERNEL_SOURCES, "vehicle/libvehicle_kernel.dll")}
 WIN64_KERNEL_FMUS = {"mesh_kernel.dll": MESH_KERNEL_FMUS, "librigid_kernel.dll": MESH_KERNEL_FMUS,
+                     "libshaft_kernel.dll": MESH_KERNEL_FMUS,
                      "libvehicle_kernel.dll": VEHICLE_KERNEL_FMUS}
 _WIN64: dict[str, object] = {}    # "parts": the Win64 parts, or "why": the reason there are none (one per process)
 

@@ -177,6 +177,12 @@ def _report(args) -> int:
               + ", ".join(f"{k} {v:.0f} us" for k, v in b["model_us"].items())
               + " (the rest: the interface modules' input and output copies);")
         for name, (ev, sub, jac) in b["evals_per_step"].items():
+            if name not in b["inner_us"]:     # its step with the shafts compiled (spurdiff.differential.shaft_kernel)
+                print(f"   {name} owns the half-shafts: {sub:.1f} sub-steps and {ev:.1f} inner-model steps per communication "
+                      f"step ({jac:.3f} Jacobians), all in its compiled step (shaft_kernel.c): "
+                      f"{b['model_us'].get(name, 0.0):.0f} us in do_step with the copies in and out of the kernel and "
+                      "the load-capacity and overspeed watches.")
+                continue
             step_us, state_us = b["inner_us"].get(name, (0.0, 0.0))
             own = b["model_us"].get(name, 0.0) - step_us - state_us
             print(f"   {name} owns the half-shafts: {sub:.1f} sub-steps and {ev:.1f} inner-model steps per communication "

@@ -1,7 +1,10 @@
-"""What the car's and the wheel's compiled steps (:mod:`spurdiff.vehicle.kernel`) save on
-vehicle-cornering: A/B in one process, interleaved (``solver.kernel = python`` on the car and both
-wheels, the reference, against ``compiled``; the differential as the scene runs it), CPU time of
-the stepping thread, fastest of ``rounds`` runs each:
+"""What the compiled steps of the car, the wheel (:mod:`spurdiff.vehicle.kernel`) and the differential
+with its half-shafts (:mod:`spurdiff.differential.shaft_kernel`, with the rigid level's
+:mod:`spurdiff.differential.rigid_kernel`) save on vehicle-cornering: A/B in one process,
+interleaved (``solver.kernel = python`` on the car, both wheels and the differential, the reference,
+against ``compiled``; in the direct runs also ``shafts python``: everything compiled but the
+differential's half-shaft step, the state before the shaft kernel), CPU time of the stepping
+thread, fastest of ``rounds`` runs each:
 
 * the cost per communication step of each instance in the direct run and of it in the model's
   ``do_step`` (:func:`harness.bench.core.step_cost_breakdown`), with the differential's inner
@@ -15,14 +18,16 @@ Run ``python -m harness.cli.vehicle_kernel_bench [--rounds N]``. Printed, never 
 """
 from __future__ import annotations
 
+import contextlib
 import os
 
 from harness.bench.core import fmi_overhead, fmi_path_cost, step_cost_breakdown
 from harness.build import kernel_library
 
 KERNELS = ("python", "compiled")
+CONFIGS = ("python", "shafts python", "compiled")    # the direct runs' breakdown
 SCENE = "vehicle-cornering"
-VEHICLE_INSTANCES = ("car", "wheelL", "wheelR")
+VEHICLE_INSTANCES = ("car", "wheelL", "wheelR", "diff")
 
 
 def sets_for(kernel: str) -> list[str]:
@@ -30,13 +35,30 @@ def sets_for(kernel: str) -> list[str]:
     return [f"{i}.solver.kernel={kernel}" for i in VEHICLE_INSTANCES]
 
 
+@contextlib.contextmanager
+def _shafts_in_python(on: bool):
+    """The differential's half-shaft step in Python, the rest as the switch says (direct runs only:
+    the models of this process)."""
+    from spurdiff.differential import shaft_kernel
+
+    choose = shaft_kernel.choose
+    if on:
+        shaft_kernel.choose = lambda model: (None, "python (bench: shafts python)")
+    try:
+        yield
+    finally:
+        shaft_kernel.choose = choose
+
+
 def part_costs(rounds: int) -> dict[str, dict]:
-    """Per kernel: us per step of each instance and of it in do_step, the differential's inner steps
-    and state copies (fastest of ``rounds`` x 3 direct runs, the kernels alternating)."""
-    best: dict[str, dict] = {k: {} for k in KERNELS}
+    """Per configuration (:data:`CONFIGS`): us per step of each instance and of it in do_step, the
+    differential's inner steps and state copies (fastest of ``rounds`` x 3 direct runs, the
+    configurations alternating)."""
+    best: dict[str, dict] = {k: {} for k in CONFIGS}
     for _ in range(rounds):
-        for k in KERNELS:
-            o = step_cost_breakdown(SCENE, 3, sets=sets_for(k))
+        for k in CONFIGS:
+            with _shafts_in_python(k == "shafts python"):
+                o = step_cost_breakdown(SCENE, 3, sets=sets_for("compiled" if k == "shafts python" else k))
             rows = {**{n: v for n, v in o["us_per_step"].items()},
                     **{f"{n} do_step": v for n, v in o["model_us"].items()},
                     **{f"{n} inner steps": v[0] for n, v in o["inner_us"].items()},
@@ -63,15 +85,17 @@ def load_line() -> str:
 def run(rounds: int = 5) -> int:
     """Measure and print."""
     kernel_library()
-    print(f"{SCENE}: the car and the wheels stepped in Python (solver.kernel = python) and compiled, "
-          f"A/B in one process ({load_line()})")
+    print(f"{SCENE}: the car, the wheels and the differential stepped in Python (solver.kernel = python) and "
+          f"compiled, A/B in one process ({load_line()})")
     best = part_costs(rounds)
     print(f"per 5 ms communication step, direct run (us, CPU time of the stepping thread, fastest of {rounds} x 3):")
-    keys = [k for k in best["compiled"] if " " not in k] + [k for k in best["compiled"] if " " in k]
-    print(f"  {'part':28s} {'python':>8s} {'compiled':>9s}")
+    seen = list(dict.fromkeys(n for k in CONFIGS for n in best[k]))
+    keys = [n for n in seen if " " not in n] + [n for n in seen if " " in n]
+    print(f"  {'part':28s} " + " ".join(f"{k:>14s}" for k in CONFIGS))
     for key in keys:
-        print(f"  {key:28s} {best['python'].get(key, float('nan')):8.1f} {best['compiled'][key]:9.1f}")
-    for k in KERNELS:
+        print(f"  {key:28s} " + " ".join(f"{best[k].get(key, float('nan')):14.1f}" for k in CONFIGS))
+    print("  (nan: not called in that configuration; the compiled differential steps its inner model in C)")
+    for k in CONFIGS:
         tot = sum(v for n, v in best[k].items() if " " not in n)
         print(f"  sum of the instances, {k}: {tot:.1f} us")
     sc = scene_costs(rounds)

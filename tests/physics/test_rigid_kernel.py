@@ -15,7 +15,7 @@ import pytest
 from harness.build import BuildError, rigid_kernel_library
 from harness.direct import run_direct
 from harness.runner import prepare_scene
-from spurdiff.differential import rigid_kernel
+from spurdiff.differential import rigid_kernel, shaft_kernel
 from spurdiff.errors import ParameterError
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.rigid import RigidDifferential
@@ -56,6 +56,9 @@ def both_ways(library, monkeypatch):
         return out
 
     monkeypatch.setattr(RigidDifferential, "_slip_exact", both)
+    # the rigid model's own steps: the differential's compiled step with its half-shafts
+    # (spurdiff.differential.shaft_kernel, tests/physics/test_shaft_kernel.py) would take them in C
+    monkeypatch.setattr(shaft_kernel, "choose", lambda model: (None, "python (test_rigid_kernel)"))
     return rec
 
 
@@ -142,6 +145,7 @@ def test_whole_runs_identical(library, monkeypatch, name, sets):
         return done
 
     monkeypatch.setattr(RigidDifferential, "_step_compiled", counted)
+    monkeypatch.setattr(shaft_kernel, "choose", lambda model: (None, "python (test_rigid_kernel)"))   # the rigid steps
     out = {}
     for kernel in ("compiled", "python"):
         out[kernel] = run_direct(prepare_scene(name, sets=sets + [f"diff.solver.kernel={kernel}"]))

@@ -56,6 +56,7 @@ import operator
 
 from spurdiff.errors import StepError, require_finite, require_positive
 from spurdiff.differential.shaft_params import SHAFT_COUPLINGS, ShaftParams, ShaftsParams, WheelSurrogate  # noqa: F401 (re-exported)
+from spurdiff.differential import shaft_kernel
 from spurdiff.differential.shaft_solver import ShaftSolver
 
 _STATE_KEYS = (
@@ -82,6 +83,8 @@ class ShaftedDifferential(ShaftSolver):
 
     ATOMIC_STEP = True
     _rigid = False   # the inner model is the rigid one (set by initialize)
+    _sk = None       # the compiled step (spurdiff.differential.shaft_kernel), set by initialize
+    shaft_kernel_note = "none (not initialized)"
     q_end_L = q_end_R = 0.0   # the wheel sides' tyre-torque deviations at the end of the last step (derivatives.py)
 
     def __init__(self, inner, params: ShaftsParams | None = None):
@@ -154,6 +157,9 @@ class ShaftedDifferential(ShaftSolver):
         # integration), to the integrator's relative tolerance for the mesh models
         mesh = getattr(inner, "mesh", None)
         self._accept = max(1e-6, 10.0 * float(mesh.tolerance)) if mesh is not None else 1e-6
+        # the step in C with a rigid inner model (its kernel switch decides: auto | compiled | python)
+        self._sk, self.shaft_kernel_note = shaft_kernel.choose(self)
+        self._mf = None
         self._ready = True
 
     # ------------------------------------------------------------------ stepping (the sub-step: ShaftSolver)
@@ -163,9 +169,15 @@ class ShaftedDifferential(ShaftSolver):
             raise StepError("do_step called before initialize")
         if not (h.__class__ is float and 0.0 < h < math.inf):
             h = require_positive("communicationStepSize", h)
+        self._mf = None     # the mesh forces of the new state (computed when asked for)
         pL, wL, pR, wR = self._wheel_inputs()
         self.wheelL_model.checked("left")
         self.wheelR_model.checked("right")
+        sk = self._sk
+        if sk is not None:
+            if sk.step(self, t, h, pL, wL, pR, wR):
+                return      # the compiled step (bit for bit this one)
+            sk.forget()     # not taken, nothing changed: the Python code runs it
         inner = self.inner
         saved_inner = inner.get_state()
         saved = _get_own_values(self), {k: list(v) for k, v in self.jac.items()}   # the rollback point
@@ -207,6 +219,23 @@ class ShaftedDifferential(ShaftSolver):
         self.t = t + h
         self.n_steps += 1
 
+    # ------------------------------------------------------------------ the Jacobian cache
+    @property
+    def jac(self) -> dict:
+        """The Jacobian cache: mode key -> the inner model's normalized sun-angle sensitivity (see
+        :meth:`ShaftSolver._substep`). While the compiled step holds it (``_jac`` None), read from
+        its arrays when asked for (``get_state``, a step of the Python code)."""
+        d = self.__dict__
+        j = d.get("_jac")
+        if j is None:
+            sk = d.get("_sk")
+            j = d["_jac"] = sk.jac_dict() if sk is not None else {}
+        return j
+
+    @jac.setter
+    def jac(self, value: dict) -> None:
+        self.__dict__["_jac"] = value
+
     # ------------------------------------------------------------------ energy
     @property
     def shaft_energy(self) -> float:
@@ -235,6 +264,7 @@ class ShaftedDifferential(ShaftSolver):
         return s
 
     def set_own_state(self, s: dict) -> None:
+        self._mf = None
         for k in _STATE_KEYS:
             object.__setattr__(self, k, s[k])
         self.jac = {k: list(v) for k, v in s["jac"].items()}
@@ -259,6 +289,23 @@ INNER_OUTPUTS = ("wc", "phic", "w_L", "phi_L", "w_R", "phi_R", "tau_drive", "tau
 for _name in INNER_OUTPUTS:
     setattr(ShaftedDifferential, _name,
             property(operator.attrgetter("inner." + _name), doc=f"The inner model's ``{_name}``."))
+
+
+# the differential speed, read by the FMU's overspeed watch after every step (not through __getattr__)
+ShaftedDifferential.wd = property(operator.attrgetter("inner.wd"), doc="The inner model's ``wd``.")
+
+
+def _mesh_forces(self):
+    """The inner model's ``mesh_forces``, computed once per state: three outputs and the load-capacity
+    watch read it after every step (``_mf`` is dropped by ``do_step``, ``set_own_state``, ``initialize``)."""
+    d = self.__dict__
+    mf = d.get("_mf")
+    if mf is None:
+        mf = d["_mf"] = self.inner.mesh_forces
+    return mf
+
+
+ShaftedDifferential.mesh_forces = property(_mesh_forces)
 
 
 def _n_internal_steps(self) -> int:

@@ -251,8 +251,8 @@ VARIABLES: list[Var] = [
     _p("tolerance", "mesh.tolerance", "Relative accuracy of the internal integrator (compliant/contact)", "1"),
     _p("maxInternalSteps", "mesh.maxInternalSteps",
        "Internal steps allowed per communication step before doStep discards", None, kind="Integer"),
-    _p("solver.kernel", "mesh.kernel", "Implementation of the compliant/contact levels and of the rigid level's "
-       "pin-load solve: auto (the compiled kernel shipped in the FMU when it loads, else the Python reference, "
+    _p("solver.kernel", "mesh.kernel", "Implementation of the compliant/contact levels, of the rigid level's "
+       "pin-load solve and of the step with the half-shafts (shaftCoupling = wheel, rigid): auto (the compiled kernel shipped in the FMU when it loads, else the Python reference, "
        "with the reason logged) | compiled (refuse to start without it) | python (the pure-Python reference; "
        "same results, slower)", kind="String"),
     _p("solver.method", "mesh.method", "Integration method of the compliant/contact levels: auto (RODAS5P at "
@@ -262,7 +262,8 @@ VARIABLES: list[Var] = [
        kind="String"),
     Var("solver.kernelInUse", "calculatedParameter", "Implementation that runs the compliant/contact levels, "
         "or the rigid level's pin-load solve: compiled | python (and why) | none (rigid without a pin-load "
-        "solve: lockingLaw = paper, or no pin friction)", None, None, "", kind="String"),
+        "solve: lockingLaw = paper, or no pin friction); with shaftCoupling = wheel followed by '; half-shafts: ' "
+        "and the implementation of the step with the half-shafts", None, None, "", kind="String"),
     Var("carrierDrive", "parameter", "How the carrier is driven: speed (carrier.w_ref) | torque (carrier.tau)",
         None, None, "speed", kind="String", bind="diff.carrierDrive"),
     Var("shaftCoupling", "parameter",
@@ -581,6 +582,8 @@ def _set_calculated(model, values: dict) -> None:
     values["activeEffects"] = ",".join(active_effects(model))
     inner = getattr(model, "inner", model)
     values["solver.kernelInUse"] = getattr(inner, "kernel_in_use", None) or getattr(inner, "kernel_note", "none")
+    if inner is not model:      # the half-shafts' step (spurdiff.differential.shaft_kernel)
+        values["solver.kernelInUse"] += f"; half-shafts: {model.shaft_kernel_note}"
 
 
 def active_effects(model) -> tuple[str, ...]:

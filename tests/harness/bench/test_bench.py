@@ -126,16 +126,23 @@ def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeyp
     assert lines["real-time factor, paper-straight at contact (unloaded start)"].rstrip().endswith("yes")
 
 
-def test_step_cost_breakdown_splits_each_instance_and_the_differentials_inner_model():
+def test_step_cost_breakdown_splits_each_instance_and_the_differentials_inner_model(monkeypatch):
+    from spurdiff.differential import shaft_kernel
+
     b = bench.step_cost_breakdown("vehicle-cornering", repeats=1)
     names = {"car", "diff", "wheelL", "wheelR"}
     assert set(b["us_per_step"]) == names and set(b["model_us"]) == names
     for name in names:   # the model's do_step is a part of the instance's step
         assert 0.0 < b["model_us"][name] <= b["us_per_step"][name]
-    step_us, state_us = b["inner_us"]["diff"]
-    assert step_us > 0.0 and state_us > 0.0 and step_us + state_us < b["model_us"]["diff"]
+    assert "diff" not in b["inner_us"]           # the compiled step with the shafts steps its inner model in C
     evals, substeps, _ = b["evals_per_step"]["diff"]
     assert substeps >= 1.0 and evals >= 2.0 * substeps   # at least a first evaluation and one correction
+    # the half-shaft step in Python: its inner model's steps and state copies are measured
+    monkeypatch.setattr(shaft_kernel, "choose", lambda model: (None, "python (test)"))
+    b = bench.step_cost_breakdown("vehicle-cornering", repeats=1)
+    step_us, state_us = b["inner_us"]["diff"]
+    assert step_us > 0.0 and state_us > 0.0 and step_us + state_us < b["model_us"]["diff"]
+    assert b["evals_per_step"]["diff"][:2] == (evals, substeps)      # the same solve either way
 
 
 def test_write_keeps_the_sections_after_the_generated_block(monkeypatch, tmp_path):
@@ -183,23 +190,29 @@ def test_the_out_mode_really_starts_the_models_own_process(fmu_files):
 
 
 def test_vehicle_kernel_bench_measures_both_implementations_of_car_and_wheels(monkeypatch):
-    """harness.bench.vehicle_kernel: the per-part breakdown once with the car and the wheels in
-    Python and once compiled (the scene's solver.kernel overrides reach step_cost_breakdown)."""
+    """harness.bench.vehicle_kernel: the per-part breakdown with the car, the wheels and the
+    differential in Python, with all but the differential's half-shaft step compiled, and all
+    compiled (the scene's solver.kernel overrides reach step_cost_breakdown)."""
     import harness.bench.vehicle_kernel as vk
+    from spurdiff.differential import shaft_kernel
 
     seen, orig = [], bench.step_cost_breakdown
 
     def once(name, repeats, sets=None):
-        seen.append(sets)
+        seen.append((sets, shaft_kernel.choose.__name__))
         return orig(name, 1, sets=sets)
 
     monkeypatch.setattr(vk, "step_cost_breakdown", once)
     best = vk.part_costs(1)
-    assert seen == [vk.sets_for("python"), vk.sets_for("compiled")]
+    assert seen == [(vk.sets_for("python"), "choose"), (vk.sets_for("compiled"), "<lambda>"),
+                    (vk.sets_for("compiled"), "choose")]
+    assert shaft_kernel.choose.__name__ == "choose"
     assert vk.sets_for("python") == ["car.solver.kernel=python", "wheelL.solver.kernel=python",
-                                     "wheelR.solver.kernel=python"]
-    for k in vk.KERNELS:
-        assert {"car", "diff", "wheelL", "wheelR", "car do_step", "diff inner steps"} <= set(best[k])
+                                     "wheelR.solver.kernel=python", "diff.solver.kernel=python"]
+    for k in vk.CONFIGS:
+        assert {"car", "diff", "wheelL", "wheelR", "car do_step", "diff do_step"} <= set(best[k])
         assert all(v > 0.0 for v in best[k].values())
+    # the differential's inner model is stepped from Python unless its step with the shafts is compiled
+    assert "diff inner steps" in best["shafts python"] and "diff inner steps" not in best["compiled"]
     with pytest.raises(Exception, match="solver.kernel"):
         orig("vehicle-cornering", 1, sets=["car.solver.kernel=fortran"])

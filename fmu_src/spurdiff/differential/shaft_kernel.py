@@ -1,0 +1,236 @@
+"""The compiled communication step of the differential owning its half-shafts (``fmu_src/native/kernels/shaft_kernel.c``) through ctypes.
+
+``sk_step`` is :meth:`spurdiff.differential.shafts.ShaftedDifferential._do_step` with the sub-step
+solve of :mod:`spurdiff.differential.shaft_solver` (the Newton/Broyden iteration, its
+finite-difference Jacobian and cache per mode, the halving) and the rigid inner model's step
+(:meth:`spurdiff.differential.rigid.RigidDifferential.do_step`: the stuck path transcribed, the slip
+path calling the rigid kernel's ``rk_slip`` / ``rk_step_slip``, passed as function pointers of the
+library :mod:`spurdiff.differential.rigid_kernel` loaded). It transcribes the Python code (same
+operations, same order, no fused multiply-adds), so the two agree bit for bit
+(tests/physics/test_shaft_kernel.py); the Python code stays the reference and the fallback: a step
+the kernel does not take (an error the Python code raises and names, a state it has no room for)
+leaves the state as it was and the Python code runs it. The compliant and contact inner levels stay
+in Python (their own kernels do their internal steps).
+
+Used when the inner model is the rigid one with the pin-load law and its compiled solve (the rigid
+model's ``kernel``, the FMU's ``solver.kernel``: auto | compiled | python, decides for both). The
+library is found as the other kernels are (:mod:`spurdiff.native_library`): beside this module
+(``libshaft_kernel.so``, as ``harness/build.py`` ships it in the SpurDifferential FMU), else as
+``shaft_kernel-<digest>.so`` in the folders of :data:`SEARCH_PATH`, ``$SPURDIFF_KERNEL_DIR``,
+``$SPURDIFF_FMU_DIR`` and a checkout's ``build/fmus``.
+"""
+from __future__ import annotations
+
+import ctypes as C
+import logging
+import operator
+import struct
+import sys
+from pathlib import Path
+
+from spurdiff import native_library
+from spurdiff.differential import rigid_kernel
+from spurdiff.errors import ParameterError
+
+ABI = 2
+NRS, NSS, NSC, NIN = 48, 64, 15, 18
+LIB_NAME = "libshaft_kernel.so"
+KERNELS = ("auto", "compiled", "python")
+SEARCH_PATH: list[Path] = []
+_HERE = Path(__file__).resolve().parent
+
+log = logging.getLogger("spurdiff.shafts")
+_REPORTED: set[str] = set()
+_LIB: tuple | None = None
+
+# the rigid model's state as the kernel holds it (shaft_kernel.c's R_* layout): plain numbers first
+_R_HEAD = ("t", "wc", "wd", "phic", "phid", "ac", "ad", "Qf", "slip_dir", "F12", "cap")     # 0..10
+# 11, 12 _ad_guess (flag, value); 13..21 _slip_key (flag, s, flag and ac_given, tau_c, tau_L, tau_R,
+# _g_wc, _g_ac); 22..27 _slip_val
+_R_MID = ("work_in", "energy_loss", "loss_last_step")                                       # 28..30
+# 31, 32 n_mode_switches, n_steps; 33..36 _g, 37 _g_wc, 38..41 _gt, 42 _g_ac
+_R_TAIL = ("w_ref", "tau_c", "tau_L", "tau_R", "_last_h")                                   # 43..47
+# the shafts' state (S_* layout): ShaftedDifferential's _STATE_KEYS without jac, then q_end_L/R,
+# then the Jacobian cache
+_S_KEYS = ("t", "off_L", "off_R", "theta_L", "theta_R", "T_L", "T_R", "tau_mean_L", "tau_mean_R", "tau_end_L",
+           "tau_end_R", "work_wheels", "work_suns", "shaft_loss", "PE0_shaft")               # 0..14
+_S_COUNTS = ("n_steps", "n_substeps", "n_evals", "n_jacobians", "n_halvings")               # 15..19
+# 20, 21 dw_pred_L/R; 22, 23 q_end_L/R (the kernel writes them, never reads them)
+_JAC_KEYS = ("+1", "-1", "+0", "-0", "+1x", "-1x", "+0x", "-0x")                            # slots of 24..63
+_JAC_SLOT = {k: i for i, k in enumerate(_JAC_KEYS)}
+
+
+def source_digest(native: Path) -> str:
+    """Digest of the kernel's sources (``shaft_kernel*.c`` in the folder ``native``)."""
+    return native_library.source_digest(native, "shaft_kernel")
+
+
+def _check(lib: C.CDLL) -> str | None:
+    """None if ``lib`` is the kernel this module speaks to (its function types then declared), else why not."""
+    for f in (lib.sk_abi, lib.sk_nrs, lib.sk_nss, lib.sk_nsc, lib.sk_nin):
+        f.restype = C.c_int64
+    got = (lib.sk_abi(), lib.sk_nrs(), lib.sk_nss(), lib.sk_nsc(), lib.sk_nin())
+    want = (ABI, NRS, NSS, NSC, NIN)
+    if got != want:
+        return f"ABI and sizes {got} (this module needs {want})"
+    lib.sk_step.argtypes = None    # the Kernel's arrays, passed as pointers as they are
+    lib.sk_step.restype = C.c_int64
+    return None
+
+
+def _candidates() -> list[Path]:
+    return native_library.candidates("shaft_kernel", _HERE / LIB_NAME, SEARCH_PATH)
+
+
+MISSING = ("no compiled half-shaft kernel found (build it with `spurdiff build`, which compiles "
+           "fmu_src/native/kernels/shaft_kernel.c)")
+
+
+def load() -> tuple[C.CDLL | None, str]:
+    """(library, where it came from) or (None, why not). Cached per process."""
+    return native_library.load_cached(sys.modules[__name__])
+
+
+def reset() -> None:
+    """Forget the cached search result (after the search path changed)."""
+    global _LIB
+    _LIB = None
+
+
+def choose(model) -> tuple["Kernel | None", str]:
+    """The compiled step for an initialized :class:`spurdiff.differential.shafts.ShaftedDifferential`
+    or None, and a note saying which implementation runs the half-shaft step. The switch is the
+    inner model's ``kernel`` (auto | compiled | python); the kernel needs the rigid inner model with
+    its compiled pin-load solve. ParameterError for ``compiled`` without the library."""
+    inner = model.inner
+    if getattr(inner, "mesh_model", None) != "rigid":
+        return None, "python (the compliant and contact levels' half-shaft step is not compiled)"
+    want = inner.kernel
+    if want not in KERNELS:
+        raise ParameterError("solver.kernel", want, " | ".join(KERNELS))
+    if want == "python":
+        return None, "python (kernel = python)"
+    if inner._rk is None:
+        return None, f"python (the rigid level has no compiled pin-load solve: {inner.kernel_note})"
+    lib, where = load()
+    if lib is None:
+        if want == "compiled":
+            raise ParameterError("solver.kernel", want, f"auto | python here: {where}")
+        if where not in _REPORTED:
+            _REPORTED.add(where)
+            log.warning("the half-shaft step runs its Python reference (slower, same results): %s", where)
+        return None, f"python ({where})"
+    rlib, _ = rigid_kernel.load()
+    return Kernel(lib, rlib, model), "compiled"
+
+
+class Kernel:
+    """The compiled step bound to one initialized ShaftedDifferential with a rigid inner model: the
+    constants, the state arrays and :meth:`step`."""
+
+    def __init__(self, lib: C.CDLL, rlib: C.CDLL, m):
+        inner = m.inner
+        sp = m.shafts
+        (c1x, c1y), (c2x, c2y) = inner._cf
+        (t1x, t1y), (t2x, t2y) = inner._ct
+        const = (sp.left.c, sp.left.d, sp.right.c, sp.right.d, sp.h_max, m._accept,
+                 1.0 if inner.speed_drive else 0.0, c1x, c1y, c2x, c2y, t1x, t1y, t2x, t2y)
+        assert len(const) == NSC
+        self.sc = (C.c_double * NSC)(*(float(v) for v in const))
+        self.rs = (C.c_double * NRS)()
+        self.ss = (C.c_double * NSS)()
+        self.inp = (C.c_double * NIN)()
+        self.fp = (C.c_void_p * 2)(C.cast(rlib.rk_slip, C.c_void_p).value, C.cast(rlib.rk_step_slip, C.c_void_p).value)
+        self.fn = lib.sk_step
+        self.k = inner._rk.const
+        # what the last compiled step wrote: the two models' time values and the Jacobian cache
+        self._rt = self._st = self._jac = None
+
+    def step(self, m, t: float, h: float, pL: float, wL: float, pR: float, wR: float) -> bool:
+        """The step of ``m`` (inputs checked by the caller): True when done (the state of ``m`` and
+        of its inner model updated), False when the kernel did not take it (nothing changed).
+
+        The arrays keep the state the last compiled step left: they are packed from the models only
+        when the state is not that one any more (the time values are not the objects that step
+        wrote, or the Jacobian cache is another dict: a set_state, an initialize, a step the Python
+        code ran); else only the carrier inputs go in. States go in and out with struct."""
+        d = m.inner.__dict__
+        md = m.__dict__
+        j = md["_jac"]
+        if d["t"] is self._rt and md["t"] is self._st and (j is None or j is self._jac):
+            rs = self.rs
+            rs[43] = d["w_ref"]
+            rs[44] = d["tau_c"]
+        elif not self._pack(d, md):
+            return False
+        mL, mR = m.wheelL_model, m.wheelR_model
+        _IN.pack_into(self.inp, 0, t, h, pL, wL, pR, wR, mL.a_free, mL.inv_J, mL.dadw, mL.q_rate, mL.c_t, mL.r_t,
+                      mR.a_free, mR.inv_J, mR.dadw, mR.q_rate, mR.c_t, mR.r_t)
+        if self.fn(self.sc, self.k, self.rs, self.ss, self.inp, self.fp):
+            return False
+        r = _RS.unpack_from(self.rs)
+        d.update(zip(_R_PLAIN, _pick_plain(r)))
+        d["_ad_guess"] = r[12] if r[11] else None
+        if r[13]:
+            d["_slip_key"] = (r[14], r[16] if r[15] else None, r[17], r[18], r[19], r[20], r[21])
+            d["_slip_val"] = r[22:28]
+        d["n_mode_switches"] = int(r[31])
+        d["n_steps"] = int(r[32])
+        d["_g"] = r[33:37]
+        d["_gt"] = r[38:42]
+        s = _SS.unpack_from(self.ss)
+        md.update(zip(_S_PLAIN, _pick_s(s)))
+        md["n_steps"], md["n_substeps"], md["n_evals"], md["n_jacobians"], md["n_halvings"] = map(int, s[15:20])
+        md["_jac"] = None          # the arrays hold the Jacobian cache (ShaftedDifferential.jac reads it)
+        self._rt, self._st = r[0], s[0]
+        return True
+
+    def jac_dict(self) -> dict:
+        """The Jacobian cache as the last compiled step left it (mode key -> S_n), as a dict."""
+        s = self.ss[24:]
+        self._jac = j = {_JAC_KEYS[i]: s[5 * i + 1:5 * i + 5] for i in _SLOTS if s[5 * i]}
+        return j
+
+    def _pack(self, d: dict, md: dict) -> bool:
+        """The models' state into the arrays; False when it does not fit (the Python code runs)."""
+        adg, key, val = d["_ad_guess"], d["_slip_key"], d["_slip_val"]
+        if key is None:
+            key9 = _NO_KEY
+        else:
+            acg = key[1]
+            key9 = ((1.0, key[0], 0.0, 0.0) if acg is None else (1.0, key[0], 1.0, acg)) + tuple(key[2:7])
+        slots = [0.0] * 40
+        jac = md["_jac"]
+        for k, v in (jac if jac is not None else self.jac_dict()).items():
+            i = _JAC_SLOT.get(k)
+            if i is None or len(v) != 4:
+                return False    # not a rigid model's key: the Python code keeps it
+            slots[5 * i:5 * i + 5] = (1.0, *v)
+        try:
+            _RS.pack_into(self.rs, 0, *_get_head(d), *((0.0, 0.0) if adg is None else (1.0, adg)), *key9,
+                          *(_NO_VAL if val is None else val), *_get_mid(d), *d["_g"], d["_g_wc"], *d["_gt"],
+                          *_get_tail(d), d.get("_last_h", 0.0))
+            _SS.pack_into(self.ss, 0, *_get_s(md), 0.0, 0.0, *slots)
+        except (struct.error, TypeError):   # a value that is not a number (a state from elsewhere)
+            return False
+        return True
+
+    def forget(self) -> None:
+        """The Python code runs a step (it updates the Jacobian cache in place): pack anew next time."""
+        self._rt = self._st = self._jac = None
+
+
+_RS, _SS, _IN = struct.Struct(f"{NRS}d"), struct.Struct(f"{NSS}d"), struct.Struct(f"{NIN}d")
+_NO_KEY, _NO_VAL = (0.0,) * 9, (0.0,) * 6
+_SLOTS = range(8)
+_get_head = operator.itemgetter(*_R_HEAD)
+_get_mid = operator.itemgetter(*_R_MID, "n_mode_switches", "n_steps")
+_get_tail = operator.itemgetter("_g_ac", *_R_TAIL[:-1])
+_get_s = operator.itemgetter(*_S_KEYS, *_S_COUNTS, "dw_pred_L", "dw_pred_R")
+# the plain numbers of the rigid state the kernel changes (not the carrier inputs w_ref, tau_c) and their keys
+_R_PLAIN = _R_HEAD + _R_MID + ("_g_wc", "_g_ac") + _R_TAIL[2:]
+_pick_plain = operator.itemgetter(*range(0, 11), 28, 29, 30, 37, 42, 45, 46, 47)
+# the shafts' plain numbers the kernel changes, with the end-of-step tyre-torque deviations (outputs
+# derivatives.py reads; not part of the state)
+_S_PLAIN = _S_KEYS + ("dw_pred_L", "dw_pred_R", "q_end_L", "q_end_R")
+_pick_s = operator.itemgetter(*range(0, 15), 20, 21, 22, 23)
