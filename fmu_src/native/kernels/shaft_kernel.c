@@ -20,7 +20,7 @@
  *
  * Arrays (doubles; layouts named in spurdiff/differential/shaft_kernel.py, which packs them):
  *   sc  constants of the shafts and the rigid model (SC_*), set once per initialized model;
- *   k   the rigid kernel's constants (RK_NCONST, rigid_kernel.c's layout; 49..52 written on success);
+ *   k   the rigid kernel's constants (sc[SC_NK] of them, rigid_kernel.c's layout; 49..52 written on success);
  *   rs  the rigid model's state (R_*), ss the shafts' state (S_*), in: the step's inputs (I_*);
  *   fp  two function pointers: rk_slip, rk_step_slip.
  */
@@ -32,7 +32,10 @@
 #define SK_OK 0
 #define SK_FALLBACK 1
 #define SK_NOTCONV 2
-#define RK_NCONST 53
+/* room for the rigid kernel's constants (its rk_nconst(), passed in sc[SC_NK]: 53 at its ABI 3; the
+ * speed loads stay at 49..52) and for its io arrays (12 and 24 at ABI 3) */
+#define SK_KMAX 256
+#define SK_IOMAX 64
 
 typedef int64_t (*rk_fn)(const double *k, double *io);
 
@@ -55,7 +58,7 @@ enum {
 };
 /* constants: the shafts (c, d each side, h_max), the accepted residual, the carrier drive, the
  * planets' centrifugal constants (rigid.py's _cf) */
-enum { SC_CL, SC_DL, SC_CR, SC_DR, SC_HMAX, SC_ACCEPT, SC_SPEED, SC_CF1X, SC_CF1Y, SC_CF2X, SC_CF2Y, SC_N };
+enum { SC_CL, SC_DL, SC_CR, SC_DR, SC_HMAX, SC_ACCEPT, SC_SPEED, SC_CF1X, SC_CF1Y, SC_CF2X, SC_CF2Y, SC_NK, SC_N };
 /* inputs: time, step, wheel-side angles and speeds, the wheel surrogates (a_free inv_J dadw q_rate c_t r_t) */
 enum { I_T, I_H, I_PL, I_WL, I_PR, I_WR, I_ML, I_MR = I_ML + 6, IN_N = I_MR + 6 };
 
@@ -67,7 +70,7 @@ int64_t sk_nin(void) { return IN_N; }
 
 typedef struct {
     const double *sc;
-    double k[RK_NCONST];
+    double k[SK_KMAX];
     rk_fn slip, step_slip;
     const double *mL, *mR;
     double *ss;           /* the shafts' working state */
@@ -93,7 +96,7 @@ static void set_speed_loads(Ctx *c, double *s, double wc)
 /* PinLoadLaw._slip_exact through the compiled solve (rk_slip): (ac, ad, Q_f), F12 and cap set */
 static void slip_exact(Ctx *c, double *s, int given, double ac_given, double sd, double *ac, double *ad, double *Qf)
 {
-    double io[12];
+    double io[SK_IOMAX] = {0.0};
     io[0] = sd; io[1] = given ? 1.0 : 0.0; io[2] = given ? ac_given : 0.0; io[3] = s[R_TAUC]; io[4] = s[R_TAUL];
     io[5] = s[R_TAUR]; io[6] = s[R_HAS_ADG] != 0.0 ? s[R_ADG] : 0.0; io[7] = s[R_F12];
     c->slip(c->k, io);
@@ -268,7 +271,7 @@ static int rigid_step(Ctx *c, double *s, double t, double h)
                          && s[R_SK_TAUC] == s[R_TAUC] && s[R_SK_TAUL] == s[R_TAUL] && s[R_SK_TAUR] == s[R_TAUR]
                          && s[R_SK_GWC] == s[R_GWC];
         if (!same) {
-            double io[24];
+            double io[SK_IOMAX] = {0.0};
             const double loss0 = s[R_LOSS];
             io[0] = sd; io[1] = s[R_TAUC]; io[2] = s[R_TAUL]; io[3] = s[R_TAUR];
             io[4] = s[R_HAS_ADG] != 0.0 ? s[R_ADG] : 0.0; io[5] = s[R_F12]; io[6] = s[R_WC]; io[7] = s[R_WD];
@@ -577,7 +580,10 @@ int64_t sk_step(const double *sc, double *k, double *rs, double *ss, const doubl
     Ctx c;
     double cur[RS_N], S[SS_N];
     c.sc = sc;
-    memcpy(c.k, k, sizeof c.k);
+    const double nk = sc[SC_NK];
+    if (!(nk >= 53.0 && nk <= SK_KMAX))
+        return SK_FALLBACK;
+    memcpy(c.k, k, (size_t)nk * sizeof(double));
     c.slip = (rk_fn)fp[0];
     c.step_slip = (rk_fn)fp[1];
     c.mL = in + I_ML;

@@ -33,7 +33,12 @@ from spurdiff.differential import rigid_kernel
 from spurdiff.errors import ParameterError
 
 ABI = 1
-NRS, NSS, NSC, NIN = 42, 62, 11, 18
+NRS, NSS, NSC, NIN = 42, 62, 12, 18
+# the rigid kernel this one calls: the ABI whose io layouts and constants shaft_kernel.c was written
+# for, and the room it has for them (SK_KMAX, SK_IOMAX). Another ABI runs the Python reference (the
+# transcription is to be checked against it first: tests/physics/test_shaft_kernel.py)
+RIGID_ABI = 3
+KMAX, IOMAX = 256, 64
 LIB_NAME = "libshaft_kernel.so"
 KERNELS = ("auto", "compiled", "python")
 SEARCH_PATH: list[Path] = []
@@ -107,6 +112,12 @@ def choose(model) -> tuple["Kernel | None", str]:
         return None, "python (kernel = python)"
     if inner._rk is None:
         return None, f"python (the rigid level has no compiled pin-load solve: {inner.kernel_note})"
+    if (rigid_kernel.ABI, rigid_kernel.NCONST > KMAX, max(rigid_kernel.NIO, rigid_kernel.NIO_STEP) > IOMAX) \
+            != (RIGID_ABI, False, False):
+        why = f"the half-shaft kernel is written for the rigid kernel's ABI {RIGID_ABI}, this one has ABI {rigid_kernel.ABI}"
+        if want == "compiled":
+            raise ParameterError("solver.kernel", want, f"auto | python here: {why}")
+        return None, f"python ({why})"
     lib, where = load()
     if lib is None:
         if want == "compiled":
@@ -128,7 +139,7 @@ class Kernel:
         sp = m.shafts
         (c1x, c1y), (c2x, c2y) = inner._cf
         const = (sp.left.c, sp.left.d, sp.right.c, sp.right.d, sp.h_max, m._accept,
-                 1.0 if inner.speed_drive else 0.0, c1x, c1y, c2x, c2y)
+                 1.0 if inner.speed_drive else 0.0, c1x, c1y, c2x, c2y, len(inner._rk.const))
         assert len(const) == NSC
         self.sc = (C.c_double * NSC)(*(float(v) for v in const))
         self.rs = (C.c_double * NRS)()
