@@ -287,6 +287,13 @@ def test_a_step_the_kernel_refuses_runs_in_python(library, caplog):
 def test_switch_and_missing_library(library, monkeypatch, caplog):
     m = _model("python")
     assert m._sk is None and m.shaft_kernel_note == "python (kernel = python)"
+    # a rigid kernel of another ABI than the one the transcription was written for: not called
+    monkeypatch.setattr(shaft_kernel.rigid_kernel, "ABI", shaft_kernel.RIGID_ABI + 1)
+    m = _model("auto")
+    assert m._sk is None and m.shaft_kernel_note.startswith("python (the half-shaft kernel is written for")
+    with pytest.raises(ParameterError, match="solver.kernel"):
+        _model("compiled")
+    monkeypatch.setattr(shaft_kernel.rigid_kernel, "ABI", shaft_kernel.RIGID_ABI)
     monkeypatch.setattr(shaft_kernel, "_LIB", None)
     monkeypatch.setattr(shaft_kernel, "_candidates", lambda: [])
     monkeypatch.setattr(shaft_kernel, "_REPORTED", set())

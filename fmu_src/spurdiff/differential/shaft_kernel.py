@@ -34,6 +34,11 @@ from spurdiff.errors import ParameterError
 
 ABI = 2
 NRS, NSS, NSC, NIN = 48, 64, 15, 18
+# the rigid kernel this one calls: the ABI and layouts shaft_kernel.c was transcribed for (its
+# RK_NCONST and io arrays). Another runs the Python reference (the transcription is to be checked
+# against it first: tests/physics/test_shaft_kernel.py)
+RIGID_ABI = 4
+RIGID_LAYOUT = (58, 12, 24)     # rk_nconst, rk_nio, rk_nio_step
 LIB_NAME = "libshaft_kernel.so"
 KERNELS = ("auto", "compiled", "python")
 SEARCH_PATH: list[Path] = []
@@ -112,6 +117,11 @@ def choose(model) -> tuple["Kernel | None", str]:
         return None, "python (kernel = python)"
     if inner._rk is None:
         return None, f"python (the rigid level has no compiled pin-load solve: {inner.kernel_note})"
+    if (rigid_kernel.ABI, (rigid_kernel.NCONST, rigid_kernel.NIO, rigid_kernel.NIO_STEP)) != (RIGID_ABI, RIGID_LAYOUT):
+        why = f"the half-shaft kernel is written for the rigid kernel's ABI {RIGID_ABI}, this one has ABI {rigid_kernel.ABI}"
+        if want == "compiled":
+            raise ParameterError("solver.kernel", want, f"auto | python here: {why}")
+        return None, f"python ({why})"
     lib, where = load()
     if lib is None:
         if want == "compiled":
