@@ -34,20 +34,23 @@ def both_ways(library, monkeypatch):
     """Every _slip_exact call runs the Python reference and then the kernel from the same state;
     returns the record (count, largest relative difference, modes seen)."""
     orig = RigidDifferential._slip_exact
-    rec = {"n": 0, "compiled": 0, "maxrel": 0.0, "modes": set()}
+    rec = {"n": 0, "compiled": 0, "maxrel": 0.0, "modes": set(), "static_breakaways": 0}
 
-    def both(self, ac_given, s):
+    def both(self, ac_given, s, lever=None):
         rk = self._rk
         before = (self.F12, self.cap, self._ad_guess)
         self._rk = None
         try:
-            ref = orig(self, ac_given, s) + (self.F12, self.cap)
+            ref = orig(self, ac_given, s, lever) + (self.F12, self.cap)
         finally:
             self._rk = rk
         self.F12, self.cap, self._ad_guess = before
-        out = orig(self, ac_given, s)
+        out = orig(self, ac_given, s, lever)
         got = out + (self.F12, self.cap)
+        if rk is not None:
+            assert rk.const[53] == self.c_slide        # the break-away lever was for that solve only
         rec["n"] += 1
+        rec["static_breakaways"] += lever is not None and lever != self.c_slide
         rec["compiled"] += rk is not None
         rec["modes"].add((ac_given is not None, s))
         for a, b in zip(ref, got):
@@ -79,8 +82,12 @@ SCENES = [
     # the static / dynamic split of the pin friction (mu_pinDynamic < mu_pin)
     ("vehicle-cornering", ["diff.mu_pinDynamic=0.15"]),
     ("tip-in-tip-out", ["diff.mu_pinDynamic=0.13"]),
+    # and breaking away from stuck with it (the shafted model's break-away solve at the static lever)
+    ("split-mu-launch", ["diff.mu_pinDynamic=0.13"]),
+    ("wheel-lift", ["diff.mu_pinDynamic=0.13"]),
 ]
-SPLIT = SCENES[-2:]
+SPLIT = SCENES[-4:]
+BREAKAWAY = SCENES[-2:]
 STUCK = ("paper-straight", "paper-cornering")
 
 
@@ -91,6 +98,7 @@ def test_every_solve_agrees_bit_for_bit(both_ways, name, sets):
     assert r.failure is None
     assert (both_ways["n"] > 0) == (name not in STUCK) and both_ways["compiled"] == both_ways["n"]
     assert both_ways["maxrel"] == 0.0
+    assert (both_ways["static_breakaways"] > 0) == ((name, sets) in BREAKAWAY)
 
 
 def test_the_vehicle_scenes_slip_both_ways(both_ways):

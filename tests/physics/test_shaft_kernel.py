@@ -220,27 +220,22 @@ def test_model_with_the_pin_friction_split(library, drive, h, h_max, pins, apart
     _covers_speed_loads_and_q(a, drive, h, h_max)
 
 
-@pytest.mark.parametrize("drive, h, h_max", STEPS[:2])
-def test_model_with_the_split_breaking_away_same_outcome(library, drive, h, h_max):
-    """The stick-slip drive of test_model_state_after_every_step with mu_pinDynamic 0.13: whatever
-    the Python reference does (it steps, or stops with an error at a break-away, the shafts' sub-step
-    not converging), the compiled model does the same, state for state and the same error."""
-    runs = []
-    for kernel in ("python", "compiled"):
-        m = _model(kernel, drive, h_max, **PIN_SETS["split"])
-        out: list = []
-        try:
-            out.extend(_drive(m, 600, h, every=lambda i, m: None))
-            err = None
-        except Exception as e:          # noqa: BLE001 (compared below)
-            err = (type(e).__name__, str(e), _state(m))
-        runs.append((out, err, m.n_steps))
-    (a, ea, na), (b, eb, nb) = runs
+@pytest.mark.parametrize("drive, h, h_max", STEPS)
+def test_model_with_the_split_breaking_away(library, drive, h, h_max):
+    """The stick-slip drive of test_model_state_after_every_step with mu_pinDynamic 0.13, stuck at the
+    start: it breaks away from stuck again and again (the break-away sub-step at the static lever,
+    rigid.py's c_break; with the sliding lever there the shafts' sub-step had no root and the run
+    stopped at the first break-away), and the compiled model follows state for state."""
+    a = _drive(_model("python", drive, h_max, **PIN_SETS["split"]), 600, h)
+    m = _model("compiled", drive, h_max, **PIN_SETS["split"])
+    b = _drive(m, 600, h)
+    assert m.inner.c_break == m.inner.pf.c > m.inner.c_slide
     bad = [(i, _differ(x, y)) for i, (x, y) in enumerate(zip(a, b)) if _differ(x, y)]
     assert not bad, bad[:3]
-    assert na == nb and (ea is None) == (eb is None)
-    if ea is not None:
-        assert ea[:2] == eb[:2] and not _differ(ea[2], eb[2])
+    assert len(a) == len(b) == 600
+    modes = [x["inner.slip_dir"] for x in a]
+    breakaways = sum(1 for p, q in zip(modes, modes[1:]) if p == 0.0 and q != 0.0)
+    assert modes[0] == 0.0 and breakaways >= 1 and a[-1]["inner.n_mode_switches"] >= 1
 
 
 def test_state_round_trip_and_rollback(library):

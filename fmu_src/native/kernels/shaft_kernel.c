@@ -12,7 +12,8 @@
  * Covered: the pin-load locking law (the rigid model's _exact with its compiled kernel), either
  * carrier drive, the static / dynamic split of the pin friction (the stuck path and the break-away
  * test at the static lever, constant 4; the slip path at the sliding lever, constant 53, in
- * rk_slip), the planets' speed loads (centrifugal at the step's start speed, tangential at the
+ * rk_slip; the slip solve of a break-away from stuck at the static lever, as the shafted model sets
+ * rigid.py's c_break), the planets' speed loads (centrifugal at the step's start speed, tangential at the
  * carrier acceleration held over the step: set_speed_loads, as RigidDifferential.do_step), the
  * stuck path (the planets' F_12 intervals, rigid_stuck_exact below: a transcription of
  * rigid_pinload.PinLoadLaw._stuck_exact/_planet_interval/_capacity, kept apart so the pin law's
@@ -251,7 +252,12 @@ static void accelerations(Ctx *c, double *s, int given, double ac_given, double 
     const double sd = -copysign(1.0, Q_req);
     s[R_HAS_ADG] = 1.0; s[R_ADG] = 0.0;
     double ac_s, ad_s, Qf;
+    /* the break-away solve at the static lever (constant 4; rigid_pinload's c_break, which the shafted
+     * model sets to it): this inner step slips at it, the next ones at the sliding lever (constant 53) */
+    const double c_slide = c->k[53];
+    c->k[53] = c->k[4];
     slip_exact(c, s, given, ac_given, sd, &ac_s, &ad_s, &Qf);
+    c->k[53] = c_slide;
     if (ad_s * sd > 0.0) {
         s[R_ADG] = ad_s;
         out[0] = ac_s; out[1] = ad_s; out[2] = Qf; out[3] = sd;

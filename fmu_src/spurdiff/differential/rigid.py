@@ -128,6 +128,9 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
         # c_slide (mu_pinDynamic, equal to mu_pin where that is 0) acts while slipping
         mu_d = p.mu_sliding
         self.c_slide = pf_d_c = pin_friction(geo, mu_d, p.r_collar, self.preload, self.law).c
+        # the lever (paper law: coefficient) of the slip solve at a break-away from stuck: the sliding
+        # one; a shafted model (spurdiff.differential.shafts) sets the static ones after initialize
+        self.c_break = pf_d_c
         if self.law == "paper":
             self.K = self.K_coast = self.K_paper
             self.K_slide = self.K_slide_coast = paper_locking_coefficient(mu_d, p.r_collar, n, geo.r_a, geo.r_1,
@@ -137,6 +140,7 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
             self.K_slide, self.K_slide_coast = (
                 (self.K, self.K_coast) if pf_d_c == self.pf.c
                 else locking_coefficients(replace(self.pf, c=pf_d_c)))
+        self.K_break = self.K_slide
         # the exact pin law (pinFriction with friction or preload), else the paper's linear capacity
         self._exact = self.law == "pinFriction" and (self.pf.c > 0.0 or self.preload > 0.0)
         self._pin_constants()
@@ -186,10 +190,10 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
     def _T0(self, ac: float, ad: float) -> float:
         return (self.J_A * (ac + ad) - self.tau_L) + (self.J_B * (ac + self.lam * ad) - self.tau_R)
 
-    def _solve_slip(self, ac_given: float | None, s: float, sigma: float) -> tuple[float, float]:
-        """Accelerations with Q_f = -s K_slide sigma T0(ac, ad) (sigma = assumed sign of T0; K_slide the
-        sliding coefficient, mu_pinDynamic)."""
-        kf = s * self.K_slide * sigma
+    def _solve_slip(self, ac_given: float | None, s: float, sigma: float, K: float) -> tuple[float, float]:
+        """Accelerations with Q_f = -s K sigma T0(ac, ad) (sigma = assumed sign of T0; K the sliding
+        coefficient K_slide, mu_pinDynamic, or at a break-away K_break)."""
+        kf = s * K * sigma
         Fd = self.tau_L + self.lam * self.tau_R - s * self.preload
         alpha0 = -self.tau_L - self.tau_R
         alpha_c = self.J_A + self.J_B
@@ -204,14 +208,18 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
         det = a11 * a22 - a12 * a21
         return (b1 * a22 - a12 * b2) / det, (a11 * b2 - a21 * b1) / det
 
-    def _slip_accelerations(self, ac_given: float | None, s: float) -> tuple[float, float, float]:
-        """Accelerations and Q_f while slipping in direction s, with a consistent sign of T0."""
+    def _slip_accelerations(self, ac_given: float | None, s: float,
+                            K: float | None = None) -> tuple[float, float, float]:
+        """Accelerations and Q_f while slipping in direction s, with a consistent sign of T0 (the
+        coefficient K_slide, or K given: at a break-away, K_break)."""
+        if K is None:
+            K = self.K_slide
         for sigma in (1.0, -1.0):
-            ac, ad = self._solve_slip(ac_given, s, sigma)
+            ac, ad = self._solve_slip(ac_given, s, sigma, K)
             T0 = self._T0(ac, ad)
             if T0 * sigma >= 0.0:
-                return ac, ad, -s * (self.K_slide * abs(T0) + self.preload)
-        ac, ad = self._solve_slip(ac_given, s, 0.0)  # T0 changes sign with the friction: preload only
+                return ac, ad, -s * (K * abs(T0) + self.preload)
+        ac, ad = self._solve_slip(ac_given, s, 0.0, K)  # T0 changes sign with the friction: preload only
         return ac, ad, -s * self.preload
 
     def _accelerations(self, ac_given: float | None) -> tuple[float, float, float, float]:
@@ -230,7 +238,7 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
         if abs(Q_req) <= cap * (1.0 + 1e-12):
             return ac, 0.0, Q_req, 0.0
         s = -math.copysign(1.0, Q_req)
-        ac_s, ad_s, Qf = self._slip_accelerations(ac_given, s)
+        ac_s, ad_s, Qf = self._slip_accelerations(ac_given, s, self.K_break)
         if ad_s * s > 0.0:
             return ac_s, ad_s, Qf, s
         # no consistent break-away (capacity grows with the motion it would cause): stay stuck at capacity

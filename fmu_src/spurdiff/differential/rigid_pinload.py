@@ -68,9 +68,10 @@ class PinLoadLaw:
         return ((self.J_A * (ac + ad) - self.tau_L) / (n * rbA),
                 (self.J_B * (ac + self.lam * ad) - self.tau_R) / (n * rbB))
 
-    def _slip_exact(self, ac_given: float | None, s: float) -> tuple[float, float, float]:
+    def _slip_exact(self, ac_given: float | None, s: float, lever: float | None = None) -> tuple[float, float, float]:
         """Slipping in direction s with the pin-load law: solve the planets' moment balances
-        for (a_d, F_12) by Newton, the pins at the sliding lever ``c_slide`` (``mu_pinDynamic``);
+        for (a_d, F_12) by Newton, the pins at the sliding lever ``c_slide`` (``mu_pinDynamic``;
+        ``lever`` given: that lever instead, the break-away lever ``c_break``);
         returns (ac, ad, Q_f) and leaves F12, cap (the sliding friction) set.
 
         The hot path of the rigid level (one solve per inner step): the sun forces
@@ -87,7 +88,15 @@ class PinLoadLaw:
             else:
                 io[0:8] = (s, 1.0, ac_given, self.tau_c, self.tau_L, self.tau_R, 0.0 if ad0 is None else ad0,
                            self.F12)
-            rk.fn(rk.const, io)
+            if lever is None or lever == self.c_slide:
+                rk.fn(rk.const, io)
+            else:                           # the kernel's lever (constant 53) for this solve only
+                k = rk.const
+                k[53] = lever
+                try:
+                    rk.fn(k, io)
+                finally:
+                    k[53] = self.c_slide
             ac, ad, self.F12, cap = io[8:12]
             self.cap = cap
             return ac, ad, -s * cap
@@ -95,7 +104,7 @@ class PinLoadLaw:
         n = pf.n
         _, rb1, _, rb2 = pf.rb
         nrbA, nrbB = self._nrbA, self._nrbB
-        cpin = self.c_slide                 # sliding: the dynamic lever (mu_pinDynamic)
+        cpin = self.c_slide if lever is None else lever   # sliding: the dynamic lever (mu_pinDynamic)
         M01, M02 = pf.M0
         (t1x, t1y, r1x, r1y, u1x, u1y, q1x, q1y, p1x, p1y, m1x, m1y, P1x, P1y, N1x, N1y) = self._pin1
         (t2x, t2y, r2x, r2y, u2x, u2y, q2x, q2y, p2x, p2y, m2x, m2y, P2x, P2y, N2x, N2y) = self._pin2
@@ -273,7 +282,9 @@ class PinLoadLaw:
             return ac, 0.0, Q_req, 0.0
         s = -math.copysign(1.0, Q_req)
         self._ad_guess = 0.0
-        ac_s, ad_s, Qf = self._slip_exact(ac_given, s)
+        # breaking away: the sliding lever, or with c_break the static one (the shafted model's
+        # break-away sub-step, rigid.py's docstring); not cached (the next solve slides)
+        ac_s, ad_s, Qf = self._slip_exact(ac_given, s, self.c_break)
         if ad_s * s > 0.0:
             self._ad_guess = ad_s
             return ac_s, ad_s, Qf, s

@@ -77,6 +77,16 @@ class ShaftSolver:
         key = "+1" if sd == 1.0 else ("-1" if sd == -1.0 else f"{sd:+.0f}")
         return key + "x" if switched else key
 
+    def _advice(self) -> str:
+        """What to do about a sub-step that does not converge. A mesh level's response carries its
+        impacts through the backlash and its integrator's error: a smaller sub-step helps. The rigid
+        level's response is piecewise affine in the sun torques, exact at any sub-step: a smaller one
+        does not help, only a jump in the response (no root) stops it (docs/locking-law.md)."""
+        if self._rigid:
+            return ("the rigid level's response to the sun torques jumps here (no root); a smaller "
+                    "shafts.h_max does not help")
+        return "reduce shafts.h_max"
+
     def _substep(self, t: float, hs: float, wL: float, wR: float, xL: tuple, xR: tuple,
                  mL: WheelSurrogate, mR: WheelSurrogate, snap: dict) -> tuple[float, float, float, float]:
         """One sub-step from the inner model's state ``snap`` (its present state); wL, wR the
@@ -164,7 +174,7 @@ class ShaftSolver:
             # ten times the mesh tolerance, no more
             if not abs(r[0]) + abs(r[1]) <= self._accept * (1.0 + abs(TL) + abs(TR)):
                 raise _NotConverged(f"shafts: the implicit sub-step at t = {t:.6g} s did not converge (residual "
-                                    f"{abs(r[0]) + abs(r[1]):.3g} N m, sub-step halved 6 times); reduce shafts.h_max")
+                                    f"{abs(r[0]) + abs(r[1]):.3g} N m, sub-step halved 6 times); {self._advice()}")
         if J is not None:
             cache[mode] = Sn_of(J)
         # the inner model now holds the converged sub-step (the last evaluation)

@@ -139,6 +139,12 @@ class ShaftedDifferential(ShaftSolver):
             inner.tau_L = -(cL * thL + dL * (inner.w_L - wL))
             inner.tau_R = -(cR * thR + dR * (inner.w_R - wR))
             inner.initialize(t0)
+        if getattr(inner, "mesh_model", None) == "rigid":
+            # a break-away from stuck slips at the static lever for the rest of its inner step (one
+            # sub-step), then at the sliding one: the sub-step's response is then continuous in the
+            # sun torques (with mu_pinDynamic < mu_pin the sliding lever makes it jump there, and the
+            # implicit equation has no root; docs/locking-law.md). Equal coefficients: no change.
+            inner.c_break, inner.K_break = inner.pf.c, inner.K
         self.T_L, self.T_R = inner.tau_L, inner.tau_R
         self.off_L = inner.phi_L - pL - thL
         self.off_R = inner.phi_R - pR - thR
