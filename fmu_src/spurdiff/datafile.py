@@ -10,6 +10,7 @@ live on). Section and key names are the models' structured parameter names (``ha
 """
 from __future__ import annotations
 
+import copy
 import tomllib
 from dataclasses import fields
 from functools import lru_cache
@@ -30,8 +31,15 @@ def read_data(path: str | Path | None = None, bundled: str = DEFAULT_DATA) -> di
     if path is None:
         if bundled not in _BUNDLED:
             raise ValueError(f"bundled = {bundled!r}: the bundled data files are {', '.join(_BUNDLED)}")
-        return tomllib.loads(_BUNDLED[bundled])
+        return copy.deepcopy(_parsed(bundled))     # the caller's own copy: it may change it
     return tomllib.loads(Path(path).read_text())
+
+
+@lru_cache(maxsize=None)
+def _parsed(bundled: str) -> dict:
+    """A bundled file parsed once per process (a run's setup asked for them about 15 times: 1.3 ms
+    a parse, 0.05 ms a copy)."""
+    return tomllib.loads(_BUNDLED[bundled])
 
 
 @lru_cache(maxsize=None)

@@ -56,9 +56,11 @@ static line).
 """
 from __future__ import annotations
 
+import copy
 import math
 import tomllib
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
 
 from spurdiff.datafile import DATA_FOLDER
 from spurdiff.errors import ParameterError, require_finite
@@ -144,7 +146,12 @@ def pin_bores(journal_radius: float, bushing_wall: float) -> dict[str, float] | 
 
 
 def materials_data() -> dict:
-    """The bundled ``materials.toml`` as a dict."""
+    """The bundled ``materials.toml`` as a dict (the caller's own copy; parsed once per process)."""
+    return copy.deepcopy(_materials_parsed())
+
+
+@lru_cache(maxsize=None)
+def _materials_parsed() -> dict:
     return tomllib.loads(_MATERIALS_TEXT)
 
 
