@@ -110,14 +110,14 @@ def plot(points: list[Point], path: Path, ivp: list[dict] | None = None) -> list
                     curves.setdefault(variant(p["integrator"]), []).append(p)
             for name, ps in curves.items():
                 # every setting a marker; the line: the front over the settings (tolerances, and for
-                # solve_ivp rtol/atol: what the ratios use) in wall-time order, so it never zig-zags
+                # solve_ivp rtol/atol: what the ratios use) in time order, so it never zig-zags
                 st = _solver_style(name)
                 ax.loglog([p["wall"] for p in ps], [max(p[key], 1e-16) for p in ps], ls="none", marker=st["marker"],
                           color=st["color"], ms=st["ms"], alpha=0.4)
                 ps = sorted(front([{**p, "error": p[key]} for p in ps]), key=lambda p: p["wall"])
                 (line,) = ax.loglog([p["wall"] for p in ps], [max(p[key], 1e-16) for p in ps], **st)
                 handles.setdefault(name, line)
-            ax.set_xlabel("wall time [s]")
+            ax.set_xlabel("CPU time of the run's thread [s]")
             ax.set_ylabel("max relative error of the metrics" if key == "metric_error"
                           else "max scaled state error at 1 ms outputs")
             ax.set_title(f"{case}: ours against solve_ivp (same ODE, 0.3 s)", fontsize=10)
@@ -153,11 +153,14 @@ def markdown_ivp(ivp: list[dict], command: str = "spurdiff accuracy") -> list[st
              "solve_ivp's one call (`MeshDifferential.run_dense`: internal steps not cut at the 1 ms points, the "
              "states there by the method's dense output), with the loss quadrature the FMU integrates and, the "
              "same outputs as solve_ivp's, without it (\"states only\"). "
-             "Ratio: wall time the best solve_ivp variant needs for our error (log-log interpolation along its "
-             "front) over ours; above 1 we are faster. Wall times: the fastest of five runs.", ""]
+             "Ratio: the time the best solve_ivp variant needs for our error (log-log interpolation along its "
+             "front) over ours; above 1 we are faster. Times: CPU time of the measuring thread (every run is "
+             "single-threaded; what one core spends, whatever else a shared machine runs), the fastest of 5 to 25 "
+             "runs (`harness.bench.mesh_ivp.more_runs`: a run of a millisecond is timed 25 times, one of 50 ms "
+             "five times, one over 0.5 s once).", ""]
 
     def ratio_table(title: str, pts: list[dict], key: str, who: str) -> list[str]:
-        out = [title, "", f"| case | ours | tolerance | our error | our wall s | best {who} at equal error | its wall s "
+        out = [title, "", f"| case | ours | tolerance | our error | our CPU s | best {who} at equal error | its CPU s "
                "| ratio |", "|---|---|---|---|---|---|---|---|"]
         for r in equal_accuracy_ratios(pts, key):
             bw = "" if r["best_wall"] is None else f"{r['best_wall']:.4f}"
@@ -174,7 +177,7 @@ def markdown_ivp(ivp: list[dict], command: str = "spurdiff accuracy") -> list[st
     lines += ["All points, with the work: ours internal steps (rejected ones apart), Jacobian evaluations and "
               "factorizations of W; solve_ivp right-hand side evaluations, Jacobian evaluations and LU "
               "factorizations (nfev, njev, nlu):", "",
-              "| case | integrator | tolerance | metrics error | state error | wall s | steps (rejected) | f evaluations "
+              "| case | integrator | tolerance | metrics error | state error | CPU s | steps (rejected) | f evaluations "
               "| Jacobians | LU |", "|---|---|---|---|---|---|---|---|---|---|"]
 
     def cell(v) -> str:

@@ -216,3 +216,16 @@ def test_vehicle_kernel_bench_measures_both_implementations_of_car_and_wheels(mo
     assert "diff inner steps" in best["shafts python"] and "diff inner steps" not in best["compiled"]
     with pytest.raises(Exception, match="solver.kernel"):
         orig("vehicle-cornering", 1, sets=["car.solver.kernel=fortran"])
+
+
+def test_solver_timings_take_the_fastest_of_many_short_runs_and_one_slow_run():
+    from harness.bench.mesh_ivp import best_of, more_runs
+
+    assert more_runs([])                                  # at least five
+    assert more_runs([0.001] * 4)
+    assert more_runs([0.001] * 24) and not more_runs([0.001] * 25)   # a millisecond: 25 runs
+    assert not more_runs([0.05] * 5)                      # 50 ms: five (0.25 s spent)
+    assert not more_runs([0.6])                           # over 0.5 s: one
+    calls = []
+    res, t = best_of(lambda: calls.append(1) or len(calls))
+    assert res == len(calls) == 25 and 0.0 <= t < 0.01    # CPU time of this thread, the fastest
