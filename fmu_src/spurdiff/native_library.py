@@ -1,5 +1,6 @@
 """Finding and loading a compiled kernel of this package (the mesh levels' ``mesh_kernel*.c``, the
-rigid level's ``rigid_kernel.c``, the car's and the wheel's ``vehicle_kernel.c``; all in
+rigid level's ``rigid_kernel.c``, the half-shaft step's ``shaft_kernel.c``, the car's and the
+wheel's ``vehicle_kernel.c``; all in
 ``fmu_src/native/kernels``), written once for all.
 
 Where a kernel is found (first hit that loads and passes the kernel's own check):
@@ -11,14 +12,23 @@ Where a kernel is found (first hit that loads and passes the kernel's own check)
    ``$SPURDIFF_FMU_DIR`` and a checkout's ``build/fmus``, as ``<stem>-<digest>.so``: the digest of
    the C sources beside this package, so a stale library is never used (with no sources at hand,
    under the shipped name). On Windows the shipped name ends in ``.dll``.
+
+:class:`Binding` is what the binding modules share beyond the search: the library's check (ABI
+version and sizes, then the functions' types), the cached ``load`` and its ``reset``, and the
+switch ``solver.kernel`` (python; compiled, refused without a library; auto, the Python reference
+without one, the reason logged once).
 """
 from __future__ import annotations
 
 import ctypes as C
 import hashlib
+import logging
 import os
+import sys
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Callable, NamedTuple, Sequence
+
+from spurdiff.errors import ParameterError
 
 _PACKAGE = Path(__file__).resolve().parent
 _SOURCES = (_PACKAGE.parent / "native" / "kernels",                      # checkout: fmu_src/native/kernels
@@ -81,3 +91,118 @@ def load_cached(binding) -> tuple[C.CDLL | None, str]:
         return binding._LIB
     binding._LIB = load_first(binding._candidates(), binding._check, binding.MISSING)
     return binding._LIB
+
+
+KERNELS = ("auto", "compiled", "python")     # the switch solver.kernel: the compiled kernel when it loads | it or refuse | the reference
+
+
+class Check(NamedTuple):
+    """Functions of a library that return numbers (its ABI version, its sizes; ``restype``), the
+    numbers a binding needs, and why not when they differ (``why``, formatted with ``got`` and
+    ``want``, the two tuples)."""
+    names: tuple[str, ...]
+    want: tuple[int, ...]
+    why: str = "ABI and sizes {got} (this module needs {want})"
+    restype: type = C.c_int64
+
+
+class Binding:
+    """What the binding module ``module`` (by name) of the kernel ``stem`` shares with the others:
+    its library's search, check and cache, and the switch ``solver.kernel`` (auto | compiled | python).
+
+    The module takes its ``MISSING``, ``log``, ``source_digest``, ``_check``, ``_candidates``,
+    ``load`` and ``reset`` from :meth:`exports` and keeps its settings and state as its own names,
+    read at each call (``harness.build`` and the tests change them): ``LIB_NAME`` (the shipped
+    name, beside the module), ``SEARCH_PATH``, ``MISSING``, ``_LIB`` (the cached search),
+    ``_REPORTED`` (the reasons logged), ``_candidates``, ``_check``, ``load``.
+
+    ``logger``: the name of the logger that says why auto runs the Python reference (``fallback``,
+    then the reason); ``checks``: the :class:`Check` the library passes, in order; ``functions``:
+    name -> (argtypes, restype) of the functions the binding calls, declared once the checks pass,
+    or only the names: functions whose arguments are always the kernel's ctypes arrays and which
+    return an int64 (no argtypes: ctypes passes the arrays as pointers as they are, where declared
+    argtypes would convert them at each call, 0.6 us more a call); ``label`` and ``sources``
+    (default ``<stem>.c``) name the kernel in :attr:`missing`; ``param`` and ``values``: the
+    switch's name and values (``values`` None: checked elsewhere)."""
+
+    def __init__(self, module: str, stem: str, label: str, logger: str, checks: Sequence[Check],
+                 functions: dict | Sequence[str], fallback: str, sources: str = "", param: str = "solver.kernel",
+                 values: tuple[str, ...] | None = KERNELS):
+        self.module, self.stem, self.checks = module, stem, tuple(checks)
+        self.functions = (dict(functions) if isinstance(functions, dict)
+                          else dict.fromkeys(functions, (None, C.c_int64)))
+        self.log = logging.getLogger(logger)
+        self.fallback, self.param, self.values = fallback, param, values
+        self.missing = (f"no compiled {label} kernel found (build it with `spurdiff build`, which compiles "
+                        f"fmu_src/native/kernels/{sources or stem + '.c'})")
+
+    def exports(self) -> tuple:
+        """What the binding module names ``MISSING``, ``log``, ``source_digest``, ``_check``,
+        ``_candidates``, ``load`` and ``reset``, in that order."""
+        return self.missing, self.log, self.source_digest, self.check, self.candidates, self.load, self.reset
+
+    def _binding(self):
+        return sys.modules[self.module]
+
+    def source_digest(self, native: Path) -> str:
+        """Digest of the kernel's sources (``<stem>*.c`` and ``.h`` in the folder ``native``)."""
+        return source_digest(native, self.stem)
+
+    def check(self, lib: C.CDLL) -> str | None:
+        """None if ``lib`` is the kernel the module speaks to (its function types then declared), else why not."""
+        for c in self.checks:
+            fns = [getattr(lib, n) for n in c.names]
+            for f in fns:
+                f.restype = c.restype
+            got = tuple(f() for f in fns)
+            if got != c.want:
+                return c.why.format(got=got, want=c.want)
+        for name, (argtypes, restype) in self.functions.items():
+            f = getattr(lib, name)
+            f.argtypes, f.restype = argtypes, restype
+        return None
+
+    def candidates(self) -> list[Path]:
+        """The files to try, in order (:func:`candidates`)."""
+        m = self._binding()
+        return candidates(self.stem, Path(m.__file__).resolve().parent / m.LIB_NAME, m.SEARCH_PATH)
+
+    def load(self) -> tuple[C.CDLL | None, str]:
+        """(library, where it came from) or (None, why not). Cached per process."""
+        return load_cached(self._binding())
+
+    def reset(self) -> None:
+        """Forget the cached search result (after the search path changed)."""
+        self._binding()._LIB = None
+
+    def library(self, want: str) -> tuple[C.CDLL | None, str]:
+        """(the library, "compiled") for the switch value ``want``, or (None, a note saying why the
+        Python reference runs: python, or auto without a loadable library, logged once per reason);
+        ParameterError for a value not in ``values`` or for compiled without a library."""
+        note = self.switch(want)
+        return (None, note) if note is not None else self.compiled(want)
+
+    def switch(self, want: str) -> str | None:
+        """The note when ``want`` is python, else None; ParameterError for a value not in ``values``."""
+        if self.values is not None and want not in self.values:
+            raise ParameterError(self.param, want, " | ".join(self.values))
+        return "python (kernel = python)" if want == "python" else None
+
+    def compiled(self, want: str) -> tuple[C.CDLL | None, str]:
+        """:meth:`library` for auto or compiled."""
+        m = self._binding()
+        lib, where = m.load()
+        if lib is not None:
+            return lib, "compiled"
+        out = self.refuse(want, where)
+        if where not in m._REPORTED:
+            m._REPORTED.add(where)
+            self.log.warning(self.fallback + ": %s", where)
+        return out
+
+    def refuse(self, want: str, why: str) -> tuple[None, str]:
+        """No compiled kernel for the reason ``why``: ParameterError when ``want`` is compiled, else
+        (None, the note)."""
+        if want == "compiled":
+            raise ParameterError(self.param, want, f"auto | python here: {why}")
+        return None, f"python ({why})"

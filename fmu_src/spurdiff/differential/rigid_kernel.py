@@ -17,63 +17,28 @@ library is not used). Selected by the same switch, ``solver.kernel`` (auto | com
 from __future__ import annotations
 
 import ctypes as C
-import sys
-import logging
 from pathlib import Path
 
 from spurdiff import native_library
-from spurdiff.errors import ParameterError
+from spurdiff.native_library import KERNELS  # noqa: F401 (re-exported)
 
 ABI = 4
 NCONST = 58
 NIO = 12
 NIO_STEP = 24
 LIB_NAME = "librigid_kernel.so"   # not rigid_kernel.so: Python would import that for this module
-KERNELS = ("auto", "compiled", "python")
 SEARCH_PATH: list[Path] = []
-_HERE = Path(__file__).resolve().parent
 
-log = logging.getLogger("spurdiff.rigid")
-_REPORTED: set[str] = set()
-_LIB: tuple | None = None
+_REPORTED: set[str] = set()    # the reasons logged (once each)
+_LIB: tuple | None = None      # the cached search: (library, path) or (None, why)
 
-
-def source_digest(native: Path) -> str:
-    """Digest of the kernel's sources (``rigid_kernel*.c`` in the folder ``native``)."""
-    return native_library.source_digest(native, "rigid_kernel")
-
-
-def _check(lib: C.CDLL) -> str | None:
-    """None if ``lib`` is the kernel this module speaks to (its function types then declared), else why not."""
-    lib.rk_abi.restype = lib.rk_nconst.restype = lib.rk_nio.restype = C.c_int64
-    lib.rk_nio_step.restype = C.c_int64
-    if lib.rk_abi() != ABI or lib.rk_nconst() != NCONST or lib.rk_nio() != NIO or lib.rk_nio_step() != NIO_STEP:
-        return (f"ABI {lib.rk_abi()} with {lib.rk_nconst()} constants, {lib.rk_nio()} values (this module "
-                f"needs ABI {ABI}, {NCONST}, {NIO})")
-    # no argtypes: the two arguments are always the Kernel's c_double arrays, which ctypes passes
-    # as pointers as they are (declared argtypes would convert them at each call: 0.6 us more)
-    lib.rk_slip.argtypes = lib.rk_step_slip.argtypes = None
-    lib.rk_slip.restype = lib.rk_step_slip.restype = C.c_int64
-    return None
-
-
-def _candidates() -> list[Path]:
-    return native_library.candidates("rigid_kernel", _HERE / LIB_NAME, SEARCH_PATH)
-
-
-MISSING = ("no compiled rigid kernel found (build it with `spurdiff build`, which compiles "
-           "fmu_src/native/kernels/rigid_kernel.c)")
-
-
-def load() -> tuple[C.CDLL | None, str]:
-    """(library, where it came from) or (None, why not). Cached per process."""
-    return native_library.load_cached(sys.modules[__name__])
-
-
-def reset() -> None:
-    """Forget the cached search result (after the search path changed)."""
-    global _LIB
-    _LIB = None
+_BINDING = native_library.Binding(__name__, "rigid_kernel", "rigid", "spurdiff.rigid", [
+    native_library.Check(("rk_abi", "rk_nconst", "rk_nio", "rk_nio_step"), (ABI, NCONST, NIO, NIO_STEP),
+                         "ABI {got[0]} with {got[1]} constants, {got[2]} values (this module needs ABI "
+                         "{want[0]}, {want[1]}, {want[2]})")],
+    ("rk_slip", "rk_step_slip"),      # (const, io), (const, sio): the Kernel's arrays
+    fallback="the rigid level runs the Python reference of the pin-load solve (slower, same results)")
+MISSING, log, source_digest, _check, _candidates, load, reset = _BINDING.exports()
 
 
 def choose(model) -> tuple["Kernel | None", str]:
@@ -81,21 +46,8 @@ def choose(model) -> tuple["Kernel | None", str]:
     compiled) or None (python, or auto without a loadable library: logged once per reason), and a
     note saying which implementation runs; ParameterError for an unknown value or for
     ``compiled`` without a library."""
-    want = model.kernel
-    if want not in KERNELS:
-        raise ParameterError("solver.kernel", want, " | ".join(KERNELS))
-    if want == "python":
-        return None, "python (kernel = python)"
-    lib, where = load()
-    if lib is None:
-        if want == "compiled":
-            raise ParameterError("solver.kernel", want, f"auto | python here: {where}")
-        if where not in _REPORTED:
-            _REPORTED.add(where)
-            log.warning("the rigid level runs the Python reference of the pin-load solve (slower, same "
-                        "results): %s", where)
-        return None, f"python ({where})"
-    return Kernel(lib, model), "compiled"
+    lib, note = _BINDING.library(model.kernel)
+    return (Kernel(lib, model) if lib is not None else None), note
 
 
 class Kernel:

@@ -22,15 +22,13 @@ library is found as the other kernels are (:mod:`spurdiff.native_library`): besi
 from __future__ import annotations
 
 import ctypes as C
-import logging
 import operator
 import struct
-import sys
 from pathlib import Path
 
 from spurdiff import native_library
 from spurdiff.differential import rigid_kernel
-from spurdiff.errors import ParameterError
+from spurdiff.native_library import KERNELS  # noqa: F401 (re-exported)
 
 ABI = 2
 NRS, NSS, NSC, NIN = 48, 64, 15, 18
@@ -40,13 +38,10 @@ NRS, NSS, NSC, NIN = 48, 64, 15, 18
 RIGID_ABI = 4
 RIGID_LAYOUT = (58, 12, 24)     # rk_nconst, rk_nio, rk_nio_step
 LIB_NAME = "libshaft_kernel.so"
-KERNELS = ("auto", "compiled", "python")
 SEARCH_PATH: list[Path] = []
-_HERE = Path(__file__).resolve().parent
 
-log = logging.getLogger("spurdiff.shafts")
-_REPORTED: set[str] = set()
-_LIB: tuple | None = None
+_REPORTED: set[str] = set()    # the reasons logged (once each)
+_LIB: tuple | None = None      # the cached search: (library, path) or (None, why)
 
 # the rigid model's state as the kernel holds it (shaft_kernel.c's R_* layout): plain numbers first
 _R_HEAD = ("t", "wc", "wd", "phic", "phid", "ac", "ad", "Qf", "slip_dir", "F12", "cap")     # 0..10
@@ -65,41 +60,11 @@ _JAC_KEYS = ("+1", "-1", "+0", "-0", "+1x", "-1x", "+0x", "-0x")                
 _JAC_SLOT = {k: i for i, k in enumerate(_JAC_KEYS)}
 
 
-def source_digest(native: Path) -> str:
-    """Digest of the kernel's sources (``shaft_kernel*.c`` in the folder ``native``)."""
-    return native_library.source_digest(native, "shaft_kernel")
-
-
-def _check(lib: C.CDLL) -> str | None:
-    """None if ``lib`` is the kernel this module speaks to (its function types then declared), else why not."""
-    for f in (lib.sk_abi, lib.sk_nrs, lib.sk_nss, lib.sk_nsc, lib.sk_nin):
-        f.restype = C.c_int64
-    got = (lib.sk_abi(), lib.sk_nrs(), lib.sk_nss(), lib.sk_nsc(), lib.sk_nin())
-    want = (ABI, NRS, NSS, NSC, NIN)
-    if got != want:
-        return f"ABI and sizes {got} (this module needs {want})"
-    lib.sk_step.argtypes = None    # the Kernel's arrays, passed as pointers as they are
-    lib.sk_step.restype = C.c_int64
-    return None
-
-
-def _candidates() -> list[Path]:
-    return native_library.candidates("shaft_kernel", _HERE / LIB_NAME, SEARCH_PATH)
-
-
-MISSING = ("no compiled half-shaft kernel found (build it with `spurdiff build`, which compiles "
-           "fmu_src/native/kernels/shaft_kernel.c)")
-
-
-def load() -> tuple[C.CDLL | None, str]:
-    """(library, where it came from) or (None, why not). Cached per process."""
-    return native_library.load_cached(sys.modules[__name__])
-
-
-def reset() -> None:
-    """Forget the cached search result (after the search path changed)."""
-    global _LIB
-    _LIB = None
+_BINDING = native_library.Binding(__name__, "shaft_kernel", "half-shaft", "spurdiff.shafts", [
+    native_library.Check(("sk_abi", "sk_nrs", "sk_nss", "sk_nsc", "sk_nin"), (ABI, NRS, NSS, NSC, NIN))],
+    ("sk_step",),         # (sc, k, rs, ss, inp, fp): the Kernel's arrays
+    fallback="the half-shaft step runs its Python reference (slower, same results)")
+MISSING, log, source_digest, _check, _candidates, load, reset = _BINDING.exports()
 
 
 def choose(model) -> tuple["Kernel | None", str]:
@@ -111,25 +76,17 @@ def choose(model) -> tuple["Kernel | None", str]:
     if getattr(inner, "mesh_model", None) != "rigid":
         return None, "python (the compliant and contact levels' half-shaft step is not compiled)"
     want = inner.kernel
-    if want not in KERNELS:
-        raise ParameterError("solver.kernel", want, " | ".join(KERNELS))
-    if want == "python":
-        return None, "python (kernel = python)"
+    note = _BINDING.switch(want)
+    if note is not None:
+        return None, note
     if inner._rk is None:
         return None, f"python (the rigid level has no compiled pin-load solve: {inner.kernel_note})"
     if (rigid_kernel.ABI, (rigid_kernel.NCONST, rigid_kernel.NIO, rigid_kernel.NIO_STEP)) != (RIGID_ABI, RIGID_LAYOUT):
-        why = f"the half-shaft kernel is written for the rigid kernel's ABI {RIGID_ABI}, this one has ABI {rigid_kernel.ABI}"
-        if want == "compiled":
-            raise ParameterError("solver.kernel", want, f"auto | python here: {why}")
-        return None, f"python ({why})"
-    lib, where = load()
+        return _BINDING.refuse(want, f"the half-shaft kernel is written for the rigid kernel's ABI {RIGID_ABI}, "
+                                     f"this one has ABI {rigid_kernel.ABI}")
+    lib, note = _BINDING.compiled(want)
     if lib is None:
-        if want == "compiled":
-            raise ParameterError("solver.kernel", want, f"auto | python here: {where}")
-        if where not in _REPORTED:
-            _REPORTED.add(where)
-            log.warning("the half-shaft step runs its Python reference (slower, same results): %s", where)
-        return None, f"python ({where})"
+        return None, note
     rlib, _ = rigid_kernel.load()
     return Kernel(lib, rlib, model), "compiled"
 

@@ -19,93 +19,39 @@ reference, the reason logged once) | compiled (refuse without it) | python.
 from __future__ import annotations
 
 import ctypes as C
-import logging
-import sys
 from pathlib import Path
 
 from spurdiff import native_library
-from spurdiff.errors import ParameterError
+from spurdiff.native_library import KERNELS  # noqa: F401 (re-exported)
 
 ABI = 1
 CAR_NCONST, CAR_NIO = 29, 60
 WHEEL_NCONST, WHEEL_NIO = 12, 48
 LIB_NAME = "libvehicle_kernel.so"
-KERNELS = ("auto", "compiled", "python")
 SEARCH_PATH: list[Path] = []
-_HERE = Path(__file__).resolve().parent
 
-log = logging.getLogger("spurdiff.vehicle")
-_REPORTED: set[str] = set()
-_LIB: tuple | None = None
+_REPORTED: set[str] = set()    # the reasons logged (once each)
+_LIB: tuple | None = None      # the cached search: (library, path) or (None, why)
 
-
-def source_digest(native: Path) -> str:
-    """Digest of the kernel's sources (``vehicle_kernel*.c`` in the folder ``native``)."""
-    return native_library.source_digest(native, "vehicle_kernel")
-
-
-def _check(lib: C.CDLL) -> str | None:
-    """None if ``lib`` is the kernel this module speaks to (its function types then declared), else why not."""
-    for f in (lib.vk_abi, lib.vk_car_nconst, lib.vk_car_nio, lib.vk_wheel_nconst, lib.vk_wheel_nio):
-        f.restype = C.c_int64
-    got = (lib.vk_abi(), lib.vk_car_nconst(), lib.vk_car_nio(), lib.vk_wheel_nconst(), lib.vk_wheel_nio())
-    want = (ABI, CAR_NCONST, CAR_NIO, WHEEL_NCONST, WHEEL_NIO)
-    if got != want:
-        return f"ABI and sizes {got} (this module needs {want})"
-    # no argtypes: the arguments are always the Kernel's c_double arrays (passed as pointers as
-    # they are; declared argtypes would convert them at each call)
-    lib.vk_car_step.argtypes = lib.vk_wheel_step.argtypes = None
-    lib.vk_car_step.restype = lib.vk_wheel_step.restype = C.c_int64
-    return None
-
-
-def _candidates() -> list[Path]:
-    return native_library.candidates("vehicle_kernel", _HERE / LIB_NAME, SEARCH_PATH)
-
-
-MISSING = ("no compiled vehicle kernel found (build it with `spurdiff build`, which compiles "
-           "fmu_src/native/kernels/vehicle_kernel.c)")
-
-
-def load() -> tuple[C.CDLL | None, str]:
-    """(library, where it came from) or (None, why not). Cached per process."""
-    return native_library.load_cached(sys.modules[__name__])
-
-
-def reset() -> None:
-    """Forget the cached search result (after the search path changed)."""
-    global _LIB
-    _LIB = None
-
-
-def _library(want: str, what: str) -> tuple[C.CDLL | None, str]:
-    """The library for the switch value ``want`` (auto | compiled | python), or None and why."""
-    if want not in KERNELS:
-        raise ParameterError("solver.kernel", want, " | ".join(KERNELS))
-    if want == "python":
-        return None, "python (kernel = python)"
-    lib, where = load()
-    if lib is None:
-        if want == "compiled":
-            raise ParameterError("solver.kernel", want, f"auto | python here: {where}")
-        if where not in _REPORTED:
-            _REPORTED.add(where)
-            log.warning("the %s runs its Python reference (slower, same results): %s", what, where)
-        return None, f"python ({where})"
-    return lib, "compiled"
+_BINDING = native_library.Binding(__name__, "vehicle_kernel", "vehicle", "spurdiff.vehicle", [
+    native_library.Check(("vk_abi", "vk_car_nconst", "vk_car_nio", "vk_wheel_nconst", "vk_wheel_nio"),
+                         (ABI, CAR_NCONST, CAR_NIO, WHEEL_NCONST, WHEEL_NIO))],
+    ("vk_car_step", "vk_wheel_step"),      # (const, io): the CarKernel's or WheelKernel's arrays
+    fallback="the vehicle (and wheel) model runs its Python reference (slower, same results)")
+MISSING, log, source_digest, _check, _candidates, load, reset = _BINDING.exports()
 
 
 def choose_car(model) -> tuple["CarKernel | None", str]:
     """The compiled step for an initialized :class:`spurdiff.vehicle.car.Vehicle` (``model.kernel``)
     or None (python, or auto without a loadable library: logged once per reason), and a note saying
     which implementation runs."""
-    lib, note = _library(model.kernel, "vehicle (and wheel) model")
+    lib, note = _BINDING.library(model.kernel)
     return (CarKernel(lib, model) if lib is not None else None), note
 
 
 def choose_wheel(model) -> tuple["WheelKernel | None", str]:
     """As :func:`choose_car` for an initialized :class:`spurdiff.vehicle.wheel.WheelLoad`."""
-    lib, note = _library(model.kernel, "vehicle (and wheel) model")
+    lib, note = _BINDING.library(model.kernel)
     return (WheelKernel(lib, model) if lib is not None else None), note
 
 

@@ -18,20 +18,17 @@ available; the model then runs the Python reference.
 from __future__ import annotations
 
 import ctypes as C
-import sys
-import logging
 from pathlib import Path
 
 import numpy as np
 
 from spurdiff import native_library
-from spurdiff.errors import ParameterError, StepError
+from spurdiff.errors import StepError
 from spurdiff.differential.mesh.integrator import SMAX      # mesh_kernel.h SMAX: the most stages of a tableau
 
 ABI = 7
 LIB_NAME = "mesh_kernel.so"
 SEARCH_PATH: list[Path] = []
-_HERE = Path(__file__).resolve().parent
 _d, _i = C.c_double, C.c_int64
 
 
@@ -69,73 +66,29 @@ class MkState(C.Structure):
                 + [("pk", _d * 6), ("pnc", _i * 6), ("phold", _i), ("n_psw", _i)])
 
 
-def source_digest(native: Path) -> str:
-    """Digest of the kernel's sources (``mesh_kernel*.c`` and ``.h`` in the folder ``native``)."""
-    return native_library.source_digest(native, "mesh_kernel")
+_REPORTED: set[str] = set()    # the reasons logged (once each)
+_LIB: tuple | None = None      # the cached search: (library, path) or (None, why)
 
-
-def _check(lib: C.CDLL) -> str | None:
-    """None if ``lib`` is the kernel this module speaks to (its function types then declared), else why not."""
-    if lib.mk_abi() != ABI:
-        return f"ABI {lib.mk_abi()} (this module needs {ABI})"
-    lib.mk_sizeof_params.restype = lib.mk_sizeof_state.restype = C.c_int64
-    if lib.mk_sizeof_params() != C.sizeof(MkParams) or lib.mk_sizeof_state() != C.sizeof(MkState):
-        return "structure sizes differ from this module's"
-    lib.mk_advance.argtypes = [C.POINTER(MkParams), C.POINTER(MkState), _d, _d]
-    lib.mk_advance.restype = C.c_int
-    lib.mk_evaluate.argtypes = [C.POINTER(MkParams), C.POINTER(MkState), C.c_void_p, C.c_void_p, C.c_void_p,
-                                C.c_void_p]
-    lib.mk_evaluate.restype = None
-    lib.mk_advance_dense.argtypes = [C.POINTER(MkParams), C.POINTER(MkState), _d, _d, C.c_int64, C.c_void_p,
-                                     C.c_void_p]
-    lib.mk_advance_dense.restype = C.c_int
-    lib.mk_run.argtypes = [C.POINTER(MkParams), C.POINTER(MkState), _d, _d, C.c_int64, C.c_void_p]
-    lib.mk_run.restype = C.c_int64
-    return None
-
-
-_LIB: tuple | None = None
-
-
-def _candidates() -> list[Path]:
-    return native_library.candidates("mesh_kernel", _HERE / LIB_NAME, SEARCH_PATH)
-
-
-MISSING = ("no compiled mesh kernel found (build it with `spurdiff build`, which compiles "
-           "fmu_src/native/kernels/mesh_kernel*.c)")
-
-
-def load() -> tuple[C.CDLL | None, str]:
-    """(library, where it came from) or (None, why not). Cached per process."""
-    return native_library.load_cached(sys.modules[__name__])
-
-
-log = logging.getLogger("spurdiff.mesh")
-_REPORTED: set[str] = set()
+_BINDING = native_library.Binding(__name__, "mesh_kernel", "mesh", "spurdiff.mesh", [
+    native_library.Check(("mk_abi",), (ABI,), "ABI {got[0]} (this module needs {want[0]})", C.c_int),
+    native_library.Check(("mk_sizeof_params", "mk_sizeof_state"), (C.sizeof(MkParams), C.sizeof(MkState)),
+                         "structure sizes differ from this module's")],
+    {"mk_advance": ([C.POINTER(MkParams), C.POINTER(MkState), _d, _d], C.c_int),
+     "mk_evaluate": ([C.POINTER(MkParams), C.POINTER(MkState), C.c_void_p, C.c_void_p, C.c_void_p, C.c_void_p], None),
+     "mk_advance_dense": ([C.POINTER(MkParams), C.POINTER(MkState), _d, _d, C.c_int64, C.c_void_p, C.c_void_p],
+                          C.c_int),
+     "mk_run": ([C.POINTER(MkParams), C.POINTER(MkState), _d, _d, C.c_int64, C.c_void_p], C.c_int64)},
+    fallback="the mesh levels run the Python reference (slower, same results)", sources="mesh_kernel*.c",
+    param="kernel", values=None)        # MeshParams checks the value
+MISSING, log, source_digest, _check, _candidates, load, reset = _BINDING.exports()
 
 
 def choose(model) -> tuple["Kernel | None", str]:
     """The kernel for an initialized model (``MeshParams.kernel``: auto or compiled) or None
     (python, or auto without a loadable library: logged once per reason), and a note saying which
     implementation runs; ParameterError for ``compiled`` without a library."""
-    want = model.mesh.kernel
-    if want == "python":
-        return None, "python (kernel = python)"
-    lib, where = load()
-    if lib is None:
-        if want == "compiled":
-            raise ParameterError("kernel", want, f"auto | python here: {where}")
-        if where not in _REPORTED:
-            _REPORTED.add(where)
-            log.warning("the mesh levels run the Python reference (slower, same results): %s", where)
-        return None, f"python ({where})"
-    return Kernel(lib, model), "compiled"
-
-
-def reset() -> None:
-    """Forget the cached search result (after the search path changed)."""
-    global _LIB
-    _LIB = None
+    lib, note = _BINDING.library(model.mesh.kernel)
+    return (Kernel(lib, model) if lib is not None else None), note
 
 
 class Kernel:
