@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import uuid
+import warnings
 from dataclasses import replace
 from pathlib import Path
 from typing import Callable, Iterator
@@ -57,8 +58,12 @@ def dask_rows(job: Job, tasks: list[Task], runner: Runner, client, in_flight: in
     job = replace(job, fmus={n: _with_bytes(r) for n, r in job.fmus.items()})
     tag = uuid.uuid4().hex[:8]
     # The job (scene, metrics, FMU bytes) is a task of its own rather than scattered data: the
-    # scheduler keeps its definition, so it is recomputed if every worker holding it dies.
-    job_f = client.submit(_identity, job, key=f"sweep-job-{tag}", pure=False)
+    # scheduler keeps its definition, so it is recomputed if every worker holding it dies. Dask
+    # warns of a large graph (the FMUs, tens of MB) and advises futures: this is the one future
+    # every run takes, sent once per sweep, so the warning is not passed on.
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Sending large graph", category=UserWarning)
+        job_f = client.submit(_identity, job, key=f"sweep-job-{tag}", pure=False)
     pending = iter(tasks)
     futures: dict = {}
     ac = as_completed()
