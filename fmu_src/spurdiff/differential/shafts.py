@@ -297,7 +297,7 @@ for _name in INNER_OUTPUTS:
             property(operator.attrgetter("inner." + _name), doc=f"The inner model's ``{_name}``."))
 
 
-# the differential speed, read by the FMU's overspeed watch after every step (not through __getattr__)
+# the differential speed, read by the overspeed watch after every step (spurdiff.differential.watches; not through __getattr__)
 ShaftedDifferential.wd = property(operator.attrgetter("inner.wd"), doc="The inner model's ``wd``.")
 
 

@@ -591,7 +591,7 @@ def fmu_class(interface, module: str | None = None) -> type:
 
     def build_model(self, values: dict):
         model = build(values)
-        if hasattr(model, "log_to"):   # a model that logs during its run (load capacity, differential_fmu)
+        if hasattr(model, "log_to"):   # a model that logs during its run (spurdiff.differential.watches)
             model.log_to(lambda msg, status=0: self._log(msg, Fmi2Status(status)))
         line = message(values) if message is not None else None
         if line:

@@ -14,13 +14,11 @@ set-up they bind to.)
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, replace
 
 from spurdiff.fmi.binding import bindings, build_params, renamed, resolve
 from spurdiff.errors import ParameterError
 from spurdiff.fmi.variables import Var
-from spurdiff.differential.bushing import bushing
 from spurdiff.differential import derivatives
 from spurdiff.differential.locking import torque_bias_ratio
 from spurdiff.gears.phasing import mesh_phases
@@ -29,6 +27,7 @@ from spurdiff.differential.mesh import rates as mesh_rates
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.rigid import RigidDifferential
 from spurdiff.differential.shafts import SHAFT_COUPLINGS, ShaftedDifferential, ShaftsParams
+from spurdiff.differential.watches import CapacityWatch, OverspeedWatch, attach
 from spurdiff.gears.capacity import CapacityParams
 
 FMU_NAME = "SpurDifferential"
@@ -224,7 +223,7 @@ VARIABLES: list[Var] = [
         "T_A + T_B > 0; lockingCoefficient applies), -1 coast (the suns drive the carrier; "
         "lockingCoefficientCoast), 0 unloaded", None, None, 0, kind="Integer", bind="loaded_flanks"),
     Var("overspeed", "output", "1 while the differential speed |w_A - w_c| is above overspeedLimit (a runaway: "
-        "the first time is logged as a warning), else 0", "1", bind="overspeed_indicator"),
+        "the first time is logged as a warning), else 0", "1", bind="overspeed_watch.indicator"),
     Var("overspeedLimit", "parameter", "Largest differential speed |w_A - w_c| the pin bushings are rated for "
         "(0: the bronze bushing's sliding-speed limit 3.81 m/s, spurdiff/data/pin_bushing.toml, over r_collar and the "
         "planets' spin ratio z_sun / z_planet)",
@@ -385,8 +384,9 @@ VARIABLES: list[Var] = [
 
 # ---------------------------------------------------------------------------------------------------
 # Load capacity (issue 27 item 4): ISO 6336 safety factors at initialization, the run's largest
-# stresses as outputs and one logged warning when a run exceeds the static strength
-# (spurdiff.gears.capacity, docs/capacity.md). Appended after the other variables.
+# stresses as outputs and one logged warning when a run exceeds the static strength (the rating:
+# spurdiff.gears.capacity; the watch on the run: spurdiff.differential.watches; docs/capacity.md).
+# Appended after the other variables.
 CAPACITY_MESHES = (("A1", "sunA", "planet1"), ("B2", "sunB", "planet2"), ("12", "planet1", "planet2"))
 VARIABLES += [
     _p("capacity.T0", "capacity.T0", "Carrier torque at which the ISO 6336 safety factors are rated and from which "
@@ -413,56 +413,15 @@ VARIABLES += [
 ]
 
 
-def _attach_capacity(model, values: dict) -> None:
-    """Rate the gear set at capacity.T0 (calculated parameters) and watch the run's mesh forces:
-    ``model.capacity_watch`` (the outputs), ``model.do_step`` books each step's forces,
-    ``model.get_state`` / ``set_state`` carry the watch, ``model.log_to(log)`` (called by the adapter
-    with its logger) logs the findings now and the first excess when it happens."""
-    from spurdiff.errors import require_positive
-    from spurdiff.gears import capacity as cap
-    T0 = require_positive("capacity.T0", values["capacity.T0"])
-    mat = cap.material(values["capacity.material"])
-    wall = values["capacity.bushingWall"]
-    if not (wall >= 0.0 and wall < 0.1):
-        raise ParameterError("capacity.bushingWall", wall, ">= 0 m and < 0.1 m")
-    bores = cap.pin_bores(values.get("r_collar", 0.0), wall)   # the planets turn on journals (Y_B)
-    forces = cap.nominal_mesh_forces(model.geometry, T0)
-    rep = cap.capacity_report(model.geometry, forces, mat, None, bores)
+def _set_capacity(watch, values: dict) -> None:
+    """The load-capacity calculated parameters: the safety factors of the watch's rating."""
+    rep = watch.report
     for r in rep.meshes:
         for g in r.gears:
             values[f"capacity.mesh{r.mesh}.{g.gear}.S_H"] = g.S_H
             values[f"capacity.mesh{r.mesh}.{g.gear}.S_F"] = g.S_F
     values["capacity.S_H_static"] = rep.S_H_static
     values["capacity.S_F_static"] = rep.S_F_static
-    watch = model.capacity_watch = cap.StressWatch(model.geometry, forces, mat, rep.conditions, bores)
-    sink = []                                     # the adapter's logger, once given
-    inner_step, inner_get, inner_set = model.do_step, model.get_state, model.set_state
-
-    def do_step(t, h):
-        inner_step(t, h)
-        f = model.mesh_forces
-        msg = watch.update(f.F_A1, f.F_B2, f.F_12)
-        if msg is not None and sink:
-            sink[0](f"t = {t + h:g} s: {msg}", 1)   # fmi2Warning
-
-    def get_state():
-        return {**inner_get(), "capacity": watch.get_state()}
-
-    def set_state(state):
-        state = dict(state)
-        watch.set_state(state.pop("capacity", [0.0, 0.0, False, [0.0, 0.0, 0.0]]))
-        inner_set(state)
-
-    def log_to(log):
-        sink[:] = [log]
-        if rep.findings:
-            n_err = sum(f.level == "error" for f in rep.findings)
-            first = next((f for f in rep.findings if f.level == "error"), rep.findings[0])
-            log(f"load capacity at capacity.T0 = {T0:g} N m ({mat.name}): smallest safety factors S_H "
-                f"{rep.S_H:.3f} (static {rep.S_H_static:.3f}), S_F {rep.S_F:.3f} (static {rep.S_F_static:.3f}); "
-                f"{n_err} errors, {len(rep.findings) - n_err} warnings, first: {first}", 0)
-
-    model.do_step, model.get_state, model.set_state, model.log_to = do_step, get_state, set_state, log_to
 # ---------------------------------------------------------------------------------------------------
 
 
@@ -512,51 +471,14 @@ def build_model(values: dict):
     model.initialize(0.0)
     io.pull_calculated(model, values)
     _set_calculated(model, values)
-    _attach_capacity(model, values)   # load capacity (the block after VARIABLES)
-    _attach_overspeed(model, values, s.overspeedLimit)   # after it: chains its log_to
+    # the watches (spurdiff.differential.watches), in the order they look at a step; the adapter
+    # gives the model its logger (model.log_to)
+    capacity = CapacityWatch(model, s.capacity)   # load capacity (the block after VARIABLES)
+    _set_capacity(capacity, values)
+    overspeed = OverspeedWatch(model, s.overspeedLimit)
+    values["overspeedLimitInUse"] = overspeed.limit
+    attach(model, (capacity, overspeed))
     return model
-
-
-def _attach_overspeed(model, values: dict, limit: float) -> None:
-    """The overspeed watch: ``overspeed`` output while ``|w_A - w_c|`` exceeds the limit, and one
-    warning through the FMU's logger the first time (the paper scenes' constant torques above
-    break-away run away without bound). The limit 0 means the pin bushings' sliding-speed limit
-    (spurdiff/data/pin_bushing.toml, C93200 bronze 3.81 m/s) over the journal radius and the planets'
-    spin ratio."""
-    if not (limit >= 0.0 and limit < math.inf):
-        raise ParameterError("overspeedLimit", limit, ">= 0 rad/s (0: from the pin bushings)")
-    geo = model.geometry
-    rho = max(geo.table.sunA.z / geo.table.planet1.z, geo.table.sunB.z / geo.table.planet2.z)
-    r_j = model.params.r_collar
-    if limit == 0.0:
-        limit = bushing("bronze").vMax / (r_j * rho) if r_j > 0.0 else math.inf
-    values["overspeedLimitInUse"] = limit
-    model.overspeed_indicator = 1.0 if abs(model.wd) > limit else 0.0
-    sink, warned = [], []
-    inner_step, prev_log_to = model.do_step, getattr(model, "log_to", None)
-
-    def do_step(t, h):
-        inner_step(t, h)
-        over = abs(model.wd) > limit
-        model.overspeed_indicator = 1.0 if over else 0.0
-        if over and not warned and sink:
-            warned.append(t + h)
-            sink[0](f"t = {t + h:g} s: overspeed, |w_A - w_c| = {abs(model.wd):.4g} rad/s > overspeedLimit = "
-                    f"{limit:.4g} rad/s (planets at {rho * abs(model.wd):.4g} rad/s on their pins): the "
-                    f"differential runs away; the results past this point are no longer of rated hardware", 1)
-
-    def log_to(log):
-        sink[:] = [log]
-        if prev_log_to is not None:
-            prev_log_to(log)
-
-    inner_set = model.set_state
-
-    def set_state(state):
-        inner_set(state)
-        model.overspeed_indicator = 1.0 if abs(model.wd) > limit else 0.0
-
-    model.do_step, model.log_to, model.set_state = do_step, log_to, set_state
 
 
 def build_message(values: dict) -> str | None:
