@@ -42,7 +42,8 @@ on top, for an FMU built without a C compiler, which then runs on pythonfmu's wr
 
 (The module is longer than the project's 400 lines because it is one state machine: one class,
 one method per FMI function, which the bridge calls one to one; the model side, the bindings, is
-:mod:`spurdiff.fmi.binding`, the FMU state :mod:`spurdiff.fmi.state`.)
+:mod:`spurdiff.fmi.binding`, the FMU state :mod:`spurdiff.fmi.state`, what only the FMI 3.0 binary
+calls :mod:`spurdiff.fmi.fmi3_methods`.)
 """
 from __future__ import annotations
 
@@ -55,6 +56,7 @@ from pythonfmu.enums import Fmi2Status
 
 from spurdiff.errors import ParameterError
 from spurdiff.fmi.binding import bindings
+from spurdiff.fmi.fmi3_methods import Fmi3Methods
 from spurdiff.fmi.state import DISCARD, ERROR, OK, WARNING, FmuStateMethods
 from spurdiff.fmi.variables import Var
 
@@ -87,7 +89,7 @@ def _getter(names: Sequence[str]) -> Callable[[dict], tuple]:
 _CACHE_LIMIT = 256   # value-reference vectors remembered per FMU instance (a host uses a few)
 
 
-class ModelFmu(FmuStateMethods, Fmi2Slave):
+class ModelFmu(Fmi3Methods, FmuStateMethods, Fmi2Slave):
     """Base class of the project's FMUs, made by :func:`fmu_class` from an interface module of
     this package (e.g. :mod:`spurdiff.fmi.differential_fmu`) that defines, without any FMI dependency:
 
@@ -451,92 +453,6 @@ class ModelFmu(FmuStateMethods, Fmi2Slave):
             self.phase, self.failure = "error", f"state lost after a failed step: {e}"
             return self._step_refused(ERROR, msg + "; " + self.failure)
         return self._step_refused(DISCARD, msg + f"; state kept at t = {self.time:g} s")
-
-    # ------------------------------------------------------------------ output derivatives (FMI 3.0)
-    max_output_derivative_order = 0   # the interface's MAX_OUTPUT_DERIVATIVE_ORDER (fmu_class)
-    output_rates = None               # the interface's output_rates(model) -> {attribute: derivative}
-    # the time of a state set by fmi2SetFMUstate: the end-of-step rates are not part of an FMU state
-    # (the wheel sides' deviations at the step's end are not), so there are none until a step
-    _rates_unknown_at = math.nan
-
-    def fmi2_set_state(self, state) -> int:
-        status = super().fmi2_set_state(state)
-        if status in (None, OK, WARNING):
-            self._rates_unknown_at = self.time
-        return status
-
-    def fmi2_get_real_output_derivatives(self, vrs, orders) -> tuple[int, list[float]]:
-        """(status, values): the ``orders``-th time derivatives of the Real outputs at ``vrs`` at the
-        FMU's time (FMI 3.0 fmi3GetOutputDerivatives; only the FMI 3.0 binary passes the call on)."""
-        fn = "fmi3GetOutputDerivatives"
-        if self.phase != "stepping":
-            return self._refuse(ERROR, f"{fn} refused in state '{self.phase}' (only after "
-                                       "fmi3ExitInitializationMode)"), []
-        top = self.max_output_derivative_order
-        names = self._get["Real"]
-        for vr, k in zip(vrs, orders):
-            name = names.get(vr)
-            if name is None or name not in self._output_set:
-                what = f"variable {name}" if name else "no Real variable"
-                return self._refuse(ERROR, f"{fn}: value reference {vr} is {what}, not a Float64 output"), []
-            if not 1 <= k <= top:
-                return self._refuse(ERROR, f"{fn}: order {k} for {name} is outside 1..{top} "
-                                           f"(maxOutputDerivativeOrder = {top})"), []
-        if self.time == self._rates_unknown_at:
-            return self._refuse(ERROR, f"{fn}: the derivatives at t = {self.time:g} s are not in the FMU state "
-                                       "that was set; they are given again after the next fmi3DoStep"), []
-        try:
-            rates = self.output_rates(self.model)
-        except Exception as e:
-            return self._refuse(ERROR, f"{fn} failed: {type(e).__name__}: {e}"), []
-        out = []
-        for vr in vrs:
-            name = names[vr]
-            x = rates.get(self._bind_of[name])
-            if x is None:
-                return self._refuse(ERROR, f"{fn}: output {name} has no derivative (offered: "
-                                           f"{', '.join(self._rate_outputs(rates))})"), []
-            out.append(float(x))
-        return OK, out
-
-    # ------------------------------------------------------------------ early return (FMI 3.0)
-    might_return_early = False        # the interface's MIGHT_RETURN_EARLY (fmu_class)
-
-    def fmi2_do_step_early(self, t: float, h: float, no_set_prior: bool = False) -> tuple[int, float]:
-        """(status, time reached): fmi2DoStep that ends just past the first stick/slip switch
-        inside the step (spurdiff.differential.transitions), for the FMI 3.0 binary's fmi3DoStep
-        with earlyReturnAllowed. Without a switch it is fmi2DoStep, the same call."""
-        model = self.model
-        if not self.might_return_early or self.phase != "stepping" or model is None:
-            return self.fmi2_do_step(t, h, no_set_prior), self.time
-        saved, n0 = model.get_state(), model.n_mode_switches
-        status = self.fmi2_do_step(t, h, no_set_prior)
-        if status != OK or model.n_mode_switches == n0:
-            return status, self.time
-        from spurdiff.differential.transitions import transition_step
-
-        push, pull, pull_total, _ = self._step_io
-        values = self.values
-
-        def step(hh: float) -> int:
-            model.set_state(saved)
-            push(model, values)
-            model.do_step(t, hh)
-            return model.n_mode_switches
-
-        try:
-            hx = transition_step(step, h, n0)
-        except Exception as e:   # a shorter step the model refuses: the whole step stands
-            self._log(f"fmi3DoStep at t = {t:g} s: no early return ({type(e).__name__}: {e})", Fmi2Status.warning)
-            step(h)
-            hx = None
-        pull_total(model, values)
-        if hx is not None:
-            self.time = t + hx
-        return OK, self.time
-
-    def _rate_outputs(self, rates: dict) -> list[str]:
-        return [n for n in self._outputs if self._bind_of[n] in rates]
 
     def fmi2_cancel_step(self) -> int:
         return self._refuse(ERROR, "fmi2CancelStep: no asynchronous step is pending (fmi2DoStep never "
