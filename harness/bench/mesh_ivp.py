@@ -219,7 +219,7 @@ def more_runs(walls: list[float], least: int = 5, most: int = 25, budget: float 
 def best_of(fn):
     """(result, s) of ``fn`` by :data:`CLOCK`: the fastest of the runs :func:`more_runs` asks for."""
     walls, res = [], None
-    while not walls or more_runs(walls):
+    while more_runs(walls):
         t0 = CLOCK()
         res = fn()
         walls.append(CLOCK() - t0)
