@@ -219,17 +219,18 @@ class Kernel:
         c._f0_key = None
         return v[13:26]
 
-    def advance_dense(self, c, t: float, h: float, times: np.ndarray) -> np.ndarray:
-        """One step t -> t + h in C with the states at ``times`` (into the step) by the dense
-        output (:meth:`spurdiff.differential.mesh.MeshDifferential.run_dense`); the model ends at t + h."""
-        tq = np.ascontiguousarray(times, dtype=np.float64)
-        ys = np.zeros((tq.size, c._N))
+    def advance_dense(self, c, t: float, h: float, times: np.ndarray) -> tuple[np.ndarray, list]:
+        """One step t -> t + h in C with the states at ``times`` (into the step, a contiguous float64
+        array) by the dense output (:meth:`spurdiff.differential.mesh.MeshDifferential.run_dense`); the
+        model ends at t + h. Returns the states (rows) and the side values of the outputs at the end,
+        as :meth:`advance`."""
+        ys = np.zeros((times.size, c._N))
         S = self._pack(c)
-        rc = self.lib.mk_advance_dense(self._pP, self._pS, t, h, tq.size, tq.ctypes.data, ys.ctypes.data)
+        rc = self.lib.mk_advance_dense(self._pP, self._pS, t, h, times.size, times.ctypes.data, ys.ctypes.data)
         if rc != 0:
             raise StepError(f"the run from t = {t:.9g} s failed at t = {S.fail_t:.9g} s (code {rc})")
         self._unpack(c)
-        return ys
+        return ys, self._D[27:40].tolist()
 
     def _unpack(self, c) -> None:
         v = self._D[14:24].tolist()
