@@ -10,6 +10,7 @@ costs; scene runs for users go through the FMUs.
 from __future__ import annotations
 
 import importlib
+import operator
 import time
 
 import numpy as np
@@ -36,21 +37,69 @@ class DirectInstance:
             self.values[k] = val
         self.io = bindings(self.iface.VARIABLES)
         self.model = None
+        self.native = None          # the model's native step in use (spurdiff.native_step), or None
+        self._native_in = ()        # (slot, variable) of the inputs it reads from the value table
+        self._native_out = ()       # the variables of its output slots
+        self._pick = None           # the output slots' values out of v[:n]
+        self._native_n = 0
+        self._loaded = False        # the model's state is in the native step's array
 
     def initialize(self) -> None:
         self.model = self.iface.build_model(self.values)
         self.io.pull(self.model, self.values)
+        self.native = None
+        self._loaded = False
+
+    def use_native(self, read: set[str], written: set[str]) -> bool:
+        """Step with the model's native step (its whole step in C, as the FMU's bridge does) when it
+        has one whose slots cover the outputs the run reads (``read``) and the inputs it sets
+        (``written``); else the Python step. True when it does."""
+        get = getattr(self.model, "native_step", None)
+        plan = get() if get is not None else None
+        if plan is None:
+            return False
+        names = {(v.causality, v.bind): v.name for v in self.iface.VARIABLES
+                 if v.kind == "Real" and v.bind and v.causality in ("input", "output")}
+        ins = [(i, names.get(("input", k))) for i, k in enumerate(plan.inputs)]
+        outs = [(len(ins) + i, names.get(("output", k))) for i, k in enumerate(plan.outputs)]
+        read = {n for n in read if self.vars[n].causality == "output"}       # (parameters stay)
+        written = {n for n in written if self.vars[n].causality == "input"}  # (a push ignores the rest)
+        if not (read <= {n for _, n in outs} and written <= {n for _, n in ins}):
+            return False
+        self.native = plan
+        self._native_in = tuple((i, n) for i, n in ins if n is not None)
+        named = [(i, n) for i, n in outs if n is not None]
+        self._native_out = tuple(n for _, n in named)
+        self._pick = operator.itemgetter(*(i for i, _ in named))
+        self._native_n = len(ins) + len(outs)
+        self._loaded = False
+        return True
 
     def step(self, t: float, h: float) -> None:
         model, values = self.model, self.values
         push, pull = self.io.io_of.get(model.__class__) or self.io.io(model)
+        plan = self.native
+        if plan is not None:
+            v = plan.v
+            if not self._loaded:
+                plan.load(model)
+                self._loaded = True
+            for i, name in self._native_in:
+                v[i] = values[name]
+            if plan.fn(plan.const, v, t, h) == 0:
+                values.update(zip(self._native_out, self._pick(v[:self._native_n])))
+                return
+            plan.store(model)       # not taken: the Python step takes it or says why not
+            self._loaded = False
         push(model, values)
         model.do_step(t, h)
         pull(model, values)
 
 
-def run_direct(scene: Scene) -> Result:
-    """Run ``scene`` with direct physics calls; returns a :class:`Result` like the master's."""
+def run_direct(scene: Scene, native: bool = True) -> Result:
+    """Run ``scene`` with direct physics calls; returns a :class:`Result` like the master's.
+    ``native``: the models' native steps where they have them (:meth:`DirectInstance.use_native`),
+    as the FMUs' bridge runs them; False: every step in Python."""
     t0 = time.perf_counter()
     insts = {}
     for spec in scene.instances:
@@ -93,6 +142,16 @@ def run_direct(scene: Scene) -> Result:
                 insts[name].initialize()
         except Exception as e:
             raise RunFailure(name, 0.0, str(e)) from None
+        if native:   # each model's native step where it covers what the run reads and sets
+            read = {n: {fv for dests in by_dest.values() for _, src, fv in dests if src == n} for n in insts}
+            written = {n: {tv for tv, _, _ in by_dest[n]} for n in insts}
+            for (i, v), _ in profiles:
+                written[i].add(v)
+            for r in scene.record:
+                i, v = r.split(".", 1)
+                read[i].add(v)
+            for name in order:
+                insts[name].use_native(read[name], written[name])
         setup = time.perf_counter() - t0
         t_loop = time.perf_counter()
         rows.append([0.0] + [d[k] for d, k in record])

@@ -7,6 +7,6 @@ Plain Python (numpy only: the solvers are our own, :mod:`spurdiff.numerics`); no
 * :mod:`spurdiff.differential` and :mod:`spurdiff.vehicle`: the models;
 * :mod:`spurdiff.gears`: the gear set (geometry, checks, pin layout, phasing);
 * the core at the top: :mod:`.errors`, :mod:`.datafile` (with ``data/``), :mod:`.numerics`,
-  :mod:`.native_library`; this module imports nothing.
+  :mod:`.native_library`, :mod:`.native_step`; this module imports nothing.
 """
 __version__ = "0.1.0"

@@ -140,7 +140,22 @@ def fmi_call_cost(scene_name: str, calls: int = 2000) -> dict:
     return out
 
 
-def fmi_path_cost(scene_name: str = "vehicle-cornering", repeats: int = 5) -> dict:
+def python_step_sets(scene_name: str) -> list[str]:
+    """The overrides that step every instance whose FMU has a native step (``solver.nativeStep``:
+    the whole step in C, :mod:`spurdiff.native_step`) through its Python model instead."""
+    import importlib
+
+    from harness.build import FMUS
+
+    out = []
+    for spec in load_scene(scene_name).instances:
+        iface = importlib.import_module(FMUS[spec.fmu])
+        if any(v.name == "solver.nativeStep" for v in iface.VARIABLES):
+            out.append(f"{spec.name}.solver.nativeStep=false")
+    return out
+
+
+def fmi_path_cost(scene_name: str = "vehicle-cornering", repeats: int = 5, sets: list[str] | None = None) -> dict:
     """The FMI path without the physics: the scene through FMI and directly, interleaved, with
     every model's ``do_step`` a no-op (the models' classes patched for the measurement: this
     process's and the FMUs' own copies, which they import under a private name,
@@ -150,12 +165,13 @@ def fmi_path_cost(scene_name: str = "vehicle-cornering", repeats: int = 5) -> di
     the loader, the bridge and the adapter, the getReal calls and the master's Python. The
     outputs do not change, so the master skips the setReal of unchanged inputs (only the
     profiles' remain): ``setreal_calls_per_step`` counts those of the real run, for the
-    difference. Microseconds per communication step."""
+    difference. Microseconds per communication step. The native steps are off (every model steps
+    through its Python ``do_step``: this is the cost of that path); ``sets``: more overrides."""
     import harness.direct as hd
     import harness.fmi.instance as hi
     import harness.master as hm
 
-    scene = prepare_scene(scene_name)
+    scene = prepare_scene(scene_name, sets=python_step_sets(scene_name) + list(sets or []))
     files = fmu_files_for(scene)
     classes = set()
     for spec in scene.instances:   # the model classes the scene builds

@@ -2,9 +2,10 @@
 with its half-shafts (:mod:`spurdiff.differential.shaft_kernel`, with the rigid level's
 :mod:`spurdiff.differential.rigid_kernel`) save on vehicle-cornering: A/B in one process,
 interleaved (``solver.kernel = python`` on the car, both wheels and the differential, the reference,
-against ``compiled``; in the direct runs also ``shafts python``: everything compiled but the
-differential's half-shaft step, the state before the shaft kernel), CPU time of the stepping
-thread, fastest of ``rounds`` runs each:
+against ``compiled``, the kernels inside the Python models' steps, and ``native``, compiled with the
+car's and the wheels' whole steps in C (``solver.nativeStep``, :mod:`spurdiff.native_step`); in the
+direct runs also ``shafts python``: everything compiled but the differential's half-shaft step, the
+state before the shaft kernel), CPU time of the stepping thread, fastest of ``rounds`` runs each:
 
 * the cost per communication step of each instance in the direct run and of it in the model's
   ``do_step`` (:func:`harness.bench.core.step_cost_breakdown`), with the differential's inner
@@ -24,15 +25,20 @@ import os
 from harness.bench.core import fmi_overhead, fmi_path_cost, step_cost_breakdown
 from harness.build import kernel_library
 
-KERNELS = ("python", "compiled")
-CONFIGS = ("python", "shafts python", "compiled")    # the direct runs' breakdown
+KERNELS = ("python", "compiled", "native")
+CONFIGS = ("python", "shafts python", "compiled", "native")    # the direct runs' breakdown
 SCENE = "vehicle-cornering"
 VEHICLE_INSTANCES = ("car", "wheelL", "wheelR", "diff")
+NATIVE_INSTANCES = ("car", "wheelL", "wheelR")     # those with a native step (solver.nativeStep)
 
 
 def sets_for(kernel: str) -> list[str]:
-    """The scene overrides that select ``kernel`` for the car and the wheels."""
-    return [f"{i}.solver.kernel={kernel}" for i in VEHICLE_INSTANCES]
+    """The scene overrides that select ``kernel`` for the car, the wheels and the differential:
+    python, compiled (the compiled kernels inside the Python models' steps: solver.nativeStep
+    false) or native (compiled, and the car's and the wheels' whole steps in C)."""
+    impl = "python" if kernel == "python" else "compiled"
+    return ([f"{i}.solver.kernel={impl}" for i in VEHICLE_INSTANCES]
+            + [f"{i}.solver.nativeStep={'true' if kernel == 'native' else 'false'}" for i in NATIVE_INSTANCES])
 
 
 @contextlib.contextmanager
@@ -59,6 +65,8 @@ def part_costs(rounds: int) -> dict[str, dict]:
         for k in CONFIGS:
             with _shafts_in_python(k == "shafts python"):
                 o = step_cost_breakdown(SCENE, 3, sets=sets_for("compiled" if k == "shafts python" else k))
+            if k == "native":   # no do_step: the whole step in C (what the instance's time shows)
+                o["model_us"] = {n: v for n, v in o["model_us"].items() if n not in NATIVE_INSTANCES}
             rows = {**{n: v for n, v in o["us_per_step"].items()},
                     **{f"{n} do_step": v for n, v in o["model_us"].items()},
                     **{f"{n} inner steps": v[0] for n, v in o["inner_us"].items()},
@@ -94,7 +102,8 @@ def run(rounds: int = 5) -> int:
     print(f"  {'part':28s} " + " ".join(f"{k:>14s}" for k in CONFIGS))
     for key in keys:
         print(f"  {key:28s} " + " ".join(f"{best[k].get(key, float('nan')):14.1f}" for k in CONFIGS))
-    print("  (nan: not called in that configuration; the compiled differential steps its inner model in C)")
+    print("  (nan: not called in that configuration; the compiled differential steps its inner model in C; native:\n"
+          "  the car's and the wheels' whole steps in C (solver.nativeStep), no do_step)")
     for k in CONFIGS:
         tot = sum(v for n, v in best[k].items() if " " not in n)
         print(f"  sum of the instances, {k}: {tot:.1f} us")
@@ -106,7 +115,7 @@ def run(rounds: int = 5) -> int:
               f" us/step  FMI / direct {o['ratio_cpu']:.3f}  real-time factor FMI {o['simulated_s'] / o['fmi_cpu_s']:6.1f}"
               f"  direct {o['simulated_s'] / o['direct_cpu_s']:6.1f}")
     path = fmi_path_cost(SCENE, repeats=rounds)
-    print(f"the FMI path without the physics (every do_step a no-op, CPU time, fastest of {rounds}): FMI "
+    print(f"the FMI path without the physics (native steps off, every do_step a no-op, CPU time, fastest of {rounds}): FMI "
           f"{path['fmi_us']:.1f} us, direct {path['direct_us']:.1f} us per step: {path['per_instance_us']:.1f} us "
           f"per instance and step")
     print(f"({load_line()})")

@@ -28,6 +28,13 @@
  * While the slave steps, fmi2GetReal and fmi2SetReal read and store its value table here instead
  * (the fast Real get/set below: the slave's fmi2_real_plan once per vector, its `phase` at every
  * call).
+ * The native step: a model whose whole communication step is compiled (the slave's
+ * fmi2_native_enter gives its plan: a C function over one array of doubles, the value-table names
+ * of its slots) steps here without Python: fmi2DoStep calls the function, fmi2SetReal and
+ * fmi2GetReal store and read the array. Any other call into the slave first hands the state back
+ * (fmi2_native_leave), so the slave never sees a stale model; a step the function does not take
+ * (an input it refuses, a non-finite result, a time the adapter would refuse) runs as the slave's
+ * fmi2_do_step, which takes it or says why not (see the native section below).
  * A Python exception becomes fmi2Error with the exception logged; the instance stays usable.
  * After each call the slave's `log_queue` (pythonfmu LogMsg objects) is passed to the host's
  * logger (see emit: '%' escaped, so the slave's text is never taken as a format).
@@ -107,6 +114,9 @@ typedef struct {
     PyObject *tuple;
     PyObject *names;          /* fast path: tuple of str; Py_None: none; NULL: not asked yet */
     double *lo, *hi;          /* setter: the accepted range of each value */
+    int *pos;                 /* native step: the slot of each value in the plan's array */
+    int pos_state;            /* 0 not asked, 1 every value has a slot, -1 not all (the slave's path) */
+    unsigned long pos_plan;   /* the plan the slots are of (its number, nat.gen) */
 } VrEntry;
 
 typedef struct {
@@ -128,7 +138,26 @@ typedef struct {
     PyObject *methods[N_METHODS];
     PyObject *strings;        /* keeps the buffers of the last fmi2GetString alive */
     VrCache vrc[N_METHODS];   /* per getter/setter method */
+    struct {                  /* the native step (see the native section) */
+        int never;            /* the slave has none (asked once per slave) */
+        int on;               /* the model's state is in v, not in the slave */
+        int bad;              /* an input outside its range was stored while on */
+        long steps;           /* the steps taken while on */
+        int64_t (*fn)(const double *, double *, double, double);
+        const double *ctx;
+        double *v;
+        PyObject *plan;       /* the slave's plan tuple (keeps the arrays alive), NULL: none */
+        unsigned long gen;    /* the number of the plan taken (a new plan: the slots looked up again) */
+        PyObject *names;      /* the slots' value-table names (str or None) */
+        Py_ssize_t n_in;      /* the first n_in slots are the inputs */
+        PyObject *cnames;     /* the Real parameters' names: constant while stepping natively */
+        double *cv;           /* their values (read by fmi2GetReal from here) */
+        double time, stop, stop_tol;
+    } nat;
 } Instance;
+
+static int native_leave(Instance *I);   /* the native step (its section below) */
+static void native_drop(Instance *I);
 
 typedef struct {
     unsigned magic;
@@ -410,8 +439,12 @@ static void drop_entry(VrEntry *e)
     free(e->vr);
     free(e->lo);
     free(e->hi);
+    free(e->pos);
     e->vr = NULL;
     e->lo = e->hi = NULL;
+    e->pos = NULL;
+    e->pos_state = 0;
+    e->pos_plan = 0;
     e->n = 0;
 }
 
@@ -536,6 +569,7 @@ void fmi2FreeInstance(fmi2Component c)
     flush_log(I);
     drop_methods(I);
     drop_vr_caches(I);
+    native_drop(I);
     Py_CLEAR(I->klass);
     Py_CLEAR(I->strings);
     release_alias(I);
@@ -544,11 +578,16 @@ void fmi2FreeInstance(fmi2Component c)
 }
 
 /* ------------------------------------------------------------------------------ calls */
+
 #define ENTER                                                                                      \
     Instance *I = valid(c);                                                                        \
     if (!I) return fmi2Error;                                                                      \
     PyGILState_STATE g = PyGILState_Ensure();                                                      \
-    fmi2Status s;
+    fmi2Status s;                                                                                  \
+    if (I->nat.on && native_leave(I) != 0) {                                                       \
+        s = fmi2Error;                                                                             \
+        LEAVE                                                                                      \
+    }
 
 #define LEAVE                                                                                      \
     flush_log(I);                                                                                  \
@@ -595,7 +634,7 @@ SIMPLE_CALL(fmi2CancelStep, M_CANCEL_STEP)
 fmi2Status fmi2Reset(fmi2Component c)
 {
     ENTER
-    if (make_slave(I) == 0) { drop_vr_caches(I); s = fmi2OK; }   /* the plans were the old slave's */
+    if (make_slave(I) == 0) { drop_vr_caches(I); native_drop(I); s = fmi2OK; }   /* the plans were the old slave's */
     else s = status_of(I, NULL, "fmi2Reset");   /* the old slave stays */
     LEAVE
 }
@@ -757,6 +796,197 @@ static int fast_set_real(Instance *I, const fmi2ValueReference vr[], size_t n, c
     return 1;
 }
 
+/* ------------------------------------------------------------------------------ native step
+ * The slave's fmi2_native_enter() (GIL held) answers False (no native step for this slave: never
+ * asked again until fmi2Reset), None (not now: not stepping, inputs unchecked...), or
+ * (time, stop, stop_tol, plan, parameters) having written its model's state into the plan's
+ * array; plan is (function, constants, array, names, n_in, parameter names): the addresses of
+ * int64_t function(const double *constants, double *array, double t, double h) (0: the step is
+ * taken, its outputs in the array; else nothing but scratch changed) and of the two arrays, the
+ * value-table name (or None) of each slot, the first n_in slots the inputs, and the names of the
+ * Real parameters, whose values (parameters, a tuple) fmi2GetReal reads here too (a parameter set
+ * while stepping goes through the slave: the state is handed back first). The same plan object
+ * while the slave's model is the same; a new one makes the value-reference slots be looked up
+ * again. fmi2_native_leave(time, bad, steps) takes the state back into the slave (its value table,
+ * its model, its time; bad: an input outside its range was stored since).
+ * While on, fmi2DoStep checks what the adapter checks first (a positive finite step, the FMU's
+ * time, the stop time; spurdiff/fmi/adapter.py, fmi2_do_step) and calls the function without the
+ * GIL; fmi2SetReal and fmi2GetReal of vectors whose every value has a slot (a setter: an input
+ * slot) store and read the array (a setter checks the declared ranges as the fast path above). */
+static void native_drop(Instance *I)
+{
+    Py_CLEAR(I->nat.plan);
+    Py_CLEAR(I->nat.names);
+    Py_CLEAR(I->nat.cnames);
+    free(I->nat.cv);
+    I->nat.cv = NULL;
+    I->nat.on = I->nat.bad = 0;
+    I->nat.never = 0;
+    I->nat.fn = NULL;
+    I->nat.ctx = NULL;
+    I->nat.v = NULL;
+}
+
+/* Take the plan tuple (GIL held): 0, or -1 (not usable: the slave's path). */
+static int native_take_plan(Instance *I, PyObject *plan)
+{
+    if (plan == I->nat.plan) return 0;
+    unsigned long long fn, ctx, v;
+    PyObject *names, *cnames;
+    Py_ssize_t n_in;
+    if (!PyTuple_Check(plan)
+        || !PyArg_ParseTuple(plan, "KKKO!nO!", &fn, &ctx, &v, &PyTuple_Type, &names, &n_in, &PyTuple_Type, &cnames)
+        || !fn || !v || n_in < 0 || n_in > PyTuple_GET_SIZE(names)) {
+        PyErr_Clear();
+        return -1;
+    }
+    double *cv = (double *)calloc((size_t)PyTuple_GET_SIZE(cnames) + 1, sizeof *cv);
+    if (!cv) return -1;
+    free(I->nat.cv);
+    I->nat.cv = cv;
+    Py_INCREF(plan);
+    Py_INCREF(names);
+    Py_INCREF(cnames);
+    Py_XSETREF(I->nat.plan, plan);
+    Py_XSETREF(I->nat.names, names);
+    I->nat.gen++;
+    Py_XSETREF(I->nat.cnames, cnames);
+    I->nat.fn = (int64_t (*)(const double *, double *, double, double))(uintptr_t)fn;
+    I->nat.ctx = (const double *)(uintptr_t)ctx;
+    I->nat.v = (double *)(uintptr_t)v;
+    I->nat.n_in = n_in;
+    return 0;
+}
+
+/* Hand the state to the array (GIL held): 1 on, 0 not (the slave's path; no error set). */
+static int native_enter(Instance *I)
+{
+    if (I->nat.never || !I->slave) return 0;
+    PyObject *r = PyObject_CallMethod(I->slave, "fmi2_native_enter", NULL);
+    int on = 0;
+    if (r == Py_False) {
+        I->nat.never = 1;
+    } else if (r && r != Py_None) {
+        PyObject *plan = NULL, *pv = NULL;
+        double t, stop, tol;
+        int ok = PyArg_ParseTuple(r, "dddOO!", &t, &stop, &tol, &plan, &PyTuple_Type, &pv) && native_take_plan(I, plan) == 0
+                 && PyTuple_GET_SIZE(pv) == PyTuple_GET_SIZE(I->nat.cnames);
+        for (Py_ssize_t j = 0; ok && j < PyTuple_GET_SIZE(pv); j++) {
+            I->nat.cv[j] = PyFloat_AsDouble(PyTuple_GET_ITEM(pv, j));
+            ok = !PyErr_Occurred();
+        }
+        if (ok) {
+            I->nat.time = t;
+            I->nat.stop = stop;
+            I->nat.stop_tol = tol;
+            I->nat.bad = 0;
+            I->nat.steps = 0;
+            I->nat.on = on = 1;
+        } else {
+            I->nat.never = 1;   /* a plan the bridge cannot take: the slave's path from now on */
+        }
+    }
+    if (!r || PyErr_Occurred()) {   /* a slave without the method (not ours) or a failure: never */
+        PyErr_Clear();
+        I->nat.never = 1;
+    }
+    Py_XDECREF(r);
+    return on;
+}
+
+/* Take the state back into the slave (GIL held): 0, or -1 (logged; the slave's state is then
+ * its own as before the native steps: it reports the failure). */
+static int native_leave(Instance *I)
+{
+    if (!I->nat.on) return 0;
+    I->nat.on = 0;
+    PyObject *r = PyObject_CallMethod(I->slave, "fmi2_native_leave", "dil", I->nat.time, I->nat.bad, I->nat.steps);
+    I->nat.bad = 0;
+    if (!r) {
+        status_of(I, NULL, "taking the native step's state back");
+        return -1;
+    }
+    Py_DECREF(r);
+    return 0;
+}
+
+/* The step by the function (no GIL needed: the array only): 1 taken, 0 not (nothing changed). */
+static int native_step(Instance *I, double t, double h)
+{
+    if (I->nat.bad || !(h > 0.0 && h < INFINITY)) return 0;
+    double at = t >= 0.0 ? t : -t;
+    if (!(fabs(t - I->nat.time) <= 1e-9 * (at > 1.0 ? at : 1.0) + 1e-6 * h) || at == INFINITY) return 0;
+    if (t + h > I->nat.stop + (I->nat.stop_tol + 1e-6 * h)) return 0;
+    if (I->nat.fn(I->nat.ctx, I->nat.v, t, h) != 0) return 0;
+    I->nat.time = t + h;
+    I->nat.steps++;
+    return 1;
+}
+
+/* The slots of the entry's values (GIL held for a new entry): the entry, or NULL (the slave's
+ * path). A setter's values must all be inputs. */
+static VrEntry *native_slots(Instance *I, int method, const fmi2ValueReference vr[], size_t n)
+{
+    VrCache *c = &I->vrc[method];
+    for (int k = 0; k < VR_SLOTS; k++) {   /* the hot path: a vector seen before, no Python */
+        VrEntry *e = &c->e[k];
+        if (e->tuple && e->n == n && e->pos_plan == I->nat.gen && (n == 0 || memcmp(e->vr, vr, n * sizeof *vr) == 0))
+            return e->pos_state == 1 ? e : NULL;
+    }
+    PyGILState_STATE g = PyGILState_Ensure();
+    int write = method == M_SET_REAL;
+    VrEntry *e = vr_entry(I, method, vr, n);
+    if (e && plan_of(I, e, write)) {
+        int *pos = (int *)malloc((n ? n : 1) * sizeof *pos);
+        Py_ssize_t slots = write ? I->nat.n_in : PyTuple_GET_SIZE(I->nat.names);
+        Py_ssize_t consts = write ? 0 : PyTuple_GET_SIZE(I->nat.cnames);
+        int ok = pos != NULL;
+        for (size_t i = 0; ok && i < n; i++) {
+            PyObject *name = PyTuple_GET_ITEM(e->names, (Py_ssize_t)i);
+            pos[i] = -1;   /* a slot j as j, a parameter j as -2 - j */
+            for (Py_ssize_t j = 0; j < slots; j++) {
+                PyObject *x = PyTuple_GET_ITEM(I->nat.names, j);
+                if (PyUnicode_Check(x) && PyUnicode_Compare(x, name) == 0) { pos[i] = (int)j; break; }
+            }
+            for (Py_ssize_t j = 0; pos[i] == -1 && j < consts; j++)
+                if (PyUnicode_Compare(PyTuple_GET_ITEM(I->nat.cnames, j), name) == 0) pos[i] = -2 - (int)j;
+            ok = pos[i] != -1;
+        }
+        free(e->pos);
+        e->pos = pos;
+        e->pos_state = ok ? 1 : -1;
+        e->pos_plan = I->nat.gen;
+    } else if (e) {
+        e->pos_state = -1;
+        e->pos_plan = I->nat.gen;
+    }
+    if (PyErr_Occurred()) PyErr_Clear();
+    PyGILState_Release(g);
+    return (e && e->pos_state == 1) ? e : NULL;
+}
+
+static int native_get_real(Instance *I, const fmi2ValueReference vr[], size_t n, fmi2Real v[])
+{
+    VrEntry *e = native_slots(I, M_GET_REAL, vr, n);
+    if (!e) return 0;
+    for (size_t i = 0; i < n; i++) {
+        int p = e->pos[i];
+        v[i] = p >= 0 ? I->nat.v[p] : I->nat.cv[-2 - p];
+    }
+    return 1;
+}
+
+static int native_set_real(Instance *I, const fmi2ValueReference vr[], size_t n, const fmi2Real v[])
+{
+    VrEntry *e = native_slots(I, M_SET_REAL, vr, n);
+    if (!e) return 0;
+    for (size_t i = 0; i < n; i++) {
+        I->nat.v[e->pos[i]] = v[i];
+        if (!(e->lo[i] <= v[i] && v[i] <= e->hi[i])) I->nat.bad = 1;   /* NaN too */
+    }
+    return 1;
+}
+
 /* Call a getter; on success a sequence of exactly n items is returned (new reference). */
 static PyObject *get_values(Instance *I, int method, const fmi2ValueReference vr[], size_t n, const char *fn,
                             fmi2Status *s)
@@ -853,8 +1083,9 @@ fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
     Instance *I = valid(c);
     if (!I) return fmi2Error;
     if (n && (!vr || !v)) return slow_fmi2GetReal(c, vr, n, v);
+    if (I->nat.on && native_get_real(I, vr, n, v)) return fmi2OK;
     PyGILState_STATE g = PyGILState_Ensure();
-    int done = fast_get_real(I, vr, n, v);
+    int done = !I->nat.on && fast_get_real(I, vr, n, v);
     if (done) flush_log(I);
     PyGILState_Release(g);
     return done ? fmi2OK : slow_fmi2GetReal(c, vr, n, v);
@@ -865,9 +1096,10 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
     Instance *I = valid(c);
     if (!I) return fmi2Error;
     if (n && (!vr || !v)) return slow_fmi2SetReal(c, vr, n, v);
+    if (I->nat.on && native_set_real(I, vr, n, v)) return fmi2OK;
     PyGILState_STATE g = PyGILState_Ensure();
     fmi2Status s = fmi2OK;
-    int done = fast_set_real(I, vr, n, v, &s);
+    int done = !I->nat.on && fast_set_real(I, vr, n, v, &s);
     if (done) flush_log(I);
     PyGILState_Release(g);
     return done ? s : slow_fmi2SetReal(c, vr, n, v);
@@ -997,7 +1229,17 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte in[], size_t 
 /* ------------------------------------------------------------------------------ stepping */
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp)
 {
-    ENTER
+    Instance *I0 = valid(c);
+    if (!I0) return fmi2Error;
+    if (I0->nat.on && native_step(I0, t, h)) return fmi2OK;   /* the native step: no Python */
+    if (!I0->nat.on && !I0->nat.never) {
+        PyGILState_STATE g0 = PyGILState_Ensure();
+        int taken = native_enter(I0) && native_step(I0, t, h);
+        flush_log(I0);
+        PyGILState_Release(g0);
+        if (taken) return fmi2OK;
+    }
+    ENTER   /* (hands a native state back first) */
     PyObject *args[3] = {PyFloat_FromDouble(t), PyFloat_FromDouble(h), nsp ? Py_True : Py_False};
     s = status_of(I, (args[0] && args[1]) ? PyObject_Vectorcall(I->methods[M_DO_STEP], args, 3, NULL) : NULL,
                   "fmi2DoStep");

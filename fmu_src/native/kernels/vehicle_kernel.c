@@ -7,8 +7,8 @@
  * same operations in the same order (compiled with -ffp-contract=off, no fused multiply-adds), the
  * same libm functions (sin, cos, atan, tanh, sqrt, pow), so the two agree bit for bit
  * (tests/physics/test_vehicle_kernel.py). Python's x ** 2 is libm's pow(x, 2.0): the exponent
- * comes from the constants so the compiler cannot turn it into x * x. The car's speed output
- * (math.hypot, which CPython computes itself) is left to the caller.
+ * comes from the constants so the compiler cannot turn it into x * x. The car's speed output is
+ * sqrt(vx * vx + vy * vy) in both (not math.hypot, which CPython computes its own way).
  *
  * Car constants (vk_car_nconst() doubles, set once per initialized model; spurdiff/vehicle/kernel.py):
  *   0 m, 1 L, 2 l_f, 3 l_r (L - l_f), 4 h_cg, 5 B, 6 C, 7 E, 8 -f_rr, 9 v_rr, 10 k_aero
@@ -21,7 +21,7 @@
  *   23 sin(grade), 24 cos(grade), 25..28 the last outputs rearLeft_vx, rearRight_vx,
  *   rearLeft_Fz, rearRight_Fz;
  *   out 29..40 the state at the end, 41..58 the outputs in the order of car._OUTPUT_KEYS (the
- *   speed, 47, left to the caller: 0), 59 the number of sub-steps.
+ *   speed 47 among them), 59 the number of sub-steps.
  * Returns 0, or 1 when the result is not finite (io's outputs then meaningless).
  *
  * Wheel constants (vk_wheel_nconst()): 0 J, 1 R, 2 B, 3 C, 4 E, 5 k_max, 6 f_rr, 7 1/w_eps,
@@ -40,17 +40,21 @@
 #include <math.h>
 #include <stdint.h>
 
-#define VK_ABI 1
+#define VK_ABI 2
 #define CAR_NCONST 29
 #define CAR_NIO 60
+#define CAR_NV 119
 #define WHEEL_NCONST 12
 #define WHEEL_NIO 48
+#define WHEEL_NV 103
 
 int64_t vk_abi(void) { return VK_ABI; }
 int64_t vk_car_nconst(void) { return CAR_NCONST; }
 int64_t vk_car_nio(void) { return CAR_NIO; }
+int64_t vk_car_nv(void) { return CAR_NV; }
 int64_t vk_wheel_nconst(void) { return WHEEL_NCONST; }
 int64_t vk_wheel_nio(void) { return WHEEL_NIO; }
+int64_t vk_wheel_nv(void) { return WHEEL_NV; }
 
 /* The terms make_rates binds once per step (the inputs held or ramping over it). */
 typedef struct {
@@ -216,7 +220,7 @@ int64_t vk_car_step(const double *k, double *io)
     o[3] = half + dFz;
     o[4] = ex[1];
     o[5] = ex[2];
-    o[6] = 0.0;                                         /* speed: math.hypot, by the caller */
+    o[6] = sqrt(vx * vx + s[1] * s[1]);                 /* speed (car._outputs) */
     o[7] = r;
     o[8] = ex[3];
     o[9] = ex[4];
@@ -230,7 +234,7 @@ int64_t vk_car_step(const double *k, double *io)
     for (int i = 0; i < 12; i++)
         ok &= isfinite(s[i]) != 0;
     for (int i = 0; i < 16; i++)
-        ok &= isfinite(o[i]) != 0;
+        ok &= isfinite(o[i]) != 0;   /* (the speed among them) */
     if (!ok)
         return 1;
     /* the rates of the wheel-side outputs: their mean over the step */
@@ -359,5 +363,145 @@ int64_t vk_wheel_step(const double *kc, double *io)
     io[44] = R * dF * kdot;
     io[45] = dF > 0.0 ? R * R * dF / sigma : 0.0;
     io[46] = fabs(v1) / sigma;
+    return 0;
+}
+
+/* The car's whole communication step on its value array v (spurdiff.vehicle.kernel.CarNative, the
+ * native step a host calls without Python: Vehicle._load_inputs, _step_compiled and the outputs the
+ * FMU reads, in the same operations). v (CAR_NV doubles):
+ *   0..8 the inputs rearLeft_Fx, rearRight_Fx, speedTarget, pathRadius, speedTargetRate,
+ *   pathRadiusRate, steering_angle_cmd, grade, mu;
+ *   9..26 the outputs of car._OUTPUT_KEYS, 27..31 vx, vy, x, y, psi, 32 kinetic_energy;
+ *   33..44 the state s, 45 the model's time, 46 n_steps, 47 n_substeps;
+ *   48..107 the io array of vk_car_step (scratch); 108, 109 the grade's allowed range;
+ *   110..118 the inputs the last step took (the model's input attributes after it).
+ * Returns 0 (done), 1 (a non-finite result) or 2 (an input the model refuses, h not positive
+ * and finite); on 1 and 2 nothing in v but the scratch changed: the caller runs the Python step,
+ * which takes the same step or says what is wrong. */
+int64_t vk_car_native(const double *k, double *v, double t, double h)
+{
+    const double FxL = v[0], FxR = v[1], vref = v[2], R = v[3], dvref = v[4], dR = v[5], dcmd = v[6];
+    const double gr = v[7], mu = v[8];
+    if (!(isfinite(FxL + FxR + vref + dcmd + gr + mu) && R == R && mu >= 0.0 && v[108] <= gr && gr <= v[109]
+          && isfinite(dvref + dR) && h > 0.0 && h < INFINITY))
+        return 2;
+    double *io = v + 48;
+    for (int i = 0; i < 12; i++)
+        io[i] = v[33 + i];
+    const double kappa = (R == 0.0 || isinf(R)) ? 0.0 : 1.0 / R;
+    io[12] = h; io[13] = FxL; io[14] = FxR; io[15] = vref; io[16] = dcmd; io[17] = mu; io[18] = dvref;
+    io[19] = dR; io[20] = R; io[21] = kappa; io[22] = atan(k[1] * kappa); io[23] = sin(gr); io[24] = cos(gr);
+    io[25] = v[9]; io[26] = v[10]; io[27] = v[11]; io[28] = v[12];
+    if (vk_car_step(k, io))
+        return 1;
+    for (int i = 0; i < 18; i++)
+        v[9 + i] = io[41 + i];
+    for (int i = 0; i < 12; i++)
+        v[33 + i] = io[29 + i];
+    const double *s = v + 33;
+    v[27] = s[0]; v[28] = s[1]; v[29] = s[4]; v[30] = s[5]; v[31] = s[3];
+    v[32] = 0.5 * k[0] * (s[0] * s[0] + s[1] * s[1]) + 0.5 * k[12] * s[2] * s[2];
+    v[45] = t + h;
+    v[46] += 1.0;
+    v[47] += io[59];
+    for (int i = 0; i < 9; i++)
+        v[110 + i] = v[i];
+    return 0;
+}
+
+/* The wheel's whole communication step on its value array v (spurdiff.vehicle.kernel.WheelNative:
+ * WheelLoad.do_step with its compiled sub-steps, both couplings, and the outputs the FMU reads, in
+ * the same operations). v (WHEEL_NV doubles):
+ *   0..8 the inputs flange_phi, flange_w, Fz, mu, tau_in, dw_in, vx, dFz, dvx;
+ *   9..31 the outputs flange_tau, Fx, wheel_w, phi, sur_a, sur_invJ, sur_dadw, sur_qrate, sur_ct,
+ *   sur_rt, slip, shaft_tau, shaft_power, theta, work_flange, work_road, loss_damping, loss_slip,
+ *   loss_rolling, energy_dissipated, kinetic_energy, potential_energy, energy_residual;
+ *   32..40 the state w, k, phi_ref, w_anchor, t, n_steps, n_substeps, KE0, PE0;
+ *   41..45 the configuration: wheel mode (shaftCoupling = wheel), interfaceStiffness, rampAnchor =
+ *   end, followFlangeAngle, h_max; 46..93 the io array of vk_wheel_step (scratch); 94..102 the
+ *   inputs the last step took (the model's input attributes after it).
+ * Returns 0 (done), 1 or 2 (vk_wheel_step's failures), 3 (a non-finite result), 4 (an input the
+ * model refuses, h not positive and finite); on failure nothing in v but the scratch changed. */
+int64_t vk_wheel_native(const double *kc, double *v, double t, double h)
+{
+    const double phi_in = v[0], w_in = v[1], mu = v[3], tau_in = v[4], dw_in = v[5];
+    double Fz = v[2], vx = v[6];
+    const double dFz = v[7], dv = v[8];
+    const int wheel_mode = v[41] != 0.0;
+    if (!(isfinite(phi_in + w_in + Fz + mu + vx) && mu >= 0.0 && h > 0.0 && h < INFINITY && isfinite(dFz + dv)))
+        return 4;
+    if (wheel_mode && !isfinite(tau_in + dw_in))
+        return 4;
+    Fz = Fz > 0.0 ? Fz : 0.0;
+    double Fz0 = Fz, v0 = vx;          /* WheelLoad._ramp */
+    if (!(dFz == 0.0 && dv == 0.0)) {
+        if (v[43] != 0.0) {
+            Fz0 = Fz - dFz * h;
+            v0 = vx - dv * h;
+        } else {
+            const double Fz1 = Fz + dFz * h;
+            Fz = Fz1 > 0.0 ? Fz1 : 0.0;
+            vx = vx + dv * h;
+        }
+    }
+    const double c = kc[10], d = kc[11], J = kc[0];
+    double n = ceil(h / v[45] - 1e-9);
+    if (n < 1.0)
+        n = 1.0;
+    double *io = v + 46;
+    double theta = v[22], work_flange = v[23];
+    if (wheel_mode) {
+        const double k_if = v[42] != 0.0 ? 1.0 : 0.0, w0 = v[32];
+        const double in[28] = {h / n, n, w0, dw_in, v0, Fz0, mu, k_if * c, k_if * d, tau_in, dFz, dv, 1.0,
+                               0.0, w0, v[33], v[12], work_flange, v[25], v[24], v[26], v[27],
+                               w0 + dw_in, vx, Fz, tau_in, k_if, 1.0};
+        for (int i = 0; i < 28; i++)
+            io[i] = in[i];
+    } else {
+        if (v[44] != 0.0 && v[37] > 0.0) {   /* followFlangeAngle: the twist follows the flange angle */
+            const double dphi = phi_in - v[34];
+            if (dphi != 0.0) {
+                const double th0 = theta;
+                theta = th0 + dphi;
+                work_flange += 0.5 * c * (theta * theta - th0 * th0);
+            }
+        }
+        const double in[28] = {h / n, n, w_in, 0.0, v0, Fz0, mu, c, d, 0.0, dFz, dv, 0.0,
+                               theta, v[32], v[33], v[12], work_flange, v[25], v[24], v[26], v[27],
+                               w_in, vx, Fz, 0.0, 0.0, 0.0};
+        for (int i = 0; i < 28; i++)
+            io[i] = in[i];
+    }
+    const int64_t rc = vk_wheel_step(kc, io);
+    if (rc)
+        return rc;
+    const double *o = io + 28;   /* theta w k phi work_flange loss_damping work_road loss_slip loss_rolling,
+                                    shaft_tau flange_tau Fx shaft_power, sur_a .. sur_rt */
+    if (wheel_mode && !(isfinite(o[1] + o[2] + o[3] + o[9] + o[11])))
+        return 3;
+    const double w = o[1], ke = 0.5 * J * w * w;
+    const double pe = wheel_mode ? 0.0 : 0.5 * c * o[0] * o[0];
+    const double diss = o[5] + o[7] + o[8];
+    const double resid = o[4] - o[6] - (ke - v[39]) - (pe - v[40]) - diss;
+    const double out[23] = {o[10], o[11], w, o[3], o[13], o[14], o[15], o[16], o[17], o[18], o[2], o[9], o[12],
+                            o[0], o[4], o[6], o[5], o[7], o[8], diss, ke, pe, resid};
+    int ok = 1;
+    for (int i = 0; i < 23; i++)
+        ok &= isfinite(out[i]) != 0;
+    if (!ok)
+        return 3;
+    if (wheel_mode)
+        v[35] = v[32];                  /* w_anchor: the speed at the step's start */
+    else
+        v[34] = phi_in + w_in * h;      /* phi_ref */
+    for (int i = 0; i < 23; i++)
+        v[9 + i] = out[i];
+    v[32] = w;
+    v[33] = o[2];
+    v[36] = t + h;
+    v[37] += 1.0;
+    v[38] += n;
+    for (int i = 0; i < 9; i++)
+        v[94 + i] = v[i];
     return 0;
 }

@@ -37,13 +37,17 @@ initialization that failed (only fmi2Reset and fmi2FreeInstance help then).
   state is validated (kind, version, fixed parameters, the parameter ranges) before it can be
   set, and a state of another fidelity is refused (:mod:`spurdiff.fmi.state`).
 
+A model with a native step (its whole step compiled, :mod:`spurdiff.native_step`) steps without
+Python while the host only steps it and sets and gets Reals: the bridge calls the compiled step and
+hands the state back before any other call reaches this class (:mod:`spurdiff.fmi.native_methods`).
+
 pythonfmu's own protocol (``do_step`` returning a bool, ``exit_initialization_mode``...) is kept
 on top, for an FMU built without a C compiler, which then runs on pythonfmu's wrapper.
 
 (The module is longer than the project's 400 lines because it is one state machine: one class,
 one method per FMI function, which the bridge calls one to one; the model side, the bindings, is
 :mod:`spurdiff.fmi.binding`, the FMU state :mod:`spurdiff.fmi.state`, what only the FMI 3.0 binary
-calls :mod:`spurdiff.fmi.fmi3_methods`.)
+calls :mod:`spurdiff.fmi.fmi3_methods`, the native step's two calls :mod:`spurdiff.fmi.native_methods`.)
 """
 from __future__ import annotations
 
@@ -57,6 +61,7 @@ from pythonfmu.enums import Fmi2Status
 from spurdiff.errors import ParameterError
 from spurdiff.fmi.binding import bindings
 from spurdiff.fmi.fmi3_methods import Fmi3Methods
+from spurdiff.fmi.native_methods import NativeMethods
 from spurdiff.fmi.state import DISCARD, ERROR, OK, WARNING, FmuStateMethods
 from spurdiff.fmi.variables import Var
 
@@ -89,7 +94,7 @@ def _getter(names: Sequence[str]) -> Callable[[dict], tuple]:
 _CACHE_LIMIT = 256   # value-reference vectors remembered per FMU instance (a host uses a few)
 
 
-class ModelFmu(Fmi3Methods, FmuStateMethods, Fmi2Slave):
+class ModelFmu(NativeMethods, Fmi3Methods, FmuStateMethods, Fmi2Slave):
     """Base class of the project's FMUs, made by :func:`fmu_class` from an interface module of
     this package (e.g. :mod:`spurdiff.fmi.differential_fmu`) that defines, without any FMI dependency:
 

@@ -175,6 +175,11 @@ VARIABLES: list[Var] = [
         "shipped in the FMU when it loads, else the Python reference, with the reason logged) | compiled "
         "(refuse to start without it) | python (the pure-Python reference; the same results bit for bit, "
         "slower)", None, None, "auto", kind="String", bind="kernel"),
+    Var("solver.nativeStep", "parameter", "With the compiled kernel in use: true = the whole communication step "
+        "runs in C without entering Python (the FMU's native step: the inputs checked, the step, the outputs; the "
+        "same results bit for bit; the state is handed back to Python before any other call reads it) | false = "
+        "every step runs through the Python model around the compiled kernel (for comparison)",
+        None, None, True, kind="Boolean", bind="nativeStep"),
     Var("solver.kernelInUse", "calculatedParameter", "Implementation that runs the wheel's implicit-midpoint sub-steps: "
         "compiled | python (and why)", None, None, "", kind="String"),
 ]

@@ -312,14 +312,25 @@ class Vehicle:
         bad = vk.fn(vk.const, io)
         s = io[29:41]
         out = io[41:59]
-        out[6] = math.hypot(s[0], s[1])     # the speed (CPython's hypot, not libm's)
-        if bad or not math.isfinite(out[6]):
+        if bad:
             raise StepError(f"vehicle: the step at t = {t:.6g} s gave a non-finite state; state kept")
         self.s = s
         self.n_substeps += int(io[59])
         self.t = t + h
         self.n_steps += 1
         self._set_outputs(out)
+
+    def native_step(self) -> "vehicle_kernel.CarNative | None":
+        """The whole step in C for a host that steps without Python (:mod:`spurdiff.native_step`), or
+        None (no compiled kernel in use, ``params.nativeStep`` false, or not initialized); the same plan
+        while the kernel is the same."""
+        vk = self._vk if self._ready and self.params.nativeStep else None
+        if vk is None:
+            return None
+        plan = self.__dict__.get("_native")
+        if plan is None or plan.const is not vk.const:
+            plan = self._native = vehicle_kernel.CarNative(vk, (_GRADE_MIN, _GRADE_MAX), _OUTPUT_KEYS)
+        return plan
 
     def _update_outputs(self) -> None:
         self._set_outputs(self._outputs(self.s))
@@ -339,7 +350,7 @@ class Vehicle:
         dFz = half if dFz > half else (-half if dFz < -half else dFz)
         sc = p.speedControl
         return (vx - r * half_t, vx + r * half_t, half - dFz, half + dFz, Fz_f, Fz_r,
-                math.hypot(vx, vy), r, ax, ay, min(max(u, sc.driveTorqueMin), sc.driveTorqueMax),
+                math.sqrt(vx * vx + vy * vy), r, ax, ay, min(max(u, sc.driveTorqueMin), sc.driveTorqueMax),
                 delta, Fyf, Fyr, d[0] - d[2] * half_t, d[0] + d[2] * half_t, 0.0, 0.0)
 
     def _set_outputs(self, out: tuple) -> None:

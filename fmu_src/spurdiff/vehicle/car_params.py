@@ -122,6 +122,8 @@ class VehicleParams:
     speedControl: SpeedControlParams = field(default_factory=SpeedControlParams)
     # implementation of the step (FMI solver.kernel; not data): auto | compiled | python (spurdiff.vehicle.kernel)
     kernel: str = "auto"
+    # the whole step in C without Python when the compiled kernel is in use (FMI solver.nativeStep; spurdiff.native_step)
+    nativeStep: int = 1
 
     @classmethod
     def from_data(cls, data: dict) -> "VehicleParams":
@@ -146,6 +148,8 @@ class VehicleParams:
         sc = self.speedControl
         if sc.driveTorqueMin > sc.driveTorqueMax:
             raise ParameterError("speedControl.driveTorqueMin", sc.driveTorqueMin, "<= driveTorqueMax")
+        if self.nativeStep not in (0, 1):
+            raise ParameterError("solver.nativeStep", self.nativeStep, "0 or 1 (false or true)")
 
 
 __all__ = [

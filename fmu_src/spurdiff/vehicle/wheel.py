@@ -296,6 +296,18 @@ class WheelLoad:
         and never commits a non-finite state (the FMU adapter then takes no snapshot)."""
         return getattr(self, "wheel_mode", False)
 
+    def native_step(self) -> "vehicle_kernel.WheelNative | None":
+        """The whole step in C for a host that steps without Python (:mod:`spurdiff.native_step`), or
+        None (no compiled kernel in use, ``params.nativeStep`` false, or not initialized); the same plan
+        while the kernel is the same."""
+        vk = self._vk if self._ready and self.params.nativeStep else None
+        if vk is None:
+            return None
+        plan = self.__dict__.get("_native")
+        if plan is None or plan.const is not vk.const:
+            plan = self._native = vehicle_kernel.WheelNative(vk, self)
+        return plan
+
     def _compiled(self, vk, hs: float, n: int, w_in: float, dw_in: float, v: float, Fz: float, mu: float,
                   c: float, d: float, tau0: float, dFz: float, dv: float, w_out: float, v_end: float,
                   Fz_end: float, tau_in: float, k_if: float, wheel_mode: bool) -> list:

@@ -64,6 +64,8 @@ class WheelLoadParams:
     rampAnchor: str = "start"
     # implementation of the sub-steps (FMI solver.kernel; not data): auto | compiled | python (spurdiff.vehicle.kernel)
     kernel: str = "auto"
+    # the whole step in C without Python when the compiled kernel is in use (FMI solver.nativeStep; spurdiff.native_step)
+    nativeStep: int = 1
 
     @classmethod
     def from_data(cls, data: dict) -> "WheelLoadParams":
@@ -97,6 +99,8 @@ class WheelLoadParams:
             raise ParameterError("wheelLoad.interfaceStiffness", self.interfaceStiffness, "0 or 1")
         if self.rampAnchor not in RAMP_ANCHORS:
             raise ParameterError("wheelLoad.rampAnchor", self.rampAnchor, " or ".join(RAMP_ANCHORS))
+        if self.nativeStep not in (0, 1):
+            raise ParameterError("solver.nativeStep", self.nativeStep, "0 or 1 (false or true)")
 
 
 __all__ = ["RAMP_ANCHORS", "SHAFT_COUPLINGS", "WheelLoadParams", "HalfShaftParams", "WheelParams"]

@@ -106,15 +106,18 @@ def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeyp
     assert "7. The model in its own process" in out and "one round trip (getReal's difference): 1.5 us" in out
     assert set(seen["sets"]) == set(bench.EFFECT_SETS)   # the fidelity settings reach section 2
     # 15000 steps: 200 us (FMI) and 100 us (direct) per step, 25 us per instance and step
-    assert "FMI 200 us, direct 100 us" in out and "= 25.0 us per instance and step" in out
-    assert "leaves 10 us per step" in out
+    assert "FMI 200 us, direct 100 us." in out and "leaves 2 us per step" in out   # 100x at 0.2 ms
+    # the same runs with the native steps off (the mock answers alike): the ratio of the two FMI runs
+    assert "(solver.nativeStep = false on car, wheelL, wheelR), wall medians: FMI 200 us, direct 100 us" in out
+    assert "the native steps make the FMI run 1.00x as fast" in out
     assert "Vehicle getReal(4) 2.0, setReal(2) 3.0, refused 1.0" in out
     # without the physics 5 us per instance and step, the mean get call 3 us (1 us of it ctypes); the real
     # run's 4 set calls per step at 4 us add 4 us per instance: 9 us, against the 25 us of the whole runs
     assert "FMI 50.0 us, direct 30.0 us per step, so 5.0 us per instance and step" in out
     assert "the step's getReal (3.0 us, 1.0 us of it the host's ctypes call)" in out
     assert "4.0 setReal calls per step (4.0 us each" in out
-    assert "add 4.0 us per instance: 9.0 us per instance and step, against 25.0 us measured above in wall time" in out
+    assert ("add 4.0 us per instance: 9.0 us per instance and step for a model stepped in Python, against 25.0 us "
+            "measured above in wall time with the native steps") in out
     assert "Recording the scene's 22 variables every 1 step(s) costs the FMI run 30 us per step" in out
     # 1.25 allows a quarter of the direct run's 100 us per step over 4 instances
     assert "the FMI path at most 6 us per instance and step" in out
@@ -129,8 +132,14 @@ def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeyp
 def test_step_cost_breakdown_splits_each_instance_and_the_differentials_inner_model(monkeypatch):
     from spurdiff.differential import shaft_kernel
 
-    b = bench.step_cost_breakdown("vehicle-cornering", repeats=1)
+    from harness.bench.core import python_step_sets
+
     names = {"car", "diff", "wheelL", "wheelR"}
+    sets = python_step_sets("vehicle-cornering")
+    assert sets == [f"{n}.solver.nativeStep=false" for n in ("car", "wheelL", "wheelR")]
+    native = bench.step_cost_breakdown("vehicle-cornering", repeats=1)
+    assert set(native["us_per_step"]) == names and set(native["model_us"]) == {"diff"}   # the rest steps in C
+    b = bench.step_cost_breakdown("vehicle-cornering", repeats=1, sets=sets)
     assert set(b["us_per_step"]) == names and set(b["model_us"]) == names
     for name in names:   # the model's do_step is a part of the instance's step
         assert 0.0 < b["model_us"][name] <= b["us_per_step"][name]
@@ -205,12 +214,17 @@ def test_vehicle_kernel_bench_measures_both_implementations_of_car_and_wheels(mo
     monkeypatch.setattr(vk, "step_cost_breakdown", once)
     best = vk.part_costs(1)
     assert seen == [(vk.sets_for("python"), "choose"), (vk.sets_for("compiled"), "<lambda>"),
-                    (vk.sets_for("compiled"), "choose")]
+                    (vk.sets_for("compiled"), "choose"), (vk.sets_for("native"), "choose")]
     assert shaft_kernel.choose.__name__ == "choose"
     assert vk.sets_for("python") == ["car.solver.kernel=python", "wheelL.solver.kernel=python",
-                                     "wheelR.solver.kernel=python", "diff.solver.kernel=python"]
+                                     "wheelR.solver.kernel=python", "diff.solver.kernel=python",
+                                     "car.solver.nativeStep=false", "wheelL.solver.nativeStep=false",
+                                     "wheelR.solver.nativeStep=false"]
+    assert vk.sets_for("native")[-3:] == ["car.solver.nativeStep=true", "wheelL.solver.nativeStep=true",
+                                          "wheelR.solver.nativeStep=true"]
     for k in vk.CONFIGS:
-        assert {"car", "diff", "wheelL", "wheelR", "car do_step", "diff do_step"} <= set(best[k])
+        assert {"car", "diff", "wheelL", "wheelR", "diff do_step"} <= set(best[k])
+        assert ("car do_step" in best[k]) == (k != "native")      # natively: no do_step
         assert all(v > 0.0 for v in best[k].values())
     # the differential's inner model is stepped from Python unless its step with the shafts is compiled
     assert "diff inner steps" in best["shafts python"] and "diff inner steps" not in best["compiled"]

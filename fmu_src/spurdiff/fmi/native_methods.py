@@ -1,0 +1,78 @@
+"""The bridge's native step (``fmu_src/native/fmi/fmi2_pybridge.c``): a model with a compiled whole
+step (``model.native_step()``, :mod:`spurdiff.native_step`) steps without Python while the host
+only steps it and sets and gets its Real inputs and outputs; the bridge hands the state back before
+any other call reaches the instance. A mixin of :class:`spurdiff.fmi.adapter.ModelFmu`: it uses the
+adapter's state machine (``phase``, ``time``, the stop time, ``_inputs_ok``, the value table and the
+step's bindings)."""
+from __future__ import annotations
+
+import operator
+
+from spurdiff.fmi.state import OK
+
+
+class NativeMethods:
+    """``fmi2_native_enter`` and ``fmi2_native_leave``, the bridge's two calls."""
+
+    _native_key: tuple | None = None   # (model, plan) the tuple below is of
+    _native_tuple: tuple | None = None  # the plan as the bridge takes it
+
+    def fmi2_native_enter(self):
+        """False: this instance has no native step (the model has none, e.g. ``solver.kernel =
+        python``; the bridge does not ask again). None: not now (not stepping, or inputs stored since
+        their last check: :meth:`fmi2_do_step` checks them first). Else the model's inputs as the
+        value table has them and its state are in the plan's array, and the answer is (time,
+        stop time, its tolerance's first term, (function, constants, array, names, n_in, parameter
+        names), parameter values): the addresses, the value-table name of each input and output
+        slot (None where the FMU has no variable for it), the number of input slots, the Real
+        parameters (constant while stepping: a host reads them there) and their values."""
+        model = self.model
+        native_step = getattr(model, "native_step", None)
+        if native_step is None:
+            return False
+        if self.phase != "stepping" or not self._inputs_ok:
+            return None
+        plan = native_step()
+        if plan is None:
+            return False
+        if self._native_key is None or self._native_key[0] is not model or self._native_key[1] is not plan:
+            names = {}
+            for v in self.VARIABLES:
+                if v.kind == "Real" and v.causality in ("input", "output") and v.bind:
+                    names[(v.causality, v.bind)] = v.name
+            slots = (tuple(names.get(("input", k)) for k in plan.inputs)
+                     + tuple(names.get(("output", k)) for k in plan.outputs))
+            params = tuple(v.name for v in self.VARIABLES
+                           if v.kind == "Real" and v.causality in ("parameter", "calculatedParameter"))
+            self._native_tuple = (*plan.addresses, slots, len(plan.inputs), params)
+            self._native_params = operator.itemgetter(*params) if len(params) > 1 else (
+                lambda d, _p=params: tuple(d[n] for n in _p))
+            self._native_key = (model, plan)
+        values, v, slots = self.values, plan.v, self._native_tuple[3]
+        plan.load(model)
+        for i in range(len(plan.inputs)):    # the inputs of the coming step, as the value table has them
+            if slots[i] is not None:
+                v[i] = values[slots[i]]
+        return self.time, self._stop, self._stop_tol, self._native_tuple, self._native_params(values)
+
+    def fmi2_native_leave(self, time: float, bad: int, steps: int) -> None:
+        """The state after ``steps`` native steps back from the plan's array: into the model, its
+        outputs into the value table (the bindings' pull) with the inputs stored since; the FMU's
+        time. ``bad``: an input outside its declared range was stored (the next step checks them
+        all and refuses naming it)."""
+        model, plan = self._native_key
+        plan.store(model)
+        values, v, slots = self.values, plan.v, self._native_tuple[3]
+        for i in range(len(plan.inputs)):
+            if slots[i] is not None:
+                values[slots[i]] = v[i]
+        self._io.io(model)[1](model, values)
+        self.time = time
+        if steps:
+            self.last_step_status = OK
+            self.step_failed = False
+        if bad:
+            self._inputs_ok = False
+
+
+__all__ = ["NativeMethods"]
