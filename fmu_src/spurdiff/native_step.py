@@ -24,6 +24,8 @@ from typing import Any, Sequence
 class NativeStep:
     """One model's native step: the function, its constants, the array and the slots' names."""
 
+    integers: dict[str, int] = {}     # Integer outputs the array holds: model attribute -> slot
+
     def __init__(self, fn: Any, const: Any, size: int, inputs: Sequence[str], outputs: Sequence[str]):
         self.fn = fn                      # the ctypes function (argtypes: two pointers, two doubles)
         self.const = const                # a ctypes double array

@@ -152,6 +152,8 @@ typedef struct {
         Py_ssize_t n_in;      /* the first n_in slots are the inputs */
         PyObject *cnames;     /* the Real parameters' names: constant while stepping natively */
         double *cv;           /* their values (read by fmi2GetReal from here) */
+        unsigned *ivr;        /* the Integer outputs' value references and slots, in pairs */
+        Py_ssize_t n_int;     /* the number of pairs */
         double time, stop, stop_tol;
     } nat;
 } Instance;
@@ -800,12 +802,14 @@ static int fast_set_real(Instance *I, const fmi2ValueReference vr[], size_t n, c
  * The slave's fmi2_native_enter() (GIL held) answers False (no native step for this slave: never
  * asked again until fmi2Reset), None (not now: not stepping, inputs unchecked...), or
  * (time, stop, stop_tol, plan, parameters) having written its model's state into the plan's
- * array; plan is (function, constants, array, names, n_in, parameter names): the addresses of
+ * array; plan is (function, constants, array, names, n_in, parameter names, integers): the addresses of
  * int64_t function(const double *constants, double *array, double t, double h) (0: the step is
  * taken, its outputs in the array; else nothing but scratch changed) and of the two arrays, the
  * value-table name (or None) of each slot, the first n_in slots the inputs, and the names of the
  * Real parameters, whose values (parameters, a tuple) fmi2GetReal reads here too (a parameter set
- * while stepping goes through the slave: the state is handed back first). The same plan object
+ * while stepping goes through the slave: the state is handed back first), and the Integer
+ * outputs the array holds as (value reference, slot, ...) pairs (fmi2GetInteger reads them there,
+ * each value an integer stored as a double). The same plan object
  * while the slave's model is the same; a new one makes the value-reference slots be looked up
  * again. fmi2_native_leave(time, bad, steps) takes the state back into the slave (its value table,
  * its model, its time; bad: an input outside its range was stored since).
@@ -819,7 +823,10 @@ static void native_drop(Instance *I)
     Py_CLEAR(I->nat.names);
     Py_CLEAR(I->nat.cnames);
     free(I->nat.cv);
+    free(I->nat.ivr);
     I->nat.cv = NULL;
+    I->nat.ivr = NULL;
+    I->nat.n_int = 0;
     I->nat.on = I->nat.bad = 0;
     I->nat.never = 0;
     I->nat.fn = NULL;
@@ -832,18 +839,30 @@ static int native_take_plan(Instance *I, PyObject *plan)
 {
     if (plan == I->nat.plan) return 0;
     unsigned long long fn, ctx, v;
-    PyObject *names, *cnames;
+    PyObject *names, *cnames, *ints;
     Py_ssize_t n_in;
     if (!PyTuple_Check(plan)
-        || !PyArg_ParseTuple(plan, "KKKO!nO!", &fn, &ctx, &v, &PyTuple_Type, &names, &n_in, &PyTuple_Type, &cnames)
-        || !fn || !v || n_in < 0 || n_in > PyTuple_GET_SIZE(names)) {
+        || !PyArg_ParseTuple(plan, "KKKO!nO!O!", &fn, &ctx, &v, &PyTuple_Type, &names, &n_in, &PyTuple_Type, &cnames,
+                             &PyTuple_Type, &ints)
+        || !fn || !v || n_in < 0 || n_in > PyTuple_GET_SIZE(names) || PyTuple_GET_SIZE(ints) % 2) {
         PyErr_Clear();
         return -1;
     }
+    Py_ssize_t n_ints = PyTuple_GET_SIZE(ints);
     double *cv = (double *)calloc((size_t)PyTuple_GET_SIZE(cnames) + 1, sizeof *cv);
-    if (!cv) return -1;
+    unsigned *ivr = (unsigned *)calloc((size_t)n_ints + 1, sizeof *ivr);
+    for (Py_ssize_t j = 0; cv && ivr && j < n_ints; j++) ivr[j] = (unsigned)PyLong_AsUnsignedLong(PyTuple_GET_ITEM(ints, j));
+    if (!cv || !ivr || PyErr_Occurred()) {
+        PyErr_Clear();
+        free(cv);
+        free(ivr);
+        return -1;
+    }
     free(I->nat.cv);
+    free(I->nat.ivr);
     I->nat.cv = cv;
+    I->nat.ivr = ivr;
+    I->nat.n_int = n_ints / 2;
     Py_INCREF(plan);
     Py_INCREF(names);
     Py_INCREF(cnames);
@@ -976,6 +995,18 @@ static int native_get_real(Instance *I, const fmi2ValueReference vr[], size_t n,
     return 1;
 }
 
+/* fmi2GetInteger of Integer outputs the array holds (no GIL needed): 1 done, 0 the slave's path. */
+static int native_get_integer(Instance *I, const fmi2ValueReference vr[], size_t n, fmi2Integer v[])
+{
+    for (size_t i = 0; i < n; i++) {
+        Py_ssize_t j = 0;
+        while (j < I->nat.n_int && I->nat.ivr[2 * j] != vr[i]) j++;
+        if (j == I->nat.n_int) return 0;
+        v[i] = (fmi2Integer)I->nat.v[I->nat.ivr[2 * j + 1]];
+    }
+    return 1;
+}
+
 static int native_set_real(Instance *I, const fmi2ValueReference vr[], size_t n, const fmi2Real v[])
 {
     VrEntry *e = native_slots(I, M_SET_REAL, vr, n);
@@ -1029,7 +1060,17 @@ static PyObject *get_values(Instance *I, int method, const fmi2ValueReference vr
 static GETTER(fmi2GetReal, fmi2Real, M_GET_REAL, PyFloat_AsDouble(x))
 #undef fmi2GetReal
 #define fmi2GetReal spurdiff_bridge_fmi2GetReal
-GETTER(fmi2GetInteger, fmi2Integer, M_GET_INTEGER, (fmi2Integer)PyLong_AsLong(x))
+#undef fmi2GetInteger   /* the slave's method, when the native step's array does not hold them all */
+#define fmi2GetInteger slow_fmi2GetInteger
+static GETTER(fmi2GetInteger, fmi2Integer, M_GET_INTEGER, (fmi2Integer)PyLong_AsLong(x))
+#undef fmi2GetInteger
+#define fmi2GetInteger spurdiff_bridge_fmi2GetInteger
+fmi2Status fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer v[])
+{
+    Instance *I = valid(c);
+    if (I && I->nat.on && (n == 0 || (vr && v)) && native_get_integer(I, vr, n, v)) return fmi2OK;
+    return slow_fmi2GetInteger(c, vr, n, v);
+}
 GETTER(fmi2GetBoolean, fmi2Boolean, M_GET_BOOLEAN, PyObject_IsTrue(x) > 0 ? fmi2True : fmi2False)
 
 fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String v[])

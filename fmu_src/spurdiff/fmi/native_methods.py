@@ -23,9 +23,10 @@ class NativeMethods:
         their last check: :meth:`fmi2_do_step` checks them first). Else the model's inputs as the
         value table has them and its state are in the plan's array, and the answer is (time,
         stop time, its tolerance's first term, (function, constants, array, names, n_in, parameter
-        names), parameter values): the addresses, the value-table name of each input and output
-        slot (None where the FMU has no variable for it), the number of input slots, the Real
-        parameters (constant while stepping: a host reads them there) and their values."""
+        names, integers), parameter values): the addresses, the value-table name of each input and
+        output slot (None where the FMU has no variable for it), the number of input slots, the Real
+        parameters (constant while stepping: a host reads them there), the Integer outputs the
+        array holds as (value reference, slot) pairs, and the parameters' values."""
         model = self.model
         native_step = getattr(model, "native_step", None)
         if native_step is None:
@@ -44,7 +45,10 @@ class NativeMethods:
                      + tuple(names.get(("output", k)) for k in plan.outputs))
             params = tuple(v.name for v in self.VARIABLES
                            if v.kind == "Real" and v.causality in ("parameter", "calculatedParameter"))
-            self._native_tuple = (*plan.addresses, slots, len(plan.inputs), params)
+            int_vr = {name: vr for vr, name in self._get["Integer"].items()}
+            ints = tuple(x for v in self.VARIABLES if v.kind == "Integer" and v.causality == "output"
+                         and v.bind in plan.integers for x in (int_vr[v.name], plan.integers[v.bind]))
+            self._native_tuple = (*plan.addresses, slots, len(plan.inputs), params, ints)
             self._native_params = operator.itemgetter(*params) if len(params) > 1 else (
                 lambda d, _p=params: tuple(d[n] for n in _p))
             self._native_key = (model, plan)

@@ -90,6 +90,8 @@ class CarNative(NativeStep):
     """The car's whole step in C (``vk_car_native``: :meth:`spurdiff.vehicle.car.Vehicle.do_step` with
     its compiled step, the input checks and the outputs the FMU reads)."""
 
+    integers = {"n_substeps": _CAR_STATE + 14}
+
     def __init__(self, vk: CarKernel, grade_range: tuple[float, float], output_keys: tuple[str, ...]):
         # output_keys: car._OUTPUT_KEYS, the order of vk_car_step's outputs
         super().__init__(vk.native_fn, vk.const, CAR_NV, CAR_INPUTS,
@@ -141,6 +143,8 @@ _WHEEL_STATE = ("w", "k", "phi_ref", "w_anchor", "t", "n_steps", "n_substeps", "
 class WheelNative(NativeStep):
     """The wheel's whole step in C (``vk_wheel_native``: :meth:`spurdiff.vehicle.wheel.WheelLoad.do_step`
     with its compiled sub-steps, either coupling, the input checks and the outputs the FMU reads)."""
+
+    integers = {"n_substeps": 38}
 
     def __init__(self, vk: WheelKernel, m):
         super().__init__(vk.native_fn, vk.const, WHEEL_NV, WHEEL_INPUTS, WHEEL_OUTPUTS)

@@ -117,7 +117,7 @@ def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeyp
     assert "the step's getReal (3.0 us, 1.0 us of it the host's ctypes call)" in out
     assert "4.0 setReal calls per step (4.0 us each" in out
     assert ("add 4.0 us per instance: 9.0 us per instance and step for a model stepped in Python, against 25.0 us "
-            "measured above in wall time with the native steps") in out
+            "measured above in wall time with every step in Python.") in out
     assert "Recording the scene's 22 variables every 1 step(s) costs the FMI run 30 us per step" in out
     # 1.25 allows a quarter of the direct run's 100 us per step over 4 instances
     assert "the FMI path at most 6 us per instance and step" in out
