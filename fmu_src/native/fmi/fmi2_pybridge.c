@@ -1400,7 +1400,21 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
  * earlyReturnAllowed): the slave's fmi2_do_step_early(t, h, nsp) returns (status, end time). */
 fmi2Status spurdiffDoStepEarly(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end)
 {
-    ENTER
+    /* a model with a native step never ends a step early (the slave offers none to one that may) */
+    Instance *I0 = valid(c);
+    if (!I0) return fmi2Error;
+    int taken = I0->nat.on && native_step(I0, t, h);
+    if (!taken && !I0->nat.on && !I0->nat.never) {
+        PyGILState_STATE g0 = PyGILState_Ensure();
+        taken = native_enter(I0) && native_step(I0, t, h);
+        flush_log(I0);
+        PyGILState_Release(g0);
+    }
+    if (taken) {
+        if (end) *end = t + h;
+        return fmi2OK;
+    }
+    ENTER   /* (hands a native state back first) */
     PyObject *r = PyObject_CallMethod(I->slave, "fmi2_do_step_early", "ddO", t, h, nsp ? Py_True : Py_False);
     PyObject *st = NULL;
     double e = t;

@@ -19,7 +19,7 @@ class NativeMethods:
 
     def fmi2_native_enter(self):
         """False: this instance has no native step (the model has none, e.g. ``solver.kernel =
-        python``; the bridge does not ask again). None: not now (not stepping, or inputs stored since
+        python``, or may end a step early: fmi3DoStep's early return; the bridge does not ask again). None: not now (not stepping, or inputs stored since
         their last check: :meth:`fmi2_do_step` checks them first). Else the model's inputs as the
         value table has them and its state are in the plan's array, and the answer is (time,
         stop time, its tolerance's first term, (function, constants, array, names, n_in, parameter
@@ -29,7 +29,7 @@ class NativeMethods:
         array holds as (value reference, slot) pairs, and the parameters' values."""
         model = self.model
         native_step = getattr(model, "native_step", None)
-        if native_step is None:
+        if native_step is None or self.might_return_early:   # (the bridge's early-return step relies on it)
             return False
         if self.phase != "stepping" or not self._inputs_ok:
             return None
