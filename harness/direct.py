@@ -82,14 +82,14 @@ class DirectInstance:
         if plan is not None:
             v = plan.v
             if not self._loaded:
-                plan.load(model)
-                self._loaded = True
+                self._loaded = plan.load(model) is not False
             for i, name in self._native_in:
                 v[i] = values[name]
-            if plan.fn(plan.const, v, t, h) == 0:
+            if self._loaded and plan.fn(plan.const, v, t, h) == 0:
                 values.update(zip(self._native_out, self._pick(v[:self._native_n])))
                 return
-            plan.store(model)       # not taken: the Python step takes it or says why not
+            if self._loaded:
+                plan.store(model)   # not taken: the Python step takes it or says why not
             self._loaded = False
         push(model, values)
         model.do_step(t, h)
@@ -182,6 +182,9 @@ def run_direct(scene: Scene, native: bool = True) -> Result:
             if (k + 1) % every == 0 or k + 1 == n:
                 rows.append([(k + 1) * h] + [d[kk] for d, kk in record])
         wall = time.perf_counter() - t_loop
+        for inst in insts.values():   # the models as the native steps left them (counters, state)
+            if inst.native is not None and inst._loaded:
+                inst.native.store(inst.model)
     except RunFailure as e:
         failure = e
         setup = time.perf_counter() - t0

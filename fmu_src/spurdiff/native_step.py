@@ -14,6 +14,8 @@ While a host steps natively, the state lives in ``v``: :meth:`NativeStep.load` p
 state there and :meth:`NativeStep.store` takes it back into the model, before anything else reads
 the model. The FMUs' bridge (``fmu_src/native/fmi/fmi2_pybridge.c``, with
 :mod:`spurdiff.fmi.native_methods`) and the harness's direct runs (``harness/direct.py``) do so.
+The models that have one: the car and the wheel (:mod:`spurdiff.vehicle.kernel`), the differential
+owning its half-shafts at rigid with the FMU's watches (:mod:`spurdiff.differential.shaft_kernel`).
 """
 from __future__ import annotations
 
@@ -34,9 +36,10 @@ class NativeStep:
         self.outputs = tuple(outputs)     # of the slots after the inputs
         self.addresses = (C.cast(fn, C.c_void_p).value, C.addressof(const), C.addressof(self.v))
 
-    def load(self, model) -> None:
+    def load(self, model) -> bool | None:
         """The model's state, outputs and inputs (those its last step took) into ``v``; the caller
-        then puts the inputs of the coming step into the input slots."""
+        then puts the inputs of the coming step into the input slots. False: the state does not fit
+        now (the Python step runs)."""
         raise NotImplementedError
 
     def store(self, model) -> None:

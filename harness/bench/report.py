@@ -122,12 +122,14 @@ def _report(args) -> int:
     per_fmi, per_direct = 1e6 * o["fmi_s"] / n_steps, 1e6 * o["direct_s"] / n_steps
     python_sets = python_step_sets(o["scene"])
     natives = ", ".join(x.split(".", 1)[0] for x in python_sets) or "none"
+    others = ("" if len(python_sets) == o["instances"] else
+              ";\n   the others (their step in Python around the compiled kernel) pay setReal + doStep + getReal "
+              "through the bridge and the adapter")
     print(f"   per communication step ({o['step']:g} s, {n_steps} steps): FMI {per_fmi:.0f} us, direct "
           f"{per_direct:.0f} us. The instances with a native step ({natives}: the whole step in C, "
           f"solver.nativeStep) step without Python in both;\n   through FMI the host's setReal, doStep and "
           f"getReal reach the compiled step straight from our C bridge, directly the harness copies the "
-          f"values in and out in Python;\n   the others (their step in Python around the compiled kernel) pay "
-          f"setReal + doStep + getReal through the bridge and the adapter.\n"
+          f"values in and out in Python{others}.\n"
           f"   100x real time at this step leaves {1e6 * o['step'] / 100:.0f} us per step for everything.")
     if "fmi_cpu_s" in o:
         print(f"   in CPU time of the stepping thread (fastest of {args.repeats} interleaved runs; what one core spends, "
@@ -197,15 +199,16 @@ def _report(args) -> int:
                   + (", ".join(f"{k} {v:.0f} us" for k, v in x["model_us"].items()) or "none")
                   + " (the rest: the interface modules' input and output copies, or the native step with its"
                     " copies);")
-        for name, (ev, sub, jac) in b["evals_per_step"].items():
-            if name not in b["inner_us"]:     # its step with the shafts compiled (spurdiff.differential.shaft_kernel)
+        for name, (ev, sub, jac) in b0["evals_per_step"].items():   # (natively the counters stay in C)
+            if name not in b0["inner_us"]:     # its step with the shafts compiled (spurdiff.differential.shaft_kernel)
                 print(f"   {name} owns the half-shafts: {sub:.1f} sub-steps and {ev:.1f} inner-model steps per communication "
-                      f"step ({jac:.3f} Jacobians), all in its compiled step (shaft_kernel.c): "
-                      f"{b['model_us'].get(name, 0.0):.0f} us in do_step with the copies in and out of the kernel and "
-                      "the load-capacity and overspeed watches.")
+                      f"step ({jac:.3f} Jacobians), all in its compiled step (shaft_kernel.c): stepped in Python, "
+                      f"{b0['model_us'].get(name, 0.0):.0f} us in do_step with the copies in and out of the kernel and "
+                      "the load-capacity and overspeed watches; natively "
+                      f"{b['us_per_step'].get(name, 0.0):.0f} us for the whole step with the harness's copies.")
                 continue
-            step_us, state_us = b["inner_us"].get(name, (0.0, 0.0))
-            own = b["model_us"].get(name, 0.0) - step_us - state_us
+            step_us, state_us = b0["inner_us"].get(name, (0.0, 0.0))
+            own = b0["model_us"].get(name, 0.0) - step_us - state_us
             print(f"   {name} owns the half-shafts: {sub:.1f} sub-steps and {ev:.1f} inner-model steps per communication "
                   f"step ({jac:.3f} Jacobians): the inner model's steps {step_us:.0f} us ({step_us / max(ev, 1e-9):.0f} "
                   f"us each, mostly the rigid model's pin-load solve), its state copies {state_us:.0f} us, the shafts' "

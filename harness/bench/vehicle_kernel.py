@@ -29,13 +29,13 @@ KERNELS = ("python", "compiled", "native")
 CONFIGS = ("python", "shafts python", "compiled", "native")    # the direct runs' breakdown
 SCENE = "vehicle-cornering"
 VEHICLE_INSTANCES = ("car", "wheelL", "wheelR", "diff")
-NATIVE_INSTANCES = ("car", "wheelL", "wheelR")     # those with a native step (solver.nativeStep)
+NATIVE_INSTANCES = ("car", "wheelL", "wheelR", "diff")     # those with a native step (solver.nativeStep)
 
 
 def sets_for(kernel: str) -> list[str]:
     """The scene overrides that select ``kernel`` for the car, the wheels and the differential:
     python, compiled (the compiled kernels inside the Python models' steps: solver.nativeStep
-    false) or native (compiled, and the car's and the wheels' whole steps in C)."""
+    false) or native (compiled, and every instance's whole step in C)."""
     impl = "python" if kernel == "python" else "compiled"
     return ([f"{i}.solver.kernel={impl}" for i in VEHICLE_INSTANCES]
             + [f"{i}.solver.nativeStep={'true' if kernel == 'native' else 'false'}" for i in NATIVE_INSTANCES])
@@ -103,7 +103,7 @@ def run(rounds: int = 5) -> int:
     for key in keys:
         print(f"  {key:28s} " + " ".join(f"{best[k].get(key, float('nan')):14.1f}" for k in CONFIGS))
     print("  (nan: not called in that configuration; the compiled differential steps its inner model in C; native:\n"
-          "  the car's and the wheels' whole steps in C (solver.nativeStep), no do_step)")
+          "  every instance's whole step in C (solver.nativeStep), no do_step)")
     for k in CONFIGS:
         tot = sum(v for n, v in best[k].items() if " " not in n)
         print(f"  sum of the instances, {k}: {tot:.1f} us")

@@ -1,5 +1,5 @@
 """The native step through FMI (fmu_src/native/fmi/fmi2_pybridge.c with spurdiff.fmi.native_methods):
-Vehicle and WheelLoad step in C without Python while the host only steps them and sets and gets
+Vehicle, WheelLoad and SpurDifferential (shaftCoupling = wheel, rigid) step in C without Python while the host only steps them and sets and gets
 Reals; an instance with solver.nativeStep = true answers exactly as one with false through a run
 that sets inputs every step, takes and restores an FMU state, reads an Integer output and a
 parameter mid-run, stores a bad input (refused, named, state kept) and ends; and its Python step
@@ -12,18 +12,32 @@ import pytest
 from fmpy.fmi1 import FMICallException
 
 from harness.bench.core import fmu_copies
+from spurdiff.differential.shafts import ShaftedDifferential
 from spurdiff.vehicle.car import Vehicle
 from spurdiff.vehicle.wheel import WheelLoad
 from tests.fmus.fmu_session import start
 
 H = 5e-3
-CASES = {   # inputs per step i; an input to spoil; a parameter and an Integer output to read
+def _surrogate(side: str, i: int) -> dict:
+    return {f"{side}Wheel.aFree": -4.0 + 0.05 * i, f"{side}Wheel.invJ": 0.8, f"{side}Wheel.dadw": -0.02,
+            f"{side}Wheel.tyreTorqueRate": 30.0 * math.sin(0.3 * i), f"{side}Wheel.tyreStiffness": 60.0,
+            f"{side}Wheel.tyreRelaxation": 1.5}
+
+
+CASES = {   # inputs per step i; an input to spoil; a parameter and an Integer output to read; parameters
     "Vehicle": (lambda i: {"rearLeft.Fx": 500.0 + 40.0 * math.sin(0.1 * i), "rearRight.Fx": 480.0,
                            "speedTarget": 10.0 + 0.02 * i, "pathRadius": 20.0 if i < 40 else math.inf},
-                "grade", "vehicle.m", "internalSteps"),
+                "grade", "vehicle.m", "internalSteps", {}),
     "WheelLoad": (lambda i: {"flange.w": 30.0 + 0.1 * i, "flange.phi": 0.15 * i + 5e-4 * i * i, "Fz": 4000.0,
                              "mu": 0.9, "vx": 10.0, "FzRate": 100.0 * math.cos(0.2 * i)},
-                  "mu", "wheel.J", "internalSteps"),
+                  "mu", "wheel.J", "internalSteps", {}),
+    "SpurDifferential": (lambda i: {"carrier.tau": 150.0 + 3.0 * i * (1 if i < 30 else -1),
+                                    "leftWheel.phi": 0.147 * i, "leftWheel.w": 29.5 + 0.01 * i,
+                                    "rightWheel.phi": 0.159 * i, "rightWheel.w": 31.9, **_surrogate("left", i),
+                                    **_surrogate("right", i)},
+                         "leftWheel.invJ", "J_carrier", "internalSteps",
+                         {"shaftCoupling": "wheel", "carrierDrive": "torque", "J_carrier": 13.1,
+                          "carrier.w_start": 30.7161, "differential.w_start": -1.1706}),
 }
 
 
@@ -35,7 +49,7 @@ class _Counted:
         self.saved = {}
 
     def __enter__(self):
-        for c in fmu_copies({Vehicle, WheelLoad}):
+        for c in fmu_copies({Vehicle, WheelLoad, ShaftedDifferential}):
             f = self.saved[c] = c.__dict__["do_step"]
 
             def counted(model, t, h, _f=f):
@@ -52,14 +66,14 @@ class _Counted:
 def _script(path, name: str, native: bool, case, counted: _Counted) -> list:
     """The run's observations: the Real outputs after every step, the refusals, the reads; the
     Python steps counted into ``counted``."""
-    inputs, bad, param, integer = case
-    inst = start(path, name, params={"solver.nativeStep": native}, inputs=inputs(0))
+    inputs, bad, param, integer, params = case
+    inst = start(path, name, params={**params, "solver.nativeStep": native}, inputs=inputs(0))
     with counted:   # (the FMU's package is imported now)
         return _run(inst, case)
 
 
 def _run(inst, case) -> list:
-    inputs, bad, param, integer = case
+    inputs, bad, param, integer, _ = case
     s = inst.slave
     outs = sorted(v.valueReference for v in inst.vars.values() if v.causality == "output" and v.type == "Real")
     ins = [inst.var(k).valueReference for k in inputs(0)]

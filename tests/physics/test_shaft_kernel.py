@@ -64,8 +64,10 @@ def _state(m: ShaftedDifferential) -> dict:
             "locking_capacity": m.locking_capacity, **{"rate." + k: v for k, v in output_rates(m).items()}}
 
 
-def _states_of_scene(name: str, kernel: str, sets: tuple = ()) -> tuple[list[dict], list[str]]:
-    """The differential's whole state after every step of a direct run, and its implementation notes."""
+def _states_of_scene(name: str, kernel: str, sets: tuple = (), native: bool = False) -> tuple[list[dict], list[str]]:
+    """The differential's whole state after every step of a direct run, and its implementation notes;
+    ``native``: the differential's native step (spurdiff.native_step) takes the steps, its state stored
+    into the model after each (else every step runs through the model's do_step)."""
     states, notes = [], []
     orig = hd.DirectInstance.step
 
@@ -73,13 +75,17 @@ def _states_of_scene(name: str, kernel: str, sets: tuple = ()) -> tuple[list[dic
         orig(self, t, h)
         if self.name == "diff":
             m = self.model
+            if native:
+                assert self.native is not None and self._loaded
+                self.native.store(m)
             if not notes:
                 notes[:] = [m.inner.kernel_note, m.shaft_kernel_note]
             states.append(_state(m))
 
     hd.DirectInstance.step = step
     try:
-        r = run_direct(prepare_scene(name, sets=[f"diff.solver.kernel={kernel}", *sets]))
+        r = run_direct(prepare_scene(name, sets=[f"diff.solver.kernel={kernel}",
+                                                 f"diff.solver.nativeStep={'true' if native else 'false'}", *sets]))
     finally:
         hd.DirectInstance.step = orig
     assert r.failure is None, r.failure
@@ -333,3 +339,14 @@ def test_scene_through_fmi_identical(library, name):
     a, b = runs["python"].data, runs["compiled"].data
     assert a.shape == b.shape and a.shape[0] > 100
     assert np.array_equal(a, b), float(np.nanmax(np.abs(a - b)))
+
+
+@pytest.mark.parametrize("name, sets", SCENE_CASES, ids=[n + "".join(s) for n, s in SCENE_CASES])
+def test_scene_states_identical_with_the_native_step(library, name, sets):
+    """The differential's native step (sk_native: the step above, its input checks, the watches and
+    the outputs in C) leaves after every step of the scene the state the Python reference has."""
+    ref, _ = _states_of_scene(name, "python", sets)
+    nat, notes = _states_of_scene(name, "compiled", sets, native=True)
+    assert notes == ["compiled", "compiled"] and len(ref) == len(nat) > 100
+    bad = [(i, _differ(a, b)) for i, (a, b) in enumerate(zip(ref, nat)) if _differ(a, b)]
+    assert not bad, bad[:3]

@@ -153,6 +153,7 @@ typedef struct {
         PyObject *cnames;     /* the Real parameters' names: constant while stepping natively */
         double *cv;           /* their values (read by fmi2GetReal from here) */
         unsigned *ivr;        /* the Integer outputs' value references and slots, in pairs */
+        int early;            /* the model may end a step early (FMI 3.0): that step stays in Python */
         Py_ssize_t n_int;     /* the number of pairs */
         double time, stop, stop_tol;
     } nat;
@@ -802,14 +803,15 @@ static int fast_set_real(Instance *I, const fmi2ValueReference vr[], size_t n, c
  * The slave's fmi2_native_enter() (GIL held) answers False (no native step for this slave: never
  * asked again until fmi2Reset), None (not now: not stepping, inputs unchecked...), or
  * (time, stop, stop_tol, plan, parameters) having written its model's state into the plan's
- * array; plan is (function, constants, array, names, n_in, parameter names, integers): the addresses of
+ * array; plan is (function, constants, array, names, n_in, parameter names, integers, early): the addresses of
  * int64_t function(const double *constants, double *array, double t, double h) (0: the step is
  * taken, its outputs in the array; else nothing but scratch changed) and of the two arrays, the
  * value-table name (or None) of each slot, the first n_in slots the inputs, and the names of the
  * Real parameters, whose values (parameters, a tuple) fmi2GetReal reads here too (a parameter set
  * while stepping goes through the slave: the state is handed back first), and the Integer
  * outputs the array holds as (value reference, slot, ...) pairs (fmi2GetInteger reads them there,
- * each value an integer stored as a double). The same plan object
+ * each value an integer stored as a double), and whether the model may end a step early (then
+ * spurdiffDoStepEarly, FMI 3.0's step with early return allowed, leaves the state to the slave). The same plan object
  * while the slave's model is the same; a new one makes the value-reference slots be looked up
  * again. fmi2_native_leave(time, bad, steps) takes the state back into the slave (its value table,
  * its model, its time; bad: an input outside its range was stored since).
@@ -841,9 +843,10 @@ static int native_take_plan(Instance *I, PyObject *plan)
     unsigned long long fn, ctx, v;
     PyObject *names, *cnames, *ints;
     Py_ssize_t n_in;
+    int early;
     if (!PyTuple_Check(plan)
-        || !PyArg_ParseTuple(plan, "KKKO!nO!O!", &fn, &ctx, &v, &PyTuple_Type, &names, &n_in, &PyTuple_Type, &cnames,
-                             &PyTuple_Type, &ints)
+        || !PyArg_ParseTuple(plan, "KKKO!nO!O!p", &fn, &ctx, &v, &PyTuple_Type, &names, &n_in, &PyTuple_Type, &cnames,
+                             &PyTuple_Type, &ints, &early)
         || !fn || !v || n_in < 0 || n_in > PyTuple_GET_SIZE(names) || PyTuple_GET_SIZE(ints) % 2) {
         PyErr_Clear();
         return -1;
@@ -863,6 +866,7 @@ static int native_take_plan(Instance *I, PyObject *plan)
     I->nat.cv = cv;
     I->nat.ivr = ivr;
     I->nat.n_int = n_ints / 2;
+    I->nat.early = early;
     Py_INCREF(plan);
     Py_INCREF(names);
     Py_INCREF(cnames);
@@ -1400,13 +1404,13 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
  * earlyReturnAllowed): the slave's fmi2_do_step_early(t, h, nsp) returns (status, end time). */
 fmi2Status spurdiffDoStepEarly(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end)
 {
-    /* a model with a native step never ends a step early (the slave offers none to one that may) */
+    /* natively only a model that never ends a step early (the plan says so) */
     Instance *I0 = valid(c);
     if (!I0) return fmi2Error;
-    int taken = I0->nat.on && native_step(I0, t, h);
+    int taken = I0->nat.on && !I0->nat.early && native_step(I0, t, h);
     if (!taken && !I0->nat.on && !I0->nat.never) {
         PyGILState_STATE g0 = PyGILState_Ensure();
-        taken = native_enter(I0) && native_step(I0, t, h);
+        taken = native_enter(I0) && !I0->nat.early && native_step(I0, t, h);
         flush_log(I0);
         PyGILState_Release(g0);
     }

@@ -34,7 +34,7 @@
 #include <stdint.h>
 #include <string.h>
 
-#define SK_ABI 2
+#define SK_ABI 3
 #define SK_OK 0
 #define SK_FALLBACK 1
 #define SK_NOTCONV 2
@@ -662,4 +662,139 @@ int64_t sk_step(const double *sc, double *k, double *rs, double *ss, const doubl
     k[49] = c.k[49]; k[50] = c.k[50]; k[51] = c.k[51]; k[52] = c.k[52];
     k[54] = c.k[54]; k[55] = c.k[55]; k[56] = c.k[56]; k[57] = c.k[57];
     return SK_OK;
+}
+
+/* ------------------------------------------------------------------ the native step
+ * The differential's whole communication step on its value array v (spurdiff.differential.shaft_kernel.
+ * DiffNative, spurdiff.native_step): WatchedShaftedDifferential.do_step with sk_step, its input checks
+ * (ShaftedDifferential._wheel_inputs, WheelSurrogate.checked), the load-capacity watch
+ * (gears.capacity.StressWatch.update) and the overspeed watch, and the outputs the FMU reads (rigid.py's
+ * and shafts.py's properties), in the same operations. A step whose watch would log (the first excess
+ * of the static strength, the first overspeed) is not taken, so the Python step logs it.
+ * v (SKV_N doubles): 0 w_ref, 1 tau_c, 2 tau_L, 3 tau_R (not used with the shafts), 4..7 the wheel sides'
+ * angles and speeds, 8..13 and 14..19 the wheel surrogates (a_free inv_J dadw q_rate c_t r_t);
+ * 20..52 the Real outputs (SKV_OUT order: tau_mean_L/R, dw_pred_L/R, tau_end_L/R, theta_L/R, wc, phic,
+ * w_L, phi_L, w_R, phi_R, tau_drive, tau_mesh_L/R, F_A1, F_B2, F_12, locking torque and capacity,
+ * power loss, energy loss, work in, kinetic energy, stuck, potential energy, parametric work,
+ * overspeed, sigma_H_max, sigma_F_max, exceeded); 53 loaded flanks, 54 mode switches, 55 internal
+ * steps, 56 contact transitions (Integer outputs); 57..59 the largest |force| booked per mesh, 60 the
+ * overspeed warned; 61..80 the inputs the last step took.
+ * Returns 0 (done), 1 (sk_step did not take it), 4 (an input the model refuses, h not positive and
+ * finite), 5 (a watch would log); on failure nothing in v or the state arrays changed. */
+typedef struct {
+    const double *sc;
+    double *k;
+    double *rs, *ss;
+    void *fp[2];
+    const double *oc;
+} SkNative;
+enum {
+    OC_JA, OC_JB, OC_LAM, OC_MCC, OC_MCD, OC_MDD, OC_NRA, OC_NRB, OC_SPEED, OC_CL, OC_CR, OC_LIMIT,
+    OC_AH, OC_AF = OC_AH + 3, OC_HG = OC_AF + 3, OC_FG, OC_P2, OC_N
+};
+#define SKV_OUT 20
+#define SKV_N 81
+
+int64_t sk_noc(void) { return OC_N; }
+int64_t sk_nv(void) { return SKV_N; }
+
+static int surrogate_ok(const double *m)
+{
+    return isfinite(m[0] + m[1] + m[2] + m[3] + m[4] + m[5]) && m[1] >= 0.0 && m[4] >= 0.0 && m[5] >= 0.0
+           && m[2] <= 0.0;
+}
+
+static double max3(double a, double b, double c)   /* Python's max(a, b, c) */
+{
+    double m = a;
+    if (b > m) m = b;
+    if (c > m) m = c;
+    return m;
+}
+
+int64_t sk_native(const SkNative *x, double *v, double t, double h)
+{
+    const double *oc = x->oc;
+    const double pL = v[4], wL = v[5], pR = v[6], wR = v[7];
+    if (!(h > 0.0 && h < INFINITY) || !isfinite(pL + wL + pR + wR) || !surrogate_ok(v + 8) || !surrogate_ok(v + 14))
+        return 4;
+    double *rs = x->rs, *ss = x->ss;
+    const double keep_wref = rs[R_WREF], keep_tauc = rs[R_TAUC];
+    double in[IN_N] = {t, h, pL, wL, pR, wR};
+    for (int i = 0; i < 12; i++)
+        in[I_ML + i] = v[8 + i];
+    double bk_rs[RS_N], bk_ss[SS_N], bk_k[8];
+    memcpy(bk_rs, rs, sizeof bk_rs);
+    memcpy(bk_ss, ss, sizeof bk_ss);
+    for (int i = 0; i < 4; i++) {
+        bk_k[i] = x->k[49 + i];
+        bk_k[4 + i] = x->k[54 + i];
+    }
+    rs[R_WREF] = v[0];
+    rs[R_TAUC] = v[1];
+    if (sk_step(x->sc, x->k, rs, ss, in, (void **)x->fp) != SK_OK) {
+        rs[R_WREF] = keep_wref;
+        rs[R_TAUC] = keep_tauc;
+        return 1;
+    }
+    const double wc = rs[R_WC], wd = rs[R_WD], phic = rs[R_PHIC], phid = rs[R_PHID], ac = rs[R_AC], ad = rs[R_AD];
+    const double tauL = rs[R_TAUL], tauR = rs[R_TAUR], lam = oc[OC_LAM];
+    const double FA = (oc[OC_JA] * (ac + ad) - tauL) / oc[OC_NRA];
+    const double FB = (oc[OC_JB] * (ac + lam * ad) - tauR) / oc[OC_NRB];
+    const double F12 = rs[R_F12];
+    /* the load-capacity watch (StressWatch.update) */
+    double sHmax = v[SKV_OUT + 30], sFmax = v[SKV_OUT + 31], Fm[3] = {v[57], v[58], v[59]};
+    const double a1 = FA >= 0.0 ? FA : -FA, a2 = FB >= 0.0 ? FB : -FB, a3 = F12 >= 0.0 ? F12 : -F12;
+    int log = 0;
+    if (!(a1 <= Fm[0] && a2 <= Fm[1] && a3 <= Fm[2])) {
+        Fm[0] = a1 > Fm[0] ? a1 : Fm[0];
+        Fm[1] = a2 > Fm[1] ? a2 : Fm[1];
+        Fm[2] = a3 > Fm[2] ? a3 : Fm[2];
+        const double sH = max3(oc[OC_AH] * sqrt(a1), oc[OC_AH + 1] * sqrt(a2), oc[OC_AH + 2] * sqrt(a3));
+        const double sF = max3(oc[OC_AF] * a1, oc[OC_AF + 1] * a2, oc[OC_AF + 2] * a3);
+        if (sH > sHmax) sHmax = sH;
+        if (sF > sFmax) sFmax = sF;
+        if (v[SKV_OUT + 32] == 0.0 && (sH > oc[OC_HG] || sF > oc[OC_FG]))
+            log = 1;
+    }
+    /* the overspeed watch */
+    const double awd = fabs(wd);
+    const int over = awd > oc[OC_LIMIT];
+    if (over && v[60] == 0.0)
+        log = 1;
+    if (log) {   /* the Python step takes it and logs: the state as before */
+        memcpy(rs, bk_rs, sizeof bk_rs);
+        memcpy(ss, bk_ss, sizeof bk_ss);
+        for (int i = 0; i < 4; i++) {
+            x->k[49 + i] = bk_k[i];
+            x->k[54 + i] = bk_k[4 + i];
+        }
+        return 5;
+    }
+    const double tmL = oc[OC_JA] * (ac + ad) - tauL, tmR = oc[OC_JB] * (ac + lam * ad) - tauR;
+    const double p2 = oc[OC_P2], lasth = rs[R_LASTH];
+    double *o = v + SKV_OUT;
+    o[0] = ss[S_TMEANL]; o[1] = ss[S_TMEANR]; o[2] = ss[S_DWPL]; o[3] = ss[S_DWPR];
+    o[4] = ss[S_TENDL]; o[5] = ss[S_TENDR]; o[6] = ss[S_THL]; o[7] = ss[S_THR];
+    o[8] = wc; o[9] = phic; o[10] = wc + wd; o[11] = phic + phid; o[12] = wc + lam * wd; o[13] = phic + lam * phid;
+    o[14] = oc[OC_SPEED] != 0.0 ? oc[OC_MCC] * ac + oc[OC_MCD] * ad - tauL - tauR : rs[R_TAUC];
+    o[15] = tmL; o[16] = tmR; o[17] = FA; o[18] = FB; o[19] = F12;
+    o[20] = rs[R_QF]; o[21] = rs[R_CAP];
+    o[22] = lasth > 0.0 ? rs[R_LOSS_LAST] / lasth : fabs(rs[R_QF] * wd);
+    o[23] = rs[R_LOSS] + ss[S_LOSS];
+    o[24] = rs[R_WORK] - ss[S_WSUNS] + ss[S_WWHEELS];
+    o[25] = 0.5 * (oc[OC_MCC] * pow(wc, p2) + 2.0 * oc[OC_MCD] * wc * wd + oc[OC_MDD] * pow(wd, p2));
+    o[26] = (wd == 0.0 && ad == 0.0) ? 1.0 : 0.0;
+    o[27] = 0.0 + 0.5 * (oc[OC_CL] * pow(ss[S_THL], p2) + oc[OC_CR] * pow(ss[S_THR], p2));
+    /* o[28] parametric work: constant (the rigid level has none) */
+    o[29] = over ? 1.0 : 0.0;
+    o[30] = sHmax; o[31] = sFmax;   /* o[32] exceeded: unchanged (a change is logged by the Python step) */
+    const double T0 = tmL + tmR;
+    v[53] = T0 > 0.0 ? 1.0 : (T0 < 0.0 ? -1.0 : 0.0);
+    v[54] = rs[R_NSW];
+    v[55] = ss[S_NSTEPS];
+    v[57] = Fm[0]; v[58] = Fm[1]; v[59] = Fm[2];
+    for (int i = 0; i < 20; i++)
+        v[61 + i] = v[i];
+    return 0;
 }

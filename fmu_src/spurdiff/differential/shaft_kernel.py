@@ -29,9 +29,11 @@ from pathlib import Path
 from spurdiff import native_library
 from spurdiff.differential import rigid_kernel
 from spurdiff.native_library import KERNELS  # noqa: F401 (re-exported)
+from spurdiff.native_step import NativeStep
 
-ABI = 2
+ABI = 3
 NRS, NSS, NSC, NIN = 48, 64, 15, 18
+NOC, NV = 21, 81                # the native step's output constants and value array (sk_native)
 # the rigid kernel this one calls: the ABI and layouts shaft_kernel.c was transcribed for (its
 # RK_NCONST and io arrays). Another runs the Python reference (the transcription is to be checked
 # against it first: tests/physics/test_shaft_kernel.py)
@@ -60,9 +62,19 @@ _JAC_KEYS = ("+1", "-1", "+0", "-0", "+1x", "-1x", "+0x", "-0x")                
 _JAC_SLOT = {k: i for i, k in enumerate(_JAC_KEYS)}
 
 
+
+
+class SkNative(C.Structure):
+    """sk_native's context: the Kernel's arrays and the native step's output constants."""
+    _fields_ = [("sc", C.POINTER(C.c_double)), ("k", C.POINTER(C.c_double)), ("rs", C.POINTER(C.c_double)),
+                ("ss", C.POINTER(C.c_double)), ("fp", C.c_void_p * 2), ("oc", C.POINTER(C.c_double))]
+
+
 _BINDING = native_library.Binding(__name__, "shaft_kernel", "half-shaft", "spurdiff.shafts", [
-    native_library.Check(("sk_abi", "sk_nrs", "sk_nss", "sk_nsc", "sk_nin"), (ABI, NRS, NSS, NSC, NIN))],
-    ("sk_step",),         # (sc, k, rs, ss, inp, fp): the Kernel's arrays
+    native_library.Check(("sk_abi", "sk_nrs", "sk_nss", "sk_nsc", "sk_nin", "sk_noc", "sk_nv"),
+                         (ABI, NRS, NSS, NSC, NIN, NOC, NV))],
+    {"sk_step": (None, C.c_int64),         # (sc, k, rs, ss, inp, fp): the Kernel's arrays
+     "sk_native": ([C.POINTER(SkNative), C.POINTER(C.c_double), C.c_double, C.c_double], C.c_int64)},
     fallback="the half-shaft step runs its Python reference (slower, same results)")
 MISSING, log, source_digest, _check, _candidates, load, reset = _BINDING.exports()
 
@@ -109,6 +121,7 @@ class Kernel:
         self.inp = (C.c_double * NIN)()
         self.fp = (C.c_void_p * 2)(C.cast(rlib.rk_slip, C.c_void_p).value, C.cast(rlib.rk_step_slip, C.c_void_p).value)
         self.fn = lib.sk_step
+        self.native_fn = lib.sk_native
         self.k = inner._rk.const
         # what the last compiled step wrote: the two models' time values and the Jacobian cache
         self._rt = self._st = self._jac = None
@@ -135,6 +148,12 @@ class Kernel:
                       mR.a_free, mR.inv_J, mR.dadw, mR.q_rate, mR.c_t, mR.r_t)
         if self.fn(self.sc, self.k, self.rs, self.ss, self.inp, self.fp):
             return False
+        self.unpack(d, md)
+        return True
+
+    def unpack(self, d: dict, md: dict) -> None:
+        """The state the last compiled step left in the arrays into the models' dictionaries (``d``
+        the inner model's, ``md`` the shafted one's); the arrays then hold their present state."""
         r = _RS.unpack_from(self.rs)
         d.update(zip(_R_PLAIN, _pick_plain(r)))
         d["_ad_guess"] = r[12] if r[11] else None
@@ -150,7 +169,14 @@ class Kernel:
         md["n_steps"], md["n_substeps"], md["n_evals"], md["n_jacobians"], md["n_halvings"] = map(int, s[15:20])
         md["_jac"] = None          # the arrays hold the Jacobian cache (ShaftedDifferential.jac reads it)
         self._rt, self._st = r[0], s[0]
-        return True
+
+    def current(self, d: dict, md: dict) -> bool:
+        """The arrays hold the models' present state (see :meth:`step`), else pack it (False: it does
+        not fit, the Python code keeps it)."""
+        j = md["_jac"]
+        if d["t"] is self._rt and md["t"] is self._st and (j is None or j is self._jac):
+            return True
+        return self._pack(d, md)
 
     def jac_dict(self) -> dict:
         """The Jacobian cache as the last compiled step left it (mode key -> S_n), as a dict."""
@@ -201,3 +227,82 @@ _pick_plain = operator.itemgetter(*range(0, 11), 28, 29, 30, 37, 42, 45, 46, 47)
 # derivatives.py reads; not part of the state)
 _S_PLAIN = _S_KEYS + ("dw_pred_L", "dw_pred_R", "q_end_L", "q_end_R")
 _pick_s = operator.itemgetter(*range(0, 15), 20, 21, 22, 23)
+
+
+# the differential's native step (sk_native: WatchedShaftedDifferential.do_step with this kernel's step,
+# the watches, the outputs): the slots of its array
+_SURROGATE = ("a_free", "inv_J", "dadw", "q_rate", "c_t", "r_t")
+DIFF_INPUTS = ("w_ref", "tau_c", "tau_L", "tau_R", "wheelL_phi", "wheelL_w", "wheelR_phi", "wheelR_w",
+               *(f"wheelL_model.{f}" for f in _SURROGATE), *(f"wheelR_model.{f}" for f in _SURROGATE))
+DIFF_OUTPUTS = ("tau_mean_L", "tau_mean_R", "dw_pred_L", "dw_pred_R", "tau_end_L", "tau_end_R", "theta_L", "theta_R",
+                "wc", "phic", "w_L", "phi_L", "w_R", "phi_R", "tau_drive", "tau_mesh_L", "tau_mesh_R",
+                "mesh_forces.F_A1", "mesh_forces.F_B2", "mesh_forces.F_12", "locking_torque", "locking_capacity",
+                "power_loss", "energy_loss", "work_in", "kinetic_energy", "stuck_indicator", "potential_energy",
+                "parametric_work", "overspeed_watch.indicator", "capacity_watch.sigma_H_max",
+                "capacity_watch.sigma_F_max", "capacity_watch.exceeded_indicator")
+_UNUSED = ("tau_L", "tau_R")      # the inner model's, set by the shafts: not the model's inputs here
+WATCHES = ("capacity_watch", "overspeed_watch")
+
+
+def _get(m, path: str):
+    for part in path.split("."):
+        m = getattr(m, part)
+    return m
+
+
+def _set(m, path: str, x: float) -> None:
+    head, _, last = path.rpartition(".")
+    setattr(_get(m, head) if head else m, last, x)
+
+
+class DiffNative(NativeStep):
+    """The differential's whole step in C (``sk_native``): the shafted model with the rigid inner model
+    and its two watches (:class:`spurdiff.differential.watches.CapacityWatch`, ``OverspeedWatch``),
+    as the FMU builds it with ``shaftCoupling = wheel`` at rigid."""
+
+    integers = {"loaded_flanks": 53, "n_mode_switches": 54, "n_internal_steps": 55, "n_contact_transitions": 56}
+
+    def __init__(self, kernel: Kernel, m):
+        inner, cw, ow = m.inner, m.capacity_watch, m.overspeed_watch
+        rb = inner.pf.rb
+        oc = (inner.J_A, inner.J_B, inner.lam, inner.Mcc, inner.Mcd, inner.Mdd, inner.pf.n * rb[0], inner.pf.n * rb[2],
+              1.0 if inner.speed_drive else 0.0, m.shafts.left.c, m.shafts.right.c, ow.limit, *cw._aH, *cw._aF,
+              cw.sigma_HG_static, cw.sigma_FG_static, 2.0)
+        assert len(oc) == NOC
+        self.oc = (C.c_double * NOC)(*(float(x) for x in oc))
+        P = C.POINTER(C.c_double)
+        self.ctx = SkNative(C.cast(kernel.sc, P), C.cast(kernel.k, P), C.cast(kernel.rs, P), C.cast(kernel.ss, P),
+                            (C.c_void_p * 2)(*kernel.fp), C.cast(self.oc, P))
+        super().__init__(kernel.native_fn, self.ctx, NV, DIFF_INPUTS, DIFF_OUTPUTS)
+        self.kernel = kernel
+
+    def load(self, m) -> bool:
+        if not self.kernel.current(m.inner.__dict__, m.__dict__):
+            return False
+        v = self.v
+        v[0:53] = [float(_get(m, k)) for k in DIFF_INPUTS + DIFF_OUTPUTS]
+        v[53:57] = (m.loaded_flanks, m.n_mode_switches, m.n_internal_steps, m.n_contact_transitions)
+        v[57:61] = (*m.capacity_watch._F_max, 1.0 if m.overspeed_watch.warned else 0.0)
+        v[61:81] = v[0:20]
+        return True
+
+    def store(self, m) -> None:
+        md = m.__dict__
+        self.kernel.unpack(m.inner.__dict__, md)
+        md["_mf"] = None            # the mesh forces of the new state (computed when asked for)
+        v = self.v[0:81]
+        for k, x in zip(DIFF_INPUTS, v[61:81]):
+            if k not in _UNUSED:
+                _set(m, k, x)
+        cw = m.capacity_watch
+        cw.sigma_H_max, cw.sigma_F_max, cw._F_max = v[50], v[51], (v[57], v[58], v[59])
+        m.overspeed_watch.indicator = v[49]
+
+
+def native(m) -> "DiffNative | None":
+    """The native step of an initialized shafted model whose step is compiled here and whose watches
+    are the FMU's two, or None."""
+    sk = m.__dict__.get("_sk")
+    if sk is None or tuple(w.name for w in getattr(m, "watches", ())) != WATCHES:
+        return None
+    return DiffNative(sk, m)

@@ -225,6 +225,18 @@ class ShaftedDifferential(ShaftSolver):
         self.t = t + h
         self.n_steps += 1
 
+    def native_step(self) -> "shaft_kernel.DiffNative | None":
+        """The whole step in C for a host that steps without Python (:mod:`spurdiff.native_step`):
+        with the compiled step of this module's kernel and the FMU's two watches, else None (also with
+        ``native`` false: the FMU's ``solver.nativeStep``); the same plan while the kernel is the same."""
+        sk = self.__dict__.get("_sk") if self._ready and self.__dict__.get("native", True) else None
+        if sk is None:
+            return None
+        plan = self.__dict__.get("_native")
+        if plan is None or plan.kernel is not sk:
+            plan = self._native = shaft_kernel.native(self)
+        return plan
+
     # ------------------------------------------------------------------ the Jacobian cache
     @property
     def jac(self) -> dict:

@@ -259,6 +259,12 @@ VARIABLES: list[Var] = [
        "method that reuses its Jacobian) | rodas5p (RODAS5P, order 5, a Jacobian every internal step; several "
        "times fewer internal steps from tolerance 1e-4 down, docs/accuracy.md)",
        kind="String"),
+    Var("solver.nativeStep", "parameter", "With the compiled step with the half-shafts in use (shaftCoupling = wheel, "
+        "rigid): true = the whole communication step runs in C without entering Python (the FMU's native step: "
+        "the inputs checked, the step, the watches, the outputs; the same results bit for bit; the state is "
+        "handed back to Python before any other call reads it) | false = every step runs through the Python "
+        "model around the compiled kernel (for comparison)", None, None, True, kind="Boolean",
+        bind="mesh.nativeStep"),
     Var("solver.kernelInUse", "calculatedParameter", "Implementation that runs the compliant/contact levels, "
         "or the rigid level's pin-load solve: compiled | python (and why) | none (rigid without a pin-load "
         "solve: lockingLaw = paper, or no pin friction); with shaftCoupling = wheel followed by '; half-shafts: ' "
@@ -467,6 +473,7 @@ def build_model(values: dict):
         raise ParameterError("shaftCoupling", s.shaftCoupling, " | ".join(SHAFT_COUPLINGS))
     if s.shaftCoupling == "wheel":
         model = ShaftedDifferential(model, s.shafts)
+        model.native = bool(s.mesh.nativeStep)
         io.push(model, values)
     model.initialize(0.0)
     io.pull_calculated(model, values)

@@ -19,17 +19,18 @@ class NativeMethods:
 
     def fmi2_native_enter(self):
         """False: this instance has no native step (the model has none, e.g. ``solver.kernel =
-        python``, or may end a step early: fmi3DoStep's early return; the bridge does not ask again). None: not now (not stepping, or inputs stored since
+        python; the bridge does not ask again). None: not now (not stepping, or inputs stored since
         their last check: :meth:`fmi2_do_step` checks them first). Else the model's inputs as the
         value table has them and its state are in the plan's array, and the answer is (time,
         stop time, its tolerance's first term, (function, constants, array, names, n_in, parameter
-        names, integers), parameter values): the addresses, the value-table name of each input and
-        output slot (None where the FMU has no variable for it), the number of input slots, the Real
-        parameters (constant while stepping: a host reads them there), the Integer outputs the
-        array holds as (value reference, slot) pairs, and the parameters' values."""
+        names, integers, early), parameter values): the addresses, the value-table name of each input
+        and output slot (None where the FMU has no variable for it), the number of input slots, the
+        Real parameters (constant while stepping: a host reads them there), the Integer outputs the
+        array holds as (value reference, slot) pairs, 1 when the model may end a step early (FMI
+        3.0's early return: the bridge then takes that step in Python), and the parameters' values."""
         model = self.model
         native_step = getattr(model, "native_step", None)
-        if native_step is None or self.might_return_early:   # (the bridge's early-return step relies on it)
+        if native_step is None:
             return False
         if self.phase != "stepping" or not self._inputs_ok:
             return None
@@ -48,12 +49,14 @@ class NativeMethods:
             int_vr = {name: vr for vr, name in self._get["Integer"].items()}
             ints = tuple(x for v in self.VARIABLES if v.kind == "Integer" and v.causality == "output"
                          and v.bind in plan.integers for x in (int_vr[v.name], plan.integers[v.bind]))
-            self._native_tuple = (*plan.addresses, slots, len(plan.inputs), params, ints)
+            self._native_tuple = (*plan.addresses, slots, len(plan.inputs), params, ints,
+                                  1 if self.might_return_early else 0)
             self._native_params = operator.itemgetter(*params) if len(params) > 1 else (
                 lambda d, _p=params: tuple(d[n] for n in _p))
             self._native_key = (model, plan)
         values, v, slots = self.values, plan.v, self._native_tuple[3]
-        plan.load(model)
+        if plan.load(model) is False:
+            return None
         for i in range(len(plan.inputs)):    # the inputs of the coming step, as the value table has them
             if slots[i] is not None:
                 v[i] = values[slots[i]]

@@ -65,6 +65,9 @@ class MeshParams:
     # a Jacobian every step; fewer steps from tolerance 1e-4 down, docs/accuracy.md) | auto
     # (default: rodas5p at the contact level, ros34pw2 at the compliant level)
     method: str = _d("solver.method")
+    # the whole step in C without Python where the FMU has it (solver.nativeStep; spurdiff.native_step:
+    # the rigid level with shaftCoupling = wheel and its compiled step)
+    nativeStep: bool = True
 
     def method_in_use(self) -> str:
         """The integration method that runs: ``method``, or with ``auto`` the level's (AUTO_METHOD)."""
@@ -78,6 +81,8 @@ class MeshParams:
             raise ParameterError("kernel", self.kernel, " | ".join(KERNELS))
         if self.method not in METHOD_CHOICES:
             raise ParameterError("method", self.method, " | ".join(METHOD_CHOICES))
+        if self.nativeStep not in (0, 1):
+            raise ParameterError("nativeStep", self.nativeStep, "0 or 1 (false or true)")
         for name in SWITCHES:
             v = getattr(self, name)
             if not isinstance(v, (bool, np.bool_)) and v not in (0, 1):
