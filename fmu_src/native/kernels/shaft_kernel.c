@@ -680,7 +680,8 @@ int64_t sk_step(const double *sc, double *k, double *rs, double *ss, const doubl
  * steps, 56 contact transitions (Integer outputs); 57..59 the largest |force| booked per mesh, 60 the
  * overspeed warned; 61..80 the inputs the last step took.
  * Returns 0 (done), 1 (sk_step did not take it), 4 (an input the model refuses, h not positive and
- * finite), 5 (a watch would log); on failure nothing in v or the state arrays changed. */
+ * finite), 5 (a watch would log, or an output is not finite: the Python step logs or refuses); on
+ * failure nothing in v or the state arrays changed. */
 typedef struct {
     const double *sc;
     double *k;
@@ -762,18 +763,9 @@ int64_t sk_native(const SkNative *x, double *v, double t, double h)
     const int over = awd > oc[OC_LIMIT];
     if (over && v[60] == 0.0)
         log = 1;
-    if (log) {   /* the Python step takes it and logs: the state as before */
-        memcpy(rs, bk_rs, sizeof bk_rs);
-        memcpy(ss, bk_ss, sizeof bk_ss);
-        for (int i = 0; i < 4; i++) {
-            x->k[49 + i] = bk_k[i];
-            x->k[54 + i] = bk_k[4 + i];
-        }
-        return 5;
-    }
     const double tmL = oc[OC_JA] * (ac + ad) - tauL, tmR = oc[OC_JB] * (ac + lam * ad) - tauR;
     const double p2 = oc[OC_P2], lasth = rs[R_LASTH];
-    double *o = v + SKV_OUT;
+    double o[33];
     o[0] = ss[S_TMEANL]; o[1] = ss[S_TMEANR]; o[2] = ss[S_DWPL]; o[3] = ss[S_DWPR];
     o[4] = ss[S_TENDL]; o[5] = ss[S_TENDR]; o[6] = ss[S_THL]; o[7] = ss[S_THR];
     o[8] = wc; o[9] = phic; o[10] = wc + wd; o[11] = phic + phid; o[12] = wc + lam * wd; o[13] = phic + lam * phid;
@@ -786,9 +778,23 @@ int64_t sk_native(const SkNative *x, double *v, double t, double h)
     o[25] = 0.5 * (oc[OC_MCC] * pow(wc, p2) + 2.0 * oc[OC_MCD] * wc * wd + oc[OC_MDD] * pow(wd, p2));
     o[26] = (wd == 0.0 && ad == 0.0) ? 1.0 : 0.0;
     o[27] = 0.0 + 0.5 * (oc[OC_CL] * pow(ss[S_THL], p2) + oc[OC_CR] * pow(ss[S_THR], p2));
-    /* o[28] parametric work: constant (the rigid level has none) */
+    o[28] = v[SKV_OUT + 28];          /* parametric work: constant (the rigid level has none) */
     o[29] = over ? 1.0 : 0.0;
-    o[30] = sHmax; o[31] = sFmax;   /* o[32] exceeded: unchanged (a change is logged by the Python step) */
+    o[30] = sHmax; o[31] = sFmax;
+    o[32] = v[SKV_OUT + 32];          /* exceeded: unchanged (a change is logged by the Python step) */
+    for (int i = 0; i < 33; i++)      /* the adapter refuses a step with an output not finite */
+        if (!isfinite(o[i]))
+            log = 1;
+    if (log) {   /* the Python step takes it (and logs, or refuses): the state as before */
+        memcpy(rs, bk_rs, sizeof bk_rs);
+        memcpy(ss, bk_ss, sizeof bk_ss);
+        for (int i = 0; i < 4; i++) {
+            x->k[49 + i] = bk_k[i];
+            x->k[54 + i] = bk_k[4 + i];
+        }
+        return 5;
+    }
+    memcpy(v + SKV_OUT, o, sizeof o);
     const double T0 = tmL + tmR;
     v[53] = T0 > 0.0 ? 1.0 : (T0 < 0.0 ? -1.0 : 0.0);
     v[54] = rs[R_NSW];
