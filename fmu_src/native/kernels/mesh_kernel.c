@@ -14,8 +14,10 @@
  *
  * Agreement with the reference: the same operations in the same order (sums in the order the
  * reference sums, no contraction into fused multiply-adds: build with -ffp-contract=off), the same
- * libm, and the same partial-pivoting LU (integrator.lu_factor / lu_solve; a LAPACK call cost more in
- * call overhead than the about 170 operations of an 8x8): the states agree bit for bit
+ * libm, and the same solve of W (integrator.split_factor / split_solve with the carrier's speed imposed:
+ * the Schur complement on the velocities, inverted by Gauss-Jordan with partial pivoting; else the
+ * partial-pivoting LU, integrator.lu_factor / lu_solve; a LAPACK call cost more in call overhead than
+ * the whole solve of an 8x8): the states agree bit for bit
  * (tests/physics/mesh/test_mesh_kernel.py).
  */
 #include "mesh_kernel.h"
@@ -27,11 +29,12 @@ int64_t mk_sizeof_state(void) { return (int64_t)sizeof(MkState); }
 /* ------------------------------------------------------------ the method (spurdiff.differential.mesh.integrator) */
 
 typedef struct {
-    double J1[NMAX * NMAX], W[NMAX * NMAX];
+    double J1[NMAX * NMAX], W[NMAX * NMAX], Q[4][NMAX];
     double U[SMAX][NMAX], ynew[NMAX], err[NMAX], ym[NMAX], yq[NMAX], Ys[NMAX], F[NMAX], rhs[NMAX];
     double f0[NMAX], f1[NMAX], fs[NMAX];
 } Work;
 
+/* integrator.lu_factor / lu_solve: the general solve of W (N = 10: the carrier free) */
 static int lu(double *A, int N, int *piv) {
     for (int j = 0; j < N; j++) {
         int p = j;
@@ -74,6 +77,83 @@ static int factor(const double *W, double *LU, int *piv, int N) {
     return lu(LU, N, piv);
 }
 
+/* the positions and velocities of the state with the carrier's speed imposed (layout.split; N = 8) */
+static const int POS[MSPLIT] = {PSI, DA, DB, D12}, VEL[MSPLIT] = {VA, VB, W1, W2};
+
+/* integrator.gj_inverse: X = A^-1 (m x m, row-major, A changed) by Gauss-Jordan with partial pivoting; 0: singular */
+static int gj_inverse(double *A, int m, double *X) {
+    for (int i = 0; i < m; i++)
+        for (int j = 0; j < m; j++) X[i * m + j] = i == j ? 1.0 : 0.0;
+    for (int j = 0; j < m; j++) {
+        int p = j;
+        double amax = fabs(A[j * m + j]);
+        for (int i = j + 1; i < m; i++)
+            if (fabs(A[i * m + j]) > amax) { amax = fabs(A[i * m + j]); p = i; }
+        if (A[p * m + j] == 0.0) return 0;
+        if (p != j)
+            for (int k = 0; k < m; k++) {
+                double t = A[j * m + k]; A[j * m + k] = A[p * m + k]; A[p * m + k] = t;
+                t = X[j * m + k]; X[j * m + k] = X[p * m + k]; X[p * m + k] = t;
+            }
+        double *Aj = A + j * m, *Xj = X + j * m, inv = 1.0 / Aj[j];
+        for (int k = j + 1; k < m; k++) Aj[k] *= inv;
+        for (int k = 0; k < m; k++) Xj[k] *= inv;
+        for (int i = 0; i < m; i++) {
+            if (i == j) continue;
+            double *Ai = A + i * m, *Xi = X + i * m, l = Ai[j];
+            if (l != 0.0) {
+                for (int k = j + 1; k < m; k++) Ai[k] -= l * Aj[k];
+                for (int k = 0; k < m; k++) Xi[k] -= l * Xj[k];
+            }
+        }
+    }
+    return 1;
+}
+
+/* integrator.split_factor: the factors of W = I/e - Jf (e = gamma h) into F (S^-1, J_vp, B; see MkState.LU) */
+static int split_factor(const double *Jf, int N, double e, double *F) {
+    const int m = MSPLIT, mm = MSPLIT * MSPLIT;
+    double *Si = F, *Jvp = F + mm, *B = F + 2 * mm, Sm[MSPLIT * MSPLIT], d = 1.0 / e;
+    for (int i = 0; i < m; i++)
+        for (int k = 0; k < m; k++) {
+            Jvp[i * m + k] = Jf[VEL[i] * N + POS[k]];
+            B[i * m + k] = Jf[POS[i] * N + VEL[k]];
+        }
+    for (int i = 0; i < m; i++)
+        for (int j = 0; j < m; j++) {
+            double jb = Jvp[i * m] * B[j];
+            for (int k = 1; k < m; k++) jb += Jvp[i * m + k] * B[k * m + j];
+            Sm[i * m + j] = ((i == j ? d : 0.0) - Jf[VEL[i] * N + VEL[j]]) - e * jb;
+        }
+    return gj_inverse(Sm, m, Si);
+}
+
+/* integrator.split_solve: x with W x = r from split_factor's factors F */
+static void split_solve(const double *F, int N, double e, const double *r, double *x) {
+    const int m = MSPLIT, mm = MSPLIT * MSPLIT;
+    const double *Si = F, *Jvp = F + mm, *B = F + 2 * mm;
+    double t[MSPLIT], xv[MSPLIT];
+    for (int i = 0; i < m; i++) {
+        const double *a = Jvp + i * m;
+        double s = a[0] * r[POS[0]];
+        for (int k = 1; k < m; k++) s += a[k] * r[POS[k]];
+        t[i] = r[VEL[i]] + e * s;
+    }
+    for (int i = 0; i < m; i++) {
+        const double *a = Si + i * m;
+        double s = a[0] * t[0];
+        for (int k = 1; k < m; k++) s += a[k] * t[k];
+        xv[i] = s;
+    }
+    for (int i = 0; i < m; i++) {
+        const double *a = B + i * m;
+        double s = a[0] * xv[0];
+        for (int k = 1; k < m; k++) s += a[k] * xv[k];
+        x[POS[i]] = e * (r[POS[i]] + s);
+        x[VEL[i]] = xv[i];
+    }
+}
+
 /* out = sum_k c[k] U[k] in the order of k (integrator._combine) */
 static void combine(const double *c, int nk, double U[SMAX][NMAX], int N, double *out) {
     for (int j = 0; j < N; j++) {
@@ -83,38 +163,55 @@ static void combine(const double *c, int nk, double U[SMAX][NMAX], int N, double
     }
 }
 
+/* ya = y + sum_k a[k] U[k], yc = sum_k c[k] U[k] (k < nk): two combines in one pass, each element summed in
+ * the order of k as combine sums it (so the same bits) */
+static void stage_sums(const double *a, const double *c, int nk, double U[SMAX][NMAX], int N, const double *y,
+                       double *ya, double *yc) {
+    for (int j = 0; j < N; j++) {
+        double sa = U[0][j] * a[0], sc = U[0][j] * c[0];
+        for (int k = 1; k < nk; k++) {
+            sa += U[k][j] * a[k];
+            sc += U[k][j] * c[k];
+        }
+        ya[j] = sa + y[j];
+        yc[j] = sc;
+    }
+}
+
 /* RosenbrockW.step: with f0 = f(y) and S->Jf an approximation of J(y) (a W-method; else J(y)); W factored
  * unless S->LU is for Jf and h (S->lu_h); fills ynew, err, U. 0: singular / not finite */
 static int ros_step(const MkParams *P, MkState *S, const double *y, const double *f0, double h, Work *wk) {
-    const int N = (int)P->N;
+    const int N = (int)P->N, sp = N == 8;     /* the split (layout.split), else the general LU */
     int *piv = (int *)S->piv;
+    double e = P->gamma * h;
     if (h != S->lu_h) {
         S->lu_h = 0.0;
-        double d = 1.0 / (P->gamma * h);
-        for (int i = 0; i < N; i++)
-            for (int j = 0; j < N; j++) wk->W[i * N + j] = (i == j ? d : 0.0) - S->Jf[i * N + j];
         S->n_lu++;
-        if (!factor(wk->W, S->LU, piv, N)) return 0;
+        if (sp) {
+            if (!split_factor(S->Jf, N, e, S->LU)) return 0;
+        } else {
+            double d = 1.0 / e;
+            for (int i = 0; i < N; i++)
+                for (int j = 0; j < N; j++) wk->W[i * N + j] = (i == j ? d : 0.0) - S->Jf[i * N + j];
+            if (!factor(wk->W, S->LU, piv, N)) return 0;
+        }
         S->lu_h = h;
     }
-    lu_solve(S->LU, N, piv, f0, wk->U[0]);
+    if (sp) split_solve(S->LU, N, e, f0, wk->U[0]);
+    else lu_solve(S->LU, N, piv, f0, wk->U[0]);
     double ih = 1.0 / h;
     const int ns = (int)P->stages;
     for (int i = 1; i < ns; i++) {
-        combine(P->a[i], i, wk->U, N, wk->Ys);
-        for (int j = 0; j < N; j++) wk->Ys[j] += y[j];
+        stage_sums(P->a[i], P->cc[i], i, wk->U, N, y, wk->Ys, wk->rhs);
         mk_eval(P, S, wk->Ys, wk->F, NULL, NULL);
-        combine(P->cc[i], i, wk->U, N, wk->rhs);
         for (int j = 0; j < N; j++) wk->rhs[j] = wk->rhs[j] * ih + wk->F[j];
-        lu_solve(S->LU, N, piv, wk->rhs, wk->U[i]);
+        if (sp) split_solve(S->LU, N, e, wk->rhs, wk->U[i]);
+        else lu_solve(S->LU, N, piv, wk->rhs, wk->U[i]);
     }
+    stage_sums(P->m, P->ew, ns, wk->U, N, y, wk->ynew, wk->err);   /* the solution and the error estimate */
     int finite = 1;
-    combine(P->m, ns, wk->U, N, wk->ynew);
-    combine(P->ew, ns, wk->U, N, wk->err);
-    for (int j = 0; j < N; j++) {
-        wk->ynew[j] += y[j];
+    for (int j = 0; j < N; j++)
         if (!isfinite(wk->ynew[j])) finite = 0;
-    }
     return finite;
 }
 
@@ -378,26 +475,22 @@ static void book_parametric_work(const MkParams *P, MkState *S, const double *ya
 
 /* stepper.dense_output: the states at the output times tq[k] (into the step) in (tin, tin + hi] of
  * an accepted step from y to yn, by the method's dense output (order 3, RODAS5P 4); returns the next k */
-static int64_t dense_output(const MkParams *P, const Work *wk, const double *y, const double *yn, double tin,
+static int64_t dense_output(const MkParams *P, Work *wk, const double *y, const double *yn, double tin,
                             double hi, int64_t k, int64_t nq, const double *tq, double *yq) {
     const int N = (int)P->N;
+    int formed = 0;
     while (k < nq && tq[k] <= tin + hi) {
         double *out = yq + k * N, th = (tq[k] - tin) / hi;
         if (th >= 1.0) {
             memcpy(out, yn, sizeof(double) * N);
         } else {
-            /* (a three-power dense output has bint[i][3] = 0: the fourth term adds 0, no value changes) */
-            const int ns = (int)P->stages;
-            double th2 = th * th, th3 = th2 * th, th4 = th3 * th, B[SMAX], d[SMAX];
-            for (int i = 0; i < ns; i++)
-                B[i] = P->bint[i][0] * th + P->bint[i][1] * th2 + P->bint[i][2] * th3 + P->bint[i][3] * th4;
-            for (int j = 0; j < ns; j++) {
-                double sj = B[0] * P->ginv[0][j];
-                for (int i = 1; i < ns; i++) sj += B[i] * P->ginv[i][j];
-                d[j] = sj;
+            if (!formed) {        /* Q_p = sum_j dpoly[p][j] u_j, once for the step */
+                for (int p = 0; p < 4; p++) combine(P->dpoly[p], (int)P->stages, wk->U, N, wk->Q[p]);
+                formed = 1;
             }
-            combine(d, ns, (double (*)[NMAX])wk->U, N, out);
-            for (int j = 0; j < N; j++) out[j] += y[j];
+            double th2 = th * th, th3 = th2 * th, th4 = th3 * th;
+            for (int j = 0; j < N; j++)
+                out[j] = y[j] + (((wk->Q[0][j] * th + wk->Q[1][j] * th2) + wk->Q[2][j] * th3) + wk->Q[3][j] * th4);
         }
         k++;
     }

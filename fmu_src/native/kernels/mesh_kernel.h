@@ -10,8 +10,9 @@
 #include <stdint.h>
 #include <string.h>
 
-#define MK_ABI 7
+#define MK_ABI 8
 #define NMAX 10
+#define MSPLIT 4      /* the velocities of the split (layout.split) */
 #define SMAX 8        /* the most stages of a method (spurdiff.differential.mesh.integrator.SMAX) */
 enum { PSI, DA, DB, D12, VA, VB, W1, W2, WC, PHIC };
 enum { LAW_BILATERAL = 0, LAW_ELASTO = 1, LAW_IMPACT = 2 };
@@ -35,7 +36,7 @@ typedef struct {
     double gamma, err_exp, a[SMAX][SMAX], cc[SMAX][SMAX], m[SMAX], ew[SMAX], dmid[SMAX];   /* transformed tableau */
     double dq[2][SMAX];                      /* dense output at theta = 1/4, 3/4 (loss5) */
     MkMesh md[3];
-    double bint[SMAX][4], ginv[SMAX][SMAX];  /* dense output: the tableau's binterp and Gamma^-1 */
+    double dpoly[4][SMAX];                   /* dense output: d_j(theta) = sum_p dpoly[p][j] theta^(p+1) */
     double c_pind;                           /* the pins' sliding lever (mu_pinDynamic); c_pin: stuck, break-away */
 } MkParams;
 
@@ -50,7 +51,8 @@ typedef struct {
     double fail_t, fail_h;    /* where a step failed */
     /* the integrator's memory between communication steps (spurdiff.differential.mesh.stepper, .integrator) */
     double Jf[NMAX * NMAX];   /* the Jacobian the steps use (c._integ.J), row-major N x N */
-    double LU[NMAX * NMAX];   /* W = I/(gamma lu_h) - Jf factored (row-major, L and U in one) */
+    double LU[NMAX * NMAX];   /* W = I/(gamma lu_h) - Jf factored: N = 8 integrator.split_factor's S^-1, J_vp, B
+                                 (4 x 4 each, row-major, at 0, 16, 32); N = 10 L and U in one (row-major) */
     double f0c[NMAX], sv0c[13], key[4];   /* f and side values at y for the inputs in key, key_s */
     double lu_h;              /* step size of LU; 0: none */
     int32_t piv[NMAX];

@@ -17,7 +17,8 @@ MK_HIDDEN double mk_pymod(double x, double w) {
 }
 
 /* ------------------------------------------------------------ laws (spurdiff.differential.mesh.laws) */
-static void impact(double p, double v, double K, double e, double C, double dmax, double *out) {
+static inline __attribute__((always_inline)) void impact(double p, double v, double K, double e, double C, double dmax,
+                                                          double *out) {
     if (p <= 0.0) { out[0] = out[1] = out[2] = out[3] = 0.0; return; }
     double pe1 = e == 1.5 ? sqrt(p) : pow(p, e - 1.0);
     double Fc = K * pe1 * p, cs, dcs;
@@ -36,7 +37,7 @@ static double impact_potential(double p, double K, double e) {
     return p > 0.0 ? K * pow(p, e + 1.0) / (e + 1.0) : 0.0;
 }
 
-static void elasto_backlash(double p, double v, double k, double c, double *out) {
+static inline __attribute__((always_inline)) void elasto_backlash(double p, double v, double k, double c, double *out) {
     if (p <= 0.0) { out[0] = out[1] = out[2] = out[3] = 0.0; return; }
     double Fc = k * p, Fd = c * v;
     if (Fc + Fd <= 0.0) { out[0] = out[1] = out[2] = 0.0; out[3] = Fc; return; }
@@ -113,12 +114,12 @@ MK_HIDDEN void mk_phase_mode(const MkParams *P, const MkState *S, const double *
     }
 }
 
-static void flank_law(const MkParams *P, const MkMesh *m, double p, double v, double kf, double *out) {
+static inline __attribute__((always_inline)) void flank_law(const MkParams *P, const MkMesh *m, double p, double v, double kf, double *out) {
     if (P->law == LAW_IMPACT) impact(p, v, m->K * kf, P->e, P->C, P->dmax, out);
     else elasto_backlash(p, v, m->k * kf, m->c, out);
 }
 
-static Force mesh_force(const MkParams *P, const MkState *S, int i, const MkMesh *m, double d, double dd, double u) {
+static inline __attribute__((always_inline)) Force mesh_force(const MkParams *P, const MkState *S, int i, const MkMesh *m, double d, double dd, double u) {
     double xp, xn, kp, kn, o[4];
     int64_t np, nn;
     Force f;
@@ -230,9 +231,9 @@ MK_HIDDEN void mk_eval(const MkParams *P, const MkState *S, const double *y, dou
     double Q[4] = {rbA * FA, rbB * FB, rb1 * (FA - F12), rb2 * (FB - F12)};
     double C[4][3] = {{rbA, 0.0, 0.0}, {0.0, rbB, 0.0}, {rb1, 0.0, -rb1}, {0.0, rb2, -rb2}};
     double G[4][4], Lx[4][4];   /* flank friction: velocity coefficients; lever arms on (psi_A, d_A1, d_B2, d_12) */
-    memset(G, 0, sizeof G);
-    memset(Lx, 0, sizeof Lx);
-    if (P->flank) {
+    if (P->flank) {             /* (G and Lx are read only with flank friction) */
+        memset(G, 0, sizeof G);
+        memset(Lx, 0, sizeof Lx);
         double Pf = 0.0;
         /* layout.roll_gradients: d(u_A1, u_B2, u_12)/d(psi_A, d_A1, d_B2, d_12) */
         const double du[3][4] = {{rbA, 0.0, 0.0, 0.0}, {-rbA, -1.0, -1.0, -1.0}, {-rbA, -1.0, 0.0, 0.0}};

@@ -653,3 +653,57 @@ def test_the_integrators_lu_solves_with_partial_pivoting_and_refuses_a_singular_
         assert np.allclose(lu_solve(lu, piv, b.tolist()), np.linalg.solve(A, b), rtol=1e-10, atol=1e-12)
     S = np.ones((3, 3))
     assert lu_factor(S.tolist()) == (None, None)
+
+
+def test_the_split_solve_of_w_is_the_solve_of_the_whole_matrix():
+    """W = I/(gamma h) - J through the Schur complement on the velocities (integrator.split_factor,
+    split_solve; the compiled kernel's solve) equals numpy's solve of the whole W, for the model's
+    own Jacobian (the carrier's speed imposed; contact with flank friction) at step sizes from far
+    below to far above the mesh period; the carrier free takes the general LU (no split); and
+    Gauss-Jordan refuses a singular Schur complement."""
+    from spurdiff.differential.mesh import MeshDifferential, MeshParams
+    from spurdiff.differential.mesh.integrator import RODAS5P, gj_inverse, split_factor, split_solve
+    from spurdiff.differential.mesh.layout import split
+    from spurdiff.differential.params import DifferentialParams
+
+    rng = np.random.default_rng(5)
+    assert split(10) is None
+    for drive in ("speed",):
+        m = MeshDifferential(DifferentialParams(carrierDrive=drive),
+                             MeshParams(level="contact", flankFriction=True, kernel="python"))
+        m.w_ref = m.w_start_carrier = 20.0
+        m.tau_c, m.tau_L, m.tau_R = 250.0, 150.0, 100.0
+        m.initialize()
+        N = m._N
+        pos, vel = split(N)
+        J = np.asarray(m.jac(0.0, m.state_vector()), dtype=float)
+        assert np.all(J[np.ix_(pos, pos)] == 0.0)              # the split's premise: x_p' = B x_v
+        assert np.count_nonzero(J[np.ix_(vel, pos)]) > 0 and np.count_nonzero(J[np.ix_(vel, vel)]) > 0
+        for h in (1e-7, 1e-5, 1e-3, 1e-1, 10.0):
+            e = RODAS5P.gamma * h
+            F = split_factor(J.tolist(), e, pos, vel)
+            W = np.eye(N) / e - J          # condition numbers 1e4 to 3e11 over these steps
+            for _ in range(3):
+                r = rng.standard_normal(N)
+                x = np.array(split_solve(F, None, r.tolist()))
+                xs = np.linalg.solve(W, r)
+                # backward stable (normwise backward error at rounding level) and LAPACK's answer
+                back = np.abs(W @ x - r).max() / (np.abs(W).max() * np.abs(x).max() + np.abs(r).max())
+                assert back < 1e-15, (drive, h, back)
+                assert np.abs(x - xs).max() <= 1e-12 * np.abs(xs).max(), (drive, h)
+    assert gj_inverse([[1.0, 2.0], [2.0, 4.0]]) is None
+    X = gj_inverse([[0.0, 2.0], [3.0, 1.0]])                     # a row exchange
+    assert np.allclose(np.array(X) @ np.array([[0.0, 2.0], [3.0, 1.0]]), np.eye(2))
+
+
+def test_the_dense_output_polynomial_is_the_tableaus_dense_output():
+    """dpoly (the dense output's weights as a polynomial in theta, what the stepper and the kernel
+    evaluate) gives the weights B(theta) Gamma^-1 of the tableau, for both methods."""
+    from spurdiff.differential.mesh.integrator import METHODS, dense_weights
+
+    for tr in METHODS.values():
+        for th in (0.0, 0.1, 0.25, 0.5, 0.9, 1.0):
+            d = sum(np.array(tr.dpoly[p]) * th ** (p + 1) for p in range(4))
+            assert np.allclose(d, dense_weights(th, tr), rtol=1e-13, atol=1e-13), (tr.name, th)
+        # at theta = 1 the dense output is the step's solution
+        assert np.allclose(sum(np.array(tr.dpoly[p]) for p in range(4)), tr.m, rtol=1e-12, atol=1e-12), tr.name

@@ -126,6 +126,8 @@ class Transformed(NamedTuple):
     dmid_list: list = None
     binterp_lists: list = None
     Ginv_lists: list = None
+    dpoly: list = None        # dense output d_j(theta) = sum_p dpoly[p][j] theta^(p+1), four rows (a three-power
+                              # output's fourth row 0): sum_i binterp[i, p] Ginv[i, j] summed in the order of i
 
 
 def transform(tab: RosenbrockTableau) -> Transformed:
@@ -146,9 +148,17 @@ def _finish(name, gamma, a, c, m, e, Ginv, binterp, order, embedded_order, w_met
     tr = tr._replace(dmid=np.ascontiguousarray(dense_weights(0.5, tr)))
     if order > 3:
         tr = tr._replace(dquarter=[dense_weights(0.25, tr).tolist(), dense_weights(0.75, tr).tolist()])
+    bl, gl = np.asarray(binterp).tolist(), Ginv.tolist()
+    dpoly = [[0.0] * s for _ in range(4)]
+    for p in range(len(bl[0])):
+        for j in range(s):
+            acc = bl[0][p] * gl[0][j]
+            for i in range(1, s):
+                acc += bl[i][p] * gl[i][j]
+            dpoly[p][j] = acc
     return tr._replace(a_lists=[r.tolist() for r in tr.a_rows], c_lists=[r.tolist() for r in tr.c_rows],
                        m_list=tr.m.tolist(), e_list=tr.e.tolist(), dmid_list=tr.dmid.tolist(),
-                       binterp_lists=np.asarray(binterp).tolist(), Ginv_lists=Ginv.tolist())
+                       binterp_lists=bl, Ginv_lists=gl, dpoly=dpoly)
 
 
 def dense_weights(theta: float, tr: "Transformed | None" = None) -> np.ndarray:
@@ -211,11 +221,17 @@ class RosenbrockW:
 
     All work arrays are allocated once. ``evaluate`` fills ``f_out`` (and ``J_out`` if not None)
     and returns nothing; it must not keep references to ``y``.
+
+    ``split``: (positions, velocities), index tuples of a second-order system whose position rows
+    of J are constant and zero in the position columns (``x_p' = B x_v``, the mesh model's kinematic
+    rows): W is then solved through the Schur complement on the velocities (:func:`split_factor`,
+    :func:`split_solve`, what the compiled kernel does); None: a general LU (:func:`lu_factor`).
     """
 
-    def __init__(self, n: int, evaluate, method: Transformed = METHOD):
+    def __init__(self, n: int, evaluate, method: Transformed = METHOD, split: tuple | None = None):
         self.method = method
         self.n = n
+        self.split = split
         self.evaluate = evaluate
         self.J = np.zeros((n, n))
         self.W = np.zeros((n, n))
@@ -245,15 +261,19 @@ class RosenbrockW:
         if h != self.lu_h:
             self.lu_h = 0.0
             self.n_factorizations += 1
-            W = self.W
-            np.multiply(self.eye, 1.0 / (tr.gamma * h), out=W)
-            W -= self.J
-            self.lu, self.piv = lu_factor(W.tolist())
+            if self.split is not None:
+                self.lu, self.piv = split_factor(self.J.tolist(), tr.gamma * h, *self.split), None
+            else:
+                W = self.W
+                np.multiply(self.eye, 1.0 / (tr.gamma * h), out=W)
+                W -= self.J
+                self.lu, self.piv = lu_factor(W.tolist())
             if self.lu is None:
                 return False
             self.lu_h = h
         lu, piv = self.lu, self.piv
-        U[0] = lu_solve(lu, piv, f0.tolist())
+        solve = lu_solve if piv is not None else split_solve
+        U[0] = solve(lu, piv, f0.tolist())
         ih = 1.0 / h
         for i in range(1, tr.stages):
             _combine(tr.a_lists[i], U, Ys, self.tmp)
@@ -262,7 +282,7 @@ class RosenbrockW:
             _combine(tr.c_lists[i], U, rhs, self.tmp)
             rhs *= ih
             rhs += F
-            U[i] = lu_solve(lu, piv, rhs.tolist())
+            U[i] = solve(lu, piv, rhs.tolist())
         yn = self.y_new
         _combine(tr.m_list, U, yn, self.tmp)
         yn += y
@@ -335,6 +355,100 @@ def lu_solve(A: list, piv: list, b: list) -> list:
             s -= Ai[k] * x[k]
         x[i] = s / Ai[i]
     return x
+
+
+def split_factor(J: list, e: float, pos: tuple, vel: tuple) -> tuple | None:
+    """The factors of ``W = I/e - J`` (``e = gamma h``) for a second-order system (rows ``pos`` of
+    ``J``: ``B`` in the columns ``vel``, 0 in the columns ``pos``): ``W x = r`` is ``x_v = S^-1 (r_v +
+    e J_vp r_p)``, ``x_p = e (r_p + B x_v)`` with the Schur complement ``S = I/e - J_vv - e J_vp B``
+    (m x m, m = len(vel)), inverted explicitly by Gauss-Jordan with
+    partial pivoting (:func:`gj_inverse`; a solve is then three small matrix-vector products whose
+    rows are independent, where an 8 x 8 triangular solve is a chain of dependent operations). Plain
+    floats in a fixed order of operations, the compiled kernel's ``split_factor`` operation for
+    operation. Returns (S^-1, J_vp, B, e), or None for an exactly singular S."""
+    m = len(vel)
+    d = 1.0 / e
+    Jvp = [[J[v][p] for p in pos] for v in vel]
+    B = [[J[p][v] for v in vel] for p in pos]
+    S = []
+    for i in range(m):
+        Ji, Jvpi = J[vel[i]], Jvp[i]
+        row = []
+        for j in range(m):
+            jb = Jvpi[0] * B[0][j]
+            for k in range(1, m):
+                jb += Jvpi[k] * B[k][j]
+            row.append(((d if i == j else 0.0) - Ji[vel[j]]) - e * jb)
+        S.append(row)
+    Si = gj_inverse(S)
+    return None if Si is None else (Si, Jvp, B, e, pos, vel)
+
+
+def split_solve(F: tuple, _piv, r: list) -> list:
+    """x with ``W x = r`` from :func:`split_factor`'s factors (the kernel's ``split_solve``, the
+    same order)."""
+    Si, Jvp, B, e, pos, vel = F
+    m = len(vel)
+    rp = [r[p] for p in pos]
+    t = []
+    for i in range(m):
+        a = Jvp[i]
+        s = a[0] * rp[0]
+        for k in range(1, m):
+            s += a[k] * rp[k]
+        t.append(r[vel[i]] + e * s)
+    x = [0.0] * len(r)
+    xv = []
+    for i in range(m):
+        a = Si[i]
+        s = a[0] * t[0]
+        for k in range(1, m):
+            s += a[k] * t[k]
+        xv.append(s)
+        x[vel[i]] = s
+    for i in range(m):
+        a = B[i]
+        s = a[0] * xv[0]
+        for k in range(1, m):
+            s += a[k] * xv[k]
+        x[pos[i]] = e * (rp[i] + s)
+    return x
+
+
+def gj_inverse(A: list) -> list | None:
+    """The inverse of the square matrix ``A`` (rows, changed in place) by Gauss-Jordan elimination
+    with partial pivoting, or None for an exactly singular one (the kernel's ``gj_inverse``, the
+    same order)."""
+    m = len(A)
+    X = [[1.0 if i == j else 0.0 for j in range(m)] for i in range(m)]
+    for j in range(m):
+        p, amax = j, abs(A[j][j])
+        for i in range(j + 1, m):
+            a = abs(A[i][j])
+            if a > amax:
+                p, amax = i, a
+        if A[p][j] == 0.0:
+            return None
+        if p != j:
+            A[j], A[p] = A[p], A[j]
+            X[j], X[p] = X[p], X[j]
+        Aj, Xj = A[j], X[j]
+        inv = 1.0 / Aj[j]
+        for k in range(j + 1, m):
+            Aj[k] *= inv
+        for k in range(m):
+            Xj[k] *= inv
+        for i in range(m):
+            if i == j:
+                continue
+            Ai, Xi = A[i], X[i]
+            lij = Ai[j]
+            if lij != 0.0:
+                for k in range(j + 1, m):
+                    Ai[k] -= lij * Aj[k]
+                for k in range(m):
+                    Xi[k] -= lij * Xj[k]
+    return X
 
 
 def _combine(coef: list, U: np.ndarray, out: np.ndarray, tmp: np.ndarray) -> None:

@@ -26,7 +26,7 @@ from spurdiff import native_library
 from spurdiff.errors import StepError
 from spurdiff.differential.mesh.integrator import SMAX      # mesh_kernel.h SMAX: the most stages of a tableau
 
-ABI = 7
+ABI = 8
 LIB_NAME = "mesh_kernel.so"
 SEARCH_PATH: list[Path] = []
 _d, _i = C.c_double, C.c_int64
@@ -45,7 +45,7 @@ class MkParams(C.Structure):
                 + [("pin_flat", _d * 8 * 2), ("Minv", _d * 5 * 5), ("atol", _d * 10), ("rtol", _d), ("w_stick", _d),
                    ("gamma", _d), ("err_exp", _d), ("a", _d * SMAX * SMAX), ("cc", _d * SMAX * SMAX), ("m", _d * SMAX),
                    ("ew", _d * SMAX), ("dmid", _d * SMAX), ("dq", _d * SMAX * 2),
-                   ("md", MkMesh * 3), ("bint", _d * 4 * SMAX), ("ginv", _d * SMAX * SMAX), ("c_pind", _d)])
+                   ("md", MkMesh * 3), ("dpoly", _d * SMAX * 4), ("c_pind", _d)])
 
 
 class MkState(C.Structure):
@@ -133,10 +133,8 @@ class Kernel:
             for k, v in enumerate(tr.c_rows[i]):
                 P.cc[i][k] = float(v)
             P.m[i], P.ew[i], P.dmid[i] = float(tr.m[i]), float(tr.e[i]), float(tr.dmid[i])
-            for k, v in enumerate(tr.binterp_lists[i]):     # three or four powers (the rest 0)
-                P.bint[i][k] = v
-            for k in range(tr.stages):
-                P.ginv[i][k] = tr.Ginv_lists[i][k]
+            for p in range(4):
+                P.dpoly[p][i] = tr.dpoly[p][i]
             if tr.dquarter is not None:
                 P.dq[0][i], P.dq[1][i] = tr.dquarter[0][i], tr.dquarter[1][i]
         for i, md in enumerate(c.md):

@@ -53,7 +53,7 @@ from spurdiff.differential.mesh.forces import (BilateralSpring, ElastoBacklash, 
                      gear_meshes, potential)
 from spurdiff.differential.mesh.integrator import METHODS, RosenbrockW
 from spurdiff.differential.mesh.layout import (D12, DA, DB, PSI, VA, VB, W1, W2, WC, constant_jacobian, mesh_data,
-                                              relative_angles, roll_gradients)
+                                              relative_angles, roll_gradients, split)
 from spurdiff.differential.mesh.params import MeshParams
 from spurdiff.differential.mesh.events import contact_flags
 from spurdiff.differential.mesh.stepper import advance
@@ -188,7 +188,7 @@ class MeshDifferential(DifferentialModel):
         N = self.n_states = 8 if self.speed_drive else 10
         self._N = N
         self.y = np.zeros(N)
-        self._integ = RosenbrockW(N, partial(evaluate, self), METHODS[mp_.method_in_use()])
+        self._integ = RosenbrockW(N, partial(evaluate, self), METHODS[mp_.method_in_use()], split(N))
         self._f0 = np.zeros(N)
         self._f1 = np.zeros(N)
         self._J1 = np.zeros((N, N))

@@ -22,6 +22,8 @@ step (and so the factorization).
 """
 from __future__ import annotations
 
+import numpy as np
+
 from spurdiff.differential.mesh.events import (PHASE_PAST, PHASE_RTOL, STICK_RTOL, breakaway, contact_flags,
                                                friction_margins, phase_events, phase_limit, phase_mode,
                                                phase_switches, state_events)
@@ -99,32 +101,31 @@ def book_parametric_work(c, ya, yb) -> None:
 def dense_output(tr, U, y, yn, tin: float, hi: float, k: int, tq: list, yq, tmp) -> int:
     """The states at the output times ``tq[k], ...`` (into the communication step) that lie in
     (tin, tin + hi], an accepted step from y to yn, by the method's dense output (order 3, RODAS5P
-    4) into the rows of ``yq``; returns the next k. The weights in the kernel's order of
-    operations (the kernel's fourth power adds 0 for a three-power dense output: no value
-    changes)."""
-    G = tr.Ginv_lists
+    4) into the rows of ``yq``; returns the next k. ``y + theta Q_0 + theta^2 Q_1 + theta^3 Q_2 +
+    theta^4 Q_3`` with ``Q_p = sum_j dpoly[p][j] u_j``, formed once for a step with outputs (the
+    kernel's order of operations; a three-power output's Q_3 is 0)."""
+    Q = None
     while k < len(tq) and tq[k] <= tin + hi:
         th = (tq[k] - tin) / hi
         if th >= 1.0:
             yq[k] = yn
         else:
+            if Q is None:
+                Q = np.zeros((4, len(y)))
+                for p in range(4):
+                    _combine(tr.dpoly[p], U, Q[p], tmp)
             th2 = th * th
             th3 = th2 * th
-            if len(tr.binterp_lists[0]) == 3:
-                B = [b[0] * th + b[1] * th2 + b[2] * th3 for b in tr.binterp_lists]
-            else:
-                th4 = th3 * th
-                B = [b[0] * th + b[1] * th2 + b[2] * th3 + b[3] * th4 for b in tr.binterp_lists]
-            d = []
-            ns = tr.stages
-            for j in range(ns):
-                sj = B[0] * G[0][j]
-                for i in range(1, ns):
-                    sj += B[i] * G[i][j]
-                d.append(sj)
+            th4 = th3 * th
             out = yq[k]
-            _combine(d, U, out, tmp)
-            out += y
+            np.multiply(Q[0], th, out=out)
+            np.multiply(Q[1], th2, out=tmp)
+            out += tmp
+            np.multiply(Q[2], th3, out=tmp)
+            out += tmp
+            np.multiply(Q[3], th4, out=tmp)
+            out += tmp
+            np.add(y, out, out=out)
         k += 1
     return k
 
