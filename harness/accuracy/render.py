@@ -155,9 +155,10 @@ def markdown_ivp(ivp: list[dict], command: str = "spurdiff accuracy") -> list[st
              "same outputs as solve_ivp's, without it (\"states only\"). "
              "Ratio: the time the best solve_ivp variant needs for our error (log-log interpolation along its "
              "front) over ours; above 1 we are faster. Times: CPU time of the measuring thread (every run is "
-             "single-threaded; what one core spends, whatever else a shared machine runs), the fastest of 5 to 25 "
-             "runs (`harness.bench.mesh_ivp.more_runs`: a run of a millisecond is timed 25 times, one of 50 ms "
-             "five times, one over 0.5 s once).", ""]
+             "single-threaded; what one core spends, whatever else a shared machine runs), the fastest of 5 to 1000 "
+             "runs spanning a quarter of a second of CPU time (`harness.bench.mesh_ivp.more_runs`: a run of a "
+             "millisecond is timed 250 times, one of 50 ms five times, one over 0.5 s once), so that short and "
+             "long runs sample a shared machine's bursts of speed alike.", ""]
 
     def ratio_table(title: str, pts: list[dict], key: str, who: str) -> list[str]:
         out = [title, "", f"| case | ours | tolerance | our error | our CPU s | best {who} at equal error | its CPU s "

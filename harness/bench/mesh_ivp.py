@@ -204,12 +204,15 @@ def ivp_points(case: str, tols=(1e-4, 1e-6, 1e-8), methods=IVP_METHODS, restarte
     return out
 
 
-def more_runs(walls: list[float], least: int = 5, most: int = 25, budget: float = 0.25,
+def more_runs(walls: list[float], least: int = 5, most: int = 1000, budget: float = 0.25,
               slow: float = 0.5) -> bool:
     """Whether to time another run after ``walls``: none after a run slower than ``slow`` s; else
     at least ``least`` runs, and more while they have taken less than ``budget`` s in all, up to
-    ``most`` (a run of a millisecond is timed 25 times, one of 50 ms five times: the fastest of
-    many is the run the machine's noise touched least, and noise only ever adds time)."""
+    ``most`` (a run of a millisecond is timed 250 times, one of 50 ms five times). The fastest of
+    many is the run the machine's noise touched least (noise only ever adds time), and every
+    variant, short or long, is sampled over the same span of machine time: a shared machine's
+    speed changes in bursts (measured here: the same 0.5 ms run at 0.5 or 1.0 ms for a whole
+    burst), and 25 runs of a short solver fit inside one burst where those of a long one do not."""
     if walls and walls[-1] > slow:
         return False
     n = len(walls)

@@ -237,9 +237,10 @@ def test_solver_timings_take_the_fastest_of_many_short_runs_and_one_slow_run():
 
     assert more_runs([])                                  # at least five
     assert more_runs([0.001] * 4)
-    assert more_runs([0.001] * 24) and not more_runs([0.001] * 25)   # a millisecond: 25 runs
+    assert more_runs([0.001] * 249) and not more_runs([0.001] * 250)   # a millisecond: 250 runs (0.25 s)
     assert not more_runs([0.05] * 5)                      # 50 ms: five (0.25 s spent)
     assert not more_runs([0.6])                           # over 0.5 s: one
+    assert not more_runs([1e-6] * 1000)                   # at most 1000
     calls = []
     res, t = best_of(lambda: calls.append(1) or len(calls))
-    assert res == len(calls) == 25 and 0.0 <= t < 0.01    # CPU time of this thread, the fastest
+    assert res == len(calls) == 1000 and 0.0 <= t < 0.01  # CPU time of this thread, the fastest
