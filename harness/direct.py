@@ -15,7 +15,7 @@ import time
 
 import numpy as np
 
-from spurdiff.fmi.binding import bindings
+from spurdiff.fmi.binding import bindings, slot_names
 
 from harness.build import FMUS as INTERFACES   # FMU name -> interface module (the FMUs' declarations)
 from harness.master import RunFailure
@@ -58,10 +58,8 @@ class DirectInstance:
         plan = get() if get is not None else None
         if plan is None:
             return False
-        names = {(v.causality, v.bind): v.name for v in self.iface.VARIABLES
-                 if v.kind == "Real" and v.bind and v.causality in ("input", "output")}
-        ins = [(i, names.get(("input", k))) for i, k in enumerate(plan.inputs)]
-        outs = [(len(ins) + i, names.get(("output", k))) for i, k in enumerate(plan.outputs)]
+        slots = list(enumerate(slot_names(self.iface.VARIABLES, plan)))
+        ins, outs = slots[:len(plan.inputs)], slots[len(plan.inputs):]
         read = {n for n in read if self.vars[n].causality == "output"}       # (parameters stay)
         written = {n for n in written if self.vars[n].causality == "input"}  # (a push ignores the rest)
         if not (read <= {n for _, n in outs} and written <= {n for _, n in ins}):

@@ -27,6 +27,7 @@ import struct
 from pathlib import Path
 
 from spurdiff import native_library
+from spurdiff.attrpath import assign, resolve
 from spurdiff.differential import rigid_kernel
 from spurdiff.native_library import KERNELS  # noqa: F401 (re-exported)
 from spurdiff.native_step import NativeStep
@@ -244,17 +245,6 @@ _UNUSED = ("tau_L", "tau_R")      # the inner model's, set by the shafts: not th
 WATCHES = ("capacity_watch", "overspeed_watch")
 
 
-def _get(m, path: str):
-    for part in path.split("."):
-        m = getattr(m, part)
-    return m
-
-
-def _set(m, path: str, x: float) -> None:
-    head, _, last = path.rpartition(".")
-    setattr(_get(m, head) if head else m, last, x)
-
-
 class DiffNative(NativeStep):
     """The differential's whole step in C (``sk_native``): the shafted model with the rigid inner model
     and its two watches (:class:`spurdiff.differential.watches.CapacityWatch`, ``OverspeedWatch``),
@@ -280,7 +270,7 @@ class DiffNative(NativeStep):
         if not self.kernel.current(m.inner.__dict__, m.__dict__):
             return False
         v = self.v
-        v[0:53] = [float(_get(m, k)) for k in DIFF_INPUTS + DIFF_OUTPUTS]
+        v[0:53] = [float(resolve(m, k)) for k in DIFF_INPUTS + DIFF_OUTPUTS]
         v[53:57] = (m.loaded_flanks, m.n_mode_switches, m.n_internal_steps, m.n_contact_transitions)
         v[57:61] = (*m.capacity_watch._F_max, 1.0 if m.overspeed_watch.warned else 0.0)
         v[61:81] = v[0:20]
@@ -293,7 +283,7 @@ class DiffNative(NativeStep):
         v = self.v[0:81]
         for k, x in zip(DIFF_INPUTS, v[61:81]):
             if k not in _UNUSED:
-                _set(m, k, x)
+                assign(m, k, x)
         cw = m.capacity_watch
         cw.sigma_H_max, cw.sigma_F_max, cw._F_max = v[50], v[51], (v[57], v[58], v[59])
         m.overspeed_watch.indicator = v[49]

@@ -27,6 +27,7 @@ import dataclasses
 import re
 from typing import Any, Callable, Sequence
 
+from spurdiff.attrpath import resolve
 from spurdiff.errors import ParameterError
 from spurdiff.fmi.variables import Var
 
@@ -40,11 +41,14 @@ def _checked(v: Var) -> str:
     return v.bind
 
 
-def resolve(obj: Any, path: str) -> Any:
-    """The value at the dotted attribute ``path`` of ``obj``."""
-    for part in path.split("."):
-        obj = getattr(obj, part)
-    return obj
+def slot_names(variables: Sequence[Var], plan) -> tuple[str | None, ...]:
+    """The variable name of each slot of a native step's ``plan`` (:class:`spurdiff.native_step.NativeStep`):
+    its inputs, then its outputs, each the Real input or output bound to the slot's attribute, None
+    where the FMU declares none (the FMU's bridge and the direct runs read and write the slots by these)."""
+    names = {(v.causality, v.bind): v.name for v in variables
+             if v.kind == "Real" and v.bind and v.causality in ("input", "output")}
+    return (tuple(names.get(("input", k)) for k in plan.inputs)
+            + tuple(names.get(("output", k)) for k in plan.outputs))
 
 
 def _own(obj: Any, name: str) -> bool:

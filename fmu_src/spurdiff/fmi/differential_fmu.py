@@ -16,7 +16,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
-from spurdiff.fmi.binding import bindings, build_params, renamed, resolve
+from spurdiff.attrpath import resolve
+from spurdiff.fmi.binding import bindings, build_params, renamed
 from spurdiff.errors import ParameterError
 from spurdiff.fmi.variables import Var
 from spurdiff.differential import derivatives

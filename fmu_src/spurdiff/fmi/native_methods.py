@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import operator
 
+from spurdiff.fmi.binding import slot_names
 from spurdiff.fmi.state import OK
 
 
@@ -38,12 +39,7 @@ class NativeMethods:
         if plan is None:
             return False
         if self._native_key is None or self._native_key[0] is not model or self._native_key[1] is not plan:
-            names = {}
-            for v in self.VARIABLES:
-                if v.kind == "Real" and v.causality in ("input", "output") and v.bind:
-                    names[(v.causality, v.bind)] = v.name
-            slots = (tuple(names.get(("input", k)) for k in plan.inputs)
-                     + tuple(names.get(("output", k)) for k in plan.outputs))
+            slots = slot_names(self.VARIABLES, plan)
             params = tuple(v.name for v in self.VARIABLES
                            if v.kind == "Real" and v.causality in ("parameter", "calculatedParameter"))
             int_vr = {name: vr for vr, name in self._get["Integer"].items()}

@@ -365,7 +365,7 @@ def split_factor(J: list, e: float, pos: tuple, vel: tuple) -> tuple | None:
     partial pivoting (:func:`gj_inverse`; a solve is then three small matrix-vector products whose
     rows are independent, where an 8 x 8 triangular solve is a chain of dependent operations). Plain
     floats in a fixed order of operations, the compiled kernel's ``split_factor`` operation for
-    operation. Returns (S^-1, J_vp, B, e), or None for an exactly singular S."""
+    operation. Returns (S^-1, J_vp, B, e, pos, vel), or None for an exactly singular S."""
     m = len(vel)
     d = 1.0 / e
     Jvp = [[J[v][p] for p in pos] for v in vel]
