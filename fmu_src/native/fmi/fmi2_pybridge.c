@@ -946,6 +946,20 @@ static int native_step(Instance *I, double t, double h)
     return 1;
 }
 
+/* The step natively, the native step entered first if the instance has none yet (and may have one):
+ * 1 taken, 0 not (the slave's path). ``early``: the host allows the step to end early (FMI 3.0), and a
+ * model that may end a step early then steps in Python, so that none is skipped (the plan says which). */
+static int native_try(Instance *I, double t, double h, int early)
+{
+    if (I->nat.on) return !(early && I->nat.early) && native_step(I, t, h);
+    if (I->nat.never) return 0;
+    PyGILState_STATE g = PyGILState_Ensure();
+    int taken = native_enter(I) && !(early && I->nat.early) && native_step(I, t, h);
+    flush_log(I);
+    PyGILState_Release(g);
+    return taken;
+}
+
 /* The slots of the entry's values (GIL held for a new entry): the entry, or NULL (the slave's
  * path). A setter's values must all be inputs. */
 static VrEntry *native_slots(Instance *I, int method, const fmi2ValueReference vr[], size_t n)
@@ -1276,14 +1290,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp)
 {
     Instance *I0 = valid(c);
     if (!I0) return fmi2Error;
-    if (I0->nat.on && native_step(I0, t, h)) return fmi2OK;   /* the native step: no Python */
-    if (!I0->nat.on && !I0->nat.never) {
-        PyGILState_STATE g0 = PyGILState_Ensure();
-        int taken = native_enter(I0) && native_step(I0, t, h);
-        flush_log(I0);
-        PyGILState_Release(g0);
-        if (taken) return fmi2OK;
-    }
+    if (native_try(I0, t, h, 0)) return fmi2OK;   /* the native step: no Python */
     ENTER   /* (hands a native state back first) */
     PyObject *args[3] = {PyFloat_FromDouble(t), PyFloat_FromDouble(h), nsp ? Py_True : Py_False};
     s = status_of(I, (args[0] && args[1]) ? PyObject_Vectorcall(I->methods[M_DO_STEP], args, 3, NULL) : NULL,
@@ -1404,17 +1411,9 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
  * earlyReturnAllowed): the slave's fmi2_do_step_early(t, h, nsp) returns (status, end time). */
 fmi2Status spurdiffDoStepEarly(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end)
 {
-    /* natively only a model that never ends a step early (the plan says so) */
     Instance *I0 = valid(c);
     if (!I0) return fmi2Error;
-    int taken = I0->nat.on && !I0->nat.early && native_step(I0, t, h);
-    if (!taken && !I0->nat.on && !I0->nat.never) {
-        PyGILState_STATE g0 = PyGILState_Ensure();
-        taken = native_enter(I0) && !I0->nat.early && native_step(I0, t, h);
-        flush_log(I0);
-        PyGILState_Release(g0);
-    }
-    if (taken) {
+    if (native_try(I0, t, h, 1)) {
         if (end) *end = t + h;
         return fmi2OK;
     }
