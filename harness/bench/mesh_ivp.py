@@ -211,8 +211,8 @@ def more_runs(walls: list[float], least: int = 5, most: int = 1000, budget: floa
     ``most`` (a run of a millisecond is timed 250 times, one of 50 ms five times). The fastest of
     many is the run the machine's noise touched least (noise only ever adds time), and every
     variant, short or long, is sampled over the same span of machine time: a shared machine's
-    speed changes in bursts (measured here: the same 0.5 ms run at 0.5 or 1.0 ms for a whole
-    burst), and 25 runs of a short solver fit inside one burst where those of a long one do not."""
+    speed changes in bursts of many runs, and 25 runs of a short solver fit inside one burst where
+    those of a long one do not."""
     if walls and walls[-1] > slow:
         return False
     n = len(walls)

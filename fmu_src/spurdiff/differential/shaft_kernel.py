@@ -63,8 +63,6 @@ _JAC_KEYS = ("+1", "-1", "+0", "-0", "+1x", "-1x", "+0x", "-0x")                
 _JAC_SLOT = {k: i for i, k in enumerate(_JAC_KEYS)}
 
 
-
-
 class SkNative(C.Structure):
     """sk_native's context: the Kernel's arrays and the native step's output constants."""
     _fields_ = [("sc", C.POINTER(C.c_double)), ("k", C.POINTER(C.c_double)), ("rs", C.POINTER(C.c_double)),

@@ -111,8 +111,8 @@ def split(N: int) -> tuple[tuple[int, ...], tuple[int, ...]] | None:
     """The positions and the velocities of the state with the carrier's speed imposed (N = 8; the
     integrator's ``split``): the positions' rates are the constant kinematic rows of
     :func:`constant_jacobian`, linear in the velocities alone. None with the carrier free (N = 10):
-    its rigid rotation makes the Schur complement ill-conditioned at long steps (solve errors of 1e-8
-    at h = 10 s against 5e-12 for the LU), so W there takes the general LU."""
+    its rigid rotation makes the Schur complement ill-conditioned at long steps (solve errors growing
+    with h far beyond the LU's), so W there takes the general LU."""
     return ((PSI, DA, DB, D12), (VA, VB, W1, W2)) if N == 8 else None
 
 
