@@ -256,7 +256,9 @@ def solve_system(f, x0, args: tuple = (), xtol: float = 1.49012e-8, maxiter: int
     in ``x_j`` being ``sqrt(eps)`` times the largest ``|x_j|`` of the iterates so far, ``x0``
     included (a component that converges to zero keeps a step on its own scale).
     Success: a full Newton step ``|dx| <= xtol |x|`` (the step is taken if it does not raise
-    ``|F|``), ``F(x) == 0``, or ``|F|`` cannot be lowered any more (halving the step 40 times) after
+    ``|F|``), or ``|dx| <= xtol |s|`` with ``s`` the largest ``|x_j|`` of the iterates once ``|F|``
+    fell below ``1e-10`` of its value at ``x0`` and ``|x| <= 1e-10 |s|`` (a root at zero, where the relative test never
+    holds and Newton would otherwise creep into denormals), ``F(x) == 0``, or ``|F|`` cannot be lowered any more (halving the step 40 times) after
     it fell below ``1e-10`` of its value at ``x0`` (rounding level). Otherwise ``success = False``
     with the reason; ``x`` is then the point with the smallest ``|F|`` found (``x0`` if ``F(x0)``
     is not finite). It does not raise for a numerical failure.
@@ -298,13 +300,19 @@ def solve_system(f, x0, args: tuple = (), xtol: float = 1.49012e-8, maxiter: int
             dx = None
         if dx is None or not np.all(np.isfinite(dx)):
             return result(False, f"the Jacobian of {name} is singular at x = {x.tolist()}", it)
-        if _norm(dx) <= xtol * _norm(x):
+        step = _norm(dx)
+        at_zero = (fnorm <= 1e-10 * fnorm0 and _norm(x) <= 1e-10 * _norm(scale)
+                   and step <= xtol * _norm(scale))
+        if step <= xtol * _norm(x) or at_zero:
             xn = x + dx
             fn = np.asarray(f(xn, *args), dtype=float).ravel()
             nfev += 1
             if np.all(np.isfinite(fn)) and _norm(fn) <= fnorm:
                 x, fx = xn, fn
-            return result(True, f"Newton step <= xtol |x| (xtol = {xtol:g})", it)
+            if step <= xtol * _norm(x):
+                return result(True, f"Newton step <= xtol |x| (xtol = {xtol:g})", it)
+            return result(True, f"Newton step <= xtol times the iterates' scale at |F| <= 1e-10 of "
+                                f"its value at x0 (a root at zero; xtol = {xtol:g})", it)
         t = 1.0
         for _ in range(40):
             xn = x + t * dx
