@@ -6,7 +6,7 @@ import pytest
 
 @pytest.fixture(scope="session")
 def fmu_files():
-    from harness.build import FMUS, build
+    from harness.build.fmu import FMUS, build
 
     paths = build(list(FMUS), quiet=True)
     return dict(zip(FMUS, paths))

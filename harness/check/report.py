@@ -222,8 +222,8 @@ def junit_tree(results: Sequence[CheckResult], strict: bool = False,
 def write_junit(path: str | Path, results: Sequence[CheckResult], strict: bool = False,
                 deselected: Deselected | None = None) -> Path:
     """Write the JUnit XML report to ``path`` (parent directories are created; written whole
-    through :func:`harness.outputs.atomic_file`: no link followed, a write error is one line)."""
-    from harness.outputs import atomic_file
+    through :func:`harness.common.outputs.atomic_file`: no link followed, a write error is one line)."""
+    from harness.common.outputs import atomic_file
 
     path = Path(path)
     with atomic_file(path, "wb") as fh:

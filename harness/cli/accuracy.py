@@ -1,6 +1,6 @@
 """``spurdiff accuracy``: accuracy versus wall time over fidelities, steps and tolerances, our solver
 against scipy's solve_ivp; writes docs/accuracy.md and the stored data ``fidelity = "auto"`` scenes
-choose from (:mod:`harness.accuracy`)."""
+choose from (:mod:`harness.measure.accuracy`)."""
 from __future__ import annotations
 
 import argparse
@@ -8,7 +8,7 @@ from pathlib import Path
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from harness.accuracy import stored_files
+    from harness.measure.accuracy import stored_files
 
     ap = argparse.ArgumentParser(prog="spurdiff accuracy", description="accuracy versus wall time, measured")
     ap.add_argument("scenes", nargs="*", help="scenes (default: all in the grid file)")
@@ -25,5 +25,5 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from harness.accuracy import run
+    from harness.measure.accuracy import run
     return run(build_parser().parse_args(argv))

@@ -1,12 +1,12 @@
 """``spurdiff bench``: measured cost ratios (FMI versus direct physics, each effect versus rigid,
-real-time factors), printed, never asserted (:mod:`harness.bench`)."""
+real-time factors), printed, never asserted (:mod:`harness.measure.bench`)."""
 from __future__ import annotations
 
 import argparse
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from harness.bench import core
+    from harness.measure.bench import core
 
     ap = argparse.ArgumentParser(prog="spurdiff bench", description=core.__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5)
@@ -18,5 +18,5 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from harness.bench.report import run
+    from harness.measure.bench.report import run
     return run(build_parser().parse_args(argv))

@@ -1,5 +1,5 @@
 """``python -m harness.cli.coupling_bench``: the vehicle scenes at 1 to 20 ms against the old coupling
-at 0.2 ms (issue 19 item 2; :mod:`harness.bench.coupling`)."""
+at 0.2 ms (issue 19 item 2; :mod:`harness.measure.bench.coupling`)."""
 from __future__ import annotations
 
 import argparse
@@ -8,7 +8,7 @@ from pathlib import Path
 
 
 def main(argv: list[str] | None = None) -> int:
-    from harness.bench import coupling
+    from harness.measure.bench import coupling
 
     ap = argparse.ArgumentParser(prog="python -m harness.cli.coupling_bench", description=coupling.__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -1,18 +1,18 @@
 """``spurdiff export-ssp SCENE``: the coupled system as an SSP 1.0 file (SystemStructure.ssd and the FMUs)
-for other masters (:mod:`harness.ssp`)."""
+for other masters (:mod:`harness.interop.ssp`)."""
 from __future__ import annotations
 
 import argparse
 import sys
 from pathlib import Path
 
-from harness.schema import SceneError
+from harness.scene.schema import SceneError
 
 
 def main(argv: list[str] | None = None) -> int:
     """``spurdiff export-ssp SCENE [-o FILE] [--step H] [--duration T] [--mesh M] [--set I.P=V]``."""
-    from harness.runner import fmu_files_for, prepare_scene
-    from harness.ssp import SCENE_ANNOTATION, SspError, default_output, export_ssp_summary
+    from harness.run.runner import fmu_files_for, prepare_scene
+    from harness.interop.ssp import SCENE_ANNOTATION, SspError, default_output, export_ssp_summary
 
     ap = argparse.ArgumentParser(prog="spurdiff export-ssp",
                                  description="Write a scene as an SSP 1.0 file (SystemStructure.ssd + FMUs) for other masters")

@@ -1,5 +1,5 @@
 """``python -m harness.cli.fmi3_features [--foh SCENE...] [--early SCENE...] [--steps MS...] [--out FILE]``:
-what the FMI 3.0 features of the harness's FMI 3.0 master change (:mod:`harness.fmi3_features`):
+what the FMI 3.0 features of the harness's FMI 3.0 master change (:mod:`harness.measure.fmi3_features`):
 first-order hold with the FMUs' output derivatives against zero-order hold (Gauss-Seidel and
 Jacobi), and early return at the differential's stick/slip switches, in accuracy against a
 0.5 ms reference and in CPU time; prints the table (markdown) and writes it to ``--out``."""
@@ -12,8 +12,8 @@ from pathlib import Path
 
 def main(argv: list[str] | None = None) -> int:
     from harness.cli import fail
-    from harness.fmi3_features import ER_VARIANTS, FOH_VARIANTS, markdown, measure
-    from harness.scene import SceneError
+    from harness.measure.fmi3_features import ER_VARIANTS, FOH_VARIANTS, markdown, measure
+    from harness.scene.spec import SceneError
 
     p = argparse.ArgumentParser(prog="python -m harness.cli.fmi3_features",
                                 description="measure first-order hold and early return with the FMI 3.0 FMUs")

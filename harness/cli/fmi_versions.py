@@ -1,6 +1,6 @@
 """``python -m harness.cli.fmi_versions [SCENE...] [--duration S]``: each scene (default: all) run
 with the FMI 2.0 FMUs and with the FMI 3.0 ones; prints the largest difference of the recorded
-results per scene (:mod:`harness.fmi_versions`). Exit 1 when a difference exceeds ``--tolerance``
+results per scene (:mod:`harness.measure.fmi_versions`). Exit 1 when a difference exceeds ``--tolerance``
 (default 1e-12, relative to each variable's largest magnitude) or only one version failed."""
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from harness.cli import fail
 
 
 def main(argv: list[str] | None = None) -> int:
-    from harness.fmi_versions import compare, scene_names
+    from harness.measure.fmi_versions import compare, scene_names
 
     p = argparse.ArgumentParser(prog="python -m harness.cli.fmi_versions",
                                 description="compare each scene's results with the FMI 2.0 and the FMI 3.0 FMUs")

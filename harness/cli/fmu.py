@@ -14,8 +14,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--fmi-version", dest="fmi_version", type=int, choices=(2, 3), default=2,
                    help="2: NAME.fmu (FMI 2.0, the default); 3: NAME-fmi3.fmu (FMI 3.0 co-simulation)")
     args = p.parse_args(argv)
-    from harness.build import FMUS, BuildError
-    from harness.build3 import build_versions
+    from harness.build.fmu import FMUS, BuildError
+    from harness.build.fmu3 import build_versions
     if args.name not in FMUS:
         return fail("spurdiff", f"unknown FMU {args.name!r}; allowed: {', '.join(FMUS)}")
     try:

@@ -1,7 +1,8 @@
 """``python -m harness.cli.import_graph``: write the package picture of ``spurdiff`` and
-``harness`` (drawn from the code by :mod:`harness.import_graph`) into docs/architecture.md between
+``harness`` (drawn from the code by :mod:`harness.common.import_graph`) into docs/architecture.md between
 its markers; ``--check``: exit 1 if the page's picture is out of date. Also prints the import
-cycles, the arrows against spurdiff's layers and the library imports of the CLI (none wanted)."""
+cycles, the arrows against spurdiff's and the harness's layers and the library imports of the CLI
+(none wanted)."""
 from __future__ import annotations
 
 import argparse
@@ -9,7 +10,7 @@ import sys
 
 
 def main(argv: list[str] | None = None) -> int:
-    from harness import import_graph as ig
+    from harness.common import import_graph as ig
 
     ap = argparse.ArgumentParser(prog="python -m harness.cli.import_graph", description=__doc__)
     ap.add_argument("--check", action="store_true", help="do not write; exit 1 if the picture is out of date")
@@ -17,6 +18,7 @@ def main(argv: list[str] | None = None) -> int:
     doc = ig.ROOT / "docs" / "architecture.md"
     g = ig.graph()
     problems = ([f"cycle: {' <-> '.join(c)}" for c in ig.cycles(g)] + ig.layer_violations(g)
+                + ig.harness_layer_violations(g) + [f"package in no layer: {p}" for p in ig.harness_unplaced()]
                 + [f"library imports the CLI: {x}" for x in ig.cli_imports(g)])
     for p in problems:
         print(p, file=sys.stderr)

@@ -12,7 +12,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("table", nargs="?", choices=["breakaway"],
                     help="breakaway: the torque at which each fidelity level breaks away, beside K T0")
     args = ap.parse_args(argv)
-    from harness.info import breakaway_table, info_text
+    from harness.measure.info import breakaway_table, info_text
     print(breakaway_table() if args.table == "breakaway" else info_text())
     return 0
 

@@ -1,4 +1,4 @@
-"""The command line of the libcosim runner's child process (:func:`harness.libcosim_run.run_ssp`
+"""The command line of the libcosim runner's child process (:func:`harness.interop.libcosim_run.run_ssp`
 starts ``python -m harness.cli.libcosim_run``): run an SSP file with libcosim, write the recorded
 trajectories. Not a ``spurdiff`` command."""
 from __future__ import annotations
@@ -20,13 +20,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--duration", type=float, help="simulated time, s (default: the SSP's stopTime)")
     ap.add_argument("--out", required=True, help="result file: .npz (names, data, step, failure) or .csv")
     args = ap.parse_args(argv)
-    from harness.libcosim_run import LibcosimError, run_here
+    from harness.interop.libcosim_run import LibcosimError, run_here
     try:
         res = run_here(args.ssp, args.record, args.step, args.duration)
     except LibcosimError as e:
         print(f"libcosim_run: {e}", file=sys.stderr)
         return 2
-    from harness.outputs import OutputError, atomic_file
+    from harness.common.outputs import OutputError, atomic_file
 
     out = Path(args.out)
     try:

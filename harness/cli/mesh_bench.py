@@ -1,6 +1,6 @@
 """``python -m harness.cli.mesh_bench``: the measurements behind docs/mesh-dynamics.md (the compiled
 kernel against the Python reference, the paper's two cases at each mesh level, the tolerance
-sweep, the comparison with scipy's solve_ivp; :mod:`harness.bench.mesh`)."""
+sweep, the comparison with scipy's solve_ivp; :mod:`harness.measure.bench.mesh`)."""
 from __future__ import annotations
 
 import argparse
@@ -10,7 +10,7 @@ SECTIONS = ("paper", "tolerance", "ivp", "kernel", "step-bound", "methods", "tig
 
 
 def main(argv: list[str] | None = None) -> int:
-    from harness.bench import mesh
+    from harness.measure.bench import mesh
 
     ap = argparse.ArgumentParser(prog="python -m harness.cli.mesh_bench", description=mesh.__doc__)
     ap.add_argument("--full", action="store_true", help="also cornering with all effects (slow: tens of s)")

@@ -25,8 +25,8 @@ import sys
 
 import numpy as np
 
-from harness.direct import run_direct
-from harness.runner import prepare_scene
+from harness.run.direct import run_direct
+from harness.run.runner import prepare_scene
 from spurdiff.differential.rigid import RigidDifferential
 
 SCENES = ("vehicle-cornering", "tip-in-tip-out")

@@ -1,5 +1,5 @@
 """``python -m harness.cli.rigid_kernel_bench``: the rigid level's compiled kernel against its Python
-reference on vehicle-cornering, A/B interleaved (:mod:`harness.bench.rigid_kernel`)."""
+reference on vehicle-cornering, A/B interleaved (:mod:`harness.measure.bench.rigid_kernel`)."""
 from __future__ import annotations
 
 import argparse
@@ -7,7 +7,7 @@ import sys
 
 
 def main(argv: list[str] | None = None) -> int:
-    from harness.bench import rigid_kernel
+    from harness.measure.bench import rigid_kernel
 
     ap = argparse.ArgumentParser(prog="python -m harness.cli.rigid_kernel_bench",
                                  description=rigid_kernel.__doc__.splitlines()[0])

@@ -8,9 +8,9 @@ import time
 from pathlib import Path
 
 from harness.cli import fail
-from harness.messages import printable
-from harness.outputs import refuse_symlink
-from harness.paths import results_dir
+from harness.common.messages import printable
+from harness.common.outputs import refuse_symlink
+from harness.common.paths import results_dir
 
 
 def say(text: str = "") -> None:
@@ -68,10 +68,10 @@ class Progress:
 
 
 def run(args) -> int:
-    from harness.outputs import OutputLock
-    from harness.recording import MAX_STEPS
-    from harness.report import writable_dir
-    from harness.runner import prepare_scene
+    from harness.common.outputs import OutputLock
+    from harness.scene.recording import MAX_STEPS
+    from harness.run.report import writable_dir
+    from harness.run.runner import prepare_scene
 
     if args.max_steps is not None and args.max_steps < 1:
         return fail("spurdiff", f"--max-steps = {args.max_steps}: allowed an integer >= 1")
@@ -81,7 +81,7 @@ def run(args) -> int:
         if args.mesh or args.step:
             print("fidelity auto: overridden by --mesh/--step")
         else:
-            from harness.accuracy import apply_choice, choose
+            from harness.measure.accuracy import apply_choice, choose
             pick, reason = choose(scene)
             scene = apply_choice(scene, pick)
             say(reason)
@@ -93,10 +93,10 @@ def run(args) -> int:
 
 def _run_into(args, scene, out_dir: Path) -> int:
     """The run of :func:`run` with the lock on ``out_dir`` held: CSV, report and plots."""
-    from harness.master import Interrupted, run_scene, stop_on_sigint
-    from harness.plots import plot_result
-    from harness.report import CsvStream, evaluate_checks, format_checks, format_couplings, format_table
-    from harness.runner import explain_failure, fmu_files_for, typed_parameters
+    from harness.run.master import Interrupted, run_scene, stop_on_sigint
+    from harness.run.plots import plot_result
+    from harness.run.report import CsvStream, evaluate_checks, format_checks, format_couplings, format_table
+    from harness.run.runner import explain_failure, fmu_files_for, typed_parameters
 
     csv_path = out_dir / f"{scene.name}.csv"
     refuse_symlink(csv_path)   # before running, not at the first row

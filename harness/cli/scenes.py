@@ -6,7 +6,7 @@ import argparse
 
 def main(argv: list[str] | None = None) -> int:
     argparse.ArgumentParser(prog="spurdiff scenes", description="list the scenes").parse_args(argv)
-    from harness.scene import describe_all
+    from harness.scene.spec import describe_all
     for name, desc in describe_all():
         print(f"{name:22s} {desc}")
     return 0

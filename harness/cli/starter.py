@@ -1,5 +1,5 @@
 """``spurdiff starter --host fmpy|c|ssp --interface wheel|torque``: write a ready-to-run starting
-point for SpurDifferential.fmu in your own tool (:mod:`harness.starter`, docs/use-the-fmu.md)."""
+point for SpurDifferential.fmu in your own tool (:mod:`harness.interop.starter`, docs/use-the-fmu.md)."""
 from __future__ import annotations
 
 import argparse
@@ -7,7 +7,7 @@ from pathlib import Path
 
 
 def main(argv: list[str] | None = None) -> int:
-    from harness.starter import HOSTS, INTERFACES, write_starter
+    from harness.interop.starter import HOSTS, INTERFACES, write_starter
 
     ap = argparse.ArgumentParser(prog="spurdiff starter", description="write a ready-to-run starter for "
                                  "SpurDifferential.fmu in your own tool (docs/use-the-fmu.md)")

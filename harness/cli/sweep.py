@@ -7,10 +7,10 @@ import math
 import sys
 from pathlib import Path
 
-from harness.messages import printable
-from harness.outputs import OutputError
-from harness.paths import results_dir
-from harness.scene import SceneError
+from harness.common.messages import printable
+from harness.common.outputs import OutputError
+from harness.common.paths import results_dir
+from harness.scene.spec import SceneError
 from harness.sweep.bench import bench
 from harness.sweep.plots import head, plot_sweep
 from harness.sweep.run import run_sweep
@@ -44,7 +44,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _fail(msg: str, code: int = 2) -> int:
-    from harness.messages import one_line
+    from harness.common.messages import one_line
 
     print(one_line(f"spurdiff sweep: {msg}"), file=sys.stderr)
     return code

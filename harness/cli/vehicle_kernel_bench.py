@@ -1,5 +1,5 @@
 """``python -m harness.cli.vehicle_kernel_bench``: the car's and the wheel's compiled steps against their
-Python reference on vehicle-cornering, A/B interleaved (:mod:`harness.bench.vehicle_kernel`)."""
+Python reference on vehicle-cornering, A/B interleaved (:mod:`harness.measure.bench.vehicle_kernel`)."""
 from __future__ import annotations
 
 import argparse
@@ -7,7 +7,7 @@ import sys
 
 
 def main(argv: list[str] | None = None) -> int:
-    from harness.bench import vehicle_kernel
+    from harness.measure.bench import vehicle_kernel
 
     ap = argparse.ArgumentParser(prog="python -m harness.cli.vehicle_kernel_bench",
                                  description=vehicle_kernel.__doc__.splitlines()[0])

@@ -253,13 +253,13 @@ class Instance:
         try:
             return self.vars[name]
         except KeyError:
-            from harness.schema import SceneError
+            from harness.scene.schema import SceneError
             raise SceneError(f"{self.name}: FMU has no variable {name!r}") from None
 
     def set_value(self, name: str, value) -> None:
         """Set one variable, ``value`` converted by its FMI type as a scene's values are
-        (:func:`harness.schema.parameter_value`: 'off' is false; inf and NaN pass, for the FMU to refuse)."""
-        from harness.schema import SceneError, parameter_value
+        (:func:`harness.scene.schema.parameter_value`: 'off' is false; inf and NaN pass, for the FMU to refuse)."""
+        from harness.scene.schema import SceneError, parameter_value
 
         v = self.var(name)
         value = parameter_value(f"{self.name}.{name}", v.type, value, finite=False)

@@ -13,7 +13,7 @@ the independent variable ``time`` is left out of ``vars``.
 
 The FMU is instantiated with ``eventModeUsed`` and ``earlyReturnAllowed`` false: the FMI 2.0
 semantics, whose results an FMI 3.0 run must reproduce to the last bit. The FMI 3.0 master
-(:mod:`harness.master3`) asks for early return (``early_return=True``: ``last_step`` then says
+(:mod:`harness.run.master3`) asks for early return (``early_return=True``: ``last_step`` then says
 where a step ended) and reads output derivatives (:meth:`Instance3.output_derivatives`).
 """
 from __future__ import annotations

@@ -30,6 +30,9 @@ The package, one module per job: :mod:`.spec` (the file's schema), :mod:`.sampli
 table, resume, the folder lock), :mod:`.executors` (this process or Dask), :mod:`.progress`,
 :mod:`.run` (all of it together), :mod:`.plots`, :mod:`.bench`; the command line is
 :mod:`harness.cli.sweep`.
+
+May import: :mod:`harness.run`, :mod:`harness.build`, :mod:`harness.fmi`, :mod:`harness.scene`,
+:mod:`harness.common` and :mod:`spurdiff`; not :mod:`harness.measure` nor :mod:`harness.check`.
 """
 from __future__ import annotations
 

@@ -19,11 +19,11 @@ from harness.sweep.worker import scene_for
 def bench(sweep: Sweep, n_runs: int = 64, worker_counts=(1, 2), duration: float | None = None,
           out=print) -> dict:
     """Speed-up of an ``n_runs`` sweep with 1 versus 2 local workers (one run each, printed), and the
-    per-run cost of the sweep machinery versus a bare scene run (``harness.master.run_scene``)."""
+    per-run cost of the sweep machinery versus a bare scene run (``harness.run.master.run_scene``)."""
     import statistics
     import tempfile
 
-    from harness.master import run_scene
+    from harness.run.master import run_scene
 
     plan = plan_sweep(sweep, duration=duration)
     cyc = [plan.tasks[i % len(plan.tasks)] for i in range(n_runs)]

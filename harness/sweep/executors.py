@@ -17,8 +17,8 @@ Runner = Callable[[Task, Job], dict]
 
 def serial_rows(job: Job, tasks: list[Task], runner: Runner) -> Iterator[dict]:
     """Runs in this process, one after the other. Ctrl-C stops the running run at its next step
-    (:func:`harness.master.stop_on_sigint`): it gives no row, and KeyboardInterrupt ends the sweep."""
-    from harness.master import STOP, stop_on_sigint
+    (:func:`harness.run.master.stop_on_sigint`): it gives no row, and KeyboardInterrupt ends the sweep."""
+    from harness.run.master import STOP, stop_on_sigint
 
     with stop_on_sigint():
         for t in tasks:

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from harness.scene import Scene
+from harness.scene.spec import Scene
 
 STATUSES = ("ok", "failed", "timeout", "error", "crashed")
 
@@ -25,7 +25,7 @@ class FmuRef:
 class Metric:
     """One result column.
 
-    kind ``stat``: ``harness.report.stat(result, var, stat, window)`` of a recorded quantity;
+    kind ``stat``: ``harness.run.report.stat(result, var, stat, window)`` of a recorded quantity;
     kind ``expr``: arithmetic over earlier columns (``{name}`` or ``{inst.param}``);
     kind ``theory``: a closed-form value (:data:`THEORIES`) from the run's parameters of ``instance``.
     """

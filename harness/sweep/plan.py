@@ -5,9 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from harness.messages import shown
-from harness.schema import SceneError, parameter_value
-from harness.scene import refs_of
+from harness.common.messages import shown
+from harness.scene.schema import SceneError, parameter_value
+from harness.scene.spec import refs_of
 from harness.sweep.fmu_files import fmu_ref
 from harness.sweep.jobs import Job, Task
 from harness.sweep.sampling import expand
@@ -25,12 +25,12 @@ class Plan:
 def plan_sweep(sweep: Sweep, duration: float | None = None, timeout: float | None = None,
                build: bool = True, max_steps: int | None = None) -> Plan:
     """Load the scene with the sweep's overrides, build the FMUs, check every name against them.
-    A run of more than ``max_steps`` communication steps (default :data:`harness.recording.MAX_STEPS`)
+    A run of more than ``max_steps`` communication steps (default :data:`harness.scene.recording.MAX_STEPS`)
     is refused with its estimate."""
-    from harness.recording import MAX_STEPS
+    from harness.scene.recording import MAX_STEPS
     from fmpy import read_model_description
 
-    from harness.runner import fmu_files_for, prepare_scene
+    from harness.run.runner import fmu_files_for, prepare_scene
 
     where = sweep.source.name if sweep.source else sweep.name
     ov = dict(sweep.overrides)

@@ -21,8 +21,8 @@ def column_units(sweep: Sweep) -> dict[str, str]:
     from the variables it is made of (the same unit throughout, or a ratio of two of the same:
     1); a closed form's from THEORY_UNITS. Columns whose unit is not evident are left out."""
     import re
-    from harness.build import FMUS
-    from harness.scene import load_scene
+    from harness.build.fmu import FMUS
+    from harness.scene.spec import load_scene
     import importlib
 
     try:
@@ -77,7 +77,7 @@ def plot_sweep(sweep: Sweep, rows: list[dict], out_dir: Path) -> list[Path]:
     """PNG per plot: metrics over a parameter, a line (or coloured points) per value of ``group``,
     theory columns dashed in the same colour. Runs that did not finish ok are left out (counted in the title)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from harness.outputs import output_folder, save_figure
+    from harness.common.outputs import output_folder, save_figure
     from matplotlib.figure import Figure
     import matplotlib as mpl
 
@@ -132,7 +132,7 @@ def plot_sweep(sweep: Sweep, rows: list[dict], out_dir: Path) -> list[Path]:
 
 
 def head(rows: list[dict], columns: list[str], n: int = 8) -> str:
-    from harness.report import render
+    from harness.run.report import render
 
     cols = [c for c in columns if c not in ("worker", "reason")]
     lines = []

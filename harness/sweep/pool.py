@@ -17,8 +17,8 @@ from pathlib import Path
 
 from harness.fmi.instance import Instance
 from harness.fmi.instance3 import open_instance
-from harness.master import Master, RunFailure
-from harness.scene import Scene, SceneError
+from harness.run.master import Master, RunFailure
+from harness.scene.spec import Scene, SceneError
 from harness.sweep.jobs import FmuRef
 
 class InstancePool:
@@ -61,7 +61,7 @@ class InstancePool:
     def _free_at_exit(self) -> None:
         # free the pooled instances before the interpreter finalizes: processes that exited with
         # pythonfmu instances alive aborted at exit ("corrupted double-linked list") in about 6 % of
-        # trials here, about 1 % with this (registered after harness.master's cache clean-up, so it
+        # trials here, about 1 % with this (registered after harness.run.master's cache clean-up, so it
         # runs before it)
         if not getattr(self, "_atexit", False):
             import atexit
@@ -92,7 +92,7 @@ class RunTimeout(RunFailure):
 
 
 class ReusingMaster(Master):
-    """:class:`harness.master.Master` taking its FMU instances from the process pool."""
+    """:class:`harness.run.master.Master` taking its FMU instances from the process pool."""
 
     def __init__(self, scene: Scene, fmu_files: dict[str, Path], pool: InstancePool = POOL,
                  timeout: float | None = None):

@@ -1,5 +1,5 @@
 """Sweep files (``harness/sweeps/*.toml``): their schema, read with :mod:`tomllib` and checked with
-the helpers scene files use (:mod:`harness.schema`); unknown keys are rejected, naming the allowed
+the helpers scene files use (:mod:`harness.scene.schema`); unknown keys are rejected, naming the allowed
 ones. What needs the scene or the FMUs is checked later, by :func:`harness.sweep.plan.plan_sweep`.
 The keys are listed in :mod:`harness.sweep`."""
 from __future__ import annotations
@@ -9,11 +9,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from harness import schema
-from harness.expressions import compile_expression, is_expression
-from harness.messages import shown
-from harness.schema import SceneError
-from harness.scene import STATS
+from harness.scene import schema
+from harness.scene.expressions import compile_expression, is_expression
+from harness.common.messages import shown
+from harness.scene.schema import SceneError
+from harness.scene.spec import STATS
 from harness.sweep.jobs import Metric
 from harness.sweep.theory import THEORIES
 

@@ -7,8 +7,8 @@ import os
 from pathlib import Path
 from typing import Iterable
 
-from harness.outputs import OutputLock, atomic_file, output_error
-from harness.paths import results_dir
+from harness.common.outputs import OutputLock, atomic_file, output_error
+from harness.common.paths import results_dir
 from harness.sweep.jobs import STATUSES, Task
 from harness.sweep.spec import Sweep, SweepError
 
@@ -48,7 +48,7 @@ def read_table(path: Path) -> tuple[list[str], dict[int, dict[str, str]]]:
 
 
 def write_table(path: Path, columns: list[str], rows: Iterable[dict]) -> None:
-    """Write a whole table atomically (private temporary file, then rename: :mod:`harness.outputs`;
+    """Write a whole table atomically (private temporary file, then rename: :mod:`harness.common.outputs`;
     on a write error the temporary file is removed and the table left as it was)."""
     with atomic_file(path, "w", newline="") as fh:
         w = csv.writer(fh)
@@ -88,7 +88,7 @@ class TableWriter:
 
 
 class FolderLock(OutputLock):
-    """The lock on a sweep's results folder (:class:`harness.outputs.OutputLock`, the same lock a
+    """The lock on a sweep's results folder (:class:`harness.common.outputs.OutputLock`, the same lock a
     run takes): a second sweep or run writing the same folder is refused with a SweepError, told
     who holds it. The kernel drops the lock when its holder exits, however it exits, so a killed
     sweep leaves no stale lock behind."""

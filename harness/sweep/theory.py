@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from harness.scene import SceneError
+from harness.scene.spec import SceneError
 
 def _differential(params: dict[str, Any]):
     """Parameters and geometry of a SpurDifferential from its FMU start values plus ``params``."""

@@ -14,9 +14,9 @@ import socket
 import time
 from typing import Any
 
-from harness.expressions import compile_expression
-from harness.master import Interrupted
-from harness.scene import Scene
+from harness.scene.expressions import compile_expression
+from harness.run.master import Interrupted
+from harness.scene.spec import Scene
 from harness.sweep.fmu_files import local_fmu
 from harness.sweep.jobs import Job, Metric, Task
 from harness.sweep.pool import POOL, InstancePool, ReusingMaster, RunTimeout
@@ -66,7 +66,7 @@ def run_one(task: Task, job: Job, pool: InstancePool = POOL) -> dict[str, Any]:
 
 def evaluate_metrics(metrics: list[Metric], params: dict[str, Any], result, scene: Scene | None) -> dict[str, float]:
     """Metric values in order; measured ones are NaN without a successful ``result``."""
-    from harness.report import stat
+    from harness.run.report import stat
 
     env: dict[str, Any] = dict(params)
     out: dict[str, float] = {}

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from harness.master import Instance
+from harness.run.master import Instance
 
 
 def start(fmu, name: str, params: dict | None = None, inputs: dict | None = None,

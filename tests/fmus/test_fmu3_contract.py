@@ -1,4 +1,4 @@
-"""The FMI 3.0 co-simulation FMUs (``NAME-fmi3.fmu``, harness/build3.py) against their FMI 2.0 twins.
+"""The FMI 3.0 co-simulation FMUs (``NAME-fmi3.fmu``, harness/build/fmu3.py) against their FMI 2.0 twins.
 
 Same declaration, same model: the FMI 3.0 modelDescription.xml passes fmpy's validation and
 carries the FMI 2.0 one's variables (value references, units, ranges, starts, descriptions) plus
@@ -30,7 +30,7 @@ TIME_VR = 2147483647
 
 @pytest.fixture(scope="session")
 def fmu3_files(fmu_files):
-    from harness.build3 import build
+    from harness.build.fmu3 import build
 
     return dict(zip(fmu_files, build(list(fmu_files), quiet=True)))
 

@@ -150,7 +150,7 @@ def test_a_mesh_levels_pin_stiction_ends_the_step_too():
 # ------------------------------------------------------------------ through the FMU
 @pytest.fixture(scope="module")
 def diff3(fmu_files):
-    from harness.build3 import build
+    from harness.build.fmu3 import build
 
     return build(["SpurDifferential"], quiet=True)[0]
 

@@ -1,4 +1,4 @@
-"""harness/build.py: the C compiler is found or named (a CC that does not exist is a one-line
+"""harness/build/fmu.py: the C compiler is found or named (a CC that does not exist is a one-line
 BuildError, and the build falls back with a warning instead of a traceback)."""
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import shutil
 
 import pytest
 
-from harness.build import BuildError, c_compiler
+from harness.build.fmu import BuildError, c_compiler
 
 
 def test_a_cc_that_does_not_exist_is_named(monkeypatch):

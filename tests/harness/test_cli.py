@@ -31,12 +31,12 @@ def test_an_unknown_command_is_a_usage_error(capsys):
 
 
 def test_argparse_lives_only_in_the_cli_package():
-    # harness/recipes/ are standalone scripts a user copies out (spurdiff starter): their own command
+    # harness/interop/recipes/ are standalone scripts a user copies out (spurdiff starter): their own command
     # lines, and they import nothing from this package (checked below)
     users = sorted(str(p.relative_to(HARNESS)) for p in HARNESS.rglob("*.py")
                    if re.search(r"^\s*(import argparse|from argparse import)", p.read_text(), re.M))
-    assert users and all(u.startswith(("cli/", "recipes/")) for u in users), users
-    for p in (HARNESS / "recipes").glob("*.py"):
+    assert users and all(u.startswith(("cli/", "interop/recipes/")) for u in users), users
+    for p in (HARNESS / "interop" / "recipes").glob("*.py"):
         assert not re.search(r"^\s*(from|import) (harness|spurdiff)\b", p.read_text(), re.M), p.name
 
 

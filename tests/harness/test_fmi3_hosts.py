@@ -37,7 +37,7 @@ BARE = ["env", "-i", "PATH=/usr/bin:/bin"]
 
 @pytest.fixture(scope="module")
 def fmu3_files(fmu_files):
-    from harness.build3 import build
+    from harness.build.fmu3 import build
 
     return dict(zip(fmu_files, build(list(fmu_files), quiet=True)))
 
@@ -154,7 +154,7 @@ def test_fmpy_runs_each_fmi3_fmu_bare(odd_dir, unpacked, reference):
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="no C compiler")
 def test_our_c_host_runs_each_fmi3_fmu_bare(odd_dir, unpacked, reference):
-    from harness.build import _fmi2_headers
+    from harness.build.fmu import _fmi2_headers
 
     exe = odd_dir / "fmi3_host"
     subprocess.run(["gcc", "-O2", "-Wall", f"-I{_fmi2_headers()}", "-o", str(exe), str(HERE / "c_host" / "fmi3_host.c"),
@@ -237,7 +237,7 @@ def test_ecos_runs_each_fmi3_fmu_bare(odd_dir, fmu_files):
 @pytest.mark.parametrize("scene", ["vehicle-cornering", "tip-in-tip-out", "wheel-lift"])
 def test_a_scene_gives_the_fmi2_results_with_the_fmi3_fmus(scene, fmu3_files):
     """Shortened (0.1 s); every scene at full length: python -m harness.cli.fmi_versions."""
-    from harness.fmi_versions import compare
+    from harness.measure.fmi_versions import compare
 
     c = compare(scene, duration=0.1)
     assert c.failure2 is None and c.failure3 is None, (c.failure2, c.failure3)
@@ -245,8 +245,8 @@ def test_a_scene_gives_the_fmi2_results_with_the_fmi3_fmus(scene, fmu3_files):
 
 
 def test_ssp_export_names_the_fmi3_fmus(tmp_path, fmu3_files):
-    from harness.runner import fmu_files_for, prepare_scene
-    from harness.ssp import export_ssp
+    from harness.run.runner import fmu_files_for, prepare_scene
+    from harness.interop.ssp import export_ssp
 
     scene = prepare_scene("paper-cornering")
     out = export_ssp(scene, fmu_files_for(scene, fmi_version=3), tmp_path / "pc3.ssp")

@@ -1,4 +1,4 @@
-"""The harness's FMI 3.0 master (harness/master3.py): first-order hold with the differential's output
+"""The harness's FMI 3.0 master (harness/run/master3.py): first-order hold with the differential's output
 derivatives and early return at its stick/slip switches, both switches; off, it is the plain master
 to the last bit."""
 from __future__ import annotations
@@ -8,11 +8,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from harness.fmi3_features import trajectory_error
-from harness.master import run_scene
-from harness.master3 import Master3, run_scene3
-from harness.runner import fmu_files_for, prepare_scene
-from harness.scene import SceneError
+from harness.measure.fmi3_features import trajectory_error
+from harness.run.master import run_scene
+from harness.run.master3 import Master3, run_scene3
+from harness.run.runner import fmu_files_for, prepare_scene
+from harness.scene.spec import SceneError
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""harness/fmu_package.py: the FMU's copy of spurdiff imports nothing by the global names
+"""harness/build/fmu_package.py: the FMU's copy of spurdiff imports nothing by the global names
 ``spurdiff``/``pythonfmu`` and runs under a private alias; datafile reads its own folder."""
 from __future__ import annotations
 
@@ -10,10 +10,10 @@ from pathlib import Path
 
 import pytest
 
-from harness import runtime_bundle
-from harness.fmu_package import (PackageError, leftover_imports, rewrite_source, stage_package,
-                                 write_entry)
-from harness.paths import physics_package
+from harness.build import runtime_bundle
+from harness.build.fmu_package import (PackageError, leftover_imports, rewrite_source, stage_package,
+                                       write_entry)
+from harness.common.paths import physics_package
 
 
 def test_absolute_imports_become_relative_from_any_depth():

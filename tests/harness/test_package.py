@@ -47,9 +47,9 @@ def test_the_wheel_holds_what_the_commands_need(installed):
                    "spurdiff_fmus/native/fmi/fmi2_loader.c", "spurdiff_fmus/native/fmi/fmi2_pybridge.c",
                    "spurdiff_fmus/native/fmi/runtime_cfg.h", "spurdiff/fmi/differential_fmu.py",
                    "spurdiff/data/passenger_car.toml", "harness/scenes/vehicle-cornering.toml",
-                   "harness/sweeps/split-mu-locking.toml", "harness/accuracy_grid.toml",
-                   "harness/accuracy_data.csv", "harness/accuracy_facts.json", "harness/recipes/fmi2_host.c",
-                   "harness/recipes/fmpy_differential.py", "harness/recipes/libcosim_ssp.py"):
+                   "harness/sweeps/split-mu-locking.toml", "harness/measure/accuracy/accuracy_grid.toml",
+                   "harness/measure/accuracy/accuracy_data.csv", "harness/measure/accuracy/accuracy_facts.json", "harness/interop/recipes/fmi2_host.c",
+                   "harness/interop/recipes/fmpy_differential.py", "harness/interop/recipes/libcosim_ssp.py"):
         assert needed in names, needed
     # every harness subpackage made it (a new one must be listed in pyproject.toml)
     for pkg in (ROOT / "harness").rglob("__init__.py"):

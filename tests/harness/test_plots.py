@@ -10,8 +10,8 @@ import pytest
 matplotlib = pytest.importorskip("matplotlib")
 matplotlib.use("Agg")
 
-from harness import plots  # noqa: E402
-from harness.result import Result  # noqa: E402
+from harness.run import plots  # noqa: E402
+from harness.run.result import Result  # noqa: E402
 
 
 def _result() -> Result:
@@ -78,8 +78,8 @@ def test_plot_result_writes_one_png_per_quantity(tmp_path):
 
 
 def test_accuracy_figure_distinct_fidelity_styles_and_lines_in_wall_time_order(tmp_path, monkeypatch):
-    from harness.accuracy import render
-    from harness.accuracy.data import Point
+    from harness.measure.accuracy import render
+    from harness.measure.accuracy.data import Point
 
     captured = []
     monkeypatch.setattr(render, "save_figure", lambda fig, path, **kw: captured.append(fig))
@@ -103,7 +103,7 @@ def test_accuracy_figure_distinct_fidelity_styles_and_lines_in_wall_time_order(t
 
 
 def test_sweep_plot_axes_carry_units_and_the_legend_is_outside(tmp_path, monkeypatch):
-    import harness.outputs
+    import harness.common.outputs
     from harness.sweep.plots import column_units, plot_sweep
     from harness.sweep.spec import load_sweep
 
@@ -112,7 +112,7 @@ def test_sweep_plot_axes_carry_units_and_the_legend_is_outside(tmp_path, monkeyp
     assert units["diff.r_collar"] == "m" and units["diff.mu_pin"] == "1"
     assert units["lockingTorque_mean"] == "N.m" and units["K_measured"] == "1" and units["K_theory"] == "1"
     captured = []
-    monkeypatch.setattr(harness.outputs, "save_figure", lambda fig, path, **kw: captured.append(fig))
+    monkeypatch.setattr(harness.common.outputs, "save_figure", lambda fig, path, **kw: captured.append(fig))
     rows = [{"run": str(i), "status": "ok", "diff.mu_pin": str(mu), "diff.r_collar": str(rc),
              **{m.name: str(mu * rc * 1000 + j) for j, m in enumerate(sweep.metrics)}}
             for i, (mu, rc) in enumerate((mu, rc) for mu in (0.1, 0.2, 0.3) for rc in (0.008, 0.012))]

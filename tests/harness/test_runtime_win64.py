@@ -1,4 +1,4 @@
-"""The win64 side of the build (harness/runtime_win64.py) without wine: what an FMU carries for
+"""The win64 side of the build (harness/build/runtime_win64.py) without wine: what an FMU carries for
 Windows, and a build where mingw-w64 is missing (linux64-only FMUs, said in one line)."""
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import zipfile
 
 import pytest
 
-from harness import build, runtime_win64
+from harness.build import fmu as build, runtime_win64
 
 
 def test_without_the_toolchain_the_build_makes_linux64_only_fmus_and_says_so_once(monkeypatch, tmp_path, capsys):
@@ -65,7 +65,7 @@ def test_the_win64_binaries_need_only_windows_own_libraries(fmu_files, tmp_path)
 
 @pytest.mark.skipif(shutil.which("x86_64-w64-mingw32-objdump") is None, reason="no x86_64-w64-mingw32-objdump")
 def test_the_fmi3_windows_loader_needs_only_windows_own_libraries_and_exports_fmi3(fmu_files, tmp_path):
-    from harness.build3 import build
+    from harness.build.fmu3 import build
 
     (path,) = build(["SpurDifferential"], quiet=True)
     with zipfile.ZipFile(path) as z:

@@ -6,7 +6,7 @@ from types import SimpleNamespace as V
 
 import pytest
 
-from harness.scene import SceneError, parse_scene
+from harness.scene.spec import SceneError, parse_scene
 
 DATA = {"name": "t", "duration": 0.01, "step": 1e-3,
         "effects": {"meshModel": "compliant", "backlash": True},
@@ -101,7 +101,7 @@ def test_a_bad_gear_set_is_one_line_naming_it(where, value, words):
 def test_the_vehicle_scenes_run_the_designed_gear_set_and_the_paper_scenes_the_paper_set():
     """Issue 27: the designed set is the data set the vehicle scenes use; the paper scenes keep the
     paper's (no gearSet: the defaults of differential.toml, the paper's table)."""
-    from harness.scene import available, load_scene
+    from harness.scene.spec import available, load_scene
 
     for name in available():
         sc = load_scene(name)

@@ -22,12 +22,12 @@ import pytest
 pytest.importorskip("pyssp_standard", reason="pyssp-standard is not installed (pip install pyssp-standard)")
 pytest.importorskip("libcosimpy", reason="libcosimpy is not installed (pip install libcosimpy)")
 
-from harness.libcosim_run import LibcosimError, read_facts, run_ssp  # noqa: E402
-from harness.master import run_scene  # noqa: E402
-from harness.runner import fmu_files_for, prepare_scene  # noqa: E402
-from harness.scene import SCENE_DIR, SceneError  # noqa: E402
+from harness.interop.libcosim_run import LibcosimError, read_facts, run_ssp  # noqa: E402
+from harness.run.master import run_scene  # noqa: E402
+from harness.run.runner import fmu_files_for, prepare_scene  # noqa: E402
+from harness.scene.spec import SCENE_DIR, SceneError  # noqa: E402
 from harness.cli.export_ssp import main as export_main  # noqa: E402
-from harness.ssp import SspError, export_ssp, export_ssp_summary  # noqa: E402
+from harness.interop.ssp import SspError, export_ssp, export_ssp_summary  # noqa: E402
 
 RTOL = 1e-9   # of max(1, max |x|) per variable: rounding, far below any modelling difference
 
@@ -156,7 +156,7 @@ def test_export_carries_connections_and_table_start_values(chain_toml, tmp_path)
 
 
 def test_schema_check_rejects_an_invalid_ssd_and_leaves_no_file(tmp_path, monkeypatch):
-    import harness.ssp as ssp_mod
+    import harness.interop.ssp as ssp_mod
     from pyssp_standard.common_content_ssc import TypeReal
     from pyssp_standard.ssd import Connector
 

@@ -1,4 +1,4 @@
-"""Variable communication steps from the power-bond energy residual (harness.stepcontrol)."""
+"""Variable communication steps from the power-bond energy residual (harness.run.stepcontrol)."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -6,11 +6,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from harness.master import run_scene
-from harness.report import series, stat
-from harness.runner import prepare_scene
-from harness.scene import SceneError
-from harness.stepcontrol import StepControl, bond_error, run_variable
+from harness.run.master import run_scene
+from harness.run.report import series, stat
+from harness.run.runner import prepare_scene
+from harness.scene.spec import SceneError
+from harness.run.stepcontrol import StepControl, bond_error, run_variable
 
 
 def test_bond_error_is_the_energy_the_hold_misses():
@@ -51,7 +51,7 @@ def test_variable_steps_follow_the_transient_and_agree_with_fixed_steps(fmu_file
 def test_without_redo_no_state_is_taken_and_every_step_is_accepted(fmu_files, monkeypatch):
     """reject = False (the non-iterative form): no FMU state saved or restored, no step redone;
     the error of each step still sets the next (small steps at the tip-in, larger before it)."""
-    from harness.stepcontrol import VariableStepMaster
+    from harness.run.stepcontrol import VariableStepMaster
 
     def refuse(self, *a):
         raise AssertionError("an FMU state was saved or restored")

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
 
-from harness.recipes import fmpy_differential as recipe
-from harness.starter import write_starter
+from harness.interop.recipes import fmpy_differential as recipe
+from harness.interop.starter import write_starter
 
 HERE = Path(__file__).resolve().parent
 HOSTS = HERE.parents[2] / "shared" / "hosts"

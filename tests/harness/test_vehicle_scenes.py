@@ -7,10 +7,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from harness.bench.coupling import torque_coupled
-from harness.master import run_scene
-from harness.report import evaluate_checks, series, stat
-from harness.runner import prepare_scene
+from harness.measure.bench.coupling import torque_coupled
+from harness.run.master import run_scene
+from harness.run.report import evaluate_checks, series, stat
+from harness.run.runner import prepare_scene
 
 SCENES = ["vehicle-cornering", "split-mu-launch", "tip-in-tip-out", "standstill-launch", "wheel-lift"]
 TBR = "{diff.torqueBiasRatio}"   # drive; from the pin-load law (calculated parameter)
@@ -140,7 +140,7 @@ def test_old_coupling_step_above_the_stability_limit_diverges(fmu_files):
     larger friction keeps this differential stuck, which damps the sun/shaft mode at this step).
     The limit was measured with the paper's gear set (its suns' and planets' inertia set the mode);
     the scene runs the designed set since issue 27, with which this 0.6 s run at 0.5 ms does not diverge."""
-    from harness.scene import parse_scene
+    from harness.scene.spec import parse_scene
 
     data = torque_coupled("vehicle-cornering", step=5e-4, duration=0.6, output_interval=5e-3)
     data["fmus"]["diff"]["parameters"]["lockingLaw"] = "paper"
@@ -155,7 +155,7 @@ def test_old_coupling_step_above_the_stability_limit_diverges(fmu_files):
 @pytest.fixture(scope="module")
 def old_coupling_reference(fmu_files):
     """vehicle-cornering with the old interface at 0.2 ms (its stable step), 1.2 s."""
-    from harness.scene import parse_scene
+    from harness.scene.spec import parse_scene
 
     r = run_scene(parse_scene(torque_coupled("vehicle-cornering", step=2e-4, duration=1.2)), fmu_files)
     assert r.ok, r.failure
@@ -183,7 +183,7 @@ _OLD_REFS: dict = {}
 
 def old_reference(fmu_files, name, duration):
     """The scene with the old interface at 0.2 ms (its stable step), run once per test session."""
-    from harness.scene import parse_scene
+    from harness.scene.spec import parse_scene
 
     if name not in _OLD_REFS:
         r = run_scene(parse_scene(torque_coupled(name, step=2e-4, duration=duration)), fmu_files)
@@ -298,8 +298,8 @@ def test_wheel_lift(fmu_files):
 
 
 def test_direct_physics_run_equals_fmi_run_for_the_car(fmu_files):
-    """The new interface modules in harness.direct: same scene, bit-identical trajectories."""
-    from harness.direct import run_direct
+    """The new interface modules in harness.run.direct: same scene, bit-identical trajectories."""
+    from harness.run.direct import run_direct
 
     scene = replace(prepare_scene("vehicle-cornering", duration=0.02), output_interval=2e-4)
     a, b = run_direct(scene), run_scene(scene, fmu_files)
@@ -310,9 +310,9 @@ def test_direct_physics_run_equals_fmi_run_for_the_car(fmu_files):
 def test_kinematic_checks_state_the_fidelity_they_hold_at():
     """Issue 19 item 6: the exact constraint is checked at rigid; at contact the mesh deflection
     rate replaces it (below 1e-4 rad/s in the steady turn) and the rigid one reports N/A."""
-    from harness.direct import run_direct
-    from harness.report import format_checks
-    from harness.scene import SceneError, parse_scene, read_scene_data
+    from harness.run.direct import run_direct
+    from harness.run.report import format_checks
+    from harness.scene.spec import SceneError, parse_scene, read_scene_data
 
     for mesh in ("rigid", "contact"):
         r = run_direct(prepare_scene("vehicle-cornering", mesh=mesh, duration=1.2))

@@ -49,7 +49,7 @@ pytestmark = [
 def wine(tmp_path_factory):
     """The environment of the wine runs: a prefix in the per-user cache (made once), one
     persistent wineserver started here with its output away from the tests' pipes."""
-    from harness.runtime_win64 import download_dir
+    from harness.build.runtime_win64 import download_dir
 
     prefix = download_dir() / "wineprefix"
     env = {**os.environ, "WINEPREFIX": str(prefix), "WINEDEBUG": "-all", "WINEDLLOVERRIDES": "mscoree,mshtml="}
@@ -208,7 +208,7 @@ MASTER_WHEELS = ("fmpy", "attrs", "lxml")
 def _versions() -> dict[str, str]:
     from importlib.metadata import version
 
-    from harness.runtime_win64 import NUMPY_VERSION
+    from harness.build.runtime_win64 import NUMPY_VERSION
 
     return {**{p: version(p) for p in MASTER_WHEELS}, "numpy": NUMPY_VERSION}
 
@@ -218,7 +218,7 @@ def windows_python():
     """A Windows CPython of the build's 3.X with fmpy, attrs, lxml and numpy: the embeddable
     distribution the win64 runtime is made from, with ``win_amd64`` wheels (pip download) in its
     Lib/site-packages; made once in the per-user cache. The harness comes from this checkout."""
-    from harness.runtime_win64 import EMBED_PACKAGE, EMBED_VERSION, TAG, Win64Unavailable, _embeddable, \
+    from harness.build.runtime_win64 import EMBED_PACKAGE, EMBED_VERSION, TAG, Win64Unavailable, _embeddable, \
         _pip_download, download_dir
 
     versions = _versions()
@@ -277,7 +277,7 @@ def test_the_coupled_scene_under_a_windows_master_equals_linux64(fmi, wine, wind
     3.0: binaries/x86_64-windows), extracted into a folder with a space and a non-ASCII character on
     drive C:; every recorded variable against the same master on linux64 (relative difference, or
     absolute below 1, at most 1e-9)."""
-    from harness.build3 import WINDOWS_PLATFORM, build
+    from harness.build.fmu3 import WINDOWS_PLATFORM, build
 
     env, prefix = wine
     names = ("SpurDifferential", "WheelLoad", "Vehicle")
@@ -331,8 +331,8 @@ HOST3 = HERE / "c_host" / "fmi3_host.c"
 def fmi3_under_wine(fmu_files, wine, tmp_path_factory):
     """The FMI 3.0 FMUs unzipped into C:/spurdiff wine ü/<name>-fmi3/, and tests/c_host/fmi3_host.c
     built for linux64 and (with mingw-w64, -municode) for win64."""
-    from harness.build import _fmi2_headers
-    from harness.build3 import build
+    from harness.build.fmu import _fmi2_headers
+    from harness.build.fmu3 import build
 
     _, prefix = wine
     paths = dict(zip(fmu_files, build(list(fmu_files), quiet=True)))

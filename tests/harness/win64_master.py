@@ -32,8 +32,8 @@ def main(argv: list[str]) -> int:
     scene_name, out, tmp, *pairs = argv
     tempfile.tempdir = tmp    # before the harness's FMU cache makes its folder in it
     _importable()
-    from harness.master import run_scene
-    from harness.runner import prepare_scene, typed_parameters
+    from harness.run.master import run_scene
+    from harness.run.runner import prepare_scene, typed_parameters
 
     files = {name: Path(path) for name, path in (p.split("=", 1) for p in pairs)}
     scene = prepare_scene(scene_name)

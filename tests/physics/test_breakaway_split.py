@@ -17,9 +17,9 @@ import math
 import numpy as np
 import pytest
 
-from harness.bench.shafts import R_WHEEL, Loop, make, start
-from harness.direct import run_direct
-from harness.runner import prepare_scene
+from harness.measure.bench.shafts import R_WHEEL, Loop, make, start
+from harness.run.direct import run_direct
+from harness.run.runner import prepare_scene
 from spurdiff.differential.bushing import bushing
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.rigid import RigidDifferential

@@ -73,7 +73,7 @@ def test_p_and_pv_by_hand(geo):
 def test_sliding_coefficients_and_info_prints_the_sliding_K(geo):
     """The sliding coefficient with the friction circle, sin(atan(0.08)) for the bronze set, and
     `spurdiff info` prints the sliding K (the pin law at mu_d') beside the break-away K of both sets."""
-    from harness.info import bushing_rows
+    from harness.measure.info import bushing_rows
 
     b = bushing("bronze")
     assert b.mu_effective_dynamic == pytest.approx(math.sin(math.atan(0.08)), rel=1e-14)

@@ -12,9 +12,9 @@ import math
 import numpy as np
 import pytest
 
-from harness.build import BuildError, rigid_kernel_library
-from harness.direct import run_direct
-from harness.runner import prepare_scene
+from harness.build.fmu import BuildError, rigid_kernel_library
+from harness.run.direct import run_direct
+from harness.run.runner import prepare_scene
 from spurdiff.differential import rigid_kernel, shaft_kernel
 from spurdiff.errors import ParameterError
 from spurdiff.differential.params import DifferentialParams

@@ -16,10 +16,10 @@ import math
 import numpy as np
 import pytest
 
-import harness.direct as hd
-from harness.build import BuildError, kernel_library
-from harness.direct import run_direct
-from harness.runner import fmu_files_for, prepare_scene
+import harness.run.direct as hd
+from harness.build.fmu import BuildError, kernel_library
+from harness.run.direct import run_direct
+from harness.run.runner import fmu_files_for, prepare_scene
 from spurdiff.differential import shaft_kernel
 from spurdiff.differential.bushing import bushing
 from spurdiff.differential.derivatives import output_rates
@@ -328,7 +328,7 @@ def test_scene_through_fmi_identical(library, name):
     """The scene through FMI (the SpurDifferential FMU carries the shaft kernel): every recorded
     variable identical with the differential's solver.kernel = python and compiled, and the FMU says
     which runs."""
-    from harness.master import run_scene
+    from harness.run.master import run_scene
 
     runs = {}
     for kernel in ("python", "compiled"):

@@ -13,9 +13,9 @@ import math
 import numpy as np
 import pytest
 
-from harness.build import BuildError, kernel_library
-from harness.direct import run_direct
-from harness.runner import prepare_scene
+from harness.build.fmu import BuildError, kernel_library
+from harness.run.direct import run_direct
+from harness.run.runner import prepare_scene
 from spurdiff.errors import ParameterError, StepError
 from spurdiff.vehicle import kernel as vehicle_kernel
 from spurdiff.vehicle.car import STEER_ANGLE, Vehicle, VehicleParams

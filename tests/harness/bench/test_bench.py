@@ -5,9 +5,9 @@ import math
 
 import pytest
 
-import harness.bench.core as bench
-import harness.bench.report as report
-from harness.accuracy import load_grid
+import harness.measure.bench.core as bench
+import harness.measure.bench.report as report
+from harness.measure.accuracy import load_grid
 
 
 def test_effect_settings_are_the_accuracy_grids_paper_straight_fidelities():
@@ -132,7 +132,7 @@ def test_report_derives_per_step_costs_and_targets_from_the_measurements(monkeyp
 def test_step_cost_breakdown_splits_each_instance_and_the_differentials_inner_model(monkeypatch):
     from spurdiff.differential import shaft_kernel
 
-    from harness.bench.core import python_step_sets
+    from harness.measure.bench.core import python_step_sets
 
     names = {"car", "diff", "wheelL", "wheelR"}
     sets = python_step_sets("vehicle-cornering")
@@ -166,7 +166,7 @@ def test_write_keeps_the_sections_after_the_generated_block(monkeypatch, tmp_pat
 
 
 def test_round_trips_measure_the_same_fmu_in_this_process_and_in_its_own(fmu_files):
-    from harness.bench.process import _calls, round_trips
+    from harness.measure.bench.process import _calls, round_trips
 
     r = round_trips(n=50)
     for mode in ("in", "out"):
@@ -178,7 +178,7 @@ def test_the_out_mode_really_starts_the_models_own_process(fmu_files):
     import os
     from pathlib import Path
 
-    from harness.bench.process import model_process
+    from harness.measure.bench.process import model_process
     from harness.fmi.instance import Instance
 
     def children():
@@ -199,10 +199,10 @@ def test_the_out_mode_really_starts_the_models_own_process(fmu_files):
 
 
 def test_vehicle_kernel_bench_measures_both_implementations_of_car_and_wheels(monkeypatch):
-    """harness.bench.vehicle_kernel: the per-part breakdown with the car, the wheels and the
+    """harness.measure.bench.vehicle_kernel: the per-part breakdown with the car, the wheels and the
     differential in Python, with all but the differential's half-shaft step compiled, and all
     compiled (the scene's solver.kernel overrides reach step_cost_breakdown)."""
-    import harness.bench.vehicle_kernel as vk
+    import harness.measure.bench.vehicle_kernel as vk
     from spurdiff.differential import shaft_kernel
 
     seen, orig = [], bench.step_cost_breakdown
@@ -233,7 +233,7 @@ def test_vehicle_kernel_bench_measures_both_implementations_of_car_and_wheels(mo
 
 
 def test_solver_timings_take_the_fastest_of_many_short_runs_and_one_slow_run():
-    from harness.bench.mesh_ivp import best_of, more_runs
+    from harness.measure.bench.mesh_ivp import best_of, more_runs
 
     assert more_runs([])                                  # at least five
     assert more_runs([0.001] * 4)

@@ -1,4 +1,4 @@
-"""harness.bench.coupling (issue 19 item 2): the vehicle scenes against the old coupling at 0.2 ms;
+"""harness.measure.bench.coupling (issue 19 item 2): the vehicle scenes against the old coupling at 0.2 ms;
 its command line harness/cli/coupling_bench.py (``python -m harness.cli.coupling_bench``)."""
 from __future__ import annotations
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 import pytest
 
 from harness.fmi.instance import CallFailed, Instance, RealPort, status_label
-from harness.schema import SceneError
+from harness.scene.schema import SceneError
 
 INPUTS = {"carrier.w_ref": 1.389, "left.tau": -1050.0, "right.tau": -1040.0}
 H = 1e-3

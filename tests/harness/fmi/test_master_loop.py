@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from harness.master import Master, run_scene
-from harness.runner import fmu_files_for, prepare_scene
-from harness.scene import parse_scene
+from harness.run.master import Master, run_scene
+from harness.run.runner import fmu_files_for, prepare_scene
+from harness.scene.spec import parse_scene
 
 
 class GenericLoop(Master):

@@ -11,7 +11,7 @@ import pytest
 
 from hostile_harness_util import ESCAPE, cli, one_line_error, sandbox, scene, sweep  # noqa: F401
 
-from harness.expressions import ExpressionError, compile_expression
+from harness.scene.expressions import ExpressionError, compile_expression
 
 
 def payload(marker) -> str:

@@ -106,7 +106,7 @@ def test_a_run_shortened_before_a_window_says_not_checked_never_pass_or_fail(san
 
 
 def test_the_expression_limit_counts_terms():
-    from harness.expressions import ExpressionError, compile_expression
+    from harness.scene.expressions import ExpressionError, compile_expression
 
     compile_expression("+".join(["1"] * 200), "x")   # 200 terms: allowed (was refused as 599 'terms')
     with pytest.raises(ExpressionError, match=r"201 terms \(numbers and references\); allowed at most 200"):

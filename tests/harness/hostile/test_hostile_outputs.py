@@ -167,7 +167,7 @@ def test_a_full_place_is_one_line_leaving_no_temporary_file(sandbox, capsys, fmu
 
 
 def test_bench_write_on_a_full_disk_is_one_line_keeping_the_page(sandbox, capsys, small_fs, monkeypatch):
-    import harness.bench.report as bench_report
+    import harness.measure.bench.report as bench_report
 
     fs = small_fs("64k")
     page = fs / "performance.md"

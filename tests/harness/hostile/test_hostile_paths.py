@@ -35,8 +35,8 @@ def test_scene_name_is_refused_by_export_ssp(sandbox, capsys, name):
 def test_default_ssp_path_validates_a_programmatic_scene_name():
     from dataclasses import replace
 
-    from harness.scene import SceneError, load_scene
-    from harness.ssp import default_output
+    from harness.scene.spec import SceneError, load_scene
+    from harness.interop.ssp import default_output
 
     sc = replace(load_scene("paper-cornering"), name="../../escaped")
     with pytest.raises(SceneError, match="scene name = '../../escaped'"):

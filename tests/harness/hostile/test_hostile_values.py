@@ -34,8 +34,8 @@ def test_boolean_word_that_is_no_boolean_is_refused(sandbox, capsys, fmu_files):
 
 
 def test_scene_boolean_effect_given_as_a_string_is_converted(fmu_files):
-    from harness.runner import typed_parameters
-    from harness.scene import load_scene, merge, parse_scene, read_scene_data
+    from harness.run.runner import typed_parameters
+    from harness.scene.spec import load_scene, merge, parse_scene, read_scene_data
 
     data = merge(read_scene_data("paper-cornering"), {"effects": {"backlash": "false", "pinFriction": "off"}})
     sc = typed_parameters(parse_scene(data), fmu_files)
@@ -124,8 +124,8 @@ def test_duration_whose_samples_cannot_fit_in_memory_is_refused_before_running(s
 def test_recording_budget_counts_the_samples():
     from dataclasses import replace
 
-    from harness.master import check_recording, recording_size
-    from harness.scene import SceneError, load_scene
+    from harness.run.master import check_recording, recording_size
+    from harness.scene.spec import SceneError, load_scene
 
     sc = load_scene("paper-cornering")
     assert recording_size(sc) == (300, 302, 1 + len(sc.record))
@@ -135,7 +135,7 @@ def test_recording_budget_counts_the_samples():
 
 
 def test_parameter_value_reads_each_fmi_type():
-    from harness.scene import SceneError, parameter_value as pv
+    from harness.scene.spec import SceneError, parameter_value as pv
 
     assert [pv("k", "Boolean", v) for v in ("Off", " NO ", "false", 0, False, "on", "Yes", 1, True)] == \
         [False] * 5 + [True] * 4

@@ -101,7 +101,7 @@ def cluster():
 
 # ------------------------------------------------------------------------------ the sweep file
 def test_example_sweeps_validate_against_their_scene_and_fmus(fmu_files):
-    from harness.scene import available as scenes
+    from harness.scene.spec import available as scenes
 
     assert "cornering-locking" in available()
     checked = 0
@@ -238,7 +238,7 @@ def test_reused_instances_give_the_same_trajectories_as_fresh_ones_even_after_a_
 def test_reuse_is_exact_for_a_four_fmu_vehicle_scene(fmu_files):
     """split-mu-launch (car, differential, two wheel loads of one FMU), 0.3 s: the run on reset
     instances, after a run with other parameters, equals a run on newly instantiated ones."""
-    from harness.scene import available as scenes
+    from harness.scene.spec import available as scenes
 
     if "split-mu-launch" not in scenes():
         pytest.skip("scene split-mu-launch not present")
@@ -285,7 +285,7 @@ def test_a_sweep_run_after_other_fmu_users_in_the_process_still_gets_the_reason(
     # this test is not about
     code = f"""
 import os, sys
-from harness.master import run_scene
+from harness.run.master import run_scene
 from harness.sweep import load_sweep, plan_sweep
 from harness.sweep.worker import run_one, scene_for
 plan = plan_sweep(load_sweep({str(sweep)!r}))

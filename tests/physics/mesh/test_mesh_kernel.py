@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from harness.bench.mesh_cases import paper_case
-from harness.build import kernel_library
+from harness.measure.bench.mesh_cases import paper_case
+from harness.build.fmu import kernel_library
 from spurdiff.errors import ParameterError, StepError
 from spurdiff.differential.mesh import MeshDifferential, MeshParams, kernel
 from spurdiff.differential.params import DifferentialParams
@@ -337,8 +337,8 @@ def test_fmusim_runs_the_compiled_kernel_with_a_bare_environment(differential_fm
 def test_the_kernel_bench_measures_both_implementations():
     """The lines of `spurdiff bench` section 6 come from real runs (values printed, never asserted
     against targets) and from the stored solve_ivp points of `spurdiff accuracy`."""
-    from harness.bench.mesh import solver_ratios, step_costs
-    from harness.bench.mesh_ivp import OURS
+    from harness.measure.bench.mesh import solver_ratios, step_costs
+    from harness.measure.bench.mesh_ivp import OURS
 
     c = step_costs(repeats=1)
     assert all(c[k]["internal"] > 0 and c[k]["comm"] > 0 for k in ("python", "compiled"))

@@ -10,8 +10,8 @@ import math
 import numpy as np
 import pytest
 
-from harness.bench.mesh_cases import paper_case
-from harness.build import kernel_library
+from harness.measure.bench.mesh_cases import paper_case
+from harness.build.fmu import kernel_library
 from spurdiff.differential.mesh import MeshDifferential, MeshParams
 from spurdiff.differential.mesh.events import leave, phase_mode
 from spurdiff.differential.mesh.layout import DA, PSI, VA, VB, W1, W2, rolls

@@ -1,4 +1,4 @@
-"""The measurement of which error estimate sets the mesh solver's step (harness.bench.mesh.step_bound):
+"""The measurement of which error estimate sets the mesh solver's step (harness.measure.bench.mesh.step_bound):
 its instrumentation wraps the driver's two error tests without changing the arithmetic, classifies
 every trial, puts the driver back afterwards, and its quadrature-state experiment integrates the loss."""
 from __future__ import annotations
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import spurdiff.differential.mesh.stepper as stepper
-from harness.bench.mesh import step_bound
-from harness.bench.mesh_ivp import ivp_model
+from harness.measure.bench.mesh import step_bound
+from harness.measure.bench.mesh_ivp import ivp_model
 from spurdiff.differential.mesh.integrator import RosenbrockW
 
 CASE = "contact, unloaded start"

@@ -1,6 +1,0 @@
-"""``python -m harness.accuracy`` = ``spurdiff accuracy`` (:mod:`harness.cli.accuracy`)."""
-import sys
-
-from harness.cli.accuracy import main
-
-sys.exit(main())

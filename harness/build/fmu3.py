@@ -1,0 +1,186 @@
+"""Build the FMI 3.0 co-simulation FMUs beside the FMI 2.0 ones: ``build/fmus/<name>-fmi3.fmu``.
+
+One declaration, two FMUs: the FMI 3.0 FMU of ``name`` is made from its FMI 2.0 FMU
+(:mod:`harness.build.fmu`, built first when it is not current) and holds the same model: the same
+package copy ``resources/spurdiff/``, the same Python runtime ``resources/python/`` and its
+description ``resources/python_runtime.cfg`` (the GUID is the instantiation token), the same
+bridge and server. What differs:
+
+* ``modelDescription.xml`` is FMI 3.0, written from the same variable list
+  (:func:`harness.build.modeldescription3.fmi3_description`);
+* the binaries sit in ``binaries/x86_64-linux/`` and the model's binary is the FMI 3.0 loader:
+  ``fmu_src/native/fmi/fmi3_loader.c`` linked with the FMI 2.0 loader it maps every call onto
+  (:data:`LOADER3_SOURCES`), so the model runs in this process or its own exactly as in the FMI 2.0
+  FMU, with the same refusals;
+* the Windows side, where the FMI 2.0 FMU has one (mingw-w64 installed, :mod:`harness.build.runtime_win64`):
+  ``binaries/x86_64-windows/`` holds the FMI 2.0 FMU's ``binaries/win64/`` files with the model's
+  DLL replaced by the FMI 3.0 loader cross-built from the same sources (``loader3.dll`` of the win64
+  runtime), beside the same ``resources/python-win64/`` runtime and its description. Without it
+  (:data:`WIN64_ONLY` left out) the FMI 3.0 FMU is linux64-only, as its FMI 2.0 twin.
+
+The archive starts from the runtime's compressed entries (as the FMI 2.0 build does), so making
+an FMI 3.0 FMU costs about a second. A build is skipped when its stamp (the FMI 2.0 FMU's source
+digest and this module's) is current.
+"""
+from __future__ import annotations
+
+import fcntl
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+import atexit
+import zipfile
+from pathlib import Path
+
+from harness.build import fmu as build2
+from harness.build import modeldescription3
+from harness.build.modeldescription3 import PLATFORM, fmi3_description
+from harness.common.paths import fmu_cache_dir
+
+SUFFIX = "-fmi3"
+LOADER3_SOURCES: tuple = ("fmi3_loader.c", *build2.LOADER_SOURCES)
+FMI_VERSIONS = (2, 3)
+
+
+# the FMI 2.0 FMU's Windows side: under binaries/x86_64-windows/ with the FMI 3.0 loader as the model's DLL
+WIN64_ONLY = ("binaries/win64/", "resources/python-win64/", "resources/python_runtime_win64.cfg")
+WINDOWS_PLATFORM = "x86_64-windows"     # the FMI 3.0 platform tuple of 64-bit Windows
+
+
+def fmu_path(name: str, dest: Path | None = None) -> Path:
+    return Path(dest or fmu_cache_dir()) / f"{name}{SUFFIX}.fmu"
+
+
+def source_digest(name: str) -> str:
+    h = hashlib.sha256(build2.source_digest(name).encode())
+    for p in (Path(__file__), Path(modeldescription3.__file__)):
+        h.update(p.read_bytes())
+    return h.hexdigest()
+
+
+def is_current(name: str, dest: Path | None = None) -> bool:
+    fmu = fmu_path(name, dest)
+    stamp = fmu.with_suffix(".sha256")
+    return fmu.exists() and stamp.exists() and stamp.read_text().strip() == source_digest(name)
+
+
+_LOADER3: dict[str, Path] = {}
+
+
+def compile_loader3() -> Path:
+    """The FMI 3.0 loader (``-Wl,-Bsymbolic``: its calls into the FMI 2.0 loader stay inside the
+    binary, whatever other FMU the host loaded globally), compiled once per process and sources."""
+    h = hashlib.sha256(repr((LOADER3_SOURCES, os.environ.get("CC"))).encode())
+    for p in sorted(build2.NATIVE_FMI.glob("*.[ch]")):
+        h.update(p.name.encode() + b"\0" + p.read_bytes())
+    key = h.hexdigest()
+    if key not in _LOADER3:
+        tmp = Path(tempfile.mkdtemp(prefix="spurdiff_native3_"))
+        atexit.register(shutil.rmtree, tmp, True)
+        out = tmp / "loader3.so"
+        cmd = [build2.c_compiler(), "-shared", "-fPIC", "-O2", "-Wall", "-Werror=implicit-function-declaration",
+               f"-I{build2._fmi2_headers()}", f"-I{build2.NATIVE_FMI}", *build2._prefix_map(),
+               *(str(build2.NATIVE_FMI / f) for f in LOADER3_SOURCES), "-o", str(out), "-ldl", "-lpthread",
+               "-Wl,-Bsymbolic"]
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        if r.returncode != 0:
+            raise build2.BuildError(f"compiling {', '.join(LOADER3_SOURCES)} failed:\n{r.stderr.strip()}")
+        _LOADER3[key] = out
+    return _LOADER3[key]
+
+
+def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
+    """The FMI 3.0 FMU of ``name`` from its FMI 2.0 FMU in ``dest`` (which must be current)."""
+    from harness.build import runtime_bundle
+
+    dest = Path(dest) if dest else fmu_cache_dir()
+    fmu2 = build2.fmu_path(name, dest)
+    iface = build2.interface(name)
+    loader = compile_loader3()
+    runtime = runtime_bundle.ensure_runtime(build2.declarations(), quiet=True)
+    with zipfile.ZipFile(fmu2) as z:
+        has_win64 = f"binaries/win64/{name}.dll" in z.namelist()
+    win64 = build2._win64_parts() if has_win64 else None    # None: linux64 only, as the FMI 2.0 FMU
+    start = build2._base_archive(runtime, win64)            # the runtimes' entries, compressed once
+    out = fmu_path(name, dest)
+    part = dest / f".{name}{SUFFIX}.{os.getpid()}.fmu"
+    try:
+        with zipfile.ZipFile(start) as z:
+            in_runtime = set(z.namelist())
+        shutil.copyfile(start, part)
+        with zipfile.ZipFile(fmu2) as zin, zipfile.ZipFile(part, "a", zipfile.ZIP_DEFLATED) as zout:
+            names = zin.namelist()
+            if "resources/" + build2.RUNTIME_CFG not in names:
+                raise build2.BuildError(f"{name}: {fmu2.name} carries no runtime (built without a C compiler?); "
+                                        "an FMI 3.0 FMU needs the native loader")
+            for item in zin.infolist():
+                if item.filename in in_runtime or (win64 is None and item.filename.startswith(WIN64_ONLY)):
+                    continue
+                data = zin.read(item.filename)
+                target = item.filename
+                if item.filename == "modelDescription.xml":
+                    data = fmi3_description(data.decode("utf-8"), iface.VARIABLES, iface.DEFAULT_EXPERIMENT,
+                                            getattr(iface, "MAX_OUTPUT_DERIVATIVE_ORDER", 0),
+                                            getattr(iface, "MIGHT_RETURN_EARLY", False)).encode("utf-8")
+                elif item.filename.startswith("binaries/linux64/"):
+                    base = item.filename.rsplit("/", 1)[1]
+                    target = f"binaries/{PLATFORM}/{base}"
+                    if base == f"{name}.so":
+                        data = loader.read_bytes()
+                elif item.filename.startswith("binaries/win64/"):
+                    base = item.filename.rsplit("/", 1)[1]
+                    target = f"binaries/{WINDOWS_PLATFORM}/{base}"
+                    if base == f"{name}.dll":
+                        data = win64.loader3.read_bytes()
+                info = zipfile.ZipInfo(target, date_time=item.date_time)
+                info.external_attr = item.external_attr
+                info.compress_type = zipfile.ZIP_DEFLATED
+                zout.writestr(info, data)
+        os.replace(part, out)
+    finally:
+        part.unlink(missing_ok=True)
+    staged = dest / f".{name}{SUFFIX}.{os.getpid()}.sha256"
+    staged.write_text(source_digest(name) + "\n")
+    os.replace(staged, out.with_suffix(".sha256"))
+    if not quiet:
+        print(f"built {out} (FMI 3.0, from {fmu2.name})")
+    return out
+
+
+def build(names: list[str] | None = None, dest: Path | None = None, force: bool = False,
+          quiet: bool = False, force2: bool | None = None) -> list[Path]:
+    """Build the FMI 3.0 FMUs of ``names`` (default: all), their FMI 2.0 FMUs first when needed
+    (rebuilt too with ``force`` unless ``force2`` is False)."""
+    dest = Path(dest) if dest else fmu_cache_dir()
+    names = names or list(build2.FMUS)
+    for n in names:
+        if n not in build2.FMUS:
+            raise build2.BuildError(f"unknown FMU {n!r}: allowed {', '.join(build2.FMUS)}")
+    build2.build(names, dest, force=force if force2 is None else force2, quiet=True)
+    paths = []
+    for name in names:
+        with open(dest / f".{name}{SUFFIX}.lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            if not force and is_current(name, dest):
+                if not quiet:
+                    print(f"up to date: {fmu_path(name, dest)}")
+                paths.append(fmu_path(name, dest))
+            else:
+                paths.append(build_one(name, dest, quiet=quiet))
+    return paths
+
+
+def build_versions(names: list[str] | None, dest: Path | None = None, force: bool = False, quiet: bool = False,
+                   versions: tuple[int, ...] = FMI_VERSIONS) -> list[Path]:
+    """The FMUs of ``names`` for each FMI version in ``versions`` (2, 3), the 2.0 ones first."""
+    bad = [v for v in versions if v not in FMI_VERSIONS]
+    if bad:
+        raise build2.BuildError(f"FMI version {bad[0]}: allowed 2 or 3")
+    paths = []
+    if 2 in versions:
+        paths += build2.build(names, dest, force=force, quiet=quiet)
+    if 3 in versions:
+        paths += build(names, dest, force=force, quiet=quiet, force2=False if 2 in versions else None)
+    return paths

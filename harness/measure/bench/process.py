@@ -1,0 +1,149 @@
+"""What the model's own process costs (issue 25): the same FMU in this process and in its own.
+
+A host whose Python is not the FMU runtime's version runs the model in a process of its own
+(fmu_src/native/fmi/fmi2_remote.c, fmi2_server.c: shared memory, one round trip per FMI call);
+``SPURDIFF_FMU_PROCESS=out`` asks for that in any host, which is how this module measures it from
+this process, interleaved with the in-process runs so machine noise hits both sides:
+
+* per call, as a master's step loop makes it (the C function through ctypes with its arguments
+  converted once, :meth:`harness.fmi.instance.Instance.fast_function`): ``fmi2GetReal`` of 4
+  outputs, and the sequence ``fmi2SetReal`` (4 inputs) + ``fmi2DoStep`` + ``fmi2GetReal`` (4
+  outputs) of one communication step of SpurDifferential (rigid, 5 ms); the difference between
+  the two sides is the cost of the round trips;
+* a whole scene: vehicle-cornering through FMI with every FMU in its own process against in this
+  process (:func:`harness.measure.bench.core.fmi_overhead`'s run, wall and CPU time of this process:
+  the model processes' CPU is not counted, it runs on the other core).
+
+``python -m harness.measure.bench.process`` prints the table.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import statistics
+import time
+from ctypes import c_double, c_size_t, c_uint
+from pathlib import Path
+
+ENV = "SPURDIFF_FMU_PROCESS"
+
+
+@contextlib.contextmanager
+def model_process(mode: str):
+    """Instances made inside the block run the model in this process ("in") or its own ("out")."""
+    old = os.environ.get(ENV)
+    os.environ[ENV] = mode
+    try:
+        yield
+    finally:
+        if old is None:
+            os.environ.pop(ENV, None)
+        else:
+            os.environ[ENV] = old
+
+
+def _calls(path: Path, mode: str, n: int, h: float = 5e-3) -> dict[str, float]:
+    """Microseconds per getReal(4) and per setReal(4) + doStep + getReal(4), median of 5 rounds."""
+    from harness.fmi.instance import Instance
+
+    with model_process(mode):
+        inst = Instance("bench", path)
+    try:
+        inst.slave.setupExperiment(startTime=0.0)
+        inst.slave.enterInitializationMode()
+        inst.slave.exitInitializationMode()
+        reals = [v for v in inst.md.modelVariables if v.type == "Real"]
+        outs = [v.valueReference for v in reals if v.causality == "output"][:4]
+        ins = [v.valueReference for v in reals if v.causality == "input"][:4]
+        get, set_, step = (inst.fast_function(f) for f in ("fmi2GetReal", "fmi2SetReal", "fmi2DoStep"))
+        c = inst.c_component
+        vo, vi = (c_uint * len(outs))(*outs), (c_uint * len(ins))(*ins)
+        xo, xi = (c_double * len(outs))(), (c_double * len(ins))()
+        no, ni = c_size_t(len(outs)), c_size_t(len(ins))
+        if get(c, vi, ni, xi) != 0:   # the inputs' own values, set back unchanged
+            raise RuntimeError(f"{path.name}: getReal of the inputs failed ({mode})")
+        hh = c_double(h)
+        t = 0.0
+        rounds_get, rounds_step = [], []
+        for _ in range(5):
+            t0 = time.perf_counter()
+            for _ in range(n):
+                get(c, vo, no, xo)
+            rounds_get.append(time.perf_counter() - t0)
+            t0 = time.perf_counter()
+            for _ in range(n):
+                set_(c, vi, ni, xi)
+                if step(c, c_double(t), hh, 1) != 0:
+                    raise RuntimeError(f"{path.name}: doStep failed at t = {t} ({mode})")
+                get(c, vo, no, xo)
+                t += h
+            rounds_step.append(time.perf_counter() - t0)
+        return {"getReal": 1e6 * statistics.median(rounds_get) / n,
+                "set+doStep+get": 1e6 * statistics.median(rounds_step) / n}
+    finally:
+        inst.close()
+
+
+def round_trips(n: int = 2000) -> dict:
+    """SpurDifferential's calls in this process and in its own, interleaved (in, out, in, out)."""
+    from harness.build.fmu import build
+
+    path = build(["SpurDifferential"], quiet=True)[0]
+    runs = {"in": [], "out": []}
+    for mode in ("in", "out", "in", "out"):
+        runs[mode].append(_calls(path, mode, n))
+    best = {m: {k: min(r[k] for r in rs) for k in rs[0]} for m, rs in runs.items()}
+    return {"in": best["in"], "out": best["out"],
+            "overhead": {k: best["out"][k] - best["in"][k] for k in best["in"]}}
+
+
+def scene_in_own_processes(scene_name: str = "vehicle-cornering", repeats: int = 3) -> dict:
+    """The scene through FMI with every FMU in its own process against in this process: stepping
+    wall time (medians) and CPU time of the stepping thread (fastest), interleaved."""
+    from harness.measure.bench.core import cpu_clock
+    from harness.run.master import run_scene
+    from harness.run.runner import fmu_files_for, prepare_scene
+
+    scene = prepare_scene(scene_name)
+    files = fmu_files_for(scene)
+    walls, cpus = {"in": [], "out": []}, {"in": [], "out": []}
+    for mode in ("in", "out"):   # warm-up
+        with model_process(mode):
+            run_scene(scene, files)
+    for _ in range(repeats):
+        for mode in ("in", "out"):
+            with model_process(mode):
+                walls[mode].append(run_scene(scene, files).wall_time)
+                with cpu_clock():
+                    cpus[mode].append(run_scene(scene, files).wall_time)
+    return {"scene": scene_name, "in_wall": statistics.median(walls["in"]), "out_wall": statistics.median(walls["out"]),
+            "in_cpu": min(cpus["in"]), "out_cpu": min(cpus["out"])}
+
+
+def report(repeats: int = 3) -> list[str]:
+    rt = round_trips()
+    lines = ["   SpurDifferential (rigid, 5 ms step), us per call as a master's loop makes it, best of 2 interleaved "
+             "rounds:",
+             f"   {'':24s}{'this process':>14s}{'own process':>14s}{'difference':>12s}"]
+    for k in ("getReal", "set+doStep+get"):
+        lines.append(f"   {k:24s}{rt['in'][k]:14.1f}{rt['out'][k]:14.1f}{rt['overhead'][k]:12.1f}")
+    lines.append(f"   one round trip (getReal's difference): {rt['overhead']['getReal']:.1f} us; "
+                 f"a communication step's three: {rt['overhead']['set+doStep+get']:.1f} us (target <= 10)")
+    try:
+        s = scene_in_own_processes(repeats=repeats)
+    except Exception as e:   # noqa: BLE001 - a scene that cannot run here is reported, not fatal
+        lines.append(f"   the scene in own processes: not measured ({type(e).__name__}: {e})")
+    else:
+        lines.append(f"   {s['scene']} with every FMU in its own process / in this process: wall "
+                     f"{s['out_wall'] / s['in_wall']:.2f} ({s['out_wall']:.2f} s / {s['in_wall']:.2f} s), "
+                     f"this process's CPU {s['out_cpu'] / s['in_cpu']:.2f}")
+    return lines
+
+
+def main(argv: list[str] | None = None) -> int:
+    print("\n".join(report()))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
