@@ -17,8 +17,8 @@ from __future__ import annotations
 
 import math
 
-from .driver import WRONG_GUID, CallFailed, Session, accepts_wrong_guid
-from .report import FAIL, PASS, SKIP
+from .fmi2 import WRONG_GUID, CallFailed, Session, accepts_wrong_guid
+from ..report import FAIL, PASS, SKIP
 
 MAX_EVENT_ITERATIONS = 100
 
@@ -97,7 +97,7 @@ def check_me_basic(s: Session, out_csv: str | None = None):
     a.terminate()
     a.free()
     if out_csv:
-        from .crosscheck import write_cross_check_csv
+        from ..crosscheck import write_cross_check_csv
         as_int = [v.type != "Real" for v in s.outputs]
         write_cross_check_csv(out_csv, ["time"] + [v.name for v in s.outputs],
                               [[r[0]] + [int(x) if i else x for i, x in zip(as_int, r[1:])] for r in rows])

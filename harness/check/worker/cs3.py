@@ -8,9 +8,9 @@ from __future__ import annotations
 import math
 import time
 
-from .driver3 import NUMERIC, WRONG_TOKEN, Call3Failed, Session3, first_difference3, status3
-from .report import FAIL, PASS, SKIP
-from .rules import WARNING
+from .fmi3 import NUMERIC, WRONG_TOKEN, Call3Failed, Session3, first_difference3, status3
+from ..report import FAIL, PASS, SKIP
+from ..rules import WARNING
 
 MAX_DEFAULT_STEPS = 1_000_000
 BUDGET_FRACTION = 0.5

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from typing import Callable, Sequence
 
-from .driver import DEFAULT_STEP_SIZE, DEFAULT_TOLERANCE, SAME_ATOL, SAME_RTOL
+from .fmi2 import DEFAULT_STEP_SIZE, DEFAULT_TOLERANCE, SAME_ATOL, SAME_RTOL
 
 STATUS3 = ("fmi3OK", "fmi3Warning", "fmi3Discard", "fmi3Error", "fmi3Fatal")
 REFUSED3 = (2, 3, 4)

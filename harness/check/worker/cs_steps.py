@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import math
 
-from .driver import REFUSED, Session, perturbed, refusal
-from .report import FAIL, PASS, SKIP
+from .fmi2 import REFUSED, Session, perturbed, refusal
+from ..report import FAIL, PASS, SKIP
 
 VARIABLE_STEP_FACTORS = (1.0, 0.5, 2.0, 0.25, 1.5, 3.0, 0.75, 1.0)
 NAN_STEPS = 3

@@ -13,8 +13,8 @@ from __future__ import annotations
 import math
 from ctypes import c_double
 
-from .driver3 import WRONG_TOKEN, Call3Failed, Session3
-from .report import FAIL, PASS
+from .fmi3 import WRONG_TOKEN, Call3Failed, Session3
+from ..report import FAIL, PASS
 
 MAX_EVENT_ITERATIONS = 100
 

@@ -17,9 +17,9 @@ import math
 import time
 from ctypes import byref, c_double, c_int
 
-from .driver import WRONG_GUID, CallFailed, accepts_wrong_guid, LOGGER_VIOLATIONS, Session, first_difference, status_label
-from .report import FAIL, PASS, SKIP
-from .rules import WARNING
+from .fmi2 import WRONG_GUID, CallFailed, accepts_wrong_guid, LOGGER_VIOLATIONS, Session, first_difference, status_label
+from ..report import FAIL, PASS, SKIP
+from ..rules import WARNING
 
 MAX_DEFAULT_STEPS = 1_000_000  # cs.default-experiment: the run stops here (and says it checked only part)
 BUDGET_FRACTION = 0.5          # of the rule's timeout: cs.default-experiment's wall-time budget

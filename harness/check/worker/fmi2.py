@@ -242,7 +242,7 @@ def first_difference(s: Session, a: list[list[float]], b: list[list[float]],
 
 def refusal(status: int, inst: Instance, what: str) -> tuple[str, str]:
     """PASS when ``status`` refuses (discard/error/fatal), FAIL when it accepts."""
-    from .report import FAIL, PASS
+    from ..report import FAIL, PASS
     msg = inst.last_message()
     said = f' ("{msg}")' if msg else ""
     if status in REFUSED:

@@ -37,19 +37,19 @@ CS_TASKS = {
 
 def run_task(task: str, payload: dict, tracer) -> tuple:
     """(status, reason[, severity]) of ``task``: a rule id (``cs.*``, ``me.*``) or "reference"."""
-    from .driver import Session
+    from .fmi2 import Session
     if task == "reference":
-        from .reference_task import simulate_reference_task
+        from ..reference_task import simulate_reference_task
         return simulate_reference_task(payload, tracer)
     kind = task.split(".", 1)[0]
     if kind in ("cs3", "me3"):   # FMI 3.0
-        from . import cs3_checks, me3_checks
-        from .driver3 import Session3
-        return {**cs3_checks.TASKS, **me3_checks.TASKS}[task](Session3(payload, tracer, kind))
+        from . import cs3, me3
+        from .fmi3 import Session3
+        return {**cs3.TASKS, **me3.TASKS}[task](Session3(payload, tracer, kind))
     if kind == "cs":
         return CS_TASKS[task](Session(payload, tracer, "cs"))
     if kind == "me":
-        from .me_checks import TASKS
+        from .me import TASKS
         session = Session(payload, tracer, "me")
         if task == "me.basic" and payload.get("out_csv"):
             return TASKS[task](session, payload["out_csv"])

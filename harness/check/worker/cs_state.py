@@ -8,9 +8,9 @@ from __future__ import annotations
 from ctypes import byref, c_void_p
 from typing import Any
 
-from .driver import CallFailed, Session, first_difference, perturbed
-from .report import FAIL, PASS, SKIP
-from .rules import WARNING
+from .fmi2 import CallFailed, Session, first_difference, perturbed
+from ..report import FAIL, PASS, SKIP
+from ..rules import WARNING
 
 
 def _variations(s: Session) -> list[tuple[str, dict[str, Any]]]:
