@@ -9,7 +9,11 @@ from .report import FAIL, PASS
 
 
 def simulate_reference_task(payload: dict, trace) -> tuple[str, str]:
-    """Simulate the FMU of ``payload`` and write its reference CSV; (status, reason)."""
+    """Simulate the FMU of ``payload`` and write its reference CSV; (status, reason). A payload with a
+    ``host`` is a cross-check run instead (:mod:`.xcheck_host`)."""
+    if payload.get("host"):
+        from .xcheck_host import run_host
+        return run_host(payload, trace)
     import numpy as np
     from fmpy import read_model_description, simulate_fmu
     start, stop, step, rel_tol = payload["experiment"]
