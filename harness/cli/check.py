@@ -157,6 +157,14 @@ def _list_rules() -> str:
     return "\n".join(lines)
 
 
+def _beside(fmu: str) -> dict[str, Path]:
+    """The cross-check files beside ``<Model>.fmu`` (``<Model>_ref.opt``, ``_in.csv``, ``_ref.csv``) that exist:
+    ``--reference-results`` then runs with the same options and inputs and writes the same columns."""
+    f = Path(fmu)
+    found = {k: f.with_name(f"{f.stem}_{k}") for k in ("ref.opt", "in.csv", "ref.csv")}
+    return {k: p for k, p in found.items() if p.is_file()}
+
+
 def _cross_check(args) -> int:
     from harness.check.xcheck import HOSTS, find_models, run_cross_check, verdict_table
     root = Path(args.cross_check)
@@ -261,11 +269,29 @@ def main(argv: Sequence[str] | None = None) -> int:
                 _existing_files([args.input], "input table")
                 if len(fmus) != 1:
                     raise UsageError("--input applies to exactly one FMU")
+            if args.ref_opt is not None:
+                _existing_files([args.ref_opt], "--ref-opt")
+                if len(fmus) != 1:
+                    raise UsageError("--ref-opt applies to exactly one FMU")
             results = []
             for f in fmus:
+                side = _beside(f)
+                opt = args.ref_opt or side.get("ref.opt")
+                inp = args.input or side.get("in.csv")
                 try:
-                    results.append(write_reference_results(f, args.reference_results, args.input,
-                                                           timeout=args.timeout * 10, subject=f))
+                    columns = read_cross_check_csv(side["ref.csv"])[0][1:] if "ref.csv" in side else None
+                except CsvFormatError as e:
+                    raise UsageError(f"{side['ref.csv']}: {e}") from None
+                if any((Path(args.reference_results) / Path(f).stem).resolve() == Path(x).resolve().parent
+                       for x in side.values()):
+                    raise UsageError(f"--reference-results {args.reference_results}: would overwrite the cross-check "
+                                     f"files beside {f}; choose another folder")
+                if side:
+                    print(f"{f}: with {', '.join(str(side[k]) if k in side and (k != 'ref.opt' or not args.ref_opt) else k + ' given' for k in side)}")
+                try:
+                    results.append(write_reference_results(f, args.reference_results, inp,
+                                                           timeout=args.timeout * 10, subject=f, ref_opt=opt,
+                                                           columns=columns))
                 except ReferenceUsageError as e:
                     raise UsageError(str(e)) from None
                 except Exception as e:  # unreadable model description
