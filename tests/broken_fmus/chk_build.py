@@ -82,6 +82,7 @@ CHKC_VARIANTS = {
     "ChkCTerminatedGet": "BREAK_TERMINATED_GET",
     "ChkCStopTime": "BREAK_STOP_TIME",
     "ChkCDiscardAtStop": "DISCARD_AT_STOP",
+    "ChkCWarnAtStop": "WARN_AT_STOP",
     "ChkCStatus": "BREAK_STATUS",
     "ChkCFreeState": "BREAK_FREE_STATE",
     "ChkCInterpolate": "BREAK_INTERPOLATE",

@@ -14,6 +14,7 @@
    BREAK_TERMINATED_GET fmi2GetReal refused after fmi2Terminate
    BREAK_STOP_TIME     a doStep past the defined stop time is accepted
    DISCARD_AT_STOP     a doStep past the stop time is refused with fmi2Discard (status calls answer)
+   WARN_AT_STOP        a doStep past the stop time returns fmi2Warning (not a refusal: 2.1.6 wants fmi2Error)
    BREAK_STATUS        like DISCARD_AT_STOP, but fmi2GetRealStatus(fmi2LastSuccessfulTime) fails
    BREAK_FREE_STATE    fmi2FreeFMUstate leaves the pointer as it was (not NULL)
    BREAK_INTERPOLATE   fmi2SetRealInputDerivatives refused although canInterpolateInputs
@@ -338,6 +339,8 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noPri
         logmsg(m, fmi2Error, "logStatusError", "a step to %g passes the stop time %g", t + h, m->stop);
 #if defined(DISCARD_AT_STOP) || defined(BREAK_STATUS)
         return fmi2Discard;
+#elif defined(WARN_AT_STOP)
+        return fmi2Warning;
 #else
         return fmi2Error;
 #endif
