@@ -375,6 +375,18 @@ def check_needed_libraries(binary: Path) -> tuple[str, str]:
                   + ": it loads only into a process that already has them")
 
 
+def check_libraries_found(binary: Path) -> tuple[str, str]:
+    """``load.libraries``: every DT_NEEDED library (and theirs) found, in the FMU or on this machine."""
+    try:
+        _, missing_libs, searched = unresolved_symbols(binary)
+    except (ElfError, OSError, struct.error) as e:
+        return SKIP, f"{binary.name}: {e}"
+    if missing_libs:
+        return FAIL, (f"{binary.name} needs {', '.join(missing_libs)}, found neither in the FMU (RPATH/RUNPATH) nor "
+                      f"on this machine: the binary cannot be loaded here, no FMI call was made")
+    return PASS, f"every library {binary.name} needs is found ({', '.join(searched) or 'none declared'})"
+
+
 # ----------------------------------------------------------------------------- the rules
 
 def run_load_checks(fmu_path: str | Path, subject: str, rule_ids, timeout: float,
@@ -383,7 +395,7 @@ def run_load_checks(fmu_path: str | Path, subject: str, rule_ids, timeout: float
     from fmpy import read_model_description
     from .static import host_platform
     results = []
-    ids = [r for r in ("load.needed-libraries", "load.bare-process") if r in rule_ids]
+    ids = [r for r in ("load.libraries", "load.needed-libraries", "load.bare-process") if r in rule_ids]
     if not ids:
         return results
 
@@ -410,6 +422,8 @@ def run_load_checks(fmu_path: str | Path, subject: str, rule_ids, timeout: float
                 results.append(res(rid, SKIP, f"no {binary.relative_to(unzipdir)}", t1))
             elif rid == "load.needed-libraries":
                 results.append(res(rid, *check_needed_libraries(binary), t1))
+            elif rid == "load.libraries":
+                results.append(res(rid, *check_libraries_found(binary), t1))
             else:
                 results.append(res(rid, *run_bare_host(binary, kind, md.guid, unzipdir / "resources", t_start, h,
                                                        timeout), t1))

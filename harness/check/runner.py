@@ -64,7 +64,11 @@ def run_checks_selected(fmus: Sequence[str], options: LifecycleOptions, static_o
         else:
             later[f] = run_load_checks(f, f, wanted_load, options.timeout, profiles)
             ids = [r.id for r in RULES if r.kind in kinds and r.id in chosen[f]]
-            if ids:
+            unloadable = next((r for r in later[f] if r.check_id == "load.libraries" and r.failed), None)
+            if unloadable is not None and ids:   # no FMI call can be made: one finding, under load
+                later[f] += [CheckResult(f, c, SKIP, f"load.libraries did not pass: {unloadable.reason}",
+                                         severity=BY_ID[c].effective_severity(profiles)) for c in ids]
+            elif ids:
                 runnable.append((f, f, kinds, ids))
     if runnable:
         calls = run_lifecycle_checks_many(runnable, options)
