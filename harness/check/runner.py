@@ -8,7 +8,7 @@ from typing import Sequence
 from .archive import peek_fmi_version
 from .lifecycle import LifecycleOptions, run_lifecycle_checks_many
 from .native import run_load_checks
-from .report import PASS, SKIP, CheckResult
+from .report import FAIL, PASS, SKIP, CheckResult
 from .rules import BY_ID, RULES, applies, fmi_version
 from .selection import Selection
 from .static import read_archive, run_static_checks
@@ -62,8 +62,18 @@ def run_checks_selected(fmus: Sequence[str], options: LifecycleOptions, static_o
                    "the FMU offers neither co-simulation nor model exchange (scheduled execution is not checked)")
             later[f] = [CheckResult(f, c, SKIP, why, severity=BY_ID[c].effective_severity(profiles)) for c in ids]
         else:
-            later[f] = run_load_checks(f, f, wanted_load, options.timeout, profiles)
             ids = [r.id for r in RULES if r.kind in kinds and r.id in chosen[f]]
+            try:
+                later[f] = run_load_checks(f, f, wanted_load, options.timeout, profiles)
+            except Exception as e:   # e.g. lxml's XMLSyntaxError: this FMU's finding, the batch goes on (issue 45)
+                why = f"modelDescription.xml cannot be read: {type(e).__name__}: {' '.join(str(e).split())[:300]}"
+                first = "load.libraries" if "load.libraries" in wanted_load else (wanted_load[0] if wanted_load else None)
+                later[f] = [CheckResult(f, c, FAIL if c == first else SKIP,
+                                        why if c == first else f"precondition not met: {why}",
+                                        severity=BY_ID[c].effective_severity(profiles)) for c in wanted_load + ids]
+                if first is None and ids:
+                    later[f][0] = CheckResult(f, ids[0], FAIL, why, severity=BY_ID[ids[0]].effective_severity(profiles))
+                continue
             unloadable = next((r for r in later[f] if r.check_id == "load.libraries" and r.failed), None)
             if unloadable is not None and ids:   # no FMI call can be made: one finding, under load
                 later[f] += [CheckResult(f, c, SKIP, f"load.libraries did not pass: {unloadable.reason}",
