@@ -41,3 +41,22 @@ def test_stop_time_takes_a_warning_past_the_stop_time_for_no_refusal():
 def test_stop_time_passes_the_same_fmu_refusing_with_fmi2error():
     r = _results(chk_build.chkc_fmu("ChkC"), ["cs"], ["cs.basic", "cs.stop-time"])
     assert r["cs.stop-time"].status == "PASS" and "refused with fmi2Error" in r["cs.stop-time"].reason
+
+
+def _chk3c(name: str, breaks: str | None):
+    import chk3_build
+    if not hasattr(chk3_build, "chk3c_fmu"):
+        pytest.skip("tests/broken_fmus/chk3_build.py has no chk3c_fmu (Chk3C, the FMI 3.0 test FMU in C)")
+    return chk3_build.chk3c_fmu(name, breaks)
+
+
+@needs_gcc
+def test_early_return_time_refuses_a_last_successful_time_before_the_step():
+    r = _results(_chk3c("Chk3CEarlyTime", "EARLY_TIME"), ["cs3"], ["cs3.basic", "cs3.early-return-time"])
+    assert r["cs3.basic"].status == "PASS", r["cs3.basic"].reason
+    early = r["cs3.early-return-time"]
+    assert early.status == "FAIL" and early.severity == "error", early.reason
+    # the step was from t = 0 with h = 0.01: the FMU said it got to -0.01, before the step started
+    assert "returned earlyReturn = true with lastSuccessfulTime -0.01" in early.reason
+    good = _results(_chk3c("Chk3C", None), ["cs3"], ["cs3.basic", "cs3.early-return-time"])
+    assert good["cs3.early-return-time"].status == "PASS", good["cs3.early-return-time"].reason
