@@ -83,6 +83,7 @@ CHKC_VARIANTS = {
     "ChkCStopTime": "BREAK_STOP_TIME",
     "ChkCDiscardAtStop": "DISCARD_AT_STOP",
     "ChkCWarnAtStop": "WARN_AT_STOP",
+    "ChkCStrictInputs": "STRICT_INPUTS",
     "ChkCStatus": "BREAK_STATUS",
     "ChkCFreeState": "BREAK_FREE_STATE",
     "ChkCInterpolate": "BREAK_INTERPOLATE",
