@@ -5,10 +5,11 @@ The worker (:func:`harness.check.worker.worker_main`) writes the FMI call it is 
 trace file, and its result as JSON to a result file. Its stdout and stderr go to files, never
 pipes: an FMU that leaves a daemon behind holding them open cannot make the checker wait.
 
-Every process the FMU starts ends with the task: the worker runs under :mod:`.reaper`, a child
-subreaper that, when the worker ends, kills every process below it (an orphan is re-parented to
-it, whatever it did to its session, group or environment); at the timeout the checker kills that
-tree itself (:func:`.reaper.kill_tree`). Behind that, as before, the worker's process group and
+Every process the FMU starts ends with the task: the worker runs under :mod:`.reaper` (a PID
+namespace where allowed, and a child subreaper that kills every process below it when the worker
+ends, whatever it did to its session, group or environment; ``SPURDIFF_CHECK_PID_NAMESPACE=0``
+leaves out the namespace); at the timeout the checker kills that tree itself
+(:func:`.reaper.kill_tree`). Behind that, as before, the worker's process group and
 every process still carrying the run's marker in its environment are killed (Linux).
 """
 from __future__ import annotations
@@ -77,7 +78,8 @@ def reaped(cmd: list[str], work: Path) -> tuple[list[str], Path]:
     """``cmd`` run under the subreaper (:mod:`.reaper`), and the file it writes when it has ended
     everything below it."""
     done = work / "reaped.txt"
-    return [sys.executable, "-I", "-S", str(REAPER), str(done), *cmd], done
+    flag = ["--no-pid-namespace"] if os.environ.get("SPURDIFF_CHECK_PID_NAMESPACE") == "0" else []
+    return [sys.executable, "-I", "-S", str(REAPER), *flag, str(done), *cmd], done
 
 
 def end_reaped(proc: subprocess.Popen, done: Path | None = None) -> str:

@@ -1,19 +1,25 @@
-"""The process every FMU of ``spurdiff check`` runs under: a child subreaper that ends all it started.
+"""The process every FMU of ``spurdiff check`` runs under: it ends everything the FMU started.
 
-``python -I -S reaper.py DONE-FILE PROGRAM ARGS...`` marks itself a child subreaper
-(``prctl(PR_SET_CHILD_SUBREAPER)``, Linux 3.4+), starts PROGRAM (the check worker, or the bare C
-host) as its child with its own environment, waits for it, then SIGKILLs every process below it and
-reaps them until none is left; it writes DONE-FILE and leaves with the child's status (re-raising
-its signal). Whatever a process below does (double fork, ``setsid``, a new process group, ``exec``
-with an empty environment), an orphan is re-parented to the nearest living subreaper, this one, so
-it stays findable through ``/proc/<pid>/task/<tid>/children``. The checker kills the same tree with
-:func:`kill_tree` at a timeout (this process still alive, nothing can have escaped it).
+``python -I -S reaper.py [--no-pid-namespace] DONE-FILE PROGRAM ARGS...`` starts PROGRAM (the check
+worker, or the bare C host) with its own environment, waits for it, makes sure that no process it
+started is left, writes DONE-FILE and leaves with PROGRAM's status (re-raising its signal). Two
+layers, whatever a process below does (double fork, ``setsid``, a new process group, ``exec`` with
+an empty environment):
 
-Why a subreaper rather than a PID namespace or a cgroup: it needs no privilege and no kernel or
-container policy (unprivileged user namespaces are refused by Docker's default seccomp profile and
-by Ubuntu's AppArmor; a cgroup needs a delegated, writable cgroup v2 tree), and it follows every
-process by ancestry, which an FMU cannot change. What it cannot survive is the FMU killing this
-process itself: then DONE-FILE is missing and the checker says so (and sweeps what it still can).
+1. **A PID namespace**, where the kernel allows one (as root, or through an unprivileged user
+   namespace mapping only this user's ids): PROGRAM runs under a small first process of a new PID
+   namespace; when that process ends the kernel kills every process left in the namespace. Nothing
+   inside can see, signal or outlive it (a namespace's first process ignores signals from inside,
+   even SIGKILL), nor signal this reaper outside.
+2. **A child subreaper** (``prctl(PR_SET_CHILD_SUBREAPER)``, Linux 3.4+, no privilege): an orphan
+   is re-parented to the nearest living subreaper, this process, so every process below stays
+   findable through ``/proc/<pid>/task/<tid>/children``; after PROGRAM ends, everything below is
+   SIGSTOPped, SIGKILLed and reaped until none is left (:func:`kill_tree`). The checker does the
+   same from outside at a timeout. This is the only layer where namespaces are refused (Docker's
+   default seccomp profile, Ubuntu's AppArmor restriction of user namespaces); there a process
+   below can still kill this reaper first, and the missing DONE-FILE says so.
+
+Not a cgroup: that needs a delegated, writable cgroup v2 tree, which a CI job rarely has.
 
 Standard library only, nothing imported from the package: it runs with ``-I -S`` and, for the C
 host, an empty environment.
@@ -94,8 +100,71 @@ def kill_tree(root: int, include_root: bool = False, limit_s: float = 10.0, reap
     return len(killed)
 
 
+CLONE_NEWUSER, CLONE_NEWPID = 0x10000000, 0x20000000
+PR_SET_PDEATHSIG = 1
+
+
+def _pid_namespace(libc) -> bool:
+    """Make the next child the first process of a new PID namespace (as root directly, else inside a
+    user namespace mapping only this user's ids onto themselves); False where neither is allowed."""
+    if libc.unshare(CLONE_NEWPID) == 0:
+        return True
+    uid, gid = os.getuid(), os.getgid()
+    if libc.unshare(CLONE_NEWUSER | CLONE_NEWPID) != 0:
+        return False
+    try:
+        for name, text in (("setgroups", "deny"), ("uid_map", f"{uid} {uid} 1"), ("gid_map", f"{gid} {gid} 1")):
+            with open(f"/proc/self/{name}", "w") as f:
+                f.write(text)
+    except OSError as e:
+        os.write(2, f"spurdiff check: cannot map the user into the PID namespace: {e}\n".encode())
+        os._exit(125)
+    return True
+
+
+def _run(program: list[str]) -> int:
+    """Start ``program`` as a child and wait for it; its wait status."""
+    pid = os.fork()
+    if pid == 0:
+        try:
+            os.execv(program[0], program)
+        except OSError as e:
+            os.write(2, f"spurdiff check: cannot start {program[0]}: {e}\n".encode())
+        os._exit(127)
+    while True:
+        try:
+            return os.waitpid(pid, 0)[1]
+        except InterruptedError:
+            continue
+
+
+def _in_namespace(libc, program: list[str]) -> int:
+    """Run ``program`` under a child that is process 1 of the new PID namespace; its wait status.
+    When that first process ends, the kernel kills every process left in the namespace; no process
+    inside can signal it or anything outside."""
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:
+        os.close(r)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)   # this reaper killed: the namespace ends
+        status = _run(program)
+        os.write(w, f"{status}".encode())
+        os._exit(0)
+    os.close(w)
+    while True:
+        try:
+            _, own = os.waitpid(pid, 0)
+            break
+        except InterruptedError:
+            continue
+    with os.fdopen(r, "rb") as f:
+        text = f.read().decode()
+    return int(text) if text.isdigit() else own
+
+
 def main(argv: list[str]) -> None:
-    done, program = argv[0], argv[1:]
+    namespace = argv[0] != "--no-pid-namespace"
+    done, program = argv[0 if namespace else 1], argv[1 if namespace else 2:]
     try:
         import resource
         resource.setrlimit(resource.RLIMIT_CORE, (0, 0))   # nothing below leaves a core file
@@ -109,20 +178,11 @@ def main(argv: list[str]) -> None:
     except (OSError, AttributeError) as e:
         os.write(2, f"spurdiff check: cannot become a child subreaper: {e}\n".encode())
         os._exit(125)
-    pid = os.fork()
-    if pid == 0:
-        try:
-            os.execv(program[0], program)
-        except OSError as e:
-            os.write(2, f"spurdiff check: cannot start {program[0]}: {e}\n".encode())
-        os._exit(127)
     signal.signal(signal.SIGTERM, lambda *_: (kill_tree(os.getpid(), reap=True), os._exit(143)))
-    while True:
-        try:
-            _, status = os.waitpid(pid, 0)
-            break
-        except InterruptedError:
-            continue
+    if namespace and _pid_namespace(libc):
+        status = _in_namespace(libc, program)
+    else:
+        status = _run(program)
     n = kill_tree(os.getpid(), reap=True)
     _reap()
     fd = os.open(done, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | getattr(os, "O_NOFOLLOW", 0), 0o600)
