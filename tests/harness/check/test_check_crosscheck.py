@@ -205,3 +205,23 @@ def test_the_shared_cross_check_folder_gets_the_suites_verdicts(tmp_path, capsys
             judged += 1
     assert {k: (v.get("FMPy"), v.get("spurdiff")) for k, v in got.items()} == SHARED_VERDICTS
     assert judged == 18
+
+
+@needs_xcheck
+def test_reference_results_follow_the_ref_opt_beside_the_fmu_and_stand_beside_its_reference(tmp_path, capsys):
+    from harness.check.crosscheck import read_ref_opt
+    src = next(FMUS.glob("*/*/TorsionBar"))
+    folder = tmp_path / "TorsionBar"
+    shutil.copytree(src, folder)
+    fmu = folder / "TorsionBar.fmu"
+    assert main(["--reference-results", str(tmp_path / "refs"), str(fmu), "--isolated"]) == 0
+    ours = tmp_path / "refs" / "TorsionBar"
+    opt, theirs = read_ref_opt(ours / "TorsionBar_ref.opt"), read_ref_opt(folder / "TorsionBar_ref.opt")
+    assert opt == theirs                                          # StopTime 12.5663706143592, StepSize 0.1
+    assert read_cross_check_csv(ours / "TorsionBar_ref.csv")[0] == read_cross_check_csv(folder / "TorsionBar_ref.csv")[0]
+    capsys.readouterr()
+    assert main(["--compare", str(ours / "TorsionBar_ref.csv"), "--reference", str(folder / "TorsionBar_ref.csv")]) == 0
+    assert "from TorsionBar_ref.opt" in capsys.readouterr().out
+    # it will not write over the files it reads
+    assert main(["--reference-results", str(tmp_path), str(fmu), "--isolated"]) == 2
+    assert (folder / "TorsionBar_ref.csv").read_bytes() == (src / "TorsionBar_ref.csv").read_bytes()
