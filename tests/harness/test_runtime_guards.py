@@ -165,10 +165,13 @@ def test_stdlib_items_leave_out_the_denied_the_builtin_and_the_foreign():
         "thing": str(rb.STDLIB / "site-packages" / "thing.py"),
         "_json": str(next(rb.DYNLOAD.glob("_json*.so"))),
         "abc": None,
+        "idlelib": None,          # no file known: taken by its folder, unless denied
+        "test": None,
     }
     items = rb.stdlib_items(mods)
     assert "json" in items and "abc.py" in items and any(i.startswith("lib-dynload/_json") for i in items)
-    assert not any(i.startswith(("tkinter", "_sysconfigdata", "site-packages", "sys", "numpy")) for i in items), items
+    assert not any(i.startswith(("tkinter", "_sysconfigdata", "site-packages", "sys", "numpy", "idlelib", "test"))
+                   for i in items), items
 
 
 def test_test_folders_and_bytecode_are_not_copied():

@@ -45,6 +45,6 @@ def alive(tag: str) -> list[int]:
             state = (d / "stat").read_text().rsplit(")", 1)[1].split()[0]
         except (OSError, IndexError):
             continue
-        if (comm == f"chkd{tag}" or cmdline == f"sleep\0299.{tag}\0".encode()) and state != "Z":
+        if (comm == f"chkd{tag}" or cmdline == f"sleep\x00299.{tag}\x00".encode()) and state != "Z":
             out.append(int(d.name))
     return out

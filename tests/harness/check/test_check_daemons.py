@@ -125,3 +125,33 @@ def test_reaper_reraises_the_signal_of_its_child(tmp_path):
     cmd, done = reaped(["/bin/sh", "-c", "kill -SEGV $$"], tmp_path)
     assert subprocess.run(cmd, timeout=60).returncode == -signal.SIGSEGV
     assert done.exists()
+
+
+@linux
+def test_a_killed_reaper_ends_its_namespace(tmp_path):
+    """SIGKILL to the reaper alone (the checker's group kill, an OOM kill): the namespace's first
+    process dies with it (PR_SET_PDEATHSIG), and the kernel ends every process in the namespace."""
+    import random
+    import subprocess
+    import sys
+
+    from harness.check.isolation import REAPER
+    if not _namespaces_allowed():
+        pytest.skip("no PID namespace allowed here")
+    tag = f"{random.randrange(10 ** 6):06d}"
+    started = tmp_path / "started"
+    proc = subprocess.Popen([sys.executable, "-I", "-S", str(REAPER), str(tmp_path / "done"), "/bin/sh", "-c",
+                             f"setsid sh -c 'touch {started}; exec env -i sleep 299.{tag}' & sleep 300"])
+    try:
+        for _ in range(300):
+            if started.exists() and alive(tag):
+                break
+            time.sleep(0.05)
+        assert alive(tag), "the sleep never started"
+        proc.kill()
+        proc.wait()
+        assert _settle(tag) == []
+    finally:
+        proc.kill()
+        for pid in alive(tag):
+            os.kill(pid, signal.SIGKILL)
