@@ -1,29 +1,22 @@
-"""FMI 3.0 co-simulation rules (kind ``cs3``), worker side: one function per rule of :mod:`.rules3`, run in a
-fresh process on a :class:`~.driver3.Session3`. Each returns (status, reason) or (status, reason, severity)
-when a failure is milder than the rule's own severity. A :class:`~.driver3.Call3Failed` raised by a call
-the rule needs is a FAIL of the rule naming that call (:mod:`.worker`).
+"""The co-simulation rules only FMI 3.0 has (kind ``cs3``), worker side: version, refused calls, output
+derivatives, early return, event mode, intermediate update, configuration mode; one function per rule, run in
+a fresh process on a :class:`~.fmi3.Session3`. The rules FMI 3.0 shares with FMI 2.0 are in
+:mod:`.cs_lifecycle`, :mod:`.cs_state` and :mod:`.cs_steps`. Each returns (status, reason) or (status,
+reason, severity) when a failure is milder than the rule's own severity. A :class:`~.fmi3.Call3Failed` raised
+by a call the rule needs is a FAIL of the rule naming that call.
 """
 from __future__ import annotations
 
 import math
 import time
 
-from .fmi3 import NUMERIC, WRONG_TOKEN, Call3Failed, Session3, first_difference3, status3
+from .common import first_difference
+from .fmi3 import Call3Failed, Session3, status3
 from ..report import FAIL, PASS, SKIP
 from ..rules import WARNING
 
 MAX_DEFAULT_STEPS = 1_000_000
 BUDGET_FRACTION = 0.5
-
-
-def check_basic(s: Session3):
-    a = s.instance("basic")
-    a.initialize()
-    a.run(s.t0, s.steps)
-    a.terminate()
-    a.free()
-    return PASS, (f"instantiate, start values, initialization, {s.steps} doSteps of {s.h:g} s, terminate, "
-                  f"freeInstance all accepted; {len(s.outputs)} outputs ({sum(s.size(v) for v in s.outputs)} values) read")
 
 
 def check_version(s: Session3):
@@ -33,120 +26,6 @@ def check_version(s: Session3):
     if version != b"3.0":
         return FAIL, f'fmi3GetVersion returned {version!r}, not "3.0"'
     return PASS, 'fmi3GetVersion "3.0"'
-
-
-def check_instantiation_token(s: Session3):
-    a = s.instance("wrongToken", token=WRONG_TOKEN)
-    if a.instantiate(raise_on_null=False):
-        a.free()
-        return FAIL, (f"fmi3Instantiate accepted the instantiationToken {WRONG_TOKEN} (the modelDescription's is "
-                      f"{s.md.guid}): a binary and a modelDescription.xml that do not belong together would run")
-    msg = a.last_message()
-    return PASS, "fmi3Instantiate with a wrong instantiationToken returned NULL" + (f' ("{msg}")' if msg else "")
-
-
-def check_initial_unknowns(s: Session3):
-    wanted, seen = [], set()
-    for v in [u.variable for u in s.md.initialUnknowns if u.variable is not None] + s.outputs:
-        if v.name not in seen and v.type in NUMERIC and not getattr(v, "clocks", None):
-            seen.add(v.name)
-            wanted.append(v)
-    if not wanted:
-        return SKIP, "no outputs or InitialUnknowns"
-    a = s.instance("initialUnknowns")
-    a.instantiate()
-    a.set_values(s.start_vars, " start values")
-    a.enter_init()
-    refused = []
-    for v in wanted:
-        try:
-            a.read([v], v.name)
-        except Call3Failed as e:
-            refused.append(f"{v.name} ({status3(e.status)})")
-            if e.status == 4:
-                break
-    if refused:
-        msg = a.last_message()
-        return FAIL, (f"in Initialization Mode fmi3Get* refused {len(refused)} of {len(wanted)}: " + ", ".join(refused[:6])
-                      + (f' ("{msg}")' if msg else ""))
-    a.call("fmi3ExitInitializationMode", a.fmu.exitInitializationMode)
-    a.terminate()
-    a.free()
-    return PASS, f"in Initialization Mode all {len(wanted)} outputs / InitialUnknowns were read"
-
-
-def check_stop_time(s: Session3):
-    stop = s.t0 + 2 * s.h
-    a = s.instance("stopTime")
-    a.initialize(stop_time=stop)
-    a.run(s.t0, 2)
-    if s.inputs:
-        a.set_values(s.inputs)
-    st = a.step_status(stop, s.h)
-    what = f"fmi3DoStep(t={stop:g}, h={s.h:g}) past the defined stop time {stop:g} s"
-    msg = a.last_message()
-    said = f' ("{msg}")' if msg else ""
-    if st in (0, 1):
-        return FAIL, f"{what} returned {status3(st)}{said}: the FMU has to return fmi3Error"
-    if st == 2:
-        return FAIL, f"{what} refused with fmi3Discard{said}; section 2.3.2 says fmi3Error", WARNING
-    return PASS, f"{what} refused with {status3(st)}{said}"
-
-
-def check_get_after_terminate(s: Session3):
-    if not s.outputs:
-        return SKIP, "no outputs to read"
-    a = s.instance("terminated")
-    a.initialize()
-    a.run(s.t0, 2)
-    a.terminate()
-    a.read(s.outputs, "after fmi3Terminate")
-    a.free()
-    return PASS, f"{len(s.outputs)} outputs read after fmi3Terminate"
-
-
-def check_reset(s: Session3):
-    if not s.outputs:
-        return SKIP, "no outputs to compare"
-    a = s.instance("reset")
-    a.initialize()
-    first, _ = a.run(s.t0, s.steps)
-    a.call("fmi3Reset", a.fmu.reset)
-    a.initialize(instantiate=False)
-    second, _ = a.run(s.t0, s.steps)
-    a.terminate()
-    a.free()
-    diff = first_difference3(s, second, first)
-    if diff:
-        return FAIL, f"after fmi3Reset the same run gives different outputs: {diff} (after reset vs first run)"
-    return PASS, f"after fmi3Reset the same {s.steps} steps give the same outputs"
-
-
-def check_get_set_state(s: Session3):
-    if not s.iface.canGetAndSetFMUstate:
-        return SKIP, "canGetAndSetFMUState is not declared"
-    if not s.outputs:
-        return SKIP, "no outputs to compare"
-    k = max(1, s.steps // 2)
-    a = s.instance("state")
-    a.initialize()
-    _, t_k = a.run(s.t0, k)
-    saved = a.outputs()
-    state = a.call("fmi3GetFMUState", a.fmu.getFMUState)
-    first, _ = a.run(t_k, k)
-    for n in ("first", "second"):   # 2.2.7.4: the FMU must not change the state, "to allow multiple calls"
-        a.call("fmi3SetFMUState", a.fmu.setFMUState, state)
-        at = first_difference3(s, [a.outputs()], [saved], f"right after fmi3SetFMUState (t = {t_k:g} s)")
-        if at:
-            return FAIL, f"set for the {n} time, the outputs right after fmi3SetFMUState are not the saved ones: {at}"
-        diff = first_difference3(s, a.run(t_k, k)[0], first, "after the restore")
-        if diff:
-            return FAIL, f"set for the {n} time, the state continues differently from the original run: {diff}"
-    a.call("fmi3FreeFMUState", a.fmu.freeFMUState, state)
-    a.terminate()
-    a.free()
-    return PASS, (f"a state saved at t = {t_k:g} s and set twice gives the saved outputs and the same {k} steps "
-                  f"both times")
 
 
 def _illegal(a, st: int, what: str):
@@ -166,7 +45,7 @@ def _illegal(a, st: int, what: str):
 def check_step_before_init(s: Session3):
     a = s.instance("early")
     a.instantiate()
-    a.set_values(s.start_vars, " start values")
+    a.set_values(s.early_values, " start values")
     return _illegal(a, a.step_status(s.t0, s.h), "fmi3DoStep in Instantiated (before initialization)")
 
 
@@ -174,38 +53,6 @@ def check_zero_step_size(s: Session3):
     a = s.instance("zeroStep")
     a.initialize()
     return _illegal(a, a.step_status(s.t0, 0.0), "fmi3DoStep with communicationStepSize = 0")
-
-
-def check_default_experiment(s: Session3):
-    a = s.instance("defaultExperiment")
-    a.initialize(stop_time=s.t_stop)
-    total = max(1, int(round((s.t_stop - s.t0) / s.h)))
-    n_max = min(total, MAX_DEFAULT_STEPS)
-    deadline = time.monotonic() + BUDGET_FRACTION * float(s.payload.get("timeout", 60.0))
-    t, n = s.t0, 0
-    floats = [j for j, x in enumerate(a.outputs()) if math.isfinite(x)]
-    for i in range(n_max):
-        if s.inputs:
-            a.set_values(s.inputs)
-        t_next = s.t_stop if i == total - 1 else s.t0 + (i + 1) * s.h
-        _, terminate, _, _ = a.call(f"fmi3DoStep(t={t:.9g}, h={t_next - t:.9g})", a.fmu.doStep, t, t_next - t, True)
-        t, n = t_next, i + 1
-        row = a.outputs()
-        bad = [j for j in floats if not math.isfinite(row[j])]
-        if bad:
-            return FAIL, f"outputs became non-finite at t = {t:g} s"
-        if terminate:
-            a.terminate()
-            a.free()
-            return PASS, f"{n} doSteps of {s.h:g} s accepted; at t = {t:g} s the FMU asked to terminate"
-        if time.monotonic() > deadline:
-            break
-    a.terminate()
-    a.free()
-    if n < total:
-        return PASS, (f"checked only part of the experiment: {n} of {total} doSteps of {s.h:g} s (t = {s.t0:g} to "
-                      f"{t:g} s of {s.t_stop:g} s) accepted, outputs finite")
-    return PASS, f"{n} doSteps of {s.h:g} s from {s.t0:g} to the stop time {s.t_stop:g} s accepted, outputs finite"
 
 
 # ------------------------------------------------------------------ output derivatives, early return
@@ -218,16 +65,25 @@ def _derivative_status(a, v, order: int) -> int:
                     [v.valueReference], [order])
 
 
-def check_output_derivative_orders(s: Session3):
-    top = int(s.iface.maxOutputDerivativeOrder or 0)
-    if top < 1:
-        return SKIP, "maxOutputDerivativeOrder is 0"
+def _after_one_step(s: Session3, name: str):
+    """(an instance one doStep after initialization, the continuous scalar Float64 outputs), or (None, the SKIP
+    reason) when the FMU declares no output derivatives or has no such output."""
+    if int(s.iface.maxOutputDerivativeOrder or 0) < 1:
+        return None, "maxOutputDerivativeOrder is 0"
     outs = _continuous_floats(s)
     if not outs:
-        return SKIP, "no continuous scalar Float64 outputs"
-    a = s.instance("derivativeOrders")
+        return None, "no continuous scalar Float64 outputs"
+    a = s.instance(name)
     a.initialize()
     a.run(s.t0, 1)
+    return a, outs
+
+
+def check_output_derivative_orders(s: Session3):
+    top = int(s.iface.maxOutputDerivativeOrder or 0)
+    a, outs = _after_one_step(s, "derivativeOrders")
+    if a is None:
+        return SKIP, outs
     v = next((v for v in outs if _derivative_status(a, v, 1) <= 1), None)
     if v is None:
         return SKIP, f"no continuous Float64 output gives its first derivative (of {len(outs)})"
@@ -242,14 +98,9 @@ def check_output_derivative_orders(s: Session3):
 
 
 def check_output_derivatives(s: Session3):
-    if int(s.iface.maxOutputDerivativeOrder or 0) < 1:
-        return SKIP, "maxOutputDerivativeOrder is 0"
-    outs = _continuous_floats(s)
-    if not outs:
-        return SKIP, "no continuous scalar Float64 outputs"
-    a = s.instance("outputDerivatives")
-    a.initialize()
-    a.run(s.t0, 1)
+    a, outs = _after_one_step(s, "outputDerivatives")
+    if a is None:
+        return SKIP, outs
     given, refused, bad = [], [], []
     for v in outs:
         if _derivative_status(a, v, 1) > 1:
@@ -282,7 +133,7 @@ def check_early_return_not_allowed(s: Session3):
     t, n = s.t0, 0
     for i in range(n_max):
         if s.inputs:
-            a.set_values(s.inputs)
+            a.set_values(s.input_values())
         t = s.t0 + i * s.h
         _, terminate, early, last = a.call(f"fmi3DoStep(t={t:.9g}, h={s.h:.9g})", a.fmu.doStep, t, s.h, True)
         n = i + 1
@@ -305,7 +156,7 @@ def check_early_return_time(s: Session3):
     t, n, early_n, at_end = s.t0, 0, 0, 0
     while n < 4 * n_max and t < s.t_stop - 1e-9 * max(1.0, abs(s.t_stop)):
         if s.inputs:
-            a.set_values(s.inputs)
+            a.set_values(s.input_values())
         h = min(s.h, s.t_stop - t)
         _, terminate, early, last = a.call(f"fmi3DoStep(t={t:.9g}, h={h:.9g})", a.fmu.doStep, t, h, True)
         n += 1
@@ -332,20 +183,138 @@ def check_early_return_time(s: Session3):
                   + ", and the doStep from there was accepted")
 
 
+# ------------------------------------------------------------------ event mode, intermediate update, configuration
+def _solo(s: Session3, name: str, before=None) -> list[list[float]]:
+    """The outputs of a new instance: instantiated, ``before(instance)`` (calls in Instantiated), initialized,
+    --steps doSteps; terminated and freed."""
+    a = s.instance(name)
+    a.instantiate()
+    if before is not None:
+        before(a)
+    a.initialize(instantiate=False)
+    rows, _ = a.run(s.t0, s.steps)
+    a.terminate()
+    a.free()
+    return rows
+
+
+def check_event_mode(s: Session3):
+    """(hasEventMode) instantiated with eventModeUsed: after initialization Event Mode, fmi3UpdateDiscreteStates
+    until done, fmi3EnterStepMode, the basic steps (an event signalled by a doStep: Event Mode and back); the
+    outputs those of the same steps without event mode."""
+    if not s.cs.hasEventMode:
+        return SKIP, "hasEventMode is false"
+    expected = _solo(s, "noEventMode")
+    a = s.instance("eventMode")
+    a.initialize(event_mode=True)
+    rows, events = [], 0
+
+    def event_iteration():
+        for _ in range(100):
+            needed, terminate, *_ = a.call("fmi3UpdateDiscreteStates", a.fmu.updateDiscreteStates)
+            if terminate or not needed:
+                return terminate
+        raise Call3Failed("fmi3UpdateDiscreteStates (still needed after 100 iterations)", a.name, 0)
+
+    if event_iteration():
+        return SKIP, "the FMU asked to terminate in the first Event Mode"
+    a.call("fmi3EnterStepMode", a.fmu.enterStepMode)
+    rows.append(a.outputs())
+    for i in range(s.steps):
+        if s.inputs:
+            a.set_values(s.input_values())
+        t = s.t0 + i * s.h
+        event, terminate, _, _ = a.call(f"fmi3DoStep(t={t:.9g}, h={s.h:.9g})", a.fmu.doStep, t, s.h, True)
+        rows.append(a.outputs())
+        if terminate:
+            break
+        if event:
+            events += 1
+            a.call("fmi3EnterEventMode", a.fmu.enterEventMode)
+            if event_iteration():
+                break
+            a.call("fmi3EnterStepMode", a.fmu.enterStepMode)
+    a.terminate()
+    a.free()
+    if events == 0 and len(rows) == len(expected):
+        diff = first_difference(s, rows, expected, "after fmi3EnterStepMode")
+        if diff:
+            return FAIL, f"with event mode (no event signalled) the same steps give other outputs: {diff} (with vs without)"
+    return PASS, (f"eventModeUsed = true: Event Mode after initialization, fmi3UpdateDiscreteStates, fmi3EnterStepMode "
+                  f"and {len(rows) - 1} doSteps accepted ({events} event(s) handled)"
+                  + ("; outputs as without event mode" if events == 0 else ""))
+
+
+def check_intermediate_update(s: Session3):
+    """(providesIntermediateUpdate) every fmi3CallbackIntermediateUpdate during a doStep comes with the
+    instanceEnvironment given and an intermediateUpdateTime within [t, t + h], not decreasing."""
+    if not s.cs.providesIntermediateUpdate:
+        return SKIP, "providesIntermediateUpdate is false"
+    a = s.instance("intermediateUpdate")
+    a.initialize()
+    problems, n = [], 0
+    for i in range(s.steps):
+        if s.inputs:
+            a.set_values(s.input_values())
+        t = s.t0 + i * s.h
+        before = len(a.updates)
+        a.do_step(t, s.h)
+        calls = a.updates[before:]
+        n += len(calls)
+        eps = 1e-9 * max(1.0, abs(t + s.h))
+        last = -float("inf")
+        for env, tu in calls:
+            if env != a.env:
+                problems.append(f"a call with instanceEnvironment {env:#x}, not {a.env:#x}")
+            if not (t - eps <= tu <= t + s.h + eps):
+                problems.append(f"fmi3DoStep(t={t:g}, h={s.h:g}): intermediateUpdateTime {tu!r} outside [{t:g}, "
+                                f"{t + s.h:g}]")
+            elif tu < last - eps:
+                problems.append(f"fmi3DoStep(t={t:g}, h={s.h:g}): intermediateUpdateTime {tu!r} before {last!r}")
+            last = max(last, tu)
+        if problems:
+            break
+    a.terminate()
+    a.free()
+    if problems:
+        return FAIL, "; ".join(problems[:3])
+    if n == 0:
+        return PASS, f"{s.steps} doSteps: the FMU made no intermediate update call (it may choose not to)"
+    return PASS, (f"{s.steps} doSteps: all {n} intermediate update calls came with the instanceEnvironment given and "
+                  f"an intermediateUpdateTime within the step")
+
+
+def check_configuration_mode(s: Session3):
+    """(structural parameters) fmi3EnterConfigurationMode in Instantiated, each structural parameter set to its
+    start value, fmi3ExitConfigurationMode, then the basic run: accepted, outputs as without it."""
+    structural = [v for v in s.variables if v.causality == "structuralParameter" and v.start is not None
+                  and v.variability in ("fixed", "tunable")]
+    if not structural:
+        return SKIP, "no structural parameter"
+    expected = _solo(s, "noConfiguration")
+
+    def configure(a):
+        a.call("fmi3EnterConfigurationMode", a.fmu.enterConfigurationMode)
+        a.set_values({v.name: s.value_of(v) for v in structural}, " (structural parameters, their start values)")
+        a.call("fmi3ExitConfigurationMode", a.fmu.exitConfigurationMode)
+    rows = _solo(s, "configuration", configure)
+    diff = first_difference(s, rows, expected)
+    if diff:
+        return FAIL, (f"after Configuration Mode with the structural parameters at their start values the run differs "
+                      f"from one without it: {diff}")
+    return PASS, (f"fmi3EnterConfigurationMode, {len(structural)} structural parameter(s) set, "
+                  f"fmi3ExitConfigurationMode accepted; the {s.steps} steps after it as without")
+
+
 TASKS = {
-    "cs3.basic": check_basic,
     "cs3.version": check_version,
-    "cs3.instantiation-token": check_instantiation_token,
-    "cs3.initial-unknowns": check_initial_unknowns,
-    "cs3.stop-time": check_stop_time,
-    "cs3.get-after-terminate": check_get_after_terminate,
-    "cs3.reset": check_reset,
-    "cs3.get-set-state": check_get_set_state,
     "cs3.step-before-init": check_step_before_init,
     "cs3.zero-step-size": check_zero_step_size,
-    "cs3.default-experiment": check_default_experiment,
     "cs3.output-derivative-orders": check_output_derivative_orders,
     "cs3.output-derivatives": check_output_derivatives,
     "cs3.early-return-not-allowed": check_early_return_not_allowed,
     "cs3.early-return-time": check_early_return_time,
+    "cs3.event-mode": check_event_mode,
+    "cs3.intermediate-update": check_intermediate_update,
+    "cs3.configuration-mode": check_configuration_mode,
 }
