@@ -19,6 +19,9 @@ Modules at the top, parent side:
   finding per crash or hang;
 * :mod:`.crosscheck`: the cross-check file formats (CSV, ``_ref.opt``);
 * :mod:`.reference`, :mod:`.reference_task`: writing reference results; :mod:`.compare`: per-column comparison;
+* :mod:`.band`: the FMI cross-check suite's rule for a result against a reference; :mod:`.xcheck`: the
+  cross-check mode (a suite's folder run in every host, verdicts filed in its results layout), its runs in
+  :mod:`.xcheck_host` (inside a check process);
 * :mod:`.report`: PASS/ERROR/WARN/INFO/SKIP lines, JUnit XML, exit code;
 * :mod:`.runner`: every rule for several FMUs (the command line is :mod:`harness.cli.check`).
 
