@@ -178,7 +178,7 @@ def run_model(m: Model, host: str, out_root: Path, timeout: float) -> Row:
                                m.name)
     folder.mkdir(parents=True, exist_ok=True)
     out_csv = folder / f"{m.name}_out.csv"
-    for stale in [*(folder / v for v in VERDICTS), out_csv]:
+    for stale in [*(folder / v for v in VERDICTS), out_csv, folder / "README.txt"]:   # a planted link is not followed
         if stale.is_file() or stale.is_symlink():
             stale.unlink()
     opts = {}
