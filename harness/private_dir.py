@@ -5,8 +5,9 @@ Every cache or scratch folder the project keeps between runs goes through :func:
 * created with mode 0700 (parents too, when this call makes them);
 * an existing folder is checked before use with ``lstat`` (no symbolic link followed): it must be a
   folder, owned by the user running the command, and writable by no one else; every folder above it
-  must be owned by that user or root and writable by no one else unless sticky (``/tmp``), so
-  nobody can move it away and put another in its place. A folder of ours that others can merely
+  must be owned by that user or root and writable by no one else unless sticky (``/tmp``; the
+  user's own primary group may write there, as with a umask of 002), so nobody can move it away and
+  put another in its place. A folder of ours that others can merely
   read is tightened to 0700;
 * anything else is refused with :class:`PrivatePlaceError`, one line naming the place and why.
 
@@ -59,7 +60,8 @@ def _check_ancestors(path: Path) -> None:
             continue
         if st.st_uid not in (0, _uid()):
             raise PrivatePlaceError(path, f"the folder above it, {parent}, is {_owner(st)} or root")
-        if st.st_mode & 0o022 and not st.st_mode & stat.S_ISVTX:
+        open_to = st.st_mode & 0o002 or (st.st_mode & 0o020 and st.st_gid != os.getegid())
+        if open_to and not st.st_mode & stat.S_ISVTX:   # group-writable by the user's own group: allowed
             raise PrivatePlaceError(path, f"the folder above it, {parent}, is writable by others "
                                           f"(mode {stat.S_IMODE(st.st_mode):o}, not sticky)")
 

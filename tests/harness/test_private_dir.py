@@ -98,6 +98,25 @@ def test_a_planted_folder_is_refused_with_one_line_naming_it(tmp_path, how):
     assert "\n" not in msg and str(place) in msg
 
 
+def test_a_parent_writable_by_the_users_own_group_is_accepted(tmp_path):
+    """A umask of 002 makes ~/.cache 0775 with the user's own group: not another user's place."""
+    base = tmp_path / "cache"
+    base.mkdir()
+    os.chmod(base, 0o775)
+    os.chown(base, -1, os.getegid())
+    assert pd.private_dir(base / "x") == base / "x"
+
+
+@as_root
+def test_a_parent_writable_by_another_group_is_refused(tmp_path):
+    base = tmp_path / "cache"
+    base.mkdir()
+    os.chmod(base, 0o775)
+    os.chown(base, -1, os.getegid() + 4242)
+    with pytest.raises(PrivatePlaceError):
+        pd.private_dir(base / "x")
+
+
 def test_a_sticky_open_parent_is_accepted(tmp_path):
     base = tmp_path / "tmp"
     base.mkdir()
