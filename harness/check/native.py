@@ -389,13 +389,16 @@ def check_libraries_found(binary: Path) -> tuple[str, str]:
 
 # ----------------------------------------------------------------------------- the rules
 
+LOAD3 = {"load3.libraries": "load.libraries", "load3.needed-libraries": "load.needed-libraries"}
+
+
 def run_load_checks(fmu_path: str | Path, subject: str, rule_ids, timeout: float,
                     profiles: tuple[str, ...] = ()) -> list[CheckResult]:
     """The ``load`` rules in ``rule_ids`` for one FMU (parent side; the C host is its own process)."""
     from fmpy import read_model_description
     from .static import host_platform
     results = []
-    ids = [r for r in ("load.libraries", "load.needed-libraries", "load.bare-process") if r in rule_ids]
+    ids = [r for r in ("load.libraries", "load.needed-libraries", "load.bare-process", *LOAD3) if r in rule_ids]
     if not ids:
         return results
 
@@ -410,6 +413,8 @@ def run_load_checks(fmu_path: str | Path, subject: str, rule_ids, timeout: float
     try:
         md = read_model_description(str(unzipdir), validate=False)
         plat, ext = host_platform()
+        if str(md.fmiVersion).startswith("3"):   # FMI 3.0: binaries/<platform tuple>/ (2.5.1.4)
+            from fmpy import platform_tuple as plat
         kind = "cs" if md.coSimulation is not None else "me"
         iface = md.coSimulation if kind == "cs" else md.modelExchange
         binary = unzipdir / "binaries" / plat / f"{iface.modelIdentifier}{ext}"
@@ -418,11 +423,12 @@ def run_load_checks(fmu_path: str | Path, subject: str, rule_ids, timeout: float
         h = float(de.stepSize) if de is not None and de.stepSize is not None and float(de.stepSize) > 0 else 1e-3
         for rid in ids:
             t1 = time.perf_counter()
+            what = LOAD3.get(rid, rid)   # an FMI 3.0 load rule checks what its FMI 2.0 twin checks
             if not binary.is_file():
                 results.append(res(rid, SKIP, f"no {binary.relative_to(unzipdir)}", t1))
-            elif rid == "load.needed-libraries":
+            elif what == "load.needed-libraries":
                 results.append(res(rid, *check_needed_libraries(binary), t1))
-            elif rid == "load.libraries":
+            elif what == "load.libraries":
                 results.append(res(rid, *check_libraries_found(binary), t1))
             else:
                 results.append(res(rid, *run_bare_host(binary, kind, md.guid, unzipdir / "resources", t_start, h,

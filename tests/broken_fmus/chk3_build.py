@@ -74,7 +74,8 @@ def chk3c_fmu(name: str, breaks: str | None = None, edits: list[tuple[str, str]]
               drop: tuple[str, ...] = (), add: dict[str, bytes] | None = None) -> Path:
     """Chk3C built with ``-DBREAK_<breaks>`` (None: the well-behaved one), its modelDescription.xml with ``edits``
     (old, new) applied, members starting with ``drop`` left out and ``add`` added, as ``<name>.fmu`` (gcc; raises
-    FileNotFoundError without it)."""
+    FileNotFoundError without it). ``breaks="LIBM"`` links without -lm (libm not declared); ``breaks="MISSING_LIB"``
+    declares a library (libchk3missing.so) that is packed nowhere."""
     import fmpy
     from fmpy import platform_tuple
     src = HERE / "chk3c.c"
@@ -84,8 +85,17 @@ def chk3c_fmu(name: str, breaks: str | None = None, edits: list[tuple[str, str]]
     def make(tmp: Path) -> Path:
         binary = tmp / "Chk3C.so"
         include = Path(fmpy.__file__).parent / "c-code"
-        cmd = ["gcc", "-shared", "-fPIC", "-O1", "-std=c99", "-Wall", f"-I{include}", "-o", str(binary), str(src), "-lm"]
-        if breaks:
+        cmd = ["gcc", "-shared", "-fPIC", "-O1", "-std=c99", "-Wall", f"-I{include}", "-o", str(binary), str(src)]
+        if breaks == "LIBM":
+            cmd[1:1] = ["-fno-builtin", "-Wl,--no-as-needed"]
+        else:
+            cmd.append("-lm")
+        if breaks == "MISSING_LIB":   # a library the binary declares (DT_NEEDED) and the FMU does not carry
+            (tmp / "missing.c").write_text("int chk3_missing(void) { return 0; }\n")
+            subprocess.run(["gcc", "-shared", "-fPIC", "-o", str(tmp / "libchk3missing.so"), str(tmp / "missing.c")],
+                           check=True, capture_output=True)
+            cmd += ["-Wl,--no-as-needed", f"-L{tmp}", "-lchk3missing"]
+        elif breaks:
             cmd.insert(1, f"-DBREAK_{breaks}")
         subprocess.run(cmd, check=True, capture_output=True)
         out = tmp / f"{name}.fmu"

@@ -39,6 +39,7 @@
    BREAK_EVENT_MODE     fmi3EnterStepMode refused (instantiated with eventModeUsed = true)
    BREAK_INTERMEDIATE   the intermediate update callback gets a time past the step's end
    BREAK_CONFIGURATION  fmi3ExitConfigurationMode refused
+   BREAK_LIBM           x advanced with exp() from libm; built without -lm, so libm is not declared (DT_NEEDED)
    BREAK_STALE_Y        y (declared to depend on u) is computed in fmi3DoStep and fmi3CompletedIntegratorStep
                         only: after fmi3SetFloat64(u) it keeps its old value (model exchange: until the next
                         integrator step)
@@ -582,6 +583,9 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 t, fmi3Float64 h, fmi3Boolean 
         X(m) += m->k * m->u * 0.01 * k;
         m->time += 0.01 * k;
     }
+#elif defined(BREAK_LIBM)
+    for (i = 0; i < m->n; i++) X(m) += m->k * m->u * h / (double)m->n * exp(0.0 * X(m));
+    m->time = t + h;
 #else
     for (i = 0; i < m->n; i++) X(m) += m->k * m->u * h / (double)m->n;
     m->time = t + h;

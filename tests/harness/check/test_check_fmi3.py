@@ -77,6 +77,12 @@ BROKEN = {
     "Chk3CIntermediate": ("INTERMEDIATE", {"cs3.intermediate-update": "error"}),
     "Chk3CConfiguration": ("CONFIGURATION", {"cs3.configuration-mode": "error"}),
 }
+# broken FMU -> (how chk3_build links it, {load rule: severity of the expected failure})
+LOAD = {
+    "Chk3CNoLibm": ("LIBM", {"load3.needed-libraries": "warning"}),
+    # a library found nowhere also leaves the symbols it would define undefined
+    "Chk3CMissingLib": ("MISSING_LIB", {"load3.libraries": "warning", "load3.needed-libraries": "warning"}),
+}
 
 
 @pytest.fixture(scope="module")
@@ -115,6 +121,7 @@ def test_chk3c_passes_every_rule_with_no_error():
 
 def test_every_fmi3_rule_has_a_broken_fmu():
     caught = {r for _, rule, _ in STATIC.values() for r in [rule]} | {r for _, exp in BROKEN.values() for r in exp}
+    caught |= {r for _, exp in LOAD.values() for r in exp}
     assert {r.id for r in RULES3} - caught == set()
 
 
@@ -131,6 +138,15 @@ def test_broken_call_sequence_fails_exactly_its_rule(broken_results, name):
     results = broken_results[name]
     failed = {r.check_id: r.severity for r in results if r.failed}
     assert failed == BROKEN[name][1], [(r.check_id, r.label, r.reason) for r in results]
+
+
+@pytest.mark.parametrize("name", list(LOAD))
+def test_broken_binary_fails_exactly_its_load_rule(name):
+    from harness.check.native import run_load_checks
+    breaks, expected = LOAD[name]
+    results = run_load_checks(chk3_build.chk3c_fmu(name, breaks), name, ["load3.libraries", "load3.needed-libraries"],
+                              60.0)
+    assert {r.check_id: r.severity for r in results if r.failed} == expected, [(r.check_id, r.reason) for r in results]
 
 
 def test_broken_fmu_reasons(static_fmus, broken_results):
