@@ -33,7 +33,7 @@ def run_static_checks(fmu_path: str | Path, subject: str | None = None,
     arc = read_archive(fmu_path)
     results: list[CheckResult] = []
     declared = arc.root.get("fmiVersion") if arc.root is not None else peek_fmi_version(fmu_path)
-    if fmi_version(declared) == "3.0":   # FMI 3.0: rules3 / static3
+    if fmi_version(declared) == "3.0":   # FMI 3.0: the static3 rules (static/fmi3.py)
         kind, checks, gates = "static3", CHECKS3, GATES3
     else:
         kind, checks, gates = "static", CHECKS, GATES2
