@@ -15,6 +15,7 @@ Modules at the top, parent side:
 * :mod:`.native`: the binary outside Python (ELF symbols against DT_NEEDED, a bare C host);
 * :mod:`.selection`: which rules run on which FMU (select/ignore, [tool.spurdiff.check]);
 * :mod:`.isolation`: one task in a fresh process (:mod:`.worker`), killed with its whole group at the timeout;
+* :mod:`.reaper`: the process every FMU runs under (started by :mod:`.isolation`), ending all the FMU started;
 * :mod:`.lifecycle`: scheduling the call-sequence rules, ``jobs`` processes at a time, preconditions, one
   finding per crash or hang;
 * :mod:`.crosscheck`: the cross-check file formats (CSV, ``_ref.opt``);
