@@ -239,7 +239,8 @@ def check_event_mode(s: Session3):
     if events == 0 and len(rows) == len(expected):
         diff = first_difference(s, rows, expected, "after fmi3EnterStepMode")
         if diff:
-            return FAIL, f"with event mode (no event signalled) the same steps give other outputs: {diff} (with vs without)"
+            return FAIL, (f"with event mode (no event signalled) the same steps give other outputs: {diff} "
+                          f"(with vs without)")
     return PASS, (f"eventModeUsed = true: Event Mode after initialization, fmi3UpdateDiscreteStates, fmi3EnterStepMode "
                   f"and {len(rows) - 1} doSteps accepted ({events} event(s) handled)"
                   + ("; outputs as without event mode" if events == 0 else ""))

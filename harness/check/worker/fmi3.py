@@ -1,13 +1,14 @@
 """Worker side for FMI 3.0 FMUs: one FMU instance through fmpy's FMI 3.0 API (:class:`fmpy.fmi3.FMU3Slave`,
-:class:`fmpy.fmi3.FMU3Model`), every call traced, with the methods of the FMI 2.0 :class:`.fmi2.Instance`
-(a rule that means the same in both versions is one function).
+:class:`fmpy.fmi3.FMU3Model`), every call traced, with the methods of the FMI 2.0 :class:`.fmi2.Instance` (a
+rule that means the same in both versions is one function).
 
 How an instance is driven (as in :mod:`.fmi2`): instantiated with logging on, an instanceEnvironment of its
-own (the logger checks it comes back), event mode and early return not used unless a rule asks; the start value of every non-constant parameter and input with
-initial exact or approx is set in Instantiated; ``fmi3EnterInitializationMode`` gets the
-DefaultExperiment start time (else 0 s) and, where a rule asks, the stop time; the communication step is
-the DefaultExperiment ``stepSize`` (else 1e-3 s); before every ``fmi3DoStep`` the inputs are set again,
-after it every numeric and Boolean output is read (arrays whole, by their Dimension sizes).
+own (the logger checks it comes back), event mode and early return not used unless a rule asks; the start
+value of every non-constant parameter is set in Instantiated, of every input in Initialization Mode;
+``fmi3EnterInitializationMode`` gets the DefaultExperiment start time (else 0 s) and, where a rule asks, the
+stop time; the communication step is the DefaultExperiment ``stepSize`` (else 1e-3 s); before every
+``fmi3DoStep`` the inputs are set again, after it every numeric and Boolean output is read (arrays whole, by
+their Dimension sizes).
 """
 from __future__ import annotations
 
@@ -98,7 +99,8 @@ class Session3:
         self.real_inputs = [v for v in self.inputs if v.type == "Float64" and self.size(v) == 1]
         self.outputs = [v for v in self.variables if v.causality == "output" and v.type in NUMERIC
                         and not getattr(v, "clocks", None)]
-        self.columns = [f"{v.name}[{k}]" if self.size(v) > 1 else v.name for v in self.outputs for k in range(self.size(v))]
+        self.columns = [f"{v.name}[{k}]" if self.size(v) > 1 else v.name
+                        for v in self.outputs for k in range(self.size(v))]
         self.real_columns = [j for j, v in enumerate(self.outputs) if v.type == "Float64" and self.size(v) == 1]
         if len(self.columns) != len(self.outputs):   # arrays among the outputs: column of each scalar Float64
             cols, j = [], 0
