@@ -12,7 +12,7 @@ import time
 import zipfile
 from pathlib import Path
 
-from harness.scene import SceneError
+from harness.scene.spec import SceneError
 from harness.sweep.jobs import FmuRef
 
 _FILES: dict[str, Path] = {}

@@ -1,4 +1,4 @@
-"""Every guard of the output writer (harness/outputs.py), each exercised on its own, so that removing
+"""Every guard of the output writer (harness/common/outputs.py), each exercised on its own, so that removing
 it fails a test here (issue 45 item 6, issue 47 item 3; the mutations are listed in
 tests/mutations_guards.toml). Fast: no FMU, no run; the end-to-end cases are in
 tests/harness/hostile/test_hostile_outputs.py."""
@@ -11,8 +11,8 @@ import threading
 
 import pytest
 
-from harness import outputs
-from harness.outputs import LOCK_NAME, OutputError, OutputLock, StreamFile, atomic_file, private_path, probe, \
+from harness.common import outputs
+from harness.common.outputs import LOCK_NAME, OutputError, OutputLock, StreamFile, atomic_file, private_path, probe, \
     write_bytes, write_text
 
 

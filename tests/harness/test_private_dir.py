@@ -245,7 +245,7 @@ def test_a_planted_host_inside_our_own_folder_is_rebuilt_not_run(cache, tmp_path
 def test_the_sweep_snapshot_folder_planted_is_refused(cache, how):
     import hashlib
 
-    from harness.schema import SceneError
+    from harness.scene.schema import SceneError
     from harness.sweep.fmu_files import snapshot
     data = b"PK fake fmu bytes"
     digest = hashlib.sha256(data).hexdigest()
@@ -273,7 +273,7 @@ def test_a_same_size_snapshot_of_other_bytes_is_replaced(cache):
 
 @pytest.mark.parametrize("how", PLANTS)
 def test_the_runtime_cache_planted_is_refused_before_anything_is_read(tmp_path, how):
-    from harness import runtime_bundle
+    from harness.build import runtime_bundle
     place = tmp_path / "base" / "fmus"
     (tmp_path / "base").mkdir(mode=0o700)
     _plant(place, how)
@@ -286,7 +286,7 @@ def test_the_runtime_cache_planted_is_refused_before_anything_is_read(tmp_path, 
 def test_the_win64_download_folder_planted_is_refused(tmp_path, monkeypatch, how):
     """A wheel planted in the downloads folder is not taken (the folder is refused before the file
     is looked at)."""
-    from harness import runtime_win64 as rw
+    from harness.build import runtime_win64 as rw
     place = tmp_path / "base" / "spurdiff" / "win64"   # the default: <user cache>/spurdiff/win64
     (tmp_path / "base").mkdir(mode=0o700)
     (tmp_path / "base" / "spurdiff").mkdir(mode=0o700)

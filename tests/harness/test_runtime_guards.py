@@ -1,4 +1,4 @@
-"""Every guard of the runtime builder (harness/runtime_bundle.py), each exercised on its own, so that
+"""Every guard of the runtime builder (harness/build/runtime_bundle.py), each exercised on its own, so that
 removing or weakening it fails a test here (issue 47 item 3; the mutations are listed in
 tests/mutations_guards.toml). Fast: no FMU is built; the runtime's assembly is replaced by a stub
 where only the cache logic is tested. The built runtime itself is tested in test_runtime_bundle.py."""
@@ -16,8 +16,8 @@ from pathlib import Path
 
 import pytest
 
-from harness import elf
-from harness import runtime_bundle as rb
+from harness.build import elf
+from harness.build import runtime_bundle as rb
 
 needs_gcc = pytest.mark.skipif(shutil.which("gcc") is None, reason="no gcc to make a test library")
 
@@ -261,7 +261,7 @@ def test_a_library_not_found_is_refused_naming_it(tmp_path):
 
 @needs_gcc
 def test_a_copied_library_loses_its_runpath(tmp_path):
-    from harness.elf import find_patchelf
+    from harness.build.elf import find_patchelf
     if not find_patchelf():
         pytest.skip("no patchelf")
     (tmp_path / "g.c").write_text("int g(void) { return 1; }\n")

@@ -1,11 +1,11 @@
 """Issue 45 item 5 (low): a scene with 100,000 ``record`` entries ran for minutes (every CSV row
 formatted 100,000 columns). The record list is read each entry once (in order) and refused above
-``harness.scene.MAX_RECORD`` entries with one line."""
+``harness.scene.spec.MAX_RECORD`` entries with one line."""
 from __future__ import annotations
 
 from hostile_harness_util import cli, one_line_error, sandbox, scene  # noqa: F401
 
-from harness.scene import MAX_RECORD, load_scene
+from harness.scene.spec import MAX_RECORD, load_scene
 
 
 def _record(n: int, var: str = "diff.carrier.tauDrive") -> str:
