@@ -79,6 +79,7 @@ from pathlib import Path
 from harness.build import elf
 from harness.build.fmu_package import ENTRY_MODULE, PACKAGE_NAME, RUNTIME_PACKAGES, stage_package, write_entry
 from harness.common.paths import fmu_cache_dir
+from harness.common.private_dir import PrivatePlaceError, private_dir
 
 VERSION = f"{sys.version_info.major}.{sys.version_info.minor}"
 STDLIB = Path(sysconfig.get_paths()["stdlib"]).resolve()
@@ -472,7 +473,10 @@ def ensure_runtime(fmus: dict[str, tuple[str, dict]], cache: Path | None = None,
     """The cached runtime for the FMUs ``fmus`` (name -> (interface module, default experiment)),
     made when missing (the module list first: trace and static closure, each cached)."""
     cache = Path(cache) if cache else fmu_cache_dir()
-    cache.mkdir(parents=True, exist_ok=True)
+    try:
+        private_dir(cache)   # 0700, ours, nobody else may write (harness.common.private_dir)
+    except PrivatePlaceError as e:
+        raise RuntimeBundleError(str(e)) from None
     interp = _digest(*interpreter_id())
     key1 = _digest(interp, package_digest(fmus))
     if key1 in _RUNTIMES:

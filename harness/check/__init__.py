@@ -1,23 +1,33 @@
 """FMU compliance kit (``spurdiff check``) for any FMI 2.0 or FMI 3.0 FMU, co-simulation and model exchange.
 
-* :mod:`.rules`: every rule as data (id, FMI version and section, severity, calls, what passes, the
-  standard's sentence); the FMI 3.0 rules in :mod:`.rules3`;
+Packages, by job:
+
+* :mod:`.rules`: every rule as data (``rules/table.toml``: one entry per meaning, each FMI version's id,
+  section, severity and sentence); imports nothing of the kit;
+* :mod:`.static`: the archive and modelDescription.xml rules, no binary loaded (``static/fmi2.py``,
+  ``static/fmi3.py``, what they share in ``static/common.py``);
+* :mod:`.worker`: what runs inside a check process: the FMI session of either version (``worker/fmi2.py``,
+  ``worker/fmi3.py``) and the call-sequence rules, by id (``worker/tasks.py``).
+
+Modules at the top, parent side:
+
 * :mod:`.archive`: reading a possibly hostile FMU archive within limits, safe extraction;
-* :mod:`.static`: the archive and modelDescription.xml rules (no binary loaded), :mod:`.static3` for FMI 3.0;
 * :mod:`.native`: the binary outside Python (ELF symbols against DT_NEEDED, a bare C host);
 * :mod:`.selection`: which rules run on which FMU (select/ignore, [tool.spurdiff.check]);
-* :mod:`.isolation`: one task in a fresh process, killed with its whole group at the timeout;
-* :mod:`.worker`, :mod:`.driver`: the worker process and its FMI session (on :mod:`harness.fmi`);
-* :mod:`.tasks`: what a worker process can run, by id: the co-simulation rules (:mod:`.cs_lifecycle`,
-  :mod:`.cs_state`, :mod:`.cs_steps`), the model-exchange rules (:mod:`.me_checks`), the FMI 3.0 ones
-  (:mod:`.driver3`, :mod:`.cs3_checks`, :mod:`.me3_checks`) and the
-  reference simulation (:mod:`.reference_task`);
-* :mod:`.lifecycle`: scheduling those rules, ``jobs`` processes at a time, preconditions, one finding
-  per crash or hang;
+* :mod:`.isolation`: one task in a fresh process (:mod:`.worker`), killed with its whole group at the timeout;
+* :mod:`.reaper`: the process every FMU runs under (started by :mod:`.isolation`), ending all the FMU started;
+* :mod:`.lifecycle`: scheduling the call-sequence rules, ``jobs`` processes at a time, preconditions, one
+  finding per crash or hang;
 * :mod:`.crosscheck`: the cross-check file formats (CSV, ``_ref.opt``);
-* :mod:`.reference`: writing reference results (parent side); :mod:`.compare`: per-column comparison;
+* :mod:`.reference`, :mod:`.reference_task`: writing reference results; :mod:`.compare`: per-column comparison;
+* :mod:`.band`: the FMI cross-check suite's rule for a result against a reference; :mod:`.xcheck`: the
+  cross-check mode (a suite's folder run in every host, verdicts filed in its results layout), its runs in
+  :mod:`.xcheck_host` (inside a check process);
 * :mod:`.report`: PASS/ERROR/WARN/INFO/SKIP lines, JUnit XML, exit code;
 * :mod:`.runner`: every rule for several FMUs (the command line is :mod:`harness.cli.check`).
+
+Imports run one way: rules <- report <- static, worker <- the parent-side modules <- runner; the worker
+package is imported only inside a check process (by :mod:`.isolation`'s command line), never by the parent.
 
 Rules and CI recipes: docs/compliance.md.
 """

@@ -2,8 +2,10 @@
 
 An FMU is a zip file (FMI 2.0, section 2.3). Before anything is parsed or unpacked the kit checks:
 
-* at most :data:`MAX_MEMBERS` members and at most :data:`MAX_UNPACKED_BYTES` unpacked in total
-  (counted while reading, so a zip whose headers understate the sizes is caught too);
+* at most :data:`MAX_MEMBERS` members, no two of the same name (which one an importer unpacks would be up
+  to its zip library), and at most :data:`MAX_UNPACKED_BYTES` unpacked in total: refused before anything
+  is unpacked when the members' declared sizes add up to more (a few milliseconds whatever the archive's
+  size), and counted again while reading, so a zip whose headers understate the sizes is caught too;
 * ``modelDescription.xml`` at the root, at most :data:`MAX_DESCRIPTION_BYTES`;
 * member names relative, '/'-separated (the zip format's separator), without ``..`` parts, ``:``
   (a drive or stream on Windows) or ``\\``, and without control characters.
@@ -22,7 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 MAX_MEMBERS = 10_000
-MAX_UNPACKED_BYTES = 1024 ** 3            # 1 GiB, all members together
+MAX_UNPACKED_BYTES = 256 * 1024 ** 2      # 256 MiB, all members together (the largest FMU of ../shared: 8 MiB)
 MAX_DESCRIPTION_BYTES = 64 * 1024 ** 2    # 64 MiB for modelDescription.xml
 _CHUNK = 1024 ** 2
 
@@ -58,12 +60,25 @@ def open_checked(path: str | Path, max_members: int = MAX_MEMBERS) -> zipfile.Zi
     if len(infos) > max_members:
         zf.close()
         raise ArchiveError(f"{len(infos)} members, more than the limit of {max_members}")
+    seen: set[str] = set()
     for info in infos:
         problem = member_name_problem(info.filename)
+        if problem is None and info.filename in seen:
+            problem = (f"two members named {info.filename!r}: which one an importer unpacks is up to its zip library "
+                       f"(FMI 2.0 2.3: a zip file with a pre-defined structure)")
+        seen.add(info.filename)
         if problem:
             zf.close()
             raise ArchiveError(problem)
     return zf
+
+
+def _check_declared(zf: zipfile.ZipFile, max_bytes: int) -> None:
+    """Refuse before unpacking when the members' declared sizes add up to more than ``max_bytes``."""
+    total = sum(i.file_size for i in zf.infolist() if not i.is_dir())
+    if total > max_bytes:
+        raise ArchiveError(f"its members declare {total} bytes, more than {max_bytes} bytes unpacked (limit): "
+                           f"refused before unpacking")
 
 
 def _read_limited(zf: zipfile.ZipFile, info: zipfile.ZipInfo, limit: int, what: str, already: int = 0):
@@ -89,6 +104,7 @@ def scan(path: str | Path, max_bytes: int = MAX_UNPACKED_BYTES, max_members: int
     (raises ArchiveError past the limits, for a bad name or a corrupt member)."""
     total = 0
     with open_checked(path, max_members) as zf:
+        _check_declared(zf, max_bytes)
         for info in zf.infolist():
             if info.is_dir():
                 continue
@@ -106,6 +122,8 @@ def read_model_description_bytes(path: str | Path, max_bytes: int = MAX_DESCRIPT
             info = zf.getinfo("modelDescription.xml")
         except KeyError:
             raise ArchiveError("the archive has no modelDescription.xml at its root") from None
+        if info.file_size > max_bytes:
+            raise ArchiveError(f"modelDescription.xml: more than {max_bytes} bytes (it declares {info.file_size})")
         data = b"".join(_read_limited(zf, info, max_bytes, "modelDescription.xml"))
     return names, data
 
@@ -120,6 +138,7 @@ def extract(path: str | Path, dest: str | Path | None = None, max_bytes: int = M
     total = 0
     try:
         with open_checked(path, max_members) as zf:
+            _check_declared(zf, max_bytes)
             root = dest.resolve()
             for info in zf.infolist():
                 target = (dest / info.filename).resolve()

@@ -1,6 +1,9 @@
 """Comparing an importer's result with a reference result (cross-check CSV files).
 
-:func:`compare_results` judges an importer's result CSV column by column against a reference:
+:func:`suite_checks` (``spurdiff check --compare``, the default) judges by the FMI cross-check suite's
+rule (:mod:`.band`: the band, 10 % of the samples, every column, StopTime of ``_ref.opt`` reached), the
+rule ``--cross-check`` applies. :func:`compare_results` (``--compare --rule tube``, or with ``--rtol``,
+``--atol``, ``--tolerance``) is a stricter per-sample tube for a reference of one's own: it judges an importer's result CSV column by column against a reference:
 the result is interpolated linearly onto the reference time points, and sample i of column c
 passes when ``|y_i - y_ref,i| <= atol_c + rtol_c |y_ref,i|``. ``rtol_c`` defaults to 1e-3;
 ``atol_c`` defaults to ``rtol_c * max_i |y_ref,i|`` (so a signal crossing zero is not judged
@@ -110,3 +113,42 @@ def compare_checks(result_csv: str | Path, reference_csv: str | Path, rtol: floa
     subject = subject if subject is not None else str(result_csv)
     return [CheckResult(subject, f"compare.{c.name}", PASS if c.passed else FAIL, c.reason)
             for c in compare_results(result_csv, reference_csv, rtol, atol, per_column)]
+
+
+# ----------------------------------------------------------------------------- the cross-check suite's rule
+
+def opt_beside(reference_csv: str | Path) -> Path | None:
+    """``<Model>_ref.opt`` beside ``<Model>_ref.csv`` (the cross-check layout), if there is one."""
+    ref = Path(reference_csv)
+    if ref.name.endswith("_ref.csv"):
+        opt = ref.with_name(ref.name[: -len("_ref.csv")] + "_ref.opt")
+        if opt.is_file():
+            return opt
+    return None
+
+
+def suite_checks(result_csv: str | Path, reference_csv: str | Path, ref_opt: str | Path | None = None,
+                 subject: str | None = None) -> list[CheckResult]:
+    """The cross-check suite's verdict (:mod:`.band`) as report lines: ``compare.run`` (two samples, start
+    and stop time reached, every reference column present) and one ``compare.<column>`` per column.
+    StartTime / StopTime come from ``ref_opt`` (default: the ``_ref.opt`` beside the reference); without
+    one, from the reference, its last time taken as reached within the rounding of how it is printed.
+    Raises CsvFormatError for unreadable files."""
+    from .band import judge, printed_rounding
+    from .crosscheck import last_time_text, read_ref_opt
+    subject = subject if subject is not None else str(result_csv)
+    names, rows = read_cross_check_csv(result_csv)
+    ref_names, ref_rows = read_cross_check_csv(reference_csv)
+    opt = Path(ref_opt) if ref_opt is not None else opt_beside(reference_csv)
+    if opt is not None:
+        o = read_ref_opt(opt)
+        v = judge(names, rows, ref_names, ref_rows, o["StartTime"], o["StopTime"])
+        source = f"StartTime {o['StartTime']:g} s, StopTime {o['StopTime']:.9g} s from {opt.name}"
+    else:
+        v = judge(names, rows, ref_names, ref_rows, stop_rounding=printed_rounding(last_time_text(reference_csv)))
+        source = "start and stop time from the reference (no _ref.opt)"
+    if not v.columns:
+        return [CheckResult(subject, "compare.run", FAIL, f"{v.reason} ({source})")]
+    out = [CheckResult(subject, "compare.run", PASS, f"{len(rows)} samples; {source}")]
+    out += [CheckResult(subject, f"compare.{c.name}", PASS if c.passed else FAIL, c.reason) for c in v.columns]
+    return out

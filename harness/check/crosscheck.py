@@ -28,9 +28,31 @@ class CsvFormatError(ValueError):
     """A CSV file does not follow the cross-check CSV rules (or cannot be read)."""
 
 
+_BOOLEAN_CELLS = {"true": 1.0, "false": 0.0}
+
+
+def _cell(text: str) -> float:
+    """A CSV cell as a number: a C literal, or ``true`` / ``false`` in any case (a Boolean written
+    by a tool that does not follow the rules' 0/1) as 1 / 0."""
+    t = text.strip()
+    b = _BOOLEAN_CELLS.get(t.lower())
+    return b if b is not None else float(t)
+
+
+def last_time_text(path: str | Path) -> str:
+    """The first cell of the last data line as written (for the rounding of a reference's last time)."""
+    last = ""
+    with Path(path).open(newline="", encoding="utf-8") as f:
+        for r in csv.reader(f):
+            if r and r[0].strip():
+                last = r[0].strip()
+    return last
+
+
 def read_cross_check_csv(path: str | Path) -> tuple[list[str], list[list[float]]]:
     """Read a cross-check CSV: (column names with "time" first, rows of floats).
 
+    Cells ``true`` / ``false`` (any case) read as 1 / 0; a separator ending every line adds no column.
     Raises CsvFormatError for a missing/misnamed time column, ragged rows, non-numeric cells or
     decreasing time.
     """
@@ -48,12 +70,15 @@ def read_cross_check_csv(path: str | Path) -> tuple[list[str], list[list[float]]
         raise CsvFormatError(f'{path}: the first column must be "time", found {names[0] if names else "nothing"!r}')
     if len(set(names)) != len(names):
         raise CsvFormatError(f"{path}: duplicate column names")
+    if len(names) > 1 and names[-1] == "" and all(len(r) == len(names) and not r[-1].strip() for r in rows[1:]):
+        names = names[:-1]             # a separator at the end of every line: no column
+        rows = [r[:-1] for r in rows]
     data: list[list[float]] = []
     for lineno, r in enumerate(rows[1:], 2):
         if len(r) != len(names):
             raise CsvFormatError(f"{path}:{lineno}: {len(r)} cells, the header has {len(names)}")
         try:
-            data.append([float(c) for c in r])
+            data.append([_cell(c) for c in r])
         except ValueError:
             raise CsvFormatError(f"{path}:{lineno}: non-numeric cell in {r!r}") from None
     if not data:

@@ -3,10 +3,14 @@ binary cannot take the checker down.
 
 The worker (:func:`harness.check.worker.worker_main`) writes the FMI call it is about to make to a
 trace file, and its result as JSON to a result file. Its stdout and stderr go to files, never
-pipes: an FMU that leaves a daemon behind holding them open cannot make the checker wait. At the
-timeout (or after the worker ended) the worker's whole process group is killed, and so is every
-process that still carries the run's marker in its environment (a daemon that left the group
-with ``setsid`` keeps its environment), on Linux.
+pipes: an FMU that leaves a daemon behind holding them open cannot make the checker wait.
+
+Every process the FMU starts ends with the task: the worker runs under :mod:`.reaper` (a PID
+namespace where allowed, and a child subreaper that kills every process below it when the worker
+ends, whatever it did to its session, group or environment; ``SPURDIFF_CHECK_PID_NAMESPACE=0``
+leaves out the namespace); at the timeout the checker kills that tree itself
+(:func:`.reaper.kill_tree`). Behind that, as before, the worker's process group and
+every process still carrying the run's marker in its environment are killed (Linux).
 """
 from __future__ import annotations
 
@@ -67,6 +71,30 @@ def _marked_pids(token: str) -> list[int]:
     return pids
 
 
+REAPER = Path(__file__).resolve().with_name("reaper.py")
+
+
+def reaped(cmd: list[str], work: Path) -> tuple[list[str], Path]:
+    """``cmd`` run under the subreaper (:mod:`.reaper`), and the file it writes when it has ended
+    everything below it."""
+    done = work / "reaped.txt"
+    flag = ["--no-pid-namespace"] if os.environ.get("SPURDIFF_CHECK_PID_NAMESPACE") == "0" else []
+    return [sys.executable, "-I", "-S", str(REAPER), *flag, str(done), *cmd], done
+
+
+def end_reaped(proc: subprocess.Popen, done: Path | None = None) -> str:
+    """After a reaped process (``proc``) ended or at its timeout: every process below it and the
+    process killed and reaped; "" or the one line saying that its subreaper was killed before it
+    could end what the FMU started (``done`` missing)."""
+    from .reaper import kill_tree
+    if proc.poll() is None:
+        kill_tree(proc.pid, include_root=True)
+    proc.wait()
+    if done is not None and not done.exists():
+        return "the kit's process reaper was killed before it ended what the FMU started"
+    return ""
+
+
 def kill_run(pgid: int, token: str) -> None:
     """SIGKILL the worker's process group and every process carrying the run's marker."""
     try:
@@ -115,10 +143,10 @@ def run_isolated_outcome(task: str, payload: dict, timeout: float) -> Outcome:
     out_path, err_path = work / "stdout.txt", work / "stderr.txt"
     token = uuid.uuid4().hex
     env = dict(os.environ, **{MARKER: token})
-    cmd = [sys.executable, "-c",
-           "import sys; sys.path.insert(0, sys.argv[1]); "
-           "from harness.check.worker import worker_main; worker_main(sys.argv[2:])",
-           str(_PACKAGE_ROOT), task, json.dumps(payload), str(trace), str(result)]
+    cmd, done = reaped([sys.executable, "-c",
+                        "import sys; sys.path.insert(0, sys.argv[1]); "
+                        "from harness.check.worker import worker_main; worker_main(sys.argv[2:])",
+                        str(_PACKAGE_ROOT), task, json.dumps(payload), str(trace), str(result)], work)
     try:
         with open(out_path, "wb") as out, open(err_path, "wb") as err:
             proc = subprocess.Popen(cmd, cwd=work, stdin=subprocess.DEVNULL, stdout=out, stderr=err,
@@ -126,13 +154,18 @@ def run_isolated_outcome(task: str, payload: dict, timeout: float) -> Outcome:
         try:
             rc = proc.wait(timeout=timeout)
         except subprocess.TimeoutExpired:
+            end_reaped(proc)
             kill_run(proc.pid, token)
-            proc.wait()
             where = _last_line(trace)
             return Outcome(FAIL, f"timed out after {timeout:g} s" + (f" in {where}" if where else ""),
                            abort={"kind": "timeout", "call": _call_of(where)})
         finally:
+            escaped = end_reaped(proc, done) if proc.returncode is not None else ""
             kill_run(proc.pid, token)  # whatever the FMU left behind
+        if escaped:
+            where = _last_line(trace)
+            return Outcome(FAIL, escaped + (f" (in {where})" if where else ""),
+                           abort={"kind": "crash", "call": _call_of(where)})
         data = None
         if result.exists():
             try:

@@ -47,6 +47,8 @@ DEPENDS = {
     "cs.status-after-discard": ("cs.stop-time", "cs.default-experiment", "cs.nan-inputs"),
     "cs.free-state": ("cs.get-set-state",),
     "cs.serialize-state": ("cs.get-set-state",),
+    "cs3.free-state": ("cs3.get-set-state",),
+    "cs3.serialize-state": ("cs3.get-set-state",),
 }
 
 
@@ -65,11 +67,13 @@ def precondition(rule_id: str, done: dict[str, tuple[CheckResult, dict]]) -> tup
                 return {"discard": facts["discard"]}, None
         seen = "; ".join(_brief(done[p][0]) for p in DEPENDS[rule_id] if p in done)
         return None, f"precondition not met: no doStep was discarded ({seen})"
-    if rule_id in ("cs.free-state", "cs.serialize-state"):
-        res, facts = done.get("cs.get-set-state", (None, {}))
+    if rule_id in DEPENDS and DEPENDS[rule_id][0].endswith(".get-set-state"):   # free / serialize state
+        provider = DEPENDS[rule_id][0]
+        res, facts = done.get(provider, (None, {}))
         if res is None or res.status == SKIP or facts.get("restores"):
             return {}, None   # not declared: the rule says so itself
-        return None, f"precondition not met: fmi2SetFMUstate does not restore a saved state ({_brief(res)})"
+        f = "fmi2" if provider.startswith("cs.") else "fmi3"
+        return None, f"precondition not met: {f}SetFMUstate does not restore a saved state ({_brief(res)})"
     return {}, None
 
 

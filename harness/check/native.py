@@ -127,24 +127,34 @@ int main(int argc, char **argv) {
 
 @functools.lru_cache(maxsize=1)
 def host_binary() -> tuple[Path | None, str]:
-    """(the compiled host, "") or (None, why it could not be compiled). Compiled once per source
-    version into the temporary folder (a cache shared by the kit's runs on this machine)."""
+    """(the compiled host, "") or (None, why it could not be compiled or kept). Compiled once per
+    source version into the user's private cache (:mod:`harness.common.private_dir`:
+    ``<cache>/check-host-<digest>/host``, the folder 0700, owner and mode checked before use), and
+    run only when its sha256 is the one recorded beside it when it was compiled."""
+    from harness.common.private_dir import PrivatePlaceError, cache_dir, sha256_of, verified_file, write_private
     cc = shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
     if cc is None:
         return None, "no C compiler (cc, gcc or clang) on PATH to build the bare C host"
     digest = hashlib.sha256(HOST_SOURCE.encode()).hexdigest()[:12]
-    folder = Path(tempfile.gettempdir()) / f"spurdiff-check-host-{os.getuid()}-{digest}"
-    target = folder / "host"
-    if target.is_file():
+    try:
+        folder = cache_dir(f"check-host-{digest}")
+    except PrivatePlaceError as e:
+        return None, str(e)
+    target, recorded = folder / "host", folder / "host.sha256"
+    try:
+        want = recorded.read_text().strip() if recorded.is_file() and not recorded.is_symlink() else ""
+    except OSError:
+        want = ""
+    if want and verified_file(target, want):
         return target, ""
-    folder.mkdir(parents=True, exist_ok=True)
     src = folder / f"host-{os.getpid()}.c"
-    src.write_text(HOST_SOURCE)
+    write_private(src, HOST_SOURCE.encode())
     tmp = folder / f"host-{os.getpid()}"
     r = subprocess.run([cc, "-O1", "-o", str(tmp), str(src), "-ldl"], capture_output=True, text=True)
     src.unlink(missing_ok=True)
     if r.returncode != 0:
         return None, f"{cc} could not build the bare C host: {' '.join(r.stderr.split())[:200]}"
+    write_private(recorded, sha256_of(tmp).encode())
     os.replace(tmp, target)
     return target, ""
 
@@ -157,7 +167,9 @@ def run_bare_host(binary: Path, kind: str, guid: str, resources: Path, t0: float
         return SKIP, why
     work = Path(tempfile.mkdtemp(prefix="spurdiff-bare-"))
     out, err = work / "stdout.txt", work / "stderr.txt"
-    cmd = [str(host), str(binary), kind, guid, resources.as_uri(), "bare", repr(t0), repr(h), str(HOST_STEPS)]
+    from .isolation import end_reaped, reaped
+    cmd, done = reaped([str(host), str(binary), kind, guid, resources.as_uri(), "bare", repr(t0), repr(h),
+                        str(HOST_STEPS)], work)   # under the subreaper: nothing the FMU starts outlives it
     try:
         with open(out, "wb") as fo, open(err, "wb") as fe:
             proc = subprocess.Popen(cmd, env={}, cwd=work, stdin=subprocess.DEVNULL, stdout=fo, stderr=fe,
@@ -167,11 +179,13 @@ def run_bare_host(binary: Path, kind: str, guid: str, resources: Path, t0: float
             except subprocess.TimeoutExpired:
                 rc = None
             finally:
+                escaped = end_reaped(proc, done)
                 try:
                     os.killpg(proc.pid, signal.SIGKILL)
                 except OSError:
                     pass
-                proc.wait()
+        if escaped and rc is not None:
+            return FAIL, f"in a C process with an empty environment: {escaped}"
         lines = out.read_text(errors="replace").splitlines()
         calls = [ln[5:] for ln in lines if ln.startswith("CALL ")]
         fails = [ln[5:] for ln in lines if ln.startswith("FAIL ")]
@@ -361,7 +375,22 @@ def check_needed_libraries(binary: Path) -> tuple[str, str]:
                   + ": it loads only into a process that already has them")
 
 
+def check_libraries_found(binary: Path) -> tuple[str, str]:
+    """``load.libraries``: every DT_NEEDED library (and theirs) found, in the FMU or on this machine."""
+    try:
+        _, missing_libs, searched = unresolved_symbols(binary)
+    except (ElfError, OSError, struct.error) as e:
+        return SKIP, f"{binary.name}: {e}"
+    if missing_libs:
+        return FAIL, (f"{binary.name} needs {', '.join(missing_libs)}, found neither in the FMU (RPATH/RUNPATH) nor "
+                      f"on this machine: the binary cannot be loaded here, no FMI call was made")
+    return PASS, f"every library {binary.name} needs is found ({', '.join(searched) or 'none declared'})"
+
+
 # ----------------------------------------------------------------------------- the rules
+
+LOAD3 = {"load3.libraries": "load.libraries", "load3.needed-libraries": "load.needed-libraries"}
+
 
 def run_load_checks(fmu_path: str | Path, subject: str, rule_ids, timeout: float,
                     profiles: tuple[str, ...] = ()) -> list[CheckResult]:
@@ -369,7 +398,7 @@ def run_load_checks(fmu_path: str | Path, subject: str, rule_ids, timeout: float
     from fmpy import read_model_description
     from .static import host_platform
     results = []
-    ids = [r for r in ("load.needed-libraries", "load.bare-process") if r in rule_ids]
+    ids = [r for r in ("load.libraries", "load.needed-libraries", "load.bare-process", *LOAD3) if r in rule_ids]
     if not ids:
         return results
 
@@ -384,6 +413,8 @@ def run_load_checks(fmu_path: str | Path, subject: str, rule_ids, timeout: float
     try:
         md = read_model_description(str(unzipdir), validate=False)
         plat, ext = host_platform()
+        if str(md.fmiVersion).startswith("3"):   # FMI 3.0: binaries/<platform tuple>/ (2.5.1.4)
+            from fmpy import platform_tuple as plat
         kind = "cs" if md.coSimulation is not None else "me"
         iface = md.coSimulation if kind == "cs" else md.modelExchange
         binary = unzipdir / "binaries" / plat / f"{iface.modelIdentifier}{ext}"
@@ -392,10 +423,13 @@ def run_load_checks(fmu_path: str | Path, subject: str, rule_ids, timeout: float
         h = float(de.stepSize) if de is not None and de.stepSize is not None and float(de.stepSize) > 0 else 1e-3
         for rid in ids:
             t1 = time.perf_counter()
+            what = LOAD3.get(rid, rid)   # an FMI 3.0 load rule checks what its FMI 2.0 twin checks
             if not binary.is_file():
                 results.append(res(rid, SKIP, f"no {binary.relative_to(unzipdir)}", t1))
-            elif rid == "load.needed-libraries":
+            elif what == "load.needed-libraries":
                 results.append(res(rid, *check_needed_libraries(binary), t1))
+            elif what == "load.libraries":
+                results.append(res(rid, *check_libraries_found(binary), t1))
             else:
                 results.append(res(rid, *run_bare_host(binary, kind, md.guid, unzipdir / "resources", t_start, h,
                                                        timeout), t1))

@@ -16,8 +16,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from .crosscheck import (INPUT_TYPES, MAX_CSV_BYTES, CsvFormatError, read_cross_check_csv, write_cross_check_csv,
-                         write_ref_opt)
+from .crosscheck import (INPUT_TYPES, MAX_CSV_BYTES, CsvFormatError, read_cross_check_csv, read_ref_opt,
+                         write_cross_check_csv, write_ref_opt)
 from .report import FAIL, PASS, CheckResult
 
 DEFAULT_STEP_SIZE = 1e-3     # s
@@ -64,7 +64,9 @@ def input_table(md, exp: Experiment, input_csv: str | Path | None = None) -> tup
     rows of ``input_csv`` (its columns must be inputs of the FMU; inputs it leaves out are held
     at their start values). Returns ([] , []) when the FMU has no inputs."""
     inputs = [v for v in md.modelVariables if v.causality == "input" and v.type in INPUT_TYPES]
-    if not inputs:
+    if not inputs and input_csv is not None and any(v.variability == "tunable" for v in md.modelVariables):
+        pass   # only tunable parameters in the table
+    elif not inputs:
         if input_csv is not None:
             raise ReferenceUsageError(f"--input {input_csv}: the FMU {md.modelName} has no inputs")
         return [], []
@@ -76,6 +78,10 @@ def input_table(md, exp: Experiment, input_csv: str | Path | None = None) -> tup
         given, rows = read_cross_check_csv(input_csv)
     except CsvFormatError as e:
         raise ReferenceUsageError(str(e)) from None
+    tunable = [v for v in md.modelVariables if v.causality == "parameter" and v.variability == "tunable"
+               and v.type in INPUT_TYPES and v.name in given]   # a cross-check _in.csv may set them (fmpy does)
+    names += [v.name for v in tunable]
+    starts += [_start(v) for v in tunable]
     unknown = [n for n in given[1:] if n not in names]
     if unknown:
         raise ReferenceUsageError(f"--input {input_csv}: columns {', '.join(unknown)} are not inputs of "
@@ -116,7 +122,8 @@ def reference_paths(out_dir: str | Path, model_name: str) -> dict[str, Path]:
 
 
 def write_reference_results(fmu_path: str | Path, out_dir: str | Path, input_csv: str | Path | None = None,
-                            timeout: float = 600.0, subject: str | None = None) -> CheckResult:
+                            timeout: float = 600.0, subject: str | None = None, ref_opt: str | Path | None = None,
+                            columns: list[str] | None = None) -> CheckResult:
     """Simulate the FMU over its default experiment and write ``DIR/<Model>/<Model>_ref.csv``,
     ``_ref.opt`` and (when it has inputs) ``_in.csv``. The simulation runs in a fresh process.
 
@@ -143,6 +150,12 @@ def write_reference_results(fmu_path: str | Path, out_dir: str | Path, input_csv
         except ReferenceUsageError as e:
             return CheckResult(subject, "reference.write", FAIL, str(e), time.perf_counter() - t0)
         exp = default_experiment(md)
+        if ref_opt is not None:   # the options of a cross-check reference: the same run
+            try:
+                o = read_ref_opt(ref_opt)
+            except (CsvFormatError, OSError, UnicodeDecodeError) as e:
+                raise ReferenceUsageError(f"--ref-opt {ref_opt}: {e}") from None
+            exp = Experiment(o["StartTime"], o["StopTime"], o["StepSize"], o["RelTol"])
         names, table = input_table(md, exp, input_csv)
         paths["ref.csv"].parent.mkdir(parents=True, exist_ok=True)
         for p in paths.values():
@@ -150,7 +163,7 @@ def write_reference_results(fmu_path: str | Path, out_dir: str | Path, input_csv
                 p.unlink()
         if names:
             write_cross_check_csv(paths["in.csv"], names, table)
-        payload = {"fmu": str(unzipdir), "ref_csv": str(paths["ref.csv"]),
+        payload = {"fmu": str(unzipdir), "ref_csv": str(paths["ref.csv"]), "columns": list(columns or []),
                    "in_csv": str(paths["in.csv"]) if names else None,
                    "experiment": [exp.start_time, exp.stop_time, exp.step_size, exp.rel_tol]}
         status, reason, _ = run_isolated("reference", payload, timeout)

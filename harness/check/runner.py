@@ -8,7 +8,7 @@ from typing import Sequence
 from .archive import peek_fmi_version
 from .lifecycle import LifecycleOptions, run_lifecycle_checks_many
 from .native import run_load_checks
-from .report import PASS, SKIP, CheckResult
+from .report import FAIL, PASS, SKIP, CheckResult
 from .rules import BY_ID, RULES, applies, fmi_version
 from .selection import Selection
 from .static import read_archive, run_static_checks
@@ -55,16 +55,32 @@ def run_checks_selected(fmus: Sequence[str], options: LifecycleOptions, static_o
         arc = read_archive(f) if not any(res[c].failed or res[c].status == SKIP for c in gates[:2]) else None
         kinds = [k + ("3" if v3 else "") for k in ("cs", "me") if arc is not None and arc.interface(k) is not None]
         blocker = next((res[c] for c in gates if res[c].status != PASS), None)
-        wanted_load = [r.id for r in RULES if r.kind == "load" and r.id in chosen[f]]
+        wanted_load = [r.id for r in RULES if r.kind in ("load", "load3") and r.id in chosen[f]]
         if blocker is not None:
             ids = wanted_load + [r.id for r in RULES if r.kind in (kinds or ["cs3" if v3 else "cs"]) and r.id in chosen[f]]
             why = (f"{blocker.check_id} did not pass" if kinds or blocker.status != SKIP else
                    "the FMU offers neither co-simulation nor model exchange (scheduled execution is not checked)")
             later[f] = [CheckResult(f, c, SKIP, why, severity=BY_ID[c].effective_severity(profiles)) for c in ids]
         else:
-            later[f] = run_load_checks(f, f, wanted_load, options.timeout, profiles)
             ids = [r.id for r in RULES if r.kind in kinds and r.id in chosen[f]]
-            if ids:
+            try:
+                later[f] = run_load_checks(f, f, wanted_load, options.timeout, profiles)
+            except Exception as e:   # e.g. lxml's XMLSyntaxError: this FMU's finding, the batch goes on (issue 45)
+                why = f"modelDescription.xml cannot be read: {type(e).__name__}: {' '.join(str(e).split())[:300]}"
+                first = next((c for c in ("load.libraries", "load3.libraries") if c in wanted_load),
+                             wanted_load[0] if wanted_load else None)
+                later[f] = [CheckResult(f, c, FAIL if c == first else SKIP,
+                                        why if c == first else f"precondition not met: {why}",
+                                        severity=BY_ID[c].effective_severity(profiles)) for c in wanted_load + ids]
+                if first is None and ids:
+                    later[f][0] = CheckResult(f, ids[0], FAIL, why, severity=BY_ID[ids[0]].effective_severity(profiles))
+                continue
+            unloadable = next((r for r in later[f] if r.check_id in ("load.libraries", "load3.libraries")
+                               and r.failed), None)
+            if unloadable is not None and ids:   # no FMI call can be made: one finding, under load
+                later[f] += [CheckResult(f, c, SKIP, f"{unloadable.check_id} did not pass: {unloadable.reason}",
+                                         severity=BY_ID[c].effective_severity(profiles)) for c in ids]
+            elif ids:
                 runnable.append((f, f, kinds, ids))
     if runnable:
         calls = run_lifecycle_checks_many(runnable, options)

@@ -4,10 +4,11 @@ Three modes::
 
     spurdiff check PATH.fmu [...] [--junit FILE]                   static + lifecycle checks
     spurdiff check --reference-results DIR PATH.fmu [...]          write cross-check references
-    spurdiff check --compare RESULT.csv --reference REF.csv        compare a result, per column
+    spurdiff check --compare RESULT.csv --reference REF.csv        compare a result by the cross-check rule
+    spurdiff check --cross-check DIR [--results OUT]               the FMI cross-check, verdicts filed in OUT
 
-Exit code: 1 when a rule of severity error failed (``--strict``: or a warning), 0 otherwise, 2 for
-a usage error (unknown option, missing file, bad input table, unknown rule). ``--profile spurdiff``
+Exit code: 1 when a rule of severity error failed (``--strict``: or a warning; ``--cross-check``: a
+verdict ``failed``), 0 otherwise, 2 for a usage error (unknown option, missing file, bad input table, unknown rule). ``--profile spurdiff``
 adds the project's own conventions (units, descriptions, ...) as errors. Rule selection as Python
 linters do it: ``--select``, ``--ignore``, ``--extend-select``, ``--per-fmu-ignore`` and
 ``[tool.spurdiff.check]`` in pyproject.toml (see :mod:`harness.check.selection`).
@@ -21,8 +22,8 @@ import sys
 from pathlib import Path
 from typing import Sequence
 
-from harness.check.compare import DEFAULT_RTOL, Tolerance, compare_checks
-from harness.check.crosscheck import CsvFormatError, read_cross_check_csv
+from harness.check.compare import DEFAULT_RTOL, Tolerance, compare_checks, opt_beside, suite_checks
+from harness.check.crosscheck import CsvFormatError, read_cross_check_csv, read_ref_opt
 from harness.check.lifecycle import LifecycleOptions
 from harness.check.reference import ReferenceUsageError, write_reference_results
 from harness.check.report import EXIT_USAGE, FAIL, CheckResult, exit_code, format_report, write_junit
@@ -81,11 +82,27 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--input", metavar="CSV",
                    help="input table for --reference-results (one FMU only; columns: time and inputs; "
                         "inputs left out stay at their start values)")
+    g.add_argument("--ref-opt", metavar="FILE",
+                   help="_ref.opt for --reference-results (StartTime, StopTime, StepSize, RelTol; default: the "
+                        "<Model>_ref.opt beside the FMU, else its DefaultExperiment) and for --compare (default: "
+                        "the _ref.opt beside REF.csv)")
+    g = ap.add_argument_group("cross-check (the FMI cross-check suite's layout and rule)")
+    g.add_argument("--cross-check", metavar="DIR",
+                   help="run every co-simulation FMU of DIR (<FMI version>/cs/<platform>/<Tool>/<version>/<Model>/) "
+                        "with its _ref.opt and _in.csv in each host, judge by the suite's rule, file passed / "
+                        "failed / rejected with the result CSV and a README under --results, print the verdicts")
+    g.add_argument("--results", metavar="OUT", default="xcheck-results",
+                   help="where --cross-check files its verdicts (default ./xcheck-results)")
+    g.add_argument("--hosts", metavar="HOSTS", default="fmpy,spurdiff",
+                   help="comma-separated hosts for --cross-check (default fmpy,spurdiff)")
     g = ap.add_argument_group("comparison")
     g.add_argument("--compare", metavar="RESULT.csv", help="an importer's result to compare with --reference")
+    g.add_argument("--rule", choices=("suite", "tube"), default=None,
+                   help="suite: the cross-check suite's band (default); tube: |error| <= atol + rtol |ref| at every "
+                        "reference sample (the default when --rtol, --atol or --tolerance is given)")
     g.add_argument("--reference", metavar="REF.csv", help="the reference CSV (e.g. DIR/<Model>/<Model>_ref.csv)")
-    g.add_argument("--rtol", type=float, default=DEFAULT_RTOL,
-                   help=f"relative tolerance for every column (default {DEFAULT_RTOL:g})")
+    g.add_argument("--rtol", type=float, default=None,
+                   help=f"relative tolerance of the tube for every column (default {DEFAULT_RTOL:g})")
     g.add_argument("--atol", type=float, default=None,
                    help="absolute tolerance for every column, in the column's unit "
                         "(default: rtol x the column's peak |reference|)")
@@ -140,6 +157,32 @@ def _list_rules() -> str:
     return "\n".join(lines)
 
 
+def _beside(fmu: str) -> dict[str, Path]:
+    """The cross-check files beside ``<Model>.fmu`` (``<Model>_ref.opt``, ``_in.csv``, ``_ref.csv``) that exist:
+    ``--reference-results`` then runs with the same options and inputs and writes the same columns."""
+    f = Path(fmu)
+    found = {k: f.with_name(f"{f.stem}_{k}") for k in ("ref.opt", "in.csv", "ref.csv")}
+    return {k: p for k, p in found.items() if p.is_file()}
+
+
+def _cross_check(args) -> int:
+    from harness.check.xcheck import HOSTS, find_models, run_cross_check, verdict_table
+    root = Path(args.cross_check)
+    if not root.is_dir():
+        raise UsageError(f"--cross-check {root}: not a folder")
+    hosts = _split([args.hosts])
+    unknown = [h for h in hosts if h not in HOSTS]
+    if not hosts or unknown:
+        raise UsageError(f"--hosts {args.hosts!r}: allowed {', '.join(HOSTS)}")
+    if not find_models(root):
+        raise UsageError(f"--cross-check {root}: no <Model>/<Model>.fmu in the layout "
+                         "<FMI version>/<type>/<platform>/<Tool>/<version>/<Model>/")
+    rows = run_cross_check(root, args.results, hosts, timeout=args.timeout * 10, jobs=args.jobs)
+    print(verdict_table(rows))
+    print(f"verdicts, result CSVs and READMEs: {Path(args.results).resolve()}")
+    return 1 if any(r.verdict == "failed" for r in rows) else 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``spurdiff check`` with ``argv`` (without the program name); returns the exit code."""
     parser = build_parser()
@@ -191,18 +234,33 @@ def main(argv: Sequence[str] | None = None) -> int:
             if args.fmus or args.reference_results:
                 raise UsageError("--compare takes no FMUs and no --reference-results")
             _existing_files([args.compare, args.reference], "file")
-            per_column = _parse_tolerances(args.tolerance, args.rtol, args.atol)
-            if args.rtol < 0 or (args.atol is not None and args.atol < 0):
+            tube = args.rule == "tube" or (args.rule is None and (args.rtol is not None or args.atol is not None
+                                                                  or bool(args.tolerance)))
+            if args.rule == "suite" and (args.rtol is not None or args.atol is not None or args.tolerance):
+                raise UsageError("--rtol, --atol and --tolerance belong to --rule tube")
+            rtol = DEFAULT_RTOL if args.rtol is None else args.rtol
+            per_column = _parse_tolerances(args.tolerance, rtol, args.atol)
+            if rtol < 0 or (args.atol is not None and args.atol < 0):
                 raise UsageError("--rtol and --atol must be >= 0")
+            if args.ref_opt is not None:
+                _existing_files([args.ref_opt], "--ref-opt")
             try:
                 read_cross_check_csv(args.reference)
+                opt = args.ref_opt or opt_beside(args.reference)
+                if opt is not None and not tube:
+                    read_ref_opt(opt)
             except CsvFormatError as e:
                 raise UsageError(f"--reference: {e}") from None
             try:
-                results = compare_checks(args.compare, args.reference, args.rtol, args.atol, per_column)
+                results = (compare_checks(args.compare, args.reference, rtol, args.atol, per_column) if tube
+                           else suite_checks(args.compare, args.reference, args.ref_opt))
             except CsvFormatError as e:
                 results = [CheckResult(args.compare, "compare.read", FAIL, str(e))]
             return _finish(results, args.junit, args.strict)
+        if args.cross_check:
+            if args.fmus or args.reference_results or args.input:
+                raise UsageError("--cross-check DIR takes no FMUs, --reference-results or --input")
+            return _cross_check(args)
         if not args.fmus:
             raise UsageError("no FMU given (spurdiff check PATH.fmu ...; -h for help)")
         fmus = _existing_files(args.fmus, "FMU")
@@ -211,11 +269,29 @@ def main(argv: Sequence[str] | None = None) -> int:
                 _existing_files([args.input], "input table")
                 if len(fmus) != 1:
                     raise UsageError("--input applies to exactly one FMU")
+            if args.ref_opt is not None:
+                _existing_files([args.ref_opt], "--ref-opt")
+                if len(fmus) != 1:
+                    raise UsageError("--ref-opt applies to exactly one FMU")
             results = []
             for f in fmus:
+                side = _beside(f)
+                opt = args.ref_opt or side.get("ref.opt")
+                inp = args.input or side.get("in.csv")
                 try:
-                    results.append(write_reference_results(f, args.reference_results, args.input,
-                                                           timeout=args.timeout * 10, subject=f))
+                    columns = read_cross_check_csv(side["ref.csv"])[0][1:] if "ref.csv" in side else None
+                except CsvFormatError as e:
+                    raise UsageError(f"{side['ref.csv']}: {e}") from None
+                if any((Path(args.reference_results) / Path(f).stem).resolve() == Path(x).resolve().parent
+                       for x in side.values()):
+                    raise UsageError(f"--reference-results {args.reference_results}: would overwrite the cross-check "
+                                     f"files beside {f}; choose another folder")
+                if side:
+                    print(f"{f}: with {', '.join(str(side[k]) if k in side and (k != 'ref.opt' or not args.ref_opt) else k + ' given' for k in side)}")
+                try:
+                    results.append(write_reference_results(f, args.reference_results, inp,
+                                                           timeout=args.timeout * 10, subject=f, ref_opt=opt,
+                                                           columns=columns))
                 except ReferenceUsageError as e:
                     raise UsageError(str(e)) from None
                 except Exception as e:  # unreadable model description

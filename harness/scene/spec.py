@@ -18,7 +18,8 @@ Top-level keys::
     inputs                        {"inst.var" = number | {table = [[t, v], ...]} | {step = {...}}}
     connections                   {"to_inst.var" = "from_inst.var"}
     couplings                     [[couplings]]: power bonds to monitor (name, torque, w_from, w_to)
-    record                        list of "inst.var" to record (default: every connected/profiled var)
+    record                        list of "inst.var" to record (default: every connected/profiled var;
+                                  each once; at most MAX_RECORD = 10,000 entries)
     table                         [[table]] rows of the results table (label, var, scale, unit, paper, theory, window;
                                   accuracy = false: a flag, not one of the quantities `spurdiff accuracy` compares)
     checks                        [[checks]] physical checks (name, stat, var, window, expect/rtol/atol/below/above,
@@ -57,6 +58,7 @@ from harness.scene.schema import MAX_STEPS, STEP_CAP
 from harness.scene.profiles import Profile, parse_profile
 
 SCENE_DIR = Path(__file__).resolve().parents[1] / "scenes"
+MAX_RECORD = 10_000   # entries of a scene's record list (a model has a few hundred variables)
 
 TOP_KEYS = {"name", "description", "duration", "step", "output_interval", "algorithm", "order", "effects",
             "fmus", "inputs", "connections", "couplings", "record", "table", "checks", "fidelity",
@@ -293,7 +295,11 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
         if "sign" in c:
             _number(f"{where}: couplings {shown(c['name'])}.sign", c["sign"])
         couplings.append(dict(c))
-    record = list(_strings(f"{where}: record", data.get("record", [])))
+    raw = data.get("record", [])
+    if isinstance(raw, list) and len(raw) > MAX_RECORD:
+        raise SceneError(f"{where}: record has {len(raw):,} entries; allowed: at most {MAX_RECORD:,} (each a variable "
+                         f"'instance.variable', recorded once)")
+    record = list(dict.fromkeys(_strings(f"{where}: record", raw)))   # each once, in order
     for r in record:
         _split(f"{where}: record", r, names)
     needed: list[str] = []
@@ -350,9 +356,7 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
                                     and all(f in ("rigid", "compliant", "contact") for f in c["fidelity"])):
             raise SceneError(f"{at}.fidelity = {shown(c['fidelity'])}; allowed: a list of rigid, compliant, contact")
         checks.append(dict(c))
-    for r in needed:
-        if r not in record:
-            record.append(r)
+    record = list(dict.fromkeys(record + needed))
     effects = dict(_table_of(f"{where}: effects", data.get("effects", {})))
     fidelity = data.get("fidelity", {})
     if isinstance(fidelity, str):

@@ -7,7 +7,6 @@ import hashlib
 import io
 import os
 import socket
-import tempfile
 import threading
 import time
 import zipfile
@@ -25,18 +24,23 @@ def _sha256(path: Path) -> str:
 
 
 def snapshot(name: str, data: bytes, digest: str | None = None) -> Path:
-    """The FMU ``data`` as a file named by its sha256 in a local cache directory (written once, atomically).
+    """The FMU ``data`` as a file named by its sha256 in the user's private cache (written once,
+    atomically; see :mod:`harness.common.private_dir`: the folder 0700, owner and mode checked; a file
+    found there is used only when its own sha256 is the digest, whatever its size).
 
     A sweep runs from such snapshots, never from ``build/fmus``: a rebuild during a sweep cannot
     change or truncate the file its runs load."""
+    from harness.common.private_dir import PrivatePlaceError, cache_dir, verified_file, write_private
     digest = digest or hashlib.sha256(data).hexdigest()
-    d = Path(tempfile.gettempdir()) / "spurdiff-sweep-fmus" / digest
+    if hashlib.sha256(data).hexdigest() != digest:
+        raise SceneError(f"{name}: the FMU bytes do not match their digest {digest[:16]}")
+    try:
+        d = cache_dir(f"sweep-fmus/{digest}")
+    except PrivatePlaceError as e:
+        raise SceneError(str(e)) from None
     p = d / f"{name}.fmu"
-    if not (p.is_file() and p.stat().st_size == len(data)):
-        d.mkdir(parents=True, exist_ok=True)
-        tmp = d / f".{name}.{os.getpid()}.{threading.get_ident()}.tmp"
-        tmp.write_bytes(data)
-        os.replace(tmp, p)
+    if not verified_file(p, digest):
+        write_private(p, data)
     return p
 
 

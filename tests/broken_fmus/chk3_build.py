@@ -1,91 +1,117 @@
-"""Broken FMI 3.0 FMUs for the compliance kit's tests, made from the FMI 3.0 Reference FMUs
-(../shared/hosts/reference-fmus-3, see its README):
+"""Building the compliance kit's FMI 3.0 test FMUs, once: Chk3C (chk3c.c, co-simulation and model exchange),
+compiled with gcc against the FMI 3.0 headers fmpy ships, cached under build/test-fmus/ by a hash of its
+sources (:func:`chk_build._cached`), the FMI 3.0 counterpart of ChkC:
 
-* :func:`static_variant`: the Reference FMU with its modelDescription.xml edited (text replaced, each edit
-  must match exactly once), for the ``static3`` rules;
-* :func:`shim_variant`: the Reference FMU whose binary is wrapped by ``chk3_shim.c`` built with one
-  ``BREAK_x`` (gcc), for the ``cs3`` / ``me3`` rules.
+* :func:`chk3c_fmu`: Chk3C plainly or with one ``BREAK_*`` macro of chk3c.c (the call-sequence rules), its
+  modelDescription.xml optionally edited;
+* :func:`static_variant`: Chk3C with its modelDescription.xml edited (each edit must match exactly once),
+  members left out or added, for the ``static3`` rules.
 
-Both write into a folder the caller gives (the tests use a pytest tmp folder shared by the module).
+Nothing here comes from the Reference FMUs: the model, its description and its breakages are ours.
 """
 from __future__ import annotations
 
 import re
-import shutil
 import subprocess
 import zipfile
 from pathlib import Path
 
+from chk_build import _cached, _digest
+
 HERE = Path(__file__).resolve().parent
-REF3 = HERE.parents[2] / "shared" / "hosts" / "reference-fmus-3"
+TOKEN = "{c0ffee00-5b0d-4c1e-9a1e-000000000003}"
+XML = f"""<?xml version="1.0" encoding="UTF-8"?>
+<fmiModelDescription fmiVersion="3.0" modelName="Chk3C" instantiationToken="{TOKEN}"
+  description="x' = k u, y = k u (compliance-kit test FMU in C, FMI 3.0)" generationTool="tests/broken_fmus/chk3_build.py"
+  variableNamingConvention="structured">
+  <ModelExchange modelIdentifier="Chk3C" canGetAndSetFMUState="true" canSerializeFMUState="true"
+    providesDirectionalDerivatives="true"/>
+  <CoSimulation modelIdentifier="Chk3C" canHandleVariableCommunicationStepSize="true" canGetAndSetFMUState="true"
+    canSerializeFMUState="true" providesDirectionalDerivatives="true" maxOutputDerivativeOrder="1"
+    mightReturnEarlyFromDoStep="true" hasEventMode="true" providesIntermediateUpdate="true"/>
+  <UnitDefinitions>
+    <Unit name="1"/>
+    <Unit name="s"><BaseUnit s="1"/></Unit>
+    <Unit name="N.m"><BaseUnit kg="1" m="2" s="-2"/></Unit>
+    <Unit name="N.m.s"><BaseUnit kg="1" m="2" s="-1"/></Unit>
+  </UnitDefinitions>
+  <LogCategories>
+    <Category name="logEvents" description="events"/>
+    <Category name="logStatusError" description="errors"/>
+  </LogCategories>
+  <DefaultExperiment startTime="0" stopTime="1" stepSize="0.01"/>
+  <ModelVariables>
+    <Float64 name="time" valueReference="0" description="time" causality="independent" variability="continuous" unit="s"/>
+    <Float64 name="u" valueReference="1" description="input" causality="input" variability="continuous" start="1" unit="N.m"/>
+    <Float64 name="k" valueReference="2" description="gain" causality="parameter" variability="fixed" start="2" unit="1"/>
+    <Float64 name="x" valueReference="3" description="integral of k u" causality="output" variability="continuous" initial="exact" start="0" unit="N.m.s"/>
+    <Float64 name="y" valueReference="4" description="k u" causality="output" variability="continuous" initial="calculated" unit="N.m"/>
+    <Float64 name="der(x)" valueReference="5" description="derivative of x" causality="local" variability="continuous" initial="calculated" derivative="3" unit="N.m"/>
+    <UInt64 name="n" valueReference="6" description="internal substeps per doStep" causality="structuralParameter" variability="fixed" start="1"/>
+  </ModelVariables>
+  <ModelStructure>
+    <Output valueReference="3"/>
+    <Output valueReference="4" dependencies="1" dependenciesKind="dependent"/>
+    <ContinuousStateDerivative valueReference="5" dependencies="1" dependenciesKind="dependent"/>
+    <InitialUnknown valueReference="4" dependencies="1 2" dependenciesKind="dependent dependent"/>
+    <InitialUnknown valueReference="5" dependencies="1 2" dependenciesKind="dependent dependent"/>
+  </ModelStructure>
+</fmiModelDescription>
+"""
 
 
-def reference(name: str) -> Path:
-    return REF3 / f"{name}.fmu"
-
-
-def _rewrite(src: Path, dest: Path, md: bytes | None = None, drop: tuple[str, ...] = (),
-             add: dict[str, bytes] | None = None, replace: dict[str, bytes] | None = None) -> Path:
-    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(dest, "w", zipfile.ZIP_DEFLATED) as zout:
-        for info in zin.infolist():
-            if info.filename.startswith(drop) and drop:
-                continue
-            data = zin.read(info.filename)
-            if info.filename == "modelDescription.xml" and md is not None:
-                data = md
-            if replace and info.filename in replace:
-                data = replace[info.filename]
-            zout.writestr(info, data)
-        for name, data in (add or {}).items():
-            zout.writestr(name, data)
-    return dest
-
-
-def static_variant(name: str, base: str, edits: list[tuple[str, str]], out: Path, drop: tuple[str, ...] = (),
-                   add: dict[str, bytes] | None = None) -> Path:
-    """``base`` Reference FMU with ``edits`` (old, new) applied to modelDescription.xml, members starting with
-    ``drop`` left out and ``add`` members added, written as ``out/name.fmu``."""
-    with zipfile.ZipFile(reference(base)) as z:
-        text = z.read("modelDescription.xml").decode("utf-8")
-    for old, new in edits:
+def _edited(name: str, edits: list[tuple[str, str]] | None) -> str:
+    text = XML
+    for old, new in edits or []:
         n = len(re.findall(re.escape(old), text))
         if n != 1:
-            raise ValueError(f"{name}: edit {old!r} matches {n} times in {base}'s modelDescription.xml")
+            raise ValueError(f"{name}: edit {old!r} matches {n} times in Chk3C's modelDescription.xml")
         text = text.replace(old, new)
-    return _rewrite(reference(base), out / f"{name}.fmu", text.encode("utf-8"), drop, add)
+    return text
 
 
-def shim_variant(name: str, base: str, breaks: str, out: Path, defines: dict[str, str] | None = None,
-                 edits: list[tuple[str, str]] | None = None) -> Path:
-    """``base`` Reference FMU whose binary is wrapped by chk3_shim.c built with ``-DBREAK_<breaks>``, its
-    modelDescription.xml with ``edits`` (old, new) applied (each must match once)."""
-    from fmpy import platform_tuple, read_model_description
-    work = out / f"{name}.build"
-    shutil.rmtree(work, ignore_errors=True)
-    work.mkdir(parents=True)
-    md = read_model_description(str(reference(base)), validate=False)
-    mid = (md.coSimulation or md.modelExchange).modelIdentifier
-    member = f"binaries/{platform_tuple}/{mid}.so"
-    with zipfile.ZipFile(reference(base)) as z:
-        so = z.read(member)
-    soname = f"{mid}.so".encode()
-    renamed = (mid[:-1] + ("_" if mid[-1] != "_" else "Z") + ".so")   # same length: the SONAME is patched in place
-    if so.count(soname + b"\0") != 1:
-        raise ValueError(f"{base}: SONAME {soname!r} not found once in {member}")
-    (work / renamed).write_bytes(so.replace(soname + b"\0", renamed.encode() + b"\0"))
-    flags = [f"-DBREAK_{breaks}", f'-DORIG_LIB="{renamed}"', f'-DTOKEN="{md.guid}"']
-    flags += [f"-D{k}={v}" for k, v in (defines or {}).items()]
-    shim = work / f"{mid}.so"
-    subprocess.run(["gcc", "-shared", "-fPIC", "-O1", *flags, "-o", str(shim), str(HERE / "chk3_shim.c"),
-                    f"-L{work}", "-Wl,--no-as-needed", f"-l:{renamed}", "-Wl,-rpath,$ORIGIN", "-ldl"], check=True, capture_output=True)
-    md_text = None
-    if edits:
-        with zipfile.ZipFile(reference(base)) as z:
-            text = z.read("modelDescription.xml").decode("utf-8")
-        for old, new in edits:
-            if len(re.findall(re.escape(old), text)) != 1:
-                raise ValueError(f"{name}: edit {old!r} does not match once in {base}'s modelDescription.xml")
-            text = text.replace(old, new)
-        md_text = text.encode("utf-8")
-    return _rewrite(reference(base), out / f"{name}.fmu", md_text, replace={member: shim.read_bytes()},
-                    add={f"binaries/{platform_tuple}/{renamed}": (work / renamed).read_bytes()})
+def chk3c_fmu(name: str, breaks: str | None = None, edits: list[tuple[str, str]] | None = None,
+              drop: tuple[str, ...] = (), add: dict[str, bytes] | None = None) -> Path:
+    """Chk3C built with ``-DBREAK_<breaks>`` (None: the well-behaved one), its modelDescription.xml with ``edits``
+    (old, new) applied, members starting with ``drop`` left out and ``add`` added, as ``<name>.fmu`` (gcc; raises
+    FileNotFoundError without it). ``breaks="LIBM"`` links without -lm (libm not declared); ``breaks="MISSING_LIB"``
+    declares a library (libchk3missing.so) that is packed nowhere."""
+    import fmpy
+    from fmpy import platform_tuple
+    src = HERE / "chk3c.c"
+    xml = _edited(name, edits)
+    key = _digest("chk3c", src.read_bytes(), xml, breaks, drop, sorted((add or {}).items()), Path(__file__).read_bytes())
+
+    def make(tmp: Path) -> Path:
+        binary = tmp / "Chk3C.so"
+        include = Path(fmpy.__file__).parent / "c-code"
+        cmd = ["gcc", "-shared", "-fPIC", "-O1", "-std=c99", "-Wall", f"-I{include}", "-o", str(binary), str(src)]
+        if breaks == "LIBM":
+            cmd[1:1] = ["-fno-builtin", "-Wl,--no-as-needed"]
+        else:
+            cmd.append("-lm")
+        if breaks == "MISSING_LIB":   # a library the binary declares (DT_NEEDED) and the FMU does not carry
+            (tmp / "missing.c").write_text("int chk3_missing(void) { return 0; }\n")
+            subprocess.run(["gcc", "-shared", "-fPIC", "-o", str(tmp / "libchk3missing.so"), str(tmp / "missing.c")],
+                           check=True, capture_output=True)
+            cmd += ["-Wl,--no-as-needed", f"-L{tmp}", "-lchk3missing"]
+        elif breaks:
+            cmd.insert(1, f"-DBREAK_{breaks}")
+        subprocess.run(cmd, check=True, capture_output=True)
+        out = tmp / f"{name}.fmu"
+        with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as z:
+            z.writestr("modelDescription.xml", xml)
+            member = f"binaries/{platform_tuple}/Chk3C.so"
+            if not member.startswith(drop) or not drop:
+                z.write(binary, member)
+            for arcname, data in (add or {}).items():
+                z.writestr(arcname, data)
+        return out
+
+    return _cached(key, name, make)
+
+
+def static_variant(name: str, edits: list[tuple[str, str]], drop: tuple[str, ...] = (),
+                   add: dict[str, bytes] | None = None) -> Path:
+    """The well-behaved Chk3C with its modelDescription.xml edited, for the static rules."""
+    return chk3c_fmu(name, None, edits, drop, add)

@@ -82,6 +82,8 @@ CHKC_VARIANTS = {
     "ChkCTerminatedGet": "BREAK_TERMINATED_GET",
     "ChkCStopTime": "BREAK_STOP_TIME",
     "ChkCDiscardAtStop": "DISCARD_AT_STOP",
+    "ChkCWarnAtStop": "WARN_AT_STOP",
+    "ChkCStrictInputs": "STRICT_INPUTS",
     "ChkCStatus": "BREAK_STATUS",
     "ChkCFreeState": "BREAK_FREE_STATE",
     "ChkCInterpolate": "BREAK_INTERPOLATE",

@@ -14,6 +14,10 @@
    BREAK_TERMINATED_GET fmi2GetReal refused after fmi2Terminate
    BREAK_STOP_TIME     a doStep past the defined stop time is accepted
    DISCARD_AT_STOP     a doStep past the stop time is refused with fmi2Discard (status calls answer)
+   WARN_AT_STOP        a doStep past the stop time returns fmi2Warning (not a refusal: 2.1.6 wants fmi2Error)
+   STRICT_INPUTS       not broken: the input u refused before fmi2EnterInitializationMode, as FMI 2.0 allows
+                       (2.1.6: before it only variables with initial exact or approx can be set; an input has no
+                       initial), like Test-FMUs 0.0.1 Feedthrough
    BREAK_STATUS        like DISCARD_AT_STOP, but fmi2GetRealStatus(fmi2LastSuccessfulTime) fails
    BREAK_FREE_STATE    fmi2FreeFMUstate leaves the pointer as it was (not NULL)
    BREAK_INTERPOLATE   fmi2SetRealInputDerivatives refused although canInterpolateInputs
@@ -216,6 +220,9 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
     Inst *m = (Inst *)c;
     size_t i;
     for (i = 0; i < n; i++) {
+#ifdef STRICT_INPUTS
+        if (vr[i] == VR_U && m->state == INSTANTIATED) return refuse(m, "fmi2SetReal (an input before initialization)");
+#endif
         if (vr[i] == VR_U) m->u = v[i];
         else if (vr[i] == VR_K && (m->state == INSTANTIATED || m->state == INITIALIZATION)) m->k = v[i];
         else if (vr[i] == VR_X && (m->state == INSTANTIATED || m->state == INITIALIZATION)) m->x = v[i];
@@ -338,6 +345,8 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noPri
         logmsg(m, fmi2Error, "logStatusError", "a step to %g passes the stop time %g", t + h, m->stop);
 #if defined(DISCARD_AT_STOP) || defined(BREAK_STATUS)
         return fmi2Discard;
+#elif defined(WARN_AT_STOP)
+        return fmi2Warning;
 #else
         return fmi2Error;
 #endif

@@ -361,7 +361,7 @@ def test_compare_detects_a_perturbed_column(reference_dir, tmp_path, capsys):
     result = {c.name: c for c in compare_results(bad, ref)}
     assert not result["x"].passed and result["x"].samples_outside == 1
     assert result["y"].passed
-    assert main(["--compare", str(bad), "--reference", str(ref), "--junit", str(tmp_path / "cmp.xml")]) == 1
+    assert main(["--compare", str(bad), "--reference", str(ref), "--rule", "tube", "--junit", str(tmp_path / "cmp.xml")]) == 1
     out = capsys.readouterr().out
     assert f"ERROR  {bad}  compare.x  1 of 11 samples outside" in out and "t = 0.05 s" in out
     assert ET.parse(tmp_path / "cmp.xml").getroot().get("failures") == "1"

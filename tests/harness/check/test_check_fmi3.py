@@ -1,7 +1,8 @@
-"""Issue 28 item 4: the compliance kit on FMI 3.0 FMUs. The FMI 3.0 Reference FMUs pass (0 errors), and every
-FMI 3.0 rule catches a broken FMU of its own, made from a Reference FMU (tests/broken_fmus/chk3_build.py):
-an edited modelDescription.xml for the static rules, a shim around the binary (chk3_shim.c) for the call
-sequences. The FMUs are built once per module; skipped, with the reason, without the Reference FMUs or gcc.
+"""The compliance kit on FMI 3.0 FMUs of our own (issue 43 item 5, issue 46 item 5): Chk3C (tests/broken_fmus/chk3c.c,
+co-simulation and model exchange) gives 0 errors, and every FMI 3.0 rule catches a broken FMU of its own: Chk3C
+with its modelDescription.xml edited for the static rules, built with one BREAK_* macro of chk3c.c for the call
+sequences (tests/broken_fmus/chk3_build.py). Built once (cached by their sources); skipped, with the reason,
+without gcc. No Reference FMU is used.
 """
 from __future__ import annotations
 
@@ -16,148 +17,169 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "broken_fmus"))
 import chk3_build  # noqa: E402
 
 from harness.check import LifecycleOptions, run_lifecycle_checks_many, run_static_checks  # noqa: E402
-from harness.check.rules import BY_ID, rules  # noqa: E402
+from harness.check.rules import BY_ID, RULES3, rules  # noqa: E402
 from harness.cli.check import main  # noqa: E402
 
-pytestmark = pytest.mark.skipif(not chk3_build.reference("BouncingBall").is_file(),
-                                reason=f"{chk3_build.REF3} is absent")
-needs_gcc = pytest.mark.skipif(shutil.which("gcc") is None, reason="no C compiler (gcc) to build the FMI 3.0 shims")
-REFERENCE = ["BouncingBall", "Clocks", "Dahlquist", "Feedthrough", "Resource", "Stair", "StateSpace", "VanDerPol"]
+pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="no C compiler (gcc) to build Chk3C")
 
-# broken FMU -> (base, modelDescription edits, the static rule it breaks, its severity)
+# broken FMU -> (modelDescription edits, the static rule it breaks, its severity)
 STATIC = {
-    "Chk3FmiVersion": ("BouncingBall", [('fmiVersion="3.0"', 'fmiVersion="3"')], "static3.fmi3", "error"),
-    "Chk3Schema": ("BouncingBall", [('<Float64 name="g" ', '<Float64 name="g" gravity="yes" ')], "static3.schema",
-                   "error"),
-    "Chk3Variables": ("Feedthrough", [('<Int32 name="Int32_input" valueReference="19" causality="input"',
-                                       '<Int32 name="Int32_input" valueReference="19" causality="input" '
-                                       'variability="continuous"')], "static3.variables", "error"),
-    "Chk3Causality": ("BouncingBall", [('causality="parameter" variability="fixed"',
-                                        'causality="parameter" variability="continuous"')],
+    "Chk3FmiVersion": ([('fmiVersion="3.0"', 'fmiVersion="3"')], "static3.fmi3", "error"),
+    "Chk3Schema": ([('<Float64 name="k" ', '<Float64 name="k" gravity="yes" ')], "static3.schema", "error"),
+    "Chk3Variables": ([('  </ModelVariables>', '    <Int32 name="m" valueReference="7" description="an integer" '
+                        'causality="input" variability="continuous" start="0"/>\n  </ModelVariables>')],
+                      "static3.variables", "error"),
+    "Chk3Causality": ([('causality="parameter" variability="fixed" start="2"',
+                        'causality="parameter" variability="continuous" start="2"')],
                       "static3.causality-variability", "error"),
-    "Chk3Initial": ("BouncingBall", [('<Float64 name="der(h)" valueReference="2"',
-                                      '<Float64 name="der(h)" valueReference="2" start="0"')], "static3.initial",
-                    "error"),
-    "Chk3Units": ("BouncingBall", [('quantity="Velocity" unit="m/s"', 'quantity="Velocity" unit="km/h"')],
-                  "static3.units", "error"),
-    "Chk3Outputs": ("BouncingBall", [('<Output valueReference="3" dependencies=""/>', '')], "static3.outputs",
-                    "error"),
-    "Chk3InitialUnknowns": ("BouncingBall", [('<InitialUnknown valueReference="4" dependencies="5" '
-                                              'dependenciesKind="constant"/>', '')], "static3.initial-unknowns",
-                            "error"),
-    "Chk3Dimensions": ("StateSpace", [('<UInt64 name="r" valueReference="3" description="Number of outputs" '
-                                       'causality="structuralParameter" variability="tunable" start="3"',
-                                       '<UInt64 name="r" valueReference="3" description="Number of outputs" '
-                                       'causality="structuralParameter" variability="tunable" start="0"')],
-                       "static3.dimensions", "error"),
-    "Chk3StartRange": ("BouncingBall", [('start="0.7" min="0.5"', 'start="0.2" min="0.5"')], "static3.start-range",
-                       "warning"),
-    "Chk3Binary": ("BouncingBall", [], "static3.binary", "warning"),
-    "Chk3Archive": ("BouncingBall", [], "static3.archive", "error"),
+    "Chk3Initial": ([('initial="calculated" derivative="3"', 'initial="calculated" start="0" derivative="3"')],
+                    "static3.initial", "error"),
+    "Chk3Units": ([('start="1" unit="N.m"', 'start="1" unit="km/h"')], "static3.units", "error"),
+    "Chk3Outputs": ([('    <Output valueReference="3"/>\n', '')], "static3.outputs", "error"),
+    "Chk3InitialUnknowns": ([('    <InitialUnknown valueReference="5" dependencies="1 2" dependenciesKind="dependent '
+                              'dependent"/>\n', '')], "static3.initial-unknowns", "error"),
+    "Chk3Dimensions": ([('  </ModelVariables>', '    <Float64 name="a" valueReference="8" description="an array" '
+                         'causality="local" variability="continuous" initial="calculated"><Dimension '
+                         'valueReference="2"/></Float64>\n  </ModelVariables>')], "static3.dimensions", "error"),
+    "Chk3StartRange": ([('start="2" unit="1"', 'start="2" min="2.5" unit="1"')], "static3.start-range", "warning"),
+    "Chk3Binary": ([], "static3.binary", "warning"),
+    "Chk3Archive": ([], "static3.archive", "error"),
 }
-# broken FMU -> (BREAK_x of chk3_shim.c, {rule: severity of the expected failure})
-SHIM = {
+# broken FMU -> (BREAK_x of chk3c.c, {rule: severity of the expected failure})
+BROKEN = {
     "Chk3CBasic": ("BASIC", {"cs3.basic": "error"}),
     "Chk3CVersion": ("VERSION", {"cs3.version": "error"}),
     "Chk3CToken": ("TOKEN", {"cs3.instantiation-token": "warning", "me3.instantiation-token": "warning"}),
+    "Chk3CLogger": ("LOGGER", {"cs3.logger": "error"}),
+    "Chk3CDebugLogging": ("DEBUG_LOGGING", {"cs3.debug-logging": "error"}),
     "Chk3CInitGet": ("INIT_GET", {"cs3.initial-unknowns": "error"}),
     "Chk3CStopTime": ("STOP_TIME", {"cs3.stop-time": "error"}),
     "Chk3CTerminatedGet": ("TERMINATED_GET", {"cs3.get-after-terminate": "error"}),
     "Chk3CReset": ("RESET", {"cs3.reset": "error"}),
+    "Chk3CSharedGlobal": ("SHARED_GLOBAL", {"cs3.two-instances": "error"}),
     "Chk3CStateNoop": ("STATE_NOOP", {"cs3.get-set-state": "error"}),
+    "Chk3CFreeState": ("FREE_STATE", {"cs3.free-state": "error"}),
+    "Chk3CSerialize": ("SERIALIZE", {"cs3.serialize-state": "error"}),
+    "Chk3CVariableStep": ("VARIABLE_STEP", {"cs3.variable-step": "error"}),
+    "Chk3COwnClock": ("CLOCK", {"cs3.clock": "warning"}),   # 4.2.1 allows lastSuccessfulTime to deviate
+    "Chk3CDirDer": ("DIRDER", {"cs3.directional-derivative": "error"}),
+    "Chk3CJacobian": ("JACOBIAN", {"me3.directional-derivative": "error"}),
     "Chk3CEarlyStep": ("EARLY_STEP", {"cs3.step-before-init": "warning"}),
     "Chk3CZeroStep": ("ZERO_STEP", {"cs3.zero-step-size": "error"}),
     "Chk3CLateStep": ("LATE_STEP", {"cs3.default-experiment": "warning"}),
     "Chk3CModelExchange": ("ME", {"me3.basic": "error"}),
-    "Chk3CDerivOrder": ("DERIV_ORDER", {"cs3.output-derivative-orders": "error"}),
+    "Chk3CStaleOutput": ("STALE_Y", {"me3.stale-outputs": "error"}),
+    "Chk3CDerivOrder": ("DERIV_ORDER", {"cs3.output-derivative-orders": "warning"}),
     "Chk3CDerivNaN": ("DERIV_NAN", {"cs3.output-derivatives": "warning"}),
     "Chk3CEarlyAnyway": ("EARLY_ANYWAY", {"cs3.early-return-not-allowed": "error"}),
     "Chk3CEarlyTime": ("EARLY_TIME", {"cs3.early-return-time": "error"}),
+    "Chk3CEventMode": ("EVENT_MODE", {"cs3.event-mode": "error"}),
+    "Chk3CIntermediate": ("INTERMEDIATE", {"cs3.intermediate-update": "error"}),
+    "Chk3CConfiguration": ("CONFIGURATION", {"cs3.configuration-mode": "error"}),
 }
-# shims whose modelDescription.xml is edited too: BouncingBall declares output derivatives
-SHIM_EDITS = {n: [('mightReturnEarlyFromDoStep="true"', 'mightReturnEarlyFromDoStep="true"\n    '
-                   'maxOutputDerivativeOrder="1"')] for n in ("Chk3CDerivOrder", "Chk3CDerivNaN")}
+# broken FMU -> (how chk3_build links it, {load rule: severity of the expected failure})
+LOAD = {
+    "Chk3CNoLibm": ("LIBM", {"load3.needed-libraries": "warning"}),
+    # a library found nowhere also leaves the symbols it would define undefined
+    "Chk3CMissingLib": ("MISSING_LIB", {"load3.libraries": "warning", "load3.needed-libraries": "warning"}),
+}
 
 
 @pytest.fixture(scope="module")
-def static_fmus(tmp_path_factory):
-    out = tmp_path_factory.mktemp("fmi3-static")
+def static_fmus():
     made = {}
-    for name, (base, edits, _, _) in STATIC.items():
+    for name, (edits, _, _) in STATIC.items():
         drop = ("binaries/",) if name == "Chk3Binary" else ()
         add = {"../outside.txt": b"x"} if name == "Chk3Archive" else None
-        made[name] = chk3_build.static_variant(name, base, edits, out, drop=drop, add=add)
+        made[name] = chk3_build.static_variant(name, edits, drop=drop, add=add)
     return made
 
 
 @pytest.fixture(scope="module")
-def shim_results(tmp_path_factory):
-    """Every shim FMU through the rules it breaks and the gates, once, two processes at a time."""
-    if shutil.which("gcc") is None:
-        pytest.skip("no C compiler (gcc) to build the FMI 3.0 shims")
-    out = tmp_path_factory.mktemp("fmi3-shim")
+def broken_results():
+    """Every broken Chk3C through the rules it breaks and the gates, once, two processes at a time."""
     jobs = []
-    for name, (breaks, expected) in SHIM.items():
-        path = chk3_build.shim_variant(name, "BouncingBall", breaks, out, defines={"LATE_T": "1.5"},
-                                       edits=SHIM_EDITS.get(name))
+    for name, (breaks, expected) in BROKEN.items():
         ids = set(expected) | {"cs3.basic"} | ({"me3.basic"} if any(r.startswith("me3") for r in expected) else set())
-        jobs.append((path, name, sorted({r.split(".")[0] for r in ids}), ids))
+        jobs.append((chk3_build.chk3c_fmu(name, breaks), name, sorted({r.split(".")[0] for r in ids}), ids))
     return run_lifecycle_checks_many(jobs, LifecycleOptions(timeout=60.0, jobs=2))
 
 
-@pytest.mark.parametrize("name", REFERENCE)
-def test_reference_fmus_pass_every_static_rule(name):
-    results = run_static_checks(chk3_build.reference(name))
-    assert [r.check_id for r in results] == [r.id for r in rules("static3")]
-    assert [(r.check_id, r.reason) for r in results if r.failed] == []
+def test_chk3c_passes_every_rule_with_no_error():
+    """The well-behaved Chk3C: every static3, cs3 and me3 rule passes, none is skipped but those whose feature it
+    lacks (arrays, min/max)."""
+    fmu = chk3_build.chk3c_fmu("Chk3C")
+    static = run_static_checks(fmu)
+    assert [r.check_id for r in static] == [r.id for r in rules("static3")]
+    assert [(r.check_id, r.reason) for r in static if r.failed] == []
+    res = run_lifecycle_checks_many([(fmu, "Chk3C", ["cs3", "me3"])], LifecycleOptions(timeout=60.0, jobs=2))["Chk3C"]
+    assert [r.check_id for r in res] == [r.id for r in rules("cs3") + rules("me3")]
+    assert [(r.check_id, r.reason) for r in res if r.failed] == []
+    skipped = {r.check_id for r in static + res if r.status == "SKIP"}
+    assert skipped == {"static3.dimensions", "static3.start-range"}, skipped
 
 
-def test_reference_fmus_pass_the_call_sequences():
-    """BouncingBall (events, FMU state, model exchange) and StateSpace (arrays sized by structural parameters):
-    every cs3 and me3 rule passes or is skipped (all eight Reference FMUs: docs/compliance.md)."""
-    fmus = [(chk3_build.reference(n), n, ["cs3", "me3"]) for n in ("BouncingBall", "StateSpace")]
-    res = run_lifecycle_checks_many(fmus, LifecycleOptions(timeout=60.0, jobs=2))
-    for name, results in res.items():
-        assert [r.check_id for r in results] == [r.id for r in rules("cs3") + rules("me3")]
-        assert [(r.check_id, r.reason) for r in results if r.failed] == [], name
-    assert "1 outputs (3 values) read" in {r.check_id: r for r in res["StateSpace"]}["cs3.basic"].reason  # y[3]
+def test_every_fmi3_rule_has_a_broken_fmu():
+    caught = {r for _, rule, _ in STATIC.values() for r in [rule]} | {r for _, exp in BROKEN.values() for r in exp}
+    caught |= {r for _, exp in LOAD.values() for r in exp}
+    assert {r.id for r in RULES3} - caught == set()
 
 
 @pytest.mark.parametrize("name", list(STATIC))
 def test_broken_static_fmu_fails_exactly_its_rule(static_fmus, name):
-    _, _, rule, severity = STATIC[name]
+    _, rule, severity = STATIC[name]
     results = run_static_checks(static_fmus[name])
     failed = {r.check_id: r.severity for r in results if r.failed}
     assert failed == {rule: severity}, [(r.check_id, r.reason) for r in results if r.failed]
 
 
-@pytest.mark.parametrize("name", list(SHIM))
-def test_broken_call_sequence_fails_exactly_its_rule(shim_results, name):
-    results = shim_results[name]
+@pytest.mark.parametrize("name", list(BROKEN))
+def test_broken_call_sequence_fails_exactly_its_rule(broken_results, name):
+    results = broken_results[name]
     failed = {r.check_id: r.severity for r in results if r.failed}
-    assert failed == SHIM[name][1], [(r.check_id, r.label, r.reason) for r in results]
+    assert failed == BROKEN[name][1], [(r.check_id, r.label, r.reason) for r in results]
 
 
-def test_broken_fmu_reasons(static_fmus, shim_results):
+@pytest.mark.parametrize("name", list(LOAD))
+def test_broken_binary_fails_exactly_its_load_rule(name):
+    from harness.check.native import run_load_checks
+    breaks, expected = LOAD[name]
+    results = run_load_checks(chk3_build.chk3c_fmu(name, breaks), name, ["load3.libraries", "load3.needed-libraries"],
+                              60.0)
+    assert {r.check_id: r.severity for r in results if r.failed} == expected, [(r.check_id, r.reason) for r in results]
+
+
+def test_broken_fmu_reasons(static_fmus, broken_results):
     def static(name, rule):
         return {r.check_id: r for r in run_static_checks(static_fmus[name])}[rule].reason
 
     def calls(name, rule):
-        return {r.check_id: r for r in shim_results[name]}[rule].reason
-    assert 'g: causality="parameter" with variability="continuous"' in static("Chk3Causality",
+        return {r.check_id: r for r in broken_results[name]}[rule].reason
+    assert 'k: causality="parameter" with variability="continuous"' in static("Chk3Causality",
                                                                               "static3.causality-variability")
-    assert 'der(h): initial="calculated" but a start value (0)' in static("Chk3Initial", "static3.initial")
+    assert 'der(x): initial="calculated" but a start value (0)' in static("Chk3Initial", "static3.initial")
     assert "unit 'km/h' is not defined under UnitDefinitions" in static("Chk3Units", "static3.units")
-    assert "output v is not listed under ModelStructure/Output" in static("Chk3Outputs", "static3.outputs")
-    assert "der(v) (state derivative" in static("Chk3InitialUnknowns", "static3.initial-unknowns")
-    assert "initial dimension size 0 (must be positive)" in static("Chk3Dimensions", "static3.dimensions")
-    assert "e start = 0.2 < min = 0.5" in static("Chk3StartRange", "static3.start-range")
+    assert "output x is not listed under ModelStructure/Output" in static("Chk3Outputs", "static3.outputs")
+    assert "der(x) (state derivative" in static("Chk3InitialUnknowns", "static3.initial-unknowns")
+    assert "k start = 2 < min = 2.5" in static("Chk3StartRange", "static3.start-range")
     assert 'a Int32 with variability="continuous"' in static("Chk3Variables", "static3.variables")
     assert "fmi3GetVersion returned b'2.0'" in calls("Chk3CVersion", "cs3.version")
     assert "returned fmi3OK: the FMU has to return fmi3Error" in calls("Chk3CStopTime", "cs3.stop-time")
-    assert "the outputs right after fmi3SetFMUState are not the saved ones" in calls("Chk3CStateNoop",
-                                                                                    "cs3.get-set-state")
+    # the state not restored: the FMU's own time is not the saved one, and it refuses the step from there
+    assert 'fmi3DoStep(t=0.05, h=0.01) [instance state] returned fmi3Error: FMU says "communication point 0.05, ' \
+        'expected 0.1"' in calls("Chk3CStateNoop", "cs3.get-set-state")
     assert "refused with fmi3Discard" in calls("Chk3CZeroStep", "cs3.zero-step-size")
+    assert "instanceEnvironment 0x0 instead of" in calls("Chk3CLogger", "cs3.logger")
+    assert "does not integrate to currentCommunicationPoint + communicationStepSize" in calls("Chk3COwnClock",
+                                                                                             "cs3.clock")
+    assert "fmi3FreeFMUstate left the state pointer at" in calls("Chk3CFreeState", "cs3.free-state")
+    assert "intermediateUpdateTime 0.02 outside [0, 0.01]" in calls("Chk3CIntermediate", "cs3.intermediate-update")
+    assert "fmi3EnterStepMode [instance eventMode] returned fmi3Error" in calls("Chk3CEventMode", "cs3.event-mode")
+    assert "fmi3ExitConfigurationMode [instance configuration] returned fmi3Error" in calls("Chk3CConfiguration",
+                                                                                           "cs3.configuration-mode")
+    assert "after fmi3SetFloat64(u = 1.1), y is still 2.0, while an instance initialized with u = 1.1 gives 2.2" in \
+        calls("Chk3CStaleOutput", "me3.stale-outputs")
+    assert "with lastSuccessfulTime -0.01, not in [t, t + h)" in calls("Chk3CEarlyTime", "cs3.early-return-time")
 
 
 def test_fmi3_fmu_gets_fmi3_rules_and_junit_cites_fmi3(static_fmus, tmp_path, capsys):

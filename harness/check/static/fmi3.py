@@ -1,6 +1,6 @@
 """Static rules for FMI 3.0 FMUs (kind ``static3``): the archive and modelDescription.xml, no binary loaded.
 
-One function per rule of :mod:`.rules3`, each taking the parsed :class:`~.static.FmuArchive` and returning
+One function per ``static3`` rule of :mod:`..rules`, each taking the parsed :class:`~..archive.FmuArchive` and returning
 (status, reason). The tables are FMI 3.0's (section 2.4.7.4 Table 18, section 2.4.7.5 Table 22).
 """
 from __future__ import annotations
@@ -8,8 +8,9 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 from typing import Callable
 
-from .archive import FmuArchive
-from .report import FAIL, PASS, SKIP
+from ..archive import FmuArchive
+from ..report import FAIL, PASS, SKIP
+from .common import check_archive, cut as _cut, start_range
 
 Outcome = tuple[str, str]
 
@@ -67,10 +68,6 @@ def _by_vr(vs: list[Var]) -> dict[str, Var]:
     return {v.vr: v for v in vs if v.vr is not None}
 
 
-def _cut(problems: list[str], n: int = 6) -> str:
-    return "; ".join(problems[:n]) + (f"; ... ({len(problems) - n} more)" if len(problems) > n else "")
-
-
 def _result(problems: list[str], n: int, what: str) -> Outcome:
     if problems:
         return FAIL, f"{len(problems)} problem(s): " + _cut(problems)
@@ -78,12 +75,6 @@ def _result(problems: list[str], n: int, what: str) -> Outcome:
 
 
 # --- the rules ---------------------------------------------------------------------------------
-
-def check_archive(arc: FmuArchive) -> Outcome:
-    if arc.error:
-        return FAIL, arc.error
-    return PASS, f"{len(arc.members)} members, {arc.unpacked / 1024 ** 2:.2f} MiB unpacked, names safe, within the limits"
-
 
 def check_fmi3(arc: FmuArchive) -> Outcome:
     if arc.root is None:
@@ -343,32 +334,16 @@ def _numbers(text: str | None, typ: str) -> list[float]:
 
 def check_start_range3(arc: FmuArchive) -> Outcome:
     types = {t.get("name"): t for t in (arc.root.find("TypeDefinitions") or [])}
-    problems, n = [], 0
-    for v in variables(arc):
-        if v.type not in FLOATS and v.type not in INTS:
-            continue
-        dt = types.get(v.el.get("declaredType") or "")
-        lo = v.el.get("min") if v.el.get("min") is not None else (dt.get("min") if dt is not None else None)
-        hi = v.el.get("max") if v.el.get("max") is not None else (dt.get("max") if dt is not None else None)
-        if v.start is None or (lo is None and hi is None):
-            continue
-        n += 1
-        try:
-            xs = _numbers(v.start, v.type)
-            below = [x for x in xs if lo is not None and x < float(lo)]
-            above = [x for x in xs if hi is not None and x > float(hi)]
-        except ValueError:
-            problems.append(f"{v.name}: start/min/max not numbers ({v.start!r}, {lo!r}, {hi!r})")
-            continue
-        if below:
-            problems.append(f"{v.name} start = {below[0]:g} < min = {lo}")
-        elif above:
-            problems.append(f"{v.name} start = {above[0]:g} > max = {hi}")
-    if not n:
-        return SKIP, "no start value with a min or max"
-    if problems:
-        return FAIL, f"{len(problems)} of {n} start values outside min/max: " + _cut(problems)
-    return PASS, f"all {n} start values with a min or max lie within them"
+
+    def items():
+        for v in variables(arc):
+            if (v.type not in FLOATS and v.type not in INTS) or v.start is None:
+                continue
+            dt = types.get(v.el.get("declaredType") or "")
+            lo = v.el.get("min") if v.el.get("min") is not None else (dt.get("min") if dt is not None else None)
+            hi = v.el.get("max") if v.el.get("max") is not None else (dt.get("max") if dt is not None else None)
+            yield v.name, v.start, lambda text, t=v.type: _numbers(text, t), lo, hi
+    return start_range(items(), _cut)
 
 
 CHECKS3: dict[str, Callable[[FmuArchive], Outcome]] = {

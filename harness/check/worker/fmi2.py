@@ -23,25 +23,12 @@ from typing import Any, Callable, Sequence
 
 from harness.fmi.instance import REFUSED, CallFailed, Instance as FmuInstance, status_label  # noqa: F401
 
-DEFAULT_STEP_SIZE = 1e-3          # s, when the FMU has no DefaultExperiment stepSize
-DEFAULT_TOLERANCE = 1e-4          # relative, when the DefaultExperiment gives none (fmpy's and the cross-check default)
-SAME_RTOL, SAME_ATOL = 1e-9, 1e-12  # "same outputs": rounding-level differences only
-ENV_BASE = 0x5D1F0000  # componentEnvironment values handed out: ENV_BASE + 16 k
+from .common import (DEFAULT_STEP_SIZE, DEFAULT_TOLERANCE, ENV_BASE, LOGGER_VIOLATIONS, SAME_ATOL,  # noqa: F401
+                     SAME_RTOL, SharedCalls, Tracer, first_difference, perturbed)
+
 WRONG_GUID = "{00000000-0000-0000-0000-5b0ad5b0ad00}"  # cs.guid, me.guid
-
 INSTANCES: dict[int, "Instance"] = {}          # componentEnvironment -> instance
-LOGGER_VIOLATIONS: list[str] = []              # messages with a wrong environment or instance name
 _LOGGER: list = []                             # the process's logger callback (kept alive)
-
-
-class Tracer:
-    """Writes the FMI call about to be made to a file (unbuffered), for crash reports."""
-
-    def __init__(self, path: str):
-        self.fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
-
-    def __call__(self, text: str) -> None:
-        os.write(self.fd, (text + "\n").encode("utf-8", "replace"))
 
 
 def _decode(b) -> str:
@@ -87,31 +74,6 @@ def _parse_start(v) -> Any:
     return str(s)
 
 
-def perturbed(v, value: Any) -> Any | None:
-    """A value different from ``value`` within the variable's min/max (None if there is none)."""
-    if v.type == "Boolean":
-        return not value
-    if v.type == "String":
-        return str(value) + "_changed"
-    lo = float(v.min) if v.min is not None else -math.inf
-    hi = float(v.max) if v.max is not None else math.inf
-    if v.type == "Real":
-        d = 0.1 * abs(value) if value != 0 else 0.1
-        cands = [value + d, value - d]
-        if math.isfinite(hi):
-            cands.append(0.5 * (value + hi))
-        if math.isfinite(lo):
-            cands.append(0.5 * (value + lo))
-    elif v.type in ("Integer", "Enumeration"):
-        cands = [value + 1, value - 1]
-    else:
-        return None
-    for c in cands:
-        if lo <= c <= hi and c != value:
-            return c
-    return None
-
-
 class Session:
     """One worker's view of the FMU: variables, experiment, capabilities, and instances."""
 
@@ -141,12 +103,21 @@ class Session:
         self.start_vars = [v for v in mv if v.causality in ("parameter", "input") and v.variability != "constant"
                            and v.type in self.SETTABLE_TYPES and v.start is not None]
         self.start_values = {v.name: _parse_start(v) for v in self.start_vars}
+        self.early_values = {v.name: self.start_values[v.name] for v in self.start_vars if v.causality != "input"}
         self.inputs = [v for v in mv if v.causality == "input" and v.type in self.SETTABLE_TYPES]
         self.real_inputs = [v for v in self.inputs if v.type == "Real"]
         self.outputs = [v for v in mv if v.causality == "output" and v.type in self.OUTPUT_TYPES]
         self.by_name = {v.name: v for v in mv}
         self.log_categories = [c.name if hasattr(c, "name") else str(c) for c in (self.md.logCategories or [])]
+        self.columns = [v.name for v in self.outputs]
+        self.real_columns = [j for j, v in enumerate(self.outputs) if v.type == "Real"]
         self._n = 0
+
+    fmi, REAL = "fmi2", "Real"
+    status_label = staticmethod(status_label)
+
+    def is_real(self, v) -> bool:
+        return v.type == "Real"
 
     def input_values(self) -> dict[str, Any]:
         return {v.name: self.start_values[v.name] for v in self.inputs if v.name in self.start_values}
@@ -156,7 +127,7 @@ class Session:
         return Instance(self, name, ENV_BASE + 16 * self._n, guid)
 
 
-class Instance(FmuInstance):
+class Instance(SharedCalls, FmuInstance):
     """One FMU instance of the session: co-simulation or model exchange as the session says, every
     call traced, messages through the process's logger (:func:`logger_callback`)."""
 
@@ -174,22 +145,23 @@ class Instance(FmuInstance):
         label = f"fmi2SetupExperiment(startTime={self.s.t0:g}" + (f", stopTime={stop_time:g})" if stop_time is not None else ")")
         self.call(label, self.slave.setupExperiment, None, self.s.t0, stop_time)
 
-    def initialize(self, overrides: dict[str, Any] | None = None, instantiate: bool = True,
-                   stop_time: float | None = None) -> None:
-        """[instantiate,] start values (with overrides), setupExperiment, enter/exit initialization."""
-        if instantiate:
-            self.instantiate()
-        values = dict(self.s.start_values)
-        values.update(overrides or {})
-        if values:
-            self.set_values(values, " start values")
-        self.setup(stop_time)
+    def enter_init(self) -> None:
         self.call("fmi2EnterInitializationMode", self.slave.enterInitializationMode)
-        self.call("fmi2ExitInitializationMode", self.slave.exitInitializationMode)
 
-    def outputs(self) -> list[float]:
-        """Every Real/Integer/Enumeration/Boolean output, as floats, in model-description order."""
-        return self.read(self.s.outputs, "outputs")
+    def fn(self, name: str):
+        """The FMU's function fmi2<name> as fmpy wraps it (a refusal raises), e.g. fn("GetFMUstate")."""
+        return getattr(self.slave, "fmi2" + name)
+
+    def set_debug_logging(self, on: bool, categories: list[str]) -> int:
+        from fmpy.fmi2 import fmi2String
+        arr = (fmi2String * max(1, len(categories)))(*[c.encode() for c in categories]) if categories else None
+        label = f"fmi2SetDebugLogging({'on' if on else 'off'}, {len(categories)} categories)"
+        return self.status(label, self.slave.fmi2SetDebugLogging, self.slave.component, 1 if on else 0,
+                           len(categories), arr)
+
+    def step_result(self, t: float, h: float) -> tuple[int, bool]:
+        """fmi2DoStep: (its status, False: FMI 2.0 says terminate through fmi2Terminated after a discard)."""
+        return self.step_status(t, h), False
 
     def run(self, t: float, steps: Sequence[float] | int, inputs: dict[str, Any] | None = None):
         """Outputs now, then for each step: set inputs, doStep, read outputs. Returns (rows, t_end)."""
@@ -224,28 +196,12 @@ def accepts_wrong_guid(s: Session) -> tuple[bool, str]:
     return False, a.last_message()
 
 
-def first_difference(s: Session, a: list[list[float]], b: list[list[float]],
-                     start: str = "after initialization") -> str | None:
-    """None when the two output trajectories are the same (see SAME_RTOL/SAME_ATOL), else where
-    they first differ; ``start`` names the moment of sample 0."""
-    import numpy as np
-    A, B = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    if A.shape != B.shape:
-        return f"{A.shape[0]} samples vs {B.shape[0]}"
-    ok = np.isclose(A, B, rtol=SAME_RTOL, atol=SAME_ATOL, equal_nan=True)
-    if ok.all():
-        return None
-    i, j = map(int, np.argwhere(~ok)[0])
-    where = start if i == 0 else f"after step {i}"
-    return f"{s.outputs[j].name} {where}: {float(A[i, j])!r} vs {float(B[i, j])!r}"
-
-
-def refusal(status: int, inst: Instance, what: str) -> tuple[str, str]:
+def refusal(status: int, inst, what: str) -> tuple[str, str]:
     """PASS when ``status`` refuses (discard/error/fatal), FAIL when it accepts."""
-    from .report import FAIL, PASS
-    msg = inst.last_message()
+    from ..report import FAIL, PASS
+    msg, f, label = inst.last_message(), inst.s.fmi, inst.s.status_label
     said = f' ("{msg}")' if msg else ""
     if status in REFUSED:
-        note = " (fmi2Fatal leaves the instance unusable; fmi2Error would do)" if status == 4 else ""
-        return PASS, f"{what} refused with {status_label(status)}{said}{note}"
-    return FAIL, f"{what} returned {status_label(status)}{said}: it should be refused (fmi2Error)"
+        note = f" ({f}Fatal leaves the instance unusable; {f}Error would do)" if status == 4 else ""
+        return PASS, f"{what} refused with {label(status)}{said}{note}"
+    return FAIL, f"{what} returned {label(status)}{said}: it should be refused ({f}Error)"

@@ -1,20 +1,17 @@
-"""Static rules: the FMU archive and its modelDescription.xml (no binary is loaded).
+"""Static rules for FMI 2.0 FMUs (kind ``static``): the archive and its modelDescription.xml (no binary loaded).
 
-Each rule of kind ``static`` in :mod:`.rules` has one function here taking the parsed
-:class:`FmuArchive` and returning (status, reason). See docs/compliance.md for the table.
+Each ``static`` rule of :mod:`..rules` has one function here taking the parsed :class:`~..archive.FmuArchive`
+and returning (status, reason). See docs/compliance.md for the table.
 """
 from __future__ import annotations
 
 import re
-import time
 import xml.etree.ElementTree as ET
-from pathlib import Path
-from typing import Callable, Sequence
+from typing import Callable
 
-from .archive import FmuArchive, peek_fmi_version, read_archive  # noqa: F401  (FmuArchive, read_archive: re-exported)
-from .report import FAIL, PASS, SKIP, CheckResult
-from .rules import RULES, fmi_version, rules
-from .static3 import CHECKS3, GATES3
+from ..archive import FmuArchive
+from ..report import FAIL, PASS, SKIP
+from .common import check_archive, start_range
 
 # --- FMI 2.0 structured names (spec 2.2.9) ----------------------------------------------------
 _B_NAME = r"(?:[A-Za-z_][A-Za-z0-9_]*|'(?:[A-Za-z0-9_!#$%&()*+,\-./:;<=>?@\[\]^{}|~ ]|\\['\"?\\abfnrtv])+')"
@@ -43,13 +40,6 @@ Outcome = tuple[str, str]
 
 
 # --- the rules ---------------------------------------------------------------------------------
-
-def check_archive(arc: FmuArchive) -> Outcome:
-    if arc.error:
-        return FAIL, arc.error
-    return PASS, (f"{len(arc.members)} members, {arc.unpacked / 1024 ** 2:.2f} MiB unpacked, names safe, "
-                  f"within the limits")
-
 
 def check_fmi2(arc: FmuArchive) -> Outcome:
     if arc.root is None:
@@ -242,32 +232,17 @@ def check_start_range(arc: FmuArchive) -> Outcome:
     for st in arc.root.findall("TypeDefinitions/SimpleType"):
         for el in st:
             types[st.get("name", "")] = el
-    problems, n = [], 0
-    for sv in arc.variables():
-        el = next((c for c in sv if c.tag in ("Real", "Integer", "Enumeration")), None)
-        if el is None or el.get("start") is None:
-            continue
-        base = types.get(el.get("declaredType") or "")
-        lo = el.get("min") if el.get("min") is not None else (base.get("min") if base is not None else None)
-        hi = el.get("max") if el.get("max") is not None else (base.get("max") if base is not None else None)
-        if lo is None and hi is None:
-            continue
-        n += 1
-        try:
-            x = float(el.get("start"))
-            below = lo is not None and x < float(lo)
-            above = hi is not None and x > float(hi)
-        except ValueError:
-            problems.append(f"{sv.get('name')}: start/min/max not numbers ({el.get('start')!r}, {lo!r}, {hi!r})")
-            continue
-        if below or above:
-            problems.append(f"{sv.get('name')} start = {el.get('start')} {'<' if below else '>'} "
-                            f"{'min' if below else 'max'} = {lo if below else hi}")
-    if not n:
-        return SKIP, "no start value with a min or max"
-    if problems:
-        return FAIL, f"{len(problems)} of {n} start values outside min/max: " + "; ".join(problems[:6])
-    return PASS, f"all {n} start values with a min or max lie within them"
+
+    def items():
+        for sv in arc.variables():
+            el = next((c for c in sv if c.tag in ("Real", "Integer", "Enumeration")), None)
+            if el is None or el.get("start") is None:
+                continue
+            base = types.get(el.get("declaredType") or "")
+            lo = el.get("min") if el.get("min") is not None else (base.get("min") if base is not None else None)
+            hi = el.get("max") if el.get("max") is not None else (base.get("max") if base is not None else None)
+            yield sv.get("name"), el.get("start"), lambda text: [float(text)], lo, hi
+    return start_range(items(), lambda problems: "; ".join(problems[:6]))
 
 
 CHECKS: dict[str, Callable[[FmuArchive], Outcome]] = {
@@ -283,33 +258,3 @@ CHECKS: dict[str, Callable[[FmuArchive], Outcome]] = {
     "static.descriptions": check_descriptions,
     "static.all-output-dependencies": check_all_output_dependencies,
 }
-
-
-def run_static_checks(fmu_path: str | Path, subject: str | None = None,
-                      profiles: tuple[str, ...] = (), also: Sequence[str] = ()) -> list[CheckResult]:
-    """Every static rule (and those of ``profiles``, and the profile rules named in ``also``) on one FMU file.
-
-    When the archive or the model description cannot be read, the later rules are SKIPped
-    (they would only repeat the same failure).
-    """
-    subject = subject if subject is not None else str(fmu_path)
-    arc = read_archive(fmu_path)
-    results: list[CheckResult] = []
-    declared = arc.root.get("fmiVersion") if arc.root is not None else peek_fmi_version(fmu_path)
-    if fmi_version(declared) == "3.0":   # FMI 3.0: rules3 / static3
-        kind, checks, gates = "static3", CHECKS3, GATES3
-    else:
-        kind, checks, gates = "static", CHECKS, ("static.archive", "static.fmi2")
-    for rule in [r for r in RULES if r.kind == kind and (r in rules(kind, profiles) or r.id in also)]:
-        t0 = time.perf_counter()
-        blocker = next((r for r in results if r.check_id in gates and r.failed), None)
-        if blocker is not None:
-            status, reason = SKIP, f"needs {blocker.check_id}, which failed"
-        else:
-            try:
-                status, reason = checks[rule.id](arc)
-            except Exception as e:  # a malformed description must not stop the other rules
-                status, reason = FAIL, f"could not evaluate: {type(e).__name__}: {e}"
-        results.append(CheckResult(subject, rule.id, status, reason, time.perf_counter() - t0,
-                                   rule.effective_severity(profiles)))
-    return results

@@ -1,10 +1,12 @@
-"""Co-simulation rules (kind ``cs``), worker side: the life of an instance (version, basic run, GUID,
-logger, debug logging, initial unknowns, default experiment, stop time, status after a discard,
-get after terminate, reset), one function per rule, run in a fresh process.
+"""Co-simulation rules (kinds ``cs`` and ``cs3``), worker side: the life of an instance (version, basic run,
+GUID / instantiation token, logger, debug logging, initial unknowns, default experiment, stop time, status
+after a discard, get after terminate, reset), one function per rule, run in a fresh process; a rule that
+means the same in FMI 2.0 and 3.0 is one function on either session (:class:`.fmi2.Session`,
+:class:`.fmi3.Session3`), its labels naming the version's calls (``s.fmi``).
 
-Each takes the :class:`~.driver.Session` and returns (status, reason) or (status, reason,
+Each takes the session and returns (status, reason) or (status, reason,
 severity) when a failure is milder than the rule's own severity (e.g. a step past the stop time
-refused with fmi2Discard where the standard says fmi2Error). A :class:`~.driver.CallFailed`
+refused with fmi2Discard where the standard says fmi2Error). A :class:`~harness.fmi.instance.CallFailed`
 raised by a call the rule needs to work is a FAIL of the rule naming that call.
 
 "Refused" means a status above fmi2Warning. After a refusal with fmi2Fatal no further call is
@@ -17,9 +19,11 @@ import math
 import time
 from ctypes import byref, c_double, c_int
 
-from .driver import WRONG_GUID, CallFailed, accepts_wrong_guid, LOGGER_VIOLATIONS, Session, first_difference, status_label
-from .report import FAIL, PASS, SKIP
-from .rules import WARNING
+from .common import LOGGER_VIOLATIONS, first_difference
+from .fmi2 import WRONG_GUID, CallFailed, Session, status_label
+from ..report import FAIL, PASS, SKIP
+from ..rules import WARNING
+from .fmi3 import NUMERIC
 
 MAX_DEFAULT_STEPS = 1_000_000  # cs.default-experiment: the run stops here (and says it checked only part)
 BUDGET_FRACTION = 0.5          # of the rule's timeout: cs.default-experiment's wall-time budget
@@ -51,16 +55,26 @@ def check_basic(s: Session):
     a.run(s.t0, s.steps)
     a.terminate()
     a.free()
+    if s.fmi == "fmi3":
+        return PASS, (f"instantiate, start values, initialization, {s.steps} doSteps of {s.h:g} s, terminate, "
+                      f"freeInstance all accepted; {len(s.outputs)} outputs ({len(s.columns)} values) read")
     return PASS, (f"instantiate, setupExperiment, initialization, {s.steps} doSteps of {s.h:g} s, terminate, "
                   f"freeInstance all accepted; {len(s.outputs)} outputs read")
 
 
 def check_guid(s: Session):
-    accepted, msg = accepts_wrong_guid(s)
-    if accepted:
-        return FAIL, (f"fmi2Instantiate accepted the GUID {WRONG_GUID} (the modelDescription's is {s.md.guid}): "
-                      f"a binary and a modelDescription.xml that do not belong together would run")
-    return PASS, f"fmi2Instantiate with a wrong GUID returned NULL" + (f' ("{msg}")' if msg else "")
+    """cs.guid, cs3.instantiation-token, me.guid, me3.instantiation-token."""
+    what = "GUID" if s.fmi == "fmi2" else "instantiationToken"
+    call = f"{s.fmi}Instantiate" + ("" if s.kind.startswith("cs") else
+                                    "(fmi2ModelExchange)" if s.fmi == "fmi2" else "ModelExchange")
+    a = s.instance("wrongGuid", guid=WRONG_GUID)
+    if a.instantiate(raise_on_null=False):
+        a.free()
+        return FAIL, (f"{call} accepted the {what} {WRONG_GUID} (the modelDescription's is {s.md.guid})"
+                      + (": a binary and a modelDescription.xml that do not belong together would run"
+                         if s.kind.startswith("cs") else ""))
+    msg = a.last_message()
+    return PASS, f"{call} with a wrong {what} returned NULL" + (f' ("{msg}")' if msg else "")
 
 
 def check_logger(s: Session):
@@ -72,7 +86,7 @@ def check_logger(s: Session):
     a = s.instance("logger")
     a.instantiate()
     cats = s.log_categories
-    _set_debug_logging(a, True, cats)
+    a.set_debug_logging(True, cats)
     a.initialize(instantiate=False)
     a.run(s.t0, 2)
     st = a.step_status(s.t0 + 2 * s.h, 0.0)  # a zero step: most FMUs say something
@@ -83,15 +97,8 @@ def check_logger(s: Session):
         return FAIL, f"{len(LOGGER_VIOLATIONS)} message(s) with a wrong argument: " + "; ".join(LOGGER_VIOLATIONS[:3])
     if total == 0:
         return SKIP, "the FMU logged nothing (wrong GUID, debug logging on, a zero step): nothing to check"
-    return PASS, f"all {total} messages came with the componentEnvironment and instance name given"
-
-
-def _set_debug_logging(inst, on: bool, categories: list[str]) -> int:
-    from fmpy.fmi2 import fmi2String
-    arr = (fmi2String * max(1, len(categories)))(*[c.encode() for c in categories]) if categories else None
-    label = f"fmi2SetDebugLogging({'on' if on else 'off'}, {len(categories)} categories)"
-    return inst.status(label, inst.slave.fmi2SetDebugLogging, inst.slave.component, 1 if on else 0,
-                           len(categories), arr)
+    given = "componentEnvironment and instance name" if s.fmi == "fmi2" else "instanceEnvironment"
+    return PASS, f"all {total} messages came with the {given} given"
 
 
 def check_debug_logging(s: Session):
@@ -102,26 +109,31 @@ def check_debug_logging(s: Session):
         calls.insert(0, (True, s.log_categories, f"on with the {len(s.log_categories)} declared categories"))
     results = []
     for on, cats, what in calls:
-        st = _set_debug_logging(a, on, cats)
+        st = a.set_debug_logging(on, cats)
         results.append((what, st))
         if st == 4:
             break
     bad = [(w, st) for w, st in results if st not in OK_STATUSES]
     if bad:
         msg = a.last_message()
-        return FAIL, ("fmi2SetDebugLogging " + "; ".join(f"{w} returned {status_label(st)}" for w, st in bad)
+        return FAIL, (f"{s.fmi}SetDebugLogging " + "; ".join(f"{w} returned {s.status_label(st)}" for w, st in bad)
                       + (f' ("{msg}")' if msg else ""))
     a.free()
-    return PASS, "fmi2SetDebugLogging accepted: " + ", ".join(w for w, _ in results)
+    return PASS, f"{s.fmi}SetDebugLogging accepted: " + ", ".join(w for w, _ in results)
 
 
 def _initial_readables(s: Session) -> list:
     seen, out = set(), []
     candidates = [u.variable for u in s.md.initialUnknowns if u.variable is not None]
-    candidates += [v for v in s.outputs if v.initial in ("exact", "approx") or v.variability == "constant"]
-    candidates += [v for v in s.variables if v.causality == "calculatedParameter"]
+    if s.fmi == "fmi3":   # 2.4.8: outputs are knowns or unknowns in Initialization Mode: all can be read
+        candidates += s.outputs
+        types = NUMERIC
+    else:
+        candidates += [v for v in s.outputs if v.initial in ("exact", "approx") or v.variability == "constant"]
+        candidates += [v for v in s.variables if v.causality == "calculatedParameter"]
+        types = ("Real", "Integer", "Enumeration", "Boolean")
     for v in candidates:
-        if v.name not in seen and v.type in ("Real", "Integer", "Enumeration", "Boolean"):
+        if v.name not in seen and v.type in types and not getattr(v, "clocks", None):
             seen.add(v.name)
             out.append(v)
     return out
@@ -133,23 +145,23 @@ def check_initial_unknowns(s: Session):
         return SKIP, "no InitialUnknowns, outputs with a start value or calculated parameters"
     a = s.instance("initialUnknowns")
     a.instantiate()
-    if s.start_values:
-        a.set_values(s.start_values, " start values")
+    if s.early_values:   # inputs only in Initialization Mode (2.1.6)
+        a.set_values(s.early_values, " start values")
     a.setup()
-    a.call("fmi2EnterInitializationMode", a.slave.enterInitializationMode)
+    a.enter_init()
     refused = []
     for v in wanted:
         try:
             a.read([v], v.name)
         except CallFailed as e:
-            refused.append(f"{v.name} ({status_label(e.status)})")
+            refused.append(f"{v.name} ({s.status_label(e.status)})")
             if e.status == 4:
                 break
     if refused:
         msg = a.last_message()
-        return FAIL, (f"in initialization mode fmi2Get* refused {len(refused)} of {len(wanted)}: "
+        return FAIL, (f"in initialization mode {s.fmi}Get* refused {len(refused)} of {len(wanted)}: "
                       + ", ".join(refused[:6]) + (f' ("{msg}")' if msg else ""))
-    a.call("fmi2ExitInitializationMode", a.slave.exitInitializationMode)
+    a.exit_init()
     a.terminate()
     a.free()
     return PASS, f"in initialization mode all {len(wanted)} InitialUnknowns / calculated parameters / outputs were read"
@@ -176,26 +188,27 @@ def _run_default_experiment(s: Session, a, budget: float | None = None, last: in
     if last is not None:
         n = min(n, last)
     inputs = s.input_values()
-    real = [j for j, v in enumerate(s.outputs) if v.type == "Real"]
     row0 = a.outputs()
-    finite0 = [j for j in real if math.isfinite(row0[j])]
+    finite0 = [j for j in s.real_columns if math.isfinite(row0[j])]
     t = s.t0
     deadline = time.monotonic() + budget if budget else None
     for i in range(n):
         if inputs:
             a.set_values(inputs)
         t_next = s.t_stop if i == _n_steps(s) - 1 else s.t0 + (i + 1) * s.h
-        st = a.step_status(t, t_next - t)
-        if st == 2:
+        st, terminate = a.step_result(t, t_next - t)
+        if st == 2 and s.fmi == "fmi2":   # FMI 3.0 has no status calls to ask after a discard
             return "discard", t, i
         if st not in OK_STATUSES:
             msg = a.last_message()
-            raise CallFailed(f"fmi2DoStep(t={t:.9g}, h={t_next - t:.9g})", a.name, st, msg)
+            raise CallFailed(f"{s.fmi}DoStep(t={t:.9g}, h={t_next - t:.9g})", a.name, st, msg)
         t = t_next
         row = a.outputs()
-        bad = [s.outputs[j].name for j in finite0 if not math.isfinite(row[j])]
+        bad = [s.columns[j] for j in finite0 if not math.isfinite(row[j])]
         if bad:
             return f"outputs became non-finite at t = {t:g} s: {', '.join(bad[:5])}", t, i + 1
+        if terminate:
+            return "terminate", t, i + 1
         if deadline is not None and time.monotonic() > deadline:
             return None, t, i + 1
     return None, t, n
@@ -215,6 +228,10 @@ def check_default_experiment(s: Session):
     t_start = time.monotonic()
     problem, t, n = _run_default_experiment(s, a, budget, MAX_DEFAULT_STEPS)
     took = time.monotonic() - t_start
+    if problem == "terminate":
+        a.terminate()
+        a.free()
+        return PASS, f"{n} doSteps of {s.h:g} s accepted; at t = {t:g} s the FMU asked to terminate"
     if problem == "discard":
         term = _terminated(a)
         facts = {"discard": {"how": "experiment", "step": n}}
@@ -254,15 +271,17 @@ def _past_stop(s: Session, name: str):
 
 def check_stop_time(s: Session):
     a, st, stop = _past_stop(s, "stopTime")
-    what = f"fmi2DoStep(t={stop:g}, h={s.h:g}) past the defined stop time {stop:g} s"
+    f = s.fmi
+    what = f"{f}DoStep(t={stop:g}, h={s.h:g}) past the defined stop time {stop:g} s"
     msg = a.last_message()
     said = f' ("{msg}")' if msg else ""
     if st in OK_STATUSES:
-        return FAIL, f"{what} returned {status_label(st)}{said}: the FMU has to return fmi2Error"
+        return FAIL, f"{what} returned {s.status_label(st)}{said}: the FMU has to return {f}Error"
     if st == 2:
-        return FAIL, f"{what} refused with fmi2Discard{said}; section 2.1.6 says fmi2Error", WARNING, \
+        section = "2.1.6" if f == "fmi2" else "2.3.2"
+        return FAIL, f"{what} refused with {f}Discard{said}; section {section} says {f}Error", WARNING, \
             {"discard": {"how": "stop"}}
-    return PASS, f"{what} refused with {status_label(st)}{said}"
+    return PASS, f"{what} refused with {s.status_label(st)}{said}"
 
 
 def _repeat_discard(s: Session, how: dict):
@@ -347,16 +366,16 @@ def check_status_after_discard(s: Session):
 
 
 def check_get_after_terminate(s: Session):
-    wanted = s.outputs or [v for v in s.variables if v.type == "Real" and v.causality != "independent"]
+    wanted = s.outputs or [v for v in s.variables if v.type == s.REAL and v.causality != "independent"]
     if not wanted:
         return SKIP, "no variables to read"
     a = s.instance("terminated")
     a.initialize()
     a.run(s.t0, 2)
     a.terminate()
-    a.read(wanted, "after fmi2Terminate")
+    a.read(wanted, f"after {s.fmi}Terminate")
     a.free()
-    return PASS, f"{len(wanted)} variables read after fmi2Terminate"
+    return PASS, f"{len(wanted)} variables read after {s.fmi}Terminate"
 
 
 def check_reset(s: Session):
@@ -365,12 +384,12 @@ def check_reset(s: Session):
     a = s.instance("reset")
     a.initialize()
     first, _ = a.run(s.t0, s.steps)
-    a.call("fmi2Reset", a.slave.reset)
+    a.reset()
     a.initialize(instantiate=False)
     second, _ = a.run(s.t0, s.steps)
     a.terminate()
     a.free()
     diff = first_difference(s, second, first)
     if diff:
-        return FAIL, f"after fmi2Reset the same run gives different outputs: {diff} (after reset vs first run)"
-    return PASS, f"after fmi2Reset the same {s.steps} steps give the same outputs"
+        return FAIL, f"after {s.fmi}Reset the same run gives different outputs: {diff} (after reset vs first run)"
+    return PASS, f"after {s.fmi}Reset the same {s.steps} steps give the same outputs"

@@ -1,5 +1,5 @@
-"""Co-simulation rules (kind ``cs``), worker side: independence of instances and the FMU state
-(two instances, get/set, free and serialize state), one function per rule.
+"""Co-simulation rules (kinds ``cs`` and ``cs3``), worker side: independence of instances and the FMU state
+(two instances, get/set, free and serialize state), one function per rule on either version's session.
 
 Conventions (what a rule returns, "refused", "the same") as in :mod:`.cs_lifecycle`.
 """
@@ -8,9 +8,10 @@ from __future__ import annotations
 from ctypes import byref, c_void_p
 from typing import Any
 
-from .driver import CallFailed, Session, first_difference, perturbed
-from .report import FAIL, PASS, SKIP
-from .rules import WARNING
+from .common import first_difference, perturbed
+from .fmi2 import CallFailed, Session
+from ..report import FAIL, PASS, SKIP
+from ..rules import WARNING
 
 
 def _variations(s: Session) -> list[tuple[str, dict[str, Any]]]:
@@ -25,7 +26,7 @@ def _variations(s: Session) -> list[tuple[str, dict[str, Any]]]:
     if ins:
         out.append(("inputs " + ", ".join(ins), ins))
     for v in s.start_vars:
-        if v.causality == "parameter" and v.type != "String":
+        if v.causality == "parameter" and v.type != "String" and not isinstance(s.start_values[v.name], list):
             p = perturbed(v, s.start_values[v.name])
             if p is not None:
                 out.append((f"parameter {v.name}", {v.name: p}))
@@ -68,16 +69,22 @@ def check_two_instances(s: Session):
     a, b = s.instance("A2"), s.instance("B2")
     a.instantiate()
     b.instantiate()
+    late = {}
     for inst, ov in ((a, {}), (b, overrides)):
         values = dict(s.start_values)
         values.update(ov)
-        inst.set_values(values, " start values")
+        late[inst.name] = {k: x for k, x in values.items() if s.by_name[k].causality == "input"}
+        early = {k: x for k, x in values.items() if k not in late[inst.name]}   # inputs: in Initialization Mode
+        if early:
+            inst.set_values(early, " start values")
     for inst in (a, b):
         inst.setup()
     for inst in (a, b):
-        inst.call("fmi2EnterInitializationMode", inst.slave.enterInitializationMode)
+        inst.enter_init()
+        if late[inst.name]:
+            inst.set_values(late[inst.name], " inputs")
     for inst in (a, b):
-        inst.call("fmi2ExitInitializationMode", inst.slave.exitInitializationMode)
+        inst.exit_init()
     in_a = s.input_values()
     in_b = dict(in_a)
     in_b.update({k: x for k, x in overrides.items() if s.by_name[k].causality == "input"})
@@ -151,8 +158,8 @@ def classify_restore(s: Session, original: list[list[float]], restored: list[lis
         ok0 = np.isclose(A[0], B[0], rtol=1e-9, atol=1e-12, equal_nan=True)
         if not ok0.all():
             j = int(np.argmin(ok0))
-            return "wrong", (f"the outputs right after {'a second ' if k else ''}fmi2SetFMUstate are not the saved "
-                             f"ones: {s.outputs[j].name} {float(A[0, j])!r} vs {float(B[0, j])!r}")
+            return "wrong", (f"the outputs right after {'a second ' if k else ''}{s.fmi}SetFMUstate are not the saved "
+                             f"ones: {s.columns[j]} {float(A[0, j])!r} vs {float(B[0, j])!r}")
     with np.errstate(invalid="ignore", divide="ignore"):
         scale = np.nanmax(np.abs(B), axis=0)
         bound = HISTORY_FACTOR * s.tolerance * scale
@@ -169,7 +176,7 @@ def classify_restore(s: Session, original: list[list[float]], restored: list[lis
     if len(runs) > 1:
         d12 = float(np.nanmax(np.abs(runs[1] - runs[0]) / np.where(scale > 0, scale, 1.0)))
         second = f"; a second restore continues within {d12:.2g} of the first"
-    return "history", (f"differs by up to {rel[j]:.2g} of its largest magnitude ({s.outputs[j].name}: "
+    return "history", (f"differs by up to {rel[j]:.2g} of its largest magnitude ({s.columns[j]}: "
                        f"{err_j:.3g} of {scale[j]:.3g}), within {HISTORY_FACTOR:g} x the tolerance "
                        f"{s.tolerance:g}{second}")
 
@@ -178,99 +185,103 @@ def check_get_set_state(s: Session):
     if _not_observable(s):
         return _not_observable(s)
     a, m, t_k = _first_half(s, "state")
-    state = a.call("fmi2GetFMUstate", a.slave.getFMUstate)
+    state = a.get_state()
     first, _ = a.run(t_k, m)
-    a.call("fmi2SetFMUstate", a.slave.setFMUstate, state)
+    a.set_state(state)
     second, _ = a.run(t_k, m)
     kind, what = classify_restore(s, first, second)
-    if kind != "same":   # a second restore tells lost history (it agrees) from a state not restored
-        a.call("fmi2SetFMUstate (again)", a.slave.setFMUstate, state)
+    if kind != "same" or s.fmi == "fmi3":   # a second restore tells lost history (it agrees) from a state not
+        a.set_state(state, " (again)")      # restored; FMI 3.0 2.2.7.4: the state allows "multiple calls"
         third, _ = a.run(t_k, m)
         kind, what = classify_restore(s, first, second, third)
-    a.call("fmi2FreeFMUstate", a.slave.freeFMUstate, state)
+    a.free_state(state)
     a.terminate()
     a.free()
     facts = {"restores": kind != "wrong"}
+    f = s.fmi
     if kind == "history":
-        return FAIL, (f"after fmi2SetFMUstate to the state saved at t = {t_k:g} s the outputs are the saved ones, "
+        return FAIL, (f"after {f}SetFMUstate to the state saved at t = {t_k:g} s the outputs are the saved ones, "
                       f"but the continuation {what}: the state leaves out integrator history (after restore vs "
                       f"first continuation)"), WARNING, facts
     if kind == "wrong":
-        return FAIL, (f"after fmi2SetFMUstate to the state saved at t = {t_k:g} s the continuation differs: "
+        return FAIL, (f"after {f}SetFMUstate to the state saved at t = {t_k:g} s the continuation differs: "
                       f"{what} (after restore vs first continuation)"), None, facts
-    return PASS, f"fmi2SetFMUstate to the state at t = {t_k:g} s repeats the next {m} steps exactly", facts
+    return PASS, f"{f}SetFMUstate to the state at t = {t_k:g} s repeats the next {m} steps exactly", facts
 
 
 def check_free_state(s: Session):
     if _not_observable(s):
         return _not_observable(s)
     a, m, t_k = _first_half(s, "freeState")
-    c = a.slave.component
+    c, f = a.slave.component, s.fmi
+    get, put, free = a.fn("GetFMUstate"), a.fn("SetFMUstate"), a.fn("FreeFMUstate")
     state = c_void_p()
-    a.call("fmi2GetFMUstate", a.slave.fmi2GetFMUstate, c, byref(state))
+    a.call(f"{f}GetFMUstate", get, c, byref(state))
     _, t_end = a.run(t_k, m)
     runs = []
     for _ in range(2):
-        a.call("fmi2SetFMUstate", a.slave.fmi2SetFMUstate, c, state)
+        a.call(f"{f}SetFMUstate", put, c, state)
         rows, _ = a.run(t_k, m)
         runs.append(rows)
     kind, what = classify_restore(s, runs[0], runs[1])   # restore against restore
     if kind == "wrong":
         return FAIL, (f"the state saved at t = {t_k:g} s, set for the second time, continues differently: "
                       f"{what} (second vs first restore)")
-    note = (f" (the second continuation {what}: integrator history, cs.get-set-state)" if kind == "history" else "")
-    # fmi2GetFMUstate with a state given: it is overwritten with the current state (at t_end)
+    rule = "cs.get-set-state" if f == "fmi2" else "cs3.get-set-state"
+    note = (f" (the second continuation {what}: integrator history, {rule})" if kind == "history" else "")
+    # GetFMUstate with a state given: it is overwritten with the current state (at t_end)
     now = a.outputs()
-    a.call("fmi2GetFMUstate (overwriting a saved state)", a.slave.fmi2GetFMUstate, c, byref(state))
+    a.call(f"{f}GetFMUstate (overwriting a saved state)", get, c, byref(state))
     a.run(t_end, m)
-    a.call("fmi2SetFMUstate", a.slave.fmi2SetFMUstate, c, state)
+    a.call(f"{f}SetFMUstate", put, c, state)
     back = a.outputs()
     diff = first_difference(s, [back], [now], "right after the state call")
     if diff:
-        return FAIL, (f"fmi2GetFMUstate into an existing state did not overwrite it with the state at "
+        return FAIL, (f"{f}GetFMUstate into an existing state did not overwrite it with the state at "
                       f"t = {t_end:g} s: {diff} (restored vs saved)")
     a.run(t_end, 1)   # the restored state continues from t_end (an FMU that checks the time refuses otherwise)
-    a.call("fmi2FreeFMUstate", a.slave.fmi2FreeFMUstate, c, byref(state))
+    a.call(f"{f}FreeFMUstate", free, c, byref(state))
     if state.value is not None:
-        return FAIL, f"fmi2FreeFMUstate left the state pointer at {state.value:#x}, not NULL"
+        return FAIL, f"{f}FreeFMUstate left the state pointer at {state.value:#x}, not NULL"
     null = c_void_p()
-    a.call("fmi2FreeFMUstate(NULL)", a.slave.fmi2FreeFMUstate, c, byref(null))
+    a.call(f"{f}FreeFMUstate(NULL)", free, c, byref(null))
     a.terminate()
     a.free()
-    return PASS, (f"a state set twice gives the same continuation twice{note}; fmi2GetFMUstate overwrote a given "
-                  f"state; fmi2FreeFMUstate set the pointer to NULL; freeing NULL was ignored")
+    return PASS, (f"a state set twice gives the same continuation twice{note}; {f}GetFMUstate overwrote a given "
+                  f"state; {f}FreeFMUstate set the pointer to NULL; freeing NULL was ignored")
 
 
 def check_serialize_state(s: Session):
     if not s.cs.canSerializeFMUstate:
         return SKIP, "canSerializeFMUstate is not declared"
     if not s.cs.canGetAndSetFMUstate:
-        return FAIL, "canSerializeFMUstate is declared without canGetAndSetFMUstate (FMI 2.0 requires both)"
+        return FAIL, (f"canSerializeFMUstate is declared without canGetAndSetFMUstate (FMI {s.fmi[-1]}.0 requires "
+                      f"both)")
     if _not_observable(s):
         return _not_observable(s)
     a, m, t_k = _first_half(s, "serialize")
-    state = a.call("fmi2GetFMUstate", a.slave.getFMUstate)
-    blob = a.call("fmi2SerializeFMUstate", a.slave.serializeFMUstate, state)
+    state = a.get_state()
+    blob = a.serialize_state(state)
     a.run(t_k, m)
-    a.call("fmi2SetFMUstate", a.slave.setFMUstate, state)
+    a.set_state(state)
     restored, _ = a.run(t_k, m)   # the same state restored in its own instance: what the fresh one must give
-    a.call("fmi2FreeFMUstate", a.slave.freeFMUstate, state)
+    a.free_state(state)
     a.terminate()
     a.free()
     b = s.instance("deserialize")
     b.initialize()
-    copy = b.call("fmi2DeSerializeFMUstate", b.slave.deSerializeFMUstate, blob)
-    b.call("fmi2SetFMUstate", b.slave.setFMUstate, copy)
+    copy = b.deserialize_state(blob)
+    b.set_state(copy)
     second, _ = b.run(t_k, m)
-    b.call("fmi2FreeFMUstate", b.slave.freeFMUstate, copy)
+    b.free_state(copy)
     b.terminate()
     b.free()
     kind, what = classify_restore(s, restored, second)
     if kind == "wrong":
         return FAIL, (f"a state serialized at t = {t_k:g} s ({len(blob)} bytes) and restored into a fresh "
-                      f"instance continues differently from the same state set with fmi2SetFMUstate: {what} "
+                      f"instance continues differently from the same state set with {s.fmi}SetFMUstate: {what} "
                       f"(deserialized vs set)")
-    note = (f"; it {what} of the continuation after fmi2SetFMUstate in the first instance (integrator history: "
-            f"cs.get-set-state)") if kind == "history" else ""
+    note = (f"; it {what} of the continuation after {s.fmi}SetFMUstate in the first instance (integrator history: "
+            f"{'cs' if s.fmi == 'fmi2' else 'cs3'}.get-set-state)") if kind == "history" else ""
     return PASS, (f"a state serialized at t = {t_k:g} s ({len(blob)} bytes) and restored into a fresh instance "
-                  f"continues as the same state set with fmi2SetFMUstate{note}")
+                  f"continues as the same state set with {s.fmi}SetFMUstate{note}")

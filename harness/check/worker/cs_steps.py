@@ -1,6 +1,7 @@
-"""Co-simulation rules (kind ``cs``), worker side: the steps and the calls around them (variable
-steps, input interpolation, output and directional derivatives, refused steps and settings, NaN
-inputs), one function per rule.
+"""Co-simulation rules (kinds ``cs`` and ``cs3``), worker side: the steps and the calls around them (variable
+steps, the clock, input interpolation, output and directional derivatives, refused steps and settings, NaN
+inputs), one function per rule; variable steps, the clock and directional derivatives on either version's
+session.
 
 Conventions (what a rule returns, "refused", "the same") as in :mod:`.cs_lifecycle`.
 """
@@ -8,8 +9,9 @@ from __future__ import annotations
 
 import math
 
-from .driver import REFUSED, Session, perturbed, refusal
-from .report import FAIL, PASS, SKIP
+from .common import perturbed
+from .fmi2 import REFUSED, Session, refusal
+from ..report import FAIL, PASS, SKIP
 
 VARIABLE_STEP_FACTORS = (1.0, 0.5, 2.0, 0.25, 1.5, 3.0, 0.75, 1.0)
 NAN_STEPS = 3
@@ -24,10 +26,9 @@ def check_variable_step(s: Session):
     rows, _ = a.run(s.t0, sizes)
     a.terminate()
     a.free()
-    real = [j for j, v in enumerate(s.outputs) if v.type == "Real"]
-    finite0 = [j for j in real if math.isfinite(rows[0][j])]
+    finite0 = [j for j in s.real_columns if math.isfinite(rows[0][j])]
     for i, row in enumerate(rows[1:], 1):
-        bad = [s.outputs[j].name for j in finite0 if not math.isfinite(row[j])]
+        bad = [s.columns[j] for j in finite0 if not math.isfinite(row[j])]
         if bad:
             return FAIL, f"after step {i} (h = {sizes[i - 1]:g} s) outputs became non-finite: {', '.join(bad)}"
     return PASS, (f"{len(sizes)} steps of {', '.join(f'{f:g}' for f in VARIABLE_STEP_FACTORS)} x {s.h:g} s "
@@ -73,7 +74,7 @@ def check_output_derivatives(s: Session):
 def check_directional_derivative(s: Session):
     if not s.cs.providesDirectionalDerivative:
         return SKIP, "providesDirectionalDerivative is not declared"
-    unknowns = [v for v in s.outputs if v.type == "Real"]
+    unknowns = [v for v in s.outputs if s.is_real(v)]
     knowns = s.real_inputs
     a = s.instance("directionalDerivative")
     if unknowns and knowns:  # after initialization: outputs with respect to the inputs
@@ -81,29 +82,29 @@ def check_directional_derivative(s: Session):
         a.run(s.t0, 1)
         what = "after a step"
     else:  # in initialization mode: the InitialUnknowns with respect to their dependencies
-        initial = [u for u in s.md.initialUnknowns if u.variable is not None and u.variable.type == "Real"
+        initial = [u for u in s.md.initialUnknowns if u.variable is not None and s.is_real(u.variable)
                    and u.dependencies]
         unknowns = [u.variable for u in initial]
         seen, knowns = set(), []
         for u in initial:
             for d in u.dependencies:
-                if d.type == "Real" and d.name not in seen:
+                if s.is_real(d) and d.name not in seen:
                     seen.add(d.name)
                     knowns.append(d)
         if not unknowns or not knowns:
             return SKIP, "no Real inputs, and no InitialUnknowns with Real dependencies"
         a.instantiate()
-        if s.start_values:
-            a.set_values(s.start_values, " start values")
+        if s.early_values:   # inputs only in Initialization Mode (2.1.6)
+            a.set_values(s.early_values, " start values")
         a.setup()
-        a.call("fmi2EnterInitializationMode", a.slave.enterInitializationMode)
+        a.enter_init()
         what = "in initialization mode"
     bad = []
     for k, known in enumerate(knowns):
         seed = [0.0] * len(knowns)
         seed[k] = 1.0
-        values = a.call(f"fmi2GetDirectionalDerivative({what}, d/d {known.name})", a.slave.getDirectionalDerivative,
-                        [v.valueReference for v in unknowns], [v.valueReference for v in knowns], seed)
+        values = a.directional_derivative(f"{what}, d/d {known.name}", [v.valueReference for v in unknowns],
+                                          [v.valueReference for v in knowns], seed)
         bad += [f"d {v.name}/d {known.name}" for v, x in zip(unknowns, values) if not math.isfinite(x)]
     if bad:
         return FAIL, f"non-finite directional derivatives {what}: {', '.join(bad[:5])}"
@@ -115,8 +116,8 @@ def check_directional_derivative(s: Session):
 def check_step_before_init(s: Session):
     a = s.instance("early")
     a.instantiate()
-    if s.start_values:
-        a.set_values(s.start_values, " start values")
+    if s.early_values:   # inputs only in Initialization Mode (2.1.6)
+        a.set_values(s.early_values, " start values")
     a.setup()
     return refusal(a.step_status(s.t0, s.h), a, "fmi2DoStep before initialization")
 
@@ -272,7 +273,7 @@ CLOCK_FRACTION = 0.6180339887498949   # each step h split into 0.618 h and 0.382
 def check_clock(s: Session):
     if not s.cs.canHandleVariableCommunicationStepSize:
         return SKIP, "canHandleVariableCommunicationStepSize is not declared (only uniform steps are allowed)"
-    real = [j for j, v in enumerate(s.outputs) if v.type == "Real"]
+    real = s.real_columns
     if not real:
         return SKIP, "no Real outputs"
     import numpy as np
@@ -302,7 +303,7 @@ def check_clock(s: Session):
     grid = f"{n} steps of {h:g} s against the same steps split into {a:.4g} s + {h - a:.4g} s"
     if stuck.any():
         k = int(np.argmax(stuck))
-        name = s.outputs[real[k]].name
+        name = s.columns[real[k]]
         return FAIL, (f"{name} changes with steps of {h:g} s but not at all with steps of {h / 2:g} s (it stays "
                       f"{float(half[0, k])!r} to t = {s.t0 + n * h:g} s): the FMU ignores steps shorter than its own "
                       f"and does not integrate to currentCommunicationPoint + communicationStepSize")
@@ -311,7 +312,7 @@ def check_clock(s: Session):
     if bad:
         k, dk, ak = max(bad, key=lambda x: x[1] / max(x[2], 1e-300))
         i = int(np.nanargmax(np.abs(split[:, k] - uniform[:, k])))
-        name = s.outputs[real[k]].name
+        name = s.columns[real[k]]
         return FAIL, (f"{grid}: {name} at t = {s.t0 + h * i:g} s is {float(split[i, k])!r} against "
                       f"{float(uniform[i, k])!r} (difference {dk:.3g}, allowed {ak:.3g}: twice the largest difference "
                       f"of uniform steps of {h:g} s from steps of {2 * h:g} and {h / 2:g} s, plus {10 * s.tolerance:g} "
