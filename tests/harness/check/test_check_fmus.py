@@ -140,7 +140,8 @@ def test_broken_fmu_reasons(caught):
 
 def test_pythonfmu_limits_are_reported_not_hidden(tmp_path, capsys):
     """The whole command on ChkGood (pythonfmu): pythonfmu 0.7's C++ layer does not compare the GUID
-    and leaves fmi2FreeFMUstate's pointer set, so every pythonfmu FMU fails cs.guid and cs.free-state;
+    and leaves fmi2FreeFMUstate's pointer set, so every pythonfmu FMU is warned by cs.guid (a warning:
+    no sentence of FMI 2.0 makes the FMU refuse another GUID, docs/compliance.md) and fails cs.free-state;
     it answers fmi2GetStatus with fmi2Error and refuses past the stop time with fmi2Discard (warnings).
     Its binary needs libpython's symbols without declaring libpython (it loads only into a Python process:
     the load rules warn), and ChkGood computes y = k u in do_step only (cs.feedthrough: info)."""
@@ -157,11 +158,11 @@ def test_pythonfmu_limits_are_reported_not_hidden(tmp_path, capsys):
              if ln.split(" ")[0] in ("PASS", "ERROR", "WARN", "INFO", "SKIP")]
     assert len(lines) == len(rules("static")) + len(rules("load")) + len(rules("cs"))
     labels = {ln.split("  ")[2]: ln.split(" ")[0] for ln in lines if not ln.startswith(("PASS", "SKIP"))}
-    assert labels == {"cs.guid": "ERROR", "cs.free-state": "ERROR", "cs.stop-time": "WARN",
+    assert labels == {"cs.guid": "WARN", "cs.free-state": "ERROR", "cs.stop-time": "WARN",
                       "cs.status-after-discard": "WARN", "cs.feedthrough": "INFO", "load.needed-libraries": "WARN",
                       "load.bare-process": "WARN"}, labels
     root = ET.parse(junit).getroot()
-    assert root.get("tests") == str(len(lines)) and root.get("failures") == "2"
+    assert root.get("tests") == str(len(lines)) and root.get("failures") == "1"
 
 
 def test_timeout_kills_a_daemon_left_behind(tmp_path, monkeypatch):
