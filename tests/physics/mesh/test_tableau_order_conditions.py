@@ -3,18 +3,18 @@ conditions to rounding, in the form the integrators use and in the tables the co
 (issue 47 item 2).
 
 The conditions are generated from rooted trees (Hairer, Wanner, Solving ODEs II, 2nd ed., sec. IV.7:
-Theorem 7.4 / Table 7.1 for Rosenbrock methods; the W-method conditions with the trees whose vertices
-are either ``f`` or the arbitrary matrix ``A``, ibid. "W-methods", Theorem 7.8) and computed directly
+the order conditions of Rosenbrock methods, Table 7.1; those of W-methods, where the matrix is
+arbitrary, with trees whose vertices are either ``f`` or the matrix ``A``, same section) and computed directly
 in the transformed variables ``u_i = sum_j Gamma_ij k_j`` the integrators step with (``a``, ``c``,
 ``m``, ``e``, the dense output ``d(theta)``): for a stage, ``k_i = h f(y + sum_j a_ij u_j) + h A u_i``
-and ``u_i = gamma (k_i / h + sum_{j<i} c_ij u_j) h``, so the elementary weights of ``u`` follow by a
+and ``u_i = gamma (k_i + sum_{j<i} c_ij u_j)``, so the elementary weights of ``u`` follow by a
 forward substitution with ``c`` (no inverse taken). ``A = J`` (a Rosenbrock method) makes the
 ``A`` vertex a single-child ``f`` vertex; a W-method satisfies the conditions of every tree with
 ``A`` vertices as well (their exact coefficient is 0). Claimed (docstring and sources): ROS34PW2 (Rang
-and Angermann, BIT 45 (2005) 761; Rang, "Improved traditional Rosenbrock-Wanner methods for stiff ODEs and DAEs", J. Comput.
-Appl. Math. 286 (2015) 128) a W-method
-of order 3 with an embedded W-method of order 2, dense output of order 3; RODAS5P (Steinebach, BIT
-63 (2023) 27) a Rosenbrock method of order 5 with embedded order 4 and a dense output of order 4.
+and Angermann, BIT 45 (2005) 761; Rang, "Improved traditional Rosenbrock-Wanner methods for stiff
+ODEs and DAEs", J. Comput. Appl. Math. 286 (2015) 128) a W-method of order 3 with an embedded
+W-method of order 2, dense output of order 3; RODAS5P (Steinebach, BIT 63 (2023) 27) a Rosenbrock
+method of order 5 with embedded order 4 and a dense output of order 4.
 
 Found here, and asserted: ROS34PW2's dense output has order 3 only with the exact Jacobian; with an
 arbitrary matrix (as a W-method) it has order 2 (the trees with an ``A`` vertex of order 3 fail).
