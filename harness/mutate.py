@@ -167,11 +167,14 @@ def probe(base: Path, env: dict, names: list[str]) -> dict[str, str]:
     return where
 
 
-def run_tests(root: Path, env: dict, tests: tuple[str, ...], timeout: float) -> tuple[int | None, str, float]:
-    """(pytest exit code or None on timeout, the output's last lines, seconds)."""
+def run_tests(root: Path, env: dict, tests: tuple[str, ...], timeout: float,
+              first_failure: bool = True) -> tuple[int | None, str, float]:
+    """(pytest exit code or None on timeout, the output's last lines, seconds); ``first_failure``:
+    stop at the first failing test (-x)."""
     t0 = time.monotonic()
+    args = PYTEST if first_failure else [a for a in PYTEST if a != "-x"]
     try:
-        r = subprocess.run([sys.executable, *PYTEST, *tests], cwd=root, env=env, capture_output=True, text=True,
+        r = subprocess.run([sys.executable, *args, *tests], cwd=root, env=env, capture_output=True, text=True,
                            timeout=timeout)
     except subprocess.TimeoutExpired as e:
         tail = (e.stdout or b"")[-2000:]
@@ -219,7 +222,7 @@ def run(repo: Path, list_file: Path, only: list[str] | None = None, baseline: bo
         base_out = None
         if baseline:
             tests = tuple(dict.fromkeys(t for m in mutations for t in m.tests))
-            code, tail, sec = run_tests(root, env, tests, sum(m.timeout for m in mutations))
+            code, tail, sec = run_tests(root, env, tests, sum(m.timeout for m in mutations), first_failure=False)
             base_out = Outcome("(baseline)", "passed" if code == 0 else verdict(code) if code != 1 else "failed",
                                sec, tail)
             report(f"baseline: {base_out.verdict} in {sec:.0f} s")
