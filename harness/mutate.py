@@ -18,14 +18,17 @@ the clone's ``build/fmus``: :func:`probe` checks where ``spurdiff``, ``spurdiff_
 folder resolve before anything runs), no byte code written (a mutation of the same length in the
 same second would otherwise be hidden by a cached ``.pyc``).
 
-A mutation is *caught* when its tests fail (pytest exit code 1), *survived* when they pass (0),
-*timeout* past its time limit and *error* for any other exit (no tests collected, a usage error).
+A mutation is *caught* when its tests fail (pytest exit code 1), *survived* when they pass (0, at
+least one test passed), *skipped* when every test was skipped (0, nothing passed: the machine lacks
+what they need), *timeout* past its time limit and *error* for any other exit (no tests collected, a
+usage error).
 With ``baseline`` the unmutated clone runs every listed test first: the list is meaningful only if
 they pass there.
 """
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -183,8 +186,12 @@ def run_tests(root: Path, env: dict, tests: tuple[str, ...], timeout: float,
     return r.returncode, "\n".join(lines[-15:]), time.monotonic() - t0
 
 
-def verdict(code: int | None) -> str:
-    return "timeout" if code is None else {0: "survived", 1: "caught"}.get(code, "error")
+def verdict(code: int | None, tail: str = "") -> str:
+    """caught (exit 1), survived (0 with a test passed), skipped (0 with none passed: every test
+    skipped, which says nothing about the mutation), timeout (None), error (any other exit)."""
+    if code == 0:
+        return "survived" if re.search(r"\b\d+ passed\b", tail) else "skipped"
+    return "timeout" if code is None else {1: "caught"}.get(code, "error")
 
 
 def plant_and_run(root: Path, env: dict, m: Mutation) -> Outcome:
@@ -198,7 +205,7 @@ def plant_and_run(root: Path, env: dict, m: Mutation) -> Outcome:
         code, tail, sec = run_tests(root, env, m.tests, m.timeout)
     finally:
         p.write_text(text)
-    return Outcome(m.id, verdict(code), sec, tail)
+    return Outcome(m.id, verdict(code, tail), sec, tail)
 
 
 def run(repo: Path, list_file: Path, only: list[str] | None = None, baseline: bool = True,
@@ -223,7 +230,7 @@ def run(repo: Path, list_file: Path, only: list[str] | None = None, baseline: bo
         if baseline:
             tests = tuple(dict.fromkeys(t for m in mutations for t in m.tests))
             code, tail, sec = run_tests(root, env, tests, sum(m.timeout for m in mutations), first_failure=False)
-            base_out = Outcome("(baseline)", "passed" if code == 0 else verdict(code) if code != 1 else "failed",
+            base_out = Outcome("(baseline)", "passed" if code == 0 else verdict(code, tail) if code != 1 else "failed",
                                sec, tail)
             report(f"baseline: {base_out.verdict} in {sec:.0f} s")
             if code != 0:
@@ -241,12 +248,21 @@ def run(repo: Path, list_file: Path, only: list[str] | None = None, baseline: bo
             shutil.rmtree(base, ignore_errors=True)
 
 
+def summary(tail: str) -> str:
+    """pytest's closing counts (``1 failed, 3 passed``) from the last lines of its output, or ''."""
+    for line in reversed(tail.splitlines()):
+        if re.search(r"\b\d+ (passed|failed|skipped|error)", line):
+            return re.sub(r"\s+in [\d.]+s.*$", "", line.strip("= ").strip())
+    return ""
+
+
 def table(outcomes: list[Outcome]) -> str:
     """The result as a text table: id, verdict, seconds; the counts and the total time last."""
     w = max([len(o.id) for o in outcomes] + [2])
-    lines = [f"{'id':<{w}}  {'verdict':<8}  {'seconds':>7}", f"{'-' * w}  {'-' * 8}  {'-' * 7}"]
-    lines += [f"{o.id:<{w}}  {o.verdict:<8}  {o.seconds:7.1f}" for o in outcomes]
-    counts = {v: sum(o.verdict == v for o in outcomes) for v in ("caught", "survived", "timeout", "error")}
+    lines = [f"{'id':<{w}}  {'verdict':<8}  {'seconds':>7}  pytest", f"{'-' * w}  {'-' * 8}  {'-' * 7}  {'-' * 6}"]
+    lines += [f"{o.id:<{w}}  {o.verdict:<8}  {o.seconds:7.1f}  {summary(o.detail)}" for o in outcomes]
+    counts = {v: sum(o.verdict == v for o in outcomes)
+              for v in ("caught", "survived", "skipped", "timeout", "error")}
     lines.append(", ".join(f"{n} {v}" for v, n in counts.items() if n) + f"; {sum(o.seconds for o in outcomes):.0f} s")
     return "\n".join(lines)
 

@@ -104,3 +104,10 @@ def test_the_projects_list_loads_and_every_snippet_is_in_its_file_once():
     for m in ms:
         for t in m.tests:
             assert (ROOT / t.split("::")[0]).is_file(), (m.id, t)
+
+
+def test_verdicts_from_the_exit_code_and_the_summary():
+    assert mutate.verdict(1, "1 failed, 3 passed in 2.0s") == "caught"
+    assert mutate.verdict(0, "3 passed, 1 skipped in 2.0s") == "survived"
+    assert mutate.verdict(0, "2 skipped in 1.3s") == "skipped"      # nothing ran: no verdict on the bug
+    assert mutate.verdict(None) == "timeout" and mutate.verdict(5, "no tests ran") == "error"
