@@ -19,7 +19,8 @@ def main(argv: list[str] | None = None) -> int:
     from harness.paths import checkout_root
 
     ap = argparse.ArgumentParser(prog="spurdiff mutate", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--list", type=Path, default=None, help=f"the mutation list (default: {DEFAULT_LIST} of the checkout)")
+    ap.add_argument("--list", type=Path, default=None,
+                    help=f"the mutation list (default: {DEFAULT_LIST} of the checkout)")
     ap.add_argument("--only", nargs="+", metavar="ID", help="only these mutations")
     ap.add_argument("--repo", type=Path, default=None, help="the repository to clone (default: this checkout)")
     ap.add_argument("--no-baseline", action="store_true", help="skip the run of the unmutated tests")

@@ -1,8 +1,8 @@
 """Through SpurDifferential-fmi3.fmu (fmpy): the outputs fmi3GetOutputDerivatives answers are exactly
 those the interface declares a derivative for (spurdiff.fmi.differential_fmu.output_rates: the suns'
 and the carrier's speeds and angles, and with shaftCoupling = wheel the half-shafts' six more),
-every other Float64 output is refused by name, and each answered derivative is the limit of central differences of that output taken through the FMU
-(fmi3GetFMUState / fmi3SetFMUState, doSteps of H - d and H + d, Richardson with d and d/2; the
+every other Float64 output is refused by name, and each answered derivative is the limit of central
+differences of that output taken through the FMU (fmi3GetFMUState / fmi3SetFMUState, doSteps of H - d and H + d, Richardson with d and d/2; the
 tolerance from d as in tests/physics/test_output_derivatives.py). Issue 47 item 4."""
 from __future__ import annotations
 

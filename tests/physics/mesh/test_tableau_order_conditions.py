@@ -128,9 +128,9 @@ def from_kernel(method: str, tr: I.Transformed) -> Table:
     # what the kernel does not read (k >= i in row i, stages past s) is zero
     assert not np.triu(A).any() and not np.triu(Cc).any() and not A[s:].any()
     dq = np.ctypeslib.as_array(P.dq)[:, :s].copy() if P.loss5 else None
-    return Table(f"{tr.name} (kernel)", P.gamma, A[:s, :s], Cc[:s, :s], np.ctypeslib.as_array(P.m)[:s],
-                 np.ctypeslib.as_array(P.ew)[:s], np.ctypeslib.as_array(P.dpoly)[:, :s], np.ctypeslib.as_array(P.dmid)[:s],
-                 dq, tr.order, tr.embedded_order, tr.w_method)
+    arr = np.ctypeslib.as_array
+    return Table(f"{tr.name} (kernel)", P.gamma, A[:s, :s], Cc[:s, :s], arr(P.m)[:s], arr(P.ew)[:s],
+                 arr(P.dpoly)[:, :s], arr(P.dmid)[:s], dq, tr.order, tr.embedded_order, tr.w_method)
 
 
 def stage_weights(tab: Table, t, exact_jacobian: bool, memo: dict) -> np.ndarray:
