@@ -148,7 +148,7 @@ for name in sys.argv[1:]:
     m = importlib.import_module(name)
     out[name] = getattr(m, '__file__', None) or list(m.__path__)[0]
 if 'harness' in sys.argv[1:]:    # this project: where the FMUs' C sources and built FMUs are
-    from harness import paths
+    from harness.common import paths
     out['fmu_sources'], out['fmu_dir'] = str(paths.fmu_sources()), str(paths.fmu_cache_dir())
 print(json.dumps(out))
 """

@@ -16,7 +16,7 @@ from pathlib import Path
 def main(argv: list[str] | None = None) -> int:
     from harness.cli import fail
     from harness.mutate import DEFAULT_LIST, MutationError, run, table
-    from harness.paths import checkout_root
+    from harness.common.paths import checkout_root
 
     ap = argparse.ArgumentParser(prog="spurdiff mutate", description=__doc__.split("\n\n")[0])
     ap.add_argument("--list", type=Path, default=None,

@@ -22,7 +22,7 @@ WHEEL = {"shaftCoupling": "wheel", "carrierDrive": "torque", "carrier.tau": 300.
 
 @pytest.fixture(scope="module")
 def diff3(fmu_files):
-    from harness.build3 import build
+    from harness.build.fmu3 import build
 
     return build(["SpurDifferential"], quiet=True)[0]
 

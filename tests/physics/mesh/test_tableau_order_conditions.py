@@ -113,7 +113,7 @@ def from_python(tr: I.Transformed) -> Table:
 def from_kernel(method: str, tr: I.Transformed) -> Table:
     """The table as the compiled kernel receives it: read back from the ctypes structure
     (kernel.MkParams) the model passes to mk_advance by pointer."""
-    from harness.build import kernel_library
+    from harness.build.fmu import kernel_library
     from spurdiff.differential.mesh import MeshDifferential, MeshParams
     from spurdiff.differential.params import DifferentialParams
 
