@@ -28,6 +28,8 @@ COMMANDS = {
     "export-ssp": ("export_ssp", "write a scene as an SSP file other masters run (docs/interoperability.md)"),
     "accuracy": ("accuracy", "accuracy versus wall time over fidelities, steps and tolerances (docs/accuracy.md)"),
     "sweep": ("sweep", "design sweep of a scene on a local or remote Dask cluster, resumable (docs/sweeps.md)"),
+    "mutate": ("mutate", "plant the listed bugs one at a time in a clone and run the tests that must catch them "
+                         "(docs/testing.md)"),
     "starter": ("starter", "write a ready-to-run starter for the FMU in your own tool: fmpy script, C host or SSP "
                            "(docs/use-the-fmu.md)"),
 }
