@@ -22,6 +22,7 @@ from spurdiff.errors import ParameterError
 from spurdiff.fmi.variables import Var
 from spurdiff.differential import derivatives
 from spurdiff.differential.locking import torque_bias_ratio
+from spurdiff.gears.axial import AxialLayout
 from spurdiff.gears.phasing import mesh_phases
 from spurdiff.differential.mesh import MeshDifferential, MeshParams
 from spurdiff.differential.mesh import rates as mesh_rates
@@ -90,6 +91,8 @@ def _gear_vars(name: str, label: str) -> list[Var]:
         _p(f"{name}.x", f"{g}.x", f"Profile-shift coefficient of {label}", "1"),
         _p(f"{name}.b", f"{g}.b", f"Face width of {label}", "m", "mm"),
         _p(f"{name}.da", f"{g}.da", f"Tip diameter of {label} (0: untrimmed m (z + 2 ha + 2 x))", "m", "mm"),
+        _p(f"{name}.axialStart", f"{g}.axialStart", f"Axial position where the face of {label} starts, from carrier "
+           "wall A's inner face (axial layout, spurdiff.gears.axial)", "m", "mm"),
         Var(f"{name}.dF", "calculatedParameter",
             f"Form diameter of {label}: where its involute starts (generating rack, undercut included)", "m", "mm"),
     ]
@@ -111,6 +114,10 @@ def _mesh_vars(mesh: str, label: str) -> list[Var]:
         Var(f"mesh{mesh}.epsilon_usable", "calculatedParameter",
             f"Usable transverse contact ratio of mesh {label} (involute from form circle to tip on both gears; "
             "used by the ISO stiffness and the stiffness wave)", "1", bind=f"{g}.epsilon_usable"),
+        Var(f"mesh{mesh}.b", "calculatedParameter", f"Face width of mesh {label}: the axial overlap of its gears "
+            "(axial layout)", "m", "mm"),
+        Var(f"mesh{mesh}.axialCentre", "calculatedParameter", f"Axial position of the middle of mesh {label}, from "
+            "carrier wall A's inner face", "m", "mm"),
         Var(f"mesh{mesh}.phase", "calculatedParameter",
             f"Initial phase of the drive flanks of mesh {label} along its usable path, in base pitches "
             "(tooth positions; an A1 drive pair starts at its pitch point)", "1"),
@@ -304,6 +311,11 @@ VARIABLES: list[Var] = [
     *_gear_vars("sunB", "sun B (right)"),
     *_gear_vars("planet2", "planet 2 (meshes sun B and planet 1)"),
     _p("nPairs", "diff.table.nPairs", "Number of planet pairs (3: the paper's figures)", None, kind="Integer"),
+    _p("carrier.wallB", "diff.table.carrier.wallB", "Axial position of carrier wall B's inner face, from wall A's "
+       "inner face (axial layout)", "m", "mm"),
+    _p("carrier.axialClearance", "diff.table.carrier.axialClearance", "Smallest axial running clearance between "
+       "faces that turn relative to each other (gears in different planes, gear and carrier wall; stack-up check)",
+       "m", "mm"),
     # --- friction, mass
     _p("mu_pin", "diff.mu_pin", "Friction coefficient of the planet pin bushings at break-away, with the "
        "friction-circle correction mu/sqrt(1+mu^2) where the data set has it (spurdiff/data/pin_bushing.toml); "
@@ -503,8 +515,11 @@ def _set_calculated(model, values: dict) -> None:
     phases = mesh_phases(geo)
     for name, g in geo.gears.items():
         values[f"{name}.dF"] = 2.0 * g.rF
+    axial = AxialLayout.of(geo.table)
     for key in ("A1", "B2", "12"):
         values[f"mesh{key}.phase"] = phases[key].drive
+        values[f"mesh{key}.b"] = axial.mesh_width(key)
+        values[f"mesh{key}.axialCentre"] = axial.meshes[key].centre
     values["torqueBiasRatio"] = torque_bias_ratio(model.K)
     values["torqueBiasRatioCoast"] = torque_bias_ratio(model.K_coast)
     values["geometry.warnings"] = len(geo.warnings)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+from spurdiff.gears.axial import AxialLayout
 from spurdiff.gears.checks import design_checks
 from spurdiff.gears.geometry import DifferentialGeometry, GearTable, gear_geometry, mesh_geometry
 from spurdiff.gears.phasing import phase_findings
@@ -25,6 +26,7 @@ def derive(table: GearTable | None = None) -> DifferentialGeometry:
     m12 = mesh_geometry("12", gg["planet1"], gg["planet2"], t)
     findings = tuple(design_checks(t, gg, (mA1, mB2, m12)))
     geo = DifferentialGeometry(t, gg, mA1, mB2, m12, findings)
+    geo = replace(geo, findings=findings + tuple(AxialLayout.of(t).findings(geo)))   # the axial stack-up
     if not geo.errors:
-        geo = replace(geo, findings=findings + tuple(phase_findings(geo)))
+        geo = replace(geo, findings=geo.findings + tuple(phase_findings(geo)))
     return geo
