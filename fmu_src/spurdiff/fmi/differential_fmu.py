@@ -415,6 +415,9 @@ VARIABLES += [
     _p("capacity.bushingWall", "capacity.bushingWall", "Wall of the planets' pin bushings: the planets' bore is "
        "2 (r_collar + capacity.bushingWall), which sets the rim factor Y_B of their root stress (0: the pin runs "
        "in the planet's bore, the paper's set; 1.5 mm: spurdiff/data/pin_bushing.toml's bronze set)", "m", "mm"),
+    _p("capacity.K_gamma", "capacity.K_gamma", "Load-sharing factor of the planet pairs in the ISO 6336 rating (the "
+       "most loaded pair carries K_gamma times the mean; 0: the default for nPairs, spurdiff/data/materials.toml "
+       "[loadSharing], 1.10 for 3 pairs)", "1"),
     *[Var(f"capacity.mesh{k}.{g}.{S}", "calculatedParameter",
           f"ISO 6336 {what} safety factor of {g} in mesh {k} at capacity.T0, long life (< 1: a finding, logged)", "1")
       for k, g1, g2 in CAPACITY_MESHES for g in (g1, g2)
