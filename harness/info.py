@@ -217,7 +217,8 @@ def info_text(table: GearTable | None = None, params: DifferentialParams | None 
 
     # Statics at the paper's T0
     # Locking: both laws
-    pf = pin_friction(geo, p.mu_pin, p.r_collar, 0.0, "pinFriction", p.pinModel, p.pairHandedness)
+    pf = pin_friction(geo, p.mu_pin, p.r_collar, 0.0, "pinFriction", p.pinModel, p.pairHandedness,
+                      p.pinContactFactor)
     Kd, Kc = locking_coefficients(pf, p.leadingSun)
     Kp = paper_locking_coefficient(p.mu_pin, p.r_collar, t.nPairs, geo.r_a, geo.r_1, geo.r_b, geo.r_2)
     ppf = pin_friction(geo, p.mu_pin, p.r_collar, 0.0, "paper")

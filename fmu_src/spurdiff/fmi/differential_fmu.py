@@ -298,6 +298,16 @@ VARIABLES: list[Var] = [
         "Locking law of the pin friction: pinFriction (friction torque mu r_d |F_pin| on each planet from its "
         "actual pin load, every level, drive and coast differ) | paper (the paper's K = (mu r_d / n)"
         "(1/(r_a+r_1) + 1/(r_b+r_2)))", None, None, "pinFriction", kind="String", bind="diff.lockingLaw"),
+    _p("pinModel", "diff.pinModel", "How a planet's pin carries its loads along the journal (the mesh forces at "
+       "their axial positions, spurdiff.gears.axial): endReactions (friction on |R_0| + |R_L|, the rigid planet's end "
+       "reactions) | planar (every load in one plane, |F_pin|) | linearPressure (quasi-static law only: refused "
+       "here)", kind="String"),
+    _p("pairHandedness", "diff.pairHandedness", "Planet 2 leading or trailing planet 1 in the positive sense of "
+       "rotation (trailing: the mirrored assembly, drive and coast K swap)", kind="String"),
+    _p("leadingSun", "diff.leadingSun", "The sun running ahead for the reported locking coefficients: either (the "
+       "smaller K) | A | B", kind="String"),
+    _p("pinContactFactor", "diff.pinContactFactor", "Journal friction moment per mu r |F| (1: friction circle, a "
+       "lower bound; 4/pi: a run-in bushing)", "1"),
     # --- gear table
     _p("gearing.m", "diff.table.m", "Module of all gears", "m", "mm"),
     _p("gearing.alpha", "diff.table.alpha", "Pressure angle of the basic rack", "rad", "deg"),

@@ -1,0 +1,60 @@
+"""The locking law's tables for `spurdiff info` and docs/locking-law.md: K, torque bias ratio and the
+planets' bushing pressures at break-away for each pin model (planar, end reactions, linear
+pressure), each handedness of the planet pair and each leading sun (issue 41). Numbers only; the
+harness renders them."""
+from __future__ import annotations
+
+from spurdiff.differential.bushing import edge_pressure
+from spurdiff.differential.locking import breakaway, locking_coefficients, pin_friction, torque_bias_ratio
+from spurdiff.gears.geometry import DifferentialGeometry
+from spurdiff.gears.layout import HANDEDNESS, PIN_MODELS
+
+T0_RATED = 2100.0   # N m, the paper's carrier torque
+
+
+def k_rows(geo: DifferentialGeometry, mu: float, r_d: float) -> list[list[str]]:
+    """Rows: pin model, handedness, case, K with sun A ahead, K with sun B ahead, K (the smaller),
+    bias ratio (of the smaller)."""
+    rows = []
+    for model in PIN_MODELS:
+        for hand in HANDEDNESS:
+            pf = pin_friction(geo, mu, r_d, 0.0, "pinFriction", model, hand)
+            KA, KB, K = (locking_coefficients(pf, lead) for lead in ("A", "B", "either"))
+            for k, case in enumerate(("drive", "coast")):
+                rows.append([model, hand, case, f"{KA[k]:.4f}", f"{KB[k]:.4f}", f"{K[k]:.4f}",
+                             f"{torque_bias_ratio(K[k]):.4f}"])
+    return rows
+
+
+def pressure_rows(geo: DifferentialGeometry, mu: float, r_d: float, r_j: float,
+                  T0: float = T0_RATED) -> list[list[str]]:
+    """Rows: pin model, case, the friction loads of planets 1 / 2 (N), their end reactions |R_0| /
+    |R_L| (N), mean and edge pressure (MPa) on journals of radius ``r_j`` and the planets' face
+    widths, at break-away under ``T0`` (sun A behind the carrier, leading pair)."""
+    rows = []
+    d = 2.0 * r_j
+    for model in PIN_MODELS:
+        pf = pin_friction(geo, mu, r_d, 0.0, "pinFriction", model)
+        for case, sign in (("drive", 1.0), ("coast", -1.0)):
+            b = breakaway(pf, sign * T0, -1.0)
+            cells = [model, case, f"{b.F_pin[0]:,.0f} / {b.F_pin[1]:,.0f}"]
+            ends, pm, pe = [], [], []
+            for i, planet in enumerate(("planet1", "planet2")):
+                R0x, R0y, RLx, RLy = b.R[i]
+                if model == "planar" or pf.layout.ends[i][3] == 0.0:
+                    ends.append("-")
+                else:
+                    ends.append(f"{(R0x * R0x + R0y * R0y) ** 0.5:,.0f} + {(RLx * RLx + RLy * RLy) ** 0.5:,.0f}")
+                mean, edge = edge_pressure(R0x, R0y, RLx, RLy, d, geo.gears[planet].b)
+                pm.append(mean)
+                pe.append(edge if model != "planar" else mean)
+            cells += [" / ".join(ends), f"{pm[0] / 1e6:.1f} / {pm[1] / 1e6:.1f}", f"{pe[0] / 1e6:.1f} / {pe[1] / 1e6:.1f}"]
+            rows.append(cells)
+    return rows
+
+
+K_HEADER = ["pin model", "pair", "case", "K sun A ahead", "K sun B ahead", "K", "bias ratio"]
+P_HEADER = ["pin model", "case", "friction load p1 / p2 N", "planet 2 |R_0| + |R_L| N", "p mean MPa",
+            "p edge MPa"]
+
+__all__ = ["k_rows", "pressure_rows", "K_HEADER", "P_HEADER", "T0_RATED"]
