@@ -43,7 +43,7 @@ def test_safety_factors_are_the_reports():
     from spurdiff.differential.watches import rating_forces
     p = f.model.params
     # the locked split at break-away, K_gamma of 3 pairs, K_v at the start's pitch-line speed (0 here)
-    rep = cap.capacity_report(geo, rating_forces(geo, p.mu_pin, p.r_collar, 1000.0), bores=bores,
+    rep = cap.capacity_report(geo, rating_forces(geo, p.mu_pin, p.r_collar, 1000.0, p.lockingLaw, p.pinModel, p.pairHandedness, p.pinContactFactor), bores=bores,
                               v=cap.pitch_line_speed(geo, f.model.wd))
     assert rep.meshes[0].K_gamma == 1.1 and rep.meshes[0].F_n > cap.nominal_mesh_forces(geo, 1000.0)["A1"]
     for r in rep.meshes:
@@ -65,7 +65,7 @@ def test_the_bushing_wall_sets_the_planets_bore_as_spurdiff_info_does():
     bore = 2.0 * (b.journalRadius + b.bushingWall)
     from spurdiff.differential.watches import rating_forces
     p = f.model.params
-    rep = cap.capacity_report(geo, rating_forces(geo, p.mu_pin, p.r_collar, f.values["capacity.T0"]),
+    rep = cap.capacity_report(geo, rating_forces(geo, p.mu_pin, p.r_collar, f.values["capacity.T0"], p.lockingLaw, p.pinModel, p.pairHandedness, p.pinContactFactor),
                               bores={"planet1": bore, "planet2": bore}, v=0.0)
     for r in rep.meshes:
         for g in r.gears:
@@ -86,7 +86,8 @@ def test_largest_stress_output_and_one_warning_when_the_limit_is_exceeded():
     assert f.values["capacity.exceeded"] == 0.0 and f.logged == []
     from spurdiff.differential.watches import rating_forces
     p = f.model.params
-    ref = cap.StressWatch(f.model.geometry, rating_forces(f.model.geometry, p.mu_pin, p.r_collar, 2100.0),
+    ref = cap.StressWatch(f.model.geometry, rating_forces(f.model.geometry, p.mu_pin, p.r_collar, 2100.0, p.lockingLaw, p.pinModel,
+                                        p.pairHandedness, p.pinContactFactor),
                           cond=w.cond, bores=w.bores, v=w.v)
     ref.update(F, f.values["mesh.F_B2"], f.values["mesh.F_12"])
     assert w.sigma_H_max == pytest.approx(ref.sigma_H_max, rel=1e-12)

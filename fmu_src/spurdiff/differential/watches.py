@@ -25,7 +25,7 @@ from __future__ import annotations
 import math
 
 from spurdiff.differential.bushing import bushing
-from spurdiff.differential.locking import breakaway, pin_friction
+from spurdiff.differential.locking import breakaway, dynamic_pin_model, pin_friction
 from spurdiff.errors import ParameterError, require_positive
 from spurdiff.gears import capacity as cap
 
@@ -54,16 +54,18 @@ class Watch:
         """Take the state ``s`` (None: the model's state had no entry for it), after ``model``'s own."""
 
 
-def rating_forces(geo, mu: float, r_d: float, T0: float, law: str = "pinFriction") -> dict[str, float]:
+def rating_forces(geo, mu: float, r_d: float, T0: float, law: str = "pinFriction", *pin_model) -> dict[str, float]:
     """The mesh forces (N, mean per pair) a limited-slip differential is rated at under the carrier
     torque ``T0`` (N m): the locked split at break-away (:func:`spurdiff.differential.locking.breakaway`,
-    pin lever ``mu r_d``, the locking law ``law``), each mesh's largest over drive and coast and
+    pin lever ``mu r_d``, the locking law ``law`` and ``pin_model`` (pinModel, pairHandedness,
+    pinContactFactor: :func:`spurdiff.differential.locking.pin_friction`'s defaults when not given)),
+    each mesh's largest over drive and coast and
     either sun running ahead; the equal split without pin friction. The sun meshes carry up to
     ``(1 + K) / 2`` of the torque, mesh 12 follows planet 1's moment balance."""
     F = cap.nominal_mesh_forces(geo, T0)
     if not (mu > 0.0 and r_d > 0.0 and T0 != 0.0):
         return F
-    pf = pin_friction(geo, mu, r_d, 0.0, law)
+    pf = pin_friction(geo, mu, r_d, 0.0, law, *pin_model)
     for sign in (1.0, -1.0):
         for s in (1.0, -1.0):
             b = breakaway(pf, sign * abs(T0), s)
@@ -91,7 +93,7 @@ class CapacityWatch(cap.StressWatch, Watch):
         p, geo = model.params, model.geometry
         bores = cap.pin_bores(p.r_collar, wall)   # the planets turn on journals (Y_B)
         cond = cap.conditions(K_gamma=params.K_gamma)
-        forces = rating_forces(geo, p.mu_pin, p.r_collar, self.T0, p.lockingLaw)
+        forces = rating_forces(geo, p.mu_pin, p.r_collar, self.T0, p.lockingLaw, *dynamic_pin_model(p))
         v = cap.pitch_line_speed(geo, model.wd)
         self.report = cap.capacity_report(geo, forces, mat, cond, bores, v=v)
         self.life = cap.life_report(geo, cap.scaled(forces, 1.0 / self.T0), mat=mat, cond=cond, bores=bores)
