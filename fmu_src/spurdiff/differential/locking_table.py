@@ -54,7 +54,7 @@ def pressure_rows(geo: DifferentialGeometry, mu: float, r_d: float, r_j: float,
 
 
 K_HEADER = ["pin model", "pair", "case", "K sun A ahead", "K sun B ahead", "K", "bias ratio"]
-P_HEADER = ["pin model", "case", "friction load p1 / p2 N", "planet 2 |R_0| + |R_L| N", "p mean MPa",
+P_HEADER = ["pin model", "case", "friction load p1 / p2 N", "|R_0| + |R_L| p1 / p2 N", "p mean MPa",
             "p edge MPa"]
 
 __all__ = ["k_rows", "pressure_rows", "K_HEADER", "P_HEADER", "T0_RATED"]
