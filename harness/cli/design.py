@@ -198,6 +198,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"design checks of the input set: {len(p.before.errors)} errors, {len(p.before.warnings)} warnings")
     for f in p.before.findings:
         print(f"  {f}")
+    _masses(p)
     if args.torque is not None:
         _capacity(args, p, MESHES)
     if args.scene_parameters:
@@ -214,6 +215,19 @@ def main(argv: list[str] | None = None) -> int:
         _write_private(args.write, text)
         print(f"written: {args.write}")
     return 0
+
+
+def _masses(p) -> None:
+    """The parts' masses of both sets (spurdiff.differential.inertia: bores removed, pins on the carrier,
+    stepped planets) with the default parameters."""
+    from spurdiff.differential.inertia import mass_properties
+    from spurdiff.differential.params import DifferentialParams
+    for label, geo in (("input", p.before), ("proposed", p.geometry)):
+        mp = mass_properties(DifferentialParams(table=geo.table), geo)
+        print(f"masses of the {label} set (bores removed, pins on the carrier): planet 1 / 2 {mp.m_planet1:.4f} / "
+              f"{mp.m_planet2:.4f} kg, J {mp.J_planet1 * 1e6:.2f} / {mp.J_planet2 * 1e6:.2f} kg mm^2, "
+              f"suns J {mp.J_sunA * 1e3:.4f} / {mp.J_sunB * 1e3:.4f} g m^2, pin {mp.m_pin:.4f} kg, "
+              f"carrier with pins J {mp.J_carrier:.5f} kg m^2, with the planets' orbits {mp.J_carrier_total:.5f}")
 
 
 def _capacity(args, p, MESHES) -> None:
