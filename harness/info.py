@@ -76,22 +76,26 @@ def bushing_rows(geo, mu_flank: float) -> list[str]:
                                                      *PIN_DEFAULTS))
         Kfd, Kfc = (locking_coefficient_flank(geo, pf, mu_flank, sg) for sg in (1.0, -1.0))
         ba = breakaway(pf, PAPER_T0 * 1e-3, -1.0)
-        checks = check(geo, b, ba.F_pin, CORNERING_W_REL, rho, ba.R)
+        checks = check(geo, b, ba.F_pin, CORNERING_W_REL, rho, ba.R)       # p: the peak at T0 = 2100 N m
+        ba_c = breakaway(pf, CORNERING_T0, -1.0)                               # pv: p and v of one point,
+        at_c = check(geo, b, ba_c.F_pin, CORNERING_W_REL, rho, ba_c.R)        # vehicle-cornering's
         rows.append([name, f"{b.muStatic:g} / {b.muDynamic:g}", f"{b.mu_effective:.4f}", f"{b.journalRadius / MM:g}",
                      f"{b.lever / MM:.4f}", f"{Kd:.4f} / {Kc:.4f}", f"{Ksd:.4f} / {Ksc:.4f}",
                      f"{torque_bias_ratio(Kd):.3f} / {torque_bias_ratio(Kc):.3f}", f"{Kfd:.4f} / {Kfc:.4f}",
                      f"{torque_bias_ratio(Kfd):.3f} / {torque_bias_ratio(Kfc):.3f}",
                      " / ".join(f"{c.backup_ratio:.2f}" for c in checks),
                      " / ".join(f"{c.p / 1e6:.1f}" for c in checks),
-                     " / ".join(f"{c.pv / 1e6:.3f}" for c in checks)])
-        finds += [f"  {name}: {f}" for c in checks for f in c.findings(b)]
+                     " / ".join(f"{c.pv / 1e6:.3f}" for c in at_c)])
+        finds += [f"  {name}: {f}" for c in checks for f in c.findings(b) if " pv = " not in f]
+        finds += [f"  {name}: {f} (vehicle-cornering)" for c in at_c for f in c.findings(b) if " pv = " in f]
     return ["Pin bushings (spurdiff/data/pin_bushing.toml, sources there): lever mu' r_j, mu' = mu_s/sqrt(1+mu_s^2) "
             "with the friction-circle correction (bronze), as published (paper); K (break-away, mu_s), K sliding "
             "(mu_d: the locking while the differential slips) and bias drive / coast, pins "
             f"alone and with flank friction {mu_flank:g} (cycle mean); backup ratio s_R/h_t planet 1 / 2; p (edge of the "
             f"linear distribution from the journals' end reactions, pinModel = {PIN_DEFAULTS[0]}) at the "
-            f"break-away pin loads at T0 = {PAPER_T0 * 1e-3:g} N m (drive); pv with sun A at "
-            f"{CORNERING_W_REL:g} rad/s relative to the carrier (vehicle-cornering)",
+            f"break-away pin loads at T0 = {PAPER_T0 * 1e-3:g} N m (drive, the peak); pv at one operating point, "
+            f"vehicle-cornering's: p at the break-away pin loads of T0 = {CORNERING_T0:g} N m times v with sun A at "
+            f"{CORNERING_W_REL:g} rad/s relative to the carrier",
             render(["set", "mu_s / mu_d", "mu'", "r_j mm", "lever mm", "K", "K sliding", "bias", "K + flanks", "bias + flanks",
                     "backup ratio", "p MPa", "pv MPa m/s"], rows),
             "Bushing findings" + (f" (limits: backup ratio >= {BACKUP_RATIO_MIN:g}, C93200 bronze p, pv)"),
