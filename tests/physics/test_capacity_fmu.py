@@ -144,3 +144,20 @@ def test_through_the_built_fmu_the_warning_reaches_the_hosts_logger_once(differe
     (sH,), (ex,) = inst.read([inst.var("capacity.sigmaHMax")], "x"), inst.read([inst.var("capacity.exceeded")], "x")
     assert ex == 1.0 and sH > 2.2e9
     inst.close()
+
+
+def test_the_fmu_rates_at_its_start_speed_with_k_gamma_and_the_duty_cycle():
+    """K_v at the pitch-line speed of the start state (sun A 5 rad/s behind the carrier: m z_A 5 / 2
+    = 0.27 m/s), K_gamma from capacity.K_gamma (0: 1.10 for 3 pairs), the limited life computed and
+    named in the start message."""
+    f, status = _fmu(**{"differential.w_start": -5.0, "capacity.K_gamma": 1.25})
+    assert status == 0
+    w = f.model.capacity_watch
+    assert w.v == pytest.approx(0.003 * 36 * 5.0 / 2, rel=1e-12)
+    r = w.report.meshes[0]
+    assert r.K_gamma == 1.25 and r.v == w.v and r.K_v > 1.0
+    assert r.K_v == pytest.approx(cap.dynamic_factor(6, 1.0, 1.25 * r.F_t, r.b * 1e3, 13, 36 / 13, w.v), rel=1e-12)
+    assert w.life.entries and min(e.S for e in w.life.entries) == w.life.S
+    g, _ = _fmu()
+    assert g.model.capacity_watch.report.meshes[0].K_gamma == 1.1 and g.model.capacity_watch.v == 0.0
+    assert any("limited life over the duty cycle" in m for s, m in g.logged)
