@@ -49,6 +49,24 @@ def _read_input(path: str) -> str:
         raise ParameterError("--input", path, "a UTF-8 TOML gear set", str(e)) from None
 
 
+def _check_types(data: dict) -> None:
+    """Every value of a gear-set file a number (tooth counts and nPairs integers), else a
+    ParameterError naming it (``--input sunA.z``)."""
+    from spurdiff.errors import ParameterError
+
+    def need(name, v, integer):
+        ok = isinstance(v, int) if integer else isinstance(v, (int, float))
+        if isinstance(v, bool) or not ok:
+            raise ParameterError(f"--input {name}", v, "an integer" if integer else "a number") from None
+
+    for key, v in data.items():
+        if isinstance(v, dict):
+            for k, x in v.items():
+                need(f"{key}.{k}", x, k == "z")
+        else:
+            need(key, v, key == "nPairs")
+
+
 def _write_private(path: str, text: str) -> None:
     """Write ``text`` to ``path`` through a private temporary file in the same folder (mode 0600,
     created exclusively), renamed into place; a symlinked ``path`` is refused (the rename would
@@ -161,6 +179,7 @@ def main(argv: list[str] | None = None) -> int:
             data = tomllib.loads(_read_input(args.input))
         except tomllib.TOMLDecodeError as e:
             raise ParameterError("--input", args.input, "a readable TOML gear set", str(e)) from None
+        _check_types(data)
         try:
             base = table_from_data(data)
             base.validate()

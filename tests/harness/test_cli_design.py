@@ -105,13 +105,14 @@ def test_a_large_or_bad_input_file_is_one_line(tmp_path, capsys):
     big = tmp_path / "big.toml"
     big.write_text("# " + "x" * MAX_INPUT)
     _one_line(capsys, ["--input", str(big)], "at most")
-    for text, needle in (('[sunA]\nz = "many"\n', "--input"),
+    for text, needle in (('[sunA]\nz = "many"\n', "--input sunA.z = 'many' is invalid: allowed an integer"),
+                         ("[planet1]\nx = [1, 2]\n", "--input planet1.x = [1, 2] is invalid: allowed a number"),
                          ("[sunA]\nz = -3\n", "--input sunA.z = -3 is invalid"),
                          ("[planet1]\nb = 1e400\n", "--input planet1.b"),
                          ("[planet2]\nx = nan\n", "--input planet2.x"),
                          ("[carrier]\nwallB = -1.0\n", "--input carrier.wallB"),
                          ("[sunB]\nbogus = 1\n", "--input sunB.bogus"),
-                         ("nPairs = 3.5\n", "--input"),
+                         ("nPairs = 3.5\n", "--input nPairs = 3.5 is invalid: allowed an integer"),
                          ("[sunA\n", "a readable TOML gear set"),
                          (b"\xff\xfe".decode("latin-1"), "--input")):
         f = tmp_path / "bad.toml"
