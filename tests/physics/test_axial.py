@@ -74,3 +74,20 @@ def test_designed_set_and_data_roundtrip():
         table_from_data({"carrier": {"wall": 0.05}})
     with pytest.raises(ParameterError, match="sunA.axialStart"):
         GearTable().with_gear("sunA", axialStart=-0.001).validate()
+
+
+def test_a_table_without_axial_layout_is_coplanar_with_one_warning():
+    from spurdiff.gears.geometry import Gear
+    from spurdiff.differential.locking import locking_coefficients, pin_friction
+
+    t = GearTable(sunA=Gear(36, -1.0099, 0.022, 0.1072), planet1=Gear(13, 0.3, 0.022, 0.046058999999999996),
+                  sunB=Gear(36, 1.2296, 0.022, 0.1208), planet2=Gear(13, -0.3, 0.04, 0.042662))
+    lay = AxialLayout.of(t)
+    assert not lay.given and lay.planar and lay.mesh_width("B2") == 0.022
+    geo = derive(t)
+    w = [f for f in geo.findings if f.check == "axial-layout"]
+    assert len(w) == 1 and w[0].level == "warning" and "sunA.axialStart" in w[0].message
+    assert not geo.errors
+    # the planar law (the paper's pins): 0.1779 / 0.2106
+    assert locking_coefficients(pin_friction(geo, 0.26, 0.012)) == (0.17789422667429886, 0.2106388602738491)
+    assert "sunA.axialStart" not in fmu_parameters(t)

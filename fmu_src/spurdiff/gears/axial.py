@@ -103,6 +103,8 @@ class AxialLayout:
     @classmethod
     def of(cls, t: GearTable) -> "AxialLayout":
         gears = t.gears()
+        if any(g.axialStart is None for g in gears.values()):
+            return cls.coplanar(t)
         starts = {n: g.axialStart for n, g in gears.items()}
         widths = {n: g.b for n, g in gears.items()}
         meshes = {}
@@ -116,6 +118,22 @@ class AxialLayout:
             journals.append(Journal(planet, s, s + L, (meshes[sun_mesh].centre - s) / L,
                                     (meshes["12"].centre - s) / L, 0.5))
         return cls(starts, widths, t.carrier.wallB, t.carrier.axialClearance, meshes, tuple(journals))
+
+    @classmethod
+    def coplanar(cls, t: GearTable) -> "AxialLayout":
+        """A table without an axial layout (an ``axialStart`` not given): every gear from 0, each mesh
+        as wide as its narrower gear and centred at 0, planar journals; no stack-up check
+        (:attr:`given` False, one warning in :meth:`findings`)."""
+        gears = t.gears()
+        meshes = {name: MeshAxial(name, g1, g2, -0.5 * min(gears[g1].b, gears[g2].b),
+                                  0.5 * min(gears[g1].b, gears[g2].b)) for name, g1, g2 in MESHES}
+        journals = tuple(Journal(p, -0.5 * gears[p].b, 0.5 * gears[p].b, 0.5, 0.5, 0.5) for p in PLANETS)
+        out = cls({n: -0.5 * g.b for n, g in gears.items()}, {n: g.b for n, g in gears.items()},
+                  t.carrier.wallB, t.carrier.axialClearance, meshes, journals)
+        object.__setattr__(out, "given", False)
+        return out
+
+    given = True    # the gear table gives the layout (False: coplanar stand-in, see coplanar)
 
     def end(self, gear: str) -> float:
         return self.starts[gear] + self.widths[gear]
@@ -136,6 +154,13 @@ class AxialLayout:
 
     def findings(self, geo: DifferentialGeometry):
         """The stack-up findings (a generator of :class:`Finding`; see the module docstring)."""
+        if not self.given:
+            missing = [n for n, g in geo.table.gears().items() if g.axialStart is None]
+            yield Finding("warning", "axial-layout", f"{missing[0]}.axialStart",
+                          f"no axial layout ({', '.join(m + '.axialStart' for m in missing)} not given): the meshes "
+                          f"taken as coplanar, each as wide as its narrower gear (the planar pin law), no stack-up "
+                          f"check")
+            return
         c = self.clearance
         for me in self.meshes.values():
             b1, b2 = self.widths[me.gear1], self.widths[me.gear2]

@@ -66,7 +66,9 @@ def fmu_parameters(table: GearTable | str) -> dict:
     out["nPairs"] = t.nPairs
     for n in GEAR_NAMES:
         g = getattr(t, n)
-        out.update({f"{n}.z": g.z, f"{n}.x": g.x, f"{n}.b": g.b, f"{n}.da": g.da, f"{n}.axialStart": g.axialStart})
+        out.update({f"{n}.z": g.z, f"{n}.x": g.x, f"{n}.b": g.b, f"{n}.da": g.da})
+        if g.axialStart is not None:
+            out[f"{n}.axialStart"] = g.axialStart
     out.update({f"carrier.{k}": getattr(t.carrier, k) for k in CARRIER_KEYS})
     return out
 

@@ -67,7 +67,7 @@ class Gear:
     x: float
     b: float
     da: float = 0.0
-    axialStart: float = 0.0
+    axialStart: float | None = None     # None: not given (no axial layout: coplanar meshes, no stack-up check)
 
 
 @dataclass(frozen=True)
@@ -144,8 +144,8 @@ class GearTable:
             da = require_finite(f"{name}.da", g.da)
             if da < 0.0:
                 raise ParameterError(f"{name}.da", da, ">= 0 (0 = untrimmed tip)")
-            z0 = require_finite(f"{name}.axialStart", g.axialStart)
-            if not 0.0 <= z0 <= 1.0:
+            z0 = None if g.axialStart is None else require_finite(f"{name}.axialStart", g.axialStart)
+            if z0 is not None and not 0.0 <= z0 <= 1.0:
                 raise ParameterError(f"{name}.axialStart", z0, "between 0 and 1 m (from carrier wall A's inner face)")
         require_positive("carrier.wallB", self.carrier.wallB)
         c = require_finite("carrier.axialClearance", self.carrier.axialClearance)
