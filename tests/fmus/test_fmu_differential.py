@@ -73,6 +73,7 @@ def test_axial_layout_parameters_and_findings(differential_fmu):
     plane is refused naming the parameter; linearPressure is refused by the simulation, by name."""
     inst = start(differential_fmu)
     assert get(inst, "meshB2.b", "meshA1.b") == pytest.approx([0.017, 0.022], abs=1e-12)
+    assert any("axial stack-up: WARNING mesh-width: mesh B2 is 17.00 mm" in m for _, m in inst.messages)
     free(inst)
     inst = start(differential_fmu, params={"sunB.axialStart": 0.010}, expect_error=True)
     assert any("sunB.axialStart" in m and "overlap axially" in m for m in inst.errors())

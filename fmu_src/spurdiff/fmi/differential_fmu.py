@@ -23,6 +23,7 @@ from spurdiff.fmi.variables import Var
 from spurdiff.differential import derivatives
 from spurdiff.differential.locking import torque_bias_ratio
 from spurdiff.gears.axial import AxialLayout
+from spurdiff.gears.design import derive
 from spurdiff.gears.phasing import mesh_phases
 from spurdiff.differential.mesh import MeshDifferential, MeshParams
 from spurdiff.differential.mesh import rates as mesh_rates
@@ -516,10 +517,14 @@ def build_model(values: dict):
 
 def build_message(values: dict) -> str | None:
     """What the FMU logs once the model is built: which implementation runs the mesh level or the rigid
-    level's pin-load solve, and why."""
-    if values["solver.kernelInUse"].startswith("none"):
-        return None
-    return f"meshModel = {values['meshModel']}: {values['solver.kernelInUse']} implementation"
+    level's pin-load solve, and why; then the axial stack-up findings of the gear set (issue 41,
+    spurdiff.gears.axial; the errors among them refused the set already)."""
+    lines = []
+    if not values["solver.kernelInUse"].startswith("none"):
+        lines.append(f"meshModel = {values['meshModel']}: {values['solver.kernelInUse']} implementation")
+    table = setup(values).diff.table
+    lines += [f"axial stack-up: {f}" for f in AxialLayout.of(table).findings(derive(table))]
+    return "\n".join(lines) or None
 
 
 def _set_calculated(model, values: dict) -> None:
