@@ -72,7 +72,8 @@ class DifferentialParams:
         rb_planet = min(geo.meshA1.rb2, geo.meshB2.rb2)
         if self.lockingLaw == "pinFriction" and mu * self.r_collar * fac >= 0.5 * rb_planet:
             raise ParameterError("r_collar", self.r_collar,
-                                 f"mu_pin * r_collar * pinContactFactor < r_b / 2 = {0.5 * rb_planet:.4g} m (planet base radius)",
+                                 f"mu_pin * r_collar * pinContactFactor < r_b / 2 = {0.5 * rb_planet:.4g} m "
+                                 "(planet base radius)",
                                  "a larger friction lever than that makes the pins nearly self-locking")
         require_positive("density", self.density)
         if self.carrierDrive not in CARRIER_DRIVES:

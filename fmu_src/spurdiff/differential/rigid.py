@@ -59,7 +59,8 @@ from spurdiff.errors import StepError, require_finite, require_positive
 from spurdiff.gears.geometry import DifferentialGeometry
 from spurdiff.differential.inertia import MassProperties, mass_properties
 from spurdiff.differential.params import DifferentialParams
-from spurdiff.differential.locking import dynamic_pin_model, locking_coefficients, paper_locking_coefficient, pin_friction
+from spurdiff.differential.locking import (dynamic_pin_model, locking_coefficients, paper_locking_coefficient,
+                                           pin_friction)
 from spurdiff.differential.model_base import DifferentialModel
 from spurdiff.differential.rigid_pinload import PinLoadLaw
 from spurdiff.differential.statics import MeshForces, mesh_forces_for

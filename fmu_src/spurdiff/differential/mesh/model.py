@@ -43,7 +43,8 @@ from spurdiff.errors import ParameterError, StepError, require_finite, require_p
 from spurdiff.gears.geometry import DifferentialGeometry
 from spurdiff.differential.inertia import MassProperties, mass_properties
 from spurdiff.differential.flank_law import locking_coefficient_flank
-from spurdiff.differential.locking import PinFriction, dynamic_pin_model, locking_coefficients, paper_locking_coefficient, pin_friction
+from spurdiff.differential.locking import (PinFriction, dynamic_pin_model, locking_coefficients,
+                                           paper_locking_coefficient, pin_friction)
 from spurdiff.differential.model_base import DifferentialModel
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.statics import MeshForces
