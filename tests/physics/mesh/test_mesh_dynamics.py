@@ -401,9 +401,12 @@ def test_iso6336_stiffness_of_mesh_A1():
     # A1 (sun A's tip stops at planet 1's form circle), 1.011 for B2 and 12 (planet 2 undercut)
     m = model("compliant")
     assert [round(md.eps, 3) for md in m.md] == [1.515, 1.011, 1.011]
-    for md, (z1, x1, z2, x2) in zip(m.md, ((36, -1.0099, 13, 0.3), (36, 1.2296, 13, -0.3), (13, 0.3, 13, -0.3))):
+    # times each mesh's face width, the axial overlap of its gears (issue 41): B2 17 mm (sun B 24 .. 46 mm,
+    # planet 2 1 .. 41 mm in the paper set's assumed layout), A1 and 12 22 mm
+    for md, (z1, x1, z2, x2), b in zip(m.md, ((36, -1.0099, 13, 0.3), (36, 1.2296, 13, -0.3), (13, 0.3, 13, -0.3)),
+                                       (0.022, 0.017, 0.022)):
         _, c = iso6336_stiffness(z1, x1, z2, x2, md.eps, 2.06e11)
-        assert md.k == pytest.approx(c * 1e9 * 0.022, rel=1e-12)
+        assert md.k == pytest.approx(c * 1e9 * b, rel=1e-12)
     # the 0.9 factor of ISO 6336 for eps < 1.2 applies to B2 and 12 now
     assert iso6336_stiffness(36, 1.2296, 13, -0.3, 1.011, 2.06e11)[1] == pytest.approx(
         0.9 * iso6336_stiffness(36, 1.2296, 13, -0.3, 1.2, 2.06e11)[1] * (0.75 * 1.011 + 0.25) / (0.75 * 1.2 + 0.25))
