@@ -22,7 +22,7 @@ from spurdiff.differential.mesh.params import MeshParams
 from spurdiff.gears.phasing import mesh_phases
 from spurdiff.differential.statics import mesh_forces, mesh_forces_for
 
-from harness.report import render
+from harness.run.report import render
 
 # The paper's printed theory values (N mm, N) and its printed (rounded) pitch radii (mm)
 PAPER_T0 = 2_100_000.0  # N mm

@@ -12,10 +12,10 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.result import Result
-from harness.scene import SceneError
+from harness.run.result import Result
+from harness.scene.spec import SceneError
 from harness import theory
-from harness.expressions import compile_expression, is_expression
+from harness.scene.expressions import compile_expression, is_expression
 
 
 def window_mask(t: np.ndarray, window) -> np.ndarray:
@@ -27,7 +27,7 @@ def window_mask(t: np.ndarray, window) -> np.ndarray:
 
 def series(result: Result, quantity: str) -> np.ndarray:
     """A recorded variable, or an expression over recorded variables in braces
-    (checked and evaluated by :mod:`harness.expressions`, never ``eval``)."""
+    (checked and evaluated by :mod:`harness.scene.expressions`, never ``eval``)."""
     if not is_expression(quantity):
         return theory.series(result, quantity) if quantity.startswith(theory.PREFIX) else result[quantity]
     expr = compile_expression(quantity, f"scene {result.scene.name}: quantity")
@@ -209,9 +209,9 @@ def writable_dir(path: Path, label: str) -> Path:
 class CsvStream:
     """Recorded rows to a CSV file as they come (the same format as :func:`write_csv`), flushed at
     least every ``flush_every`` s of wall time and on close: an interrupted or killed run keeps what
-    it recorded. The file is created at the first row (:class:`harness.outputs.StreamFile`: never
+    it recorded. The file is created at the first row (:class:`harness.common.outputs.StreamFile`: never
     through a link planted there), so a run refused before it starts leaves an earlier file in
-    place. A write error raises :class:`harness.outputs.OutputError` (place, errno, rows kept)."""
+    place. A write error raises :class:`harness.common.outputs.OutputError` (place, errno, rows kept)."""
 
     def __init__(self, path: Path, header: list[str], flush_every: float = 0.5):
         self.path, self.header, self.flush_every = Path(path), list(header), flush_every
@@ -220,7 +220,7 @@ class CsvStream:
         self._last = 0.0
 
     def write(self, row) -> None:
-        from harness.outputs import StreamFile
+        from harness.common.outputs import StreamFile
 
         if self.fh is None:
             self.fh = StreamFile(self.path)
@@ -252,7 +252,7 @@ class CsvStream:
 
 
 def write_csv(result: Result, path: Path) -> Path:
-    from harness.outputs import atomic_file
+    from harness.common.outputs import atomic_file
 
     with atomic_file(path, "w", newline="") as f:
         w = csv.writer(f)

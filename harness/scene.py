@@ -24,22 +24,22 @@ Top-level keys::
     checks                        [[checks]] physical checks (name, stat, var, window, expect/rtol/atol/below/above,
                                   fidelity: the mesh models it holds at, others report it as not checked)
     fidelity                      "fixed" (default) | {mode = "auto", outputs = ["inst.var", ...], tolerance = 0.01,
-                                  data = "scene"}: pick the cheapest measured fidelity and step (harness/accuracy/auto.py)
+                                  data = "scene"}: pick the cheapest measured fidelity and step (harness/measure/accuracy/auto.py)
     extends                       name of a scene this one starts from: its tables are merged key by key,
                                   every other value (lists included) is replaced
 
 A quantity (``var``, ``expect_var``, a string ``theory``) is a recorded variable ``"inst.var"`` or an
 expression over them in braces, e.g. ``"{wheelR.wheel.w} / {wheelL.wheel.w}"``: arithmetic,
 comparisons and a few named functions, checked when the scene is read and evaluated sample by
-sample without ``eval`` (:mod:`harness.expressions`).
+sample without ``eval`` (:mod:`harness.scene.expressions`).
 
 A scene's ``name`` becomes a file and folder name: letters, digits, ``_``, ``-`` and ``.``, no ``..``.
 Values must have the types above; a wrong type is refused with one line naming the key. Parameter
 values are converted by the FMU variable's type (:func:`parameter_value`) before they are set.
 
 (Over 400 lines: about 35 are the key reference above; the rest is one scene, read, its ``extends``
-resolved and each table checked; the shared checks are :mod:`harness.schema`, the expressions
-:mod:`harness.expressions`.)
+resolved and each table checked; the shared checks are :mod:`harness.scene.schema`, the expressions
+:mod:`harness.scene.expressions`.)
 """
 from __future__ import annotations
 
@@ -50,12 +50,12 @@ from pathlib import Path
 from typing import Any
 
 from harness import theory
-from harness.messages import shown
-from harness.schema import (SceneError, is_safe_name, number as _number, parameter_value, positive as _positive,  # noqa: F401
+from harness.common.messages import shown
+from harness.scene.schema import (SceneError, is_safe_name, number as _number, parameter_value, positive as _positive,  # noqa: F401
                             read_toml, safe_name, strings as _strings, table as _table_of, tables as _tables,
                             text as _text, unknown as _unknown, window as _window)
-from harness.recording import MAX_STEPS, STEP_CAP
-from harness.profiles import Profile, parse_profile
+from harness.scene.recording import MAX_STEPS, STEP_CAP
+from harness.scene.profiles import Profile, parse_profile
 
 SCENE_DIR = Path(__file__).resolve().parent / "scenes"
 
@@ -204,7 +204,7 @@ def _split(where: str, ref: str, names: set[str]) -> tuple[str, str]:
 
 def _quantity(where: str, q, names: set[str]) -> list[str]:
     """Variables a quantity reads, after checking it: 'inst.var' or an expression over {inst.var}."""
-    from harness.expressions import compile_expression, is_expression
+    from harness.scene.expressions import compile_expression, is_expression
 
     if is_expression(q):
         refs = list(compile_expression(q, where).refs)
@@ -389,7 +389,7 @@ def parse_scene(data: dict, source: Path | None = None) -> Scene:
 def check_windows(where: str, scene: Scene) -> None:
     """Refuse a check or table window outside the run, starting after its duration or ending before
     0: it holds no sample, so its check could only say nan. (A window the run ends inside is
-    evaluated over the part run and says so: :func:`harness.report.evaluate_checks`.)"""
+    evaluated over the part run and says so: :func:`harness.run.report.evaluate_checks`.)"""
     for kind, rows, key in (("checks", scene.checks, "name"), ("table", scene.table, "label")):
         for i, row in enumerate(rows):
             w = row.get("window")

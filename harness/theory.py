@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 import numpy as np
 
-from harness.schema import SceneError
+from harness.scene.schema import SceneError
 
 PREFIX = "theory."
 NAMES = ("K", "K_sliding", "lockingTorque", "lockingTorqueSliding")

@@ -2,7 +2,7 @@
 both leading suns (issue 41)."""
 from __future__ import annotations
 
-from harness.info import info_text
+from harness.measure.info import info_text
 
 
 def test_info_shows_the_axial_layout_and_the_3d_locking():

@@ -1,7 +1,7 @@
 """`spurdiff info`'s bushing pv is p times v at one operating point (issue 41 item 4): vehicle-
 cornering's, the break-away pin loads of its 152.4 N m with sun A at 1.1706 rad/s to the carrier;
 the p column stays the peak at 2100 N m."""
-from harness.info import CORNERING_T0, CORNERING_W_REL, PAPER_T0, PIN_DEFAULTS, bushing_rows
+from harness.measure.info import CORNERING_T0, CORNERING_W_REL, PAPER_T0, PIN_DEFAULTS, bushing_rows
 from spurdiff.differential.bushing import PIN_SETS, bushing, check
 from spurdiff.differential.locking import breakaway, pin_friction
 from spurdiff.gears.design import derive

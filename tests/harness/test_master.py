@@ -5,7 +5,7 @@ import pytest
 import numpy as np
 
 from harness.cli import main
-from harness.scene import SceneError, available, load_scene, parse_scene
+from harness.scene.spec import SceneError, available, load_scene, parse_scene
 
 
 BASE = {"name": "t", "duration": 0.01, "step": 1e-3, "fmus": {"diff": {"fmu": "SpurDifferential"}}}
@@ -118,9 +118,9 @@ def test_direct_physics_run_equals_fmi_run(fmu_files):
 
     import numpy as np
 
-    from harness.direct import run_direct
-    from harness.master import run_scene
-    from harness.runner import prepare_scene
+    from harness.run.direct import run_direct
+    from harness.run.master import run_scene
+    from harness.run.runner import prepare_scene
 
     for algorithm in ("gauss-seidel", "jacobi"):
         s = replace(prepare_scene("paper-cornering", algorithm=algorithm), duration=0.05)
@@ -131,8 +131,8 @@ def test_direct_physics_run_equals_fmi_run(fmu_files):
 
 
 def test_table_and_checks_accept_expressions(fmu_files):
-    from harness.master import run_scene
-    from harness.report import evaluate_checks, stat
+    from harness.run.master import run_scene
+    from harness.run.report import evaluate_checks, stat
 
     # a load difference (500 N m) above the pin-load law's capacity (K T0 = 374 N m): it slips
     scene = parse_scene({**BASE, "duration": 0.05, "inputs": {"diff.carrier.w_ref": 1.389, "diff.left.tau": -1300.0,
@@ -145,8 +145,8 @@ def test_table_and_checks_accept_expressions(fmu_files):
 
 
 def test_integer_outputs_can_be_recorded(fmu_files):
-    from harness.master import run_scene
-    from harness.runner import prepare_scene
+    from harness.run.master import run_scene
+    from harness.run.runner import prepare_scene
 
     s = prepare_scene("paper-cornering", duration=0.02)
     s.record += ["diff.modeSwitches", "diff.internalSteps"]
@@ -176,7 +176,7 @@ def test_bad_fidelity_is_named(fidelity, match):
 
 
 def test_extends_cycle_is_refused(tmp_path, monkeypatch):
-    import harness.scene as sc
+    import harness.scene.spec as sc
     (tmp_path / "a.toml").write_text('extends = "b"\nname = "a"\n')
     (tmp_path / "b.toml").write_text('extends = "a"\nname = "b"\n')
     monkeypatch.setattr(sc, "SCENE_DIR", tmp_path)
@@ -185,8 +185,8 @@ def test_extends_cycle_is_refused(tmp_path, monkeypatch):
 
 
 def test_coupling_warning_names_the_coupling_and_the_cure():
-    from harness.master import Result
-    from harness.report import coupling_warnings, format_couplings
+    from harness.run.master import Result
+    from harness.run.report import coupling_warnings, format_couplings
 
     scene = load_scene("vehicle-cornering")
     r = Result(scene, [], np.zeros((1, 1)), 0.0, 0, coupling_energy={
@@ -204,8 +204,8 @@ def test_build_after_loading_an_fmu_in_the_same_process(differential_fmu, tmp_pa
     sweeps, tests) produces a complete FMU."""
     import subprocess
     import sys
-    code = ("import sys; from pathlib import Path; from harness.master import run_scene; "
-            "from harness.scene import load_scene; from harness.build import build, _pythonfmu_shadowed; "
+    code = ("import sys; from pathlib import Path; from harness.run.master import run_scene; "
+            "from harness.scene.spec import load_scene; from harness.build.fmu import build, _pythonfmu_shadowed; "
             "run_scene(load_scene('paper-straight'), {'SpurDifferential': Path(sys.argv[1])}); "
             "assert not _pythonfmu_shadowed(); print(build(['SpurDifferential'], Path(sys.argv[2]), quiet=True)[0]); "
             # skip interpreter finalization: it sometimes crashes after pythonfmu FMUs with numpy

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from harness import theory
-from harness.report import series
-from harness.result import Result
-from harness.runner import prepare_scene
-from harness.schema import SceneError
+from harness.run.report import series
+from harness.run.result import Result
+from harness.run.runner import prepare_scene
+from harness.scene.schema import SceneError
 from spurdiff.differential.inertia import mass_properties
 from spurdiff.differential.locking import pin_friction
 from spurdiff.differential.params import DifferentialParams

@@ -55,7 +55,7 @@ def test_safety_factors_are_the_reports():
 
 
 def test_the_bushing_wall_sets_the_planets_bore_as_spurdiff_info_does():
-    """capacity.bushingWall: the planets' bore is 2 (r_collar + wall), as harness.info rates the
+    """capacity.bushingWall: the planets' bore is 2 (r_collar + wall), as harness.measure.info rates the
     bronze pin set; a thicker wall leaves a thinner rim, so the planets' root safety falls."""
     from spurdiff.differential.bushing import bushing
     b = bushing("bronze")

@@ -106,7 +106,7 @@ def test_bad_communication_steps_are_refused(h):
 def test_bad_step_through_fmi_is_discarded_not_fatal(differential_fmu):
     from fmpy.fmi1 import FMICallException
 
-    from harness.master import Instance
+    from harness.run.master import Instance
 
     inst = Instance("h0", differential_fmu)
     inst.slave.setupExperiment(startTime=0.0)
@@ -261,9 +261,9 @@ def test_ten_minute_steady_cornering_keeps_the_kinematic_constraint(level, h):
 def test_mu_zero_on_one_side(fmu_files):
     """split-mu-launch with mu = 0 on the left wheel, at the default and the coarsest stable step:
     the left wheel spins up, the right side gets at most the torque bias ratio times the left."""
-    from harness.master import run_scene
-    from harness.report import series, stat
-    from harness.scene import parse_scene, read_scene_data, within_run
+    from harness.run.master import run_scene
+    from harness.run.report import series, stat
+    from harness.scene.spec import parse_scene, read_scene_data, within_run
 
     for h in (5e-3, 2e-2):
         data = read_scene_data("split-mu-launch")
@@ -295,9 +295,9 @@ def test_jacobi_and_gauss_seidel_at_the_stiffest_half_shaft(fmu_files):
     the harness warns, or the run stops with the FMU's message)."""
     from dataclasses import replace
 
-    from harness.master import run_scene
-    from harness.report import coupling_warnings, stat
-    from harness.runner import prepare_scene
+    from harness.run.master import run_scene
+    from harness.run.report import coupling_warnings, stat
+    from harness.run.runner import prepare_scene
 
     stiff = ["diff.leftShaft.c=80000.0", "diff.rightShaft.c=80000.0", "diff.shafts.h_max=0.001",
              "wheelL.halfShaft.c=80000.0", "wheelR.halfShaft.c=80000.0"]
@@ -387,7 +387,7 @@ def test_drawn_gear_tables_loads_and_steps_stay_finite_passive_and_kinematic(zs,
 # deflection rate once the flanks are back in contact). The tip-out through the backlash at 20 ms
 # is what made the shafts' sub-step halving necessary (its Newton stalled there).
 def _interface_case(name: str):
-    from harness.scene import read_scene_data, within_run
+    from harness.scene.spec import read_scene_data, within_run
 
     data = read_scene_data({"mu-zero": "split-mu-launch", "backlash-reversal": "tip-in-tip-out"}.get(name, name))
     if name == "standstill-launch":
@@ -412,9 +412,9 @@ def _interface_case(name: str):
 @pytest.mark.parametrize("h", [1e-3, 2e-2])
 @pytest.mark.parametrize("name", ["standstill-launch", "wheel-lift", "mu-zero", "backlash-reversal"])
 def test_shaft_owning_interface_hard_cases_through_the_fmus(fmu_files, name, h):
-    from harness.master import run_scene
-    from harness.report import series
-    from harness.scene import parse_scene
+    from harness.run.master import run_scene
+    from harness.run.report import series
+    from harness.scene.spec import parse_scene
 
     data = _interface_case(name)
     data.update(step=h, output_interval=h)

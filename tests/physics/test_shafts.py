@@ -1,6 +1,6 @@
 """The shaft-owning differential (spurdiff.differential.shafts) with WheelLoads in shaftCoupling = "wheel",
 coupled in plain Python (Gauss-Seidel, the differential first, as the vehicle scenes do; the loop
-is harness.bench.shafts.Loop): the hard cases of issue 19 at 1 ms and 20 ms, energy balances,
+is harness.measure.bench.shafts.Loop): the hard cases of issue 19 at 1 ms and 20 ms, energy balances,
 step sequences, atomic steps."""
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.rigid import RigidDifferential
 from spurdiff.differential.shafts import ShaftedDifferential, ShaftParams, ShaftsParams, WheelSurrogate
 
-from harness.bench.shafts import R_WHEEL, Loop, make, start
+from harness.measure.bench.shafts import R_WHEEL, Loop, make, start
 
 
 def assert_sound(loop: Loop, rows: np.ndarray, kin_tol: float = 1e-9):

@@ -9,7 +9,7 @@ operations, same order, no fused multiply-adds), so the two agree bit for bit
 (tests/physics/test_rigid_kernel.py); the Python code stays the reference and the fallback.
 
 The library is found as the mesh kernel's (:mod:`spurdiff.differential.mesh.kernel`): beside this module
-(``librigid_kernel.so``, as ``harness/build.py`` ships it inside each SpurDifferential FMU), else in
+(``librigid_kernel.so``, as ``harness/build/fmu.py`` ships it inside each SpurDifferential FMU), else in
 the folders of :data:`SEARCH_PATH`, ``$SPURDIFF_KERNEL_DIR``, ``$SPURDIFF_FMU_DIR`` and a checkout's
 ``build/fmus`` as ``rigid_kernel-<digest>.so``, the digest of the C source beside it (a stale
 library is not used). Selected by the same switch, ``solver.kernel`` (auto | compiled | python).

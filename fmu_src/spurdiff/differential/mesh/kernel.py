@@ -7,8 +7,8 @@ what it calls), which stays the specification and the fallback; the two agree to
 (tests/physics/mesh/test_mesh_kernel.py).
 
 Where the library is found (first hit): beside this module (``mesh_kernel.so``, as
-``harness/build.py`` ships it inside each SpurDifferential FMU), in the folders of
-:data:`SEARCH_PATH` (``harness.build.kernel_library`` adds the FMU folder, where it compiles
+``harness/build/fmu.py`` ships it inside each SpurDifferential FMU), in the folders of
+:data:`SEARCH_PATH` (``harness.build.fmu.kernel_library`` adds the FMU folder, where it compiles
 ``mesh_kernel-<digest>.so`` for the direct runs and the tests), ``$SPURDIFF_KERNEL_DIR``,
 ``$SPURDIFF_FMU_DIR`` and a checkout's ``build/fmus``.
 A library in a checkout's folders must carry the digest of the C source beside it; one whose

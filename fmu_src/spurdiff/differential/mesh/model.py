@@ -377,7 +377,7 @@ class MeshDifferential(DifferentialModel):
         solve_ivp's one call with ``t_eval``: one step of length ``t_end`` (the internal steps are
         not cut at communication points) with the states at ``times`` (from the current time,
         increasing, in (0, t_end]) by the method's dense output, rows; the model ends at the end.
-        For the solver comparison (harness.bench.mesh); a co-simulation steps with do_step."""
+        For the solver comparison (harness.measure.bench.mesh); a co-simulation steps with do_step."""
         if not self._ready:
             raise StepError("run_dense called before initialize")
         t_end = require_positive("t_end", t_end)
