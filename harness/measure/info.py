@@ -3,8 +3,11 @@ from __future__ import annotations
 
 import math
 
-from spurdiff.gears.capacity import CapacityParams, capacity_report, nominal_mesh_forces, pin_bores
+from spurdiff.differential.watches import rating_forces
+from spurdiff.gears.capacity import CapacityParams, capacity_report, nominal_mesh_forces, pin_bores, pitch_line_speed
+from spurdiff.gears.axial import AxialLayout
 from spurdiff.gears.design import derive
+from spurdiff.differential.locking_table import K_HEADER, P_HEADER, T0_RATED, k_rows, pressure_rows
 from spurdiff.gears.design_sets import gear_set
 from spurdiff.gears.geometry import MM, GearTable
 from spurdiff.differential.inertia import mass_properties
@@ -54,6 +57,7 @@ def flank_rows(geo, pf, Kd: float, Kc: float, mu_flank: float) -> list[str]:
                     "K at the start phases", "K over one cycle"], rows), ""]
 
 
+PIN_DEFAULTS = (DifferentialParams().pinModel, DifferentialParams().pairHandedness)   # the pins of the bushing table
 CORNERING_W_REL = 1.1706   # rad/s, sun A relative to the carrier in vehicle-cornering's steady turn
 CORNERING_WC, CORNERING_T0 = 30.7161, 152.4    # rad/s, N m: vehicle-cornering's carrier speed and axle torque
 
@@ -66,26 +70,32 @@ def bushing_rows(geo, mu_flank: float) -> list[str]:
     rows, finds = [], []
     for name in PIN_SETS:
         b = bushing(name)
-        pf = pin_friction(geo, b.mu_effective, b.journalRadius, 0.0, "pinFriction")
+        pf = pin_friction(geo, b.mu_effective, b.journalRadius, 0.0, "pinFriction", *PIN_DEFAULTS)
         Kd, Kc = locking_coefficients(pf)
-        Ksd, Ksc = locking_coefficients(pin_friction(geo, b.mu_effective_dynamic, b.journalRadius, 0.0, "pinFriction"))
+        Ksd, Ksc = locking_coefficients(pin_friction(geo, b.mu_effective_dynamic, b.journalRadius, 0.0, "pinFriction",
+                                                     *PIN_DEFAULTS))
         Kfd, Kfc = (locking_coefficient_flank(geo, pf, mu_flank, sg) for sg in (1.0, -1.0))
         ba = breakaway(pf, PAPER_T0 * 1e-3, -1.0)
-        checks = check(geo, b, ba.F_pin, CORNERING_W_REL, rho)
+        checks = check(geo, b, ba.F_pin, CORNERING_W_REL, rho, ba.R)       # p: the peak at T0 = 2100 N m
+        ba_c = breakaway(pf, CORNERING_T0, -1.0)                               # pv: p and v of one point,
+        at_c = check(geo, b, ba_c.F_pin, CORNERING_W_REL, rho, ba_c.R)        # vehicle-cornering's
         rows.append([name, f"{b.muStatic:g} / {b.muDynamic:g}", f"{b.mu_effective:.4f}", f"{b.journalRadius / MM:g}",
                      f"{b.lever / MM:.4f}", f"{Kd:.4f} / {Kc:.4f}", f"{Ksd:.4f} / {Ksc:.4f}",
                      f"{torque_bias_ratio(Kd):.3f} / {torque_bias_ratio(Kc):.3f}", f"{Kfd:.4f} / {Kfc:.4f}",
                      f"{torque_bias_ratio(Kfd):.3f} / {torque_bias_ratio(Kfc):.3f}",
                      " / ".join(f"{c.backup_ratio:.2f}" for c in checks),
                      " / ".join(f"{c.p / 1e6:.1f}" for c in checks),
-                     " / ".join(f"{c.pv / 1e6:.3f}" for c in checks)])
-        finds += [f"  {name}: {f}" for c in checks for f in c.findings(b)]
+                     " / ".join(f"{c.pv / 1e6:.3f}" for c in at_c)])
+        finds += [f"  {name}: {f}" for c in checks for f in c.findings(b) if " pv = " not in f]
+        finds += [f"  {name}: {f} (vehicle-cornering)" for c in at_c for f in c.findings(b) if " pv = " in f]
     return ["Pin bushings (spurdiff/data/pin_bushing.toml, sources there): lever mu' r_j, mu' = mu_s/sqrt(1+mu_s^2) "
             "with the friction-circle correction (bronze), as published (paper); K (break-away, mu_s), K sliding "
             "(mu_d: the locking while the differential slips) and bias drive / coast, pins "
-            f"alone and with flank friction {mu_flank:g} (cycle mean); backup ratio s_R/h_t planet 1 / 2; p at the "
-            f"break-away pin loads at T0 = {PAPER_T0 * 1e-3:g} N m (drive); pv with sun A at "
-            f"{CORNERING_W_REL:g} rad/s relative to the carrier (vehicle-cornering)",
+            f"alone and with flank friction {mu_flank:g} (cycle mean); backup ratio s_R/h_t planet 1 / 2; p (edge of the "
+            f"linear distribution from the journals' end reactions, pinModel = {PIN_DEFAULTS[0]}) at the "
+            f"break-away pin loads at T0 = {PAPER_T0 * 1e-3:g} N m (drive, the peak); pv at one operating point, "
+            f"vehicle-cornering's: p at the break-away pin loads of T0 = {CORNERING_T0:g} N m times v with sun A at "
+            f"{CORNERING_W_REL:g} rad/s relative to the carrier",
             render(["set", "mu_s / mu_d", "mu'", "r_j mm", "lever mm", "K", "K sliding", "bias", "K + flanks", "bias + flanks",
                     "backup ratio", "p MPa", "pv MPa m/s"], rows),
             "Bushing findings" + (f" (limits: backup ratio >= {BACKUP_RATIO_MIN:g}, C93200 bronze p, pv)"),
@@ -101,12 +111,12 @@ def capacity_rows(geo) -> list[str]:
             ("designed", derive(gear_set("designed")))]
     rows, reports = [], []
     for label, g in sets:
-        F = nominal_mesh_forces(g, T0)
         for pins in PIN_SETS:
             b = bushing(pins)
             bores = pin_bores(b.journalRadius, b.bushingWall)   # as the FMU with capacity.bushingWall
             bore = bores["planet1"]
-            rep = capacity_report(g, F, bores=bores)
+            F = rating_forces(g, b.mu_effective, b.journalRadius, T0)     # the locked split at break-away
+            rep = capacity_report(g, F, bores=bores, v=pitch_line_speed(g, CORNERING_W_REL))
             gs = [x for r in rep.meshes for x in r.gears]
             n_err = sum(f.level == "error" for f in rep.findings)
             rows.append([label, f"{pins} ({bore / MM:g})", f"{max(x.sigma_H for x in gs) / 1e6:.0f}",
@@ -114,16 +124,31 @@ def capacity_rows(geo) -> list[str]:
                          f"{rep.S_F:.3f} / {rep.S_F_static:.3f}", f"{n_err} / {len(rep.findings) - n_err}"])
             reports.append((f"{label}, {pins} pins ({bore / MM:g} mm bore)", rep))
     out = [f"Load capacity, ISO 6336 method B (spurdiff.gears.capacity, docs/capacity.md) at the rating torque "
-           f"capacity.T0 = {T0:g} N m split equally between the suns, nominal mesh forces; the given set and the designed "
+           f"capacity.T0 = {T0:g} N m, the locked split at break-away, K_gamma of nPairs, K_v at vehicle-cornering's "
+           f"pitch-line speed; the given set and the designed "
            f"one (spurdiff design, spurdiff/data/gear_set_designed.toml), each on the planet pins of both pin data "
            f"sets; safety factors S (smallest over meshes and gears) long life / static; findings: errors (static "
-           f"< 1) / warnings (long life < 1, thin rim)",
+           f"< 1) / warnings (thin rim; the limited life over the duty cycle: `spurdiff design --torque`)",
            render(["gear set", "pins (bore mm)", "sigma_H max MPa", "sigma_F max MPa", "S_H", "S_F",
                    "findings"], rows)]
     for label, rep in reports:
         out.append(f"Capacity of {label}:")
         out += [f"  {line}" for line in rep.lines()]
     return out + [""]
+
+
+def axial_locking_rows(geo, p) -> list[str]:
+    """The axial layout and the pin law in 3-D (issue 41; spurdiff.differential.locking_table): K for
+    each pin model, handedness of the pair and leading sun; pressures at break-away."""
+    return ["Axial layout (spurdiff.gears.axial; stack-up findings under Design checks)",
+            *[f"  {line}" for line in AxialLayout.of(geo.table).summary()], "",
+            f"Locking with the pins' axial load positions (mu = {p.mu_pin:g}, r_d = {p.r_collar / MM:g} mm; in use: "
+            f"pinModel = {p.pinModel}, pairHandedness = {p.pairHandedness}, leadingSun = {p.leadingSun}; pair leading: "
+            f"planet 2 ahead of planet 1 in the positive sense of rotation; K: the smaller of the two leading suns)",
+            render(K_HEADER, k_rows(geo, p.mu_pin, p.r_collar)),
+            f"  bushing loads and pressures at break-away, T0 = {T0_RATED:g} N m, sun A behind, pair leading, journal "
+            f"radius r_d, length the planet's face width; p edge: the larger end of the linear pressure distribution",
+            render(P_HEADER, pressure_rows(geo, p.mu_pin, p.r_collar, p.r_collar)), ""]
 
 
 WHEEL_RADIUS = 0.3266      # m, the Chrono sedan's tyre (shared/docs/model-references.md): carrier = wheel speed
@@ -196,8 +221,9 @@ def info_text(table: GearTable | None = None, params: DifferentialParams | None 
 
     # Statics at the paper's T0
     # Locking: both laws
-    pf = pin_friction(geo, p.mu_pin, p.r_collar, 0.0, "pinFriction")
-    Kd, Kc = locking_coefficients(pf)
+    pf = pin_friction(geo, p.mu_pin, p.r_collar, 0.0, "pinFriction", p.pinModel, p.pairHandedness,
+                      p.pinContactFactor)
+    Kd, Kc = locking_coefficients(pf, p.leadingSun)
     Kp = paper_locking_coefficient(p.mu_pin, p.r_collar, t.nPairs, geo.r_a, geo.r_1, geo.r_b, geo.r_2)
     ppf = pin_friction(geo, p.mu_pin, p.r_collar, 0.0, "paper")
     Kpc_mesh = locking_coefficients(ppf)[1]
@@ -205,9 +231,9 @@ def info_text(table: GearTable | None = None, params: DifferentialParams | None 
     bd = breakaway(pf, PAPER_T0 * 1e-3, -1.0)
     bc = breakaway(pf, -PAPER_T0 * 1e-3, -1.0)
     rows = [
-        ["pinFriction (default)", "drive", f"{Kd:.4f}", f"{first_order_K(pf, 1.0):.4f}", f"{torque_bias_ratio(Kd):.4f}",
+        [f"pinFriction ({p.pinModel})", "drive", f"{Kd:.4f}", f"{first_order_K(pf, 1.0):.4f}", f"{torque_bias_ratio(Kd):.4f}",
          f"{u_d[0]:.3f} / {u_d[1]:.3f}", f"{Kd * PAPER_T0 * 1e-3:.1f}"],
-        ["pinFriction (default)", "coast", f"{Kc:.4f}", f"{first_order_K(pf, -1.0):.4f}", f"{torque_bias_ratio(Kc):.4f}",
+        [f"pinFriction ({p.pinModel})", "coast", f"{Kc:.4f}", f"{first_order_K(pf, -1.0):.4f}", f"{torque_bias_ratio(Kc):.4f}",
          f"{u_c[0]:.3f} / {u_c[1]:.3f}", f"{Kc * PAPER_T0 * 1e-3:.1f}"],
         ["paper", "drive", f"{Kp:.4f}", "-", f"{torque_bias_ratio(Kp):.4f}", "-", f"{Kp * PAPER_T0 * 1e-3:.1f}"],
         ["paper", "coast", f"{Kp:.4f}", "-", f"{torque_bias_ratio(Kp):.4f}", "-", f"{Kp * PAPER_T0 * 1e-3:.1f}"],
@@ -223,6 +249,7 @@ def info_text(table: GearTable | None = None, params: DifferentialParams | None 
             f"{bd.F_pin[0]:,.0f} / {bd.F_pin[1]:,.0f} N; coast: pin loads {bc.F_pin[0]:,.0f} / {bc.F_pin[1]:,.0f} N",
             f"  the paper's law at the compliant/contact levels (pin lever scaled to its K in drive) holds "
             f"K = {Kpc_mesh:.4f} in coast ({Kpc_mesh / Kp:.3f} x)", ""]
+    out += axial_locking_rows(geo, p)
     out += flank_rows(geo, pf, Kd, Kc, mu_flank)
     out += bushing_rows(geo, mu_flank)
     out += speed_rows(p, geo, pf)

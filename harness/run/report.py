@@ -14,6 +14,7 @@ import numpy as np
 
 from harness.run.result import Result
 from harness.scene.spec import SceneError
+from harness.scene import theory
 from harness.scene.expressions import compile_expression, is_expression
 
 
@@ -28,9 +29,12 @@ def series(result: Result, quantity: str) -> np.ndarray:
     """A recorded variable, or an expression over recorded variables in braces
     (checked and evaluated by :mod:`harness.scene.expressions`, never ``eval``)."""
     if not is_expression(quantity):
-        return result[quantity]
+        return theory.series(result, quantity) if quantity.startswith(theory.PREFIX) else result[quantity]
     expr = compile_expression(quantity, f"scene {result.scene.name}: quantity")
-    return np.broadcast_to(np.asarray(expr(result.__getitem__), dtype=float), result.time.shape)
+
+    def get(name: str):     # a recorded variable, or a theory value from the run's parameters
+        return theory.series(result, name) if name.startswith(theory.PREFIX) else result[name]
+    return np.broadcast_to(np.asarray(expr(get), dtype=float), result.time.shape)
 
 
 def stat(result: Result, name: str, kind: str, window=None) -> float:

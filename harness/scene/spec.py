@@ -50,6 +50,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from harness.scene import theory
 from harness.common.messages import shown
 from harness.scene.schema import (SceneError, is_safe_name, number as _number, parameter_value, positive as _positive,  # noqa: F401
                                   read_toml, safe_name, strings as _strings, table as _table_of, tables as _tables,
@@ -211,9 +212,14 @@ def _quantity(where: str, q, names: set[str]) -> list[str]:
         refs = list(compile_expression(q, where).refs)
     else:
         refs = [_text(where, q)]
+    out = []
     for r in refs:
+        if r.startswith(theory.PREFIX):     # computed from the run's parameters (harness.scene.theory)
+            out += theory.needed(theory.parse(where, r, names)[0])
+            continue
         _split(where, r, names)
-    return refs
+        out.append(r)
+    return out
 
 
 _INSTANCE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]{0,63}$")

@@ -40,14 +40,17 @@ def test_outputs_correct_at_time_zero(differential_fmu):
     tau, fa1, K, alpha = get(inst, "carrier.tauDrive", "mesh.F_A1", "lockingCoefficient", "meshA1.alpha_w")
     assert tau == pytest.approx(2100.0, rel=1e-12)
     assert fa1 == pytest.approx(6897.45, rel=1e-5)
-    assert K == pytest.approx(0.17789, rel=1e-4)   # pin-load law (default), drive
+    assert K == pytest.approx(0.23265, rel=1e-4)   # pin-load law (default, planet 2's couple), drive
     assert math.degrees(alpha) == pytest.approx(13.3987, abs=1e-4)
     free(inst)
 
 
-@pytest.mark.parametrize("law,K,Kc", [("pinFriction", 0.17789, 0.21064), ("paper", 0.028332, 0.028332)])
-def test_locking_law_coefficients_and_bias_ratios(differential_fmu, law, K, Kc):
-    inst = start(differential_fmu, params={"lockingLaw": law})
+@pytest.mark.parametrize("params,K,Kc", [({"lockingLaw": "pinFriction"}, 0.23265, 0.21819),
+                                         ({"pinModel": "planar"}, 0.17789, 0.21064),
+                                         ({"pairHandedness": "trailing"}, 0.21819, 0.23265),
+                                         ({"lockingLaw": "paper"}, 0.028332, 0.028332)])
+def test_locking_law_coefficients_and_bias_ratios(differential_fmu, params, K, Kc):
+    inst = start(differential_fmu, params=params)
     k, kc, tbr, tbrc = get(inst, "lockingCoefficient", "lockingCoefficientCoast", "torqueBiasRatio",
                            "torqueBiasRatioCoast")
     assert k == pytest.approx(K, rel=1e-4) and kc == pytest.approx(Kc, rel=1e-4)
@@ -63,6 +66,19 @@ def test_locking_preload_holds_a_difference_without_load(differential_fmu):
     stuck, cap = get(inst, "stuck", "lockingCapacity")
     assert stuck == 1.0 and cap > 30.0
     free(inst)
+
+
+def test_axial_layout_parameters_and_findings(differential_fmu):
+    """The mesh widths are the axial overlaps (calculated parameters); a sun B pushed into planet 1's
+    plane is refused naming the parameter; linearPressure is refused by the simulation, by name."""
+    inst = start(differential_fmu)
+    assert get(inst, "meshB2.b", "meshA1.b") == pytest.approx([0.017, 0.022], abs=1e-12)
+    assert any("axial stack-up: WARNING mesh-width: mesh B2 is 17.00 mm" in m for _, m in inst.messages)
+    free(inst)
+    inst = start(differential_fmu, params={"sunB.axialStart": 0.010}, expect_error=True)
+    assert any("sunB.axialStart" in m and "overlap axially" in m for m in inst.errors())
+    inst = start(differential_fmu, params={"pinModel": "linearPressure"}, expect_error=True)
+    assert any("pinModel" in m for m in inst.errors())
 
 
 def test_bad_locking_law_is_named(differential_fmu):

@@ -7,10 +7,15 @@ import numpy as np
 import pytest
 
 from spurdiff.differential.flank_law import locking_coefficient_flank
-from spurdiff.differential.locking import pin_friction
+from spurdiff.differential.locking import locking_coefficients, pin_friction
 from spurdiff.differential.params import DifferentialParams
 
 RUNAWAY = {"lockingLaw": "paper", "carrier.w_ref": 1.389, "left.tau": -1110.201, "right.tau": -989.799}
+
+# the pins' drive K with the default pin model, from the library (issue 41: planet 2's couple in the
+# journal's end reactions, 0.2326; the planar pins' 0.17789422667429886 before)
+K_PINS = locking_coefficients(pin_friction(DifferentialParams().validate(), 0.26, 0.012))[0]
+assert abs(K_PINS - 0.2326) < 1e-4
 
 
 _RUNNER = """
@@ -90,9 +95,18 @@ def test_loaded_flanks(differential_fmu, sign, flanks):
 
 
 def test_pin_speed_loads_hold_a_zero_torque_difference_at_motorway_speed(differential_fmu):
-    """Carrier at 85 rad/s (100 km/h), 7.9 N m between the suns and no input torque: held by
-    the planets' centrifugal pin loads (theory 8.00 N m, spurdiff info), slips without them."""
-    start = {"carrier.w_ref": 85.0, "left.tau": -3.95, "right.tau": 3.95}
+    """Carrier at 85 rad/s (100 km/h), 0.99 of the theory's break-away difference between the suns
+    and no input torque: held by the planets' centrifugal pin loads (theory from the library, 4.67 N m
+    since issue 41, spurdiff info), slips without them."""
+    from spurdiff.differential.inertia import mass_properties
+    from spurdiff.differential.speed_law import locking_torque_at_speed
+
+    p = DifferentialParams()
+    geo = p.validate()
+    mp = mass_properties(p, geo)
+    D = 0.99 * locking_torque_at_speed(pin_friction(geo, p.mu_pin, p.r_collar), geo, (mp.m_planet1, mp.m_planet2),
+                                       85.0, 0.0)
+    start = {"carrier.w_ref": 85.0, "left.tau": -D / 2, "right.tau": D / 2}
     on = _sim(differential_fmu, start, stop=0.02, out=["stuck"])
     off = _sim(differential_fmu, {**start, "pinSpeedLoads": False}, stop=0.02, out=["stuck"])
     assert on["stuck"].min() == 1.0 and off["stuck"][-1] == 0.0
@@ -101,12 +115,12 @@ def test_pin_speed_loads_hold_a_zero_torque_difference_at_motorway_speed(differe
 def test_locking_coefficient_includes_flank_friction_where_it_is_on(differential_fmu):
     """lockingCoefficient (a calculated parameter, read as an output of the run here through its
     torque bias ratio's twin) at the compliant level: the flank-friction mean with flankFriction,
-    the pins' 0.1779 without."""
+    the pins' 0.2326 without (0.1779 with planar pins before issue 41)."""
     p = DifferentialParams()
     geo = p.validate()
     pf = pin_friction(geo, p.mu_pin, p.r_collar)
     K = locking_coefficient_flank(geo, pf, 0.05, 1.0)
-    for flank, expect in ((True, K), (False, 0.17789422667429886)):
+    for flank, expect in ((True, K), (False, K_PINS)):
         res = _sim(differential_fmu, {"meshModel": "compliant", "flankFriction": flank}, stop=0.002,
                    out=["lockingCoefficient", "torqueBiasRatio"])
         assert res["lockingCoefficient"][-1] == pytest.approx(expect, rel=1e-12)
@@ -117,18 +131,16 @@ def test_sliding_locking_coefficient_and_the_dynamic_parameter(differential_fmu)
     """mu_pinDynamic: 0 (default) = mu_pin, the sliding K equals the break-away K; 0.13 halves the
     lever while slipping: lockingCoefficientSliding is the pin law's K at 0.13, lockingCoefficient
     stays the break-away value; a value above mu_pin is refused naming the parameter and the range."""
-    from spurdiff.differential.locking import locking_coefficients
-
     p = DifferentialParams()
     geo = p.validate()
     out = ["lockingCoefficient", "lockingCoefficientSliding", "lockingCoefficientCoast",
            "lockingCoefficientCoastSliding"]
     one = _sim(differential_fmu, {}, stop=0.002, out=out)
-    assert one["lockingCoefficientSliding"][-1] == one["lockingCoefficient"][-1] == 0.17789422667429886
+    assert one["lockingCoefficientSliding"][-1] == one["lockingCoefficient"][-1] == K_PINS
     Kd, Kdc = locking_coefficients(pin_friction(geo, 0.13, p.r_collar))
     for level in ("rigid", "compliant"):
         split = _sim(differential_fmu, {"meshModel": level, "mu_pinDynamic": 0.13}, stop=0.002, out=out)
-        assert split["lockingCoefficient"][-1] == 0.17789422667429886
+        assert split["lockingCoefficient"][-1] == K_PINS
         assert split["lockingCoefficientSliding"][-1] == pytest.approx(Kd, rel=1e-12)
         assert split["lockingCoefficientCoastSliding"][-1] == pytest.approx(Kdc, rel=1e-12)
     logs = []
@@ -140,7 +152,7 @@ def test_sliding_locking_coefficient_and_the_dynamic_parameter(differential_fmu)
 def test_a_slipping_differential_locks_with_the_sliding_coefficient(differential_fmu):
     """Paper load, carrier held at rest, 1.01 of the break-away torque difference: the FMU breaks
     away and its locking torque falls to the sliding value, about mu_d / mu_s of the break-away one."""
-    K = 0.17789422667429886
+    K = K_PINS
     D = 1.01 * K * 2100.0
     start = {"carrier.w_ref": 0.0, "left.tau": -1050.0 - D / 2, "right.tau": -1050.0 + D / 2, "mu_pinDynamic": 0.13}
     res = _sim(differential_fmu, start, stop=0.02, out=["lockingTorque", "stuck", "left.tauMesh", "right.tauMesh"])

@@ -40,7 +40,12 @@ def test_safety_factors_are_the_reports():
     assert status == 0
     geo = f.model.geometry
     bores = {"planet1": 2 * f.values["r_collar"], "planet2": 2 * f.values["r_collar"]}
-    rep = cap.capacity_report(geo, cap.nominal_mesh_forces(geo, 1000.0), bores=bores)
+    from spurdiff.differential.watches import rating_forces
+    p = f.model.params
+    # the locked split at break-away, K_gamma of 3 pairs, K_v at the start's pitch-line speed (0 here)
+    rep = cap.capacity_report(geo, rating_forces(geo, p.mu_pin, p.r_collar, 1000.0, p.lockingLaw, p.pinModel, p.pairHandedness, p.pinContactFactor), bores=bores,
+                              v=cap.pitch_line_speed(geo, f.model.wd))
+    assert rep.meshes[0].K_gamma == 1.1 and rep.meshes[0].F_n > cap.nominal_mesh_forces(geo, 1000.0)["A1"]
     for r in rep.meshes:
         for g in r.gears:
             assert f.values[f"capacity.mesh{r.mesh}.{g.gear}.S_H"] == g.S_H
@@ -58,8 +63,10 @@ def test_the_bushing_wall_sets_the_planets_bore_as_spurdiff_info_does():
     assert status == 0
     geo = f.model.geometry
     bore = 2.0 * (b.journalRadius + b.bushingWall)
-    rep = cap.capacity_report(geo, cap.nominal_mesh_forces(geo, f.values["capacity.T0"]),
-                              bores={"planet1": bore, "planet2": bore})
+    from spurdiff.differential.watches import rating_forces
+    p = f.model.params
+    rep = cap.capacity_report(geo, rating_forces(geo, p.mu_pin, p.r_collar, f.values["capacity.T0"], p.lockingLaw, p.pinModel, p.pairHandedness, p.pinContactFactor),
+                              bores={"planet1": bore, "planet2": bore}, v=0.0)
     for r in rep.meshes:
         for g in r.gears:
             assert f.values[f"capacity.mesh{r.mesh}.{g.gear}.S_F"] == g.S_F
@@ -77,7 +84,11 @@ def test_largest_stress_output_and_one_warning_when_the_limit_is_exceeded():
     F = f.values["mesh.F_A1"]
     assert f.values["capacity.sigmaHMax"] == w.sigma_H_max > 0.0
     assert f.values["capacity.exceeded"] == 0.0 and f.logged == []
-    ref = cap.StressWatch(f.model.geometry, cap.nominal_mesh_forces(f.model.geometry, 2100.0), bores=w.bores)
+    from spurdiff.differential.watches import rating_forces
+    p = f.model.params
+    ref = cap.StressWatch(f.model.geometry, rating_forces(f.model.geometry, p.mu_pin, p.r_collar, 2100.0, p.lockingLaw, p.pinModel,
+                                        p.pairHandedness, p.pinContactFactor),
+                          cond=w.cond, bores=w.bores, v=w.v)
     ref.update(F, f.values["mesh.F_B2"], f.values["mesh.F_12"])
     assert w.sigma_H_max == pytest.approx(ref.sigma_H_max, rel=1e-12)
     saved = f.fmi2_get_state()
@@ -104,6 +115,8 @@ def test_largest_stress_output_and_one_warning_when_the_limit_is_exceeded():
     ("capacity.T0", 0.0, "capacity.T0"),
     ("capacity.bushingWall", -1e-3, "capacity.bushingWall"),
     ("capacity.bushingWall", float("nan"), "capacity.bushingWall"),
+    ("capacity.K_gamma", 0.5, "capacity.K_gamma"),
+    ("capacity.K_gamma", float("inf"), "capacity.K_gamma"),
 ])
 def test_bad_capacity_parameters_fail_initialization_naming_them(name, value, needle):
     f, status = _fmu(**{name: value})
@@ -131,3 +144,20 @@ def test_through_the_built_fmu_the_warning_reaches_the_hosts_logger_once(differe
     (sH,), (ex,) = inst.read([inst.var("capacity.sigmaHMax")], "x"), inst.read([inst.var("capacity.exceeded")], "x")
     assert ex == 1.0 and sH > 2.2e9
     inst.close()
+
+
+def test_the_fmu_rates_at_its_start_speed_with_k_gamma_and_the_duty_cycle():
+    """K_v at the pitch-line speed of the start state (sun A 5 rad/s behind the carrier: m z_A 5 / 2
+    = 0.27 m/s), K_gamma from capacity.K_gamma (0: 1.10 for 3 pairs), the limited life computed and
+    named in the start message."""
+    f, status = _fmu(**{"differential.w_start": -5.0, "capacity.K_gamma": 1.25})
+    assert status == 0
+    w = f.model.capacity_watch
+    assert w.v == pytest.approx(0.003 * 36 * 5.0 / 2, rel=1e-12)
+    r = w.report.meshes[0]
+    assert r.K_gamma == 1.25 and r.v == w.v and r.K_v > 1.0
+    assert r.K_v == pytest.approx(cap.dynamic_factor(6, 1.0, 1.25 * r.F_t, r.b * 1e3, 13, 36 / 13, w.v), rel=1e-12)
+    assert w.life.entries and min(e.S for e in w.life.entries) == w.life.S
+    g, _ = _fmu()
+    assert g.model.capacity_watch.report.meshes[0].K_gamma == 1.1 and g.model.capacity_watch.v == 0.0
+    assert any("limited life over the duty cycle" in m for s, m in g.logged)

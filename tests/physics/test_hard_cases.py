@@ -278,8 +278,11 @@ def test_mu_zero_on_one_side(fmu_files):
         assert dw[-1] > 5.0
         # the quasi-static bias ratio bounds the shaft torques up to the inertia torques of the
         # spin-up (left wheel at about 90 rad/s^2: sun and planet inertias, 0.3-0.5 N m at 150 N m
-        # with the pin-load law's K = 0.178): within 0.5 % of the right shaft torque
-        tbr = "(1 + {diff.lockingCoefficient}) / (1 - {diff.lockingCoefficient})"
+        # with the pin-load law's K = 0.178): within 0.5 % of the right shaft torque. K of the
+        # direction the run moves in (issue 41: with planet 2's pin couple it depends on the leading
+        # sun, here sun A, 0.7 % above the smaller lockingCoefficient): the theory of the run's
+        # parameters at its recorded operating point (harness.scene.theory)
+        tbr = "(1 + {theory.diff.K_sliding}) / (1 - {theory.diff.K_sliding})"
         excess = stat(r, "{diff.rightShaft.tau} - abs({diff.leftShaft.tau}) * " + tbr, "max", [0.001, 0.6])
         assert excess < 5e-3 * stat(r, "diff.rightShaft.tau", "max", [0.001, 0.6])
 

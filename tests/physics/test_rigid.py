@@ -217,7 +217,10 @@ def test_pin_law_K_does_not_change_with_nPairs(n):
     m = model(table=GearTable(nPairs=n))
     ref = model()
     assert m.K == pytest.approx(ref.K, rel=1e-12) and m.K_coast == pytest.approx(ref.K_coast, rel=1e-12)
-    assert m.K == pytest.approx(0.1779, abs=1e-4) and m.K_coast == pytest.approx(0.2106, abs=1e-4)
+    # the pins with planet 2's couple (issue 41, pinModel = endReactions; docs/locking-law.md)
+    assert m.K == pytest.approx(0.2326, abs=1e-4) and m.K_coast == pytest.approx(0.2182, abs=1e-4)
+    planar = model(table=GearTable(nPairs=n), pinModel="planar")
+    assert planar.K == pytest.approx(0.1779, abs=1e-4) and planar.K_coast == pytest.approx(0.2106, abs=1e-4)
     # the paper's law falls as 1/n
     assert m.K_paper == pytest.approx(ref.K_paper * 3 / n, rel=1e-12)
     # and the rigid level breaks away at K T0 whatever n

@@ -217,11 +217,12 @@ def test_unconnected_interface_model_is_the_held_speed():
 def test_interface_model_predicts_the_wheel_motion(h):
     """The wheel speed change the differential predicted with the wheel's linear model matches
     the wheel's own step (same torque, its nonlinear tyre) to second order in the step: the ice
-    wheel spinning up under 300 N m at 10 m/s, per step, within 3e-4 (h / 1 ms)^2 of the change
-    (measured 6e-5, 2e-3, 1.3e-2, 7e-2 at 1, 5, 10, 20 ms; the held-speed assumption is off by the
-    whole change)."""
+    wheel spinning up under 330 N m at 10 m/s, per step, within 3e-4 (h / 1 ms)^2 of the change
+    (measured 6e-5, 2e-3, 1.3e-2, 7e-2 at 1, 5, 10, 20 ms under 300 N m with the planar pins; the
+    held-speed assumption is off by the whole change). 330 N m since issue 41: planet 2's pin couple
+    raises K (0.2342 with sun A ahead), which leaves the ice wheel the torque 300 N m gave it before."""
     diff, wheels = make(w0=10.0 / R_WHEEL)
-    loop = start(Loop(diff, wheels, tau_c=lambda t: 300.0, mu=lambda t: (0.1, 1.0), vx=lambda t: 10.0))
+    loop = start(Loop(diff, wheels, tau_c=lambda t: 330.0, mu=lambda t: (0.1, 1.0), vx=lambda t: 10.0))
     loop.run(0.1, h)
     worst = 0.0
     for _ in range(int(round(0.1 / h))):

@@ -99,10 +99,10 @@ def test_rigid_slip_capacity_is_the_pin_load_with_the_centrifugal_force(case):
     g = _centrifugal(m, wc)
     cap = 0.0
     for i, Fs, rho in ((0, f.F_A1, m.rho1), (1, f.F_B2, m.rho2)):
-        tx, ty, rx, ry, ux, uy, qx, qy = pf.layout._flat[i]
-        fx = Fs * tx + abs(Fs) * rx + f.F_12 * ux + abs(f.F_12) * qx + g[i][0]
-        fy = Fs * ty + abs(Fs) * ry + f.F_12 * uy + abs(f.F_12) * qy + g[i][1]
-        cap += 3 * abs(rho) * pf.c * math.hypot(fx, fy)
+        # the journal's end reactions (the loads at their axial positions, the centrifugal force at
+        # the planet's middle): friction load |R_0| + |R_L|
+        R0x, R0y, RLx, RLy = pf.layout.end_reactions(i, Fs, f.F_12, g[i])
+        cap += 3 * abs(rho) * pf.c * (math.hypot(R0x, R0y) + math.hypot(RLx, RLy))
     assert m.locking_capacity == pytest.approx(cap, rel=1e-12)
     assert m.locking_torque == pytest.approx(m.locking_capacity, rel=1e-12)
 

@@ -71,8 +71,11 @@ def test_locking_coefficients_for_each_law(geo):
 
     assert locking_coefficients_for(DifferentialParams(lockingLaw="paper"), geo) == pytest.approx((0.028332, 0.028332),
                                                                                                  rel=2e-5)
-    Kd, Kc = locking_coefficients_for(DifferentialParams(), geo)
+    Kd, Kc = locking_coefficients_for(DifferentialParams(pinModel="planar"), geo)
     assert Kd == pytest.approx(0.17789, rel=1e-4) and Kc == pytest.approx(0.21064, rel=1e-4)
+    # the default since issue 41: planet 2's couple in the end reactions of its journal
+    Kd, Kc = locking_coefficients_for(DifferentialParams(), geo)
+    assert Kd == pytest.approx(0.23265, rel=1e-4) and Kc == pytest.approx(0.21819, rel=1e-4)
 
 
 def test_pin_law_breakaway_power_balance_and_review_numbers(geo):
@@ -80,7 +83,7 @@ def test_pin_law_breakaway_power_balance_and_review_numbers(geo):
     # K_drive about 0.178; the quasi-static break-away satisfies (T_B - T_A) dw = n sum M_i |w_i|
     from spurdiff.differential.locking import breakaway, first_order_K, pin_friction
 
-    pf = pin_friction(geo, 0.26, 0.012)
+    pf = pin_friction(geo, 0.26, 0.012, pin_model="planar")    # the review's planar pins
     assert pf.layout.unit_pin_loads(1.0) == pytest.approx((1.689, 0.398), abs=5e-4)
     assert pf.layout.unit_pin_loads(-1.0) == pytest.approx((0.821, 1.661), abs=5e-4)
     assert first_order_K(pf, 1.0) == pytest.approx(0.178, abs=5e-4)

@@ -10,7 +10,7 @@
 #include <stdint.h>
 #include <string.h>
 
-#define MK_ABI 8
+#define MK_ABI 9
 #define NMAX 10
 #define MSPLIT 4      /* the velocities of the split (layout.split) */
 #define SMAX 8        /* the most stages of a method (spurdiff.differential.mesh.integrator.SMAX) */
@@ -38,6 +38,8 @@ typedef struct {
     MkMesh md[3];
     double dpoly[4][SMAX];                   /* dense output: d_j(theta) = sum_p dpoly[p][j] theta^(p+1) */
     double c_pind;                           /* the pins' sliding lever (mu_pinDynamic); c_pin: stuck, break-away */
+    double pin_ends[2][18];                  /* PinLayout.ends: end 0's 8 constants, its share w0, end L's 8, wL */
+    int64_t pin3d[2];                        /* the journal's end L counts (not planar) */
 } MkParams;
 
 typedef struct {

@@ -185,18 +185,39 @@ static Moments flank_moments(const MkParams *P, const MkMesh *m, double F, doubl
     return r;
 }
 
+/* MeshDifferential._pin_force: the pin friction load |R_0| + |R_L| (planar: |F_pin|, end L skipped)
+ * and its derivatives by Fs and F12 */
 static void pin_force(const MkParams *P, const double *g, int i, double Fs, double F12, double *mag, double *dS,
                       double *d12) {
-    const double *q = P->pin_flat[i];   /* tx, ty, rx, ry, ux, uy, qx, qy */
+    const double *q = P->pin_ends[i];   /* end 0: tx, ty, rx, ry, ux, uy, qx, qy, w0; end L (9..17) */
     double aS = fabs(Fs), a12 = fabs(F12);
-    double fx = Fs * q[0] + aS * q[2] + F12 * q[4] + a12 * q[6] + g[2 * i];
-    double fy = Fs * q[1] + aS * q[3] + F12 * q[5] + a12 * q[7] + g[2 * i + 1];
+    double gx = g[2 * i], gy = g[2 * i + 1];
+    double fx = Fs * q[0] + aS * q[2] + F12 * q[4] + a12 * q[6] + q[8] * gx;
+    double fy = Fs * q[1] + aS * q[3] + F12 * q[5] + a12 * q[7] + q[8] * gy;
     double mg = sqrt(fx * fx + fy * fy);
-    if (mg == 0.0) { *mag = *dS = *d12 = 0.0; return; }
     double sgS = Fs >= 0.0 ? 1.0 : -1.0, sg12 = F12 >= 0.0 ? 1.0 : -1.0;
-    *mag = mg;
-    *dS = (fx * (q[0] + sgS * q[2]) + fy * (q[1] + sgS * q[3])) / mg;
-    *d12 = (fx * (q[4] + sg12 * q[6]) + fy * (q[5] + sg12 * q[7])) / mg;
+    double tot, dtS, dt12;
+    if (mg == 0.0) {
+        tot = dtS = dt12 = 0.0;
+    } else {
+        tot = mg;
+        dtS = (fx * (q[0] + sgS * q[2]) + fy * (q[1] + sgS * q[3])) / mg;
+        dt12 = (fx * (q[4] + sg12 * q[6]) + fy * (q[5] + sg12 * q[7])) / mg;
+    }
+    if (P->pin3d[i]) {
+        const double *r = q + 9;
+        fx = Fs * r[0] + aS * r[2] + F12 * r[4] + a12 * r[6] + r[8] * gx;
+        fy = Fs * r[1] + aS * r[3] + F12 * r[5] + a12 * r[7] + r[8] * gy;
+        mg = sqrt(fx * fx + fy * fy);
+        if (mg != 0.0) {
+            tot += mg;
+            dtS += (fx * (r[0] + sgS * r[2]) + fy * (r[1] + sgS * r[3])) / mg;
+            dt12 += (fx * (r[4] + sg12 * r[6]) + fy * (r[5] + sg12 * r[7])) / mg;
+        }
+    }
+    *mag = tot;
+    *dS = dtS;
+    *d12 = dt12;
 }
 
 MK_HIDDEN void mk_relative_angles(const MkState *S, const MkParams *P, const double *y, double *psiB, double *th1, double *th2) {

@@ -29,16 +29,20 @@
  *       54..57 written on success);
  *   rs  the rigid model's state (R_*), ss the shafts' state (S_*), in: the step's inputs (I_*);
  *   fp  two function pointers: rk_slip, rk_step_slip.
+ *
+ * Over 800 lines: it is one transcription of one Python step (shafts, solver, rigid model's mode
+ * logic and stuck path), kept in one translation unit so that its order of operations can be read
+ * against the reference side by side; the stuck path's 3-D journal (issue 41) added its solve here.
  */
 #include <math.h>
 #include <stdint.h>
 #include <string.h>
 
-#define SK_ABI 3
+#define SK_ABI 4
 #define SK_OK 0
 #define SK_FALLBACK 1
 #define SK_NOTCONV 2
-#define RK_NCONST 58
+#define RK_NCONST 94
 
 typedef int64_t (*rk_fn)(const double *k, double *io);
 
@@ -133,19 +137,90 @@ static void slip_exact(Ctx *c, double *s, int given, double ac_given, double sd,
  * main: the static lever mu_pin r_d, the rigid kernel's constant 4, and the planets' centrifugal and
  * tangential forces, added in that order, in the pin force) ---- */
 
+/* PinLoadLaw._pin_load: planet i's pin friction load |R_0| + |R_L| with its inertial forces (the
+ * rigid kernel's constants: end 0 at 17 / 33, end L at 58 / 74, the shares at 90..93), and its
+ * derivative by F12 */
+static double stuck_pin_load(const Ctx *c, const double *s, int i, double Fs, double F12, double *d12)
+{
+    const double aS = fabs(Fs), a12 = fabs(F12);
+    const double gx = s[R_G1X + 2 * i], gy = s[R_G1X + 2 * i + 1];
+    const double hx = s[R_GT1X + 2 * i], hy = s[R_GT1X + 2 * i + 1];
+    double tot = 0.0, d = 0.0;
+    for (int e = 0; e < 2; e++) {
+        const double *p = c->k + (e == 0 ? (i == 0 ? 17 : 33) : (i == 0 ? 58 : 74));
+        const double w = c->k[90 + 2 * i + e];
+        const double fx = Fs * p[0] + aS * p[2] + F12 * p[4] + a12 * p[6] + w * gx + w * hx;
+        const double fy = Fs * p[1] + aS * p[3] + F12 * p[5] + a12 * p[7] + w * gy + w * hy;
+        const double mag = sqrt(fx * fx + fy * fy);
+        if (mag != 0.0) {
+            tot = tot + mag;
+            d = d + (F12 >= 0.0 ? (fx * p[12] + fy * p[13]) / mag : (fx * p[14] + fy * p[15]) / mag);
+        }
+    }
+    *d12 = d;
+    return tot;
+}
+
 static double stuck_capacity(const Ctx *c, const double *s, int i, double Fs, double F12)
 {
-    const double *p = c->k + (i == 0 ? 17 : 33);
-    const double tx = p[0], ty = p[1], rx = p[2], ry = p[3], ux = p[4], uy = p[5], qx = p[6], qy = p[7];
-    const double aS = fabs(Fs), a12 = fabs(F12);
-    const double fx = Fs * tx + aS * rx + F12 * ux + a12 * qx + s[R_G1X + 2 * i] + s[R_GT1X + 2 * i];
-    const double fy = Fs * ty + aS * ry + F12 * uy + a12 * qy + s[R_G1X + 2 * i + 1] + s[R_GT1X + 2 * i + 1];
-    return c->k[4] * sqrt(fx * fx + fy * fy) + c->k[5 + i];
+    double d12;
+    return c->k[4] * stuck_pin_load(c, s, i, Fs, F12, &d12) + c->k[5 + i];
+}
+
+/* PinLoadLaw._planet_interval_3d: a planet whose pin carries a couple (end L not zero) */
+static void stuck_planet_interval_3d(const Ctx *c, const double *s, int i, double Fs, double ac, double *lo_out,
+                                     double *hi_out)
+{
+    const double *k = c->k;
+    const double rb = k[i], J = k[10 + i], M0 = k[5 + i], cl = k[4];
+    const double Fstar = Fs - J * ac / rb;
+    double dP;
+    const double cap0 = cl * stuck_pin_load(c, s, i, Fs, Fstar, &dP) + M0;
+    if (cap0 <= 0.0) {
+        *lo_out = *hi_out = Fstar;
+        return;
+    }
+    const double width = cap0 / (rb - cl);
+    double ends[2];
+    for (int e = 0; e < 2; e++) {
+        const double sign = e == 0 ? 1.0 : -1.0;
+        double lo = sign > 0.0 ? Fstar : Fstar - width, hi = sign > 0.0 ? Fstar + width : Fstar;
+        double F = Fstar + sign * cap0 / rb;
+        for (int it = 0; it < 100; it++) {
+            const double P = stuck_pin_load(c, s, i, Fs, F, &dP);
+            const double h = rb * (F - Fstar) - sign * (cl * P + M0);
+            if (h == 0.0)
+                break;
+            if (h > 0.0)
+                hi = F;
+            else
+                lo = F;
+            const double step = h / (rb - sign * cl * dP);
+            double Fn = F - step;
+            if (!(lo < Fn && Fn < hi))
+                Fn = 0.5 * (lo + hi);
+            if (fabs(Fn - F) <= 1e-15 * (fabs(F) + fabs(Fstar)) + 1e-300) {
+                F = Fn;
+                break;
+            }
+            F = Fn;
+        }
+        ends[e] = F;
+    }
+    *lo_out = ends[1];
+    *hi_out = ends[0];
 }
 
 static void stuck_planet_interval(const Ctx *c, const double *s, int i, double Fs, double ac, double *lo, double *hi)
 {
     const double *k = c->k;
+    int planar = k[91 + 2 * i] == 0.0;          /* PinLoadLaw._planar: end L's share and constants all 0 */
+    for (int j = 0; j < 8; j++)
+        planar = planar && k[(i == 0 ? 58 : 74) + j] == 0.0;
+    if (!planar) {
+        stuck_planet_interval_3d(c, s, i, Fs, ac, lo, hi);
+        return;
+    }
     const double rb = k[i], J = k[10 + i], M0 = k[5 + i];
     const double *p = k + (i == 0 ? 17 : 33);
     const double tx = p[0], ty = p[1], rx = p[2], ry = p[3], Px = p[12], Py = p[13], Nx = p[14], Ny = p[15];

@@ -10,7 +10,8 @@ break-away, the locking coefficient K), the dynamic one the sliding lever (``mu_
 friction while the differential slips, the sliding K), each with the friction-circle correction
 where the data set has it.
 
-Bushing length: the planet's face width (planet 1: 22 mm, planet 2: 40 mm in the paper's set).
+Bushing length: the planet's face width (planet 1: 22 mm, planet 2: 40 mm in the paper's set). With
+the journals' end reactions the pressure checked is the edge pressure of the linear distribution.
 Backup ratio ``m_B = s_R / h_t`` with the rim ``s_R = (d_f - d_bore) / 2`` under the tooth root
 and the tooth height ``h_t = (d_a - d_f) / 2``; ``d_bore = 2 (r_j + wall)``.
 """
@@ -82,9 +83,10 @@ def bushing(name: str) -> Bushing:
 class BushingCheck:
     planet: str
     backup_ratio: float
-    p: float          # Pa, pin load / (journal diameter x length)
+    p: float          # Pa, the largest pressure: the edge of the linear distribution (planar: the mean)
     v: float          # m/s, sliding speed on the journal
-    pv: float         # Pa m/s
+    pv: float         # Pa m/s, with p
+    p_mean: float = 0.0   # Pa, net pin force / (journal diameter x length)
 
     def findings(self, b: Bushing) -> list[str]:
         out = []
@@ -105,15 +107,31 @@ def backup_ratio(geo: DifferentialGeometry, planet: str, b: Bushing) -> float:
     return s_R / (ra - rf)
 
 
+def edge_pressure(R0x: float, R0y: float, RLx: float, RLy: float, d: float, L: float) -> tuple[float, float]:
+    """(mean, edge) pressure of a journal of diameter d and length L (Pa) with end reactions R_0,
+    R_L (N): mean ``|R_0 + R_L| / (d L)``; edge, the larger end of the linear distribution,
+    ``max(|4 R_0 - 2 R_L|, |4 R_L - 2 R_0|) / (d L)`` (docs/locking-law.md)."""
+    mean = math.hypot(R0x + RLx, R0y + RLy) / (d * L)
+    edge = max(math.hypot(4 * R0x - 2 * RLx, 4 * R0y - 2 * RLy), math.hypot(4 * RLx - 2 * R0x, 4 * RLy - 2 * R0y))
+    return mean, max(mean, edge / (d * L))
+
+
 def check(geo: DifferentialGeometry, b: Bushing, pin_loads: tuple[float, float], w_rel: float,
-          rho: tuple[float, float]) -> tuple[BushingCheck, BushingCheck]:
+          rho: tuple[float, float], reactions: tuple | None = None) -> tuple[BushingCheck, BushingCheck]:
     """Backup ratio, p, v and pv of the two planets' bushings for the pin loads (N, per planet)
     and the differential speed ``w_rel`` (sun A relative to the carrier, rad/s; the planets
-    turn at ``rho_i w_rel`` on their pins)."""
+    turn at ``rho_i w_rel`` on their pins). With the journals' end reactions (per planet
+    R_0x, R_0y, R_Lx, R_Ly; :meth:`spurdiff.gears.layout.PinLayout.end_reactions`) p is the edge
+    pressure of the linear distribution (a planet carrying a couple loads its bushing's ends),
+    else the pin load over the projected area. Bushing length: the planet's face width."""
     out = []
     for k, planet in enumerate(("planet1", "planet2")):
         L = geo.gears[planet].b
-        p = pin_loads[k] / (2.0 * b.journalRadius * L)
+        d = 2.0 * b.journalRadius
+        if reactions is None:
+            p = p_mean = pin_loads[k] / (d * L)
+        else:
+            p_mean, p = edge_pressure(*reactions[k], d, L)
         v = abs(rho[k] * w_rel) * b.journalRadius
-        out.append(BushingCheck(planet, backup_ratio(geo, planet, b), p, v, p * v))
+        out.append(BushingCheck(planet, backup_ratio(geo, planet, b), p, v, p * v, p_mean))
     return tuple(out)

@@ -98,14 +98,19 @@ class PinFriction:
 
 
 def pin_friction(geo: DifferentialGeometry, mu: float, r_d: float, preload: float = 0.0,
-                 law: str = "pinFriction") -> PinFriction:
+                 law: str = "pinFriction", pin_model: str = "endReactions",
+                 handedness: str = "leading", factor: float = 1.0) -> PinFriction:
     """The pin-friction constants for ``law``: lever ``mu r_d`` (pinFriction), or the lever that
-    gives the paper's K in drive with equal mesh forces (paper); preload split equally between
-    the two planet sets on the differential motion."""
+    gives the paper's K in drive with equal mesh forces (paper, always with the planar pins); preload
+    split equally between the two planet sets on the differential motion. ``pin_model``: how a
+    pin carries its planet's loads along the journal (:class:`PinLayout`: endReactions,
+    linearPressure, planar), ``handedness``: planet 2 leading or trailing planet 1, ``factor`` the
+    journal's friction moment per ``mu r |F|`` (``pinContactFactor``: 1 the friction circle, 4/pi a
+    run-in bushing; docs/locking-law.md)."""
     kin = kinematics(geo)
     rho = (kin.planet1_per_sunA, kin.planet2_per_sunA)
     n = geo.table.nPairs
-    layout = PinLayout.of(geo)
+    layout = PinLayout.of(geo, "planar" if law == "paper" else pin_model, handedness)
     rbA, rb1, rbB, rb2 = geo.meshA1.rb1, geo.meshA1.rb2, geo.meshB2.rb1, geo.meshB2.rb2
     if law == "paper":
         K = paper_locking_coefficient(mu, r_d, n, geo.r_a, geo.r_1, geo.r_b, geo.r_2)
@@ -114,9 +119,20 @@ def pin_friction(geo: DifferentialGeometry, mu: float, r_d: float, preload: floa
         # quasi-static: n c (|rho1| Fp1 + |rho2| Fp2) = K (T_A + T_B) = K n (rb_A + rb_B) F
         c = K * (rbA + rbB) / denom if denom > 0.0 else 0.0
     else:
-        c = mu * r_d
+        c = mu * r_d if factor == 1.0 else mu * r_d * factor
     M0 = tuple(preload / (2.0 * n * abs(r)) for r in rho)
     return PinFriction(layout, c, M0, rho, (rbA, rb1, rbB, rb2), n)
+
+
+def dynamic_pin_model(p) -> tuple[str, str, float]:
+    """(pinModel, pairHandedness, pinContactFactor) of the parameters ``p`` for the dynamic levels, which carry the
+    planar and the end-reaction pins (Python and C alike); ``linearPressure`` is the quasi-static
+    law's alone (spurdiff info, the statics): a ParameterError there."""
+    if p.pinModel == "linearPressure" and p.lockingLaw == "pinFriction":
+        from spurdiff.errors import ParameterError
+        raise ParameterError("pinModel", p.pinModel, "endReactions | planar in the simulation",
+                             "linearPressure is computed by the quasi-static law only (spurdiff info, the statics)")
+    return p.pinModel, p.pairHandedness, p.pinContactFactor
 
 
 def first_order_K(pf: PinFriction, sign: float = 1.0) -> float:
@@ -136,8 +152,9 @@ class Breakaway:
     F_A1: float
     F_B2: float
     F_12: float
-    F_pin: tuple
+    F_pin: tuple        # the pins' friction loads (N): |F_pin| planar, |R_0| + |R_L| with the end reactions
     M: tuple
+    R: tuple = ()       # the journals' end reactions per planet (R_0x, R_0y, R_Lx, R_Ly), N
 
     @property
     def K(self) -> float:
@@ -181,19 +198,28 @@ def breakaway(pf: PinFriction, T0: float, s: float) -> Breakaway:
     p2 = pf.layout.pin_force(1, FB, F12)[0]
     M1 = -sg1 * pf.capacity(0, FA, F12)[0]
     M2 = -sg2 * pf.capacity(1, FB, F12)[0]
-    return Breakaway(n * rbA * FA, n * rbB * FB, FA, FB, F12, (p1, p2), (M1, M2))
+    R = (pf.layout.end_reactions(0, FA, F12), pf.layout.end_reactions(1, FB, F12))
+    return Breakaway(n * rbA * FA, n * rbB * FB, FA, FB, F12, (p1, p2), (M1, M2), R)
 
 
-def locking_coefficients(pf: PinFriction) -> tuple[float, float]:
-    """(K_drive, K_coast): the smaller of the two break-away coefficients (sun A ahead or behind)
-    in drive and in coast, without preload. For the paper's set the two directions agree to
-    rounding (tests/physics/test_locking_law_doc.py)."""
+LEADING_SUNS = ("either", "A", "B")
+
+
+def locking_coefficients(pf: PinFriction, leading: str = "either") -> tuple[float, float]:
+    """(K_drive, K_coast) without preload: the break-away coefficient with sun A running ahead of
+    the carrier (``leading = "A"``), sun B ahead (``"B"``), or the smaller of the two (``"either"``,
+    the differential breaks away the easier way). With planar pins the two directions agree to
+    rounding for the paper's set (tests/physics/test_locking_law_doc.py); with planet 2's couple
+    they do not (docs/locking-law.md)."""
     pf0 = PinFriction(pf.layout, pf.c, (0.0, 0.0), pf.rho, pf.rb, pf.n)
     if pf.c == 0.0:
         return 0.0, 0.0
+    if leading not in LEADING_SUNS:
+        raise ValueError(f"leadingSun {leading!r}: one of {', '.join(LEADING_SUNS)}")
+    dirs = {"either": (1.0, -1.0), "A": (1.0,), "B": (-1.0,)}[leading]
     out = []
     for sign in (1.0, -1.0):
-        out.append(min(breakaway(pf0, sign * 1000.0, s).K for s in (1.0, -1.0)))
+        out.append(min(breakaway(pf0, sign * 1000.0, s).K for s in dirs))
     return out[0], out[1]
 
 

@@ -9,6 +9,9 @@ from spurdiff.datafile import differential_default as _d
 from spurdiff.errors import ParameterError, require_finite, require_nonnegative, require_positive
 from spurdiff.gears.design import derive
 from spurdiff.gears.geometry import DifferentialGeometry, GearTable
+from spurdiff.gears.layout import HANDEDNESS, PIN_MODELS
+
+LEADING_SUNS = ("either", "A", "B")   # as spurdiff.differential.locking.LEADING_SUNS
 
 CARRIER_DRIVES = ("speed", "torque")
 LOCKING_LAWS = ("pinFriction", "paper")
@@ -28,6 +31,10 @@ class DifferentialParams:
     lockingLaw: str = _d("lockingLaw")    # "pinFriction": from the pin loads | "paper": the paper's K
     lockingPreload: float = _d("lockingPreload")   # N m, spring preload of the locking friction (0: none)
     pinSpeedLoads: bool = _d("pinSpeedLoads")      # the planets' centrifugal forces load their pins (pinFriction law)
+    pinModel: str = _d("pinModel")        # how a pin carries its planet's loads along the journal (locking.py)
+    pairHandedness: str = _d("pairHandedness")   # planet 2 leading or trailing planet 1 (positive rotation)
+    leadingSun: str = _d("leadingSun")    # the sun ahead for the reported K: either (the smaller) | A | B
+    pinContactFactor: float = _d("pinContactFactor")   # journal friction moment per mu r |F| (1: friction circle)
     density: float = _d("density")        # steel, kg/m^3 (paper: 7.85e-6 kg/mm^3)
     carrierDrive: str = _d("carrierDrive")   # "speed": carrier.w_ref imposed; "torque": carrier.tau drives it
     J_carrier: float = _d("J_carrier")    # kg m^2, carrier (with everything rigidly on it), 0 = estimate
@@ -52,13 +59,21 @@ class DifferentialParams:
         require_nonnegative("r_collar", self.r_collar)
         if self.lockingLaw not in LOCKING_LAWS:
             raise ParameterError("lockingLaw", self.lockingLaw, " or ".join(LOCKING_LAWS))
+        for name, allowed in (("pinModel", PIN_MODELS), ("pairHandedness", HANDEDNESS), ("leadingSun", LEADING_SUNS)):
+            if getattr(self, name) not in allowed:
+                raise ParameterError(name, getattr(self, name), " | ".join(allowed))
         pre = require_nonnegative("lockingPreload", self.lockingPreload)
         if pre > 1e5:
             raise ParameterError("lockingPreload", self.lockingPreload, "between 0 and 1e5 N m")
+        fac = require_finite("pinContactFactor", self.pinContactFactor)
+        if not 1.0 <= fac <= 2.0:
+            raise ParameterError("pinContactFactor", fac, "between 1 and 2 (1: friction circle, 4/pi: run-in bushing, "
+                                 "pi/2: uniform pressure)")
         rb_planet = min(geo.meshA1.rb2, geo.meshB2.rb2)
-        if self.lockingLaw == "pinFriction" and mu * self.r_collar >= 0.5 * rb_planet:
+        if self.lockingLaw == "pinFriction" and mu * self.r_collar * fac >= 0.5 * rb_planet:
             raise ParameterError("r_collar", self.r_collar,
-                                 f"mu_pin * r_collar < r_b / 2 = {0.5 * rb_planet:.4g} m (planet base radius)",
+                                 f"mu_pin * r_collar * pinContactFactor < r_b / 2 = {0.5 * rb_planet:.4g} m "
+                                 "(planet base radius)",
                                  "a larger friction lever than that makes the pins nearly self-locking")
         require_positive("density", self.density)
         if self.carrierDrive not in CARRIER_DRIVES:

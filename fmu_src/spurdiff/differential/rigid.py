@@ -59,7 +59,8 @@ from spurdiff.errors import StepError, require_finite, require_positive
 from spurdiff.gears.geometry import DifferentialGeometry
 from spurdiff.differential.inertia import MassProperties, mass_properties
 from spurdiff.differential.params import DifferentialParams
-from spurdiff.differential.locking import locking_coefficients, paper_locking_coefficient, pin_friction
+from spurdiff.differential.locking import (dynamic_pin_model, locking_coefficients, paper_locking_coefficient,
+                                           pin_friction)
 from spurdiff.differential.model_base import DifferentialModel
 from spurdiff.differential.rigid_pinload import PinLoadLaw
 from spurdiff.differential.statics import MeshForces, mesh_forces_for
@@ -122,12 +123,12 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
                     + n * (mp.J_planet1 * self.rho1 ** 2 + mp.J_planet2 * self.rho2 ** 2))
         self.law = p.lockingLaw
         self.preload = float(p.lockingPreload)
-        self.pf = pin_friction(geo, p.mu_pin, p.r_collar, self.preload, self.law)
+        self.pf = pin_friction(geo, p.mu_pin, p.r_collar, self.preload, self.law, *dynamic_pin_model(p))
         self.K_paper = paper_locking_coefficient(p.mu_pin, p.r_collar, n, geo.r_a, geo.r_1, geo.r_b, geo.r_2)
         # the static / dynamic split: pf.c (mu_pin) holds while stuck and decides the break-away;
         # c_slide (mu_pinDynamic, equal to mu_pin where that is 0) acts while slipping
         mu_d = p.mu_sliding
-        self.c_slide = pf_d_c = pin_friction(geo, mu_d, p.r_collar, self.preload, self.law).c
+        self.c_slide = pf_d_c = pin_friction(geo, mu_d, p.r_collar, self.preload, self.law, *dynamic_pin_model(p)).c
         # the lever (paper law: coefficient) of the slip solve at a break-away from stuck: the sliding
         # one; a shafted model (spurdiff.differential.shafts) sets the static ones after initialize
         self.c_break = pf_d_c
@@ -136,10 +137,10 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
             self.K_slide = self.K_slide_coast = paper_locking_coefficient(mu_d, p.r_collar, n, geo.r_a, geo.r_1,
                                                                           geo.r_b, geo.r_2)
         else:
-            self.K, self.K_coast = locking_coefficients(self.pf)
+            self.K, self.K_coast = locking_coefficients(self.pf, p.leadingSun)
             self.K_slide, self.K_slide_coast = (
                 (self.K, self.K_coast) if pf_d_c == self.pf.c
-                else locking_coefficients(replace(self.pf, c=pf_d_c)))
+                else locking_coefficients(replace(self.pf, c=pf_d_c), p.leadingSun))
         self.K_break = self.K_slide
         # the exact pin law (pinFriction with friction or preload), else the paper's linear capacity
         self._exact = self.law == "pinFriction" and (self.pf.c > 0.0 or self.preload > 0.0)

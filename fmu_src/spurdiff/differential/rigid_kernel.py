@@ -9,7 +9,7 @@ operations, same order, no fused multiply-adds), so the two agree bit for bit
 (tests/physics/test_rigid_kernel.py); the Python code stays the reference and the fallback.
 
 The library is found as the mesh kernel's (:mod:`spurdiff.differential.mesh.kernel`): beside this module
-(``librigid_kernel.so``, as ``harness/build.py`` ships it inside each SpurDifferential FMU), else in
+(``librigid_kernel.so``, as ``harness/build/fmu.py`` ships it inside each SpurDifferential FMU), else in
 the folders of :data:`SEARCH_PATH`, ``$SPURDIFF_KERNEL_DIR``, ``$SPURDIFF_FMU_DIR`` and a checkout's
 ``build/fmus`` as ``rigid_kernel-<digest>.so``, the digest of the C source beside it (a stale
 library is not used). Selected by the same switch, ``solver.kernel`` (auto | compiled | python).
@@ -22,8 +22,8 @@ from pathlib import Path
 from spurdiff import native_library
 from spurdiff.native_library import KERNELS  # noqa: F401 (re-exported)
 
-ABI = 4
-NCONST = 58
+ABI = 5
+NCONST = 94
 NIO = 12
 NIO_STEP = 24
 LIB_NAME = "librigid_kernel.so"   # not rigid_kernel.so: Python would import that for this module
@@ -59,7 +59,8 @@ class Kernel:
         _, rb1, _, rb2 = pf.rb
         M01, M02 = pf.M0
         const = (rb1, rb2, m._nrbA, m._nrbB, pf.c, M01, M02, m.J_A, m.J_B, m.lam, m.J_1, m.J_2, m.rho1, m.rho2,
-                 m.Mcd, m.Mcc, pf.n) + tuple(m._pin1) + tuple(m._pin2) + tuple(m._g) + (m.c_slide,) + tuple(m._gt)
+                 m.Mcd, m.Mcc, pf.n) + (tuple(m._pin1) + tuple(m._pin2) + tuple(m._g) + (m.c_slide,) + tuple(m._gt)
+                 + tuple(m._pin1L) + tuple(m._pin2L) + tuple(m._wpin))
         assert len(const) == NCONST
         self.const = (C.c_double * NCONST)(*(float(v) for v in const))
         self.io = (C.c_double * NIO)()

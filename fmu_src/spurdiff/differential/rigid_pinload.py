@@ -24,23 +24,43 @@ class PinLoadLaw:
         the lever, the preloads and the mesh-force divisors ``n r_b``."""
         pf = self.pf
         rbA, rb1, rbB, rb2 = pf.rb
-        planets = []
-        for i in (0, 1):
-            tx, ty, rx, ry, ux, uy, qx, qy = pf.layout._flat[i]
-            planets.append((tx, ty, rx, ry, ux, uy, qx, qy,
-                            tx + rx, ty + ry, tx - rx, ty - ry,      # d|F_pin|/dFs for Fs >= 0, < 0
-                            ux + qx, uy + qy, ux - qx, uy - qy))     # d|F_pin|/dF12 for F12 >= 0, < 0
-        self._pin1, self._pin2 = planets
+
+        def consts(c):
+            tx, ty, rx, ry, ux, uy, qx, qy = c
+            return (tx, ty, rx, ry, ux, uy, qx, qy,
+                    tx + rx, ty + ry, tx - rx, ty - ry,      # d|F_pin|/dFs for Fs >= 0, < 0
+                    ux + qx, uy + qy, ux - qx, uy - qy)      # d|F_pin|/dF12 for F12 >= 0, < 0
+
+        # the journal's two ends (spurdiff.gears.layout.PinLayout.ends): end 0 with the inertial
+        # loads' share w0, end L with wL; a planar planet has end 0 = the whole force, end L = 0
+        ends = pf.layout.ends
+        self._pin1, self._pin2 = consts(ends[0][0]), consts(ends[1][0])
+        self._pin1L, self._pin2L = consts(ends[0][2]), consts(ends[1][2])
+        self._wpin = (ends[0][1], ends[0][3], ends[1][1], ends[1][3])
+        self._planar = tuple(e[3] == 0.0 and not any(e[2]) for e in ends)
         self._nrbA, self._nrbB = pf.n * rbA, pf.n * rbB
 
     def _capacity(self, i: int, Fs: float, F12: float) -> float:
         """Static (break-away) friction capacity of planet i's pin (N m): ``c |F_mesh + g_i + h_i| + M_0,i``
         with the planet's centrifugal and tangential forces ``g_i``, ``h_i`` (:meth:`_set_speed_loads`)."""
-        tx, ty, rx, ry, ux, uy, qx, qy = self.pf.layout._flat[i]
+        return self.pf.c * self._pin_load(i, Fs, F12)[0] + self.pf.M0[i]
+
+    def _pin_load(self, i: int, Fs: float, F12: float) -> tuple[float, float]:
+        """Planet i's pin friction load ``|R_0| + |R_L|`` (N; planar: ``|F_pin|``) with its inertial
+        forces, and its derivative by F12."""
         aS, a12 = abs(Fs), abs(F12)
-        fx = Fs * tx + aS * rx + F12 * ux + a12 * qx + self._g[2 * i] + self._gt[2 * i]
-        fy = Fs * ty + aS * ry + F12 * uy + a12 * qy + self._g[2 * i + 1] + self._gt[2 * i + 1]
-        return self.pf.c * math.sqrt(fx * fx + fy * fy) + self.pf.M0[i]
+        gx, gy = self._g[2 * i], self._g[2 * i + 1]
+        hx, hy = self._gt[2 * i], self._gt[2 * i + 1]
+        tot = d12 = 0.0
+        for e, c in enumerate((self._pin1, self._pin1L) if i == 0 else (self._pin2, self._pin2L)):
+            w = self._wpin[2 * i + e]
+            fx = Fs * c[0] + aS * c[2] + F12 * c[4] + a12 * c[6] + w * gx + w * hx
+            fy = Fs * c[1] + aS * c[3] + F12 * c[5] + a12 * c[7] + w * gy + w * hy
+            mag = math.sqrt(fx * fx + fy * fy)
+            if mag != 0.0:
+                tot = tot + mag
+                d12 = d12 + ((fx * c[12] + fy * c[13]) / mag if F12 >= 0.0 else (fx * c[14] + fy * c[15]) / mag)
+        return tot, d12
 
     def _set_speed_loads(self, wc: float, alpha: float) -> None:
         """The planets' inertial pin loads at the carrier speed ``wc`` and acceleration ``alpha``
@@ -108,10 +128,18 @@ class PinLoadLaw:
         M01, M02 = pf.M0
         (t1x, t1y, r1x, r1y, u1x, u1y, q1x, q1y, p1x, p1y, m1x, m1y, P1x, P1y, N1x, N1y) = self._pin1
         (t2x, t2y, r2x, r2y, u2x, u2y, q2x, q2y, p2x, p2y, m2x, m2y, P2x, P2y, N2x, N2y) = self._pin2
+        # the journals' far ends (planar planets: all zero, adding nothing; spurdiff.gears.layout.PinLayout.ends)
+        (T1x, T1y, R1x, R1y, U1x, U1y, Q1x, Q1y, pL1x, pL1y, mL1x, mL1y, PL1x, PL1y, NL1x, NL1y) = self._pin1L
+        (T2x, T2y, R2x, R2y, U2x, U2y, Q2x, Q2y, pL2x, pL2y, mL2x, mL2y, PL2x, PL2y, NL2x, NL2y) = self._pin2L
+        w01, wL1, w02, wL2 = self._wpin
         J_A, J_B, lam = self.J_A, self.J_B, self.lam
         J1, J2 = self.J_1, self.J_2
         g1x, g1y, g2x, g2y = self._g
         h1x, h1y, h2x, h2y = self._gt
+        G1x, G1y, G2x, G2y = wL1 * g1x, wL1 * g1y, wL2 * g2x, wL2 * g2y     # the far ends' inertial shares
+        H1x, H1y, H2x, H2y = wL1 * h1x, wL1 * h1y, wL2 * h2x, wL2 * h2y
+        g1x, g1y, g2x, g2y = w01 * g1x, w01 * g1y, w02 * g2x, w02 * g2y     # (planar: times 1, unchanged)
+        h1x, h1y, h2x, h2y = w01 * h1x, w01 * h1y, w02 * h2x, w02 * h2y
         rho1, rho2 = self.rho1, self.rho2
         tau_L, tau_R = self.tau_L, self.tau_R
         Mcd, Mcc = self.Mcd, self.Mcc
@@ -142,10 +170,16 @@ class PinLoadLaw:
             f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y + g1y + h1y
             f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x + g2x + h2x
             f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y + g2y + h2y
+            e1x = FA * T1x + aA * R1x + F12 * U1x + a12 * Q1x + G1x + H1x
+            e1y = FA * T1y + aA * R1y + F12 * U1y + a12 * Q1y + G1y + H1y
+            e2x = FB * T2x + aB * R2x + F12 * U2x + a12 * Q2x + G2x + H2x
+            e2y = FB * T2y + aB * R2y + F12 * U2y + a12 * Q2y + G2y + H2y
             mag1 = sqrt(f1x * f1x + f1y * f1y)
             mag2 = sqrt(f2x * f2x + f2y * f2y)
-            c1 = cpin * mag1 + M01
-            c2 = cpin * mag2 + M02
+            mL1 = sqrt(e1x * e1x + e1y * e1y)
+            mL2 = sqrt(e2x * e2x + e2y * e2y)
+            c1 = cpin * (mag1 + mL1) + M01
+            c2 = cpin * (mag2 + mL2) + M02
             r1 = rb1 * (FA - F12) - sg1 * c1 - J1 * (ac + rho1 * ad)
             r2 = rb2 * (FB - F12) - sg2 * c2 - J2 * (ac + rho2 * ad)
             # moment residuals at rounding level of the largest moment: converged
@@ -161,6 +195,12 @@ class PinLoadLaw:
             else:
                 c2S = cpin * ((f2x * p2x + f2y * p2y) / mag2 if FB >= 0.0 else (f2x * m2x + f2y * m2y) / mag2)
                 c212 = cpin * ((f2x * P2x + f2y * P2y) / mag2 if F12 >= 0.0 else (f2x * N2x + f2y * N2y) / mag2)
+            if mL1 != 0.0:       # the far end of planet 1's journal
+                c1S += cpin * ((e1x * pL1x + e1y * pL1y) / mL1 if FA >= 0.0 else (e1x * mL1x + e1y * mL1y) / mL1)
+                c112 += cpin * ((e1x * PL1x + e1y * PL1y) / mL1 if F12 >= 0.0 else (e1x * NL1x + e1y * NL1y) / mL1)
+            if mL2 != 0.0:
+                c2S += cpin * ((e2x * pL2x + e2y * pL2y) / mL2 if FB >= 0.0 else (e2x * mL2x + e2y * mL2y) / mL2)
+                c212 += cpin * ((e2x * PL2x + e2y * PL2y) / mL2 if F12 >= 0.0 else (e2x * NL2x + e2y * NL2y) / mL2)
             a11 = (rb1 - sg1 * c1S) * dFA - a11_0
             a12_ = -rb1 - sg1 * c112
             a21 = (rb2 - sg2 * c2S) * dFB - a21_0
@@ -183,8 +223,12 @@ class PinLoadLaw:
                 f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y + g1y + h1y
                 f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x + g2x + h2x
                 f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y + g2y + h2y
-                c1 = cpin * sqrt(f1x * f1x + f1y * f1y) + M01
-                c2 = cpin * sqrt(f2x * f2x + f2y * f2y) + M02
+                e1x = FA * T1x + aA * R1x + F12 * U1x + a12 * Q1x + G1x + H1x
+                e1y = FA * T1y + aA * R1y + F12 * U1y + a12 * Q1y + G1y + H1y
+                e2x = FB * T2x + aB * R2x + F12 * U2x + a12 * Q2x + G2x + H2x
+                e2y = FB * T2y + aB * R2y + F12 * U2y + a12 * Q2y + G2y + H2y
+                c1 = cpin * (sqrt(f1x * f1x + f1y * f1y) + sqrt(e1x * e1x + e1y * e1y)) + M01
+                c2 = cpin * (sqrt(f2x * f2x + f2y * f2y) + sqrt(e2x * e2x + e2y * e2y)) + M02
                 break
         self.F12 = F12
         self.cap = n * (abs(rho1) * c1 + abs(rho2) * c2)
@@ -201,6 +245,8 @@ class PinLoadLaw:
         ``(r_b F - k)^2 = c^2 |a + F v|^2`` (``k = r_b F* +- M_0``) is a quadratic whose larger root
         is the upper end (``r_b F - k = +c |P|``) and whose smaller root is the lower end."""
         pf = self.pf
+        if not self._planar[i]:
+            return self._planet_interval_3d(i, Fs, ac)
         if i == 0:
             rb, J, M0 = pf.rb[1], self.J_1, pf.M0[0]
             tx, ty, rx, ry, _, _, _, _, _, _, _, _, Px, Py, Nx, Ny = self._pin1
@@ -241,6 +287,46 @@ class PinLoadLaw:
                 continue
             r1, r2 = q / alpha, gamma / q                   # the two roots, stably
             ends.append(max(r1, r2) if sign > 0.0 else min(r1, r2))
+        return ends[1], ends[0]
+
+    def _planet_interval_3d(self, i: int, Fs: float, ac: float) -> tuple[float, float]:
+        """:meth:`_planet_interval` for a planet whose pin carries a couple (its loads in two planes):
+        each end solves ``h(F) = r_b (F - F*) -+ (c P(F) + M_0) = 0`` with ``P = |R_0| + |R_L|``,
+        strictly increasing (``|dP/dF| <= 1``: the planet mesh's unit force is shared between the
+        ends with weights summing to 1, so the slope is >= r_b - c > 0). The root lies between
+        ``F*`` and ``F* +- (c P(F*) + M_0) / (r_b - c)`` (``P(F) <= P(F*) + |F - F*|``); Newton
+        inside that bracket, bisection where a Newton step would leave it (the C transcription in
+        shaft_kernel.c does the same operations)."""
+        pf = self.pf
+        rb, J, M0 = (pf.rb[1], self.J_1, pf.M0[0]) if i == 0 else (pf.rb[3], self.J_2, pf.M0[1])
+        c = pf.c
+        Fstar = Fs - J * ac / rb
+        cap0 = c * self._pin_load(i, Fs, Fstar)[0] + M0
+        if cap0 <= 0.0:
+            return Fstar, Fstar
+        width = cap0 / (rb - c)
+        ends = []
+        for sign in (1.0, -1.0):                            # upper end, lower end
+            lo, hi = (Fstar, Fstar + width) if sign > 0.0 else (Fstar - width, Fstar)
+            F = Fstar + sign * cap0 / rb                    # first order
+            for _ in range(100):
+                P, dP = self._pin_load(i, Fs, F)
+                h = rb * (F - Fstar) - sign * (c * P + M0)
+                if h == 0.0:
+                    break
+                if h > 0.0:
+                    hi = F
+                else:
+                    lo = F
+                step = h / (rb - sign * c * dP)
+                Fn = F - step
+                if not lo < Fn < hi:
+                    Fn = 0.5 * (lo + hi)
+                if abs(Fn - F) <= 1e-15 * (abs(F) + abs(Fstar)) + 1e-300:
+                    F = Fn
+                    break
+                F = Fn
+            ends.append(F)
         return ends[1], ends[0]
 
     def _stuck_exact(self, ac: float) -> bool:

@@ -15,7 +15,7 @@ in Python (their own kernels do their internal steps).
 Used when the inner model is the rigid one with the pin-load law and its compiled solve (the rigid
 model's ``kernel``, the FMU's ``solver.kernel``: auto | compiled | python, decides for both). The
 library is found as the other kernels are (:mod:`spurdiff.native_library`): beside this module
-(``libshaft_kernel.so``, as ``harness/build.py`` ships it in the SpurDifferential FMU), else as
+(``libshaft_kernel.so``, as ``harness/build/fmu.py`` ships it in the SpurDifferential FMU), else as
 ``shaft_kernel-<digest>.so`` in the folders of :data:`SEARCH_PATH`, ``$SPURDIFF_KERNEL_DIR``,
 ``$SPURDIFF_FMU_DIR`` and a checkout's ``build/fmus``.
 """
@@ -32,14 +32,14 @@ from spurdiff.differential import rigid_kernel
 from spurdiff.native_library import KERNELS  # noqa: F401 (re-exported)
 from spurdiff.native_step import NativeStep
 
-ABI = 3
+ABI = 4
 NRS, NSS, NSC, NIN = 48, 64, 15, 18
 NOC, NV = 21, 81                # the native step's output constants and value array (sk_native)
 # the rigid kernel this one calls: the ABI and layouts shaft_kernel.c was transcribed for (its
 # RK_NCONST and io arrays). Another runs the Python reference (the transcription is to be checked
 # against it first: tests/physics/test_shaft_kernel.py)
-RIGID_ABI = 4
-RIGID_LAYOUT = (58, 12, 24)     # rk_nconst, rk_nio, rk_nio_step
+RIGID_ABI = 5
+RIGID_LAYOUT = (94, 12, 24)     # rk_nconst, rk_nio, rk_nio_step
 LIB_NAME = "libshaft_kernel.so"
 SEARCH_PATH: list[Path] = []
 

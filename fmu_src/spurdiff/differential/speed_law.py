@@ -58,10 +58,9 @@ def inertial_forces(pf: PinFriction, geo, masses: tuple[float, float], w_c: floa
 
 
 def _pin_force(pf: PinFriction, i: int, Fs: float, F12: float, g) -> float:
-    tx, ty, rx, ry, ux, uy, qx, qy = pf.layout._flat[i]
-    fx = Fs * tx + abs(Fs) * rx + F12 * ux + abs(F12) * qx + g[0]
-    fy = Fs * ty + abs(Fs) * ry + F12 * uy + abs(F12) * qy + g[1]
-    return math.sqrt(fx * fx + fy * fy)
+    """The pin's friction load with the inertial load ``g`` at the planet's mass centre
+    (:meth:`spurdiff.gears.layout.PinLayout.pin_force`: planar |F_pin|, or the journal's end reactions)."""
+    return pf.layout.pin_force(i, Fs, F12, g)[0]
 
 
 def breakaway_at_speed(pf: PinFriction, geo, masses: tuple[float, float], w_c: float, T0: float, s: float,

@@ -89,4 +89,5 @@ def locking_coefficients_for(p, geo: DifferentialGeometry) -> tuple[float, float
     if p.lockingLaw == "paper":
         K = locking_coefficient(p.mu_pin, p.r_collar, geo.table.nPairs, geo.r_a, geo.r_1, geo.r_b, geo.r_2)
         return K, K
-    return locking_coefficients(pin_friction(geo, p.mu_pin, p.r_collar, 0.0, "pinFriction"))
+    return locking_coefficients(pin_friction(geo, p.mu_pin, p.r_collar, 0.0, "pinFriction", p.pinModel,
+                                             p.pairHandedness, p.pinContactFactor), p.leadingSun)

@@ -5,8 +5,10 @@ In the manner of the Modelica Standard Library's effects, each watch is a compon
 one base (:class:`Watch`), and a model carries them in ``model.watches`` (:func:`attach`):
 
 * :class:`CapacityWatch`: the gear set rated at a carrier torque (ISO 6336 safety factors,
-  :mod:`spurdiff.gears.capacity`), then the run's largest contact and root stresses from the mesh
-  forces, and one warning when they exceed the material's static strength;
+  :mod:`spurdiff.gears.capacity`) with the locked split at break-away (:func:`rating_forces`), the
+  load-sharing factor and K_v at the run's pitch-line speed, the limited life over the duty cycle,
+  then the run's largest contact and root stresses from the mesh forces, and one warning when they
+  exceed the material's static strength;
 * :class:`OverspeedWatch`: ``indicator`` 1 while the differential speed ``|w_A - w_c|`` is above
   a limit (0: the pin bushings' sliding-speed limit, :mod:`spurdiff.differential.bushing`), and one
   warning the first time (the paper scenes' constant torques above break-away run away).
@@ -23,6 +25,7 @@ from __future__ import annotations
 import math
 
 from spurdiff.differential.bushing import bushing
+from spurdiff.differential.locking import breakaway, dynamic_pin_model, pin_friction
 from spurdiff.errors import ParameterError, require_positive
 from spurdiff.gears import capacity as cap
 
@@ -51,9 +54,31 @@ class Watch:
         """Take the state ``s`` (None: the model's state had no entry for it), after ``model``'s own."""
 
 
+def rating_forces(geo, mu: float, r_d: float, T0: float, law: str = "pinFriction", *pin_model) -> dict[str, float]:
+    """The mesh forces (N, mean per pair) a limited-slip differential is rated at under the carrier
+    torque ``T0`` (N m): the locked split at break-away (:func:`spurdiff.differential.locking.breakaway`,
+    pin lever ``mu r_d``, the locking law ``law`` and ``pin_model`` (pinModel, pairHandedness,
+    pinContactFactor: :func:`spurdiff.differential.locking.pin_friction`'s defaults when not given)),
+    each mesh's largest over drive and coast and
+    either sun running ahead; the equal split without pin friction. The sun meshes carry up to
+    ``(1 + K) / 2`` of the torque, mesh 12 follows planet 1's moment balance."""
+    F = cap.nominal_mesh_forces(geo, T0)
+    if not (mu > 0.0 and r_d > 0.0 and T0 != 0.0):
+        return F
+    pf = pin_friction(geo, mu, r_d, 0.0, law, *pin_model)
+    for sign in (1.0, -1.0):
+        for s in (1.0, -1.0):
+            b = breakaway(pf, sign * abs(T0), s)
+            F = {"A1": max(F["A1"], abs(b.F_A1)), "B2": max(F["B2"], abs(b.F_B2)), "12": max(F["12"], abs(b.F_12))}
+    return F
+
+
 class CapacityWatch(cap.StressWatch, Watch):
-    """The load capacity: the rating at ``params.T0`` (``report``, the safety factors; ``T0``) and
-    the stress watch of :class:`spurdiff.gears.capacity.StressWatch` over the run (outputs
+    """The load capacity: the rating at ``params.T0`` (``report``, the safety factors; ``T0``) with
+    the locked split at break-away (:func:`rating_forces`), the load-sharing factor
+    ``params.K_gamma`` (0: the default for nPairs) and K_v at the pitch-line speed of the model's
+    state at initialization (``v``); the limited life over the bundled duty cycle (``life``); and the
+    stress watch of :class:`spurdiff.gears.capacity.StressWatch` over the run (outputs
     ``sigma_H_max``, ``sigma_F_max``, ``exceeded_indicator``)."""
 
     name, key = "capacity_watch", "capacity"
@@ -65,10 +90,14 @@ class CapacityWatch(cap.StressWatch, Watch):
         wall = params.bushingWall
         if not (wall >= 0.0 and wall < 0.1):
             raise ParameterError("capacity.bushingWall", wall, ">= 0 m and < 0.1 m")
-        bores = cap.pin_bores(model.params.r_collar, wall)   # the planets turn on journals (Y_B)
-        forces = cap.nominal_mesh_forces(model.geometry, self.T0)
-        self.report = cap.capacity_report(model.geometry, forces, mat, None, bores)
-        super().__init__(model.geometry, forces, mat, self.report.conditions, bores)
+        p, geo = model.params, model.geometry
+        bores = cap.pin_bores(p.r_collar, wall)   # the planets turn on journals (Y_B)
+        cond = cap.conditions(K_gamma=params.K_gamma)
+        forces = rating_forces(geo, p.mu_pin, p.r_collar, self.T0, p.lockingLaw, *dynamic_pin_model(p))
+        v = cap.pitch_line_speed(geo, model.wd)
+        self.report = cap.capacity_report(geo, forces, mat, cond, bores, v=v)
+        self.life = cap.life_report(geo, cap.scaled(forces, 1.0 / self.T0), mat=mat, cond=cond, bores=bores)
+        super().__init__(geo, forces, mat, cond, bores, v=v)
 
     def after_step(self, model, t: float, h: float) -> str | None:
         f = model.mesh_forces
@@ -76,13 +105,15 @@ class CapacityWatch(cap.StressWatch, Watch):
 
     def start_message(self) -> str | None:
         rep = self.report
-        if not rep.findings:
+        found = rep.findings + self.life.findings
+        if not found:
             return None
-        n_err = sum(f.level == "error" for f in rep.findings)
-        first = next((f for f in rep.findings if f.level == "error"), rep.findings[0])
-        return (f"load capacity at capacity.T0 = {self.T0:g} N m ({self.mat.name}): smallest safety factors S_H "
-                f"{rep.S_H:.3f} (static {rep.S_H_static:.3f}), S_F {rep.S_F:.3f} (static {rep.S_F_static:.3f}); "
-                f"{n_err} errors, {len(rep.findings) - n_err} warnings, first: {first}")
+        n_err = sum(f.level == "error" for f in found)
+        first = next((f for f in found if f.level == "error"), found[0])
+        return (f"load capacity at capacity.T0 = {self.T0:g} N m, locked split, K_gamma "
+                f"{rep.meshes[0].K_gamma:g}, pitch-line speed {self.v:.3g} m/s ({self.mat.name}): static safety "
+                f"S_H {rep.S_H_static:.3f}, S_F {rep.S_F_static:.3f}; limited life over the duty cycle "
+                f"{self.life.S:.3f}; {n_err} errors, {len(found) - n_err} warnings, first: {first}")
 
     def set_state(self, s, model=None) -> None:
         super().set_state(self._FRESH if s is None else s)
@@ -166,7 +197,7 @@ _WATCHED: dict[type, type] = {}
 def watched_class(cls: type) -> type:
     """The watched variant of the model class ``cls``: one per class (the FMU's bindings compile per
     class), made at the first model and then a name of this module (``WatchedRigidDifferential``...:
-    found by name like any class, e.g. in an FMU's copy of the package by harness.bench.core.fmu_copies)."""
+    found by name like any class, e.g. in an FMU's copy of the package by harness.measure.bench.core.fmu_copies)."""
     c = _WATCHED.get(cls)
     if c is None:
         c = _WATCHED[cls] = type(f"Watched{cls.__name__}", (Watched, cls),
@@ -186,4 +217,4 @@ def attach(model, watches) -> None:
     model._kept = tuple(w for w in model.watches if w.key is not None)
 
 
-__all__ = ["Watch", "CapacityWatch", "OverspeedWatch", "Watched", "watched_class", "attach", "INFO", "WARNING"]
+__all__ = ["Watch", "CapacityWatch", "rating_forces", "OverspeedWatch", "Watched", "watched_class", "attach", "INFO", "WARNING"]

@@ -22,6 +22,8 @@ from spurdiff.errors import ParameterError
 from spurdiff.fmi.variables import Var
 from spurdiff.differential import derivatives
 from spurdiff.differential.locking import torque_bias_ratio
+from spurdiff.gears.axial import AxialLayout
+from spurdiff.gears.design import derive
 from spurdiff.gears.phasing import mesh_phases
 from spurdiff.differential.mesh import MeshDifferential, MeshParams
 from spurdiff.differential.mesh import rates as mesh_rates
@@ -90,6 +92,8 @@ def _gear_vars(name: str, label: str) -> list[Var]:
         _p(f"{name}.x", f"{g}.x", f"Profile-shift coefficient of {label}", "1"),
         _p(f"{name}.b", f"{g}.b", f"Face width of {label}", "m", "mm"),
         _p(f"{name}.da", f"{g}.da", f"Tip diameter of {label} (0: untrimmed m (z + 2 ha + 2 x))", "m", "mm"),
+        _p(f"{name}.axialStart", f"{g}.axialStart", f"Axial position where the face of {label} starts, from carrier "
+           "wall A's inner face (axial layout, spurdiff.gears.axial)", "m", "mm"),
         Var(f"{name}.dF", "calculatedParameter",
             f"Form diameter of {label}: where its involute starts (generating rack, undercut included)", "m", "mm"),
     ]
@@ -111,6 +115,10 @@ def _mesh_vars(mesh: str, label: str) -> list[Var]:
         Var(f"mesh{mesh}.epsilon_usable", "calculatedParameter",
             f"Usable transverse contact ratio of mesh {label} (involute from form circle to tip on both gears; "
             "used by the ISO stiffness and the stiffness wave)", "1", bind=f"{g}.epsilon_usable"),
+        Var(f"mesh{mesh}.b", "calculatedParameter", f"Face width of mesh {label}: the axial overlap of its gears "
+            "(axial layout)", "m", "mm"),
+        Var(f"mesh{mesh}.axialCentre", "calculatedParameter", f"Axial position of the middle of mesh {label}, from "
+            "carrier wall A's inner face", "m", "mm"),
         Var(f"mesh{mesh}.phase", "calculatedParameter",
             f"Initial phase of the drive flanks of mesh {label} along its usable path, in base pitches "
             "(tooth positions; an A1 drive pair starts at its pitch point)", "1"),
@@ -291,6 +299,16 @@ VARIABLES: list[Var] = [
         "Locking law of the pin friction: pinFriction (friction torque mu r_d |F_pin| on each planet from its "
         "actual pin load, every level, drive and coast differ) | paper (the paper's K = (mu r_d / n)"
         "(1/(r_a+r_1) + 1/(r_b+r_2)))", None, None, "pinFriction", kind="String", bind="diff.lockingLaw"),
+    _p("pinModel", "diff.pinModel", "How a planet's pin carries its loads along the journal (the mesh forces at "
+       "their axial positions, spurdiff.gears.axial): endReactions (friction on |R_0| + |R_L|, the rigid planet's end "
+       "reactions) | planar (every load in one plane, |F_pin|) | linearPressure (quasi-static law only: refused "
+       "here)", kind="String"),
+    _p("pairHandedness", "diff.pairHandedness", "Planet 2 leading or trailing planet 1 in the positive sense of "
+       "rotation (trailing: the mirrored assembly, drive and coast K swap)", kind="String"),
+    _p("leadingSun", "diff.leadingSun", "The sun running ahead for the reported locking coefficients: either (the "
+       "smaller K) | A | B", kind="String"),
+    _p("pinContactFactor", "diff.pinContactFactor", "Journal friction moment per mu r |F| (1: friction circle, a "
+       "lower bound; 4/pi: a run-in bushing)", "1"),
     # --- gear table
     _p("gearing.m", "diff.table.m", "Module of all gears", "m", "mm"),
     _p("gearing.alpha", "diff.table.alpha", "Pressure angle of the basic rack", "rad", "deg"),
@@ -304,6 +322,11 @@ VARIABLES: list[Var] = [
     *_gear_vars("sunB", "sun B (right)"),
     *_gear_vars("planet2", "planet 2 (meshes sun B and planet 1)"),
     _p("nPairs", "diff.table.nPairs", "Number of planet pairs (3: the paper's figures)", None, kind="Integer"),
+    _p("carrier.wallB", "diff.table.carrier.wallB", "Axial position of carrier wall B's inner face, from wall A's "
+       "inner face (axial layout)", "m", "mm"),
+    _p("carrier.axialClearance", "diff.table.carrier.axialClearance", "Smallest axial running clearance between "
+       "faces that turn relative to each other (gears in different planes, gear and carrier wall; stack-up check)",
+       "m", "mm"),
     # --- friction, mass
     _p("mu_pin", "diff.mu_pin", "Friction coefficient of the planet pin bushings at break-away, with the "
        "friction-circle correction mu/sqrt(1+mu^2) where the data set has it (spurdiff/data/pin_bushing.toml); "
@@ -403,6 +426,9 @@ VARIABLES += [
     _p("capacity.bushingWall", "capacity.bushingWall", "Wall of the planets' pin bushings: the planets' bore is "
        "2 (r_collar + capacity.bushingWall), which sets the rim factor Y_B of their root stress (0: the pin runs "
        "in the planet's bore, the paper's set; 1.5 mm: spurdiff/data/pin_bushing.toml's bronze set)", "m", "mm"),
+    _p("capacity.K_gamma", "capacity.K_gamma", "Load-sharing factor of the planet pairs in the ISO 6336 rating (the "
+       "most loaded pair carries K_gamma times the mean; 0: the default for nPairs, spurdiff/data/materials.toml "
+       "[loadSharing], 1.10 for 3 pairs)", "1"),
     *[Var(f"capacity.mesh{k}.{g}.{S}", "calculatedParameter",
           f"ISO 6336 {what} safety factor of {g} in mesh {k} at capacity.T0, long life (< 1: a finding, logged)", "1")
       for k, g1, g2 in CAPACITY_MESHES for g in (g1, g2)
@@ -491,10 +517,14 @@ def build_model(values: dict):
 
 def build_message(values: dict) -> str | None:
     """What the FMU logs once the model is built: which implementation runs the mesh level or the rigid
-    level's pin-load solve, and why."""
-    if values["solver.kernelInUse"].startswith("none"):
-        return None
-    return f"meshModel = {values['meshModel']}: {values['solver.kernelInUse']} implementation"
+    level's pin-load solve, and why; then the axial stack-up findings of the gear set (issue 41,
+    spurdiff.gears.axial; the errors among them refused the set already)."""
+    lines = []
+    if not values["solver.kernelInUse"].startswith("none"):
+        lines.append(f"meshModel = {values['meshModel']}: {values['solver.kernelInUse']} implementation")
+    table = setup(values).diff.table
+    lines += [f"axial stack-up: {f}" for f in AxialLayout.of(table).findings(derive(table))]
+    return "\n".join(lines) or None
 
 
 def _set_calculated(model, values: dict) -> None:
@@ -503,8 +533,11 @@ def _set_calculated(model, values: dict) -> None:
     phases = mesh_phases(geo)
     for name, g in geo.gears.items():
         values[f"{name}.dF"] = 2.0 * g.rF
+    axial = AxialLayout.of(geo.table)
     for key in ("A1", "B2", "12"):
         values[f"mesh{key}.phase"] = phases[key].drive
+        values[f"mesh{key}.b"] = axial.mesh_width(key)
+        values[f"mesh{key}.axialCentre"] = axial.meshes[key].centre
     values["torqueBiasRatio"] = torque_bias_ratio(model.K)
     values["torqueBiasRatioCoast"] = torque_bias_ratio(model.K_coast)
     values["geometry.warnings"] = len(geo.warnings)

@@ -16,7 +16,17 @@ run by :func:`spurdiff.gears.design.derive` on the derived geometry (equations i
   must lie on the involute, else a tip-interference warning with the interference-free tip
 * usable contact ratio: the path of contact from form circle to tip on both gears; below 1.1 a
   warning with the numbers, below 1.0 an error
-* tip clearance: tip to mating root circle >= 0.1 m (warning), > 0 (error)
+* tip clearance: tip to mating root circle >= the basic rack's bottom clearance 0.25 m (warning;
+  ``DesignLimits.clearance``), > 0 (error)
+* tooth-thickness allowances: the backlash of each mesh (``DesignLimits.backlash``, default the FMU's
+  ``mesh*.backlash`` of differential.toml) comes from thinning the teeth: ``A_sn1 + A_sn2 =
+  -j_t cos(alpha_w) / cos(alpha)`` (ISO 21771, no centre-distance deviation), split equally between
+  the planets on mesh 12, the rest on the suns; the tool then cuts at the generating shift
+  ``x_E = x + A_sn / (2 m tan(alpha))`` (:func:`spurdiff.gears.generating.generating_shift`), and the
+  undercut margin is ``x_E - x_min >= DesignLimits.undercut_margin`` (warning ``undercut-margin``)
+* specific sliding at both ends of each usable path of contact,
+  ``zeta_1 = 1 - (r_b1 rho_2) / (r_b2 rho_1)`` (and 2 with 1): below ``-DesignLimits.sliding`` a
+  warning (``specific-sliding``; scuffing and wear concentrate at the start of contact)
 * symmetry: the kinematics ``w_A + w_B = 2 w_c`` need equal sun tooth counts only (the planets'
   ratios cancel along the chain sun A - planet 1 - planet 2 - sun B; with equal planets the
   paper's ``r_a / r_1 = r_b / r_2`` follows, printed as ``r_a/r_b = r_2/r_1``, a typo)
@@ -29,19 +39,70 @@ run by :func:`spurdiff.gears.design.derive` on the derived geometry (equations i
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
+from spurdiff.datafile import differential_default
+from spurdiff.errors import ParameterError
+from spurdiff.gears.generating import generating_shift, thickness_allowances
 from spurdiff.gears.geometry import MM, Finding, GearGeometry, GearTable, MeshGeometry
 
-MIN_TIP_CLEARANCE = 0.1  # smallest tip-to-root clearance, in modules (basic rack: 0.25)
+MIN_TIP_CLEARANCE = 0.25  # smallest tip-to-root clearance, in modules: the basic rack's c_P = 0.25 m (ISO 53)
+DEFAULT_BACKLASH = {k: differential_default(f"mesh{k}.backlash") for k in ("A1", "B2", "12")}
+
+
+@dataclass(frozen=True)
+class DesignLimits:
+    """The margins the design checks want (each an argument of ``spurdiff design``):
+    ``undercut_margin`` (in x) between the generating shift and the undercut limit; ``clearance``
+    the least tip-to-root clearance in modules (the basic rack's 0.25); ``sliding`` the largest
+    magnitude of specific sliding; ``backlash`` the circumferential backlash of each mesh at its
+    operating pitch circle (m; None: differential.toml's ``mesh*.backlash``, what the FMU simulates).
+    The sliding limit 4.0 is assumed (a design guideline, not a standard's value; the 13-tooth
+    planets against 36-tooth suns leave little room below it)."""
+
+    undercut_margin: float = 0.02
+    clearance: float = MIN_TIP_CLEARANCE
+    sliding: float = 4.0
+    backlash: dict | None = None
+
+    def validate(self) -> None:
+        for name, v, lo, hi in (("undercut_margin", self.undercut_margin, 0.0, 0.5),
+                                ("clearance", self.clearance, 0.0, 0.5), ("sliding", self.sliding, 0.5, 100.0)):
+            if not (math.isfinite(v) and lo <= v <= hi):
+                raise ParameterError(f"design.{name}", v, f"between {lo:g} and {hi:g}")
+        for k, v in self.backlash_of().items():
+            if not (math.isfinite(v) and 0.0 <= v <= 0.002):
+                raise ParameterError(f"mesh{k}.backlash", v, "between 0 and 0.002 m")
+
+    def backlash_of(self) -> dict:
+        return dict(DEFAULT_BACKLASH) if self.backlash is None else dict(self.backlash)
+
+
+def specific_sliding(me: MeshGeometry, l: float) -> tuple[float, float]:
+    """(zeta_1, zeta_2) at distance ``l`` from gear 1's base tangent point on the line of action:
+    ``zeta_1 = 1 - (r_b1 rho_2) / (r_b2 rho_1)``, ``zeta_2 = 1 - (r_b2 rho_1) / (r_b1 rho_2)``,
+    ``rho_1 = l``, ``rho_2 = a sin(alpha_w) - l``."""
+    r1, r2 = l, me.a * math.sin(me.alpha_w) - l
+    z1 = 1.0 - (me.rb1 * r2) / (me.rb2 * r1) if r1 > 0.0 else -math.inf
+    z2 = 1.0 - (me.rb2 * r1) / (me.rb1 * r2) if r2 > 0.0 else -math.inf
+    return z1, z2
 
 
 def _mm(v: float) -> str:
     return f"{v / MM:.3f} mm"
 
 
-def design_checks(t: GearTable, gg: dict[str, GearGeometry], meshes: tuple[MeshGeometry, ...]):
-    """The findings for the gear table ``t``, its gears' and its three meshes' geometry (a generator)."""
+def design_checks(t: GearTable, gg: dict[str, GearGeometry], meshes: tuple[MeshGeometry, ...],
+                  limits: DesignLimits | None = None):
+    """The findings for the gear table ``t``, its gears' and its three meshes' geometry (a generator),
+    with the margins of ``limits`` (default :class:`DesignLimits`)."""
+    lim = limits or DesignLimits()
+    lim.validate()
     m, alpha = t.m, t.alpha
+    clear_min = lim.clearance
+    mesh_of = {me.name: me for me in meshes}
+    allowance = (thickness_allowances({k: mesh_of[k].alpha_w for k in mesh_of}, lim.backlash_of(), alpha)
+                 if set(mesh_of) == {"A1", "B2", "12"} else {})
     h_ffp0 = t.haP0 - t.rhoaP0 * (1.0 - math.sin(alpha))   # end of the tool's straight flank
     for name, g in gg.items():
         x_min = h_ffp0 - g.z * math.sin(alpha) ** 2 / 2.0
@@ -51,6 +112,13 @@ def design_checks(t: GearTable, gg: dict[str, GearGeometry], meshes: tuple[MeshG
                           f"starts at the form diameter d_F = {2 * g.rF / MM:.3f} mm, above the base circle "
                           f"d_b = {2 * g.rb / MM:.3f} mm (generating tool h_aP0 = {t.haP0:g} m, "
                           f"rho_aP0 = {t.rhoaP0:g} m)")
+        elif name in allowance:
+            xE = generating_shift(g.x, allowance[name], m, alpha)
+            if xE < x_min + lim.undercut_margin - 1e-12:
+                yield Finding("warning", "undercut-margin", f"{name}.x",
+                              f"{name} (z = {g.z}): thinned for the backlash (A_sn = {allowance[name] / MM * 1e3:.1f} um) "
+                              f"the tool cuts at x_E = {xE:+.4f}, {xE - x_min:+.4f} from the undercut limit "
+                              f"x_min = {x_min:+.4f}; margin wanted {lim.undercut_margin:g}")
         if g.ra <= g.rb or g.sa <= 0.0:
             yield Finding("error", "pointed-tip", f"{name}.x",
                           f"{name} has no tooth left at its tip (tip thickness {g.sa / MM:.3f} mm)")
@@ -72,10 +140,10 @@ def design_checks(t: GearTable, gg: dict[str, GearGeometry], meshes: tuple[MeshG
             if clr < 0.0:
                 yield Finding("error", "tip-root-clash", f"{other.name}.da",
                               f"mesh {me.name}: {other.name}'s tip cuts into {gear.name}'s root by {_mm(-clr)}")
-            elif clr < MIN_TIP_CLEARANCE * m:
+            elif clr < clear_min * m - 1e-6:     # 1 um: below what a tip diameter is made to
                 yield Finding("warning", "tip-clearance", f"{other.name}.da",
                               f"mesh {me.name}: {other.name}'s tip clears {gear.name}'s root circle by only "
-                              f"{_mm(clr)} < {MIN_TIP_CLEARANCE:g} m = {_mm(MIN_TIP_CLEARANCE * m)} (basic rack: "
+                              f"{clr / MM:.4f} mm = {clr / m:.4f} m < {clear_min:g} m = {_mm(clear_min * m)} (basic rack: "
                               f"{t.hf - t.ha:g} m)")
         for gear, other in ((g1, g2), (g2, g1)):
             # start of active profile on `gear` (from the other's tip) against gear's form circle
@@ -95,6 +163,12 @@ def design_checks(t: GearTable, gg: dict[str, GearGeometry], meshes: tuple[MeshG
                               f"(base circle {2 * gear.rb / MM:.3f} mm); interference-free d_a <= "
                               f"{2 * r_limit / MM:.3f} mm, i.e. tip relief assumed; usable contact ratio "
                               f"{me.epsilon_usable:.3f}")
+        l0, l1 = me.usable_path
+        for gear, zeta in ((g1, specific_sliding(me, l0)[0]), (g2, specific_sliding(me, l1)[1])):
+            if zeta < -lim.sliding:
+                yield Finding("warning", "specific-sliding", f"{(g2 if gear is g1 else g1).name}.da",
+                              f"mesh {me.name}: specific sliding {zeta:.2f} at {gear.name}'s start of active profile "
+                              f"(limit -{lim.sliding:g}); a smaller mating tip lowers it")
         eps_u = me.epsilon_usable
         detail = (f"mesh {me.name}: usable transverse contact ratio {eps_u:.3f} (involute to tip on both gears, form "
                   f"diameters {2 * g1.rF / MM:.3f} / {2 * g2.rF / MM:.3f} mm) against {me.epsilon_alpha:.3f} with the "
@@ -152,4 +226,4 @@ def design_checks(t: GearTable, gg: dict[str, GearGeometry], meshes: tuple[MeshG
                       f"spaced planet pairs cannot be assembled (each pair ties the tooth phases of the two suns)")
 
 
-__all__ = ["design_checks", "MIN_TIP_CLEARANCE"]
+__all__ = ["design_checks", "DesignLimits", "specific_sliding", "MIN_TIP_CLEARANCE", "DEFAULT_BACKLASH"]

@@ -5,13 +5,15 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from spurdiff.gears.checks import design_checks
+from spurdiff.gears.axial import AxialLayout
+from spurdiff.gears.checks import DesignLimits, design_checks
 from spurdiff.gears.geometry import DifferentialGeometry, GearTable, gear_geometry, mesh_geometry
 from spurdiff.gears.phasing import phase_findings
 
 
-def derive(table: GearTable | None = None) -> DifferentialGeometry:
-    """Derive the geometry of all three meshes and run every design check.
+def derive(table: GearTable | None = None, limits: DesignLimits | None = None) -> DifferentialGeometry:
+    """Derive the geometry of all three meshes and run every design check (with the margins of
+    ``limits``, default :class:`spurdiff.gears.checks.DesignLimits`).
 
     Raises ParameterError only for inputs for which no geometry exists at all (non-positive
     module, no operating pressure angle, ...). Infeasible but computable gear sets come back with
@@ -23,8 +25,9 @@ def derive(table: GearTable | None = None) -> DifferentialGeometry:
     mA1 = mesh_geometry("A1", gg["sunA"], gg["planet1"], t)
     mB2 = mesh_geometry("B2", gg["sunB"], gg["planet2"], t)
     m12 = mesh_geometry("12", gg["planet1"], gg["planet2"], t)
-    findings = tuple(design_checks(t, gg, (mA1, mB2, m12)))
+    findings = tuple(design_checks(t, gg, (mA1, mB2, m12), limits))
     geo = DifferentialGeometry(t, gg, mA1, mB2, m12, findings)
+    geo = replace(geo, findings=findings + tuple(AxialLayout.of(t).findings(geo)))   # the axial stack-up
     if not geo.errors:
-        geo = replace(geo, findings=findings + tuple(phase_findings(geo)))
+        geo = replace(geo, findings=geo.findings + tuple(phase_findings(geo)))
     return geo

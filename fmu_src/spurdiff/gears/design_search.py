@@ -6,12 +6,16 @@ The three centre distances fix the three shift sums (ISO 21771):
 ``x_1 + x_2 = (z_1 + z_2) (inv(alpha_w) - inv(alpha)) / (2 tan(alpha))`` with
 ``cos(alpha_w) = m (z_1 + z_2) cos(alpha) / (2 a)``; four gears on three meshes leave one free
 shift, planet 1's ``t``: ``x_planet2 = S_12 - t``, ``x_sunA = S_A1 - t``, ``x_sunB = S_B2 - S_12 + t``.
-No undercut bounds ``t`` (``x >= h_FfP0 - z sin^2(alpha) / 2`` for every gear). For each ``t`` every
-tip is made as large as allowed: untrimmed ``m (z + 2 h_a + 2 x)``, at most the interference-free
-diameter against each mating gear's form circle (:meth:`MeshGeometry.tip_limit`), a tip clearance
-of ``c_min m`` to each mating root circle, a tip thickness of ``s_min m``, and planet 2's tip
-clear of sun A's by ``c_min m`` (planet 2 spans both planes; sun A's tip gives way, its mesh has the
-most contact ratio to spare). ``t`` is chosen to maximise the smallest usable contact ratio
+No undercut with margins bounds ``t``: every gear, thinned for its mesh's backlash (tooth-thickness
+allowance ``A_sn``, :func:`spurdiff.gears.generating.thickness_allowances`), is cut at the generating
+shift ``x_E = x + A_sn / (2 m tan(alpha)) >= x_min + x_margin`` with ``x_min = h_FfP0 - z sin^2(alpha) / 2``.
+For each ``t`` every tip is made as large as allowed: untrimmed ``m (z + 2 h_a + 2 x)``, at most the
+interference-free diameter against each mating gear's form circle (:meth:`MeshGeometry.tip_limit`),
+a tip clearance of ``c_min m`` to each mating root circle (the basic rack's 0.25 m), a tip thickness
+of ``s_min m``, a reach that keeps the mating flank's specific sliding above ``-zeta_max`` at its
+start of active profile (``rho_mate = r_b,mate L / (r_b,mate + (1 + zeta_max) r_b,tip)`` on the line
+of action of length ``L``), and planet 2's tip clear of sun A's by ``c_min m`` (planet 2 spans both
+planes; sun A's tip gives way, its mesh has the most contact ratio to spare). ``t`` is chosen to maximise the smallest usable contact ratio
 (a grid, then golden-section refinement, :func:`spurdiff.numerics.minimize_bounded`); tips are
 rounded down to 1 um. The result is derived again with :func:`spurdiff.gears.design.derive` and
 must show none of the findings above.
@@ -22,16 +26,18 @@ import math
 from dataclasses import dataclass, replace
 
 from spurdiff.errors import ParameterError
+from spurdiff.gears.checks import DesignLimits
 from spurdiff.gears.design import derive
+from spurdiff.gears.generating import thickness_allowances
 from spurdiff.gears.geometry import (DifferentialGeometry, Gear, GearTable, gear_geometry, inv, inv_inverse,
                                      mesh_geometry)
 from spurdiff.numerics import find_root, minimize_bounded
 
-X_MARGIN = 1e-4   # kept between a proposed shift and the undercut limit
+X_MARGIN = 1e-9   # kept beyond the undercut margin (rounding)
 GEARS = ("sunA", "planet1", "sunB", "planet2")
 MESHES = {"A1": ("sunA", "planet1"), "B2": ("sunB", "planet2"), "12": ("planet1", "planet2")}
 # findings a working set must not have (mesh-phasing is a note on the lumped model, not a defect)
-BLOCKING = ("undercut", "pointed-tip", "tip-below-root", "tip-root-clash", "tip-clearance", "tip-interference",
+BLOCKING = ("undercut", "undercut-margin", "specific-sliding", "pointed-tip", "tip-below-root", "tip-root-clash", "tip-clearance", "tip-interference",
             "contact-ratio", "symmetry", "assembly", "planet2-sunA-clearance", "neighbour-clearance")
 
 
@@ -39,9 +45,17 @@ BLOCKING = ("undercut", "pointed-tip", "tip-below-root", "tip-root-clash", "tip-
 class Targets:
     """What the proposed set must meet (in modules where a length)."""
 
-    eps_min: float = 1.2     # usable transverse contact ratio on every mesh
+    eps_min: float = 1.1     # usable transverse contact ratio on every mesh (checks.py warns below 1.1)
     s_min: float = 0.3       # tip thickness, m (checks.py warns below 0.25 m)
-    c_min: float = 0.2       # tip-to-root clearance and planet 2 / sun A tip clearance, m
+    c_min: float = 0.25      # tip-to-root clearance and planet 2 / sun A tip clearance, m (basic rack 0.25)
+    x_margin: float = 0.02   # generating shift (thinned for the backlash) beyond the undercut limit
+    zeta_max: float = 4.0    # largest magnitude of specific sliding at a start of active profile
+    backlash: dict | None = None   # per mesh, m (None: differential.toml's mesh*.backlash)
+
+    def limits(self) -> DesignLimits:
+        """The design checks' limits that hold what this search proposes."""
+        return DesignLimits(undercut_margin=self.x_margin, clearance=self.c_min, sliding=self.zeta_max,
+                            backlash=self.backlash)
 
 
 def shift_sum(z1: int, z2: int, a: float, m: float, alpha: float, name: str) -> float:
@@ -104,6 +118,9 @@ def _candidate(t: float, base: GearTable, S: dict, tg: Targets, round_tips: bool
                 mate = gg[b if n == a else a]
                 lim[f"interference {k}"] = me[k].tip_limit(n)
                 lim[f"root clearance {k}"] = me[k].a - mate.rf - tg.c_min * m
+                L = me[k].a * math.sin(me[k].alpha_w)
+                rho_mate = mate.rb * L / (mate.rb + (1.0 + tg.zeta_max) * g.rb)
+                lim[f"specific sliding {k}"] = math.hypot(g.rb, L - rho_mate)
         why[n] = min(lim, key=lim.get)
         ra[n] = lim[why[n]]
     # planet 2 spans both planes: sun A's tip gives way
@@ -173,9 +190,15 @@ def propose(z: dict, a: dict, base: GearTable | None = None, targets: Targets | 
     tab.validate()
     S = {k: shift_sum(tab.gears()[g1].z, tab.gears()[g2].z, a[k], tab.m, tab.alpha, f"a{k}")
          for k, (g1, g2) in MESHES.items()}
-    xm = {n: _x_min(g.z, tab) for n, g in tab.gears().items()}
-    # undercut bounds on t = x_planet1
-    # (a margin of X_MARGIN keeps the proposal off the undercut limit after rounding)
+    # undercut bounds on t = x_planet1: each gear's generating shift, thinned for the backlash, at
+    # least x_margin beyond its undercut limit
+    lim = tg.limits()
+    lim.validate()
+    aw = {k: math.acos(tab.m * (tab.gears()[g1].z + tab.gears()[g2].z) / 2.0 * math.cos(tab.alpha) / a[k])
+          for k, (g1, g2) in MESHES.items()}
+    A_sn = thickness_allowances(aw, lim.backlash_of(), tab.alpha)
+    xm = {n: _x_min(g.z, tab) + tg.x_margin - A_sn[n] / (2.0 * tab.m * math.tan(tab.alpha))
+          for n, g in tab.gears().items()}
     lo = max(xm["planet1"], xm["sunB"] - S["B2"] + S["12"]) + X_MARGIN
     hi = min(S["12"] - xm["planet2"], S["A1"] - xm["sunA"]) - X_MARGIN
     if lo > hi:
@@ -183,8 +206,9 @@ def propose(z: dict, a: dict, base: GearTable | None = None, targets: Targets | 
         a_need = _a_of_sum(tab.planet1.z, tab.planet2.z, need, tab)
         if S["12"] < need:
             raise ParameterError("a12", round(a["12"], 12), f">= {a_need:.6f} m: planets of {tab.planet1.z} and "
-                                 f"{tab.planet2.z} teeth need x_1 + x_2 >= {need:.4f} to avoid undercut "
-                                 f"(x_min {xm['planet1']:+.4f}, {xm['planet2']:+.4f}), a12 gives {S['12']:+.4f}")
+                                 f"{tab.planet2.z} teeth need x_1 + x_2 >= {need:.4f} to avoid undercut with the "
+                                 f"margins (x_min {xm['planet1']:+.4f}, {xm['planet2']:+.4f} with the undercut "
+                                 f"margin {tg.x_margin:g} and the thinning for the backlash), a12 gives {S['12']:+.4f}")
         raise ParameterError("aB2", round(a["B2"], 12), f"a centre distance for which the shifts avoid undercut on all four "
                              f"gears (x_planet1 would need {lo:+.4f} .. {hi:+.4f}); shift sums A1 {S['A1']:+.4f}, "
                              f"B2 {S['B2']:+.4f}, 12 {S['12']:+.4f}")
@@ -209,8 +233,8 @@ def propose(z: dict, a: dict, base: GearTable | None = None, targets: Targets | 
         raise ParameterError(f"a{worst}", round(a[worst], 12), f"centre distances giving a usable contact ratio >= "
                              f"{tg.eps_min:g} on every mesh: the best shifts give {eps_min:.3f} on mesh {worst} "
                              f"(tips limited by {', '.join(sorted(set(best.limits.values())))})")
-    geo = derive(best.table)
-    prop = Proposal(best.table, geo, derive(base), best.limits, dict(a))
+    geo = derive(best.table, lim)
+    prop = Proposal(best.table, geo, derive(base, lim), best.limits, dict(a))
     if prop.blocking:
         f = prop.blocking[0]
         raise ParameterError(f.parameter, None, "a set without design findings", f"proposed set still has: {f.message}")
@@ -230,7 +254,9 @@ def to_toml(p: Proposal, header: str) -> str:
              f"rhoaP0 = {t.rhoaP0!r}"]
     for n in GEARS:
         g = getattr(t, n)
-        lines += ["", f"[{n}]", f"z = {g.z}", f"x = {g.x!r}", f"b = {g.b!r}", f"da = {g.da!r}"]
+        lines += ["", f"[{n}]", f"z = {g.z}", f"x = {g.x!r}", f"b = {g.b!r}", f"da = {g.da!r}",
+                  f"axialStart = {g.axialStart!r}"]
+    lines += ["", "[carrier]", f"wallB = {t.carrier.wallB!r}", f"axialClearance = {t.carrier.axialClearance!r}"]
     return "\n".join(lines) + "\n"
 
 

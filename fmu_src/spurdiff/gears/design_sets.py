@@ -18,6 +18,7 @@ from spurdiff.gears.geometry import Gear, GearTable
 DESIGNED_FILE = "gear_set_designed.toml"
 GEAR_NAMES = ("sunA", "planet1", "sunB", "planet2")
 GEARING_KEYS = ("m", "alpha", "ha", "hf", "haP0", "rhoaP0")
+CARRIER_KEYS = ("wallB", "axialClearance")   # the axial layout's walls (spurdiff.gears.axial)
 # read once at import, from this package's own data folder (see spurdiff.datafile)
 _DESIGNED_TEXT = (DATA_FOLDER / DESIGNED_FILE).read_text(encoding="utf-8")
 SETS = ("paper", "designed")
@@ -34,6 +35,11 @@ def table_from_data(data: dict, base: GearTable | None = None) -> GearTable:
     t = replace(t, **gearing)
     if "nPairs" in data:
         t = replace(t, nPairs=data["nPairs"])
+    carrier = dict(data.get("carrier", {}))
+    for k in carrier:
+        if k not in CARRIER_KEYS:
+            raise ParameterError(f"carrier.{k}", carrier[k], "one of " + ", ".join(CARRIER_KEYS), "unknown key")
+    t = replace(t, carrier=replace(t.carrier, **carrier))
     known = {f.name for f in fields(Gear)}
     for n in GEAR_NAMES:
         sec = dict(data.get(n, {}))
@@ -61,6 +67,9 @@ def fmu_parameters(table: GearTable | str) -> dict:
     for n in GEAR_NAMES:
         g = getattr(t, n)
         out.update({f"{n}.z": g.z, f"{n}.x": g.x, f"{n}.b": g.b, f"{n}.da": g.da})
+        if g.axialStart is not None:
+            out[f"{n}.axialStart"] = g.axialStart
+    out.update({f"carrier.{k}": getattr(t.carrier, k) for k in CARRIER_KEYS})
     return out
 
 

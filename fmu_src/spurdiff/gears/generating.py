@@ -36,6 +36,25 @@ def _inv(a: float) -> float:
     return math.tan(a) - a
 
 
+def generating_shift(x: float, A_sn: float, m: float, alpha: float) -> float:
+    """The generating profile shift ``x_E = x + A_sn / (2 m tan(alpha))`` of a gear thinned by the
+    tooth-thickness allowance ``A_sn`` (m, <= 0, normal, at the reference circle): the tool is fed
+    in by ``-A_sn / (2 tan(alpha))`` (ISO 21771)."""
+    return x + A_sn / (2.0 * m * math.tan(alpha))
+
+
+def thickness_allowances(alpha_w: dict, backlash: dict, alpha: float) -> dict:
+    """Tooth-thickness allowances A_sn (m, <= 0) of the four gears that give each mesh its
+    circumferential backlash ``backlash[k]`` at the operating pitch circle (keys A1, B2, 12; m):
+    per mesh ``A_sn1 + A_sn2 = -j_t cos(alpha_w) / cos(alpha)`` (ISO 21771, no centre-distance
+    deviation). Four gears, three meshes: mesh 12's share split equally between the planets, the
+    rest of each sun mesh on its sun (a sun's share is then the larger: the planets, near their
+    undercut limit, are thinned least)."""
+    need = {k: -backlash[k] * math.cos(alpha_w[k]) / math.cos(alpha) for k in ("A1", "B2", "12")}
+    p = 0.5 * need["12"]
+    return {"planet1": p, "planet2": p, "sunA": min(need["A1"] - p, 0.0), "sunB": min(need["B2"] - p, 0.0)}
+
+
 def straight_flank_reach(z: int, x: float, m: float, alpha: float, haP0: float, rhoaP0: float) -> float:
     """``u``: where the end of the tool's straight flank meets the line of action, measured from the
     base tangent point (m); ``u <= 0`` means undercut."""

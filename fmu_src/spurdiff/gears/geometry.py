@@ -56,7 +56,9 @@ def inv_inverse(value: float, name: str = "alpha_w") -> float:
 
 @dataclass(frozen=True)
 class Gear:
-    """One spur gear: tooth count, profile shift, optional trimmed tip diameter, face width.
+    """One spur gear: tooth count, profile shift, optional trimmed tip diameter, face width, and
+    where its face starts along the axis (from carrier wall A's inner face; the axial layout,
+    :mod:`spurdiff.gears.axial`).
 
     ``da = 0`` means the untrimmed tip diameter ``m (z + 2 h_a + 2 x)``.
     """
@@ -65,6 +67,17 @@ class Gear:
     x: float
     b: float
     da: float = 0.0
+    axialStart: float | None = None     # None: not given (no axial layout: coplanar meshes, no stack-up check)
+
+
+@dataclass(frozen=True)
+class Carrier:
+    """The carrier's walls along the axis (m): wall A's inner face at 0, wall B's at ``wallB``;
+    ``axialClearance`` the smallest running clearance between faces that turn relative to each
+    other (gear to gear in different planes, gear to wall); :mod:`spurdiff.gears.axial`."""
+
+    wallB: float
+    axialClearance: float
 
 
 @dataclass(frozen=True)
@@ -83,6 +96,7 @@ class GearTable:
     sunB: Gear = Gear(**_d("sunB"))
     planet2: Gear = Gear(**_d("planet2"))
     nPairs: int = _d("nPairs")
+    carrier: Carrier = Carrier(**_d("carrier"))
 
     @classmethod
     def paper(cls) -> "GearTable":
@@ -130,6 +144,13 @@ class GearTable:
             da = require_finite(f"{name}.da", g.da)
             if da < 0.0:
                 raise ParameterError(f"{name}.da", da, ">= 0 (0 = untrimmed tip)")
+            z0 = None if g.axialStart is None else require_finite(f"{name}.axialStart", g.axialStart)
+            if z0 is not None and not 0.0 <= z0 <= 1.0:
+                raise ParameterError(f"{name}.axialStart", z0, "between 0 and 1 m (from carrier wall A's inner face)")
+        require_positive("carrier.wallB", self.carrier.wallB)
+        c = require_finite("carrier.axialClearance", self.carrier.axialClearance)
+        if not 0.0 <= c <= 0.01:
+            raise ParameterError("carrier.axialClearance", c, "between 0 and 0.01 m")
 
 
 @dataclass(frozen=True)

@@ -217,7 +217,11 @@ def test_rigid_and_contact_break_away_together_in_drive_and_coast(sign, dirn):
     # torques) and the contact level (pin loads from its mesh forces) break away within 0.5 %
     # of each other and of the quasi-static K T0 (drive: K, coast: K_coast); ramp resolution 0.1 %
     ref = model("contact")
-    K = ref.K if sign > 0 else ref.K_coast
+    # K of the direction it breaks away in (issue 41: with planet 2's pin couple the leading sun
+    # matters, 0.7 % in drive): the more loaded sun falls behind, the other one leads
+    from spurdiff.differential.locking import locking_coefficients
+    K = locking_coefficients(ref._pf, "B" if dirn > 0 else "A")[0 if sign > 0 else 1]
+    assert K >= (ref.K if sign > 0 else ref.K_coast)
     KT0 = K * 2100.0
     D0 = 0.97 * KT0
     c = model("contact", _loads(sign, dirn, D0))
@@ -229,8 +233,9 @@ def test_rigid_and_contact_break_away_together_in_drive_and_coast(sign, dirn):
     assert abs(Dc / Dr - 1.0) < 5e-3
     assert abs(Dr / KT0 - 1.0) < 5e-3
     assert (c.K, c.K_coast) == (r.K, r.K_coast)
-    # drive and coast differ (the pins are loaded differently), both far above the paper's K
-    assert c.K_coast > 1.15 * c.K > 6 * c.K_paper
+    # drive and coast differ (the pins are loaded differently), both far above the paper's K; with
+    # planet 2's pin couple (issue 41, end reactions) drive is the larger: 0.2326 against 0.2182
+    assert c.K > 1.05 * c.K_coast > 6 * c.K_paper
 
 
 @pytest.mark.parametrize("level", LEVELS)
@@ -396,9 +401,12 @@ def test_iso6336_stiffness_of_mesh_A1():
     # A1 (sun A's tip stops at planet 1's form circle), 1.011 for B2 and 12 (planet 2 undercut)
     m = model("compliant")
     assert [round(md.eps, 3) for md in m.md] == [1.515, 1.011, 1.011]
-    for md, (z1, x1, z2, x2) in zip(m.md, ((36, -1.0099, 13, 0.3), (36, 1.2296, 13, -0.3), (13, 0.3, 13, -0.3))):
+    # times each mesh's face width, the axial overlap of its gears (issue 41): B2 17 mm (sun B 24 .. 46 mm,
+    # planet 2 1 .. 41 mm in the paper set's assumed layout), A1 and 12 22 mm
+    for md, (z1, x1, z2, x2), b in zip(m.md, ((36, -1.0099, 13, 0.3), (36, 1.2296, 13, -0.3), (13, 0.3, 13, -0.3)),
+                                       (0.022, 0.017, 0.022)):
         _, c = iso6336_stiffness(z1, x1, z2, x2, md.eps, 2.06e11)
-        assert md.k == pytest.approx(c * 1e9 * 0.022, rel=1e-12)
+        assert md.k == pytest.approx(c * 1e9 * b, rel=1e-12)
     # the 0.9 factor of ISO 6336 for eps < 1.2 applies to B2 and 12 now
     assert iso6336_stiffness(36, 1.2296, 13, -0.3, 1.011, 2.06e11)[1] == pytest.approx(
         0.9 * iso6336_stiffness(36, 1.2296, 13, -0.3, 1.2, 2.06e11)[1] * (0.75 * 1.011 + 0.25) / (0.75 * 1.2 + 0.25))
@@ -417,7 +425,14 @@ def test_large_communication_steps_are_stable_and_accurate(level):
         assert np.all(np.isfinite(rows))
         results.append((rows[-1], m.energy_loss))
     (ra, la), (rb, lb) = results
-    assert ra == pytest.approx(rb, rel=1e-4, abs=1e-6)
+    # all but F_12 (index 5) to 1e-4. The run ends stuck, and a stuck pair's F_12 is statically
+    # indeterminate (anything inside both planets' friction intervals holds): it keeps the mesh-12
+    # deflection of the moment the planets stuck, which depends on the step. Measured over h = 0.5 ..
+    # 10 ms: a spread of 1.0e-4 with planar pins, 4.9e-4 with the end reactions (issue 41); held
+    # to 1e-3 here
+    keep = [0, 1, 2, 3, 4, 6, 7]
+    assert ra[keep] == pytest.approx(rb[keep], rel=1e-4, abs=1e-6)
+    assert ra[5] == pytest.approx(rb[5], rel=1e-3)
     assert la == pytest.approx(lb, rel=1e-4)
 
 

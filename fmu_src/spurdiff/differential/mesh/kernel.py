@@ -7,8 +7,8 @@ what it calls), which stays the specification and the fallback; the two agree to
 (tests/physics/mesh/test_mesh_kernel.py).
 
 Where the library is found (first hit): beside this module (``mesh_kernel.so``, as
-``harness/build.py`` ships it inside each SpurDifferential FMU), in the folders of
-:data:`SEARCH_PATH` (``harness.build.kernel_library`` adds the FMU folder, where it compiles
+``harness/build/fmu.py`` ships it inside each SpurDifferential FMU), in the folders of
+:data:`SEARCH_PATH` (``harness.build.fmu.kernel_library`` adds the FMU folder, where it compiles
 ``mesh_kernel-<digest>.so`` for the direct runs and the tests), ``$SPURDIFF_KERNEL_DIR``,
 ``$SPURDIFF_FMU_DIR`` and a checkout's ``build/fmus``.
 A library in a checkout's folders must carry the digest of the C source beside it; one whose
@@ -26,7 +26,7 @@ from spurdiff import native_library
 from spurdiff.errors import StepError
 from spurdiff.differential.mesh.integrator import SMAX      # mesh_kernel.h SMAX: the most stages of a tableau
 
-ABI = 8
+ABI = 9
 LIB_NAME = "mesh_kernel.so"
 SEARCH_PATH: list[Path] = []
 _d, _i = C.c_double, C.c_int64
@@ -45,7 +45,8 @@ class MkParams(C.Structure):
                 + [("pin_flat", _d * 8 * 2), ("Minv", _d * 5 * 5), ("atol", _d * 10), ("rtol", _d), ("w_stick", _d),
                    ("gamma", _d), ("err_exp", _d), ("a", _d * SMAX * SMAX), ("cc", _d * SMAX * SMAX), ("m", _d * SMAX),
                    ("ew", _d * SMAX), ("dmid", _d * SMAX), ("dq", _d * SMAX * 2),
-                   ("md", MkMesh * 3), ("dpoly", _d * SMAX * 4), ("c_pind", _d)])
+                   ("md", MkMesh * 3), ("dpoly", _d * SMAX * 4), ("c_pind", _d),
+                   ("pin_ends", _d * 18 * 2), ("pin3d", _i * 2)])
 
 
 class MkState(C.Structure):
@@ -117,6 +118,9 @@ class Kernel:
         for i in (0, 1):
             for j in range(8):
                 P.pin_flat[i][j] = flat[i][j]
+        for i, (c0, w0, cL, wL) in enumerate(c._pf.layout.ends):   # the journal's ends (issue 41)
+            P.pin_ends[i][:] = tuple(c0) + (w0,) + tuple(cL) + (wL,)
+            P.pin3d[i] = c._pin3d[i]
         if not c.speed_drive:
             for i in range(5):
                 for j in range(5):

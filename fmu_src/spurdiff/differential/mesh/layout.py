@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from spurdiff.gears.axial import AxialLayout
 from spurdiff.gears.geometry import DifferentialGeometry
 from spurdiff.differential.inertia import MassProperties
 from spurdiff.gears.phasing import mesh_phases
@@ -59,6 +60,8 @@ def mesh_data(geo: DifferentialGeometry, ms: MassProperties, mp: MeshParams) -> 
                  "B2": (t.sunB, t.planet2, ms.J_sunB / n, ms.J_planet2, GEAR_B, GEAR_2, DB),
                  "12": (t.planet1, t.planet2, ms.J_planet1, ms.J_planet2, GEAR_1, GEAR_2, D12)}
     phases = mesh_phases(geo)
+    axial = AxialLayout.of(t)
+    widths = {name: axial.mesh_width(name) for name in MESHES}
     out = []
     for name, me in zip(MESHES, geo.meshes):
         g1, g2, J1, J2, i1, i2, d = gearpairs[name]
@@ -72,7 +75,9 @@ def mesh_data(geo: DifferentialGeometry, ms: MassProperties, mp: MeshParams) -> 
         k = getattr(mp, "stiffness" + name)
         if k <= 0.0:
             _, cg = iso6336_stiffness(g1.z, g1.x, g2.z, g2.x, eps, mp.youngsModulus, t.hf, math.degrees(t.alpha))
-            k = cg * 1e9 * me.b   # N/(mm um) per mm face width -> N/m per m
+            # N/(mm um) per mm face width -> N/m per m; the face width the mesh has: the axial overlap of
+            # its gears (spurdiff.gears.axial, issue 41: mesh B2 17 of 22 mm in the paper's set)
+            k = cg * 1e9 * widths[name]
         c = 2.0 * mp.dampingRatio * math.sqrt(k * m_e)
         jn = getattr(mp, "backlash" + name) * math.cos(me.alpha_w) if mp.backlash else 0.0
         K = getattr(mp, "contactStiffness" + name)

@@ -43,7 +43,8 @@ from spurdiff.errors import ParameterError, StepError, require_finite, require_p
 from spurdiff.gears.geometry import DifferentialGeometry
 from spurdiff.differential.inertia import MassProperties, mass_properties
 from spurdiff.differential.flank_law import locking_coefficient_flank
-from spurdiff.differential.locking import PinFriction, locking_coefficients, paper_locking_coefficient, pin_friction
+from spurdiff.differential.locking import (PinFriction, dynamic_pin_model, locking_coefficients,
+                                           paper_locking_coefficient, pin_friction)
 from spurdiff.differential.model_base import DifferentialModel
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.statics import MeshForces
@@ -118,20 +119,20 @@ class MeshDifferential(DifferentialModel):
         self.Mdd = self.JA + self.lam ** 2 * self.JB + n * (self.J1 * self.rho1 ** 2 + self.J2 * self.rho2 ** 2)
         self.law = p.lockingLaw
         self.preload = float(p.lockingPreload)
-        pf = self._pf = pin_friction(geo, p.mu_pin, p.r_collar, self.preload, self.law)
+        pf = self._pf = pin_friction(geo, p.mu_pin, p.r_collar, self.preload, self.law, *dynamic_pin_model(p))
         self.K_paper = paper_locking_coefficient(p.mu_pin, p.r_collar, n, geo.r_a, geo.r_1, geo.r_b, geo.r_2)
         # the static / dynamic split of the pins (as the rigid level): pf.c (mu_pin) stuck and at
         # break-away, c_pin_slide (mu_pinDynamic, equal to mu_pin where that is 0) while a planet slips
         mu_d = p.mu_sliding
-        c_d = pin_friction(geo, mu_d, p.r_collar, self.preload, self.law).c
+        c_d = pin_friction(geo, mu_d, p.r_collar, self.preload, self.law, *dynamic_pin_model(p)).c
         if self.law == "paper":
             self.K = self.K_coast = self.K_paper
             self.K_slide = self.K_slide_coast = paper_locking_coefficient(mu_d, p.r_collar, n, geo.r_a, geo.r_1,
                                                                           geo.r_b, geo.r_2)
         else:
-            self.K, self.K_coast = locking_coefficients(pf)
+            self.K, self.K_coast = locking_coefficients(pf, p.leadingSun)
             self.K_slide, self.K_slide_coast = ((self.K, self.K_coast) if c_d == pf.c
-                                                else locking_coefficients(replace(pf, c=c_d)))
+                                                else locking_coefficients(replace(pf, c=c_d), p.leadingSun))
         self.speed_drive = p.carrierDrive == "speed"
         mA, mB = geo.meshA1, geo.meshB2
         self.rbA, self.rb1, self.rbB, self.rb2 = mA.rb1, mA.rb2, mB.rb1, mB.rb2
@@ -176,6 +177,8 @@ class MeshDifferential(DifferentialModel):
                     if p.pinSpeedLoads and self._pin and self.law == "pinFriction" else ((0.0, 0.0), (0.0, 0.0)))
         self._g, self._g_wc, self._g_ac = (0.0, 0.0, 0.0, 0.0), 0.0, 0.0
         self._pin_flat = pf.layout._flat
+        self._pin_ends = pf.layout.ends         # the journal's two ends (issue 41; planar: end L zero)
+        self._pin3d = tuple(int(e[3] != 0.0 or any(e[2])) for e in pf.layout.ends)
         self.layout_angle = pf.layout.theta
         self.pin_unit = pf.layout.unit_pin_loads(1.0)
         self.c_pin = pf.c
@@ -265,20 +268,34 @@ class MeshDifferential(DifferentialModel):
         self._refresh_outputs()
 
     def _pin_force(self, i: int, Fs: float, F12: float) -> tuple[float, float, float]:
-        """|bearing force| of planet i with its centrifugal force and its derivatives by Fs and
-        F12 (:meth:`spurdiff.gears.layout.PinLayout.pin_force` plus ``g_i``)."""
-        tx, ty, rx, ry, ux, uy, qx, qy = self._pin_flat[i]
+        """Pin friction load of planet i with its inertial force (|F_pin| planar, |R_0| + |R_L| with
+        the journal's end reactions) and its derivatives by Fs and F12
+        (:meth:`spurdiff.gears.layout.PinLayout.pin_force` with ``g_i``)."""
+        c0, w0, cL, wL = self._pin_ends[i]
+        tx, ty, rx, ry, ux, uy, qx, qy = c0
         aS = abs(Fs)
         a12 = abs(F12)
-        fx = Fs * tx + aS * rx + F12 * ux + a12 * qx + self._g[2 * i]
-        fy = Fs * ty + aS * ry + F12 * uy + a12 * qy + self._g[2 * i + 1]
+        gx, gy = self._g[2 * i], self._g[2 * i + 1]
+        fx = Fs * tx + aS * rx + F12 * ux + a12 * qx + w0 * gx
+        fy = Fs * ty + aS * ry + F12 * uy + a12 * qy + w0 * gy
         mag = math.sqrt(fx * fx + fy * fy)
-        if mag == 0.0:
-            return 0.0, 0.0, 0.0
         sgS = 1.0 if Fs >= 0.0 else -1.0
         sg12 = 1.0 if F12 >= 0.0 else -1.0
-        return (mag, (fx * (tx + sgS * rx) + fy * (ty + sgS * ry)) / mag,
-                (fx * (ux + sg12 * qx) + fy * (uy + sg12 * qy)) / mag)
+        if mag == 0.0:
+            tot = dS = d12 = 0.0
+        else:
+            tot, dS, d12 = (mag, (fx * (tx + sgS * rx) + fy * (ty + sgS * ry)) / mag,
+                            (fx * (ux + sg12 * qx) + fy * (uy + sg12 * qy)) / mag)
+        if self._pin3d[i]:          # the far end of the journal: |R_0| + |R_L| (PinLayout.ends)
+            tx, ty, rx, ry, ux, uy, qx, qy = cL
+            fx = Fs * tx + aS * rx + F12 * ux + a12 * qx + wL * gx
+            fy = Fs * ty + aS * ry + F12 * uy + a12 * qy + wL * gy
+            mag = math.sqrt(fx * fx + fy * fy)
+            if mag != 0.0:
+                tot += mag
+                dS += (fx * (tx + sgS * rx) + fy * (ty + sgS * ry)) / mag
+                d12 += (fx * (ux + sg12 * qx) + fy * (uy + sg12 * qy)) / mag
+        return tot, dS, d12
 
     def _set_speed_loads(self, wc: float, alpha: float) -> None:
         """The planets' inertial pin loads at carrier speed ``wc`` and carrier acceleration ``alpha``,
@@ -360,7 +377,7 @@ class MeshDifferential(DifferentialModel):
         solve_ivp's one call with ``t_eval``: one step of length ``t_end`` (the internal steps are
         not cut at communication points) with the states at ``times`` (from the current time,
         increasing, in (0, t_end]) by the method's dense output, rows; the model ends at the end.
-        For the solver comparison (harness.bench.mesh); a co-simulation steps with do_step."""
+        For the solver comparison (harness.measure.bench.mesh); a co-simulation steps with do_step."""
         if not self._ready:
             raise StepError("run_dense called before initialize")
         t_end = require_positive("t_end", t_end)
