@@ -29,6 +29,10 @@
  *       54..57 written on success);
  *   rs  the rigid model's state (R_*), ss the shafts' state (S_*), in: the step's inputs (I_*);
  *   fp  two function pointers: rk_slip, rk_step_slip.
+ *
+ * Over 800 lines because the native steps at the end (sk_native with the half-shafts, sk_rigid_native
+ * without them) call this file's static transcription of the rigid step: splitting it would export
+ * that transcription's internals (Ctx, the R_* layout) to a second file for no gain in clarity.
  */
 #include <math.h>
 #include <stdint.h>
@@ -82,6 +86,7 @@ typedef struct {
     rk_fn slip, step_slip;
     const double *mL, *mR;
     double *ss;           /* the shafts' working state */
+    int break_slide;      /* 1: a break-away slips at the sliding lever (the plain rigid model's c_break) */
 } Ctx;
 
 /* ------------------------------------------------------------------ the rigid model (rigid.py) */
@@ -255,7 +260,8 @@ static void accelerations(Ctx *c, double *s, int given, double ac_given, double 
     /* the break-away solve at the static lever (constant 4; rigid_pinload's c_break, which the shafted
      * model sets to it): this inner step slips at it, the next ones at the sliding lever (constant 53) */
     const double c_slide = c->k[53];
-    c->k[53] = c->k[4];
+    if (!c->break_slide)
+        c->k[53] = c->k[4];
     slip_exact(c, s, given, ac_given, sd, &ac_s, &ad_s, &Qf);
     c->k[53] = c_slide;
     if (ad_s * sd > 0.0) {
@@ -619,6 +625,7 @@ int64_t sk_step(const double *sc, double *k, double *rs, double *ss, const doubl
     c.step_slip = (rk_fn)fp[1];
     c.mL = in + I_ML;
     c.mR = in + I_MR;
+    c.break_slide = 0;
     memcpy(cur, rs, sizeof cur);
     memcpy(S, ss, sizeof S);
     c.ss = S;
@@ -802,5 +809,112 @@ int64_t sk_native(const SkNative *x, double *v, double t, double h)
     v[57] = Fm[0]; v[58] = Fm[1]; v[59] = Fm[2];
     for (int i = 0; i < 20; i++)
         v[61 + i] = v[i];
+    return 0;
+}
+
+/* ------------------------------------------------------------------ the native step without half-shafts
+ * The plain rigid model's whole communication step (shaftCoupling = torque; spurdiff.differential.
+ * rigid_native.RigidNative): WatchedRigidDifferential.do_step, i.e. RigidDifferential.do_step (rigid_step
+ * above, the pin-load law with its compiled solve: the same locking-law functions the step with the
+ * half-shafts calls), the two watches as in sk_native, and the outputs the FMU reads.
+ * v (SKR_N doubles): 0 w_ref, 1 tau_c, 2 tau_L, 3 tau_R; 4..36 the Real outputs in sk_native's order
+ * (SKV_OUT's 33); 37 loaded flanks, 38 mode switches, 39 internal steps, 40 contact transitions;
+ * 41..43 the largest |force| booked per mesh, 44 the overspeed warned; 45..48 the inputs the last
+ * step took. Returns as sk_native: 0 done, 1 rigid_step did not take it, 4 an input the model refuses
+ * or h not positive and finite, 5 a watch would log or an output is not finite; on failure nothing in
+ * v, rs or k changed. */
+typedef struct {
+    const double *sc;     /* SC_N: the carrier drive and the speed-load constants are read */
+    double *k;            /* the rigid kernel's constants (speed loads written on success) */
+    double *rs;           /* the rigid model's state (R_*) */
+    void *fp[2];
+    const double *oc;     /* sk_native's output constants (OC_CL, OC_CR unused) */
+} SkRigidNative;
+#define SKR_OUT 4
+#define SKR_N 49
+
+int64_t sk_rigid_nv(void) { return SKR_N; }
+
+int64_t sk_rigid_native(const SkRigidNative *x, double *v, double t, double h)
+{
+    const double *oc = x->oc;
+    if (!(h > 0.0 && h < INFINITY) || !(isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]) && isfinite(v[3])))
+        return 4;
+    Ctx c;
+    double s[RS_N];
+    c.sc = x->sc;
+    memcpy(c.k, x->k, sizeof c.k);
+    c.slip = (rk_fn)x->fp[0];
+    c.step_slip = (rk_fn)x->fp[1];
+    c.mL = c.mR = NULL;
+    c.ss = NULL;
+    c.break_slide = 1;
+    memcpy(s, x->rs, sizeof s);
+    s[R_WREF] = v[0];
+    s[R_TAUC] = v[1];
+    s[R_TAUL] = v[2];
+    s[R_TAUR] = v[3];
+    if (rigid_step(&c, s, t, h) != SK_OK)
+        return 1;
+    const double wc = s[R_WC], wd = s[R_WD], phic = s[R_PHIC], phid = s[R_PHID], ac = s[R_AC], ad = s[R_AD];
+    const double tauL = s[R_TAUL], tauR = s[R_TAUR], lam = oc[OC_LAM];
+    const double FA = (oc[OC_JA] * (ac + ad) - tauL) / oc[OC_NRA];
+    const double FB = (oc[OC_JB] * (ac + lam * ad) - tauR) / oc[OC_NRB];
+    const double F12 = s[R_F12];
+    double *o = v + SKR_OUT;
+    /* the load-capacity watch (StressWatch.update), as sk_native */
+    double sHmax = o[30], sFmax = o[31], Fm[3] = {v[41], v[42], v[43]};
+    const double a1 = FA >= 0.0 ? FA : -FA, a2 = FB >= 0.0 ? FB : -FB, a3 = F12 >= 0.0 ? F12 : -F12;
+    int log = 0;
+    if (!(a1 <= Fm[0] && a2 <= Fm[1] && a3 <= Fm[2])) {
+        Fm[0] = a1 > Fm[0] ? a1 : Fm[0];
+        Fm[1] = a2 > Fm[1] ? a2 : Fm[1];
+        Fm[2] = a3 > Fm[2] ? a3 : Fm[2];
+        const double sH = max3(oc[OC_AH] * sqrt(a1), oc[OC_AH + 1] * sqrt(a2), oc[OC_AH + 2] * sqrt(a3));
+        const double sF = max3(oc[OC_AF] * a1, oc[OC_AF + 1] * a2, oc[OC_AF + 2] * a3);
+        if (sH > sHmax) sHmax = sH;
+        if (sF > sFmax) sFmax = sF;
+        if (o[32] == 0.0 && (sH > oc[OC_HG] || sF > oc[OC_FG]))
+            log = 1;
+    }
+    const int over = fabs(wd) > oc[OC_LIMIT];
+    if (over && v[44] == 0.0)
+        log = 1;
+    const double tmL = oc[OC_JA] * (ac + ad) - tauL, tmR = oc[OC_JB] * (ac + lam * ad) - tauR;
+    const double p2 = oc[OC_P2], lasth = s[R_LASTH];
+    double r[33];
+    r[0] = -tauL; r[1] = -tauR; r[2] = 0.0; r[3] = 0.0; r[4] = -tauL; r[5] = -tauR; r[6] = 0.0; r[7] = 0.0;
+    r[8] = wc; r[9] = phic; r[10] = wc + wd; r[11] = phic + phid; r[12] = wc + lam * wd; r[13] = phic + lam * phid;
+    r[14] = oc[OC_SPEED] != 0.0 ? oc[OC_MCC] * ac + oc[OC_MCD] * ad - tauL - tauR : s[R_TAUC];
+    r[15] = tmL; r[16] = tmR; r[17] = FA; r[18] = FB; r[19] = F12;
+    r[20] = s[R_QF]; r[21] = s[R_CAP];
+    r[22] = lasth > 0.0 ? s[R_LOSS_LAST] / lasth : fabs(s[R_QF] * wd);
+    r[23] = s[R_LOSS];
+    r[24] = s[R_WORK];
+    r[25] = 0.5 * (oc[OC_MCC] * pow(wc, p2) + 2.0 * oc[OC_MCD] * wc * wd + oc[OC_MDD] * pow(wd, p2));
+    r[26] = (wd == 0.0 && ad == 0.0) ? 1.0 : 0.0;
+    r[27] = o[27];                    /* potential energy: none at rigid */
+    r[28] = o[28];                    /* parametric work: none at rigid */
+    r[29] = over ? 1.0 : 0.0;
+    r[30] = sHmax; r[31] = sFmax;
+    r[32] = o[32];                    /* exceeded: unchanged (a change is logged by the Python step) */
+    for (int i = 0; i < 33; i++)
+        if (!isfinite(r[i]))
+            log = 1;
+    if (log)
+        return 5;
+    memcpy(x->rs, s, sizeof s);
+    for (int i = 0; i < 4; i++) {
+        x->k[49 + i] = c.k[49 + i];
+        x->k[54 + i] = c.k[54 + i];
+    }
+    memcpy(o, r, sizeof r);
+    const double T0 = tmL + tmR;
+    v[37] = T0 > 0.0 ? 1.0 : (T0 < 0.0 ? -1.0 : 0.0);
+    v[38] = s[R_NSW];
+    v[39] = s[R_NSTEPS];
+    v[41] = Fm[0]; v[42] = Fm[1]; v[43] = Fm[2];
+    for (int i = 0; i < 4; i++)
+        v[45 + i] = v[i];
     return 0;
 }

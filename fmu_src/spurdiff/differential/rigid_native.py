@@ -1,0 +1,134 @@
+"""The rigid differential's native step without half-shafts (``shaftCoupling = torque``, the FMU's
+default interface): ``sk_rigid_native`` of ``fmu_src/native/kernels/shaft_kernel.c`` through ctypes.
+
+The whole communication step of :class:`spurdiff.differential.rigid.RigidDifferential` with the FMU's
+two watches (``WatchedRigidDifferential.do_step``) in C over one array (:mod:`spurdiff.native_step`):
+the input checks, the rigid step (the C transcription the half-shaft step uses for its inner model,
+calling the rigid kernel's pin-load solves), the load-capacity and overspeed watches and every output
+the FMU reads, the same operations as the Python code, so bit for bit its results
+(tests/physics/test_rigid_native.py). The Python code stays the reference and the fallback: a step
+the C code does not take (a refused input, a watch that would log, a non-finite output) changes
+nothing and the model's ``do_step`` runs it.
+
+Used with the pin-load locking law and its compiled solve (the rigid kernel in use: ``solver.kernel``
+auto or compiled) and ``solver.nativeStep`` true; the library is the half-shaft kernel's
+(:mod:`spurdiff.differential.shaft_kernel`).
+"""
+from __future__ import annotations
+
+import ctypes as C
+import struct
+
+from spurdiff.attrpath import assign, resolve
+from spurdiff.differential import rigid_kernel, shaft_kernel as sk
+from spurdiff.native_step import NativeStep
+
+NV = 49
+INPUTS = ("w_ref", "tau_c", "tau_L", "tau_R")
+OUTPUTS = sk.DIFF_OUTPUTS          # the same 33 Real outputs, in the same slots after the inputs
+WATCHES = sk.WATCHES
+
+
+class SkRigidNative(C.Structure):
+    """sk_rigid_native's context."""
+    _fields_ = [("sc", C.POINTER(C.c_double)), ("k", C.POINTER(C.c_double)), ("rs", C.POINTER(C.c_double)),
+                ("fp", C.c_void_p * 2), ("oc", C.POINTER(C.c_double))]
+
+
+class RigidNative(NativeStep):
+    """The plain rigid model's whole step in C with its two watches."""
+
+    integers = {"loaded_flanks": 37, "n_mode_switches": 38, "n_internal_steps": 39, "n_contact_transitions": 40}
+
+    def __init__(self, lib: C.CDLL, rlib: C.CDLL, m):
+        cw, ow = m.capacity_watch, m.overspeed_watch
+        (c1x, c1y), (c2x, c2y) = m._cf
+        (t1x, t1y), (t2x, t2y) = m._ct
+        speed = 1.0 if m.speed_drive else 0.0
+        sc = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, speed, c1x, c1y, c2x, c2y, t1x, t1y, t2x, t2y)
+        assert len(sc) == sk.NSC
+        rb = m.pf.rb
+        oc = (m.J_A, m.J_B, m.lam, m.Mcc, m.Mcd, m.Mdd, m.pf.n * rb[0], m.pf.n * rb[2], speed, 0.0, 0.0, ow.limit,
+              *cw._aH, *cw._aF, cw.sigma_HG_static, cw.sigma_FG_static, 2.0)
+        assert len(oc) == sk.NOC
+        self.sc = (C.c_double * sk.NSC)(*(float(x) for x in sc))
+        self.oc = (C.c_double * sk.NOC)(*(float(x) for x in oc))
+        self.rs = (C.c_double * sk.NRS)()
+        self.rk = m._rk
+        P = C.POINTER(C.c_double)
+        fp = (C.c_void_p * 2)(C.cast(rlib.rk_slip, C.c_void_p).value, C.cast(rlib.rk_step_slip, C.c_void_p).value)
+        self.ctx = SkRigidNative(C.cast(self.sc, P), C.cast(m._rk.const, P), C.cast(self.rs, P), fp,
+                                 C.cast(self.oc, P))
+        fn = lib.sk_rigid_native
+        fn.argtypes = [C.POINTER(SkRigidNative), C.POINTER(C.c_double), C.c_double, C.c_double]
+        fn.restype = C.c_int64
+        super().__init__(fn, self.ctx, NV, INPUTS, OUTPUTS)
+
+    def load(self, m) -> bool:
+        if m._rk is not self.rk or not _pack(self.rs, m.__dict__):
+            return False
+        v = self.v
+        v[0:37] = [float(resolve(m, k)) for k in INPUTS + OUTPUTS]
+        v[37:41] = (m.loaded_flanks, m.n_mode_switches, m.n_internal_steps, m.n_contact_transitions)
+        v[41:45] = (*m.capacity_watch._F_max, 1.0 if m.overspeed_watch.warned else 0.0)
+        v[45:49] = v[0:4]
+        return True
+
+    def store(self, m) -> None:
+        _unpack(self.rs, m.__dict__)
+        v = self.v[0:49]
+        for k, x in zip(INPUTS, v[45:49]):
+            assign(m, k, x)
+        cw = m.capacity_watch
+        cw.sigma_H_max, cw.sigma_F_max, cw._F_max = v[34], v[35], (v[41], v[42], v[43])
+        m.overspeed_watch.indicator = v[33]
+
+
+def _pack(rs, d: dict) -> bool:
+    """The rigid model's state (its dictionary ``d``) into ``rs`` (shaft_kernel.c's R_* layout); False
+    when it does not fit (a value that is not a number)."""
+    adg, key, val = d["_ad_guess"], d["_slip_key"], d["_slip_val"]
+    if key is None:
+        key9 = sk._NO_KEY
+    else:
+        acg = key[1]
+        key9 = ((1.0, key[0], 0.0, 0.0) if acg is None else (1.0, key[0], 1.0, acg)) + tuple(key[2:7])
+    try:
+        sk._RS.pack_into(rs, 0, *sk._get_head(d), *((0.0, 0.0) if adg is None else (1.0, adg)), *key9,
+                         *(sk._NO_VAL if val is None else val), *sk._get_mid(d), *d["_g"], d["_g_wc"], *d["_gt"],
+                         *sk._get_tail(d), d.get("_last_h", 0.0))
+    except (struct.error, TypeError, ValueError):
+        return False
+    return True
+
+
+def _unpack(rs, d: dict) -> None:
+    """``rs`` into the rigid model's dictionary ``d`` (the inverse of :func:`_pack`)."""
+    r = sk._RS.unpack_from(rs)
+    d.update(zip(sk._R_PLAIN, sk._pick_plain(r)))
+    d["_ad_guess"] = r[12] if r[11] else None
+    if r[13]:
+        d["_slip_key"] = (r[14], r[16] if r[15] else None, r[17], r[18], r[19], r[20], r[21])
+        d["_slip_val"] = r[22:28]
+    d["n_mode_switches"] = int(r[31])
+    d["n_steps"] = int(r[32])
+    d["_g"] = r[33:37]
+    d["_gt"] = r[38:42]
+
+
+def native(m) -> "RigidNative | None":
+    """The native step of an initialized watched rigid model with the pin-load law and its compiled
+    solve, or None (no compiled solve, another law, not the FMU's watches, no library with the step)."""
+    if m._rk is None or tuple(w.name for w in getattr(m, "watches", ())) != WATCHES:
+        return None
+    if (rigid_kernel.ABI, (rigid_kernel.NCONST, rigid_kernel.NIO, rigid_kernel.NIO_STEP)) != (sk.RIGID_ABI,
+                                                                                            sk.RIGID_LAYOUT):
+        return None
+    lib, _ = sk.load()
+    rlib, _ = rigid_kernel.load()
+    if lib is None or rlib is None or not hasattr(lib, "sk_rigid_native") or lib.sk_rigid_nv() != NV:
+        return None
+    return RigidNative(lib, rlib, m)
+
+
+__all__ = ["RigidNative", "native", "INPUTS", "OUTPUTS"]
