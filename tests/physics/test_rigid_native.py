@@ -49,6 +49,7 @@ def _outputs(plan, m) -> dict:
 
 def _native_outputs(plan) -> dict:
     n = len(plan.inputs)
+    assert n == 20 and plan.v[61:81] == plan.v[0:20]
     return dict(zip(plan.outputs, plan.v[n:n + len(plan.outputs)])) | {k: plan.v[i] for k, i in plan.integers.items()}
 
 
@@ -70,6 +71,7 @@ def test_native_step_is_the_python_reference(library, drive, pins, hs):
         ref.w_ref, ref.tau_c, ref.tau_L, ref.tau_R = u
         ref.do_step(t, h)
         plan.v[0:4] = u
+        plan.v[4:20] = [1e300 * (-1) ** k for k in range(16)]   # the wheel-side inputs: carried, not used
         ok = plan.step(t, h)
         if not ok:                       # a watch would log: the Python step takes it
             plan.store(nat)

@@ -817,10 +817,11 @@ int64_t sk_native(const SkNative *x, double *v, double t, double h)
  * rigid_native.RigidNative): WatchedRigidDifferential.do_step, i.e. RigidDifferential.do_step (rigid_step
  * above, the pin-load law with its compiled solve: the same locking-law functions the step with the
  * half-shafts calls), the two watches as in sk_native, and the outputs the FMU reads.
- * v (SKR_N doubles): 0 w_ref, 1 tau_c, 2 tau_L, 3 tau_R; 4..36 the Real outputs in sk_native's order
- * (SKV_OUT's 33); 37 loaded flanks, 38 mode switches, 39 internal steps, 40 contact transitions;
- * 41..43 the largest |force| booked per mesh, 44 the overspeed warned; 45..48 the inputs the last
- * step took. Returns as sk_native: 0 done, 1 rigid_step did not take it, 4 an input the model refuses
+ * v: sk_native's layout (SKV_N doubles), so that a host sets the same inputs with either coupling:
+ * 0 w_ref, 1 tau_c, 2 tau_L, 3 tau_R; 4..19 the wheel-side inputs (not used here: carried); 20..52 the
+ * Real outputs (SKV_OUT order); 53..56 the Integer outputs; 57..59 the largest |force| booked per
+ * mesh, 60 the overspeed warned; 61..80 the inputs the last step took. Returns as sk_native: 0 done,
+ * 1 rigid_step did not take it, 4 an input the model refuses
  * or h not positive and finite, 5 a watch would log or an output is not finite; on failure nothing in
  * v, rs or k changed. */
 typedef struct {
@@ -830,10 +831,7 @@ typedef struct {
     void *fp[2];
     const double *oc;     /* sk_native's output constants (OC_CL, OC_CR unused) */
 } SkRigidNative;
-#define SKR_OUT 4
-#define SKR_N 49
-
-int64_t sk_rigid_nv(void) { return SKR_N; }
+int64_t sk_rigid_nv(void) { return SKV_N; }
 
 int64_t sk_rigid_native(const SkRigidNative *x, double *v, double t, double h)
 {
@@ -861,9 +859,9 @@ int64_t sk_rigid_native(const SkRigidNative *x, double *v, double t, double h)
     const double FA = (oc[OC_JA] * (ac + ad) - tauL) / oc[OC_NRA];
     const double FB = (oc[OC_JB] * (ac + lam * ad) - tauR) / oc[OC_NRB];
     const double F12 = s[R_F12];
-    double *o = v + SKR_OUT;
+    double *o = v + SKV_OUT;
     /* the load-capacity watch (StressWatch.update), as sk_native */
-    double sHmax = o[30], sFmax = o[31], Fm[3] = {v[41], v[42], v[43]};
+    double sHmax = o[30], sFmax = o[31], Fm[3] = {v[57], v[58], v[59]};
     const double a1 = FA >= 0.0 ? FA : -FA, a2 = FB >= 0.0 ? FB : -FB, a3 = F12 >= 0.0 ? F12 : -F12;
     int log = 0;
     if (!(a1 <= Fm[0] && a2 <= Fm[1] && a3 <= Fm[2])) {
@@ -878,7 +876,7 @@ int64_t sk_rigid_native(const SkRigidNative *x, double *v, double t, double h)
             log = 1;
     }
     const int over = fabs(wd) > oc[OC_LIMIT];
-    if (over && v[44] == 0.0)
+    if (over && v[60] == 0.0)
         log = 1;
     const double tmL = oc[OC_JA] * (ac + ad) - tauL, tmR = oc[OC_JB] * (ac + lam * ad) - tauR;
     const double p2 = oc[OC_P2], lasth = s[R_LASTH];
@@ -910,11 +908,11 @@ int64_t sk_rigid_native(const SkRigidNative *x, double *v, double t, double h)
     }
     memcpy(o, r, sizeof r);
     const double T0 = tmL + tmR;
-    v[37] = T0 > 0.0 ? 1.0 : (T0 < 0.0 ? -1.0 : 0.0);
-    v[38] = s[R_NSW];
-    v[39] = s[R_NSTEPS];
-    v[41] = Fm[0]; v[42] = Fm[1]; v[43] = Fm[2];
-    for (int i = 0; i < 4; i++)
-        v[45 + i] = v[i];
+    v[53] = T0 > 0.0 ? 1.0 : (T0 < 0.0 ? -1.0 : 0.0);
+    v[54] = s[R_NSW];
+    v[55] = s[R_NSTEPS];
+    v[57] = Fm[0]; v[58] = Fm[1]; v[59] = Fm[2];
+    for (int i = 0; i < 20; i++)
+        v[61 + i] = v[i];
     return 0;
 }

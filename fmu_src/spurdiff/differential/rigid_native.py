@@ -23,9 +23,11 @@ from spurdiff.attrpath import assign, resolve
 from spurdiff.differential import rigid_kernel, shaft_kernel as sk
 from spurdiff.native_step import NativeStep
 
-NV = 49
-INPUTS = ("w_ref", "tau_c", "tau_L", "tau_R")
-OUTPUTS = sk.DIFF_OUTPUTS          # the same 33 Real outputs, in the same slots after the inputs
+# the array: sk_native's layout (shaft_kernel.c), so that a host sets the same inputs with either coupling
+NV = sk.NV
+INPUTS = sk.DIFF_INPUTS            # the model's four, then the wheel-side inputs (carried, not used here)
+USED = ("w_ref", "tau_c", "tau_L", "tau_R")
+OUTPUTS = sk.DIFF_OUTPUTS
 WATCHES = sk.WATCHES
 
 
@@ -38,7 +40,7 @@ class SkRigidNative(C.Structure):
 class RigidNative(NativeStep):
     """The plain rigid model's whole step in C with its two watches."""
 
-    integers = {"loaded_flanks": 37, "n_mode_switches": 38, "n_internal_steps": 39, "n_contact_transitions": 40}
+    integers = sk.DiffNative.integers
 
     def __init__(self, lib: C.CDLL, rlib: C.CDLL, m):
         cw, ow = m.capacity_watch, m.overspeed_watch
@@ -68,20 +70,22 @@ class RigidNative(NativeStep):
         if m._rk is not self.rk or not _pack(self.rs, m.__dict__):
             return False
         v = self.v
-        v[0:37] = [float(resolve(m, k)) for k in INPUTS + OUTPUTS]
-        v[37:41] = (m.loaded_flanks, m.n_mode_switches, m.n_internal_steps, m.n_contact_transitions)
-        v[41:45] = (*m.capacity_watch._F_max, 1.0 if m.overspeed_watch.warned else 0.0)
-        v[45:49] = v[0:4]
+        v[0:4] = [float(getattr(m, k)) for k in USED]
+        v[4:20] = [0.0] * 16             # the wheel-side inputs: the caller's value table has them
+        v[20:53] = [float(resolve(m, k)) for k in OUTPUTS]
+        v[53:57] = (m.loaded_flanks, m.n_mode_switches, m.n_internal_steps, m.n_contact_transitions)
+        v[57:61] = (*m.capacity_watch._F_max, 1.0 if m.overspeed_watch.warned else 0.0)
+        v[61:81] = v[0:20]
         return True
 
     def store(self, m) -> None:
         _unpack(self.rs, m.__dict__)
-        v = self.v[0:49]
-        for k, x in zip(INPUTS, v[45:49]):
+        v = self.v[0:81]
+        for k, x in zip(USED, v[61:65]):
             assign(m, k, x)
         cw = m.capacity_watch
-        cw.sigma_H_max, cw.sigma_F_max, cw._F_max = v[34], v[35], (v[41], v[42], v[43])
-        m.overspeed_watch.indicator = v[33]
+        cw.sigma_H_max, cw.sigma_F_max, cw._F_max = v[50], v[51], (v[57], v[58], v[59])
+        m.overspeed_watch.indicator = v[49]
 
 
 def _pack(rs, d: dict) -> bool:
@@ -131,4 +135,4 @@ def native(m) -> "RigidNative | None":
     return RigidNative(lib, rlib, m)
 
 
-__all__ = ["RigidNative", "native", "INPUTS", "OUTPUTS"]
+__all__ = ["RigidNative", "native", "INPUTS", "USED", "OUTPUTS"]
