@@ -87,6 +87,7 @@ typedef struct {
     const double *mL, *mR;
     double *ss;           /* the shafts' working state */
     int break_slide;      /* 1: a break-away slips at the sliding lever (the plain rigid model's c_break) */
+    const double *pp;     /* NULL: the pin-load law; else the linear capacity's constants (PP_*, rigid_paper) */
 } Ctx;
 
 /* ------------------------------------------------------------------ the rigid model (rigid.py) */
@@ -291,6 +292,82 @@ static void rigid_advance(const Ctx *c, double *s, double dt, double ac, double 
     s[R_WD] = wd1;
 }
 
+/* ---- the linear capacity K |T_0| + T_pre (lockingLaw = paper, or no pin-load solve: rigid.py's
+ * _accelerations, _slip_accelerations, _solve_slip, _T0), for the native step without half-shafts;
+ * its constants pp: */
+enum { PP_K, PP_KSLIDE, PP_KBREAK, PP_PRE, PP_MDD, PP_DA, PP_DB, PP_R1, PP_CA, PP_D0, PP_SHARE, PP_N };
+
+static double paper_T0(const Ctx *c, const double *s, double ac, double ad)
+{
+    const double *k = c->k;
+    return (k[7] * (ac + ad) - s[R_TAUL]) + (k[8] * (ac + k[9] * ad) - s[R_TAUR]);
+}
+
+static void paper_solve_slip(const Ctx *c, const double *s, int given, double ac_given, double sd, double sigma,
+                             double K, double *ac, double *ad)
+{
+    const double *k = c->k, *pp = c->pp;
+    const double kf = sd * K * sigma;
+    const double Fd = s[R_TAUL] + k[9] * s[R_TAUR] - sd * pp[PP_PRE];
+    const double alpha0 = -s[R_TAUL] - s[R_TAUR];
+    const double alpha_c = k[7] + k[8];
+    const double beta = k[7] + k[9] * k[8];
+    if (given) {
+        *ac = ac_given;
+        *ad = (Fd - k[14] * ac_given - kf * (alpha0 + alpha_c * ac_given)) / (pp[PP_MDD] + kf * beta);
+        return;
+    }
+    const double Qc = s[R_TAUC] + s[R_TAUL] + s[R_TAUR];
+    const double a11 = k[15], a12 = k[14], b1 = Qc;
+    const double a21 = k[14] + kf * alpha_c, a22 = pp[PP_MDD] + kf * beta, b2 = Fd - kf * alpha0;
+    const double det = a11 * a22 - a12 * a21;
+    *ac = (b1 * a22 - a12 * b2) / det;
+    *ad = (a11 * b2 - a21 * b1) / det;
+}
+
+static void paper_slip(const Ctx *c, const double *s, int given, double ac_given, double sd, double K, double out[3])
+{
+    double ac, ad;
+    for (int i = 0; i < 2; i++) {
+        const double sigma = i == 0 ? 1.0 : -1.0;
+        paper_solve_slip(c, s, given, ac_given, sd, sigma, K, &ac, &ad);
+        const double T0 = paper_T0(c, s, ac, ad);
+        if (T0 * sigma >= 0.0) {
+            out[0] = ac; out[1] = ad; out[2] = -sd * (K * fabs(T0) + c->pp[PP_PRE]);
+            return;
+        }
+    }
+    paper_solve_slip(c, s, given, ac_given, sd, 0.0, K, &ac, &ad);   /* T0 changes sign: preload only */
+    out[0] = ac; out[1] = ad; out[2] = -sd * c->pp[PP_PRE];
+}
+
+static void paper_accelerations(const Ctx *c, const double *s, int given, double ac_given, double out[4])
+{
+    const double *k = c->k, *pp = c->pp;
+    double r[3];
+    if (s[R_WD] != 0.0) {
+        const double sd = copysign(1.0, s[R_WD]);
+        paper_slip(c, s, given, ac_given, sd, pp[PP_KSLIDE], r);
+        out[0] = r[0]; out[1] = r[1]; out[2] = r[2]; out[3] = sd;
+        return;
+    }
+    const double Fd = s[R_TAUL] + k[9] * s[R_TAUR];
+    const double ac = given ? ac_given : (s[R_TAUC] + s[R_TAUL] + s[R_TAUR]) / k[15];
+    const double Q_req = k[14] * ac - Fd;
+    const double cap = pp[PP_K] * fabs(paper_T0(c, s, ac, 0.0)) + pp[PP_PRE];
+    if (fabs(Q_req) <= cap * (1.0 + 1e-12)) {
+        out[0] = ac; out[1] = 0.0; out[2] = Q_req; out[3] = 0.0;
+        return;
+    }
+    const double sd = -copysign(1.0, Q_req);
+    paper_slip(c, s, given, ac_given, sd, pp[PP_KBREAK], r);
+    if (r[1] * sd > 0.0) {
+        out[0] = r[0]; out[1] = r[1]; out[2] = r[2]; out[3] = sd;
+        return;
+    }
+    out[0] = ac; out[1] = 0.0; out[2] = copysign(cap, Q_req); out[3] = 0.0;   /* no consistent break-away */
+}
+
 /* RigidDifferential.do_step (with _step_compiled: rk_step_slip) */
 static int rigid_step(Ctx *c, double *s, double t, double h)
 {
@@ -301,8 +378,9 @@ static int rigid_step(Ctx *c, double *s, double t, double h)
         return SK_FALLBACK;          /* the Python code names the input */
     /* the carrier speed at the step's start and its acceleration (speed drive: the ramp of this step;
      * torque drive: the acceleration at the end of the last step), held over the step */
-    set_speed_loads(c, s, s[R_WC], speed ? (s[R_WREF] - s[R_WC]) / h : s[R_AC]);
-    if (s[R_WD] != 0.0 && !speed) {
+    if (!c->pp)
+        set_speed_loads(c, s, s[R_WC], speed ? (s[R_WREF] - s[R_WC]) / h : s[R_AC]);
+    if (!c->pp && s[R_WD] != 0.0 && !speed) {
         /* _step_compiled: a new solve (key other than the cached one), slipping throughout */
         const double sd = copysign(1.0, s[R_WD]);
         const int same = s[R_HAS_SK] != 0.0 && s[R_SK_S] == sd && s[R_SK_HAS_ACG] == 0.0
@@ -340,7 +418,10 @@ static int rigid_step(Ctx *c, double *s, double t, double h)
     int i;
     for (i = 0; i < 16; i++) {
         double a[4];
-        accelerations(c, s, speed, ac_given, a);
+        if (c->pp)
+            paper_accelerations(c, s, speed, ac_given, a);
+        else
+            accelerations(c, s, speed, ac_given, a);
         double dt = remaining;
         int crossing = 0;
         if (s[R_WD] != 0.0 && a[1] * s[R_WD] < 0.0) {
@@ -370,7 +451,10 @@ static int rigid_step(Ctx *c, double *s, double t, double h)
     s[R_LOSS_LAST] = s[R_LOSS] - loss0;
     s[R_NSTEPS] += 1.0;
     double a[4];
-    accelerations(c, s, speed, 0.0, a);
+    if (c->pp)
+        paper_accelerations(c, s, speed, 0.0, a);
+    else
+        accelerations(c, s, speed, 0.0, a);
     s[R_AC] = a[0]; s[R_AD] = a[1]; s[R_QF] = a[2]; s[R_SD] = a[3];
     s[R_LASTH] = h;
     return SK_OK;
@@ -626,6 +710,7 @@ int64_t sk_step(const double *sc, double *k, double *rs, double *ss, const doubl
     c.mL = in + I_ML;
     c.mR = in + I_MR;
     c.break_slide = 0;
+    c.pp = NULL;
     memcpy(cur, rs, sizeof cur);
     memcpy(S, ss, sizeof S);
     c.ss = S;
@@ -830,6 +915,7 @@ typedef struct {
     double *rs;           /* the rigid model's state (R_*) */
     void *fp[2];
     const double *oc;     /* sk_native's output constants (OC_CL, OC_CR unused) */
+    const double *pp;     /* NULL: the pin-load law; else the linear capacity's constants (PP_*) */
 } SkRigidNative;
 int64_t sk_rigid_nv(void) { return SKV_N; }
 
@@ -847,6 +933,7 @@ int64_t sk_rigid_native(const SkRigidNative *x, double *v, double t, double h)
     c.mL = c.mR = NULL;
     c.ss = NULL;
     c.break_slide = 1;
+    c.pp = x->pp;
     memcpy(s, x->rs, sizeof s);
     s[R_WREF] = v[0];
     s[R_TAUC] = v[1];
@@ -856,9 +943,20 @@ int64_t sk_rigid_native(const SkRigidNative *x, double *v, double t, double h)
         return 1;
     const double wc = s[R_WC], wd = s[R_WD], phic = s[R_PHIC], phid = s[R_PHID], ac = s[R_AC], ad = s[R_AD];
     const double tauL = s[R_TAUL], tauR = s[R_TAUR], lam = oc[OC_LAM];
-    const double FA = (oc[OC_JA] * (ac + ad) - tauL) / oc[OC_NRA];
-    const double FB = (oc[OC_JB] * (ac + lam * ad) - tauR) / oc[OC_NRB];
-    const double F12 = s[R_F12];
+    const double tmL = oc[OC_JA] * (ac + ad) - tauL, tmR = oc[OC_JB] * (ac + lam * ad) - tauR;
+    const double *pp = x->pp;
+    double FA, FB, F12, cap;
+    if (!pp) {          /* rigid_pinload's _sun_forces, F12 and cap of the solve */
+        FA = (oc[OC_JA] * (ac + ad) - tauL) / oc[OC_NRA];
+        FB = (oc[OC_JB] * (ac + lam * ad) - tauR) / oc[OC_NRB];
+        F12 = s[R_F12];
+        cap = s[R_CAP];
+    } else {            /* statics.mesh_forces_for, rigid.py's locking_capacity */
+        FA = tmL / pp[PP_DA];
+        FB = tmR / pp[PP_DB];
+        F12 = tmL == tmR ? FA * pp[PP_R1] * pp[PP_CA] / pp[PP_D0] : FA - pp[PP_SHARE] * (FA - FB);
+        cap = (s[R_SD] != 0.0 ? pp[PP_KSLIDE] : pp[PP_K]) * fabs(tmL + tmR) + pp[PP_PRE];
+    }
     double *o = v + SKV_OUT;
     /* the load-capacity watch (StressWatch.update), as sk_native */
     double sHmax = o[30], sFmax = o[31], Fm[3] = {v[57], v[58], v[59]};
@@ -878,14 +976,13 @@ int64_t sk_rigid_native(const SkRigidNative *x, double *v, double t, double h)
     const int over = fabs(wd) > oc[OC_LIMIT];
     if (over && v[60] == 0.0)
         log = 1;
-    const double tmL = oc[OC_JA] * (ac + ad) - tauL, tmR = oc[OC_JB] * (ac + lam * ad) - tauR;
     const double p2 = oc[OC_P2], lasth = s[R_LASTH];
     double r[33];
     r[0] = -tauL; r[1] = -tauR; r[2] = 0.0; r[3] = 0.0; r[4] = -tauL; r[5] = -tauR; r[6] = 0.0; r[7] = 0.0;
     r[8] = wc; r[9] = phic; r[10] = wc + wd; r[11] = phic + phid; r[12] = wc + lam * wd; r[13] = phic + lam * phid;
     r[14] = oc[OC_SPEED] != 0.0 ? oc[OC_MCC] * ac + oc[OC_MCD] * ad - tauL - tauR : s[R_TAUC];
     r[15] = tmL; r[16] = tmR; r[17] = FA; r[18] = FB; r[19] = F12;
-    r[20] = s[R_QF]; r[21] = s[R_CAP];
+    r[20] = s[R_QF]; r[21] = cap;
     r[22] = lasth > 0.0 ? s[R_LOSS_LAST] / lasth : fabs(s[R_QF] * wd);
     r[23] = s[R_LOSS];
     r[24] = s[R_WORK];

@@ -412,11 +412,11 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
 
     def native_step(self):
         """The whole step in C for a host that steps without Python (:mod:`spurdiff.native_step`,
-        :mod:`spurdiff.differential.rigid_native`): with the pin-load law's compiled solve and the FMU's
-        watches, else None (also with ``native`` false: the FMU's ``solver.nativeStep``); the same plan
-        while the compiled solve is the same."""
+        :mod:`spurdiff.differential.rigid_native`): with the FMU's watches and a compiled step for the
+        locking law in use, else None (also with ``native`` false: the FMU's ``solver.nativeStep``); the
+        same plan while the compiled solve is the same."""
         d = self.__dict__
-        if not (self._ready and d.get("native", True)) or d.get("_rk") is None:
+        if not (self._ready and d.get("native", True)):
             return None
         plan = d.get("_native")
         if plan is None or plan.rk is not d["_rk"]:

@@ -10,17 +10,21 @@ the FMU reads, the same operations as the Python code, so bit for bit its result
 the C code does not take (a refused input, a watch that would log, a non-finite output) changes
 nothing and the model's ``do_step`` runs it.
 
-Used with the pin-load locking law and its compiled solve (the rigid kernel in use: ``solver.kernel``
-auto or compiled) and ``solver.nativeStep`` true; the library is the half-shaft kernel's
+Every locking law of the rigid level: the pin-load law with its compiled solve (the rigid kernel in use:
+``solver.kernel`` auto or compiled), and the linear capacity ``K |T_0| + T_pre`` (``lockingLaw = paper``,
+or the pin-load law without pin friction: ``mesh.pinFriction = false``, ``mu_pin = 0``), either carrier
+drive; with ``solver.nativeStep`` true. The library is the half-shaft kernel's
 (:mod:`spurdiff.differential.shaft_kernel`).
 """
 from __future__ import annotations
 
 import ctypes as C
+import math
 import struct
 
 from spurdiff.attrpath import assign, resolve
 from spurdiff.differential import rigid_kernel, shaft_kernel as sk
+from spurdiff.differential.statics import pin_friction_share
 from spurdiff.native_step import NativeStep
 
 # the array: sk_native's layout (shaft_kernel.c), so that a host sets the same inputs with either coupling
@@ -34,7 +38,17 @@ WATCHES = sk.WATCHES
 class SkRigidNative(C.Structure):
     """sk_rigid_native's context."""
     _fields_ = [("sc", C.POINTER(C.c_double)), ("k", C.POINTER(C.c_double)), ("rs", C.POINTER(C.c_double)),
-                ("fp", C.c_void_p * 2), ("oc", C.POINTER(C.c_double))]
+                ("fp", C.c_void_p * 2), ("oc", C.POINTER(C.c_double)), ("pp", C.POINTER(C.c_double))]
+
+
+def _linear_constants(m) -> tuple:
+    """shaft_kernel.c's PP_* constants of the linear capacity (the model without a pin-load solve):
+    the coefficients and the mesh-force divisors, computed as rigid.py and statics.mesh_forces_for do."""
+    geo = m.geometry
+    n = geo.table.nPairs
+    cA = math.cos(geo.meshA1.alpha_w)
+    return (m.K, m.K_slide, m.K_break, m.preload, m.Mdd, n * geo.r_a * cA, n * geo.r_b * math.cos(geo.meshB2.alpha_w),
+            geo.r_1, cA, geo.mesh12.rw1 * math.cos(geo.mesh12.alpha_w), pin_friction_share(geo))
 
 
 class RigidNative(NativeStep):
@@ -42,7 +56,7 @@ class RigidNative(NativeStep):
 
     integers = sk.DiffNative.integers
 
-    def __init__(self, lib: C.CDLL, rlib: C.CDLL, m):
+    def __init__(self, lib: C.CDLL, rlib: C.CDLL | None, m):
         cw, ow = m.capacity_watch, m.overspeed_watch
         (c1x, c1y), (c2x, c2y) = m._cf
         (t1x, t1y), (t2x, t2y) = m._ct
@@ -56,11 +70,18 @@ class RigidNative(NativeStep):
         self.sc = (C.c_double * sk.NSC)(*(float(x) for x in sc))
         self.oc = (C.c_double * sk.NOC)(*(float(x) for x in oc))
         self.rs = (C.c_double * sk.NRS)()
-        self.rk = m._rk
+        self.rk = rk = m._rk
         P = C.POINTER(C.c_double)
-        fp = (C.c_void_p * 2)(C.cast(rlib.rk_slip, C.c_void_p).value, C.cast(rlib.rk_step_slip, C.c_void_p).value)
-        self.ctx = SkRigidNative(C.cast(self.sc, P), C.cast(m._rk.const, P), C.cast(self.rs, P), fp,
-                                 C.cast(self.oc, P))
+        if rk is not None:      # the pin-load law: the rigid kernel's constants and solves
+            k, pp = rk.const, None
+            fp = (C.c_void_p * 2)(C.cast(rlib.rk_slip, C.c_void_p).value, C.cast(rlib.rk_step_slip, C.c_void_p).value)
+        else:                   # the linear capacity: the constants the step reads (shaft_kernel.c's k[7..15])
+            k = self.k = (C.c_double * rigid_kernel.NCONST)()
+            k[7], k[8], k[9], k[14], k[15] = m.J_A, m.J_B, m.lam, m.Mcd, m.Mcc
+            pp = self.pp = (C.c_double * 11)(*(float(x) for x in _linear_constants(m)))
+            fp = (C.c_void_p * 2)()
+        self.ctx = SkRigidNative(C.cast(self.sc, P), C.cast(k, P), C.cast(self.rs, P), fp, C.cast(self.oc, P),
+                                 C.cast(pp, P) if pp is not None else None)
         fn = lib.sk_rigid_native
         fn.argtypes = [C.POINTER(SkRigidNative), C.POINTER(C.c_double), C.c_double, C.c_double]
         fn.restype = C.c_int64
@@ -121,16 +142,20 @@ def _unpack(rs, d: dict) -> None:
 
 
 def native(m) -> "RigidNative | None":
-    """The native step of an initialized watched rigid model with the pin-load law and its compiled
-    solve, or None (no compiled solve, another law, not the FMU's watches, no library with the step)."""
-    if m._rk is None or tuple(w.name for w in getattr(m, "watches", ())) != WATCHES:
+    """The native step of an initialized watched rigid model, or None: with the pin-load law it needs
+    the compiled solve (``solver.kernel`` auto or compiled with the rigid kernel loaded), with the linear
+    capacity (``lockingLaw = paper``, or no pin friction) ``solver.kernel`` other than python; and the
+    FMU's watches and the library with the step."""
+    if tuple(w.name for w in getattr(m, "watches", ())) != WATCHES:
+        return None
+    if m._exact and m._rk is None or not m._exact and m.kernel == "python":
         return None
     if (rigid_kernel.ABI, (rigid_kernel.NCONST, rigid_kernel.NIO, rigid_kernel.NIO_STEP)) != (sk.RIGID_ABI,
                                                                                             sk.RIGID_LAYOUT):
         return None
     lib, _ = sk.load()
-    rlib, _ = rigid_kernel.load()
-    if lib is None or rlib is None or not hasattr(lib, "sk_rigid_native") or lib.sk_rigid_nv() != NV:
+    rlib = rigid_kernel.load()[0] if m._exact else None
+    if lib is None or m._exact and rlib is None or not hasattr(lib, "sk_rigid_native") or lib.sk_rigid_nv() != NV:
         return None
     return RigidNative(lib, rlib, m)
 

@@ -261,7 +261,7 @@ VARIABLES: list[Var] = [
        "times fewer internal steps from tolerance 1e-4 down, docs/accuracy.md)",
        kind="String"),
     Var("solver.nativeStep", "parameter", "At rigid with a compiled step in use (shaftCoupling = wheel: the "
-        "half-shafts' step; torque: the rigid step; lockingLaw = pinFriction with its compiled solve): true = the whole communication step runs in C without entering Python (the FMU's native step: "
+        "half-shafts' step with the pin-load law; torque: the rigid step, every locking law): true = the whole communication step runs in C without entering Python (the FMU's native step: "
         "the inputs checked, the step, the watches, the outputs; the same results bit for bit; the state is "
         "handed back to Python before any other call reads it) | false = every step runs through the Python "
         "model around the compiled kernel (for comparison)", None, None, True, kind="Boolean",
