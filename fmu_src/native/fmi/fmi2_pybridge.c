@@ -273,6 +273,43 @@ static fmi2Status status_of(Instance *I, PyObject *r, const char *fn)
 }
 
 /* ------------------------------------------------------------------------------ interpreter */
+/* Python's start writes its path configuration (some 20 lines) to the C stderr when it fails: that
+ * text goes to a memory file while the interpreter starts, so the host sees the one clean reason
+ * (logged by the caller); what a successful start wrote is passed on to stderr. */
+#ifndef _WIN32
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <unistd.h>
+static int stderr_hold(int *saved)
+{
+    fflush(stderr);
+    int mfd = memfd_create("spurdiff-python-start", MFD_CLOEXEC);
+    if (mfd < 0) return -1;
+    *saved = fcntl(2, F_DUPFD_CLOEXEC, 3);
+    if (*saved < 0 || dup2(mfd, 2) < 0) {
+        if (*saved >= 0) close(*saved);
+        close(mfd);
+        return -1;
+    }
+    return mfd;
+}
+static void stderr_release(int mfd, int saved, int pass_on)
+{
+    if (mfd < 0) return;
+    fflush(stderr);
+    dup2(saved, 2);
+    close(saved);
+    char buf[4096];
+    ssize_t n;
+    if (pass_on && lseek(mfd, 0, SEEK_SET) == 0)
+        while ((n = read(mfd, buf, sizeof buf)) > 0 && write(2, buf, (size_t)n) == n) {}
+    close(mfd);
+}
+#else
+static int stderr_hold(int *saved) { *saved = -1; return -1; }
+static void stderr_release(int mfd, int saved, int pass_on) { (void)mfd; (void)saved; (void)pass_on; }
+#endif
+
 /* Start the FMU's Python when the process has none (GIL released on return). */
 static int start_python(const RuntimeCfg *cfg, const char *resources, char *err, size_t errsize)
 {
@@ -307,7 +344,11 @@ static int start_python(const RuntimeCfg *cfg, const char *resources, char *err,
         PyMem_RawFree(w);
     }
     config.module_search_paths_set = 1;
-    if (!PyStatus_Exception(status)) status = Py_InitializeFromConfig(&config);
+    if (!PyStatus_Exception(status)) {
+        int saved, held = stderr_hold(&saved);
+        status = Py_InitializeFromConfig(&config);
+        stderr_release(held, saved, !PyStatus_Exception(status));
+    }
     PyConfig_Clear(&config);
     if (PyStatus_Exception(status)) {
         snprintf(err, errsize, "cannot start the FMU's Python %s (home %s/%s): %s%s%s", cfg->version, resources,
