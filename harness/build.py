@@ -37,6 +37,7 @@ import compileall
 import fcntl
 import hashlib
 import importlib
+import json
 import os
 import py_compile
 import shutil
@@ -304,6 +305,31 @@ PYTHONFMU_RESOURCES = ("resources/pythonfmu/", "resources/slavemodule.txt", "bin
                        "binaries/darwin64/")
 
 
+def form_radius_table(pkg: Path) -> Path:
+    """``gears/form_radius_table.json`` in the package copy ``pkg``: the form radii (undercut gears:
+    the generation simulated with numpy, spurdiff.gears.generating) of SpurDifferential's default
+    gear set, computed here by the same function, so that the FMU's default configuration builds
+    its model without numpy (measured: docs/performance.md, start-up)."""
+    from spurdiff.fmi import differential_fmu
+    from spurdiff.gears import generating, geometry
+
+    found = {}
+    orig = geometry.form_radius
+
+    def recording(*args):
+        r = orig(*args)
+        found[repr(args)] = [r[0], r[1]]
+        return r
+    geometry.form_radius = recording
+    try:
+        differential_fmu.build_model({v.name: v.start for v in differential_fmu.VARIABLES})
+    finally:
+        geometry.form_radius = orig
+    out = pkg / "gears" / generating.TABLE_FILE.name
+    out.write_text(json.dumps(found, indent=0, sort_keys=True))
+    return out
+
+
 def _compile_kernels(name: str, pkg: Path, notes: list[str]) -> None:
     if name in VEHICLE_KERNEL_FMUS:
         try:         # the car's and the wheel's steps beside spurdiff.vehicle.kernel
@@ -399,6 +425,7 @@ def _carried_package() -> Path:
             pkg = fmu_package.stage_package(PACKAGE, tmp)
         except fmu_package.PackageError as e:
             raise BuildError(str(e)) from None
+        form_radius_table(pkg)
         _compile_pycs(pkg, tmp)
         _STAGED[key] = pkg
     return _STAGED[key]

@@ -23,7 +23,7 @@ from spurdiff.fmi.variables import Var
 from spurdiff.differential import derivatives
 from spurdiff.differential.locking import torque_bias_ratio
 from spurdiff.gears.phasing import mesh_phases
-from spurdiff.differential.mesh import MeshDifferential, MeshParams
+from spurdiff.differential.mesh import MeshParams
 from spurdiff.differential.mesh import rates as mesh_rates
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.rigid import RigidDifferential
@@ -465,6 +465,7 @@ def build_model(values: dict):
         model.native = bool(s.mesh.nativeStep)     # the whole step in C (spurdiff.differential.rigid_native)
     else:
         _validated_mesh(s.mesh)
+        from spurdiff.differential.mesh.model import MeshDifferential   # (numpy: the mesh levels only)
         model = MeshDifferential(params, s.mesh)
         model.input_names = {v.bind: v.name for v in io.inputs}   # errors name the FMU's inputs
     io.push(model, values)
