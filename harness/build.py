@@ -115,7 +115,50 @@ def source_digest(name: str) -> str:
         h.update(p.read_bytes())
     h.update(repr(runtime_bundle.interpreter_id()).encode())
     h.update(b"win64" if shutil.which(runtime_win64.CC) else b"linux64")   # a toolchain installed later rebuilds
+    h.update(",".join(platforms()).encode())
     return h.hexdigest()
+
+
+PLATFORMS = ("linux64", "win64")
+PLATFORMS_ENV = "SPURDIFF_BUILD_PLATFORMS"    # what ``spurdiff build --platforms`` sets (a build in a subprocess too)
+
+
+def platforms() -> tuple[str, ...]:
+    """The platforms the FMUs are built for: ``$SPURDIFF_BUILD_PLATFORMS`` (comma-separated), else both.
+    linux64 is always among them (the build machine's: the runtime is traced there); BuildError for
+    an unknown name or a list without linux64."""
+    raw = os.environ.get(PLATFORMS_ENV, "").strip()
+    if not raw:
+        return PLATFORMS
+    want = tuple(p.strip() for p in raw.split(",") if p.strip())
+    bad = [p for p in want if p not in PLATFORMS]
+    if bad or not want:
+        raise BuildError(f"--platforms {raw}: allowed a comma-separated list of {', '.join(PLATFORMS)}")
+    if "linux64" not in want:
+        raise BuildError(f"--platforms {raw}: linux64 is always built (the FMU's Python runtime is traced and "
+                         "checked on the build machine's platform); allowed: linux64 or linux64,win64")
+    return tuple(p for p in PLATFORMS if p in want)
+
+
+def platform_sizes(fmu: Path) -> dict[str, tuple[int, int]]:
+    """Compressed bytes and files of an FMU archive per platform: linux64 (binaries/linux64, the
+    linux64 runtime and the .so kernels), win64 (binaries/win64, the win64 runtime, the .dll
+    kernels), common (the description, the model's package, the rest)."""
+    out = {"linux64": [0, 0], "win64": [0, 0], "common": [0, 0]}
+    with zipfile.ZipFile(fmu) as z:
+        for i in z.infolist():
+            n = i.filename
+            if (n.startswith(("binaries/win64/", "binaries/x86_64-windows/", "resources/python-win64/"))
+                    or n.endswith(".dll") or n == f"resources/{runtime_win64.CFG}"):
+                key = "win64"
+            elif (n.startswith(("binaries/linux64/", "binaries/x86_64-linux/", "resources/python/"))
+                  or n.endswith(".so") or n == "resources/python_runtime.cfg"):
+                key = "linux64"
+            else:
+                key = "common"
+            out[key][0] += i.compress_size + 30 + len(n)   # the entry's data and its local header
+            out[key][1] += 0 if n.endswith("/") else 1
+    return {k: (v[0], v[1]) for k, v in out.items()}
 
 
 def declarations() -> dict[str, tuple[str, dict]]:
@@ -330,6 +373,24 @@ def form_radius_table(pkg: Path) -> Path:
     return out
 
 
+# FMUs whose models never import numpy (the car, the wheel: tests/physics/test_numpy_free.py): their
+# runtimes leave it out (about 40 MB unpacked per platform that a host's unzip does not write)
+NUMPY_FREE_FMUS = ("Vehicle", "WheelLoad")
+NUMPY_ENTRIES = ("resources/python/lib/python3.*/site-packages/numpy*",
+                 "resources/python-win64/Lib/site-packages/numpy*")
+
+
+def _drop_numpy(archive: Path) -> str:
+    """The runtimes' numpy removed from ``archive`` (``zip -d``, no recompression); the note for the log."""
+    zipper = shutil.which("zip")
+    if zipper is None:
+        return "numpy kept (no zip command to remove it)"
+    r = subprocess.run([zipper, "-q", "-d", str(archive), *NUMPY_ENTRIES], capture_output=True, text=True)
+    if r.returncode not in (0, 12):     # 12: nothing matched (a runtime without numpy)
+        raise BuildError(f"removing numpy from {archive.name} failed: {r.stderr.strip()}")
+    return "without numpy (its models never import it)"
+
+
 def _compile_kernels(name: str, pkg: Path, notes: list[str]) -> None:
     if name in VEHICLE_KERNEL_FMUS:
         try:         # the car's and the wheel's steps beside spurdiff.vehicle.kernel
@@ -370,6 +431,8 @@ _WIN64: dict[str, object] = {}    # "parts": the Win64 parts, or "why": the reas
 def _win64_parts():
     """The win64 loader, bridge, kernels and runtime (:mod:`harness.runtime_win64`, cached), or None
     when they cannot be made here; the reason is printed once per process."""
+    if "win64" not in platforms():
+        return None
     if "parts" not in _WIN64 and "why" not in _WIN64:
         try:
             _WIN64["parts"] = runtime_win64.ensure_win64(NATIVE_FMI, NATIVE_KERNELS, _fmi2_headers(),
@@ -501,6 +564,8 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
         try:
             if runtime is not None:    # the runtimes' entries, compressed once, come first
                 shutil.copyfile(_base_archive(runtime, win64), part)
+                if name in NUMPY_FREE_FMUS:
+                    notes.append(_drop_numpy(part))
             with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(part, "a" if runtime else "w", zipfile.ZIP_DEFLATED) as zout:
                 guid = None
                 for item in zin.infolist():

@@ -110,6 +110,8 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
         with zipfile.ZipFile(start) as z:
             in_runtime = set(z.namelist())
         shutil.copyfile(start, part)
+        if name in build2.NUMPY_FREE_FMUS:      # as the FMI 2.0 FMU
+            build2._drop_numpy(part)
         with zipfile.ZipFile(fmu2) as zin, zipfile.ZipFile(part, "a", zipfile.ZIP_DEFLATED) as zout:
             names = zin.namelist()
             if "resources/" + build2.RUNTIME_CFG not in names:
