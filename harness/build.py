@@ -380,15 +380,48 @@ NUMPY_ENTRIES = ("resources/python/lib/python3.*/site-packages/numpy*",
                  "resources/python-win64/Lib/site-packages/numpy*")
 
 
-def _drop_numpy(archive: Path) -> str:
+def _drop_numpy(archive: Path, patterns: tuple[str, ...] = NUMPY_ENTRIES) -> str:
     """The runtimes' numpy removed from ``archive`` (``zip -d``, no recompression); the note for the log."""
     zipper = shutil.which("zip")
     if zipper is None:
         return "numpy kept (no zip command to remove it)"
-    r = subprocess.run([zipper, "-q", "-d", str(archive), *NUMPY_ENTRIES], capture_output=True, text=True)
+    r = subprocess.run([zipper, "-q", "-d", str(archive), *patterns], capture_output=True, text=True)
     if r.returncode not in (0, 12):     # 12: nothing matched (a runtime without numpy)
         raise BuildError(f"removing numpy from {archive.name} failed: {r.stderr.strip()}")
     return "without numpy (its models never import it)"
+
+
+def numpy_archive(runtime, tmp: Path) -> Path:
+    """The linux64 runtime's numpy (numpy/ and numpy.libs/) as one deflated archive in ``tmp``, members
+    in sorted order with a fixed time (the same bytes for the same numpy)."""
+    site = runtime.folder / runtime_bundle.PYLIB / "site-packages"
+    out = tmp / "numpy.zip"
+    with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as z:
+        for top in ("numpy", "numpy.libs"):
+            for p in sorted((site / top).rglob("*")):
+                if p.is_file():
+                    z.writestr(_entry(str(p.relative_to(site)), 0o755 if os.access(p, os.X_OK) else 0o644),
+                               p.read_bytes())
+    return out
+
+
+def _numpy_as_archive(part: Path, runtime, tmp: Path) -> str:
+    """The linux64 runtime's numpy in ``part`` replaced by one stored member, resources/python/numpy.zip,
+    and its SHA-256 (spurdiff.numpy_archive unpacks it into the user's cache at the first import)."""
+    from spurdiff import numpy_archive as na
+
+    if shutil.which("zip") is None:
+        return "numpy unpacked (no zip command to replace it)"
+    _drop_numpy(part, NUMPY_ENTRIES[:1])
+    inner = numpy_archive(runtime, tmp)
+    data = inner.read_bytes()
+    with zipfile.ZipFile(part, "a") as z:
+        info = _entry(f"resources/{runtime_bundle.HOME}/{na.ARCHIVE}")
+        info.compress_type = zipfile.ZIP_STORED        # a host's unzip copies it
+        z.writestr(info, data)
+        z.writestr(_entry(f"resources/{runtime_bundle.HOME}/{na.ARCHIVE}.sha256"),
+                   hashlib.sha256(data).hexdigest() + "\n")
+    return f"numpy as one archive ({len(data) / 1e6:.1f} MB, unpacked once per user into the cache)"
 
 
 def _compile_kernels(name: str, pkg: Path, notes: list[str]) -> None:
@@ -564,8 +597,7 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
         try:
             if runtime is not None:    # the runtimes' entries, compressed once, come first
                 shutil.copyfile(_base_archive(runtime, win64), part)
-                if name in NUMPY_FREE_FMUS:
-                    notes.append(_drop_numpy(part))
+                notes.append(_drop_numpy(part) if name in NUMPY_FREE_FMUS else _numpy_as_archive(part, runtime, tmp))
             with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(part, "a" if runtime else "w", zipfile.ZIP_DEFLATED) as zout:
                 guid = None
                 for item in zin.infolist():
