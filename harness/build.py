@@ -57,6 +57,9 @@ from harness.paths import fmu_cache_dir, fmu_sources, physics_package, sources_d
 LOADER_SOURCES: tuple = ("fmi2_loader.c", "fmi2_inproc.c", "fmi2_remote.c")
 # the C files compiled together into the executable binaries/linux64/spurdiff_fmu_server (none: no server)
 SERVER_SOURCES: tuple = ("fmi2_server.c", "fmi2_inproc.c")
+# the bridge into the interpreter, by job: the instances and calls, the native step and fast paths,
+# FMU states, messages (fmi2_pybridge.h what they share)
+BRIDGE_SOURCES: tuple = ("fmi2_pybridge.c", "fmi2_pybridge_native.c", "fmi2_pybridge_state.c", "fmi2_pybridge_log.c")
 SERVER = "spurdiff_fmu_server"
 
 FMU_SRC = fmu_sources()          # native/, the C sources (package spurdiff_fmus = fmu_src/)
@@ -219,7 +222,7 @@ def compile_native(out_dir: Path) -> tuple[Path, Path, Path | None]:
     jobs = [
         [cc, "-shared", *flags, *(str(NATIVE_FMI / f) for f in LOADER_SOURCES), "-o", str(loader), "-ldl", "-lpthread"],
         [cc, "-shared", *flags, f"-I{include}", f"-ffile-prefix-map={include}=python-include",
-         str(NATIVE_FMI / "fmi2_pybridge.c"), "-o", str(bridge), "-lpthread"],
+         *(str(NATIVE_FMI / f) for f in BRIDGE_SOURCES), "-o", str(bridge), "-lpthread"],
     ]
     if server is not None:
         jobs.append([cc, *flags, *(str(NATIVE_FMI / f) for f in SERVER_SOURCES), "-o", str(server), "-ldl", "-lpthread"])
