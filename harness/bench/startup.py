@@ -48,8 +48,10 @@ def c_fmu() -> Path | None:
 
 
 def _host(tmp: Path) -> Path:
+    from harness.build import _fmi2_headers
     exe = tmp / "startup_host"
-    subprocess.run(["gcc", "-O2", "-o", str(exe), str(HOST_SOURCE), "-ldl"], check=True, capture_output=True)
+    subprocess.run(["gcc", "-O2", f"-I{_fmi2_headers()}", "-o", str(exe), str(HOST_SOURCE), "-ldl"], check=True,
+                   capture_output=True)
     return exe
 
 
@@ -66,7 +68,7 @@ def whole_run(fmu: Path, host: Path, tmp: Path) -> float:
     try:
         t0 = time.perf_counter()
         subprocess.run(["unzip", "-q", str(fmu), "-d", str(d)], check=True)
-        r = subprocess.run([str(host), str(d / "binaries" / "linux64" / f"{ident}.so"), ident, guid,
+        r = subprocess.run([str(host), str(d / "binaries" / "linux64" / f"{ident}.so"), guid,
                             (d / "resources").as_uri(), str(STEP)], capture_output=True, text=True)
         dt = time.perf_counter() - t0
         if r.returncode != 0:

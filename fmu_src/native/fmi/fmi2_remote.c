@@ -505,6 +505,17 @@ static fmi2Status remote_fmi2Terminate(fmi2Component c) { return r_simple(c, CAL
 static fmi2Status remote_fmi2Reset(fmi2Component c) { return r_simple(c, CALL_RESET); }
 static fmi2Status remote_fmi2CancelStep(fmi2Component c) { return r_simple(c, CALL_CANCEL_STEP); }
 
+/* An answer's array of `n` values of `size` bytes into `v` when the call succeeded: the status, or
+ * fmi2Error when the answer does not hold them (or `v` is NULL for n > 0). */
+static fmi2Status take_values(IpcBuf *a, fmi2Status s, void *v, size_t n, size_t size)
+{
+    if (s > fmi2Warning) return s;
+    const void *q = ipc_take_array(a, n, size);
+    if (!q || (n && !v)) return fmi2Error;
+    if (n) memcpy(v, q, n * size);
+    return s;
+}
+
 static fmi2Status r_get(fmi2Component c, uint32_t call, const fmi2ValueReference vr[], size_t n, void *v,
                         size_t size, const char *fn)
 {
@@ -512,12 +523,7 @@ static fmi2Status r_get(fmi2Component c, uint32_t call, const fmi2ValueReference
     ipc_u64(&b, n);
     ipc_put_array(&b, vr, n, sizeof *vr);
     R_SEND(call, fn)
-    if (s <= fmi2Warning) {
-        const void *p = ipc_take_array(&a, n, size);
-        if (!p) return fmi2Error;
-        if (n) memcpy(v, p, n * size);
-    }
-    return s;
+    return take_values(&a, s, v, n, size);
 }
 
 static fmi2Status remote_fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[])
@@ -713,12 +719,7 @@ static fmi2Status remote_fmi2GetDirectionalDerivative(fmi2Component c, const fmi
     ipc_put_array(&b, z, nz, sizeof *z);
     ipc_put_array(&b, du, nu, sizeof *du);
     R_SEND(CALL_DIRECTIONAL_DERIVATIVE, "fmi2GetDirectionalDerivative")
-    if (s <= fmi2Warning) {
-        const void *q = ipc_take_array(&a, nz, sizeof *dz);
-        if (!q || (nz && !dz)) return fmi2Error;
-        if (nz) memcpy(dz, q, nz * sizeof *dz);
-    }
-    return s;
+    return take_values(&a, s, dz, nz, sizeof *dz);
 }
 
 static fmi2Status remote_fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t n,
@@ -741,12 +742,7 @@ static fmi2Status remote_fmi2GetRealOutputDerivatives(fmi2Component c, const fmi
     ipc_put_array(&b, vr, n, sizeof *vr);
     ipc_put_array(&b, o, n, sizeof *o);
     R_SEND(CALL_GET_OUTPUT_DERIVATIVES, "fmi2GetRealOutputDerivatives")
-    if (s <= fmi2Warning) {
-        const void *q = ipc_take_array(&a, n, sizeof *v);
-        if (!q || (n && !v)) return fmi2Error;
-        if (n) memcpy(v, q, n * sizeof *v);
-    }
-    return s;
+    return take_values(&a, s, v, n, sizeof *v);
 }
 
 static fmi2Status remote_fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp)
@@ -781,34 +777,20 @@ static fmi2Status r_status(fmi2Component c, uint32_t call, fmi2StatusKind k, Ipc
     return s;
 }
 
-static fmi2Status remote_fmi2GetStatus(fmi2Component c, const fmi2StatusKind k, fmi2Status *v)
-{
-    IpcBuf a; Remote *r;
-    fmi2Status s = r_status(c, CALL_GET_STATUS, k, &a, &r);
-    if (s <= fmi2Warning && v) *v = (fmi2Status)ipc_get_i32(&a);
-    return s;
-}
-static fmi2Status remote_fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind k, fmi2Real *v)
-{
-    IpcBuf a; Remote *r;
-    fmi2Status s = r_status(c, CALL_GET_REAL_STATUS, k, &a, &r);
-    if (s <= fmi2Warning && v) *v = ipc_get_f64(&a);
-    return s;
-}
-static fmi2Status remote_fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind k, fmi2Integer *v)
-{
-    IpcBuf a; Remote *r;
-    fmi2Status s = r_status(c, CALL_GET_INTEGER_STATUS, k, &a, &r);
-    if (s <= fmi2Warning && v) *v = ipc_get_i32(&a);
-    return s;
-}
-static fmi2Status remote_fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind k, fmi2Boolean *v)
-{
-    IpcBuf a; Remote *r;
-    fmi2Status s = r_status(c, CALL_GET_BOOLEAN_STATUS, k, &a, &r);
-    if (s <= fmi2Warning && v) *v = ipc_get_i32(&a);
-    return s;
-}
+/* the status getters of a number: the answer's one value, read by `get` */
+#define R_STATUS_GETTER(fn, ctype, call, get)                                                      \
+    static fmi2Status fn(fmi2Component c, const fmi2StatusKind k, ctype *v)                        \
+    {                                                                                              \
+        IpcBuf a; Remote *r;                                                                       \
+        fmi2Status s = r_status(c, call, k, &a, &r);                                               \
+        if (s <= fmi2Warning && v) *v = (ctype)get(&a);                                            \
+        return s;                                                                                  \
+    }
+R_STATUS_GETTER(remote_fmi2GetStatus, fmi2Status, CALL_GET_STATUS, ipc_get_i32)
+R_STATUS_GETTER(remote_fmi2GetRealStatus, fmi2Real, CALL_GET_REAL_STATUS, ipc_get_f64)
+R_STATUS_GETTER(remote_fmi2GetIntegerStatus, fmi2Integer, CALL_GET_INTEGER_STATUS, ipc_get_i32)
+R_STATUS_GETTER(remote_fmi2GetBooleanStatus, fmi2Boolean, CALL_GET_BOOLEAN_STATUS, ipc_get_i32)
+#undef R_STATUS_GETTER
 static fmi2Status remote_fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind k, fmi2String *v)
 {
     IpcBuf a; Remote *r = NULL;

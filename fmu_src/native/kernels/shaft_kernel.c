@@ -805,6 +805,25 @@ static double max3(double a, double b, double c)   /* Python's max(a, b, c) */
     return m;
 }
 
+/* The load-capacity watch (gears.capacity.StressWatch.update) on the step's mesh forces: the largest
+ * |force| per mesh (Fm) and the run's largest stresses updated; 1 when it would log (the first excess
+ * of the static strength while `exceeded` is 0: the Python step logs it), else 0. */
+static int capacity_watch(const double *oc, double FA, double FB, double F12, double *sHmax, double *sFmax,
+                          double Fm[3], double exceeded)
+{
+    const double a1 = FA >= 0.0 ? FA : -FA, a2 = FB >= 0.0 ? FB : -FB, a3 = F12 >= 0.0 ? F12 : -F12;
+    if (a1 <= Fm[0] && a2 <= Fm[1] && a3 <= Fm[2])
+        return 0;
+    Fm[0] = a1 > Fm[0] ? a1 : Fm[0];
+    Fm[1] = a2 > Fm[1] ? a2 : Fm[1];
+    Fm[2] = a3 > Fm[2] ? a3 : Fm[2];
+    const double sH = max3(oc[OC_AH] * sqrt(a1), oc[OC_AH + 1] * sqrt(a2), oc[OC_AH + 2] * sqrt(a3));
+    const double sF = max3(oc[OC_AF] * a1, oc[OC_AF + 1] * a2, oc[OC_AF + 2] * a3);
+    if (sH > *sHmax) *sHmax = sH;
+    if (sF > *sFmax) *sFmax = sF;
+    return exceeded == 0.0 && (sH > oc[OC_HG] || sF > oc[OC_FG]);
+}
+
 int64_t sk_native(const SkNative *x, double *v, double t, double h)
 {
     const double *oc = x->oc;
@@ -837,19 +856,7 @@ int64_t sk_native(const SkNative *x, double *v, double t, double h)
     const double F12 = rs[R_F12];
     /* the load-capacity watch (StressWatch.update) */
     double sHmax = v[SKV_OUT + 30], sFmax = v[SKV_OUT + 31], Fm[3] = {v[57], v[58], v[59]};
-    const double a1 = FA >= 0.0 ? FA : -FA, a2 = FB >= 0.0 ? FB : -FB, a3 = F12 >= 0.0 ? F12 : -F12;
-    int log = 0;
-    if (!(a1 <= Fm[0] && a2 <= Fm[1] && a3 <= Fm[2])) {
-        Fm[0] = a1 > Fm[0] ? a1 : Fm[0];
-        Fm[1] = a2 > Fm[1] ? a2 : Fm[1];
-        Fm[2] = a3 > Fm[2] ? a3 : Fm[2];
-        const double sH = max3(oc[OC_AH] * sqrt(a1), oc[OC_AH + 1] * sqrt(a2), oc[OC_AH + 2] * sqrt(a3));
-        const double sF = max3(oc[OC_AF] * a1, oc[OC_AF + 1] * a2, oc[OC_AF + 2] * a3);
-        if (sH > sHmax) sHmax = sH;
-        if (sF > sFmax) sFmax = sF;
-        if (v[SKV_OUT + 32] == 0.0 && (sH > oc[OC_HG] || sF > oc[OC_FG]))
-            log = 1;
-    }
+    int log = capacity_watch(oc, FA, FB, F12, &sHmax, &sFmax, Fm, v[SKV_OUT + 32]);
     /* the overspeed watch */
     const double awd = fabs(wd);
     const int over = awd > oc[OC_LIMIT];
@@ -960,19 +967,7 @@ int64_t sk_rigid_native(const SkRigidNative *x, double *v, double t, double h)
     double *o = v + SKV_OUT;
     /* the load-capacity watch (StressWatch.update), as sk_native */
     double sHmax = o[30], sFmax = o[31], Fm[3] = {v[57], v[58], v[59]};
-    const double a1 = FA >= 0.0 ? FA : -FA, a2 = FB >= 0.0 ? FB : -FB, a3 = F12 >= 0.0 ? F12 : -F12;
-    int log = 0;
-    if (!(a1 <= Fm[0] && a2 <= Fm[1] && a3 <= Fm[2])) {
-        Fm[0] = a1 > Fm[0] ? a1 : Fm[0];
-        Fm[1] = a2 > Fm[1] ? a2 : Fm[1];
-        Fm[2] = a3 > Fm[2] ? a3 : Fm[2];
-        const double sH = max3(oc[OC_AH] * sqrt(a1), oc[OC_AH + 1] * sqrt(a2), oc[OC_AH + 2] * sqrt(a3));
-        const double sF = max3(oc[OC_AF] * a1, oc[OC_AF + 1] * a2, oc[OC_AF + 2] * a3);
-        if (sH > sHmax) sHmax = sH;
-        if (sF > sFmax) sFmax = sF;
-        if (o[32] == 0.0 && (sH > oc[OC_HG] || sF > oc[OC_FG]))
-            log = 1;
-    }
+    int log = capacity_watch(oc, FA, FB, F12, &sHmax, &sFmax, Fm, o[32]);
     const int over = fabs(wd) > oc[OC_LIMIT];
     if (over && v[60] == 0.0)
         log = 1;

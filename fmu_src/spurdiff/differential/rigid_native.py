@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import ctypes as C
 import math
-import struct
 
 from spurdiff.attrpath import assign, resolve
 from spurdiff.differential import rigid_kernel, shaft_kernel as sk
@@ -88,7 +87,7 @@ class RigidNative(NativeStep):
         super().__init__(fn, self.ctx, NV, INPUTS, OUTPUTS)
 
     def load(self, m) -> bool:
-        if m._rk is not self.rk or not _pack(self.rs, m.__dict__):
+        if m._rk is not self.rk or not sk.pack_rigid(self.rs, m.__dict__):
             return False
         v = self.v
         v[0:4] = [float(getattr(m, k)) for k in USED]
@@ -100,45 +99,13 @@ class RigidNative(NativeStep):
         return True
 
     def store(self, m) -> None:
-        _unpack(self.rs, m.__dict__)
+        sk.unpack_rigid(self.rs, m.__dict__)
         v = self.v[0:81]
         for k, x in zip(USED, v[61:65]):
             assign(m, k, x)
         cw = m.capacity_watch
         cw.sigma_H_max, cw.sigma_F_max, cw._F_max = v[50], v[51], (v[57], v[58], v[59])
         m.overspeed_watch.indicator = v[49]
-
-
-def _pack(rs, d: dict) -> bool:
-    """The rigid model's state (its dictionary ``d``) into ``rs`` (shaft_kernel.c's R_* layout); False
-    when it does not fit (a value that is not a number)."""
-    adg, key, val = d["_ad_guess"], d["_slip_key"], d["_slip_val"]
-    if key is None:
-        key9 = sk._NO_KEY
-    else:
-        acg = key[1]
-        key9 = ((1.0, key[0], 0.0, 0.0) if acg is None else (1.0, key[0], 1.0, acg)) + tuple(key[2:7])
-    try:
-        sk._RS.pack_into(rs, 0, *sk._get_head(d), *((0.0, 0.0) if adg is None else (1.0, adg)), *key9,
-                         *(sk._NO_VAL if val is None else val), *sk._get_mid(d), *d["_g"], d["_g_wc"], *d["_gt"],
-                         *sk._get_tail(d), d.get("_last_h", 0.0))
-    except (struct.error, TypeError, ValueError):
-        return False
-    return True
-
-
-def _unpack(rs, d: dict) -> None:
-    """``rs`` into the rigid model's dictionary ``d`` (the inverse of :func:`_pack`)."""
-    r = sk._RS.unpack_from(rs)
-    d.update(zip(sk._R_PLAIN, sk._pick_plain(r)))
-    d["_ad_guess"] = r[12] if r[11] else None
-    if r[13]:
-        d["_slip_key"] = (r[14], r[16] if r[15] else None, r[17], r[18], r[19], r[20], r[21])
-        d["_slip_val"] = r[22:28]
-    d["n_mode_switches"] = int(r[31])
-    d["n_steps"] = int(r[32])
-    d["_g"] = r[33:37]
-    d["_gt"] = r[38:42]
 
 
 def native(m) -> "RigidNative | None":
