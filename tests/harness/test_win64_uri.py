@@ -38,3 +38,24 @@ def test_the_resource_uri_resolves_in_either_encoding(form, wine, hosts, unpacke
     assert r.returncode == 0, r.stdout[-3000:]
     assert len(_outputs(r.stdout)) == 1
     assert "does not exist" not in r.stdout
+
+
+@pytest.mark.xfail(strict=True, reason="issue 44 item 5, not mended yet: under wine the FMU's Python stops in "
+                   "init_sys_streams when the host's stdout and stderr are regular files")
+def test_a_host_whose_stdout_and_stderr_are_regular_files_starts_the_python(wine, hosts, unpacked, tmp_path):
+    """The host's standard streams are files (a CI job's log, a service): the FMU's Python starts."""
+    import subprocess
+
+    env, _ = wine
+    exe, _ = hosts
+    name = "SpurDifferential"
+    guid, timing, outs, sets = _args(unpacked[name], name)
+    binary = "C:\\" + ODD + "\\" + name + "\\binaries\\win64\\" + name + ".dll"
+    out, err = tmp_path / "out.txt", tmp_path / "err.txt"
+    with open(out, "w") as fo, open(err, "w") as fe:
+        r = subprocess.run(["wine", str(exe), binary, *guid, _uri(name, "UTF-8, percent-encoded"), *timing, "1",
+                            *sets, "get", str(outs[0])], stdin=subprocess.DEVNULL, stdout=fo, stderr=fe, env=env,
+                           timeout=600)
+    text = out.read_text(errors="replace") + err.read_text(errors="replace")
+    assert r.returncode == 0, text[-3000:]
+    assert len(_outputs(out.read_text(errors="replace"))) == 1, text[-3000:]
