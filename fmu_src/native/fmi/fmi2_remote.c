@@ -18,7 +18,7 @@
  * the parent; the child's calls are refused with the reason logged and its fmi2FreeInstance frees
  * only its own copy (the parent's model process goes on).
  *
- * Over 800 lines (816): the host's side of every FMI call of the protocol in one place, with the
+ * Over 800 lines: the host's side of every FMI call of the protocol in one place, with the
  * wait that guards each; a second file would need the Remote internals in a header for one table.
  */
 #define _GNU_SOURCE
