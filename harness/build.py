@@ -87,8 +87,7 @@ BRIDGE = "fmi2_pybridge.so"
 RUNTIME_CFG = "python_runtime.cfg"
 
 
-class BuildError(RuntimeError):
-    pass
+from harness.fmu_contents import BuildError, _entry  # noqa: E402,F401 (defined there: no import cycle)
 
 
 def interface(name: str):
@@ -536,14 +535,6 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
     if not quiet:
         print(f"built {out}" + (f" ({'; '.join(notes)})" if notes else ""))
     return out
-
-
-def _entry(name: str, mode: int = 0o644) -> zipfile.ZipInfo:
-    """A deflated archive entry ``name`` with the unix permissions ``mode`` (0o755: executable)."""
-    info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
-    info.compress_type = zipfile.ZIP_DEFLATED
-    info.external_attr = (0o100000 | mode) << 16
-    return info
 
 
 def build(names: list[str] | None = None, dest: Path | None = None, force: bool = False,

@@ -114,6 +114,8 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
             build2._drop_numpy(part)
         elif "resources/python/numpy.zip" in zipfile.ZipFile(fmu2).namelist():
             build2._drop_numpy(part, build2.NUMPY_ENTRIES[:1])
+        with zipfile.ZipFile(part) as z:
+            in_runtime |= set(z.namelist())        # (the folders drop_numpy kept)
         with zipfile.ZipFile(fmu2) as zin, zipfile.ZipFile(part, "a", zipfile.ZIP_DEFLATED) as zout:
             names = zin.namelist()
             if "resources/" + build2.RUNTIME_CFG not in names:

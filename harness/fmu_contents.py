@@ -17,14 +17,16 @@ from pathlib import Path
 from harness import runtime_bundle, runtime_win64
 
 
-def _build_error():
-    from harness.build import BuildError as E
-    return E
+class BuildError(RuntimeError):
+    """An FMU cannot be built (harness.build raises and exports it)."""
 
 
 def _entry(name: str, mode: int = 0o644) -> zipfile.ZipInfo:
-    from harness.build import _entry as e
-    return e(name, mode)
+    """A deflated archive entry ``name`` with the unix permissions ``mode`` (0o755: executable)."""
+    info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
+    info.compress_type = zipfile.ZIP_DEFLATED
+    info.external_attr = (0o100000 | mode) << 16
+    return info
 
 
 PLATFORMS = ("linux64", "win64")
@@ -41,9 +43,9 @@ def platforms() -> tuple[str, ...]:
     want = tuple(p.strip() for p in raw.split(",") if p.strip())
     bad = [p for p in want if p not in PLATFORMS]
     if bad or not want:
-        raise _build_error()(f"--platforms {raw}: allowed a comma-separated list of {', '.join(PLATFORMS)}")
+        raise BuildError(f"--platforms {raw}: allowed a comma-separated list of {', '.join(PLATFORMS)}")
     if "linux64" not in want:
-        raise _build_error()(f"--platforms {raw}: linux64 is always built (the FMU's Python runtime is traced and "
+        raise BuildError(f"--platforms {raw}: linux64 is always built (the FMU's Python runtime is traced and "
                          "checked on the build machine's platform); allowed: linux64 or linux64,win64")
     return tuple(p for p in PLATFORMS if p in want)
 
@@ -108,7 +110,13 @@ def drop_numpy(archive: Path, patterns: tuple[str, ...] = NUMPY_ENTRIES) -> str:
         return "numpy kept (no zip command to remove it)"
     r = subprocess.run([zipper, "-q", "-d", str(archive), *patterns], capture_output=True, text=True)
     if r.returncode not in (0, 12):     # 12: nothing matched (a runtime without numpy)
-        raise _build_error()(f"removing numpy from {archive.name} failed: {r.stderr.strip()}")
+        raise BuildError(f"removing numpy from {archive.name} failed: {r.stderr.strip()}")
+    with zipfile.ZipFile(archive, "a") as z:   # the folders stay (the runtime descriptions' path= names them)
+        have = z.namelist()
+        for folder in (f"resources/{runtime_bundle.PYLIB}/site-packages/", "resources/python-win64/Lib/site-packages/"):
+            if any(n.startswith(folder.split("site-packages/")[0]) for n in have) and not any(
+                    n.startswith(folder) for n in have):
+                z.writestr(zipfile.ZipInfo(folder, date_time=(1980, 1, 1, 0, 0, 0)), b"")
     return "without numpy (its models never import it)"
 
 
