@@ -1,4 +1,4 @@
-"""What an FMU carries, platform by platform (issue 44 item 1), for :mod:`harness.build`: the platforms
+"""What an FMU carries, platform by platform (issue 44 item 1), for :mod:`harness.build.fmu`: the platforms
 chosen (``spurdiff build --platforms``) and each one's size in an archive; numpy left out of the
 FMUs whose models never import it, and carried by the others as one stored archive
 (:mod:`spurdiff.numpy_archive` unpacks it at run time); the default gear set's form radii computed
@@ -14,11 +14,11 @@ import subprocess
 import zipfile
 from pathlib import Path
 
-from harness import runtime_bundle, runtime_win64
+from harness.build import runtime_bundle, runtime_win64
 
 
 class BuildError(RuntimeError):
-    """An FMU cannot be built (harness.build raises and exports it)."""
+    """An FMU cannot be built (harness.build.fmu raises and exports it)."""
 
 
 def _entry(name: str, mode: int = 0o644) -> zipfile.ZipInfo:

@@ -1,15 +1,15 @@
-"""`spurdiff bench`'s report: the measurements of :mod:`harness.bench.core` printed as numbered
+"""`spurdiff bench`'s report: the measurements of :mod:`harness.measure.bench.core` printed as numbered
 sections with per-step costs derived from them, the targets table (issues 5 and 19) and, with
 ``--write``, the same text as the generated block of a Markdown page (docs/performance.md).
 
-1. FMI-coupled run versus the same physics called directly in Python (:mod:`harness.direct`);
+1. FMI-coupled run versus the same physics called directly in Python (:mod:`harness.run.direct`);
 2. cost of each differential fidelity level relative to the rigid model (paper-straight);
 3. real-time factor of each scene at its default fidelity;
 4. the targets;
-5. fixed versus variable communication steps (:mod:`harness.stepcontrol`) on tip-in-tip-out;
-6. the mesh levels' compiled kernel against the Python reference (:mod:`harness.bench.mesh`);
-7. the model in its own process against this process (:mod:`harness.bench.process`);
-8. start-up and the step with the defaults beside a plain C FMU (:mod:`harness.bench.startup`).
+5. fixed versus variable communication steps (:mod:`harness.run.stepcontrol`) on tip-in-tip-out;
+6. the mesh levels' compiled kernel against the Python reference (:mod:`harness.measure.bench.mesh`);
+7. the model in its own process against this process (:mod:`harness.measure.bench.process`);
+8. start-up and the step with the defaults beside a plain C FMU (:mod:`harness.measure.bench.startup`).
 """
 from __future__ import annotations
 
@@ -18,11 +18,11 @@ import sys
 import time
 from pathlib import Path
 
-from harness.bench.core import (EFFECT_SETS, fidelity_cost, fmi_call_cost, fmi_overhead, fmi_path_cost,
+from harness.measure.bench.core import (EFFECT_SETS, fidelity_cost, fmi_call_cost, fmi_overhead, fmi_path_cost,
                                 python_step_sets, realtime_factors, recording_cost, step_control_comparison,
                                 step_cost_breakdown)
-from harness.bench.process import report as process_report
-from harness.scene import available
+from harness.measure.bench.process import report as process_report
+from harness.scene.spec import available
 
 
 def run(args) -> int:
@@ -31,7 +31,7 @@ def run(args) -> int:
     import contextlib
     import io
 
-    from harness.outputs import probe, write_text
+    from harness.common.outputs import probe, write_text
     if args.write:
         probe(Path(args.write))   # a place that cannot be written is said before the measurements
     buf = io.StringIO()
@@ -84,7 +84,7 @@ def _solve_ivp_ratios(ours: str, theirs: str) -> list[tuple[float, float]]:
     (`spurdiff accuracy --only-ivp`)."""
     import json
 
-    from harness.accuracy import FACTS_FILE, equal_accuracy_ratios, ivp_error_key
+    from harness.measure.accuracy import FACTS_FILE, equal_accuracy_ratios, ivp_error_key
     try:
         ivp = json.loads(FACTS_FILE.read_text()).get("ivp") or []
     except (OSError, ValueError):
@@ -108,7 +108,7 @@ def _load() -> str:
 
 
 def _report(args) -> int:
-    from harness.report import render
+    from harness.run.report import render
 
     sets = {k: v for k, v in EFFECT_SETS.items() if not args.levels or k in args.levels or k == "rigid"}
     t0 = time.perf_counter()
@@ -270,7 +270,7 @@ def _report(args) -> int:
               "for everything: the instances without a native step (their step in Python around the compiled "
               "kernel) are what is left above it.")
     print("\n5. Fixed versus variable communication steps on tip-in-tip-out (errors: largest difference from a")
-    print("   fixed 0.2 ms run at its 1 ms recording instants; variable: harness/stepcontrol.py, power-bond residual;")
+    print("   fixed 0.2 ms run at its 1 ms recording instants; variable: harness/run/stepcontrol.py, power-bond residual;")
     print("   CPU time of the stepping thread; 'fixed at equal error': the cheapest fixed run with both errors at most")
     print("   the variable run's, and the variable run's time over its)")
     rows = step_control_comparison("tip-in-tip-out", max(3, args.repeats // 2))
@@ -290,18 +290,18 @@ def _report(args) -> int:
     else:
         print(f"   the variable step wins nowhere here: a fixed step reaches the same errors "
               f"{min(r['cost_ratio'] for r in var):.1f} to {max(r['cost_ratio'] for r in var):.1f} times cheaper")
-    print("\n6. The mesh levels' compiled kernel against the Python reference (harness/bench/mesh.py; the same "
+    print("\n6. The mesh levels' compiled kernel against the Python reference (harness/measure/bench/mesh.py; the same "
           "numbers bit for bit)")
-    from harness.bench.mesh import kernel_report
+    from harness.measure.bench.mesh import kernel_report
     print("\n".join(kernel_report(args.repeats)))
     print("\n7. The model in its own process (a host of another Python version; SPURDIFF_FMU_PROCESS=out) against "
-          "this process\n   (harness/bench/process.py; both sides busy-wait a moment, so on a loaded machine the "
+          "this process\n   (harness/measure/bench/process.py; both sides busy-wait a moment, so on a loaded machine the "
           "round trips wait for a core)")
     print("\n".join(process_report(max(2, args.repeats // 2))))
-    print("\n8. Start-up and the step with the defaults beside a plain C FMU of ours (harness/bench/startup.py; "
+    print("\n8. Start-up and the step with the defaults beside a plain C FMU of ours (harness/measure/bench/startup.py; "
           "the kit's test FMU tests/broken_fmus/chkc.c;\n   fmusim is not available here, our C host "
-          "harness/bench/startup_host.c stands in)")
-    from harness.bench.startup import report as startup_report
+          "harness/measure/bench/startup_host.c stands in)")
+    from harness.measure.bench.startup import report as startup_report
     print("\n".join(startup_report(max(3, args.repeats))))
     print(f"\n(bench took {time.perf_counter() - t0:.1f} s on {sys.platform}, python {sys.version.split()[0]}; "
           f"{_load()})")

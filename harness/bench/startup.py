@@ -17,7 +17,7 @@ Each measure runs both FMUs interleaved in the same command, so machine noise hi
   ``getReal`` of every Real output (fmpy's Python API, as a script would call it), fastest of the
   rounds; and the same with the C FMU's one input and two outputs.
 
-``python -m harness.bench.startup`` prints the section (section 8 of ``spurdiff bench``).
+``python -m harness.measure.bench.startup`` prints the section (section 8 of ``spurdiff bench``).
 """
 from __future__ import annotations
 
@@ -48,7 +48,7 @@ def c_fmu() -> Path | None:
 
 
 def _host(tmp: Path) -> Path:
-    from harness.build import _fmi2_headers
+    from harness.build.fmu import _fmi2_headers
     exe = tmp / "startup_host"
     subprocess.run(["gcc", "-O2", f"-I{_fmi2_headers()}", "-o", str(exe), str(HOST_SOURCE), "-ldl"], check=True,
                    capture_output=True)
@@ -219,7 +219,7 @@ def measure(ours: Path, theirs: Path, runs: int = 5) -> dict:
 
 
 def report(runs: int = 5) -> list[str]:
-    from harness.build import build
+    from harness.build.fmu import build
 
     theirs = c_fmu()
     if theirs is None:

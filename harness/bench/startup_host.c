@@ -1,8 +1,8 @@
-/* The start-up bench's C host (harness/bench/startup.py): one FMI 2.0 co-simulation run of an
+/* The start-up bench's C host (harness/measure/bench/startup.py): one FMI 2.0 co-simulation run of an
  * extracted FMU, as a host that loads a system once would: dlopen the binary, fmi2Instantiate,
  * fmi2SetupExperiment, Initialization Mode, one fmi2DoStep of STEP seconds, fmi2Terminate,
  * fmi2FreeInstance. Exit 0 when every call answered fmi2OK (or fmi2Warning), else the failing
- * call's number. Compiled against the FMI 2.0 headers fmpy ships (harness.build._fmi2_headers).
+ * call's number. Compiled against the FMI 2.0 headers fmpy ships (harness.build.fmu._fmi2_headers).
  * Usage: startup_host BINARY GUID RESOURCE_URI STEP */
 #include <dlfcn.h>
 #include <stdarg.h>

@@ -35,10 +35,10 @@ def _remove_staged(dest: Path) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from harness.build import FMUS, BuildError
-    from harness.build3 import build_versions
-    from harness.outputs import output_error
-    from harness.paths import fmu_cache_dir
+    from harness.build.fmu import FMUS, BuildError
+    from harness.build.fmu3 import build_versions
+    from harness.common.outputs import output_error
+    from harness.common.paths import fmu_cache_dir
 
     ap = argparse.ArgumentParser(prog="spurdiff build", description="Build the project's FMUs")
     ap.add_argument("names", nargs="*", help=f"FMUs to build (default: all of {', '.join(FMUS)})")
@@ -51,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="platforms to carry, comma-separated: linux64,win64 (default: both; linux64 always)")
     args = ap.parse_args(argv)
     try:
-        from harness.build import PLATFORMS_ENV, platform_sizes, platforms
+        from harness.build.fmu import PLATFORMS_ENV, platform_sizes, platforms
         if args.platforms is not None:
             os.environ[PLATFORMS_ENV] = args.platforms
         platforms()                      # a bad list: one line before anything is built

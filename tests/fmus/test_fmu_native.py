@@ -11,7 +11,7 @@ import math
 import pytest
 from fmpy.fmi1 import FMICallException
 
-from harness.bench.core import fmu_copies
+from harness.measure.bench.core import fmu_copies
 from spurdiff.differential.rigid import RigidDifferential
 from spurdiff.differential.shafts import ShaftedDifferential
 from spurdiff.vehicle.car import Vehicle

@@ -1,4 +1,4 @@
-"""numpy as one archive unpacked once per user (spurdiff.numpy_archive, harness/build.py: issue 44
+"""numpy as one archive unpacked once per user (spurdiff.numpy_archive, harness/build/fmu.py: issue 44
 item 1): the SpurDifferential FMU's Linux runtime carries numpy as resources/python/numpy.zip
 (stored) with its SHA-256; a Python without numpy (the FMU's own, here a -S interpreter) imports
 it from the user's cache, unpacked once, private (0700), verified, shared by a second process; a

@@ -1,4 +1,4 @@
-"""harness/runtime_bundle.py and the built FMUs: each carries its own Python runtime, described by
+"""harness/build/runtime_bundle.py and the built FMUs: each carries its own Python runtime, described by
 a format-2 python_runtime.cfg with paths relative to resources/, and nothing of the build machine.
 
 The FMUs cannot be instantiated by a host until the loader reads format 2; here the runtime is
@@ -15,9 +15,9 @@ from pathlib import Path
 
 import pytest
 
-from harness import elf, runtime_bundle
-from harness.build import FMUS, interface
-from harness.paths import checkout_root
+from harness.build import elf, runtime_bundle
+from harness.build.fmu import FMUS, interface
+from harness.common.paths import checkout_root
 
 CFG_KEYS = {"format", "version", "libpython", "home", "path", "preload", "package", "module", "class", "guid"}
 REPEATED = {"path", "preload"}

@@ -1,6 +1,6 @@
 """Where numpy is needed at run time (issue 44 item 1): the car and the wheel never import it, nor the
 differential at rigid with the FMU's default gear set (its undercut gears' form radii computed at
-build time by the same function, spurdiff.gears.generating, harness/build.py: form_radius_table);
+build time by the same function, spurdiff.gears.generating, harness/build/fmu.py: form_radius_table);
 the mesh levels and other gear sets do. Each case in a fresh Python with numpy made unimportable."""
 from __future__ import annotations
 

@@ -47,7 +47,7 @@
 #include "fmi3_names.h"
 
 #define INSTANCE3_MAGIC 0x53504433u   /* "SPD3" */
-/* the value reference of the independent variable `time` (harness/modeldescription3.py writes the same) */
+/* the value reference of the independent variable `time` (harness/build/modeldescription3.py writes the same) */
 #define TIME_VR 2147483647u
 
 /* the FMI 2.0 loader's FMI 3.0 extensions (fmi2_loader.c) */

@@ -15,7 +15,7 @@ in Python (their own kernels do their internal steps).
 Used when the inner model is the rigid one with the pin-load law and its compiled solve (the rigid
 model's ``kernel``, the FMU's ``solver.kernel``: auto | compiled | python, decides for both). The
 library is found as the other kernels are (:mod:`spurdiff.native_library`): beside this module
-(``libshaft_kernel.so``, as ``harness/build.py`` ships it in the SpurDifferential FMU), else as
+(``libshaft_kernel.so``, as ``harness/build/fmu.py`` ships it in the SpurDifferential FMU), else as
 ``shaft_kernel-<digest>.so`` in the folders of :data:`SEARCH_PATH`, ``$SPURDIFF_KERNEL_DIR``,
 ``$SPURDIFF_FMU_DIR`` and a checkout's ``build/fmus``.
 """

@@ -75,7 +75,7 @@ class _Rack:
 
 
 # The form radii an FMU's default gear set needs, computed by this function when the FMU was built
-# (harness/build.py: form_radius_table), so that the default configuration starts without numpy; any
+# (harness/build/fmu.py: form_radius_table), so that the default configuration starts without numpy; any
 # other gear set is simulated here. Keys: repr of the arguments; values: [r_F, undercut].
 TABLE_FILE = Path(__file__).with_name("form_radius_table.json")
 _TABLE: dict | None = None
