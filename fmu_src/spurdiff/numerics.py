@@ -34,11 +34,11 @@ change, a non-finite function value, or no convergence in ``maxiter`` iterations
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 
-import numpy as np
 
-EPS = float(np.finfo(float).eps)
+EPS = sys.float_info.epsilon     # numpy's finfo(float).eps; numpy is imported where arrays are used
 _SQRT_EPS = math.sqrt(EPS)
 _GOLDEN = 0.5 * (3.0 - math.sqrt(5.0))  # the golden section's smaller part, 0.381966...
 _REL_TOL_MIN = math.sqrt(2.2e-16)       # minimize_bounded's relative resolution in x (1.483e-8; the
@@ -231,12 +231,14 @@ class SystemSolution:
 
 def _norm(v) -> float:
     """Euclidean norm without underflow or overflow of the squares (math.hypot)."""
+    import numpy as np
     return math.hypot(*(float(a) for a in np.ravel(v)))
 
 
 def _jacobian_fd(f, x: np.ndarray, fx: np.ndarray, args: tuple, scale: np.ndarray) -> np.ndarray:
     """Forward-difference Jacobian, step ``sqrt(eps) max(|x_j|, scale_j)`` (``sqrt(eps)`` where
     that is zero or lost)."""
+    import numpy as np
     J = np.empty((fx.size, x.size))
     for j in range(x.size):
         xh = x.copy()
@@ -267,6 +269,7 @@ def solve_system(f, x0, args: tuple = (), xtol: float = 1.49012e-8, maxiter: int
         raise ValueError(f"xtol = {xtol!r} is invalid: allowed > 0")
     if int(maxiter) < 1:
         raise ValueError(f"maxiter = {maxiter!r} is invalid: allowed >= 1")
+    import numpy as np    # (here: the rigid level and the vehicle never solve a system; they run without numpy)
     x = np.array(x0, dtype=float).ravel()
     fx = np.asarray(f(x, *args), dtype=float).ravel()
     nfev = 1

@@ -56,6 +56,9 @@ from harness.common.paths import fmu_cache_dir, fmu_sources, physics_package, so
 LOADER_SOURCES: tuple = ("fmi2_loader.c", "fmi2_inproc.c", "fmi2_remote.c")
 # the C files compiled together into the executable binaries/linux64/spurdiff_fmu_server (none: no server)
 SERVER_SOURCES: tuple = ("fmi2_server.c", "fmi2_inproc.c")
+# the bridge into the interpreter, by job: the instances and calls, the native step and fast paths,
+# FMU states, messages (fmi2_pybridge.h what they share)
+BRIDGE_SOURCES: tuple = ("fmi2_pybridge.c", "fmi2_pybridge_native.c", "fmi2_pybridge_state.c", "fmi2_pybridge_log.c")
 SERVER = "spurdiff_fmu_server"
 
 FMU_SRC = fmu_sources()          # native/, the C sources (package spurdiff_fmus = fmu_src/)
@@ -84,8 +87,7 @@ BRIDGE = "fmi2_pybridge.so"
 RUNTIME_CFG = "python_runtime.cfg"
 
 
-class BuildError(RuntimeError):
-    pass
+from harness.build.fmu_contents import BuildError, _entry  # noqa: E402,F401 (defined there: no import cycle)
 
 
 def interface(name: str):
@@ -102,7 +104,7 @@ def script_text(name: str) -> str:
 
 # the build code besides this module and modeldescription.py (in harness.common.paths.sources_digest)
 BUILD_CODE = (tuple(Path(m.__file__).resolve() for m in (fmu_package, runtime_bundle, runtime_win64))
-              + runtime_bundle.CODE_FILES)
+              + (Path(__file__).resolve().with_name("fmu_contents.py"),) + runtime_bundle.CODE_FILES)
 
 
 def source_digest(name: str) -> str:
@@ -114,7 +116,13 @@ def source_digest(name: str) -> str:
         h.update(p.read_bytes())
     h.update(repr(runtime_bundle.interpreter_id()).encode())
     h.update(b"win64" if shutil.which(runtime_win64.CC) else b"linux64")   # a toolchain installed later rebuilds
+    h.update(",".join(platforms()).encode())
     return h.hexdigest()
+
+
+from harness.build.fmu_contents import (NUMPY_ENTRIES, NUMPY_FREE_FMUS, PLATFORMS, PLATFORMS_ENV,  # noqa: E402,F401
+                                   drop_numpy as _drop_numpy, form_radius_table, numpy_archive,
+                                   numpy_as_archive as _numpy_as_archive, platform_sizes, platforms)
 
 
 def declarations() -> dict[str, tuple[str, dict]]:
@@ -175,7 +183,7 @@ def compile_native(out_dir: Path) -> tuple[Path, Path, Path | None]:
     jobs = [
         [cc, "-shared", *flags, *(str(NATIVE_FMI / f) for f in LOADER_SOURCES), "-o", str(loader), "-ldl", "-lpthread"],
         [cc, "-shared", *flags, f"-I{include}", f"-ffile-prefix-map={include}=python-include",
-         str(NATIVE_FMI / "fmi2_pybridge.c"), "-o", str(bridge), "-lpthread"],
+         *(str(NATIVE_FMI / f) for f in BRIDGE_SOURCES), "-o", str(bridge), "-lpthread"],
     ]
     if server is not None:
         jobs.append([cc, *flags, *(str(NATIVE_FMI / f) for f in SERVER_SOURCES), "-o", str(server), "-ldl", "-lpthread"])
@@ -344,6 +352,8 @@ _WIN64: dict[str, object] = {}    # "parts": the Win64 parts, or "why": the reas
 def _win64_parts():
     """The win64 loader, bridge, kernels and runtime (:mod:`harness.build.runtime_win64`, cached), or None
     when they cannot be made here; the reason is printed once per process."""
+    if "win64" not in platforms():
+        return None
     if "parts" not in _WIN64 and "why" not in _WIN64:
         try:
             _WIN64["parts"] = runtime_win64.ensure_win64(NATIVE_FMI, NATIVE_KERNELS, _fmi2_headers(),
@@ -399,6 +409,7 @@ def _carried_package() -> Path:
             pkg = fmu_package.stage_package(PACKAGE, tmp)
         except fmu_package.PackageError as e:
             raise BuildError(str(e)) from None
+        form_radius_table(pkg)
         _compile_pycs(pkg, tmp)
         _STAGED[key] = pkg
     return _STAGED[key]
@@ -474,6 +485,7 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
         try:
             if runtime is not None:    # the runtimes' entries, compressed once, come first
                 shutil.copyfile(_base_archive(runtime, win64), part)
+                notes.append(_drop_numpy(part) if name in NUMPY_FREE_FMUS else _numpy_as_archive(part, runtime, tmp))
             with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(part, "a" if runtime else "w", zipfile.ZIP_DEFLATED) as zout:
                 guid = None
                 for item in zin.infolist():
@@ -523,14 +535,6 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
     if not quiet:
         print(f"built {out}" + (f" ({'; '.join(notes)})" if notes else ""))
     return out
-
-
-def _entry(name: str, mode: int = 0o644) -> zipfile.ZipInfo:
-    """A deflated archive entry ``name`` with the unix permissions ``mode`` (0o755: executable)."""
-    info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
-    info.compress_type = zipfile.ZIP_DEFLATED
-    info.external_attr = (0o100000 | mode) << 16
-    return info
 
 
 def build(names: list[str] | None = None, dest: Path | None = None, force: bool = False,

@@ -110,6 +110,12 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
         with zipfile.ZipFile(start) as z:
             in_runtime = set(z.namelist())
         shutil.copyfile(start, part)
+        if name in build2.NUMPY_FREE_FMUS:      # as the FMI 2.0 FMU (whose numpy archive, if any, comes below)
+            build2._drop_numpy(part)
+        elif "resources/python/numpy.zip" in zipfile.ZipFile(fmu2).namelist():
+            build2._drop_numpy(part, build2.NUMPY_ENTRIES[:1])
+        with zipfile.ZipFile(part) as z:
+            in_runtime |= set(z.namelist())        # (the folders drop_numpy kept)
         with zipfile.ZipFile(fmu2) as zin, zipfile.ZipFile(part, "a", zipfile.ZIP_DEFLATED) as zout:
             names = zin.namelist()
             if "resources/" + build2.RUNTIME_CFG not in names:
@@ -136,7 +142,7 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
                         data = win64.loader3.read_bytes()
                 info = zipfile.ZipInfo(target, date_time=item.date_time)
                 info.external_attr = item.external_attr
-                info.compress_type = zipfile.ZIP_DEFLATED
+                info.compress_type = item.compress_type   # (the stored numpy archive stays stored)
                 zout.writestr(info, data)
         os.replace(part, out)
     finally:

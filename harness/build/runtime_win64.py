@@ -262,7 +262,9 @@ def assemble(dest: Path, native_fmi: Path, native_kernels: Path, fmi_headers: Pa
         _compile([*common, *(str(native_fmi / f) for f in LOADER3_SOURCES), "-o", str(bins / "loader3.dll"), *LINK],
                  "the FMI 3.0 loader")
         _compile([*common, f"-I{include}", f"-ffile-prefix-map={include}=python-include",
-                  str(native_fmi / "fmi2_pybridge.c"), "-o", str(bins / "fmi2_pybridge.dll"), str(home / DLL), *LINK],
+                  *(str(native_fmi / f) for f in ("fmi2_pybridge.c", "fmi2_pybridge_native.c", "fmi2_pybridge_state.c",
+                                                  "fmi2_pybridge_log.c")),
+                  "-o", str(bins / "fmi2_pybridge.dll"), str(home / DLL), *LINK],
                  "the bridge")
     for shipped, sources in kernel_sources.items():
         flags = [f for f in kernel_flags if f != "-fPIC"]

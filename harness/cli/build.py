@@ -47,10 +47,20 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--force", action="store_true", help="rebuild even if up to date")
     ap.add_argument("--fmi-version", dest="fmi_version", type=int, choices=(2, 3), action="append", default=None,
                     help="build the FMI 2.0 (NAME.fmu) or 3.0 (NAME-fmi3.fmu) FMUs only (repeatable; default: both)")
+    ap.add_argument("--platforms", default=None, metavar="LIST",
+                    help="platforms to carry, comma-separated: linux64,win64 (default: both; linux64 always)")
     args = ap.parse_args(argv)
     try:
+        from harness.build.fmu import PLATFORMS_ENV, platform_sizes, platforms
+        if args.platforms is not None:
+            os.environ[PLATFORMS_ENV] = args.platforms
+        platforms()                      # a bad list: one line before anything is built
         versions = tuple(sorted(set(args.fmi_version))) if args.fmi_version else (2, 3)
         paths = build_versions(args.names or None, args.dest, args.force, versions=versions)
+        for p in paths:
+            sizes = platform_sizes(p)
+            print(f"{p.name}: {p.stat().st_size / 1e6:.1f} MB: " + ", ".join(
+                f"{k} {b / 1e6:.1f} MB ({n} files)" for k, (b, n) in sizes.items() if n))
         print(f"FMUs in {paths[0].parent}" if paths else "nothing to build")
     except BuildError as e:
         _remove_staged(Path(args.dest) if args.dest else fmu_cache_dir())

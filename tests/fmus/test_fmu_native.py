@@ -1,5 +1,5 @@
 """The native step through FMI (fmu_src/native/fmi/fmi2_pybridge.c with spurdiff.fmi.native_methods):
-Vehicle, WheelLoad and SpurDifferential (shaftCoupling = wheel, rigid) step in C without Python while the host only steps them and sets and gets
+Vehicle, WheelLoad and SpurDifferential (rigid: shaftCoupling = wheel, and torque with the FMU's defaults) step in C without Python while the host only steps them and sets and gets
 Reals; an instance with solver.nativeStep = true answers exactly as one with false through a run
 that sets inputs every step, takes and restores an FMU state, reads an Integer output and a
 parameter mid-run, stores a bad input (refused, named, state kept) and ends; and its Python step
@@ -12,6 +12,7 @@ import pytest
 from fmpy.fmi1 import FMICallException
 
 from harness.measure.bench.core import fmu_copies
+from spurdiff.differential.rigid import RigidDifferential
 from spurdiff.differential.shafts import ShaftedDifferential
 from spurdiff.vehicle.car import Vehicle
 from spurdiff.vehicle.wheel import WheelLoad
@@ -38,18 +39,27 @@ CASES = {   # inputs per step i; an input to spoil; a parameter and an Integer o
                          "leftWheel.invJ", "J_carrier", "internalSteps",
                          {"shaftCoupling": "wheel", "carrierDrive": "torque", "J_carrier": 13.1,
                           "carrier.w_start": 30.7161, "differential.w_start": -1.1706}),
+    # the FMU's default interface (shaftCoupling = torque, rigid, the pin-load law): stuck, breaking away, slipping
+    "SpurDifferential-torque": (lambda i: {"carrier.tau": 150.0 + 3.0 * i * (1 if i < 30 else -1),
+                                           "left.tau": -60.0 - (120.0 if 15 <= i < 25 else 0.0) + 2.0 * i,
+                                           "right.tau": -80.0 + 1.5 * i},
+                                "left.tau", "J_carrier", "modeSwitches", {"carrier.w_start": 30.7, "overspeedLimit": 1e4}),
 }
+# the model class whose Python steps are counted (the outermost model's class, or its plain class)
+COUNTED = {"Vehicle": Vehicle, "WheelLoad": WheelLoad, "SpurDifferential": ShaftedDifferential,
+           "SpurDifferential-torque": RigidDifferential}
 
 
 class _Counted:
     """The FMUs' own copies of the model classes with do_step counted (the Python steps taken)."""
 
-    def __init__(self):
+    def __init__(self, cls: type):
         self.calls = 0
         self.saved = {}
+        self.cls = cls
 
     def __enter__(self):
-        for c in fmu_copies({Vehicle, WheelLoad, ShaftedDifferential}):
+        for c in fmu_copies({self.cls}):
             f = self.saved[c] = c.__dict__["do_step"]
 
             def counted(model, t, h, _f=f):
@@ -111,8 +121,8 @@ def _run(inst, case) -> list:
 
 @pytest.mark.parametrize("fmu", list(CASES))
 def test_native_instance_answers_as_the_python_one(fmu, fmu_files):
-    path = fmu_files[fmu]
-    python, native = _Counted(), _Counted()
+    path = fmu_files[fmu.split("-")[0]]
+    python, native = _Counted(COUNTED[fmu]), _Counted(COUNTED[fmu])
     ref = _script(path, "python", False, CASES[fmu], python)
     got = _script(path, "native", True, CASES[fmu], native)
     assert got == ref

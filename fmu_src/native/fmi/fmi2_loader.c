@@ -83,7 +83,8 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         log_error(functions, instanceName, "fmi2Instantiate: instanceName must be a non-empty string");
         return NULL;
     }
-    if (!fmuResourceLocation || cfg_uri_to_path(fmuResourceLocation, resources, sizeof resources) != 0) {
+    if (!fmuResourceLocation || cfg_uri_to_path(fmuResourceLocation, resources, sizeof resources) != 0
+        || plat_path_utf8(resources, sizeof resources) != 0) {
         log_error(functions, instanceName, "fmi2Instantiate: fmuResourceLocation '%.1000s' is not a local file URI",
                   fmuResourceLocation ? fmuResourceLocation : "(null)");
         return NULL;

@@ -39,61 +39,9 @@
  * After each call the slave's `log_queue` (pythonfmu LogMsg objects) is passed to the host's
  * logger (see emit: '%' escaped, so the slave's text is never taken as a format).
  */
-#define PY_SSIZE_T_CLEAN
-#include <Python.h>
+#include "fmi2_pybridge.h"
 
-#include <pthread.h>
-#include <stdarg.h>
-
-#include "fmi2Functions.h"
-#include "runtime_cfg.h"
-
-/* every function defined here carries the prefix the loader looks for */
-#define fmi2SetDebugLogging spurdiff_bridge_fmi2SetDebugLogging
-#define fmi2Instantiate spurdiff_bridge_fmi2Instantiate
-#define fmi2FreeInstance spurdiff_bridge_fmi2FreeInstance
-#define fmi2SetupExperiment spurdiff_bridge_fmi2SetupExperiment
-#define fmi2EnterInitializationMode spurdiff_bridge_fmi2EnterInitializationMode
-#define fmi2ExitInitializationMode spurdiff_bridge_fmi2ExitInitializationMode
-#define fmi2Terminate spurdiff_bridge_fmi2Terminate
-#define fmi2Reset spurdiff_bridge_fmi2Reset
-#define fmi2GetReal spurdiff_bridge_fmi2GetReal
-#define fmi2GetInteger spurdiff_bridge_fmi2GetInteger
-#define fmi2GetBoolean spurdiff_bridge_fmi2GetBoolean
-#define fmi2GetString spurdiff_bridge_fmi2GetString
-#define fmi2SetReal spurdiff_bridge_fmi2SetReal
-#define fmi2SetInteger spurdiff_bridge_fmi2SetInteger
-#define fmi2SetBoolean spurdiff_bridge_fmi2SetBoolean
-#define fmi2SetString spurdiff_bridge_fmi2SetString
-#define fmi2GetFMUstate spurdiff_bridge_fmi2GetFMUstate
-#define fmi2SetFMUstate spurdiff_bridge_fmi2SetFMUstate
-#define fmi2FreeFMUstate spurdiff_bridge_fmi2FreeFMUstate
-#define fmi2SerializedFMUstateSize spurdiff_bridge_fmi2SerializedFMUstateSize
-#define fmi2SerializeFMUstate spurdiff_bridge_fmi2SerializeFMUstate
-#define fmi2DeSerializeFMUstate spurdiff_bridge_fmi2DeSerializeFMUstate
-#define fmi2GetDirectionalDerivative spurdiff_bridge_fmi2GetDirectionalDerivative
-#define fmi2SetRealInputDerivatives spurdiff_bridge_fmi2SetRealInputDerivatives
-#define fmi2GetRealOutputDerivatives spurdiff_bridge_fmi2GetRealOutputDerivatives
-#define fmi2DoStep spurdiff_bridge_fmi2DoStep
-#define fmi2CancelStep spurdiff_bridge_fmi2CancelStep
-#define fmi2GetStatus spurdiff_bridge_fmi2GetStatus
-#define fmi2GetRealStatus spurdiff_bridge_fmi2GetRealStatus
-#define fmi2GetIntegerStatus spurdiff_bridge_fmi2GetIntegerStatus
-#define fmi2GetBooleanStatus spurdiff_bridge_fmi2GetBooleanStatus
-#define fmi2GetStringStatus spurdiff_bridge_fmi2GetStringStatus
-#define spurdiffDoStepEarly spurdiff_bridge_spurdiffDoStepEarly
-
-#define INSTANCE_MAGIC 0x5350444Du  /* "SPDM" */
-#define STATE_MAGIC 0x53544154u     /* "STAT" */
-
-enum {
-    M_SET_DEBUG_LOGGING, M_SETUP_EXPERIMENT, M_ENTER_INIT, M_EXIT_INIT, M_TERMINATE,
-    M_GET_REAL, M_GET_INTEGER, M_GET_BOOLEAN, M_GET_STRING,
-    M_SET_REAL, M_SET_INTEGER, M_SET_BOOLEAN, M_SET_STRING,
-    M_GET_STATE, M_SET_STATE, M_SERIALIZE_STATE, M_DESERIALIZE_STATE,
-    M_DO_STEP, M_CANCEL_STEP, M_GET_STATUS, N_METHODS
-};
-static const char *METHOD_NAMES[N_METHODS] = {
+const char *const METHOD_NAMES[N_METHODS] = {
     "fmi2_set_debug_logging", "fmi2_setup_experiment", "fmi2_enter_initialization_mode",
     "fmi2_exit_initialization_mode", "fmi2_terminate",
     "fmi2_get_real", "fmi2_get_integer", "fmi2_get_boolean", "fmi2_get_string",
@@ -102,177 +50,45 @@ static const char *METHOD_NAMES[N_METHODS] = {
     "fmi2_do_step", "fmi2_cancel_step", "fmi2_get_status",
 };
 
-/* The last value-reference vectors (VR_SLOTS per method) a getter or setter was called with, the
- * Python tuple made of each, and for fmi2GetReal / fmi2SetReal the slave's plan of the fast path
- * (fmi2_real_plan: the names of the variables in the slave's value table, for a setter the range
- * of each value): a master calls with the same few vectors every step, so the tuple and the plan
- * are made once and the slave's caches keyed on the tuple (spurdiff/fmi/adapter.py) hit. */
-#define VR_SLOTS 4
-typedef struct {
-    fmi2ValueReference *vr;
-    size_t n;
-    PyObject *tuple;
-    PyObject *names;          /* fast path: tuple of str; Py_None: none; NULL: not asked yet */
-    double *lo, *hi;          /* setter: the accepted range of each value */
-    int *pos;                 /* native step: the slot of each value in the plan's array */
-    int pos_state;            /* 0 not asked, 1 every value has a slot, -1 not all (the slave's path) */
-    unsigned long pos_plan;   /* the plan the slots are of (its number, nat.gen) */
-} VrEntry;
-
-typedef struct {
-    VrEntry e[VR_SLOTS];
-    int next;                 /* the slot a new vector replaces */
-} VrCache;
-
-typedef struct {
-    unsigned magic;
-    char *name;
-    char *resources;
-    fmi2CallbackFunctions cb;
-    int logging_on;
-    int visible;
-    PyObject *klass;          /* the slave class (kept for fmi2Reset) */
-    PyObject *alias;          /* the private name of the FMU's package (str) */
-    PyObject *slave;          /* the slave object */
-    PyObject *log_queue;      /* slave.log_queue */
-    PyObject *methods[N_METHODS];
-    PyObject *strings;        /* keeps the buffers of the last fmi2GetString alive */
-    VrCache vrc[N_METHODS];   /* per getter/setter method */
-    struct {                  /* the native step (see the native section) */
-        int never;            /* the slave has none (asked once per slave) */
-        int on;               /* the model's state is in v, not in the slave */
-        int bad;              /* an input outside its range was stored while on */
-        long steps;           /* the steps taken while on */
-        int64_t (*fn)(const double *, double *, double, double);
-        const double *ctx;
-        double *v;
-        PyObject *plan;       /* the slave's plan tuple (keeps the arrays alive), NULL: none */
-        unsigned long gen;    /* the number of the plan taken (a new plan: the slots looked up again) */
-        PyObject *names;      /* the slots' value-table names (str or None) */
-        Py_ssize_t n_in;      /* the first n_in slots are the inputs */
-        PyObject *cnames;     /* the Real parameters' names: constant while stepping natively */
-        double *cv;           /* their values (read by fmi2GetReal from here) */
-        unsigned *ivr;        /* the Integer outputs' value references and slots, in pairs */
-        int early;            /* the model may end a step early (FMI 3.0): that step stays in Python */
-        Py_ssize_t n_int;     /* the number of pairs */
-        double time, stop, stop_tol;
-    } nat;
-} Instance;
-
-static int native_leave(Instance *I);   /* the native step (its section below) */
-static void native_drop(Instance *I);
-
-typedef struct {
-    unsigned magic;
-    Instance *owner;
-    PyObject *obj;            /* the slave's state object */
-    PyObject *bytes;          /* its serialization, once asked for */
-} State;
-
 static pthread_mutex_t init_lock = PTHREAD_MUTEX_INITIALIZER;
-
-/* ------------------------------------------------------------------------------ logging */
-/* The message goes to the host as the logger's format with no arguments, every '%' doubled: a
- * host that formats it (FMI 2.0 section 2.1.5) prints the text as it is, and so does one that
- * cannot handle variadic arguments and reads the format itself (fmpy). */
-static void emit(const fmi2CallbackFunctions *cb, const char *name, fmi2Status status,
-                 const char *category, const char *msg)
-{
-    if (!cb || !cb->logger) {
-        if (status >= fmi2Warning) fprintf(stderr, "%s: %s\n", name ? name : "fmu", msg);
-        return;
-    }
-    char buf[16384];
-    size_t n = 0;
-    for (const char *p = msg; *p && n + 2 < sizeof buf; p++) {
-        if (*p == '%') buf[n++] = '%';
-        buf[n++] = *p;
-    }
-    buf[n] = 0;
-    cb->logger(cb->componentEnvironment, name ? name : "", status, category ? category : "logAll", buf);
-}
-
-static void emitf(const fmi2CallbackFunctions *cb, const char *name, fmi2Status status, const char *fmt, ...)
-{
-    char msg[8192];
-    va_list ap;
-    va_start(ap, fmt);
-    vsnprintf(msg, sizeof msg, fmt, ap);
-    va_end(ap);
-    emit(cb, name, status, status >= fmi2Error ? "logStatusError" : "logAll", msg);
-}
-
-/* The pending Python exception as "Type: message" (cleared). */
-static void exception_text(char *out, size_t size)
-{
-    PyObject *type, *value, *tb;
-    PyErr_Fetch(&type, &value, &tb);
-    PyErr_NormalizeException(&type, &value, &tb);
-    const char *tname = type ? ((PyTypeObject *)type)->tp_name : "Error";
-    PyObject *s = value ? PyObject_Str(value) : NULL;
-    const char *text = s ? PyUnicode_AsUTF8(s) : NULL;
-    if (!text) { PyErr_Clear(); text = "(no message)"; }
-    snprintf(out, size, "%s: %s", tname, text);
-    Py_XDECREF(s);
-    Py_XDECREF(type);
-    Py_XDECREF(value);
-    Py_XDECREF(tb);
-}
-
-/* Pass the slave's queued messages to the host (GIL held). */
-static void flush_log(Instance *I)
-{
-    if (!I->log_queue || !PyList_Check(I->log_queue)) return;
-    Py_ssize_t n = PyList_GET_SIZE(I->log_queue);
-    for (Py_ssize_t i = 0; i < n; i++) {
-        PyObject *m = PyList_GET_ITEM(I->log_queue, i);
-        PyObject *st = PyObject_GetAttrString(m, "status");
-        PyObject *cat = PyObject_GetAttrString(m, "category");
-        PyObject *msg = PyObject_GetAttrString(m, "msg");
-        long status = st ? PyLong_AsLong(st) : fmi2Error;
-        const char *c = (cat && PyUnicode_Check(cat)) ? PyUnicode_AsUTF8(cat) : "logAll";
-        PyObject *ms = msg ? PyObject_Str(msg) : NULL;
-        const char *text = ms ? PyUnicode_AsUTF8(ms) : NULL;
-        if (PyErr_Occurred()) PyErr_Clear();
-        if (status < fmi2OK || status > fmi2Fatal) status = fmi2Error;
-        if (text && (status != fmi2OK || I->logging_on))
-            emit(&I->cb, I->name, (fmi2Status)status, c ? c : "logAll", text);
-        Py_XDECREF(st);
-        Py_XDECREF(cat);
-        Py_XDECREF(msg);
-        Py_XDECREF(ms);
-    }
-    if (n) PyList_SetSlice(I->log_queue, 0, n, NULL);
-}
-
-/* The status a slave method returned (reference stolen), or fmi2Error with the exception logged. */
-static fmi2Status status_of(Instance *I, PyObject *r, const char *fn)
-{
-    if (!r) {
-        char text[4096];
-        exception_text(text, sizeof text);
-        flush_log(I);
-        emitf(&I->cb, I->name, fmi2Error, "%s failed: %s", fn, text);
-        return fmi2Error;
-    }
-    fmi2Status s = fmi2OK;
-    if (r != Py_None) {
-        long v = PyLong_AsLong(r);
-        if (v == -1 && PyErr_Occurred()) {
-            PyErr_Clear();
-            emitf(&I->cb, I->name, fmi2Error, "%s: the slave returned a status that is not an integer", fn);
-            s = fmi2Error;
-        } else if (v < fmi2OK || v > fmi2Error) {   /* a slave never ends the process's simulation: no fatal */
-            s = fmi2Error;
-        } else {
-            s = (fmi2Status)v;
-        }
-    }
-    Py_DECREF(r);
-    return s;
-}
-
 /* ------------------------------------------------------------------------------ interpreter */
+/* Python's start writes its path configuration (some 20 lines) to the C stderr when it fails: that
+ * text goes to a memory file while the interpreter starts, so the host sees the one clean reason
+ * (logged by the caller); what a successful start wrote is passed on to stderr. */
+#ifndef _WIN32
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <unistd.h>
+static int stderr_hold(int *saved)
+{
+    fflush(stderr);
+    int mfd = memfd_create("spurdiff-python-start", MFD_CLOEXEC);
+    if (mfd < 0) return -1;
+    *saved = fcntl(2, F_DUPFD_CLOEXEC, 3);
+    if (*saved < 0 || dup2(mfd, 2) < 0) {
+        if (*saved >= 0) close(*saved);
+        close(mfd);
+        return -1;
+    }
+    return mfd;
+}
+static void stderr_release(int mfd, int saved, int pass_on)
+{
+    if (mfd < 0) return;
+    fflush(stderr);
+    dup2(saved, 2);
+    close(saved);
+    char buf[4096];
+    ssize_t n;
+    if (pass_on && lseek(mfd, 0, SEEK_SET) == 0)
+        while ((n = read(mfd, buf, sizeof buf)) > 0 && write(2, buf, (size_t)n) == n) {}
+    close(mfd);
+}
+#else
+static int stderr_hold(int *saved) { *saved = -1; return -1; }
+static void stderr_release(int mfd, int saved, int pass_on) { (void)mfd; (void)saved; (void)pass_on; }
+#endif
+
 /* Start the FMU's Python when the process has none (GIL released on return). */
 static int start_python(const RuntimeCfg *cfg, const char *resources, char *err, size_t errsize)
 {
@@ -307,7 +123,11 @@ static int start_python(const RuntimeCfg *cfg, const char *resources, char *err,
         PyMem_RawFree(w);
     }
     config.module_search_paths_set = 1;
-    if (!PyStatus_Exception(status)) status = Py_InitializeFromConfig(&config);
+    if (!PyStatus_Exception(status)) {
+        int saved, held = stderr_hold(&saved);
+        status = Py_InitializeFromConfig(&config);
+        stderr_release(held, saved, !PyStatus_Exception(status));
+    }
     PyConfig_Clear(&config);
     if (PyStatus_Exception(status)) {
         snprintf(err, errsize, "cannot start the FMU's Python %s (home %s/%s): %s%s%s", cfg->version, resources,
@@ -325,7 +145,9 @@ static int start_python(const RuntimeCfg *cfg, const char *resources, char *err,
  * GUID>` and returns (that name, the slave class); release() counts the instances down. An alias
  * whose folder is gone and which has no instance left is dropped from sys.modules at the next
  * load. numpy comes from the process (the host's, or the runtime's on the FMU's own Python); a
- * Python host without numpy gets the runtime's site-packages at the end of its path. */
+ * Python host without numpy gets the runtime's site-packages at the end of its path. numpy is not
+ * imported here: the rigid level (with the FMU's default gear set), the car and the wheel run
+ * without it, and start faster. */
 static const char *BOOT_SOURCE =
 "import hashlib, importlib, importlib.util, os, sys\n"
 "_live = {}   # alias -> [instances, folder]\n"
@@ -338,13 +160,10 @@ static const char *BOOT_SOURCE =
 "        if count <= 0 and not os.path.isdir(folder):\n"
 "            _drop(a)\n"
 "            del _live[a]\n"
-"    try:\n"
-"        import numpy\n"
-"    except ImportError:\n"
+"    if importlib.util.find_spec('numpy') is None:   # found, not imported: a model imports it if it needs it\n"
 "        for p in site:\n"
 "            if p not in sys.path:\n"
 "                sys.path.append(p)\n"
-"        import numpy\n"
 "    key = hashlib.sha256(os.fsencode(res) + b'\\0' + guid.encode()).hexdigest()[:16]\n"
 "    alias = '_spurdiff_fmu_' + key\n"
 "    if alias not in sys.modules:\n"
@@ -392,7 +211,7 @@ static PyObject *boot_module(void)
 }
 
 /* ------------------------------------------------------------------------------ instances */
-static Instance *valid(fmi2Component c)
+BRIDGE_INTERNAL Instance *valid(fmi2Component c)
 {
     Instance *I = (Instance *)c;
     return (I && I->magic == INSTANCE_MAGIC) ? I : NULL;
@@ -580,23 +399,7 @@ void fmi2FreeInstance(fmi2Component c)
     free_instance(I);
 }
 
-/* ------------------------------------------------------------------------------ calls */
-
-#define ENTER                                                                                      \
-    Instance *I = valid(c);                                                                        \
-    if (!I) return fmi2Error;                                                                      \
-    PyGILState_STATE g = PyGILState_Ensure();                                                      \
-    fmi2Status s;                                                                                  \
-    if (I->nat.on && native_leave(I) != 0) {                                                       \
-        s = fmi2Error;                                                                             \
-        LEAVE                                                                                      \
-    }
-
-#define LEAVE                                                                                      \
-    flush_log(I);                                                                                  \
-    PyGILState_Release(g);                                                                         \
-    return s;
-
+/* ------------------------------------------------------------------------------ calls (ENTER, LEAVE: fmi2_pybridge.h) */
 fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean on, size_t n, const fmi2String cat[])
 {
     ENTER
@@ -644,7 +447,7 @@ fmi2Status fmi2Reset(fmi2Component c)
 
 /* The cache entry of the value-reference vector (its tuple made), the cached one when the host
  * passes a vector it passed to this method lately (GIL held); NULL with a Python error set. */
-static VrEntry *vr_entry(Instance *I, int method, const fmi2ValueReference vr[], size_t n)
+BRIDGE_INTERNAL VrEntry *vr_entry(Instance *I, int method, const fmi2ValueReference vr[], size_t n)
 {
     VrCache *c = &I->vrc[method];
     for (int k = 0; k < VR_SLOTS; k++) {
@@ -671,369 +474,12 @@ static VrEntry *vr_entry(Instance *I, int method, const fmi2ValueReference vr[],
 }
 
 /* The tuple of the value references (new reference), see vr_entry. */
-static PyObject *vr_tuple(Instance *I, int method, const fmi2ValueReference vr[], size_t n)
+BRIDGE_INTERNAL PyObject *vr_tuple(Instance *I, int method, const fmi2ValueReference vr[], size_t n)
 {
     VrEntry *e = vr_entry(I, method, vr, n);
     if (!e) return NULL;
     Py_INCREF(e->tuple);
     return e->tuple;
-}
-
-/* ------------------------------------------------------------------------------ fast Real get/set
- * While the slave steps (its `phase` is "stepping"), fmi2GetReal and fmi2SetReal read and store
- * the slave's value table (`values`, a dict) here, by the names its fmi2_real_plan gave once per
- * value-reference vector, as its fmi2_get_real and fmi2_set_real do in that phase (no Python call
- * per value vector). A setter checks each value against its range (an input's declared range)
- * and for one outside it (NaN too) clears the slave's `_inputs_ok`: its next fmi2DoStep then
- * checks every input and refuses naming the bad one. Anything else (another phase, a vector
- * without a plan, a value table that is not a dict) takes the slave's methods. */
-static PyObject *S_phase, *S_stepping, *S_values, *S_inputs_ok, *S_plan;
-
-static int fast_strings(void)
-{
-    if (S_plan) return 0;
-    S_phase = PyUnicode_InternFromString("phase");
-    S_stepping = PyUnicode_InternFromString("stepping");
-    S_values = PyUnicode_InternFromString("values");
-    S_inputs_ok = PyUnicode_InternFromString("_inputs_ok");
-    PyObject *plan = PyUnicode_InternFromString("fmi2_real_plan");
-    if (!S_phase || !S_stepping || !S_values || !S_inputs_ok || !plan) { Py_XDECREF(plan); return -1; }
-    S_plan = plan;
-    return 0;
-}
-
-/* The slave's value table when it steps (new reference), else NULL (no error set). */
-static PyObject *stepping_values(Instance *I)
-{
-    if (fast_strings() != 0) { PyErr_Clear(); return NULL; }
-    PyObject *phase = PyObject_GetAttr(I->slave, S_phase);
-    int stepping = phase && (phase == S_stepping ||
-                             (PyUnicode_CheckExact(phase) && PyUnicode_Compare(phase, S_stepping) == 0));
-    Py_XDECREF(phase);
-    PyObject *values = stepping ? PyObject_GetAttr(I->slave, S_values) : NULL;
-    if (values && !PyDict_CheckExact(values)) Py_CLEAR(values);
-    if (PyErr_Occurred()) PyErr_Clear();
-    return values;
-}
-
-/* Ask the slave for the plan of entry e once: e->names a tuple of n str (and for a setter the
- * ranges filled), or Py_None. 1 when there is a fast path. */
-static int plan_of(Instance *I, VrEntry *e, int write)
-{
-    if (e->names) return e->names != Py_None;
-    PyObject *r = fast_strings() == 0 ? PyObject_CallMethodObjArgs(I->slave, S_plan, e->tuple,
-                                                                    write ? Py_True : Py_False, NULL) : NULL;
-    PyObject *names = NULL;
-    size_t n = e->n;
-    if (r && PyTuple_Check(r) && PyTuple_GET_SIZE(r) == 3) {
-        PyObject *nm = PyTuple_GET_ITEM(r, 0), *lo = PyTuple_GET_ITEM(r, 1), *hi = PyTuple_GET_ITEM(r, 2);
-        int ok = PyTuple_CheckExact(nm) && (size_t)PyTuple_GET_SIZE(nm) == n;
-        for (size_t i = 0; ok && i < n; i++) ok = PyUnicode_CheckExact(PyTuple_GET_ITEM(nm, (Py_ssize_t)i));
-        if (ok && write) {
-            ok = PyTuple_Check(lo) && PyTuple_Check(hi) && (size_t)PyTuple_GET_SIZE(lo) == n
-                 && (size_t)PyTuple_GET_SIZE(hi) == n;
-            double *l = ok ? (double *)malloc((n ? n : 1) * sizeof *l) : NULL;
-            double *h = ok ? (double *)malloc((n ? n : 1) * sizeof *h) : NULL;
-            ok = l && h;
-            for (size_t i = 0; ok && i < n; i++) {
-                l[i] = PyFloat_AsDouble(PyTuple_GET_ITEM(lo, (Py_ssize_t)i));
-                h[i] = PyFloat_AsDouble(PyTuple_GET_ITEM(hi, (Py_ssize_t)i));
-                ok = !PyErr_Occurred();
-            }
-            if (ok) { free(e->lo); free(e->hi); e->lo = l; e->hi = h; }
-            else { free(l); free(h); }
-        }
-        if (ok) { names = nm; Py_INCREF(names); }
-    }
-    if (PyErr_Occurred()) PyErr_Clear();   /* an unknown reference: the slave's method reports it */
-    Py_XDECREF(r);
-    if (!names) { names = Py_None; Py_INCREF(names); }
-    e->names = names;
-    return names != Py_None;
-}
-
-/* fmi2GetReal by the plan: 1 done, 0 take the slave's method (no error set). */
-static int fast_get_real(Instance *I, const fmi2ValueReference vr[], size_t n, fmi2Real v[])
-{
-    PyObject *values = stepping_values(I);
-    if (!values) return 0;
-    VrEntry *e = vr_entry(I, M_GET_REAL, vr, n);
-    int done = e && plan_of(I, e, 0);
-    for (size_t i = 0; done && i < n; i++) {
-        PyObject *x = PyDict_GetItemWithError(values, PyTuple_GET_ITEM(e->names, (Py_ssize_t)i));   /* borrowed */
-        if (!x) { done = 0; break; }
-        double d = PyFloat_CheckExact(x) ? PyFloat_AS_DOUBLE(x) : PyFloat_AsDouble(x);
-        if (d == -1.0 && PyErr_Occurred()) { done = 0; break; }
-        v[i] = d;
-    }
-    if (PyErr_Occurred()) PyErr_Clear();
-    Py_DECREF(values);
-    return done;
-}
-
-/* fmi2SetReal by the plan: 1 done (status in *s), 0 take the slave's method (nothing stored). */
-static int fast_set_real(Instance *I, const fmi2ValueReference vr[], size_t n, const fmi2Real v[], fmi2Status *s)
-{
-    PyObject *values = stepping_values(I);
-    if (!values) return 0;
-    VrEntry *e = vr_entry(I, M_SET_REAL, vr, n);
-    if (!e || !plan_of(I, e, 1)) {
-        if (PyErr_Occurred()) PyErr_Clear();
-        Py_DECREF(values);
-        return 0;
-    }
-    int in_range = 1, failed = 0;
-    for (size_t i = 0; i < n; i++) {
-        PyObject *x = PyFloat_FromDouble(v[i]);
-        if (!x || PyDict_SetItem(values, PyTuple_GET_ITEM(e->names, (Py_ssize_t)i), x) != 0) {
-            Py_XDECREF(x);
-            failed = 1;
-            break;
-        }
-        Py_DECREF(x);
-        if (!(e->lo[i] <= v[i] && v[i] <= e->hi[i])) in_range = 0;   /* NaN too */
-    }
-    Py_DECREF(values);
-    if (!failed && !in_range && PyObject_SetAttr(I->slave, S_inputs_ok, Py_False) != 0) failed = 1;
-    *s = failed ? status_of(I, NULL, "fmi2SetReal") : fmi2OK;
-    return 1;
-}
-
-/* ------------------------------------------------------------------------------ native step
- * The slave's fmi2_native_enter() (GIL held) answers False (no native step for this slave: never
- * asked again until fmi2Reset), None (not now: not stepping, inputs unchecked...), or
- * (time, stop, stop_tol, plan, parameters) having written its model's state into the plan's
- * array; plan is (function, constants, array, names, n_in, parameter names, integers, early): the addresses of
- * int64_t function(const double *constants, double *array, double t, double h) (0: the step is
- * taken, its outputs in the array; else nothing but scratch changed) and of the two arrays, the
- * value-table name (or None) of each slot, the first n_in slots the inputs, and the names of the
- * Real parameters, whose values (parameters, a tuple) fmi2GetReal reads here too (a parameter set
- * while stepping goes through the slave: the state is handed back first), and the Integer
- * outputs the array holds as (value reference, slot, ...) pairs (fmi2GetInteger reads them there,
- * each value an integer stored as a double), and whether the model may end a step early (then
- * spurdiffDoStepEarly, FMI 3.0's step with early return allowed, leaves the state to the slave). The same plan object
- * while the slave's model is the same; a new one makes the value-reference slots be looked up
- * again. fmi2_native_leave(time, bad, steps) takes the state back into the slave (its value table,
- * its model, its time; bad: an input outside its range was stored since).
- * While on, fmi2DoStep checks what the adapter checks first (a positive finite step, the FMU's
- * time, the stop time; spurdiff/fmi/adapter.py, fmi2_do_step) and calls the function without the
- * GIL; fmi2SetReal and fmi2GetReal of vectors whose every value has a slot (a setter: an input
- * slot) store and read the array (a setter checks the declared ranges as the fast path above). */
-static void native_drop(Instance *I)
-{
-    Py_CLEAR(I->nat.plan);
-    Py_CLEAR(I->nat.names);
-    Py_CLEAR(I->nat.cnames);
-    free(I->nat.cv);
-    free(I->nat.ivr);
-    I->nat.cv = NULL;
-    I->nat.ivr = NULL;
-    I->nat.n_int = 0;
-    I->nat.on = I->nat.bad = 0;
-    I->nat.never = 0;
-    I->nat.fn = NULL;
-    I->nat.ctx = NULL;
-    I->nat.v = NULL;
-}
-
-/* Take the plan tuple (GIL held): 0, or -1 (not usable: the slave's path). */
-static int native_take_plan(Instance *I, PyObject *plan)
-{
-    if (plan == I->nat.plan) return 0;
-    unsigned long long fn, ctx, v;
-    PyObject *names, *cnames, *ints;
-    Py_ssize_t n_in;
-    int early;
-    if (!PyTuple_Check(plan)
-        || !PyArg_ParseTuple(plan, "KKKO!nO!O!p", &fn, &ctx, &v, &PyTuple_Type, &names, &n_in, &PyTuple_Type, &cnames,
-                             &PyTuple_Type, &ints, &early)
-        || !fn || !v || n_in < 0 || n_in > PyTuple_GET_SIZE(names) || PyTuple_GET_SIZE(ints) % 2) {
-        PyErr_Clear();
-        return -1;
-    }
-    Py_ssize_t n_ints = PyTuple_GET_SIZE(ints);
-    double *cv = (double *)calloc((size_t)PyTuple_GET_SIZE(cnames) + 1, sizeof *cv);
-    unsigned *ivr = (unsigned *)calloc((size_t)n_ints + 1, sizeof *ivr);
-    for (Py_ssize_t j = 0; cv && ivr && j < n_ints; j++) ivr[j] = (unsigned)PyLong_AsUnsignedLong(PyTuple_GET_ITEM(ints, j));
-    if (!cv || !ivr || PyErr_Occurred()) {
-        PyErr_Clear();
-        free(cv);
-        free(ivr);
-        return -1;
-    }
-    free(I->nat.cv);
-    free(I->nat.ivr);
-    I->nat.cv = cv;
-    I->nat.ivr = ivr;
-    I->nat.n_int = n_ints / 2;
-    I->nat.early = early;
-    Py_INCREF(plan);
-    Py_INCREF(names);
-    Py_INCREF(cnames);
-    Py_XSETREF(I->nat.plan, plan);
-    Py_XSETREF(I->nat.names, names);
-    I->nat.gen++;
-    Py_XSETREF(I->nat.cnames, cnames);
-    I->nat.fn = (int64_t (*)(const double *, double *, double, double))(uintptr_t)fn;
-    I->nat.ctx = (const double *)(uintptr_t)ctx;
-    I->nat.v = (double *)(uintptr_t)v;
-    I->nat.n_in = n_in;
-    return 0;
-}
-
-/* Hand the state to the array (GIL held): 1 on, 0 not (the slave's path; no error set). */
-static int native_enter(Instance *I)
-{
-    if (I->nat.never || !I->slave) return 0;
-    PyObject *r = PyObject_CallMethod(I->slave, "fmi2_native_enter", NULL);
-    int on = 0;
-    if (r == Py_False) {
-        I->nat.never = 1;
-    } else if (r && r != Py_None) {
-        PyObject *plan = NULL, *pv = NULL;
-        double t, stop, tol;
-        int ok = PyArg_ParseTuple(r, "dddOO!", &t, &stop, &tol, &plan, &PyTuple_Type, &pv) && native_take_plan(I, plan) == 0
-                 && PyTuple_GET_SIZE(pv) == PyTuple_GET_SIZE(I->nat.cnames);
-        for (Py_ssize_t j = 0; ok && j < PyTuple_GET_SIZE(pv); j++) {
-            I->nat.cv[j] = PyFloat_AsDouble(PyTuple_GET_ITEM(pv, j));
-            ok = !PyErr_Occurred();
-        }
-        if (ok) {
-            I->nat.time = t;
-            I->nat.stop = stop;
-            I->nat.stop_tol = tol;
-            I->nat.bad = 0;
-            I->nat.steps = 0;
-            I->nat.on = on = 1;
-        } else {
-            I->nat.never = 1;   /* a plan the bridge cannot take: the slave's path from now on */
-        }
-    }
-    if (!r || PyErr_Occurred()) {   /* a slave without the method (not ours) or a failure: never */
-        PyErr_Clear();
-        I->nat.never = 1;
-    }
-    Py_XDECREF(r);
-    return on;
-}
-
-/* Take the state back into the slave (GIL held): 0, or -1 (logged; the slave's state is then
- * its own as before the native steps: it reports the failure). */
-static int native_leave(Instance *I)
-{
-    if (!I->nat.on) return 0;
-    I->nat.on = 0;
-    PyObject *r = PyObject_CallMethod(I->slave, "fmi2_native_leave", "dil", I->nat.time, I->nat.bad, I->nat.steps);
-    I->nat.bad = 0;
-    if (!r) {
-        status_of(I, NULL, "taking the native step's state back");
-        return -1;
-    }
-    Py_DECREF(r);
-    return 0;
-}
-
-/* The step by the function (no GIL needed: the array only): 1 taken, 0 not (nothing changed). */
-static int native_step(Instance *I, double t, double h)
-{
-    if (I->nat.bad || !(h > 0.0 && h < INFINITY)) return 0;
-    double at = t >= 0.0 ? t : -t;
-    if (!(fabs(t - I->nat.time) <= 1e-9 * (at > 1.0 ? at : 1.0) + 1e-6 * h) || at == INFINITY) return 0;
-    if (t + h > I->nat.stop + (I->nat.stop_tol + 1e-6 * h)) return 0;
-    if (I->nat.fn(I->nat.ctx, I->nat.v, t, h) != 0) return 0;
-    I->nat.time = t + h;
-    I->nat.steps++;
-    return 1;
-}
-
-/* The step natively, the native step entered first if the instance has none yet (and may have one):
- * 1 taken, 0 not (the slave's path). ``early``: the host allows the step to end early (FMI 3.0), and a
- * model that may end a step early then steps in Python, so that none is skipped (the plan says which). */
-static int native_try(Instance *I, double t, double h, int early)
-{
-    if (I->nat.on) return !(early && I->nat.early) && native_step(I, t, h);
-    if (I->nat.never) return 0;
-    PyGILState_STATE g = PyGILState_Ensure();
-    int taken = native_enter(I) && !(early && I->nat.early) && native_step(I, t, h);
-    flush_log(I);
-    PyGILState_Release(g);
-    return taken;
-}
-
-/* The slots of the entry's values (GIL held for a new entry): the entry, or NULL (the slave's
- * path). A setter's values must all be inputs. */
-static VrEntry *native_slots(Instance *I, int method, const fmi2ValueReference vr[], size_t n)
-{
-    VrCache *c = &I->vrc[method];
-    for (int k = 0; k < VR_SLOTS; k++) {   /* the hot path: a vector seen before, no Python */
-        VrEntry *e = &c->e[k];
-        if (e->tuple && e->n == n && e->pos_plan == I->nat.gen && (n == 0 || memcmp(e->vr, vr, n * sizeof *vr) == 0))
-            return e->pos_state == 1 ? e : NULL;
-    }
-    PyGILState_STATE g = PyGILState_Ensure();
-    int write = method == M_SET_REAL;
-    VrEntry *e = vr_entry(I, method, vr, n);
-    if (e && plan_of(I, e, write)) {
-        int *pos = (int *)malloc((n ? n : 1) * sizeof *pos);
-        Py_ssize_t slots = write ? I->nat.n_in : PyTuple_GET_SIZE(I->nat.names);
-        Py_ssize_t consts = write ? 0 : PyTuple_GET_SIZE(I->nat.cnames);
-        int ok = pos != NULL;
-        for (size_t i = 0; ok && i < n; i++) {
-            PyObject *name = PyTuple_GET_ITEM(e->names, (Py_ssize_t)i);
-            pos[i] = -1;   /* a slot j as j, a parameter j as -2 - j */
-            for (Py_ssize_t j = 0; j < slots; j++) {
-                PyObject *x = PyTuple_GET_ITEM(I->nat.names, j);
-                if (PyUnicode_Check(x) && PyUnicode_Compare(x, name) == 0) { pos[i] = (int)j; break; }
-            }
-            for (Py_ssize_t j = 0; pos[i] == -1 && j < consts; j++)
-                if (PyUnicode_Compare(PyTuple_GET_ITEM(I->nat.cnames, j), name) == 0) pos[i] = -2 - (int)j;
-            ok = pos[i] != -1;
-        }
-        free(e->pos);
-        e->pos = pos;
-        e->pos_state = ok ? 1 : -1;
-        e->pos_plan = I->nat.gen;
-    } else if (e) {
-        e->pos_state = -1;
-        e->pos_plan = I->nat.gen;
-    }
-    if (PyErr_Occurred()) PyErr_Clear();
-    PyGILState_Release(g);
-    return (e && e->pos_state == 1) ? e : NULL;
-}
-
-static int native_get_real(Instance *I, const fmi2ValueReference vr[], size_t n, fmi2Real v[])
-{
-    VrEntry *e = native_slots(I, M_GET_REAL, vr, n);
-    if (!e) return 0;
-    for (size_t i = 0; i < n; i++) {
-        int p = e->pos[i];
-        v[i] = p >= 0 ? I->nat.v[p] : I->nat.cv[-2 - p];
-    }
-    return 1;
-}
-
-/* fmi2GetInteger of Integer outputs the array holds (no GIL needed): 1 done, 0 the slave's path. */
-static int native_get_integer(Instance *I, const fmi2ValueReference vr[], size_t n, fmi2Integer v[])
-{
-    for (size_t i = 0; i < n; i++) {
-        Py_ssize_t j = 0;
-        while (j < I->nat.n_int && I->nat.ivr[2 * j] != vr[i]) j++;
-        if (j == I->nat.n_int) return 0;
-        v[i] = (fmi2Integer)I->nat.v[I->nat.ivr[2 * j + 1]];
-    }
-    return 1;
-}
-
-static int native_set_real(Instance *I, const fmi2ValueReference vr[], size_t n, const fmi2Real v[])
-{
-    VrEntry *e = native_slots(I, M_SET_REAL, vr, n);
-    if (!e) return 0;
-    for (size_t i = 0; i < n; i++) {
-        I->nat.v[e->pos[i]] = v[i];
-        if (!(e->lo[i] <= v[i] && v[i] <= e->hi[i])) I->nat.bad = 1;   /* NaN too */
-    }
-    return 1;
 }
 
 /* Call a getter; on success a sequence of exactly n items is returned (new reference). */
@@ -1166,125 +612,6 @@ fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n,
 SETTER(fmi2SetInteger, fmi2Integer, M_SET_INTEGER, PyLong_FromLong(v[i]))
 SETTER(fmi2SetBoolean, fmi2Boolean, M_SET_BOOLEAN, PyBool_FromLong(v[i]))
 SETTER(fmi2SetString, fmi2String, M_SET_STRING, PyUnicode_FromString(v[i] ? v[i] : ""))
-
-/* ------------------------------------------------------------------------------ FMU states */
-static State *valid_state(Instance *I, fmi2FMUstate p)
-{
-    State *S = (State *)p;
-    return (S && S->magic == STATE_MAGIC && S->owner == I) ? S : NULL;
-}
-
-static fmi2Status new_state(Instance *I, PyObject *obj, fmi2FMUstate *out, const char *fn)
-{
-    if (!obj) return status_of(I, NULL, fn);
-    State *S = (State *)calloc(1, sizeof *S);
-    if (!S) { Py_DECREF(obj); emitf(&I->cb, I->name, fmi2Error, "%s: out of memory", fn); return fmi2Error; }
-    S->magic = STATE_MAGIC;
-    S->owner = I;
-    S->obj = obj;
-    *out = S;
-    return fmi2OK;
-}
-
-fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *p)
-{
-    ENTER
-    if (!p) { emitf(&I->cb, I->name, fmi2Error, "fmi2GetFMUstate: FMUstate is NULL"); s = fmi2Error; LEAVE }
-    PyObject *obj = PyObject_CallNoArgs(I->methods[M_GET_STATE]);
-    State *S = *p ? valid_state(I, *p) : NULL;
-    if (*p && !S) {
-        Py_XDECREF(obj);
-        emitf(&I->cb, I->name, fmi2Error, "fmi2GetFMUstate: *FMUstate is neither NULL nor a state of this instance");
-        s = fmi2Error;
-    } else if (S && obj) {          /* overwrite the given state (FMI 2.0 section 2.1.8) */
-        Py_XSETREF(S->obj, obj);
-        Py_CLEAR(S->bytes);
-        s = fmi2OK;
-    } else {
-        s = new_state(I, obj, p, "fmi2GetFMUstate");
-    }
-    LEAVE
-}
-
-fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate p)
-{
-    ENTER
-    State *S = valid_state(I, p);
-    if (!S) { emitf(&I->cb, I->name, fmi2Error, "fmi2SetFMUstate: not a state of this instance"); s = fmi2Error; }
-    else s = status_of(I, PyObject_CallOneArg(I->methods[M_SET_STATE], S->obj), "fmi2SetFMUstate");
-    LEAVE
-}
-
-fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *p)
-{
-    ENTER
-    if (!p || !*p) { s = fmi2OK; LEAVE }   /* freeing NULL is a no-op */
-    State *S = valid_state(I, *p);
-    if (!S) { emitf(&I->cb, I->name, fmi2Error, "fmi2FreeFMUstate: not a state of this instance"); s = fmi2Error; LEAVE }
-    Py_CLEAR(S->obj);
-    Py_CLEAR(S->bytes);
-    S->magic = 0;
-    free(S);
-    *p = NULL;
-    s = fmi2OK;
-    LEAVE
-}
-
-static PyObject *state_bytes(Instance *I, State *S, const char *fn)
-{
-    if (!S->bytes) {
-        PyObject *b = PyObject_CallOneArg(I->methods[M_SERIALIZE_STATE], S->obj);
-        if (b && !PyBytes_Check(b)) {
-            Py_DECREF(b);
-            PyErr_SetString(PyExc_TypeError, "the slave's serialization is not bytes");
-            b = NULL;
-        }
-        if (!b) { status_of(I, NULL, fn); return NULL; }
-        S->bytes = b;
-    }
-    return S->bytes;
-}
-
-fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate p, size_t *n)
-{
-    ENTER
-    State *S = valid_state(I, p);
-    PyObject *b = (S && n) ? state_bytes(I, S, "fmi2SerializedFMUstateSize") : NULL;
-    if (!S || !n) emitf(&I->cb, I->name, fmi2Error, "fmi2SerializedFMUstateSize: not a state of this instance");
-    if (b) { *n = (size_t)PyBytes_GET_SIZE(b); s = fmi2OK; } else s = fmi2Error;
-    LEAVE
-}
-
-fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate p, fmi2Byte out[], size_t n)
-{
-    ENTER
-    State *S = valid_state(I, p);
-    PyObject *b = (S && out) ? state_bytes(I, S, "fmi2SerializeFMUstate") : NULL;
-    if (!S || !out) emitf(&I->cb, I->name, fmi2Error, "fmi2SerializeFMUstate: not a state of this instance");
-    if (b && (size_t)PyBytes_GET_SIZE(b) != n) {
-        emitf(&I->cb, I->name, fmi2Error, "fmi2SerializeFMUstate: size %zu given, fmi2SerializedFMUstateSize "
-              "said %zd", n, PyBytes_GET_SIZE(b));
-        b = NULL;
-    }
-    if (b) { memcpy(out, PyBytes_AS_STRING(b), n); s = fmi2OK; } else s = fmi2Error;
-    LEAVE
-}
-
-fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte in[], size_t n, fmi2FMUstate *p)
-{
-    ENTER
-    if (!p || (n && !in)) {
-        emitf(&I->cb, I->name, fmi2Error, "fmi2DeSerializeFMUstate: NULL argument");
-        s = fmi2Error;
-        LEAVE
-    }
-    PyObject *b = PyBytes_FromStringAndSize((const char *)in, (Py_ssize_t)n);
-    PyObject *obj = b ? PyObject_CallOneArg(I->methods[M_DESERIALIZE_STATE], b) : NULL;
-    Py_XDECREF(b);
-    s = new_state(I, obj, p, "fmi2DeSerializeFMUstate");
-    LEAVE
-}
-
 /* ------------------------------------------------------------------------------ stepping */
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp)
 {

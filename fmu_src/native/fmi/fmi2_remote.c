@@ -8,7 +8,18 @@
  * records come back with the answer and go to the host's logger on the calling thread. When the
  * server dies (a crash of the model), the call returns fmi2Error with the signal named, and so
  * does every later call but fmi2FreeInstance. The server ends with fmi2FreeInstance, or by itself
- * when the host process is gone (its pipe reads end of file).
+ * when the host process is gone (its pipe reads end of file, or its parent is no longer the host).
+ *
+ * No call waits without bound (call_watch): a model process that is stopped (SIGSTOP, SIGTSTP,
+ * SIGTTIN, SIGTTOU) for STOPPED_MS, that uses no CPU for SILENT_MS while a call is out, or that has
+ * not answered within the call deadline (SPURDIFF_FMU_CALL_TIMEOUT seconds, default DEADLINE_S)
+ * ends the call with fmi2Error naming the cause; the process is then killed and the instance lost
+ * like a crashed one. A process that forked after fmi2Instantiate: the model's process belongs to
+ * the parent; the child's calls are refused with the reason logged and its fmi2FreeInstance frees
+ * only its own copy (the parent's model process goes on).
+ *
+ * Over 800 lines: the host's side of every FMI call of the protocol in one place, with the
+ * wait that guards each; a second file would need the Remote internals in a header for one table.
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -30,6 +41,9 @@
 #include "ipc.h"
 
 #define SERVER_FILE "spurdiff_fmu_server"
+#define STOPPED_MS 1000            /* stopped this long during a call: fmi2Error */
+#define SILENT_MS 10000            /* no CPU used this long during a call (blocked for good): fmi2Error */
+#define DEADLINE_S 600.0           /* any call, unless SPURDIFF_FMU_CALL_TIMEOUT says otherwise */
 #define REMOTE_MAGIC 0x52454D54u   /* "REMT" */
 #define RSTATE_MAGIC 0x52535441u   /* "RSTA" */
 
@@ -50,6 +64,10 @@ typedef struct {
     int shm_fd, pipe_w;
     pid_t pid;
     int dead;                  /* the server is gone: every call but free fails */
+    pid_t owner;               /* the process that instantiated (a forked child is not) */
+    uint32_t call;             /* the call out, and what call_watch knows of the server since it went out */
+    uint64_t sent_ns, stopped_ns, cpu_ns, deadline_ns;
+    long long cpu;
     char *strings;             /* the last fmi2GetString / fmi2GetStringStatus answer's text */
     fmi2String *string_ptrs;
 } Remote;
@@ -145,14 +163,112 @@ static int server_alive(void *ctx)
     return 0;
 }
 
+static const char *call_name(uint32_t call)
+{
+    static const char *names[N_CALLS] = {
+        [CALL_INSTANTIATE] = "fmi2Instantiate", [CALL_FREE] = "fmi2FreeInstance", [CALL_SETUP_EXPERIMENT] =
+        "fmi2SetupExperiment", [CALL_ENTER_INIT] = "fmi2EnterInitializationMode", [CALL_EXIT_INIT] =
+        "fmi2ExitInitializationMode", [CALL_TERMINATE] = "fmi2Terminate", [CALL_RESET] = "fmi2Reset",
+        [CALL_GET_REAL] = "fmi2GetReal", [CALL_SET_REAL] = "fmi2SetReal", [CALL_GET_STATE] = "fmi2GetFMUstate",
+        [CALL_SET_STATE] = "fmi2SetFMUstate", [CALL_SERIALIZE] = "fmi2SerializeFMUstate", [CALL_DESERIALIZE] =
+        "fmi2DeSerializeFMUstate", [CALL_DO_STEP] = "fmi2DoStep", [CALL_DO_STEP_EARLY] = "fmi2DoStep (early return)"};
+    return call < N_CALLS && names[call] ? names[call] : "the call";
+}
+
+/* The server's scheduling state and CPU time (ns) from /proc/<pid>/stat: 0, or -1 (not readable). */
+static int proc_state(pid_t pid, char *state, long long *cpu_ns)
+{
+    char path[64], buf[1024];
+    snprintf(path, sizeof path, "/proc/%d/stat", (int)pid);
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return -1;
+    ssize_t n = read(fd, buf, sizeof buf - 1);
+    close(fd);
+    if (n <= 0) return -1;
+    buf[n] = 0;
+    char *p = strrchr(buf, ')');     /* after the command's name, which may hold anything */
+    unsigned long long ut = 0, st = 0;
+    if (!p || sscanf(p + 1, " %c %*d %*d %*d %*d %*d %*u %*u %*u %*u %*u %llu %llu", state, &ut, &st) != 3) return -1;
+    long hz = sysconf(_SC_CLK_TCK);
+    *cpu_ns = (long long)(ut + st) * (1000000000LL / (hz > 0 ? hz : 100));
+    return 0;
+}
+
+/* The call's end without an answer: logged, the server killed, the instance lost. */
+static int call_lost(Remote *r, const char *why)
+{
+    sayf(r, fmi2Error, "%s: the model's process (pid %d) %s: the call ends with fmi2Error, the process is ended and "
+         "the instance is lost; free it and instantiate again", call_name(r->call), (int)r->pid, why);
+    r->dead = 1;
+    kill(r->pid, SIGKILL);
+    waitpid(r->pid, NULL, 0);
+    r->pid = 0;
+    return 0;
+}
+
+/* ipc_wait_change's check after each slice of the host's wait: the server alive, not stopped, not
+ * silent, within the deadline (1); else the call is lost (0). */
+static int call_watch(void *ctx)
+{
+    Remote *r = (Remote *)ctx;
+    if (!server_alive(r)) return 0;
+    uint64_t now = ipc_now_ns();
+    char state = '?';
+    long long cpu = -1;
+    if (proc_state(r->pid, &state, &cpu) == 0) {
+        if (state == 'T' || state == 't') {
+            if (!r->stopped_ns) r->stopped_ns = now;
+            else if (now - r->stopped_ns >= (uint64_t)STOPPED_MS * 1000000u)
+                return call_lost(r, "has been stopped for 1 s (SIGSTOP, SIGTSTP, or SIGTTIN / SIGTTOU: a read or, "
+                                    "with tostop, a write on a terminal)");
+        } else {
+            r->stopped_ns = 0;
+        }
+        if (cpu != r->cpu || state == 'R' || state == 'T' || state == 't') {
+            r->cpu = cpu;
+            r->cpu_ns = now;
+        } else if (now - r->cpu_ns >= (uint64_t)SILENT_MS * 1000000u) {
+            return call_lost(r, "has not answered and has used no CPU for 10 s (blocked: hung)");
+        }
+    }
+    if (now >= r->deadline_ns) {
+        char why[160];
+        snprintf(why, sizeof why, "has not answered within %.6g s (SPURDIFF_FMU_CALL_TIMEOUT)",
+                 (double)(r->deadline_ns - r->sent_ns) / 1e9);
+        return call_lost(r, why);
+    }
+    return 1;
+}
+
+/* The call deadline (ns) from SPURDIFF_FMU_CALL_TIMEOUT (seconds, > 0), else DEADLINE_S. */
+static uint64_t call_deadline(void)
+{
+    const char *e = getenv("SPURDIFF_FMU_CALL_TIMEOUT");
+    char *end = NULL;
+    double sec = e && *e ? strtod(e, &end) : 0.0;
+    if (!(end && *end == 0 && sec > 0.0 && sec < 1e7)) sec = DEADLINE_S;
+    return (uint64_t)(sec * 1e9);
+}
+
 /* Send the call written in the data area (`len` bytes) and wait for the answer. The answer's
- * status, or fmi2Error when the server died. */
+ * status, or fmi2Error when the server died, stopped, went silent or passed the deadline. */
 static fmi2Status roundtrip(Remote *r, uint32_t call, size_t len, IpcBuf *answer)
 {
+    if (getpid() != r->owner) {
+        sayf(r, fmi2Error, "%s refused: this process (pid %d) is a fork of the one that instantiated the FMU (pid "
+             "%d); the model's process belongs to that one: instantiate again in this process", call_name(call),
+             (int)getpid(), (int)r->owner);
+        return fmi2Error;
+    }
     if (r->dead) {
         sayf(r, fmi2Error, "the model's process is gone (see the earlier message): only fmi2FreeInstance is possible");
         return fmi2Error;
     }
+    r->call = call;
+    r->sent_ns = r->cpu_ns = ipc_now_ns();
+    r->deadline_ns = r->sent_ns + call_deadline();
+    r->stopped_ns = 0;
+    r->cpu = -1;
     IpcHeader *h = r->h;
     h->call = call;
     h->len = len;
@@ -160,7 +276,7 @@ static fmi2Status roundtrip(Remote *r, uint32_t call, size_t len, IpcBuf *answer
     ipc_publish(&h->req, seq, &h->server_sleeps);
     uint32_t old = seq - 1;
     /* spin 100 us: the answer to a get or set comes in a few microseconds */
-    if (ipc_wait_change(&h->resp, old, &h->host_sleeps, 100000, 50000000L, server_alive, r) != 0) return fmi2Error;
+    if (ipc_wait_change(&h->resp, old, &h->host_sleeps, 100000, 50000000L, call_watch, r) != 0) return fmi2Error;
     replay(r);
     answer->p = ipc_data(r->base);
     answer->cap = h->len <= IPC_DATA_CAP ? (size_t)h->len : 0;
@@ -291,6 +407,7 @@ fmi2Component remote_instantiate(fmi2String name, fmi2Type type, fmi2String guid
     if (!r) { snprintf(err, errsize, "out of memory"); return NULL; }
     r->magic = REMOTE_MAGIC;
     r->shm_fd = r->pipe_w = -1;
+    r->owner = getpid();
     r->name = strdup(name ? name : "");
     if (cb) r->cb = *cb;
     if (start_server(r, resources, bindir, err, errsize) != 0) {
@@ -328,6 +445,13 @@ static void remote_free(fmi2Component c)
 {
     Remote *r = valid(c);
     if (!r) return;
+    if (getpid() != r->owner) {   /* a forked child's copy: its memory and descriptors only */
+        sayf(r, fmi2Warning, "fmi2FreeInstance in a fork (pid %d) of the process that instantiated the FMU (pid %d): "
+             "this process's copy is freed, the model's process goes on for that one", (int)getpid(), (int)r->owner);
+        r->pid = 0;
+        drop(r);
+        return;
+    }
     if (!r->dead) {
         IpcBuf a;
         roundtrip(r, CALL_FREE, 0, &a);
@@ -384,6 +508,17 @@ static fmi2Status remote_fmi2Terminate(fmi2Component c) { return r_simple(c, CAL
 static fmi2Status remote_fmi2Reset(fmi2Component c) { return r_simple(c, CALL_RESET); }
 static fmi2Status remote_fmi2CancelStep(fmi2Component c) { return r_simple(c, CALL_CANCEL_STEP); }
 
+/* An answer's array of `n` values of `size` bytes into `v` when the call succeeded: the status, or
+ * fmi2Error when the answer does not hold them (or `v` is NULL for n > 0). */
+static fmi2Status take_values(IpcBuf *a, fmi2Status s, void *v, size_t n, size_t size)
+{
+    if (s > fmi2Warning) return s;
+    const void *q = ipc_take_array(a, n, size);
+    if (!q || (n && !v)) return fmi2Error;
+    if (n) memcpy(v, q, n * size);
+    return s;
+}
+
 static fmi2Status r_get(fmi2Component c, uint32_t call, const fmi2ValueReference vr[], size_t n, void *v,
                         size_t size, const char *fn)
 {
@@ -391,12 +526,7 @@ static fmi2Status r_get(fmi2Component c, uint32_t call, const fmi2ValueReference
     ipc_u64(&b, n);
     ipc_put_array(&b, vr, n, sizeof *vr);
     R_SEND(call, fn)
-    if (s <= fmi2Warning) {
-        const void *p = ipc_take_array(&a, n, size);
-        if (!p) return fmi2Error;
-        if (n) memcpy(v, p, n * size);
-    }
-    return s;
+    return take_values(&a, s, v, n, size);
 }
 
 static fmi2Status remote_fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[])
@@ -592,12 +722,7 @@ static fmi2Status remote_fmi2GetDirectionalDerivative(fmi2Component c, const fmi
     ipc_put_array(&b, z, nz, sizeof *z);
     ipc_put_array(&b, du, nu, sizeof *du);
     R_SEND(CALL_DIRECTIONAL_DERIVATIVE, "fmi2GetDirectionalDerivative")
-    if (s <= fmi2Warning) {
-        const void *q = ipc_take_array(&a, nz, sizeof *dz);
-        if (!q || (nz && !dz)) return fmi2Error;
-        if (nz) memcpy(dz, q, nz * sizeof *dz);
-    }
-    return s;
+    return take_values(&a, s, dz, nz, sizeof *dz);
 }
 
 static fmi2Status remote_fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t n,
@@ -620,12 +745,7 @@ static fmi2Status remote_fmi2GetRealOutputDerivatives(fmi2Component c, const fmi
     ipc_put_array(&b, vr, n, sizeof *vr);
     ipc_put_array(&b, o, n, sizeof *o);
     R_SEND(CALL_GET_OUTPUT_DERIVATIVES, "fmi2GetRealOutputDerivatives")
-    if (s <= fmi2Warning) {
-        const void *q = ipc_take_array(&a, n, sizeof *v);
-        if (!q || (n && !v)) return fmi2Error;
-        if (n) memcpy(v, q, n * sizeof *v);
-    }
-    return s;
+    return take_values(&a, s, v, n, sizeof *v);
 }
 
 static fmi2Status remote_fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp)
@@ -660,34 +780,20 @@ static fmi2Status r_status(fmi2Component c, uint32_t call, fmi2StatusKind k, Ipc
     return s;
 }
 
-static fmi2Status remote_fmi2GetStatus(fmi2Component c, const fmi2StatusKind k, fmi2Status *v)
-{
-    IpcBuf a; Remote *r;
-    fmi2Status s = r_status(c, CALL_GET_STATUS, k, &a, &r);
-    if (s <= fmi2Warning && v) *v = (fmi2Status)ipc_get_i32(&a);
-    return s;
-}
-static fmi2Status remote_fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind k, fmi2Real *v)
-{
-    IpcBuf a; Remote *r;
-    fmi2Status s = r_status(c, CALL_GET_REAL_STATUS, k, &a, &r);
-    if (s <= fmi2Warning && v) *v = ipc_get_f64(&a);
-    return s;
-}
-static fmi2Status remote_fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind k, fmi2Integer *v)
-{
-    IpcBuf a; Remote *r;
-    fmi2Status s = r_status(c, CALL_GET_INTEGER_STATUS, k, &a, &r);
-    if (s <= fmi2Warning && v) *v = ipc_get_i32(&a);
-    return s;
-}
-static fmi2Status remote_fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind k, fmi2Boolean *v)
-{
-    IpcBuf a; Remote *r;
-    fmi2Status s = r_status(c, CALL_GET_BOOLEAN_STATUS, k, &a, &r);
-    if (s <= fmi2Warning && v) *v = ipc_get_i32(&a);
-    return s;
-}
+/* the status getters of a number: the answer's one value, read by `get` */
+#define R_STATUS_GETTER(fn, ctype, call, get)                                                      \
+    static fmi2Status fn(fmi2Component c, const fmi2StatusKind k, ctype *v)                        \
+    {                                                                                              \
+        IpcBuf a; Remote *r;                                                                       \
+        fmi2Status s = r_status(c, call, k, &a, &r);                                               \
+        if (s <= fmi2Warning && v) *v = (ctype)get(&a);                                            \
+        return s;                                                                                  \
+    }
+R_STATUS_GETTER(remote_fmi2GetStatus, fmi2Status, CALL_GET_STATUS, ipc_get_i32)
+R_STATUS_GETTER(remote_fmi2GetRealStatus, fmi2Real, CALL_GET_REAL_STATUS, ipc_get_f64)
+R_STATUS_GETTER(remote_fmi2GetIntegerStatus, fmi2Integer, CALL_GET_INTEGER_STATUS, ipc_get_i32)
+R_STATUS_GETTER(remote_fmi2GetBooleanStatus, fmi2Boolean, CALL_GET_BOOLEAN_STATUS, ipc_get_i32)
+#undef R_STATUS_GETTER
 static fmi2Status remote_fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind k, fmi2String *v)
 {
     IpcBuf a; Remote *r = NULL;

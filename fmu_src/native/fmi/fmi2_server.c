@@ -30,9 +30,12 @@ static fmi2FMUstate *states;     /* id - 1 -> the bridge's state */
 static size_t n_states, cap_states;
 
 /* ---------------------------------------------------------------------------- the host's side */
+static pid_t HOST_PID;          /* the parent that started this process: the host */
+
 static int host_alive(void *ctx)
 {
     (void)ctx;
+    if (getppid() != HOST_PID) return 0;   /* the host died (a fork of it may still hold the pipe) */
     struct pollfd p = {IPC_PIPE_FD, POLLIN, 0};
     int r = poll(&p, 1, 0);
     if (r < 0) return errno == EINTR;
@@ -332,6 +335,7 @@ int main(int argc, char **argv)
     char err[8192];
     RuntimeCfg cfg;
     signal(SIGPIPE, SIG_IGN);
+    HOST_PID = getppid();
     if (argc != 3) {
         fprintf(stderr, "usage: spurdiff_fmu_server RESOURCES BINDIR (started by the FMU's loader)\n");
         return 2;

@@ -47,7 +47,7 @@
 #include "fmi3_names.h"
 
 #define INSTANCE3_MAGIC 0x53504433u   /* "SPD3" */
-/* the value reference of the independent variable `time` (harness/modeldescription3.py writes the same) */
+/* the value reference of the independent variable `time` (harness/build/modeldescription3.py writes the same) */
 #define TIME_VR 2147483647u
 
 /* the FMI 2.0 loader's FMI 3.0 extensions (fmi2_loader.c) */
@@ -235,6 +235,10 @@ void fmi3FreeInstance(fmi3Instance instance)
 #define ENTER3                                                                                     \
     Instance3 *I = valid(instance);                                                                \
     if (!I) return fmi3Error;
+/* ENTER3 and the value-reference and value arrays checked (the getters' and setters' prelude) */
+#define ENTER3_ARRAYS(fn)                                                                          \
+    ENTER3                                                                                         \
+    if (!arrays_ok(I, fn, valueReferences, nValueReferences, values, nValues)) return fmi3Error;
 
 fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn, size_t nCategories,
                                const fmi3String categories[])
@@ -398,8 +402,7 @@ fmi3Status fmi3GetOutputDerivatives(fmi3Instance instance, const fmi3ValueRefere
 fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
                           fmi3Float64 values[], size_t nValues)
 {
-    ENTER3
-    if (!arrays_ok(I, "fmi3GetFloat64", valueReferences, nValueReferences, values, nValues)) return fmi3Error;
+    ENTER3_ARRAYS("fmi3GetFloat64")
     if (!nValueReferences || time_index(valueReferences, nValueReferences) < 0)
         return (fmi3Status)fmi2GetReal(I->inner, valueReferences, nValueReferences, values);
     /* `time` among them: it is answered here, the others by the model */
@@ -425,8 +428,7 @@ fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference valueR
 fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
                           const fmi3Float64 values[], size_t nValues)
 {
-    ENTER3
-    if (!arrays_ok(I, "fmi3SetFloat64", valueReferences, nValueReferences, values, nValues)) return fmi3Error;
+    ENTER3_ARRAYS("fmi3SetFloat64")
     if (nValueReferences && time_index(valueReferences, nValueReferences) >= 0) {
         sayf(I, fmi3Error, "fmi3SetFloat64: value reference %u is the independent variable time, which cannot be set",
              TIME_VR);
@@ -441,24 +443,21 @@ _Static_assert(sizeof(fmi3Int32) == sizeof(fmi2Integer), "fmi3Int32 and fmi2Inte
 fmi3Status fmi3GetInt32(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
                         fmi3Int32 values[], size_t nValues)
 {
-    ENTER3
-    if (!arrays_ok(I, "fmi3GetInt32", valueReferences, nValueReferences, values, nValues)) return fmi3Error;
+    ENTER3_ARRAYS("fmi3GetInt32")
     return (fmi3Status)fmi2GetInteger(I->inner, valueReferences, nValueReferences, (fmi2Integer *)values);
 }
 
 fmi3Status fmi3SetInt32(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
                         const fmi3Int32 values[], size_t nValues)
 {
-    ENTER3
-    if (!arrays_ok(I, "fmi3SetInt32", valueReferences, nValueReferences, values, nValues)) return fmi3Error;
+    ENTER3_ARRAYS("fmi3SetInt32")
     return (fmi3Status)fmi2SetInteger(I->inner, valueReferences, nValueReferences, (const fmi2Integer *)values);
 }
 
 fmi3Status fmi3GetBoolean(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
                           fmi3Boolean values[], size_t nValues)
 {
-    ENTER3
-    if (!arrays_ok(I, "fmi3GetBoolean", valueReferences, nValueReferences, values, nValues)) return fmi3Error;
+    ENTER3_ARRAYS("fmi3GetBoolean")
     fmi2Boolean *b = (fmi2Boolean *)calloc(nValueReferences ? nValueReferences : 1, sizeof *b);
     if (!b) { sayf(I, fmi3Error, "fmi3GetBoolean: out of memory"); return fmi3Error; }
     fmi2Status s = fmi2GetBoolean(I->inner, valueReferences, nValueReferences, b);
@@ -471,8 +470,7 @@ fmi3Status fmi3GetBoolean(fmi3Instance instance, const fmi3ValueReference valueR
 fmi3Status fmi3SetBoolean(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
                           const fmi3Boolean values[], size_t nValues)
 {
-    ENTER3
-    if (!arrays_ok(I, "fmi3SetBoolean", valueReferences, nValueReferences, values, nValues)) return fmi3Error;
+    ENTER3_ARRAYS("fmi3SetBoolean")
     fmi2Boolean *b = (fmi2Boolean *)calloc(nValueReferences ? nValueReferences : 1, sizeof *b);
     if (!b) { sayf(I, fmi3Error, "fmi3SetBoolean: out of memory"); return fmi3Error; }
     for (size_t i = 0; i < nValueReferences; i++) b[i] = values[i] ? fmi2True : fmi2False;
@@ -495,8 +493,7 @@ fmi3Status fmi3GetString(fmi3Instance instance, const fmi3ValueReference valueRe
 fmi3Status fmi3SetString(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
                          const fmi3String values[], size_t nValues)
 {
-    ENTER3
-    if (!arrays_ok(I, "fmi3SetString", valueReferences, nValueReferences, values, nValues)) return fmi3Error;
+    ENTER3_ARRAYS("fmi3SetString")
     return (fmi3Status)fmi2SetString(I->inner, valueReferences, nValueReferences, values);
 }
 
@@ -530,14 +527,20 @@ NO_SUCH_TYPE(fmi3SetInt64, const fmi3Int64, "Int64")
 NO_SUCH_TYPE(fmi3SetUInt64, const fmi3UInt64, "UInt64")
 #undef NO_SUCH_TYPE
 
+/* fmi3GetClock / fmi3SetClock: nothing to do for no value references, else fmi3Error (no clocks here) */
+static fmi3Status no_clocks(Instance3 *I, const char *fn, const fmi3ValueReference vr[], size_t n)
+{
+    if (!n) return fmi3OK;
+    sayf(I, fmi3Error, "%s: this FMU has no clocks (value reference %u)", fn, vr ? vr[0] : 0u);
+    return fmi3Error;
+}
+
 fmi3Status fmi3GetClock(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
                         fmi3Clock values[])
 {
     ENTER3
     (void)values;
-    if (!nValueReferences) return fmi3OK;
-    sayf(I, fmi3Error, "fmi3GetClock: this FMU has no clocks (value reference %u)", valueReferences ? valueReferences[0] : 0u);
-    return fmi3Error;
+    return no_clocks(I, "fmi3GetClock", valueReferences, nValueReferences);
 }
 
 fmi3Status fmi3SetClock(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
@@ -545,9 +548,7 @@ fmi3Status fmi3SetClock(fmi3Instance instance, const fmi3ValueReference valueRef
 {
     ENTER3
     (void)values;
-    if (!nValueReferences) return fmi3OK;
-    sayf(I, fmi3Error, "fmi3SetClock: this FMU has no clocks (value reference %u)", valueReferences ? valueReferences[0] : 0u);
-    return fmi3Error;
+    return no_clocks(I, "fmi3SetClock", valueReferences, nValueReferences);
 }
 
 fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,

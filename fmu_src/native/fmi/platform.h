@@ -16,6 +16,7 @@
  *   plat_own_dir(addr, out, size)    the folder of the binary holding `addr`
  *   plat_is_dir(path)                a folder that exists
  *   plat_open_read(path)             a read-only file descriptor (never blocking on a FIFO)
+ *   plat_path_utf8(path, size)       a decoded resource path in the ANSI code page made UTF-8 (Windows)
  */
 #ifndef SPURDIFF_PLATFORM_H
 #define SPURDIFF_PLATFORM_H
@@ -126,6 +127,19 @@ PLAT_FN int plat_is_dir(const char *path)
     return a != INVALID_FILE_ATTRIBUTES && (a & FILE_ATTRIBUTE_DIRECTORY);
 }
 
+/* A path decoded from a resource URI that is not UTF-8 was written in the ANSI code page (many
+ * Windows hosts pass 'ü' so, percent-encoded or not): converted from that code page to UTF-8 in
+ * place. 0, or -1 when it does not convert or fit. */
+PLAT_FN int plat_path_utf8(char *path, size_t size)
+{
+    if (MultiByteToWideChar(CP_UTF8, MB_ERR_INVALID_CHARS, path, -1, NULL, 0) > 0)
+        return 0;                                      /* UTF-8 already (ASCII too) */
+    wchar_t w[PATH_MAX];
+    if (!MultiByteToWideChar(CP_ACP, 0, path, -1, w, PATH_MAX))
+        return -1;
+    return WideCharToMultiByte(CP_UTF8, 0, w, -1, path, (int)size, NULL, NULL) > 0 ? 0 : -1;
+}
+
 PLAT_FN int plat_open_read(const char *path)
 {
     wchar_t *w = plat_wide(path);
@@ -175,6 +189,9 @@ PLAT_FN int plat_is_dir(const char *path)
     struct stat st;
     return stat(path, &st) == 0 && S_ISDIR(st.st_mode);
 }
+
+/* paths are bytes here: a resource URI's path is taken as it decodes */
+PLAT_FN int plat_path_utf8(char *path, size_t size) { (void)path; (void)size; return 0; }
 
 /* O_NONBLOCK: a FIFO planted in its place must not block the open (the caller refuses it) */
 PLAT_FN int plat_open_read(const char *path) { return open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC); }

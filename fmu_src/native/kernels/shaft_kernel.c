@@ -32,7 +32,9 @@
  *
  * Over 800 lines: it is one transcription of one Python step (shafts, solver, rigid model's mode
  * logic and stuck path), kept in one translation unit so that its order of operations can be read
- * against the reference side by side; the stuck path's 3-D journal (issue 41) added its solve here.
+ * against the reference side by side; the stuck path's 3-D journal (issue 41) added its solve here;
+ * and the native steps at the end (sk_native with the half-shafts, sk_rigid_native without them)
+ * call its static transcription of the rigid step: splitting would export Ctx and the R_* layout.
  */
 #include <math.h>
 #include <stdint.h>
@@ -86,6 +88,8 @@ typedef struct {
     rk_fn slip, step_slip;
     const double *mL, *mR;
     double *ss;           /* the shafts' working state */
+    int break_slide;      /* 1: a break-away slips at the sliding lever (the plain rigid model's c_break) */
+    const double *pp;     /* NULL: the pin-load law; else the linear capacity's constants (PP_*, rigid_paper) */
 } Ctx;
 
 /* ------------------------------------------------------------------ the rigid model (rigid.py) */
@@ -330,7 +334,8 @@ static void accelerations(Ctx *c, double *s, int given, double ac_given, double 
     /* the break-away solve at the static lever (constant 4; rigid_pinload's c_break, which the shafted
      * model sets to it): this inner step slips at it, the next ones at the sliding lever (constant 53) */
     const double c_slide = c->k[53];
-    c->k[53] = c->k[4];
+    if (!c->break_slide)
+        c->k[53] = c->k[4];
     slip_exact(c, s, given, ac_given, sd, &ac_s, &ad_s, &Qf);
     c->k[53] = c_slide;
     if (ad_s * sd > 0.0) {
@@ -360,6 +365,82 @@ static void rigid_advance(const Ctx *c, double *s, double dt, double ac, double 
     s[R_WD] = wd1;
 }
 
+/* ---- the linear capacity K |T_0| + T_pre (lockingLaw = paper, or no pin-load solve: rigid.py's
+ * _accelerations, _slip_accelerations, _solve_slip, _T0), for the native step without half-shafts;
+ * its constants pp: */
+enum { PP_K, PP_KSLIDE, PP_KBREAK, PP_PRE, PP_MDD, PP_DA, PP_DB, PP_R1, PP_CA, PP_D0, PP_SHARE, PP_N };
+
+static double paper_T0(const Ctx *c, const double *s, double ac, double ad)
+{
+    const double *k = c->k;
+    return (k[7] * (ac + ad) - s[R_TAUL]) + (k[8] * (ac + k[9] * ad) - s[R_TAUR]);
+}
+
+static void paper_solve_slip(const Ctx *c, const double *s, int given, double ac_given, double sd, double sigma,
+                             double K, double *ac, double *ad)
+{
+    const double *k = c->k, *pp = c->pp;
+    const double kf = sd * K * sigma;
+    const double Fd = s[R_TAUL] + k[9] * s[R_TAUR] - sd * pp[PP_PRE];
+    const double alpha0 = -s[R_TAUL] - s[R_TAUR];
+    const double alpha_c = k[7] + k[8];
+    const double beta = k[7] + k[9] * k[8];
+    if (given) {
+        *ac = ac_given;
+        *ad = (Fd - k[14] * ac_given - kf * (alpha0 + alpha_c * ac_given)) / (pp[PP_MDD] + kf * beta);
+        return;
+    }
+    const double Qc = s[R_TAUC] + s[R_TAUL] + s[R_TAUR];
+    const double a11 = k[15], a12 = k[14], b1 = Qc;
+    const double a21 = k[14] + kf * alpha_c, a22 = pp[PP_MDD] + kf * beta, b2 = Fd - kf * alpha0;
+    const double det = a11 * a22 - a12 * a21;
+    *ac = (b1 * a22 - a12 * b2) / det;
+    *ad = (a11 * b2 - a21 * b1) / det;
+}
+
+static void paper_slip(const Ctx *c, const double *s, int given, double ac_given, double sd, double K, double out[3])
+{
+    double ac, ad;
+    for (int i = 0; i < 2; i++) {
+        const double sigma = i == 0 ? 1.0 : -1.0;
+        paper_solve_slip(c, s, given, ac_given, sd, sigma, K, &ac, &ad);
+        const double T0 = paper_T0(c, s, ac, ad);
+        if (T0 * sigma >= 0.0) {
+            out[0] = ac; out[1] = ad; out[2] = -sd * (K * fabs(T0) + c->pp[PP_PRE]);
+            return;
+        }
+    }
+    paper_solve_slip(c, s, given, ac_given, sd, 0.0, K, &ac, &ad);   /* T0 changes sign: preload only */
+    out[0] = ac; out[1] = ad; out[2] = -sd * c->pp[PP_PRE];
+}
+
+static void paper_accelerations(const Ctx *c, const double *s, int given, double ac_given, double out[4])
+{
+    const double *k = c->k, *pp = c->pp;
+    double r[3];
+    if (s[R_WD] != 0.0) {
+        const double sd = copysign(1.0, s[R_WD]);
+        paper_slip(c, s, given, ac_given, sd, pp[PP_KSLIDE], r);
+        out[0] = r[0]; out[1] = r[1]; out[2] = r[2]; out[3] = sd;
+        return;
+    }
+    const double Fd = s[R_TAUL] + k[9] * s[R_TAUR];
+    const double ac = given ? ac_given : (s[R_TAUC] + s[R_TAUL] + s[R_TAUR]) / k[15];
+    const double Q_req = k[14] * ac - Fd;
+    const double cap = pp[PP_K] * fabs(paper_T0(c, s, ac, 0.0)) + pp[PP_PRE];
+    if (fabs(Q_req) <= cap * (1.0 + 1e-12)) {
+        out[0] = ac; out[1] = 0.0; out[2] = Q_req; out[3] = 0.0;
+        return;
+    }
+    const double sd = -copysign(1.0, Q_req);
+    paper_slip(c, s, given, ac_given, sd, pp[PP_KBREAK], r);
+    if (r[1] * sd > 0.0) {
+        out[0] = r[0]; out[1] = r[1]; out[2] = r[2]; out[3] = sd;
+        return;
+    }
+    out[0] = ac; out[1] = 0.0; out[2] = copysign(cap, Q_req); out[3] = 0.0;   /* no consistent break-away */
+}
+
 /* RigidDifferential.do_step (with _step_compiled: rk_step_slip) */
 static int rigid_step(Ctx *c, double *s, double t, double h)
 {
@@ -370,8 +451,9 @@ static int rigid_step(Ctx *c, double *s, double t, double h)
         return SK_FALLBACK;          /* the Python code names the input */
     /* the carrier speed at the step's start and its acceleration (speed drive: the ramp of this step;
      * torque drive: the acceleration at the end of the last step), held over the step */
-    set_speed_loads(c, s, s[R_WC], speed ? (s[R_WREF] - s[R_WC]) / h : s[R_AC]);
-    if (s[R_WD] != 0.0 && !speed) {
+    if (!c->pp)
+        set_speed_loads(c, s, s[R_WC], speed ? (s[R_WREF] - s[R_WC]) / h : s[R_AC]);
+    if (!c->pp && s[R_WD] != 0.0 && !speed) {
         /* _step_compiled: a new solve (key other than the cached one), slipping throughout */
         const double sd = copysign(1.0, s[R_WD]);
         const int same = s[R_HAS_SK] != 0.0 && s[R_SK_S] == sd && s[R_SK_HAS_ACG] == 0.0
@@ -409,7 +491,10 @@ static int rigid_step(Ctx *c, double *s, double t, double h)
     int i;
     for (i = 0; i < 16; i++) {
         double a[4];
-        accelerations(c, s, speed, ac_given, a);
+        if (c->pp)
+            paper_accelerations(c, s, speed, ac_given, a);
+        else
+            accelerations(c, s, speed, ac_given, a);
         double dt = remaining;
         int crossing = 0;
         if (s[R_WD] != 0.0 && a[1] * s[R_WD] < 0.0) {
@@ -439,7 +524,10 @@ static int rigid_step(Ctx *c, double *s, double t, double h)
     s[R_LOSS_LAST] = s[R_LOSS] - loss0;
     s[R_NSTEPS] += 1.0;
     double a[4];
-    accelerations(c, s, speed, 0.0, a);
+    if (c->pp)
+        paper_accelerations(c, s, speed, 0.0, a);
+    else
+        accelerations(c, s, speed, 0.0, a);
     s[R_AC] = a[0]; s[R_AD] = a[1]; s[R_QF] = a[2]; s[R_SD] = a[3];
     s[R_LASTH] = h;
     return SK_OK;
@@ -694,6 +782,8 @@ int64_t sk_step(const double *sc, double *k, double *rs, double *ss, const doubl
     c.step_slip = (rk_fn)fp[1];
     c.mL = in + I_ML;
     c.mR = in + I_MR;
+    c.break_slide = 0;
+    c.pp = NULL;
     memcpy(cur, rs, sizeof cur);
     memcpy(S, ss, sizeof S);
     c.ss = S;
@@ -788,6 +878,25 @@ static double max3(double a, double b, double c)   /* Python's max(a, b, c) */
     return m;
 }
 
+/* The load-capacity watch (gears.capacity.StressWatch.update) on the step's mesh forces: the largest
+ * |force| per mesh (Fm) and the run's largest stresses updated; 1 when it would log (the first excess
+ * of the static strength while `exceeded` is 0: the Python step logs it), else 0. */
+static int capacity_watch(const double *oc, double FA, double FB, double F12, double *sHmax, double *sFmax,
+                          double Fm[3], double exceeded)
+{
+    const double a1 = FA >= 0.0 ? FA : -FA, a2 = FB >= 0.0 ? FB : -FB, a3 = F12 >= 0.0 ? F12 : -F12;
+    if (a1 <= Fm[0] && a2 <= Fm[1] && a3 <= Fm[2])
+        return 0;
+    Fm[0] = a1 > Fm[0] ? a1 : Fm[0];
+    Fm[1] = a2 > Fm[1] ? a2 : Fm[1];
+    Fm[2] = a3 > Fm[2] ? a3 : Fm[2];
+    const double sH = max3(oc[OC_AH] * sqrt(a1), oc[OC_AH + 1] * sqrt(a2), oc[OC_AH + 2] * sqrt(a3));
+    const double sF = max3(oc[OC_AF] * a1, oc[OC_AF + 1] * a2, oc[OC_AF + 2] * a3);
+    if (sH > *sHmax) *sHmax = sH;
+    if (sF > *sFmax) *sFmax = sF;
+    return exceeded == 0.0 && (sH > oc[OC_HG] || sF > oc[OC_FG]);
+}
+
 int64_t sk_native(const SkNative *x, double *v, double t, double h)
 {
     const double *oc = x->oc;
@@ -820,19 +929,7 @@ int64_t sk_native(const SkNative *x, double *v, double t, double h)
     const double F12 = rs[R_F12];
     /* the load-capacity watch (StressWatch.update) */
     double sHmax = v[SKV_OUT + 30], sFmax = v[SKV_OUT + 31], Fm[3] = {v[57], v[58], v[59]};
-    const double a1 = FA >= 0.0 ? FA : -FA, a2 = FB >= 0.0 ? FB : -FB, a3 = F12 >= 0.0 ? F12 : -F12;
-    int log = 0;
-    if (!(a1 <= Fm[0] && a2 <= Fm[1] && a3 <= Fm[2])) {
-        Fm[0] = a1 > Fm[0] ? a1 : Fm[0];
-        Fm[1] = a2 > Fm[1] ? a2 : Fm[1];
-        Fm[2] = a3 > Fm[2] ? a3 : Fm[2];
-        const double sH = max3(oc[OC_AH] * sqrt(a1), oc[OC_AH + 1] * sqrt(a2), oc[OC_AH + 2] * sqrt(a3));
-        const double sF = max3(oc[OC_AF] * a1, oc[OC_AF + 1] * a2, oc[OC_AF + 2] * a3);
-        if (sH > sHmax) sHmax = sH;
-        if (sF > sFmax) sFmax = sF;
-        if (v[SKV_OUT + 32] == 0.0 && (sH > oc[OC_HG] || sF > oc[OC_FG]))
-            log = 1;
-    }
+    int log = capacity_watch(oc, FA, FB, F12, &sHmax, &sFmax, Fm, v[SKV_OUT + 32]);
     /* the overspeed watch */
     const double awd = fabs(wd);
     const int over = awd > oc[OC_LIMIT];
@@ -874,6 +971,111 @@ int64_t sk_native(const SkNative *x, double *v, double t, double h)
     v[53] = T0 > 0.0 ? 1.0 : (T0 < 0.0 ? -1.0 : 0.0);
     v[54] = rs[R_NSW];
     v[55] = ss[S_NSTEPS];
+    v[57] = Fm[0]; v[58] = Fm[1]; v[59] = Fm[2];
+    for (int i = 0; i < 20; i++)
+        v[61 + i] = v[i];
+    return 0;
+}
+
+/* ------------------------------------------------------------------ the native step without half-shafts
+ * The plain rigid model's whole communication step (shaftCoupling = torque; spurdiff.differential.
+ * rigid_native.RigidNative): WatchedRigidDifferential.do_step, i.e. RigidDifferential.do_step (rigid_step
+ * above, the pin-load law with its compiled solve: the same locking-law functions the step with the
+ * half-shafts calls), the two watches as in sk_native, and the outputs the FMU reads.
+ * v: sk_native's layout (SKV_N doubles), so that a host sets the same inputs with either coupling:
+ * 0 w_ref, 1 tau_c, 2 tau_L, 3 tau_R; 4..19 the wheel-side inputs (not used here: carried); 20..52 the
+ * Real outputs (SKV_OUT order); 53..56 the Integer outputs; 57..59 the largest |force| booked per
+ * mesh, 60 the overspeed warned; 61..80 the inputs the last step took. Returns as sk_native: 0 done,
+ * 1 rigid_step did not take it, 4 an input the model refuses
+ * or h not positive and finite, 5 a watch would log or an output is not finite; on failure nothing in
+ * v, rs or k changed. */
+typedef struct {
+    const double *sc;     /* SC_N: the carrier drive and the speed-load constants are read */
+    double *k;            /* the rigid kernel's constants (speed loads written on success) */
+    double *rs;           /* the rigid model's state (R_*) */
+    void *fp[2];
+    const double *oc;     /* sk_native's output constants (OC_CL, OC_CR unused) */
+    const double *pp;     /* NULL: the pin-load law; else the linear capacity's constants (PP_*) */
+} SkRigidNative;
+int64_t sk_rigid_nv(void) { return SKV_N; }
+
+int64_t sk_rigid_native(const SkRigidNative *x, double *v, double t, double h)
+{
+    const double *oc = x->oc;
+    if (!(h > 0.0 && h < INFINITY) || !(isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]) && isfinite(v[3])))
+        return 4;
+    Ctx c;
+    double s[RS_N];
+    c.sc = x->sc;
+    memcpy(c.k, x->k, sizeof c.k);
+    c.slip = (rk_fn)x->fp[0];
+    c.step_slip = (rk_fn)x->fp[1];
+    c.mL = c.mR = NULL;
+    c.ss = NULL;
+    c.break_slide = 1;
+    c.pp = x->pp;
+    memcpy(s, x->rs, sizeof s);
+    s[R_WREF] = v[0];
+    s[R_TAUC] = v[1];
+    s[R_TAUL] = v[2];
+    s[R_TAUR] = v[3];
+    if (rigid_step(&c, s, t, h) != SK_OK)
+        return 1;
+    const double wc = s[R_WC], wd = s[R_WD], phic = s[R_PHIC], phid = s[R_PHID], ac = s[R_AC], ad = s[R_AD];
+    const double tauL = s[R_TAUL], tauR = s[R_TAUR], lam = oc[OC_LAM];
+    const double tmL = oc[OC_JA] * (ac + ad) - tauL, tmR = oc[OC_JB] * (ac + lam * ad) - tauR;
+    const double *pp = x->pp;
+    double FA, FB, F12, cap;
+    if (!pp) {          /* rigid_pinload's _sun_forces, F12 and cap of the solve */
+        FA = (oc[OC_JA] * (ac + ad) - tauL) / oc[OC_NRA];
+        FB = (oc[OC_JB] * (ac + lam * ad) - tauR) / oc[OC_NRB];
+        F12 = s[R_F12];
+        cap = s[R_CAP];
+    } else {            /* statics.mesh_forces_for, rigid.py's locking_capacity */
+        FA = tmL / pp[PP_DA];
+        FB = tmR / pp[PP_DB];
+        F12 = tmL == tmR ? FA * pp[PP_R1] * pp[PP_CA] / pp[PP_D0] : FA - pp[PP_SHARE] * (FA - FB);
+        cap = (s[R_SD] != 0.0 ? pp[PP_KSLIDE] : pp[PP_K]) * fabs(tmL + tmR) + pp[PP_PRE];
+    }
+    double *o = v + SKV_OUT;
+    /* the load-capacity watch (StressWatch.update), as sk_native */
+    double sHmax = o[30], sFmax = o[31], Fm[3] = {v[57], v[58], v[59]};
+    int log = capacity_watch(oc, FA, FB, F12, &sHmax, &sFmax, Fm, o[32]);
+    const int over = fabs(wd) > oc[OC_LIMIT];
+    if (over && v[60] == 0.0)
+        log = 1;
+    const double p2 = oc[OC_P2], lasth = s[R_LASTH];
+    double r[33];
+    r[0] = -tauL; r[1] = -tauR; r[2] = 0.0; r[3] = 0.0; r[4] = -tauL; r[5] = -tauR; r[6] = 0.0; r[7] = 0.0;
+    r[8] = wc; r[9] = phic; r[10] = wc + wd; r[11] = phic + phid; r[12] = wc + lam * wd; r[13] = phic + lam * phid;
+    r[14] = oc[OC_SPEED] != 0.0 ? oc[OC_MCC] * ac + oc[OC_MCD] * ad - tauL - tauR : s[R_TAUC];
+    r[15] = tmL; r[16] = tmR; r[17] = FA; r[18] = FB; r[19] = F12;
+    r[20] = s[R_QF]; r[21] = cap;
+    r[22] = lasth > 0.0 ? s[R_LOSS_LAST] / lasth : fabs(s[R_QF] * wd);
+    r[23] = s[R_LOSS];
+    r[24] = s[R_WORK];
+    r[25] = 0.5 * (oc[OC_MCC] * pow(wc, p2) + 2.0 * oc[OC_MCD] * wc * wd + oc[OC_MDD] * pow(wd, p2));
+    r[26] = (wd == 0.0 && ad == 0.0) ? 1.0 : 0.0;
+    r[27] = o[27];                    /* potential energy: none at rigid */
+    r[28] = o[28];                    /* parametric work: none at rigid */
+    r[29] = over ? 1.0 : 0.0;
+    r[30] = sHmax; r[31] = sFmax;
+    r[32] = o[32];                    /* exceeded: unchanged (a change is logged by the Python step) */
+    for (int i = 0; i < 33; i++)
+        if (!isfinite(r[i]))
+            log = 1;
+    if (log)
+        return 5;
+    memcpy(x->rs, s, sizeof s);
+    for (int i = 0; i < 4; i++) {
+        x->k[49 + i] = c.k[49 + i];
+        x->k[54 + i] = c.k[54 + i];
+    }
+    memcpy(o, r, sizeof r);
+    const double T0 = tmL + tmR;
+    v[53] = T0 > 0.0 ? 1.0 : (T0 < 0.0 ? -1.0 : 0.0);
+    v[54] = s[R_NSW];
+    v[55] = s[R_NSTEPS];
     v[57] = Fm[0]; v[58] = Fm[1]; v[59] = Fm[2];
     for (int i = 0; i < 20; i++)
         v[61 + i] = v[i];

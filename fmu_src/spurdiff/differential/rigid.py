@@ -411,6 +411,20 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
         """Internal steps: one per communication step (the rigid level integrates exactly)."""
         return self.n_steps
 
+    def native_step(self):
+        """The whole step in C for a host that steps without Python (:mod:`spurdiff.native_step`,
+        :mod:`spurdiff.differential.rigid_native`): with the FMU's watches and a compiled step for the
+        locking law in use, else None (also with ``native`` false: the FMU's ``solver.nativeStep``); the
+        same plan while the compiled solve is the same."""
+        d = self.__dict__
+        if not (self._ready and d.get("native", True)):
+            return None
+        plan = d.get("_native")
+        if plan is None or plan.rk is not d["_rk"]:
+            from spurdiff.differential import rigid_native
+            plan = d["_native"] = rigid_native.native(self)
+        return plan
+
     # ------------------------------------------------------------------ state
     # the state is plain attributes (no properties among them): read and written through the
     # instance dictionary in one C-level call each (the shafted differential copies it per inner step)

@@ -153,16 +153,7 @@ class Kernel:
     def unpack(self, d: dict, md: dict) -> None:
         """The state the last compiled step left in the arrays into the models' dictionaries (``d``
         the inner model's, ``md`` the shafted one's); the arrays then hold their present state."""
-        r = _RS.unpack_from(self.rs)
-        d.update(zip(_R_PLAIN, _pick_plain(r)))
-        d["_ad_guess"] = r[12] if r[11] else None
-        if r[13]:
-            d["_slip_key"] = (r[14], r[16] if r[15] else None, r[17], r[18], r[19], r[20], r[21])
-            d["_slip_val"] = r[22:28]
-        d["n_mode_switches"] = int(r[31])
-        d["n_steps"] = int(r[32])
-        d["_g"] = r[33:37]
-        d["_gt"] = r[38:42]
+        r = unpack_rigid(self.rs, d)
         s = _SS.unpack_from(self.ss)
         md.update(zip(_S_PLAIN, _pick_s(s)))
         md["n_steps"], md["n_substeps"], md["n_evals"], md["n_jacobians"], md["n_halvings"] = map(int, s[15:20])
@@ -185,12 +176,6 @@ class Kernel:
 
     def _pack(self, d: dict, md: dict) -> bool:
         """The models' state into the arrays; False when it does not fit (the Python code runs)."""
-        adg, key, val = d["_ad_guess"], d["_slip_key"], d["_slip_val"]
-        if key is None:
-            key9 = _NO_KEY
-        else:
-            acg = key[1]
-            key9 = ((1.0, key[0], 0.0, 0.0) if acg is None else (1.0, key[0], 1.0, acg)) + tuple(key[2:7])
         slots = [0.0] * 40
         jac = md["_jac"]
         for k, v in (jac if jac is not None else self.jac_dict()).items():
@@ -198,10 +183,9 @@ class Kernel:
             if i is None or len(v) != 4:
                 return False    # not a rigid model's key: the Python code keeps it
             slots[5 * i:5 * i + 5] = (1.0, *v)
+        if not pack_rigid(self.rs, d):
+            return False
         try:
-            _RS.pack_into(self.rs, 0, *_get_head(d), *((0.0, 0.0) if adg is None else (1.0, adg)), *key9,
-                          *(_NO_VAL if val is None else val), *_get_mid(d), *d["_g"], d["_g_wc"], *d["_gt"],
-                          *_get_tail(d), d.get("_last_h", 0.0))
             _SS.pack_into(self.ss, 0, *_get_s(md), 0.0, 0.0, *slots)
         except (struct.error, TypeError):   # a value that is not a number (a state from elsewhere)
             return False
@@ -210,6 +194,39 @@ class Kernel:
     def forget(self) -> None:
         """The Python code runs a step (it updates the Jacobian cache in place): pack anew next time."""
         self._rt = self._st = self._jac = None
+
+
+def pack_rigid(rs, d: dict) -> bool:
+    """The rigid model's state (its dictionary ``d``) into ``rs`` (shaft_kernel.c's R_* layout); False
+    when it does not fit (a value that is not a number: a state from elsewhere)."""
+    adg, key, val = d["_ad_guess"], d["_slip_key"], d["_slip_val"]
+    if key is None:
+        key9 = _NO_KEY
+    else:
+        acg = key[1]
+        key9 = ((1.0, key[0], 0.0, 0.0) if acg is None else (1.0, key[0], 1.0, acg)) + tuple(key[2:7])
+    try:
+        _RS.pack_into(rs, 0, *_get_head(d), *((0.0, 0.0) if adg is None else (1.0, adg)), *key9,
+                      *(_NO_VAL if val is None else val), *_get_mid(d), *d["_g"], d["_g_wc"], *d["_gt"],
+                      *_get_tail(d), d.get("_last_h", 0.0))
+    except (struct.error, TypeError, ValueError):
+        return False
+    return True
+
+
+def unpack_rigid(rs, d: dict) -> tuple:
+    """``rs`` into the rigid model's dictionary ``d`` (the inverse of :func:`pack_rigid`); the values."""
+    r = _RS.unpack_from(rs)
+    d.update(zip(_R_PLAIN, _pick_plain(r)))
+    d["_ad_guess"] = r[12] if r[11] else None
+    if r[13]:
+        d["_slip_key"] = (r[14], r[16] if r[15] else None, r[17], r[18], r[19], r[20], r[21])
+        d["_slip_val"] = r[22:28]
+    d["n_mode_switches"] = int(r[31])
+    d["n_steps"] = int(r[32])
+    d["_g"] = r[33:37]
+    d["_gt"] = r[38:42]
+    return r
 
 
 _RS, _SS, _IN = struct.Struct(f"{NRS}d"), struct.Struct(f"{NSS}d"), struct.Struct(f"{NIN}d")

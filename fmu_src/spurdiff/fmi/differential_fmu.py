@@ -25,7 +25,7 @@ from spurdiff.differential.locking import torque_bias_ratio
 from spurdiff.gears.axial import AxialLayout
 from spurdiff.gears.design import derive
 from spurdiff.gears.phasing import mesh_phases
-from spurdiff.differential.mesh import MeshDifferential, MeshParams
+from spurdiff.differential.mesh import MeshParams
 from spurdiff.differential.mesh import rates as mesh_rates
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.rigid import RigidDifferential
@@ -268,8 +268,8 @@ VARIABLES: list[Var] = [
        "method that reuses its Jacobian) | rodas5p (RODAS5P, order 5, a Jacobian every internal step; several "
        "times fewer internal steps from tolerance 1e-4 down, docs/accuracy.md)",
        kind="String"),
-    Var("solver.nativeStep", "parameter", "With the compiled step with the half-shafts in use (shaftCoupling = wheel, "
-        "rigid): true = the whole communication step runs in C without entering Python (the FMU's native step: "
+    Var("solver.nativeStep", "parameter", "At rigid with a compiled step in use (shaftCoupling = wheel: the "
+        "half-shafts' step with the pin-load law; torque: the rigid step, every locking law): true = the whole communication step runs in C without entering Python (the FMU's native step: "
         "the inputs checked, the step, the watches, the outputs; the same results bit for bit; the state is "
         "handed back to Python before any other call reads it) | false = every step runs through the Python "
         "model around the compiled kernel (for comparison)", None, None, True, kind="Boolean",
@@ -488,8 +488,10 @@ def build_model(values: dict):
             params = replace(params, mu_pin=0.0, mu_pinDynamic=0.0, lockingPreload=0.0)
         model = RigidDifferential(params)
         model.kernel = s.mesh.kernel     # the pin-load solve's implementation (spurdiff.differential.rigid_kernel)
+        model.native = bool(s.mesh.nativeStep)     # the whole step in C (spurdiff.differential.rigid_native)
     else:
         _validated_mesh(s.mesh)
+        from spurdiff.differential.mesh.model import MeshDifferential   # (numpy: the mesh levels only)
         model = MeshDifferential(params, s.mesh)
         model.input_names = {v.bind: v.name for v in io.inputs}   # errors name the FMU's inputs
     io.push(model, values)

@@ -33,6 +33,29 @@ class FmuState:
     model: Any
 
 
+def _not_finite(x: Any, ref: Any, path: str = "") -> tuple[str, float] | None:
+    """The first number of the model state ``x`` that is NaN or infinite where the freshly built model's
+    state ``ref`` holds a finite number or nothing (a state this FMU wrote has a non-finite number only
+    where a fresh model has one, e.g. a mesh force not solved yet): (its path, its value), or None."""
+    if isinstance(x, float):
+        if math.isfinite(x) or isinstance(ref, float) and not math.isfinite(ref):
+            return None
+        return path, x
+    if isinstance(x, dict):
+        r = ref if isinstance(ref, dict) else {}
+        for k, v in x.items():
+            bad = _not_finite(v, r.get(k), f"{path}.{k}" if path else str(k))
+            if bad is not None:
+                return bad
+    elif isinstance(x, (list, tuple)):
+        r = ref if isinstance(ref, (list, tuple)) else ()
+        for i, v in enumerate(x):
+            bad = _not_finite(v, r[i] if i < len(r) else None, f"{path}[{i}]")
+            if bad is not None:
+                return bad
+    return None
+
+
 class FmuStateMethods:
     """The FMU-state methods of :class:`~spurdiff.fmi.adapter.ModelFmu` (they use its ``values``,
     ``phase``, ``model``, ``VARIABLES``, ``_fixed``, ``_built``, ``build_model`` and ``_refuse``)."""
@@ -109,11 +132,16 @@ class FmuStateMethods:
         if state.model is not None:
             try:
                 model = self._built(dict(values))
+                fresh = model.get_state()
                 model.set_state(state.model)
             except ParameterError as e:
                 raise ValueError(f"invalid parameter in the state: {e}") from None
             except Exception as e:
                 raise ValueError(f"the state's model part does not fit: {type(e).__name__}: {e}") from None
+            bad = _not_finite(state.model, fresh)
+            if bad is not None:
+                raise ValueError(f"model.{bad[0]} = {bad[1]!r} in the state is not a finite number (the model "
+                                 "never holds one there): refused, as a non-finite input is")
         return state
 
     # pythonfmu's protocol (an FMU built without a C compiler runs on pythonfmu's wrapper)

@@ -21,10 +21,10 @@ to the rounded tool tooth, maximised over the rolling angle).
 """
 from __future__ import annotations
 
+import json
 import math
 from functools import lru_cache
-
-import numpy as np
+from pathlib import Path
 
 from spurdiff.numerics import find_root, minimize_bounded
 
@@ -79,6 +79,7 @@ class _Rack:
 
     def depth(self, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
         """How far points (rack frame) lie inside the nearest rounded tool tooth (m, < 0 outside)."""
+        import numpy as np
         Xp = np.abs(X - self.p * np.round(X / self.p))
         a0, ym, ta, ca, sa = self.a0, self.ym, self.ta, self.ca, self.sa
         dx, dy = Xp - a0, Y - ym
@@ -92,6 +93,23 @@ class _Rack:
         return -sdf
 
 
+# The form radii an FMU's default gear set needs, computed by this function when the FMU was built
+# (harness/build/fmu.py: form_radius_table), so that the default configuration starts without numpy; any
+# other gear set is simulated here. Keys: repr of the arguments; values: [r_F, undercut].
+TABLE_FILE = Path(__file__).with_name("form_radius_table.json")
+_TABLE: dict | None = None
+
+
+def _known(key: str) -> tuple[float, bool] | None:
+    global _TABLE
+    if _TABLE is None:
+        try:
+            _TABLE = {k: (float(v[0]), bool(v[1])) for k, v in json.loads(TABLE_FILE.read_text()).items()}
+        except (OSError, ValueError, TypeError, IndexError, AttributeError):
+            _TABLE = {}
+    return _TABLE.get(key)
+
+
 @lru_cache(maxsize=256)
 def form_radius(z: int, x: float, m: float, alpha: float, haP0: float, rhoaP0: float,
                 r_tip: float) -> tuple[float, bool]:
@@ -102,6 +120,10 @@ def form_radius(z: int, x: float, m: float, alpha: float, haP0: float, rhoaP0: f
     u = straight_flank_reach(z, x, m, alpha, haP0, rhoaP0)
     if u > 0.0:
         return math.hypot(rb, u), False
+    known = _known(repr((z, x, m, alpha, haP0, rhoaP0, r_tip)))
+    if known is not None:
+        return known
+    import numpy as np      # the generation simulated (an undercut gear): numpy at run time only here
     rack = _Rack(z, x, m, alpha, haP0, rhoaP0)
     psi_ref = (math.pi / 2.0 + 2.0 * x * math.tan(alpha)) / z + _inv(alpha)
     span = 4.0 * math.pi / z

@@ -8,7 +8,8 @@ sections with per-step costs derived from them, the targets table (issues 5 and 
 4. the targets;
 5. fixed versus variable communication steps (:mod:`harness.run.stepcontrol`) on tip-in-tip-out;
 6. the mesh levels' compiled kernel against the Python reference (:mod:`harness.measure.bench.mesh`);
-7. the model in its own process against this process (:mod:`harness.measure.bench.process`).
+7. the model in its own process against this process (:mod:`harness.measure.bench.process`);
+8. start-up and the step with the defaults beside a plain C FMU (:mod:`harness.measure.bench.startup`).
 """
 from __future__ import annotations
 
@@ -297,6 +298,11 @@ def _report(args) -> int:
           "this process\n   (harness/measure/bench/process.py; both sides busy-wait a moment, so on a loaded machine the "
           "round trips wait for a core)")
     print("\n".join(process_report(max(2, args.repeats // 2))))
+    print("\n8. Start-up and the step with the defaults beside a plain C FMU of ours (harness/measure/bench/startup.py; "
+          "the kit's test FMU tests/broken_fmus/chkc.c;\n   fmusim is not available here, our C host "
+          "harness/measure/bench/startup_host.c stands in)")
+    from harness.measure.bench.startup import report as startup_report
+    print("\n".join(startup_report(max(3, args.repeats))))
     print(f"\n(bench took {time.perf_counter() - t0:.1f} s on {sys.platform}, python {sys.version.split()[0]}; "
           f"{_load()})")
     return 0

@@ -12,7 +12,15 @@ May import: the rest of :mod:`spurdiff.differential` (parameters, statics, the l
 level for the stick-slip start), :mod:`spurdiff.gears` and the core.
 """
 from spurdiff.errors import StepError
-from spurdiff.differential.mesh.model import MeshDifferential
 from spurdiff.differential.mesh.params import LEVELS, N_PER_MM15, MeshParams
+
+
+def __getattr__(name: str):
+    """:class:`MeshDifferential` imported when first asked for: the model needs numpy, its parameters do
+    not (a rigid FMU builds and runs without numpy)."""
+    if name == "MeshDifferential":
+        from spurdiff.differential.mesh.model import MeshDifferential
+        return MeshDifferential
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 __all__ = ["MeshDifferential", "MeshParams", "LEVELS", "N_PER_MM15", "StepError"]

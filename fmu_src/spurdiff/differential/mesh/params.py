@@ -7,15 +7,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from spurdiff.datafile import differential_default as _d
 from spurdiff.errors import ParameterError, require_range
-from spurdiff.differential.mesh.integrator import METHODS as _TABLEAUX
 
 LEVELS = ("compliant", "contact")
 KERNELS = ("auto", "compiled", "python")
-METHODS = tuple(_TABLEAUX)            # the integrator's tableaux by name
+METHODS = ("ros34pw2", "rodas5p")      # the integrator's tableaux by name (integrator.METHODS' keys: a test
+                                      # checks; not imported here, so the rigid level loads without numpy)
 METHOD_CHOICES = ("auto",) + METHODS  # solver.method (auto: by the level, MeshParams.method_in_use)
 AUTO_METHOD = {"contact": "rodas5p", "compliant": "ros34pw2"}   # what auto selects per level
 N_PER_MM15 = 1e3 ** 1.5  # 1 N/mm^1.5 in N/m^1.5
@@ -85,7 +83,7 @@ class MeshParams:
             raise ParameterError("nativeStep", self.nativeStep, "0 or 1 (false or true)")
         for name in SWITCHES:
             v = getattr(self, name)
-            if not isinstance(v, (bool, np.bool_)) and v not in (0, 1):
+            if not isinstance(v, bool) and type(v).__name__ != "bool_" and v not in (0, 1):   # numpy's bool_ too
                 raise ParameterError(name, v, "a boolean")
         for name, lo, hi, allowed, lo_open in LIMITS:
             lo_v = getattr(self, lo) if isinstance(lo, str) else lo

@@ -1,0 +1,131 @@
+"""numpy carried as one archive, unpacked once per user and version (issue 44 item 1).
+
+An FMU's Linux runtime carries numpy not as some 200 files a host's unzip writes on every
+extraction but as one member, ``resources/python/numpy.zip`` (stored: the host copies it, it does
+not inflate it), with its SHA-256 in ``numpy.zip.sha256`` beside it. Only the mesh levels and gear
+sets other than the FMU's default import numpy (the car, the wheel and the rigid level never do),
+so :func:`install` (called by the FMU's entry module) puts a finder on ``sys.meta_path`` that acts on
+the first ``import numpy`` a model makes when the process has no numpy of its own: it unpacks the
+archive into the user's cache, ``$XDG_CACHE_HOME/spurdiff/numpy-<sha256[:16]>`` (``~/.cache`` by
+default), and imports numpy from there. Every FMU and process of the same numpy shares that folder.
+
+The folder is made private and atomically: the archive's digest checked first, unpacked into a
+temporary folder (mode 0700) beside the target, every member's path checked to stay inside, then
+renamed into place (a concurrent process that renamed first wins; its folder is used). A folder
+found there is used only when it is a directory (not a link) owned by this user with mode 0700 and
+holds the marker naming this digest; anything else is refused with one line naming it.
+"""
+from __future__ import annotations
+
+import hashlib
+import importlib.abc
+import importlib.machinery
+import os
+import stat
+import sys
+import tempfile
+import zipfile
+from pathlib import Path
+
+ARCHIVE = "numpy.zip"          # in resources/python/
+MARKER = ".spurdiff-numpy"     # in the unpacked folder: the archive's digest
+
+
+def cache_root() -> Path:
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "spurdiff"
+
+
+def _private_dir(p: Path) -> str | None:
+    """Why ``p`` is not a folder of ours with mode 0700, or None."""
+    try:
+        st = os.lstat(p)
+    except OSError as e:
+        return f"{p}: {e.strerror}"
+    if not stat.S_ISDIR(st.st_mode):
+        return f"{p} is not a folder (a link or a file)"
+    if st.st_uid != os.getuid():
+        return f"{p} belongs to uid {st.st_uid}, not to this user ({os.getuid()})"
+    if stat.S_IMODE(st.st_mode) & 0o077:
+        return f"{p} has mode {stat.S_IMODE(st.st_mode):o}: others can write or read it (0700 expected)"
+    return None
+
+
+def unpacked(archive: Path, digest: str, root: Path | None = None) -> Path:
+    """The folder holding numpy unpacked from ``archive`` (SHA-256 ``digest``), made if needed.
+    OSError (with one line naming the place) when it cannot be made or found safely."""
+    root = Path(root) if root else cache_root()
+    target = root / f"numpy-{digest[:16]}"
+    if os.path.lexists(target):
+        why = _private_dir(target)
+        if why is None and (target / MARKER).is_file() and (target / MARKER).read_text().strip() == digest:
+            return target
+        raise OSError(f"numpy cache refused: {why or f'{target} does not hold this numpy ({MARKER} differs)'}")
+    root.mkdir(parents=True, exist_ok=True, mode=0o700)
+    why = _private_dir(root)
+    if why is not None:
+        raise OSError(f"numpy cache refused: {why}")
+    h = hashlib.sha256()
+    with open(archive, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    if h.hexdigest() != digest:
+        raise OSError(f"{archive}: SHA-256 {h.hexdigest()} is not the {digest} the FMU was built with")
+    tmp = Path(tempfile.mkdtemp(prefix=".numpy-", dir=root))     # mode 0700
+    try:
+        with zipfile.ZipFile(archive) as z:
+            for info in z.infolist():
+                dest = (tmp / info.filename).resolve()
+                if not str(dest).startswith(str(tmp.resolve()) + os.sep):
+                    raise OSError(f"{archive}: member {info.filename!r} leaves its folder")
+                z.extract(info, tmp)
+                mode = (info.external_attr >> 16) & 0o755
+                if mode and not info.is_dir():
+                    os.chmod(dest, mode | 0o400)
+        (tmp / MARKER).write_text(digest)
+        try:
+            os.rename(tmp, target)
+        except OSError:
+            if _private_dir(target) is not None:
+                raise
+    finally:
+        if tmp.exists():
+            import shutil
+            shutil.rmtree(tmp, ignore_errors=True)
+    why = _private_dir(target)
+    if why is not None:
+        raise OSError(f"numpy cache refused: {why}")
+    return target
+
+
+class _Finder(importlib.abc.MetaPathFinder):
+    """``import numpy`` with no numpy on the path: from the archive, unpacked into the cache."""
+
+    def __init__(self, archive: Path, digest: str):
+        self.archive, self.digest = archive, digest
+
+    def find_spec(self, name, path=None, target=None):
+        if name != "numpy":
+            return None
+        if importlib.machinery.PathFinder.find_spec(name, sys.path) is not None:
+            return None           # the process's own numpy comes first
+        folder = str(unpacked(self.archive, self.digest))
+        if folder not in sys.path:
+            sys.path.append(folder)
+        return importlib.machinery.PathFinder.find_spec(name, [folder])
+
+
+def install(resources: str | Path) -> bool:
+    """The finder for the FMU whose resources folder is ``resources``, when its runtime carries numpy as
+    an archive; False when it does not (numpy is then where the process finds it)."""
+    archive = Path(resources) / "python" / ARCHIVE
+    sha = archive.with_name(ARCHIVE + ".sha256")
+    if not archive.is_file() or not sha.is_file():
+        return False
+    if any(isinstance(f, _Finder) for f in sys.meta_path):
+        return True
+    sys.meta_path.append(_Finder(archive, sha.read_text().split()[0]))
+    return True
+
+
+__all__ = ["install", "unpacked", "cache_root", "ARCHIVE"]

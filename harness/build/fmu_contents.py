@@ -1,0 +1,153 @@
+"""What an FMU carries, platform by platform (issue 44 item 1), for :mod:`harness.build.fmu`: the platforms
+chosen (``spurdiff build --platforms``) and each one's size in an archive; numpy left out of the
+FMUs whose models never import it, and carried by the others as one stored archive
+(:mod:`spurdiff.numpy_archive` unpacks it at run time); the default gear set's form radii computed
+at build time, so that the FMU's default configuration starts without numpy.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import zipfile
+from pathlib import Path
+
+from harness.build import runtime_bundle, runtime_win64
+
+
+class BuildError(RuntimeError):
+    """An FMU cannot be built (harness.build.fmu raises and exports it)."""
+
+
+def _entry(name: str, mode: int = 0o644) -> zipfile.ZipInfo:
+    """A deflated archive entry ``name`` with the unix permissions ``mode`` (0o755: executable)."""
+    info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
+    info.compress_type = zipfile.ZIP_DEFLATED
+    info.external_attr = (0o100000 | mode) << 16
+    return info
+
+
+PLATFORMS = ("linux64", "win64")
+PLATFORMS_ENV = "SPURDIFF_BUILD_PLATFORMS"    # what ``spurdiff build --platforms`` sets (a build in a subprocess too)
+
+
+def platforms() -> tuple[str, ...]:
+    """The platforms the FMUs are built for: ``$SPURDIFF_BUILD_PLATFORMS`` (comma-separated), else both.
+    linux64 is always among them (the build machine's: the runtime is traced there); BuildError for
+    an unknown name or a list without linux64."""
+    raw = os.environ.get(PLATFORMS_ENV, "").strip()
+    if not raw:
+        return PLATFORMS
+    want = tuple(p.strip() for p in raw.split(",") if p.strip())
+    bad = [p for p in want if p not in PLATFORMS]
+    if bad or not want:
+        raise BuildError(f"--platforms {raw}: allowed a comma-separated list of {', '.join(PLATFORMS)}")
+    if "linux64" not in want:
+        raise BuildError(f"--platforms {raw}: linux64 is always built (the FMU's Python runtime is traced and "
+                         "checked on the build machine's platform); allowed: linux64 or linux64,win64")
+    return tuple(p for p in PLATFORMS if p in want)
+
+
+def platform_sizes(fmu: Path) -> dict[str, tuple[int, int]]:
+    """Compressed bytes and files of an FMU archive per platform: linux64 (binaries/linux64, the
+    linux64 runtime and the .so kernels), win64 (binaries/win64, the win64 runtime, the .dll
+    kernels), common (the description, the model's package, the rest)."""
+    out = {"linux64": [0, 0], "win64": [0, 0], "common": [0, 0]}
+    with zipfile.ZipFile(fmu) as z:
+        for i in z.infolist():
+            n = i.filename
+            if (n.startswith(("binaries/win64/", "binaries/x86_64-windows/", "resources/python-win64/"))
+                    or n.endswith(".dll") or n == f"resources/{runtime_win64.CFG}"):
+                key = "win64"
+            elif (n.startswith(("binaries/linux64/", "binaries/x86_64-linux/", "resources/python/"))
+                  or n.endswith(".so") or n == "resources/python_runtime.cfg"):
+                key = "linux64"
+            else:
+                key = "common"
+            out[key][0] += i.compress_size + 30 + len(n)   # the entry's data and its local header
+            out[key][1] += 0 if n.endswith("/") else 1
+    return {k: (v[0], v[1]) for k, v in out.items()}
+
+
+def form_radius_table(pkg: Path) -> Path:
+    """``gears/form_radius_table.json`` in the package copy ``pkg``: the form radii (undercut gears:
+    the generation simulated with numpy, spurdiff.gears.generating) of SpurDifferential's default
+    gear set, computed here by the same function, so that the FMU's default configuration builds
+    its model without numpy (measured: docs/performance.md, start-up)."""
+    from spurdiff.fmi import differential_fmu
+    from spurdiff.gears import generating, geometry
+
+    found = {}
+    orig = geometry.form_radius
+
+    def recording(*args):
+        r = orig(*args)
+        found[repr(args)] = [r[0], r[1]]
+        return r
+    geometry.form_radius = recording
+    try:
+        differential_fmu.build_model({v.name: v.start for v in differential_fmu.VARIABLES})
+    finally:
+        geometry.form_radius = orig
+    out = pkg / "gears" / generating.TABLE_FILE.name
+    out.write_text(json.dumps(found, indent=0, sort_keys=True))
+    return out
+
+
+# FMUs whose models never import numpy (the car, the wheel: tests/physics/test_numpy_free.py): their
+# runtimes leave it out (about 40 MB unpacked per platform that a host's unzip does not write)
+NUMPY_FREE_FMUS = ("Vehicle", "WheelLoad")
+NUMPY_ENTRIES = ("resources/python/lib/python3.*/site-packages/numpy*",
+                 "resources/python-win64/Lib/site-packages/numpy*")
+
+
+def drop_numpy(archive: Path, patterns: tuple[str, ...] = NUMPY_ENTRIES) -> str:
+    """The runtimes' numpy removed from ``archive`` (``zip -d``, no recompression); the note for the log."""
+    zipper = shutil.which("zip")
+    if zipper is None:
+        return "numpy kept (no zip command to remove it)"
+    r = subprocess.run([zipper, "-q", "-d", str(archive), *patterns], capture_output=True, text=True)
+    if r.returncode not in (0, 12):     # 12: nothing matched (a runtime without numpy)
+        raise BuildError(f"removing numpy from {archive.name} failed: {r.stderr.strip()}")
+    with zipfile.ZipFile(archive, "a") as z:   # the folders stay (the runtime descriptions' path= names them)
+        have = z.namelist()
+        for folder in (f"resources/{runtime_bundle.PYLIB}/site-packages/", "resources/python-win64/Lib/site-packages/"):
+            if any(n.startswith(folder.split("site-packages/")[0]) for n in have) and not any(
+                    n.startswith(folder) for n in have):
+                z.writestr(zipfile.ZipInfo(folder, date_time=(1980, 1, 1, 0, 0, 0)), b"")
+    return "without numpy (its models never import it)"
+
+
+def numpy_archive(runtime, tmp: Path) -> Path:
+    """The linux64 runtime's numpy (numpy/ and numpy.libs/) as one deflated archive in ``tmp``, members
+    in sorted order with a fixed time (the same bytes for the same numpy)."""
+    site = runtime.folder / runtime_bundle.PYLIB / "site-packages"
+    out = tmp / "numpy.zip"
+    with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as z:
+        for top in ("numpy", "numpy.libs"):
+            for p in sorted((site / top).rglob("*")):
+                if p.is_file():
+                    z.writestr(_entry(str(p.relative_to(site)), 0o755 if os.access(p, os.X_OK) else 0o644),
+                               p.read_bytes())
+    return out
+
+
+def numpy_as_archive(part: Path, runtime, tmp: Path) -> str:
+    """The linux64 runtime's numpy in ``part`` replaced by one stored member, resources/python/numpy.zip,
+    and its SHA-256 (spurdiff.numpy_archive unpacks it into the user's cache at the first import)."""
+    from spurdiff import numpy_archive as na
+
+    if shutil.which("zip") is None:
+        return "numpy unpacked (no zip command to replace it)"
+    drop_numpy(part, NUMPY_ENTRIES[:1])
+    inner = numpy_archive(runtime, tmp)
+    data = inner.read_bytes()
+    with zipfile.ZipFile(part, "a") as z:
+        info = _entry(f"resources/{runtime_bundle.HOME}/{na.ARCHIVE}")
+        info.compress_type = zipfile.ZIP_STORED        # a host's unzip copies it
+        z.writestr(info, data)
+        z.writestr(_entry(f"resources/{runtime_bundle.HOME}/{na.ARCHIVE}.sha256"),
+                   hashlib.sha256(data).hexdigest() + "\n")
+    return f"numpy as one archive ({len(data) / 1e6:.1f} MB, unpacked once per user into the cache)"

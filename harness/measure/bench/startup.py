@@ -1,0 +1,258 @@
+"""What an FMU costs beside a plain C FMU of ours (issue 44): start-up and the step with the defaults.
+
+The C FMU is the compliance kit's test FMU (``tests/broken_fmus/chkc.c``: x' = k u, y = k u, built
+plainly by ``tests/broken_fmus/chk_build.py``; a checkout without ``tests/`` skips this section).
+Each measure runs both FMUs interleaved in the same command, so machine noise hits both sides:
+
+* whole run: a fresh extraction (``unzip -q``) and our C host (:file:`startup_host.c`, compiled
+  here: dlopen, instantiate, initialize, one 5 ms step, terminate, free) as one process, wall time,
+  median of the runs: what a CI job or a sweep of short runs pays per run (fmusim is not available);
+* instantiate + initialize in a fresh Python process with fmpy (the FMU extracted beforehand; fmpy
+  imported; timed from before ``fmi2Instantiate`` to after ``fmi2ExitInitializationMode``),
+  median: with the model in the host's process, and in its own process (``SPURDIFF_FMU_PROCESS=out``:
+  the loader's choice in a host whose Python is not the runtime's version, fmu_src/native/fmi/fmi2_loader.c);
+* the own process's memory: PSS (``/proc/<pid>/smaps_rollup``) of each model process of N instances
+  in one host (shared pages split among the processes that map them);
+* per step in fmpy with the FMU's defaults: ``setReal`` of every Real input, ``doStep`` (5 ms),
+  ``getReal`` of every Real output (fmpy's Python API, as a script would call it), fastest of the
+  rounds; and the same with the C FMU's one input and two outputs.
+
+``python -m harness.measure.bench.startup`` prints the section (section 8 of ``spurdiff bench``).
+"""
+from __future__ import annotations
+
+import importlib.util
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HOST_SOURCE = Path(__file__).with_name("startup_host.c")
+ROOT = Path(__file__).resolve().parents[2]
+CHK_BUILD = ROOT / "tests" / "broken_fmus" / "chk_build.py"
+STEP = 0.005
+
+
+def c_fmu() -> Path | None:
+    """The plain C FMU (ChkC), built by the kit's test helper; None without it (or without gcc)."""
+    if not CHK_BUILD.is_file() or shutil.which("gcc") is None:
+        return None
+    spec = importlib.util.spec_from_file_location("_spurdiff_chk_build", CHK_BUILD)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod.chkc_fmu("ChkC")
+
+
+def _host(tmp: Path) -> Path:
+    from harness.build.fmu import _fmi2_headers
+    exe = tmp / "startup_host"
+    subprocess.run(["gcc", "-O2", f"-I{_fmi2_headers()}", "-o", str(exe), str(HOST_SOURCE), "-ldl"], check=True,
+                   capture_output=True)
+    return exe
+
+
+def _identity(fmu: Path) -> tuple[str, str]:
+    from fmpy import read_model_description
+    md = read_model_description(str(fmu))   # (read with the archive it runs)
+    return md.coSimulation.modelIdentifier, md.guid
+
+
+def whole_run(fmu: Path, host: Path, tmp: Path) -> float:
+    """Seconds of one whole run: unzip into a fresh folder, the C host's run; the folder removed after."""
+    ident, guid = _identity(fmu)
+    d = Path(tempfile.mkdtemp(dir=tmp))
+    try:
+        t0 = time.perf_counter()
+        subprocess.run(["unzip", "-q", str(fmu), "-d", str(d)], check=True)
+        r = subprocess.run([str(host), str(d / "binaries" / "linux64" / f"{ident}.so"), guid,
+                            (d / "resources").as_uri(), str(STEP)], capture_output=True, text=True)
+        dt = time.perf_counter() - t0
+        if r.returncode != 0:
+            raise RuntimeError(f"{fmu.name}: the C host failed ({r.returncode}): {r.stderr.strip()[-300:]}")
+        return dt
+    finally:
+        shutil.rmtree(d, ignore_errors=True)
+
+
+_INIT = r"""
+import sys, time
+from fmpy import read_model_description
+from fmpy.fmi2 import FMU2Slave
+md = read_model_description(sys.argv[1])
+s = FMU2Slave(guid=md.guid, unzipDirectory=sys.argv[2], modelIdentifier=md.coSimulation.modelIdentifier,
+              instanceName='b')
+t0 = time.perf_counter()
+s.instantiate()
+s.setupExperiment(startTime=0.0)
+s.enterInitializationMode()
+s.exitInitializationMode()
+t1 = time.perf_counter()
+s.terminate()
+s.freeInstance()
+print('INIT', t1 - t0)
+"""
+
+
+def init_time(fmu: Path, unzipped: Path, own_process: bool) -> float:
+    """Seconds of instantiate + initialize in a fresh fmpy process (the FMU extracted before)."""
+    env = {**os.environ, "SPURDIFF_FMU_PROCESS": "out" if own_process else "in"}
+    r = subprocess.run([sys.executable, "-c", _INIT, str(unzipped / "modelDescription.xml"), str(unzipped)],
+                       capture_output=True, text=True,
+                       env=env, timeout=120)
+    if r.returncode != 0:
+        raise RuntimeError(f"{fmu.name}: instantiate + initialize failed: {r.stderr.strip()[-300:]}")
+    return float(next(ln for ln in r.stdout.splitlines() if ln.startswith('INIT ')).split()[1])
+
+
+_PSS = r"""
+import os, sys
+from fmpy import read_model_description
+from fmpy.fmi2 import FMU2Slave
+md = read_model_description(sys.argv[1])
+n = int(sys.argv[3])
+slaves = []
+for i in range(n):
+    s = FMU2Slave(guid=md.guid, unzipDirectory=sys.argv[2], modelIdentifier=md.coSimulation.modelIdentifier,
+                  instanceName=f'i{i}')
+    s.instantiate(); s.setupExperiment(startTime=0.0); s.enterInitializationMode(); s.exitInitializationMode()
+    s.doStep(0.0, 0.005)
+    slaves.append(s)
+def pss(pid):
+    for line in open(f'/proc/{pid}/smaps_rollup'):
+        if line.startswith('Pss:'):
+            return int(line.split()[1])
+kids = []
+for t in os.listdir('/proc/self/task'):
+    kids += [int(x) for x in open(f'/proc/self/task/{t}/children').read().split()]
+print('PSS', pss(os.getpid()), *[pss(k) for k in kids])
+for s in slaves:
+    s.terminate(); s.freeInstance()
+"""
+
+
+def own_process_pss(fmu: Path, unzipped: Path, n: int) -> tuple[float, list[float]]:
+    """(the host's PSS, each model process's PSS), MB, with ``n`` own-process instances."""
+    r = subprocess.run([sys.executable, "-c", _PSS, str(unzipped / "modelDescription.xml"), str(unzipped), str(n)],
+                       capture_output=True,
+                       text=True, env={**os.environ, "SPURDIFF_FMU_PROCESS": "out"}, timeout=300)
+    if r.returncode != 0:
+        raise RuntimeError(f"{fmu.name}: own-process instances failed: {r.stderr.strip()[-300:]}")
+    line = next(ln for ln in r.stdout.splitlines() if ln.startswith('PSS '))   # the FMU's log lines too
+    kb = [int(x) for x in line.split()[1:]]
+    return kb[0] / 1024, [k / 1024 for k in kb[1:]]
+
+
+def per_step(fmu: Path, unzipped: Path, n: int = 2000, rounds: int = 5) -> float:
+    """Microseconds per setReal(all inputs) + doStep + getReal(all outputs) through fmpy, the FMU's
+    defaults, fastest of ``rounds``."""
+    from fmpy import calloc, free, read_model_description
+    from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                           fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
+    md = read_model_description(str(unzipped / "modelDescription.xml"))
+    s = FMU2Slave(guid=md.guid, unzipDirectory=str(unzipped), modelIdentifier=md.coSimulation.modelIdentifier,
+                  instanceName="step")
+    cb = fmi2CallbackFunctions()     # the FMU's messages (the defaults' load-capacity warning) not printed
+    cb.logger = fmi2CallbackLoggerTYPE(lambda *args: None)
+    cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+    cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    s.instantiate(callbacks=cb)
+    try:
+        s.setupExperiment(startTime=0.0)
+        s.enterInitializationMode()
+        s.exitInitializationMode()
+        reals = [v for v in md.modelVariables if v.type == "Real"]
+        ins = [v.valueReference for v in reals if v.causality == "input"]
+        outs = [v.valueReference for v in reals if v.causality == "output"]
+        values = s.getReal(ins)
+        t, best = 0.0, []
+        for _ in range(rounds):
+            t0 = time.perf_counter()
+            for _ in range(n):
+                s.setReal(ins, values)
+                s.doStep(t, STEP)
+                s.getReal(outs)
+                t += STEP
+            best.append((time.perf_counter() - t0) / n * 1e6)
+        s.terminate()
+        return min(best)
+    finally:
+        s.freeInstance()
+
+
+def measure(ours: Path, theirs: Path, runs: int = 5) -> dict:
+    """Every measure for both FMUs, interleaved."""
+    tmp = Path(tempfile.mkdtemp(prefix="spurdiff-startup-"))
+    try:
+        host = _host(tmp)
+        unz = {}
+        for name, f in (("ours", ours), ("c", theirs)):
+            unz[name] = tmp / f"unzipped-{name}"
+            subprocess.run(["unzip", "-q", str(f), "-d", str(unz[name])], check=True)
+        fmus = {"ours": ours, "c": theirs}
+        whole = {"ours": [], "c": []}
+        init = {"ours": [], "c": [], "ours_out": []}
+        for name in ("ours", "c"):    # warm the page cache once
+            whole_run(fmus[name], host, tmp)
+        for _ in range(runs):
+            for name in ("ours", "c"):
+                whole[name].append(whole_run(fmus[name], host, tmp))
+                init[name].append(init_time(fmus[name], unz[name], False))
+            init["ours_out"].append(init_time(ours, unz["ours"], True))
+        step = {"ours": [], "c": []}
+        for _ in range(2):
+            for name in ("ours", "c"):
+                step[name].append(per_step(fmus[name], unz[name]))
+        host_pss, pss = own_process_pss(ours, unz["ours"], 4)
+        return {"whole": {k: statistics.median(v) for k, v in whole.items()},
+                "init": {k: statistics.median(v) for k, v in init.items()},
+                "step": {k: min(v) for k, v in step.items()},
+                "pss_host": host_pss, "pss": pss,
+                "size": {k: f.stat().st_size for k, f in fmus.items()},
+                "files": {k: sum(1 for p in unz[k].rglob("*") if p.is_file()) for k in unz},
+                "unpacked": {k: sum(p.stat().st_size for p in unz[k].rglob("*") if p.is_file()) for k in unz}}
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def report(runs: int = 5) -> list[str]:
+    from harness.build.fmu import build
+
+    theirs = c_fmu()
+    if theirs is None:
+        return ["   not measured: the plain C FMU (tests/broken_fmus/chkc.c) or gcc is not here"]
+    ours = build(["SpurDifferential"], quiet=True)[0]
+    try:
+        m = measure(ours, theirs, runs)
+    except (RuntimeError, OSError, subprocess.SubprocessError) as e:   # said in the report, not fatal to the bench
+        return [f"   not measured: {type(e).__name__}: {str(e)[-300:]}"]
+    w, i, s = m["whole"], m["init"], m["step"]
+    mb = 1024 * 1024
+    lines = [f"   SpurDifferential.fmu {m['size']['ours'] / mb:.1f} MB ({m['files']['ours']} files, "
+             f"{m['unpacked']['ours'] / mb:.1f} MB unpacked) against the C FMU ChkC.fmu "
+             f"{m['size']['c'] / 1024:.0f} kB; medians of {runs} interleaved runs (per step: fastest)",
+             f"   {'':58s}{'ours':>10s}{'C FMU':>10s}{'ratio':>8s}{'target':>10s}",
+             f"   {'whole run: unzip + C host (load, init, one 5 ms step, free)':58s}{w['ours'] * 1e3:8.1f}ms"
+             f"{w['c'] * 1e3:8.1f}ms{w['ours'] / w['c']:8.1f}{'<= 20x':>10s}",
+             f"   {'fmpy 3.11, instantiate + initialize, in the host process':58s}{i['ours'] * 1e3:8.1f}ms"
+             f"{i['c'] * 1e3:8.1f}ms{'':8s}{'<= 60 ms':>10s}",
+             f"   {'the same, the model in its own process':58s}{i['ours_out'] * 1e3:8.1f}ms{'':10s}{'':8s}"
+             f"{'<= 150 ms':>10s}",
+             f"   {'per step in fmpy (setReal all, doStep, getReal all), us':58s}{s['ours']:10.1f}{s['c']:10.1f}"
+             f"{s['ours'] / s['c']:8.1f}{'<= 3x':>10s}",
+             f"   own-process instance PSS (4 instances in one fmpy host, whose own PSS is {m['pss_host']:.1f} MB): "
+             f"{', '.join(f'{x:.1f}' for x in m['pss'])} MB (target <= 8 MB each)"]
+    return lines
+
+
+def main(argv: list[str] | None = None) -> int:
+    runs = int(argv[0]) if argv else 5
+    print("\n".join(report(runs)))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main(sys.argv[1:]))
