@@ -537,6 +537,18 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
     return out
 
 
+def build_locked(lock: Path, path: Path, current, make, quiet: bool) -> Path:
+    """One build at a time per FMU across processes (parallel test runs, sweeps): under the lock
+    file ``lock``, ``path`` as it is when ``current()`` says so (said unless ``quiet``), else ``make()``."""
+    with open(lock, "w") as f:
+        fcntl.flock(f, fcntl.LOCK_EX)
+        if current():
+            if not quiet:
+                print(f"up to date: {path}")
+            return path
+        return make()
+
+
 def build(names: list[str] | None = None, dest: Path | None = None, force: bool = False,
           quiet: bool = False) -> list[Path]:
     """Build the named FMUs (default: all) unless they are up to date. Returns their paths."""
@@ -551,17 +563,10 @@ def build(names: list[str] | None = None, dest: Path | None = None, force: bool 
     for name in names or list(FMUS):
         if name not in FMUS:
             raise BuildError(f"unknown FMU {name!r}: allowed {', '.join(FMUS)}")
-        # one build at a time per FMU across processes (parallel test runs, sweeps)
-        with open(dest / f".{name}.lock", "w") as lock:
-            fcntl.flock(lock, fcntl.LOCK_EX)
-            if not force and is_current(name, dest):
-                if not quiet:
-                    print(f"up to date: {fmu_path(name, dest)}")
-                paths.append(fmu_path(name, dest))
-            elif _pythonfmu_shadowed():
-                paths.append(_build_in_subprocess(name, dest))
-            else:
-                paths.append(build_one(name, dest, quiet=quiet))
+        paths.append(build_locked(dest / f".{name}.lock", fmu_path(name, dest),
+                                  lambda: not force and is_current(name, dest),
+                                  lambda: (_build_in_subprocess(name, dest) if _pythonfmu_shadowed()
+                                           else build_one(name, dest, quiet=quiet)), quiet))
     return paths
 
 

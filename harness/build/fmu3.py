@@ -24,7 +24,6 @@ digest and this module's) is current.
 """
 from __future__ import annotations
 
-import fcntl
 import hashlib
 import os
 import shutil
@@ -167,14 +166,9 @@ def build(names: list[str] | None = None, dest: Path | None = None, force: bool 
     build2.build(names, dest, force=force if force2 is None else force2, quiet=True)
     paths = []
     for name in names:
-        with open(dest / f".{name}{SUFFIX}.lock", "w") as lock:
-            fcntl.flock(lock, fcntl.LOCK_EX)
-            if not force and is_current(name, dest):
-                if not quiet:
-                    print(f"up to date: {fmu_path(name, dest)}")
-                paths.append(fmu_path(name, dest))
-            else:
-                paths.append(build_one(name, dest, quiet=quiet))
+        paths.append(build2.build_locked(dest / f".{name}{SUFFIX}.lock", fmu_path(name, dest),
+                                         lambda: not force and is_current(name, dest),
+                                         lambda: build_one(name, dest, quiet=quiet), quiet))
     return paths
 
 

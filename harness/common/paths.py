@@ -36,13 +36,15 @@ def physics_package() -> Path:
 
 
 def fmu_sources() -> Path:
-    """The folder with ``native/`` (the C sources of the FMUs' binary):
-    the installed package ``spurdiff_fmus``, or ``fmu_src/`` of a checkout run without installing
-    (``python build_fmu.py``)."""
-    try:
-        import spurdiff_fmus
-    except ImportError:
-        return HARNESS.parent / "fmu_src"
+    """The folder with ``native/`` (the C sources of the FMUs' binary) of the code that runs:
+    ``fmu_src/`` beside this harness in a checkout (installed editable or not, a clone or a
+    worktree), else the installed package ``spurdiff_fmus`` (a wheel). Never through the import
+    system first: an editable install of another checkout would hand over that checkout's sources,
+    and a C file changed here would silently not be what this checkout builds and tests."""
+    own = HARNESS.parent / "fmu_src"
+    if (own / "native").is_dir():
+        return own
+    import spurdiff_fmus
     return Path(spurdiff_fmus.__file__).resolve().parent
 
 

@@ -25,7 +25,7 @@ from harness.scene.schema import SceneError
 
 HOSTS = ("fmpy", "c", "ssp")
 INTERFACES = ("wheel", "torque")
-STEPS = {"wheel": 5e-3, "torque": 2e-4}    # s: what each interface needs (README, "Which shaft coupling")
+STEPS = {"wheel": 5e-3, "torque": 2e-4}    # s: what each interface needs (docs/fmus.md, "Which shaft coupling")
 SSP_SCENE = "vehicle-cornering"
 
 

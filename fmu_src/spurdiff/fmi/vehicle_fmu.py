@@ -14,7 +14,8 @@ with the FMI values.
 """
 from __future__ import annotations
 
-from spurdiff.fmi.binding import bindings, build_params
+from spurdiff.fmi.binding import build_params
+from spurdiff.fmi.kernel_vars import initialized, kernel_message, kernel_variables
 from spurdiff.datafile import read_data
 from spurdiff.fmi.variables import Var
 from spurdiff.vehicle.car import Vehicle, VehicleParams
@@ -46,6 +47,8 @@ def _p(group: str, field: str, description: str, unit: str | None, display: str 
     start = int(start) if kind == "Integer" else float(start)
     return Var(f"{group}.{field}", "parameter", description, unit, display, start, kind=kind, bind=f"{group}.{field}")
 
+
+STEP = "the car's Runge-Kutta step"   # what the compiled kernel runs (solver.kernel)
 
 VARIABLES: list[Var] = [
     # --- inputs
@@ -141,17 +144,7 @@ VARIABLES: list[Var] = [
     _p("speedControl", "Ki", "Speed controller integral gain (axle torque per integrated speed error)", "N.m/m"),
     _p("speedControl", "driveTorqueMax", "Largest axle drive torque (> 0)", "N.m", "N.mm"),
     _p("speedControl", "driveTorqueMin", "Most negative axle torque, engine braking (<= 0)", "N.m", "N.mm"),
-    Var("solver.kernel", "parameter", "Implementation of the car's Runge-Kutta step: auto (the compiled kernel "
-        "shipped in the FMU when it loads, else the Python reference, with the reason logged) | compiled "
-        "(refuse to start without it) | python (the pure-Python reference; the same results bit for bit, "
-        "slower)", None, None, "auto", kind="String", bind="kernel"),
-    Var("solver.nativeStep", "parameter", "With the compiled kernel in use: true = the whole communication step "
-        "runs in C without entering Python (the FMU's native step: the inputs checked, the step, the outputs; the "
-        "same results bit for bit; the state is handed back to Python before any other call reads it) | false = "
-        "every step runs through the Python model around the compiled kernel (for comparison)",
-        None, None, True, kind="Boolean", bind="nativeStep"),
-    Var("solver.kernelInUse", "calculatedParameter", "Implementation that runs the car's Runge-Kutta step: "
-        "compiled | python (and why)", None, None, "", kind="String"),
+    *kernel_variables(STEP),
 ]
 
 
@@ -162,14 +155,9 @@ def vehicle_params(values: dict) -> VehicleParams:
 
 def build_model(values: dict) -> Vehicle:
     """Build and initialize the vehicle model from FMI variable values (ParameterError if invalid)."""
-    model = Vehicle(vehicle_params(values))
-    bindings(VARIABLES).push(model, values)
-    model.initialize(0.0)
-    values["solver.kernelInUse"] = model.kernel_note
-    return model
+    return initialized(Vehicle(vehicle_params(values)), VARIABLES, values)
 
 
 def build_message(values: dict) -> str | None:
     """What the FMU logs once the model is built: which implementation runs its step."""
-    return (f"solver.kernel = {values['solver.kernel']}: {values['solver.kernelInUse']} implementation of the "
-            "car's Runge-Kutta step")
+    return kernel_message(values, STEP)

@@ -19,7 +19,8 @@ from __future__ import annotations
 
 import math
 
-from spurdiff.fmi.binding import bindings, build_params
+from spurdiff.fmi.binding import build_params
+from spurdiff.fmi.kernel_vars import initialized, kernel_message, kernel_variables
 from spurdiff.datafile import read_data
 from spurdiff.fmi.variables import Var
 from spurdiff.vehicle.wheel import WheelLoad, WheelLoadParams
@@ -56,6 +57,8 @@ def _p(group: str | None, field: str, description: str, unit: str | None, displa
     return Var(f"{group or 'wheelLoad'}.{field}", "parameter", description, unit, display, start, kind=kind,
                bind=f"{group}.{field}" if group else field)
 
+
+STEP = "the wheel's implicit-midpoint sub-steps"   # what the compiled kernel runs (solver.kernel)
 
 VARIABLES: list[Var] = [
     # --- inputs
@@ -171,17 +174,7 @@ VARIABLES: list[Var] = [
     _p(None, "followFlangeAngle",
        "true: the half-shaft twist follows the flange angle input (no drift); false: integrate flange.w only",
        None, None, kind="Boolean"),
-    Var("solver.kernel", "parameter", "Implementation of the wheel's implicit-midpoint sub-steps: auto (the compiled kernel "
-        "shipped in the FMU when it loads, else the Python reference, with the reason logged) | compiled "
-        "(refuse to start without it) | python (the pure-Python reference; the same results bit for bit, "
-        "slower)", None, None, "auto", kind="String", bind="kernel"),
-    Var("solver.nativeStep", "parameter", "With the compiled kernel in use: true = the whole communication step "
-        "runs in C without entering Python (the FMU's native step: the inputs checked, the step, the outputs; the "
-        "same results bit for bit; the state is handed back to Python before any other call reads it) | false = "
-        "every step runs through the Python model around the compiled kernel (for comparison)",
-        None, None, True, kind="Boolean", bind="nativeStep"),
-    Var("solver.kernelInUse", "calculatedParameter", "Implementation that runs the wheel's implicit-midpoint sub-steps: "
-        "compiled | python (and why)", None, None, "", kind="String"),
+    *kernel_variables(STEP),
 ]
 
 
@@ -198,14 +191,9 @@ def wheel_params(values: dict) -> WheelLoadParams:
 
 def build_model(values: dict) -> WheelLoad:
     """Build and initialize the wheel-load model from FMI variable values (ParameterError if invalid)."""
-    model = WheelLoad(wheel_params(values))
-    bindings(VARIABLES).push(model, values)
-    model.initialize(0.0)
-    values["solver.kernelInUse"] = model.kernel_note
-    return model
+    return initialized(WheelLoad(wheel_params(values)), VARIABLES, values)
 
 
 def build_message(values: dict) -> str | None:
     """What the FMU logs once the model is built: which implementation runs its step."""
-    return (f"solver.kernel = {values['solver.kernel']}: {values['solver.kernelInUse']} implementation of the "
-            "wheel's implicit-midpoint sub-steps")
+    return kernel_message(values, STEP)

@@ -43,6 +43,7 @@ from spurdiff.vehicle.car_params import (G, STEER_ANGLE, STEER_PATH, BodyParams,
                              SpeedControlParams, SteeringParams, VehicleParams)
 from spurdiff.vehicle.car_rates import make_rates
 from spurdiff.vehicle import kernel as vehicle_kernel
+from spurdiff.vehicle.native_plan import NativeStepMixin
 
 _GRADE_MIN, _GRADE_MAX = -0.25 * math.pi, 0.25 * math.pi   # allowed road grade (rad)
 
@@ -57,7 +58,7 @@ _INPUT_KEYS = ("rearLeft_Fx", "rearRight_Fx", "speedTarget", "pathRadius", "stee
                "speedTargetRate", "pathRadiusRate")
 
 
-class Vehicle:
+class Vehicle(NativeStepMixin):
     """Planar rear-wheel-drive vehicle; equations in :mod:`spurdiff.vehicle.car_rates`.
 
     Inputs (attributes, SI): ``rearLeft_Fx``, ``rearRight_Fx`` (N, rear tyre forces on the body),
@@ -81,17 +82,9 @@ class Vehicle:
 
     def __init__(self, params: VehicleParams | None = None):
         self.params = params if params is not None else VehicleParams.defaults()
-        self.rearLeft_Fx = 0.0
-        self.rearRight_Fx = 0.0
-        self.speedTarget = 0.0
-        self.pathRadius = 0.0
-        self.speedTargetRate = 0.0
-        self.pathRadiusRate = 0.0
-        self.steering_angle_cmd = 0.0
-        self.grade = 0.0
-        self.mu = 1.0
-        for k in _OUTPUT_KEYS:
+        for k in _INPUT_KEYS + _OUTPUT_KEYS:   # zero until set, but the road's friction
             setattr(self, k, 0.0)
+        self.mu = 1.0
         self.s = [0.0] * _N
         self._geo_key = None   # (pathRadius, grade, its sign, L) of the cached terms of _set_geometry
         # implementation of do_step (``solver.kernel``): auto (the compiled step,
@@ -320,17 +313,9 @@ class Vehicle:
         self.n_steps += 1
         self._set_outputs(out)
 
-    def native_step(self) -> "vehicle_kernel.CarNative | None":
-        """The whole step in C for a host that steps without Python (:mod:`spurdiff.native_step`), or
-        None (no compiled kernel in use, ``params.nativeStep`` false, or not initialized); the same plan
-        while the kernel is the same."""
-        vk = self._vk if self._ready and self.params.nativeStep else None
-        if vk is None:
-            return None
-        plan = self.__dict__.get("_native")
-        if plan is None or plan.const is not vk.const:
-            plan = self._native = vehicle_kernel.CarNative(vk, (_GRADE_MIN, _GRADE_MAX), _OUTPUT_KEYS)
-        return plan
+    def _native_plan(self, vk) -> "vehicle_kernel.CarNative":
+        """The native step's plan on the compiled kernel ``vk`` (:class:`NativeStepMixin`)."""
+        return vehicle_kernel.CarNative(vk, (_GRADE_MIN, _GRADE_MAX), _OUTPUT_KEYS)
 
     def _update_outputs(self) -> None:
         self._set_outputs(self._outputs(self.s))

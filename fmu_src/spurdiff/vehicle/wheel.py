@@ -76,6 +76,7 @@ import math
 import operator
 from spurdiff.errors import StepError, require_finite, require_nonnegative, require_positive
 from spurdiff.vehicle import kernel as vehicle_kernel
+from spurdiff.vehicle.native_plan import NativeStepMixin
 from spurdiff.vehicle.wheel_params import SHAFT_COUPLINGS, HalfShaftParams, WheelLoadParams, WheelParams  # noqa: F401 (re-exported)
 
 _STATE_KEYS = (
@@ -97,7 +98,7 @@ _WHEEL_STEP_KEYS = ("theta", "w_anchor", "w", "k", "phi", "t", "n_steps", "n_sub
 _get_step_values = operator.attrgetter(*_WHEEL_STEP_KEYS)
 
 
-class WheelLoad:
+class WheelLoad(NativeStepMixin):
     """Half-shaft + wheel + longitudinal tyre; equations and integrator in the module docstring.
 
     Inputs (attributes, SI): ``flange_phi`` (rad), ``flange_w`` (rad/s) of the differential's sun
@@ -296,17 +297,9 @@ class WheelLoad:
         and never commits a non-finite state (the FMU adapter then takes no snapshot)."""
         return getattr(self, "wheel_mode", False)
 
-    def native_step(self) -> "vehicle_kernel.WheelNative | None":
-        """The whole step in C for a host that steps without Python (:mod:`spurdiff.native_step`), or
-        None (no compiled kernel in use, ``params.nativeStep`` false, or not initialized); the same plan
-        while the kernel is the same."""
-        vk = self._vk if self._ready and self.params.nativeStep else None
-        if vk is None:
-            return None
-        plan = self.__dict__.get("_native")
-        if plan is None or plan.const is not vk.const:
-            plan = self._native = vehicle_kernel.WheelNative(vk, self)
-        return plan
+    def _native_plan(self, vk) -> "vehicle_kernel.WheelNative":
+        """The native step's plan on the compiled kernel ``vk`` (:class:`NativeStepMixin`)."""
+        return vehicle_kernel.WheelNative(vk, self)
 
     def _compiled(self, vk, hs: float, n: int, w_in: float, dw_in: float, v: float, Fz: float, mu: float,
                   c: float, d: float, tau0: float, dFz: float, dv: float, w_out: float, v_end: float,
