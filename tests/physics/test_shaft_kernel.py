@@ -26,6 +26,7 @@ from spurdiff.differential.derivatives import output_rates
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.rigid import RigidDifferential
 from spurdiff.differential.shafts import ShaftedDifferential, ShaftsParams, WheelSurrogate
+from spurdiff.differential.speed_law import breakaway_at_speed
 from spurdiff.errors import ParameterError
 
 VEHICLE_SCENES = ["vehicle-cornering", "tip-in-tip-out", "split-mu-launch", "wheel-lift", "standstill-launch"]
@@ -231,9 +232,29 @@ def test_model_with_the_split_breaking_away(library, drive, h, h_max):
     """The stick-slip drive of test_model_state_after_every_step with mu_pinDynamic 0.13, stuck at the
     start: it breaks away from stuck again and again (the break-away sub-step at the static lever,
     rigid.py's c_break; with the sliding lever there the shafts' sub-step had no root and the run
-    stopped at the first break-away), and the compiled model follows state for state."""
-    a = _drive(_model("python", drive, h_max, **PIN_SETS["split"]), 600, h)
-    m = _model("compiled", drive, h_max, **PIN_SETS["split"])
+    stopped at the first break-away), and the compiled model follows state for state.
+
+    The start is held by a locking preload: the shafts start untwisted, so the suns carry almost no
+    torque in the first step (with the speed drive none from the carrier either) and the capacity
+    there is the planets' centrifugal pin loads alone at 20 rad/s, which the planets without their
+    bores (issue 41) no longer make larger than the first step's torque difference (the speed drive
+    slipped from step 0). The preload is twice the torque difference of that first step with the
+    differential locked (preload 1e5 N m), so the start is stuck whatever the speed loads; the
+    differences that follow (tens of N m) break away past it at the static lever."""
+    locked = _drive(_model("python", drive, h_max, lockingPreload=1e5, **PIN_SETS["split"]), 1, h)[0]
+    assert locked["inner.slip_dir"] == 0.0
+    d0 = abs(locked["shafts.tau_end_L"] - locked["shafts.tau_end_R"])
+    pins = {**PIN_SETS["split"], "lockingPreload": 2.0 * d0}
+    if drive == "speed":
+        # without it the start holds exactly where the speed loads' break-away torque at 20 rad/s
+        # (speed_law, T0 = 0, either sun ahead) exceeds d0: at h = 5 ms it does not
+        bare = _model("python", drive, h_max, **PIN_SETS["split"])
+        geo, masses = bare.inner.geometry, (bare.inner.mass.m_planet1, bare.inner.mass.m_planet2)
+        cap = min(breakaway_at_speed(bare.inner.pf, geo, masses, 20.0, 0.0, s).locking_torque for s in (1.0, -1.0))
+        stuck = _drive(bare, 1, h)[0]["inner.slip_dir"] == 0.0
+        assert stuck == (cap > d0) and stuck == (h != 0.005), (cap, d0, stuck)
+    a = _drive(_model("python", drive, h_max, **pins), 600, h)
+    m = _model("compiled", drive, h_max, **pins)
     b = _drive(m, 600, h)
     assert m.inner.c_break == m.inner.pf.c > m.inner.c_slide
     bad = [(i, _differ(x, y)) for i, (x, y) in enumerate(zip(a, b)) if _differ(x, y)]

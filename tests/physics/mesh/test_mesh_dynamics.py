@@ -127,10 +127,16 @@ def test_contact_means_converge_with_tolerance(method):
         assert all(b < a for a, b in zip(errs, errs[1:])), errs
         assert errs[-1] < 1e-8
     else:
-        # RODAS5P (the contact level's default): monotone down to 1e-6, where it reaches 3e-11,
-        # the level of its reference; at 1e-7 it stays there (3.3e-11, not below 1e-6's 2.6e-11)
-        assert all(b < a for a, b in zip(errs[:4], errs[1:4])), errs
-        assert errs[3] < 1e-10 and errs[4] < 1e-10, errs
+        # RODAS5P (the contact level's default): every tolerance below 1e-3 gives a smaller error,
+        # each two decades of tolerance a smaller one again, and 1e-7 reaches 4.9e-11. Not decade
+        # by decade: since issue 41 (the pins' end reactions, mesh B2's width) the mean of F_12
+        # carries planet 2's brief slip at the unloaded start (re-stuck at the end of an accepted
+        # step, not at a located root) and at 1e-4 falls to 1.7e-11 by a cancellation (1.4e-9 at
+        # 1e-5; the drive torque and sun B's mesh stay monotone, sun A's sits at 1e-11). The reference is converged
+        # (1e-11 and 1e-12 give the same errors to 2 digits).
+        assert all(e < errs[0] for e in errs[1:]), errs
+        assert all(errs[k + 2] < errs[k] for k in range(3)), errs
+        assert errs[4] < 1e-10, errs
     # the start transient matters: the means are not those of the preloaded start
     assert abs(ref[0] / 2100.0 - 1.0) > 1e-3
 

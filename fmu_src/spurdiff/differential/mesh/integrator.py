@@ -26,8 +26,10 @@ Why ROS34PW2 (J. Rang, L. Angermann, BIT 45 (2005) 761-787; tableau as registere
 * linearly implicit: at most one LU of an 8x8 (10x10) matrix and four solves per step, no Newton
   iteration that can fail to converge at contact onset; the LU serves on while the Jacobian and
   the step size are unchanged (:mod:`spurdiff.differential.mesh.stepper`).
-* embedded order 2 for step-size control, and a dense output of order 3 (PETSc ``binterpt``), used
-  for the Simpson quadrature of the dissipated power.
+* embedded order 2 for step-size control, and a dense output (PETSc ``binterpt``), used for the
+  Simpson quadrature of the dissipated power: of order 3 only with the exact Jacobian, of order 2
+  as a W-method (an approximate Jacobian: the order conditions' trees with a matrix vertex of
+  order 3 fail; tests/physics/mesh/test_tableau_order_conditions.py).
 
 The second method, RODAS5P (G. Steinebach, "Construction of Rosenbrock-Wanner method Rodas5P and
 numerical benchmarks within the Julia Differential Equations package", BIT Numer. Math. 63 (2023)
@@ -296,7 +298,8 @@ class RosenbrockW:
         return out
 
     def midpoint(self, y: np.ndarray) -> np.ndarray:
-        """Dense output at the middle of the last step (order 3; RODAS5P 4)."""
+        """Dense output at the middle of the last step (ROS34PW2: order 3 with the exact Jacobian, 2 as a
+        W-method; RODAS5P 4)."""
         ym = self.y_mid
         _combine(self.method.dmid_list, self.U, ym, self.tmp)
         ym += y

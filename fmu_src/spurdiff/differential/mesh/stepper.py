@@ -100,8 +100,8 @@ def book_parametric_work(c, ya, yb) -> None:
 
 def dense_output(tr, U, y, yn, tin: float, hi: float, k: int, tq: list, yq, tmp) -> int:
     """The states at the output times ``tq[k], ...`` (into the communication step) that lie in
-    (tin, tin + hi], an accepted step from y to yn, by the method's dense output (order 3, RODAS5P
-    4) into the rows of ``yq``; returns the next k. ``y + theta Q_0 + theta^2 Q_1 + theta^3 Q_2 +
+    (tin, tin + hi], an accepted step from y to yn, by the method's dense output (ROS34PW2: order 3
+    with the exact Jacobian, 2 as a W-method; RODAS5P 4) into the rows of ``yq``; returns the next k. ``y + theta Q_0 + theta^2 Q_1 + theta^3 Q_2 +
     theta^4 Q_3`` with ``Q_p = sum_j dpoly[p][j] u_j``, formed once for a step with outputs (the
     kernel's order of operations; a three-power output's Q_3 is 0)."""
     Q = None
