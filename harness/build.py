@@ -48,7 +48,7 @@ import zipfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from harness import fmu_package, runtime_bundle, runtime_win64
+from harness import fmu_checksum, fmu_package, runtime_bundle, runtime_win64
 from harness.elf import find_patchelf
 from harness.paths import fmu_cache_dir, fmu_sources, physics_package, sources_digest
 
@@ -127,9 +127,7 @@ def fmu_path(name: str, dest: Path | None = None) -> Path:
 
 
 def is_current(name: str, dest: Path | None = None) -> bool:
-    fmu = fmu_path(name, dest)
-    stamp = fmu.with_suffix(".sha256")
-    return fmu.exists() and stamp.exists() and stamp.read_text().strip() == source_digest(name)
+    return fmu_checksum.is_current(fmu_path(name, dest), source_digest(name))
 
 
 def _fmi2_headers() -> Path:
@@ -516,10 +514,7 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
             os.replace(part, out)  # atomic: a reader sees the old or the new FMU, never half of one
         finally:
             part.unlink(missing_ok=True)   # left only by a build that failed
-    stamp = out.with_suffix(".sha256")
-    staged = dest / f".{name}.{os.getpid()}.sha256"
-    staged.write_text(source_digest(name) + "\n")
-    os.replace(staged, stamp)
+    fmu_checksum.write(out, source_digest(name))   # <name>.sha256: the FMU's own digest
     if not quiet:
         print(f"built {out}" + (f" ({'; '.join(notes)})" if notes else ""))
     return out

@@ -35,7 +35,7 @@ import zipfile
 from pathlib import Path
 
 from harness import build as build2
-from harness import modeldescription3
+from harness import fmu_checksum, modeldescription3
 from harness.modeldescription3 import PLATFORM, fmi3_description
 from harness.paths import fmu_cache_dir
 
@@ -61,9 +61,7 @@ def source_digest(name: str) -> str:
 
 
 def is_current(name: str, dest: Path | None = None) -> bool:
-    fmu = fmu_path(name, dest)
-    stamp = fmu.with_suffix(".sha256")
-    return fmu.exists() and stamp.exists() and stamp.read_text().strip() == source_digest(name)
+    return fmu_checksum.is_current(fmu_path(name, dest), source_digest(name))
 
 
 _LOADER3: dict[str, Path] = {}
@@ -141,9 +139,7 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
         os.replace(part, out)
     finally:
         part.unlink(missing_ok=True)
-    staged = dest / f".{name}{SUFFIX}.{os.getpid()}.sha256"
-    staged.write_text(source_digest(name) + "\n")
-    os.replace(staged, out.with_suffix(".sha256"))
+    fmu_checksum.write(out, source_digest(name))   # <name>.sha256: the FMU's own digest
     if not quiet:
         print(f"built {out} (FMI 3.0, from {fmu2.name})")
     return out

@@ -62,6 +62,7 @@ import tomllib
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
 
+from spurdiff.bounds import Bound
 from spurdiff.datafile import DATA_FOLDER
 from spurdiff.errors import ParameterError, require_finite
 from spurdiff.gears.geometry import DifferentialGeometry, Finding, GearGeometry, GearTable, MeshGeometry, inv
@@ -134,6 +135,9 @@ class CapacityParams:
     T0: float = tomllib.loads(_MATERIALS_TEXT)["rating"]["T0"]
     material: str = tomllib.loads(_MATERIALS_TEXT)["default"]
     bushingWall: float = 0.0     # m, wall of the planets' pin bushings: the bore is 2 (r_j + bushingWall)
+
+    # the fields' ranges (spurdiff.bounds: checked where the FMU's capacity watch is built, and its min/max)
+    BOUNDS = {"T0": Bound(0.0, lo_open=True), "bushingWall": Bound(0.0, 0.1, hi_open=True, allowed=">= 0 m and < 0.1 m")}
 
 
 def pin_bores(journal_radius: float, bushing_wall: float) -> dict[str, float] | None:
