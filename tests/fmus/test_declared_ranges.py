@@ -86,8 +86,8 @@ def test_every_variable_has_a_description_and_reals_a_unit(module):
             assert v.max is None or v.start <= v.max, v.name
 
 
-def test_built_model_description_carries_the_declared_ranges_units_and_tool(differential_fmu):
-    with zipfile.ZipFile(differential_fmu) as z:
+def test_built_model_description_carries_the_declared_ranges_units_and_tool(fmu_files):
+    with zipfile.ZipFile(fmu_files["SpurDifferential"]) as z:
         root = ET.fromstring(z.read("modelDescription.xml"))
     assert root.get("generationTool").startswith("spurdiff ")
     assert "pythonfmu" in root.get("generationTool").lower()
@@ -109,9 +109,21 @@ def test_built_model_description_carries_the_declared_ranges_units_and_tool(diff
     assert without_base in ([], ["N/m1.5"]), without_base
 
 
-def test_checksum_file_is_the_fmus_own_digest(differential_fmu):
+def test_checksum_file_is_the_fmus_own_digest(fmu_files):
     import hashlib
     from harness.fmu_checksum import checksum_path
-    digest, name = checksum_path(differential_fmu).read_text().split()
-    assert name == differential_fmu.name
-    assert digest == hashlib.sha256(differential_fmu.read_bytes()).hexdigest()
+    for fmu in fmu_files.values():
+        digest, name = checksum_path(fmu).read_text().split()
+        assert name == fmu.name
+        assert digest == hashlib.sha256(fmu.read_bytes()).hexdigest()
+
+
+@pytest.mark.parametrize("v", [v for v in vehicle_fmu.VARIABLES if v.causality == "parameter"
+                               and (v.min is not None or v.max is not None)], ids=lambda v: v.name)
+def test_vehicle_refuses_values_outside_the_declared_range(v):
+    values = {x.name: x.start for x in vehicle_fmu.VARIABLES}
+    vehicle_fmu.build_model(dict(values))
+    for bad in _outside(v):
+        with pytest.raises(ParameterError) as e:
+            vehicle_fmu.build_model(dict(values, **{v.name: bad}))
+        assert e.value.name == v.name, (v.name, bad, str(e.value))
