@@ -48,7 +48,7 @@ import zipfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from harness import fmu_checksum, fmu_package, runtime_bundle, runtime_win64
+from harness import fmu_checksum, fmu_package, progress, runtime_bundle, runtime_win64
 from harness.elf import find_patchelf
 from harness.paths import fmu_cache_dir, fmu_sources, physics_package, sources_digest
 
@@ -550,9 +550,11 @@ def build(names: list[str] | None = None, dest: Path | None = None, force: bool 
                     print(f"up to date: {fmu_path(name, dest)}")
                 paths.append(fmu_path(name, dest))
             elif _pythonfmu_shadowed():
-                paths.append(_build_in_subprocess(name, dest))
+                with progress.stage(f"building {name}.fmu in a fresh process", expected=40):
+                    paths.append(_build_in_subprocess(name, dest))
             else:
-                paths.append(build_one(name, dest, quiet=quiet))
+                with progress.stage(f"building {name}.fmu", expected=35):
+                    paths.append(build_one(name, dest, quiet=quiet))
     return paths
 
 

@@ -35,7 +35,7 @@ import zipfile
 from pathlib import Path
 
 from harness import build as build2
-from harness import fmu_checksum, modeldescription3
+from harness import fmu_checksum, modeldescription3, progress
 from harness.modeldescription3 import PLATFORM, fmi3_description
 from harness.paths import fmu_cache_dir
 
@@ -164,7 +164,8 @@ def build(names: list[str] | None = None, dest: Path | None = None, force: bool 
                     print(f"up to date: {fmu_path(name, dest)}")
                 paths.append(fmu_path(name, dest))
             else:
-                paths.append(build_one(name, dest, quiet=quiet))
+                with progress.stage(f"building {name}{SUFFIX}.fmu (FMI 3.0)", expected=15):
+                    paths.append(build_one(name, dest, quiet=quiet))
     return paths
 
 

@@ -76,7 +76,7 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from harness import elf
+from harness import elf, progress
 from harness.fmu_package import ENTRY_MODULE, PACKAGE_NAME, RUNTIME_PACKAGES, stage_package, write_entry
 from harness.paths import fmu_cache_dir
 
@@ -487,7 +487,11 @@ def ensure_runtime(fmus: dict[str, tuple[str, dict]], cache: Path | None = None,
         with tempfile.TemporaryDirectory(prefix="spurdiff_runtime_") as tmp:
             return module_list(stage_fmu_packages(fmus, Path(tmp)), numpy_modules)
 
-    items = _cached_json(cache / f"runtime-modules-{key1[:16]}.json", listing)
+    def traced():
+        with progress.stage("listing the modules the FMUs' Python runtime needs (traced once)", expected=30):
+            return listing()
+
+    items = _cached_json(cache / f"runtime-modules-{key1[:16]}.json", traced)
     key2 = _digest(interp, *items)
     folder = cache / f"runtime-{key2[:16]}"
     with open(cache / ".runtime.lock", "w") as lock:
@@ -496,7 +500,8 @@ def ensure_runtime(fmus: dict[str, tuple[str, dict]], cache: Path | None = None,
             _prune(cache, keep=folder)
             work = Path(tempfile.mkdtemp(prefix=f".runtime-{key2[:16]}-", dir=cache))
             try:
-                manifest = assemble(work, items)
+                with progress.stage("bundling the FMUs' Python runtime (made once, then cached)", expected=60):
+                    manifest = assemble(work, items)
                 work.chmod(0o755)
                 if folder.exists():
                     shutil.rmtree(folder)
