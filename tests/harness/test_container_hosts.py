@@ -58,3 +58,42 @@ def test_the_container_runs_in_ecos_where_no_python_is(container_fmu):
         assert np.max(got["diff.lockingTorque"]) > 20.0      # the differential slips at its capacity
     finally:
         shutil.rmtree(root, ignore_errors=True)
+
+
+def test_the_container_runs_in_our_c_host_where_no_python_is(container_fmu, tmp_path):
+    """Our own C host (tests/c_host/fmi2_any_host.c: ours, not an independent host) runs the unzipped
+    container in the same hidden namespace; its outputs after the run equal fmpy's to the digit."""
+    import subprocess
+    import zipfile
+    from fmpy import read_model_description, simulate_fmu
+    if shutil.which("gcc") is None:
+        pytest.skip("no C compiler (gcc) for our own C host")
+    root = Path(tempfile.mkdtemp(prefix="spurdiff container ü ", dir="/tmp"))
+    try:
+        os.chmod(root, 0o777)
+        exe = root / "fmi2_any_host"
+        subprocess.run(["gcc", "-O1", "-o", str(exe), str(Path(__file__).resolve().parents[1] / "c_host" /
+                                                              "fmi2_any_host.c"), "-ldl", "-lm"], check=True)
+        unpacked = root / "scene ü"
+        with zipfile.ZipFile(container_fmu) as z:
+            z.extractall(unpacked)
+        subprocess.run(["chmod", "-R", "a+rX", str(root)], check=True)
+        md = read_model_description(str(unpacked))
+        outs = [v for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
+        so = unpacked / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
+        steps = int(round(STOP / STEP))
+        import shlex
+        cmd = " ".join(shlex.quote(a) for a in [str(exe), str(so), md.guid, (unpacked / "resources").as_uri(),
+                                                 str(steps), repr(STEP), "1", "get",
+                                                 ",".join(str(v.valueReference) for v in outs)])
+        r = hidden_run(cmd + " >out.txt 2>&1; echo RC $?\n", root)
+        text = (root / "out.txt").read_text(errors="replace")
+        assert "RC 0" in r.stdout, r.stdout + r.stderr + text[-3000:]
+        import re
+        got_by_vr = {int(k): float(v) for k, v in re.findall(r" (\d+)=(\S+)", text)}
+        ref = simulate_fmu(str(container_fmu), stop_time=STOP, step_size=STEP, output_interval=STEP)
+        assert len(got_by_vr) == len(outs), text[-2000:]
+        for v in outs:
+            assert got_by_vr[v.valueReference] == pytest.approx(float(ref[v.name][-1]), rel=1e-12, abs=1e-12), v.name
+    finally:
+        shutil.rmtree(root, ignore_errors=True)
