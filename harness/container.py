@@ -4,7 +4,7 @@ scene's FMUs inside it.
 
 ``export_container(scene, fmu_files, path)`` writes ``path`` (``<scene>.fmu``). What goes in:
 
-* each instance of the scene as an embedded FMU of its own (``<instance>-<FMU>.fmu``: the container
+* each instance of the scene as an embedded FMU of its own (``<instance>_<FMU>.fmu``: the container
   names its embedded FMUs by file, so two wheels on one WheelLoad.fmu are two copies of it);
 * the scene's connections as the container's links, the scene's parameters and its inputs' values
   at t = 0 as start values of the embedded FMUs (what :func:`harness.ssp.instance_values` gives
@@ -78,9 +78,9 @@ def description(scene: Scene, tables_at_start: bool = False, causality: dict[str
 
 
 def embedded_names(scene: Scene) -> dict[str, str]:
-    """The file of each instance inside the container, ``<instance>-<FMU>.fmu`` (the toolbox names
+    """The file of each instance inside the container, ``<instance>_<FMU>.fmu`` (the toolbox names
     the links' variables after the file; ``<instance>.<variable>`` is left to the outputs)."""
-    return {i.name: f"{i.name}-{i.fmu}.fmu" for i in scene.instances}
+    return {i.name: f"{i.name}_{i.fmu}.fmu" for i in scene.instances}
 
 
 def _causalities(scene: Scene, fmu_files: dict[str, Path]) -> dict[str, str]:

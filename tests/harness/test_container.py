@@ -18,8 +18,8 @@ def test_description_carries_the_scene():
     assert d["fmu"] == [names[i.name] for i in scene.instances]          # the scene's Gauss-Seidel order
     assert d["sequential"] is True and d["step_size"] == scene.step
     assert len(d["link"]) == len(scene.connections)
-    assert ["diff-SpurDifferential.fmu", "shaftCoupling", "wheel"] in d["start"]
-    assert ["diff-SpurDifferential.fmu", "J_carrier", 13.1] in d["start"]
+    assert ["diff_SpurDifferential.fmu", "shaftCoupling", "wheel"] in d["start"]
+    assert ["diff_SpurDifferential.fmu", "J_carrier", 13.1] in d["start"]
     assert all(o[2] in scene.record for o in d["output"])
 
 
@@ -44,8 +44,10 @@ def test_the_container_runs_in_fmpy_as_our_master_runs_the_scene(fmu_files, tmp_
         root = ET.fromstring(z.read("modelDescription.xml"))
         embedded = [n for n in z.namelist() if n.endswith(".fmu") or n.count("/") == 2 and n.endswith("modelDescription.xml")]
     assert root.get("fmiVersion") == "2.0" and embedded
+    from fmpy.validation import validate_fmu
+    assert validate_fmu(str(s.path)) == []          # fmpy validate: clean (names legal as "structured")
     rows = compare(scene, files, s.path, t_from=0.25)
-    assert len(rows) == s.outputs == len(scene.record)
+    assert len(rows) == s.outputs >= 20          # every recorded output (a recorded parameter is not an output)
     # the same FMUs, order and step: equal to 1e-2 relative (measured at 3 s: at most 9e-4, the
     # start transient coupled differently; docs/interoperability.md)
     worst = max(rows, key=lambda r: r.rel)
