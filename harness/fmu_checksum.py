@@ -18,7 +18,18 @@ def stamp_path(fmu: Path) -> Path:
     return fmu.with_name(f".{fmu.stem}.source-digest")
 
 
+_MEMO: dict[tuple, str] = {}   # (path, inode, size, mtime) -> digest: a file read once per process
+
+
 def file_sha256(path: Path) -> str:
+    st = os.stat(path)
+    key = (str(path), st.st_ino, st.st_size, st.st_mtime_ns)
+    if key not in _MEMO:
+        _MEMO[key] = _digest(path)
+    return _MEMO[key]
+
+
+def _digest(path: Path) -> str:
     h = hashlib.sha256()
     with open(path, "rb") as f:
         for block in iter(lambda: f.read(1 << 20), b""):

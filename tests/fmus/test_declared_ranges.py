@@ -127,3 +127,14 @@ def test_vehicle_refuses_values_outside_the_declared_range(v):
         with pytest.raises(ParameterError) as e:
             vehicle_fmu.build_model(dict(values, **{v.name: bad}))
         assert e.value.name == v.name, (v.name, bad, str(e.value))
+
+
+def test_an_fmu_changed_after_its_build_is_not_current(tmp_path):
+    from harness import fmu_checksum
+    fmu = tmp_path / "X.fmu"
+    fmu.write_bytes(b"an fmu")
+    fmu_checksum.write(fmu, "sources-1")
+    assert fmu_checksum.is_current(fmu, "sources-1") and not fmu_checksum.is_current(fmu, "sources-2")
+    assert (tmp_path / "X.sha256").read_text().split()[1] == "X.fmu"
+    fmu.write_bytes(b"an FMU changed")
+    assert not fmu_checksum.is_current(fmu, "sources-1")
