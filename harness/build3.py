@@ -1,18 +1,18 @@
 """Build the FMI 3.0 co-simulation FMUs beside the FMI 2.0 ones: ``build/fmus/<name>-fmi3.fmu``.
 
 One declaration, two FMUs: the FMI 3.0 FMU of ``name`` is made from its FMI 2.0 FMU
-(:mod:`harness.build`, built first when it is not current) and holds the same model: the same
+(:mod:`harness.build.fmu`, built first when it is not current) and holds the same model: the same
 package copy ``resources/spurdiff/``, the same Python runtime ``resources/python/`` and its
 description ``resources/python_runtime.cfg`` (the GUID is the instantiation token), the same
 bridge and server. What differs:
 
 * ``modelDescription.xml`` is FMI 3.0, written from the same variable list
-  (:func:`harness.modeldescription3.fmi3_description`);
+  (:func:`harness.build.modeldescription3.fmi3_description`);
 * the binaries sit in ``binaries/x86_64-linux/`` and the model's binary is the FMI 3.0 loader:
   ``fmu_src/native/fmi/fmi3_loader.c`` linked with the FMI 2.0 loader it maps every call onto
   (:data:`LOADER3_SOURCES`), so the model runs in this process or its own exactly as in the FMI 2.0
   FMU, with the same refusals;
-* the Windows side, where the FMI 2.0 FMU has one (mingw-w64 installed, :mod:`harness.runtime_win64`):
+* the Windows side, where the FMI 2.0 FMU has one (mingw-w64 installed, :mod:`harness.build.runtime_win64`):
   ``binaries/x86_64-windows/`` holds the FMI 2.0 FMU's ``binaries/win64/`` files with the model's
   DLL replaced by the FMI 3.0 loader cross-built from the same sources (``loader3.dll`` of the win64
   runtime), beside the same ``resources/python-win64/`` runtime and its description. Without it
@@ -34,10 +34,11 @@ import atexit
 import zipfile
 from pathlib import Path
 
-from harness import build as build2
-from harness import fmu_checksum, modeldescription3, progress
-from harness.modeldescription3 import PLATFORM, fmi3_description
-from harness.paths import fmu_cache_dir
+from harness.build import fmu as build2
+from harness import fmu_checksum, progress
+from harness.build import modeldescription3
+from harness.build.modeldescription3 import PLATFORM, fmi3_description
+from harness.common.paths import fmu_cache_dir
 
 SUFFIX = "-fmi3"
 LOADER3_SOURCES: tuple = ("fmi3_loader.c", *build2.LOADER_SOURCES)
@@ -91,7 +92,7 @@ def compile_loader3() -> Path:
 
 def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
     """The FMI 3.0 FMU of ``name`` from its FMI 2.0 FMU in ``dest`` (which must be current)."""
-    from harness import runtime_bundle
+    from harness.build import runtime_bundle
 
     dest = Path(dest) if dest else fmu_cache_dir()
     fmu2 = build2.fmu_path(name, dest)

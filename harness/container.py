@@ -7,7 +7,7 @@ scene's FMUs inside it.
 * each instance of the scene as an embedded FMU of its own (``<instance>_<FMU>.fmu``: the container
   names its embedded FMUs by file, so two wheels on one WheelLoad.fmu are two copies of it);
 * the scene's connections as the container's links, the scene's parameters and its inputs' values
-  at t = 0 as start values of the embedded FMUs (what :func:`harness.ssp.instance_values` gives
+  at t = 0 as start values of the embedded FMUs (what :func:`harness.interop.ssp.instance_values` gives
   every exporter: for a SpurDifferential instance the scene's effects under its own parameters);
 * the scene's recorded quantities as the container's outputs, named ``<instance>.<variable>``;
 * the scene's communication step as the container's internal step, its duration as the default
@@ -31,9 +31,9 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
-from harness.paths import results_dir
-from harness.scene import Scene, SceneError, safe_name
-from harness.ssp import instance_values
+from harness.common.paths import results_dir
+from harness.scene.spec import Scene, SceneError, safe_name
+from harness.interop.ssp import instance_values
 
 TOOL = "fmu-manipulation-toolbox"
 

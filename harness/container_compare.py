@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from harness.scene import Scene
+from harness.scene.spec import Scene
 
 
 @dataclass
@@ -37,7 +37,7 @@ def run_container(container: Path, scene: Scene):
 def compare(scene: Scene, fmu_files: dict[str, Path], container: Path, t_from: float | None = None) -> list[Row]:
     """Means of every output the container exposes over [t_from, duration] (default: the second
     half), from our master and from the container in fmpy."""
-    from harness.master import run_scene
+    from harness.run.master import run_scene
 
     ours = run_scene(scene, fmu_files)
     if ours.failure is not None:

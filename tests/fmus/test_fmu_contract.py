@@ -22,7 +22,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
 
-from harness.master import Instance, _make_logger
+from harness.run.master import Instance, _make_logger
 
 # a case per FMU: the inputs of a normal run, an input that can be driven to overflow, a
 # parameter whose tampered value is out of range, and a fixed (structural) parameter; a second

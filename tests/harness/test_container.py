@@ -8,7 +8,7 @@ import xml.etree.ElementTree as ET
 import pytest
 
 from harness import container
-from harness.runner import prepare_scene
+from harness.run.runner import prepare_scene
 
 
 def test_description_carries_the_scene():
@@ -27,7 +27,7 @@ def test_a_missing_toolbox_is_one_line(monkeypatch, capsys):
     from harness.cli import export_container as cli
     monkeypatch.setattr(container, "_toolbox", lambda: (_ for _ in ()).throw(
         container.ContainerError("fmu-manipulation-toolbox is not installed (pip install fmu-manipulation-toolbox)")))
-    monkeypatch.setattr("harness.runner.fmu_files_for", lambda scene, **kw: {})
+    monkeypatch.setattr("harness.run.runner.fmu_files_for", lambda scene, **kw: {})
     assert cli.main(["vehicle-cornering", "-o", "/nonexistent/x.fmu"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("spurdiff export-container: ") and "pip install fmu-manipulation-toolbox" in err

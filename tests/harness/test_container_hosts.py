@@ -25,7 +25,7 @@ STOP, STEP = 0.2, 5e-3
 def container_fmu(fmu_files, tmp_path_factory):
     pytest.importorskip("fmu_manipulation_toolbox", reason="fmu-manipulation-toolbox is not installed")
     from harness.container import export_container
-    from harness.runner import prepare_scene
+    from harness.run.runner import prepare_scene
     scene = prepare_scene("vehicle-cornering", duration=STOP)
     files = {i.fmu: fmu_files[i.fmu] for i in scene.instances}
     return export_container(scene, files, tmp_path_factory.mktemp("container") / "vehicle-cornering.fmu").path

@@ -168,7 +168,7 @@ _WATCHED: dict[type, type] = {}
 def watched_class(cls: type) -> type:
     """The watched variant of the model class ``cls``: one per class (the FMU's bindings compile per
     class), made at the first model and then a name of this module (``WatchedRigidDifferential``...:
-    found by name like any class, e.g. in an FMU's copy of the package by harness.bench.core.fmu_copies)."""
+    found by name like any class, e.g. in an FMU's copy of the package by harness.measure.bench.core.fmu_copies)."""
     c = _WATCHED.get(cls)
     if c is None:
         c = _WATCHED[cls] = type(f"Watched{cls.__name__}", (Watched, cls),
