@@ -48,6 +48,8 @@ import zipfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+from harness.build import fmu_checksum
+from harness.common import progress
 from harness.build import fmu_package, runtime_bundle, runtime_win64
 from harness.build.elf import find_patchelf
 from harness.common.paths import fmu_cache_dir, fmu_sources, physics_package, sources_digest
@@ -135,9 +137,7 @@ def fmu_path(name: str, dest: Path | None = None) -> Path:
 
 
 def is_current(name: str, dest: Path | None = None) -> bool:
-    fmu = fmu_path(name, dest)
-    stamp = fmu.with_suffix(".sha256")
-    return fmu.exists() and stamp.exists() and stamp.read_text().strip() == source_digest(name)
+    return fmu_checksum.is_current(fmu_path(name, dest), source_digest(name))
 
 
 def _fmi2_headers() -> Path:
@@ -528,10 +528,7 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
             os.replace(part, out)  # atomic: a reader sees the old or the new FMU, never half of one
         finally:
             part.unlink(missing_ok=True)   # left only by a build that failed
-    stamp = out.with_suffix(".sha256")
-    staged = dest / f".{name}.{os.getpid()}.sha256"
-    staged.write_text(source_digest(name) + "\n")
-    os.replace(staged, stamp)
+    fmu_checksum.write(out, source_digest(name))   # <name>.sha256: the FMU's own digest
     if not quiet:
         print(f"built {out}" + (f" ({'; '.join(notes)})" if notes else ""))
     return out
@@ -563,10 +560,14 @@ def build(names: list[str] | None = None, dest: Path | None = None, force: bool 
     for name in names or list(FMUS):
         if name not in FMUS:
             raise BuildError(f"unknown FMU {name!r}: allowed {', '.join(FMUS)}")
+        def make(name=name):
+            if _pythonfmu_shadowed():
+                with progress.stage(f"building {name}.fmu in a fresh process", expected=40):
+                    return _build_in_subprocess(name, dest)
+            with progress.stage(f"building {name}.fmu", expected=35):
+                return build_one(name, dest, quiet=quiet)
         paths.append(build_locked(dest / f".{name}.lock", fmu_path(name, dest),
-                                  lambda: not force and is_current(name, dest),
-                                  lambda: (_build_in_subprocess(name, dest) if _pythonfmu_shadowed()
-                                           else build_one(name, dest, quiet=quiet)), quiet))
+                                  lambda: not force and is_current(name, dest), make, quiet))
     return paths
 
 

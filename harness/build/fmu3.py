@@ -34,6 +34,8 @@ import zipfile
 from pathlib import Path
 
 from harness.build import fmu as build2
+from harness.build import fmu_checksum
+from harness.common import progress
 from harness.build import modeldescription3
 from harness.build.modeldescription3 import PLATFORM, fmi3_description
 from harness.common.paths import fmu_cache_dir
@@ -60,9 +62,7 @@ def source_digest(name: str) -> str:
 
 
 def is_current(name: str, dest: Path | None = None) -> bool:
-    fmu = fmu_path(name, dest)
-    stamp = fmu.with_suffix(".sha256")
-    return fmu.exists() and stamp.exists() and stamp.read_text().strip() == source_digest(name)
+    return fmu_checksum.is_current(fmu_path(name, dest), source_digest(name))
 
 
 _LOADER3: dict[str, Path] = {}
@@ -146,9 +146,7 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
         os.replace(part, out)
     finally:
         part.unlink(missing_ok=True)
-    staged = dest / f".{name}{SUFFIX}.{os.getpid()}.sha256"
-    staged.write_text(source_digest(name) + "\n")
-    os.replace(staged, out.with_suffix(".sha256"))
+    fmu_checksum.write(out, source_digest(name))   # <name>.sha256: the FMU's own digest
     if not quiet:
         print(f"built {out} (FMI 3.0, from {fmu2.name})")
     return out
@@ -166,9 +164,11 @@ def build(names: list[str] | None = None, dest: Path | None = None, force: bool 
     build2.build(names, dest, force=force if force2 is None else force2, quiet=True)
     paths = []
     for name in names:
+        def make(name=name):
+            with progress.stage(f"building {name}{SUFFIX}.fmu (FMI 3.0)", expected=15):
+                return build_one(name, dest, quiet=quiet)
         paths.append(build2.build_locked(dest / f".{name}{SUFFIX}.lock", fmu_path(name, dest),
-                                         lambda: not force and is_current(name, dest),
-                                         lambda: build_one(name, dest, quiet=quiet), quiet))
+                                         lambda: not force and is_current(name, dest), make, quiet))
     return paths
 
 

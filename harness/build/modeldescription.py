@@ -25,30 +25,43 @@ UNITS: dict[str, tuple[dict[str, int] | None, dict[str, tuple[float, float]]]] =
     "m/s2": ({"m": 1, "s": -2}, {"g": (1.0 / 9.80665, 0.0)}),
     "rad": ({"rad": 1}, {"deg": (180.0 / math.pi, 0.0)}),
     "rad/s": ({"rad": 1, "s": -1}, {"rpm": (30.0 / math.pi, 0.0), "deg/s": (180.0 / math.pi, 0.0)}),
-    "rad/s2": ({"rad": 1, "s": -2}, {}),
+    "rad/s2": ({"rad": 1, "s": -2}, {"deg/s2": (180.0 / math.pi, 0.0)}),
     "N": ({"kg": 1, "m": 1, "s": -2}, {"kN": (1e-3, 0.0)}),
     "N.m": ({"kg": 1, "m": 2, "s": -2}, {"N.mm": (1e3, 0.0)}),
-    "N.m/rad": ({"kg": 1, "m": 2, "s": -2, "rad": -1}, {}),
-    "N.m.s/rad": ({"kg": 1, "m": 2, "s": -1, "rad": -1}, {}),
+    "N.m/rad": ({"kg": 1, "m": 2, "s": -2, "rad": -1}, {"N.m/deg": (math.pi / 180.0, 0.0)}),
+    "N.m.s/rad": ({"kg": 1, "m": 2, "s": -1, "rad": -1}, {"N.m.s/deg": (math.pi / 180.0, 0.0)}),
     "N/m": ({"kg": 1, "s": -2}, {"N/mm": (1e-3, 0.0)}),
     "N.s/m": ({"kg": 1, "s": -1}, {"N.s/mm": (1e-3, 0.0)}),
     "W": ({"kg": 1, "m": 2, "s": -3}, {"kW": (1e-3, 0.0)}),
     "J": ({"kg": 1, "m": 2, "s": -2}, {"kJ": (1e-3, 0.0)}),
-    "kg": ({"kg": 1}, {}),
+    "kg": ({"kg": 1}, {"g": (1e3, 0.0)}),
     "kg.m2": ({"kg": 1, "m": 2}, {"kg.mm2": (1e6, 0.0)}),
     "kg/m3": ({"kg": 1, "m": -3}, {"kg/mm3": (1e-9, 0.0)}),
-    "m2": ({"m": 2}, {}),
-    "N.m.s/m": ({"kg": 1, "m": 1, "s": -1}, {}),
-    "N.m/m": ({"kg": 1, "m": 1, "s": -2}, {}),
+    "m2": ({"m": 2}, {"mm2": (1e6, 0.0)}),
+    "N.m.s/m": ({"kg": 1, "m": 1, "s": -1}, {"N.m.s/mm": (1e-3, 0.0)}),
+    "N.m/m": ({"kg": 1, "m": 1, "s": -2}, {"N.m/mm": (1e-3, 0.0)}),
     "Pa": ({"kg": 1, "m": -1, "s": -2}, {"MPa": (1e-6, 0.0)}),
-    "1/s": ({"s": -1}, {}),
-    "N.m/s": ({"kg": 1, "m": 2, "s": -3}, {}),
-    "N/s": ({"kg": 1, "m": 1, "s": -3}, {}),
-    "1/(kg.m2)": ({"kg": -1, "m": -2}, {}),
+    "1/s": ({"s": -1}, {"1/min": (60.0, 0.0)}),
+    "N.m/s": ({"kg": 1, "m": 2, "s": -3}, {"kN.m/s": (1e-3, 0.0)}),
+    "N/s": ({"kg": 1, "m": 1, "s": -3}, {"kN/s": (1e-3, 0.0)}),
+    "1/(kg.m2)": ({"kg": -1, "m": -2}, {"1/(kg.mm2)": (1e-6, 0.0)}),
     # IMPACT stiffness for e = 1.5: the base unit has a fractional exponent (kg m^-0.5 s^-2), which
     # FMI's integer BaseUnit cannot express, so it is declared without one
     "N/m1.5": (None, {"N/mm1.5": (1e-3 ** 1.5, 0.0)}),
 }
+
+
+def generation_tool(pythonfmu_tool: str | None) -> str:
+    """``spurdiff <version>``, and the pythonfmu whose modules the FMU's Python side runs on (what
+    pythonfmu wrote, e.g. "PythonFMU 0.7.0")."""
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        ours = version("spurdiff")
+    except PackageNotFoundError:
+        import spurdiff
+        ours = spurdiff.__version__
+    tool = f"spurdiff {ours}"
+    return f"{tool} (with {pythonfmu_tool} modules)" if pythonfmu_tool else tool
 
 
 def _indent(elem: ET.Element, level: int = 0) -> None:
@@ -87,6 +100,7 @@ def postprocess(xml_text: str, variables: Sequence[Var], default_experiment: dic
     """Return modelDescription.xml text with units, dependencies and InitialUnknowns added, and
     CoSimulation's ``needsExecutionTool`` set (false: the FMU carries its runtime)."""
     root = ET.fromstring(xml_text)
+    root.set("generationTool", generation_tool(root.get("generationTool")))
     for cs in root.findall("CoSimulation"):
         cs.set("needsExecutionTool", "true" if needs_execution_tool else "false")
     by_name = {v.name: v for v in variables}
@@ -101,6 +115,12 @@ def postprocess(xml_text: str, variables: Sequence[Var], default_experiment: dic
             raise KeyError(f"variable {name} is not declared in the FMU's VARIABLES list")
         if v.description:
             sv.set("description", v.description)
+        integer = sv.find("Integer")
+        if integer is not None:
+            if v.min is not None:
+                integer.set("min", str(int(v.min)))
+            if v.max is not None:
+                integer.set("max", str(int(v.max)))
         real = sv.find("Real")
         if real is not None:
             if not v.unit:

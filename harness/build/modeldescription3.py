@@ -85,10 +85,9 @@ def fmi3_description(fmi2_xml: str, variables: Sequence[Var], default_experiment
         if sv.get("initial"):
             attrs["initial"] = sv.get("initial")
         start = typed2.get("start")
-        if v.kind == "Real":
-            for key in ("unit", "displayUnit", "min", "max"):
-                if typed2.get(key) is not None:
-                    attrs[key] = typed2.get(key)
+        for key in ("unit", "displayUnit", "min", "max") if v.kind == "Real" else ("min", "max"):
+            if typed2.get(key) is not None:
+                attrs[key] = typed2.get(key)
         if start is not None and v.kind != "String":
             attrs["start"] = start
         el = ET.SubElement(mv, TYPE3[v.kind], attrs)

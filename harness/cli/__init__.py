@@ -26,6 +26,8 @@ COMMANDS = {
     "bench": ("bench", "measured cost ratios: FMI vs direct, each fidelity vs rigid, real-time factors"),
     "check": ("check", "FMI 2.0 compliance checks of any co-simulation FMU, JUnit report (docs/compliance.md)"),
     "export-ssp": ("export_ssp", "write a scene as an SSP file other masters run (docs/interoperability.md)"),
+    "export-container": ("export_container", "write a scene as one container FMU that steps its FMUs "
+                                             "(fmu-manipulation-toolbox; --compare: beside our master)"),
     "accuracy": ("accuracy", "accuracy versus wall time over fidelities, steps and tolerances (docs/accuracy.md)"),
     "sweep": ("sweep", "design sweep of a scene on a local or remote Dask cluster, resumable (docs/sweeps.md)"),
     "mutate": ("mutate", "plant the listed bugs one at a time in a clone and run the tests that must catch them "

@@ -6,7 +6,8 @@ import math
 from dataclasses import dataclass, field
 
 from spurdiff.datafile import differential_default as _d
-from spurdiff.errors import ParameterError, require_finite, require_nonnegative, require_positive
+from spurdiff.bounds import Bound, check_fields
+from spurdiff.errors import ParameterError
 from spurdiff.gears.design import derive
 from spurdiff.gears.geometry import DifferentialGeometry, GearTable
 from spurdiff.gears.layout import HANDEDNESS, PIN_MODELS
@@ -45,41 +46,42 @@ class DifferentialParams:
     m_planet1: float = 0.0        # kg, one planet, 0 = from geometry (orbit inertia on the carrier)
     m_planet2: float = 0.0
 
+    # the fields' fixed ranges (spurdiff.bounds: validate and the FMU's min/max); mu_pinDynamic <= mu_pin
+    # and r_collar's friction lever are checked in validate
+    BOUNDS = {
+        "mu_pin": Bound(0.0, 1.0),
+        "mu_pinDynamic": Bound(0.0, 1.0, allowed="between 0 and mu_pin (0: equal to mu_pin)"),
+        "r_collar": Bound(0.0),
+        "lockingPreload": Bound(0.0, 1e5, allowed="between 0 and 1e5 N m"),
+        "pinContactFactor": Bound(1.0, 2.0, hint="1: friction circle, 4/pi: run-in bushing, pi/2: uniform pressure"),
+        "density": Bound(0.0, lo_open=True),
+        **{name: Bound(0.0) for name in ("J_carrier", "J_sunA", "J_sunB", "J_planet1", "J_planet2",
+                                         "m_planet1", "m_planet2")},
+    }
+
     def validate(self) -> DifferentialGeometry:
         """Check every parameter; return the derived geometry. Raises ParameterError."""
         geo = derive(self.table)
         geo.raise_on_error()
-        mu = require_nonnegative("mu_pin", self.mu_pin)
-        if mu > 1.0:
-            raise ParameterError("mu_pin", self.mu_pin, "between 0 and 1")
-        mu_d = self.mu_pinDynamic
-        if not 0.0 <= mu_d <= mu:            # (NaN fails too)
+        check_fields(self)
+        mu = self.mu_pin
+        if not self.mu_pinDynamic <= mu:
             raise ParameterError("mu_pinDynamic", self.mu_pinDynamic,
                                  f"between 0 and mu_pin = {mu:g} (0: equal to mu_pin)")
-        require_nonnegative("r_collar", self.r_collar)
         if self.lockingLaw not in LOCKING_LAWS:
             raise ParameterError("lockingLaw", self.lockingLaw, " or ".join(LOCKING_LAWS))
         for name, allowed in (("pinModel", PIN_MODELS), ("pairHandedness", HANDEDNESS), ("leadingSun", LEADING_SUNS)):
             if getattr(self, name) not in allowed:
                 raise ParameterError(name, getattr(self, name), " | ".join(allowed))
-        pre = require_nonnegative("lockingPreload", self.lockingPreload)
-        if pre > 1e5:
-            raise ParameterError("lockingPreload", self.lockingPreload, "between 0 and 1e5 N m")
-        fac = require_finite("pinContactFactor", self.pinContactFactor)
-        if not 1.0 <= fac <= 2.0:
-            raise ParameterError("pinContactFactor", fac, "between 1 and 2 (1: friction circle, 4/pi: run-in bushing, "
-                                 "pi/2: uniform pressure)")
+        fac = self.pinContactFactor
         rb_planet = min(geo.meshA1.rb2, geo.meshB2.rb2)
         if self.lockingLaw == "pinFriction" and mu * self.r_collar * fac >= 0.5 * rb_planet:
             raise ParameterError("r_collar", self.r_collar,
                                  f"mu_pin * r_collar * pinContactFactor < r_b / 2 = {0.5 * rb_planet:.4g} m "
                                  "(planet base radius)",
                                  "a larger friction lever than that makes the pins nearly self-locking")
-        require_positive("density", self.density)
         if self.carrierDrive not in CARRIER_DRIVES:
             raise ParameterError("carrierDrive", self.carrierDrive, " or ".join(CARRIER_DRIVES))
-        for name in ("J_carrier", "J_sunA", "J_sunB", "J_planet1", "J_planet2", "m_planet1", "m_planet2"):
-            require_nonnegative(name, getattr(self, name))
         return geo
 
     @property

@@ -8,6 +8,7 @@ import math
 from dataclasses import dataclass, field
 
 from spurdiff.datafile import differential_default as _d
+from spurdiff.bounds import Bound, check_fields
 from spurdiff.errors import ParameterError, require_finite, require_nonnegative, require_positive
 
 SHAFT_COUPLINGS = ("torque", "wheel")
@@ -21,16 +22,13 @@ class ShaftParams:
     d: float = _d("leftShaft.d")
     phi_rel_start: float = _d("leftShaft.phi_rel_start")
 
+    # the fields' ranges (spurdiff.bounds: validate and the FMU's min/max)
+    BOUNDS = {"c": Bound(0.0, 1e9, lo_open=True, allowed="between 0 and 1e9 N m/rad"),
+              "d": Bound(0.0, 1e6, allowed="between 0 and 1e6 N m s/rad"),
+              "phi_rel_start": Bound(-1.0, 1.0, allowed="between -1 and 1 rad")}
+
     def validate(self, name: str) -> None:
-        c = require_positive(f"{name}.c", self.c)
-        if c > 1e9:
-            raise ParameterError(f"{name}.c", self.c, "between 0 and 1e9 N m/rad")
-        d = require_nonnegative(f"{name}.d", self.d)
-        if d > 1e6:
-            raise ParameterError(f"{name}.d", self.d, "between 0 and 1e6 N m s/rad")
-        th = require_finite(f"{name}.phi_rel_start", self.phi_rel_start)
-        if abs(th) > 1.0:
-            raise ParameterError(f"{name}.phi_rel_start", self.phi_rel_start, "between -1 and 1 rad")
+        check_fields(self, f"{name}.")
 
 
 @dataclass
@@ -42,12 +40,12 @@ class ShaftsParams:
     right: ShaftParams = field(default_factory=lambda: ShaftParams(**_d("rightShaft")))
     h_max: float = _d("shafts.h_max")
 
+    BOUNDS = {"h_max": Bound(0.0, 0.1, lo_open=True, allowed="between 0 and 0.1 s")}
+
     def validate(self) -> None:
         self.left.validate("leftShaft")
         self.right.validate("rightShaft")
-        h = require_positive("shafts.h_max", self.h_max)
-        if h > 0.1:
-            raise ParameterError("shafts.h_max", self.h_max, "between 0 and 0.1 s")
+        check_fields(self, "shafts.")
 
 
 @dataclass

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 
+from spurdiff.bounds import Bound, check_fields
 from spurdiff.differential.bushing import bushing
 from spurdiff.differential.locking import breakaway, dynamic_pin_model, pin_friction
 from spurdiff.errors import ParameterError, require_positive
@@ -85,11 +86,10 @@ class CapacityWatch(cap.StressWatch, Watch):
     _FRESH = (0.0, 0.0, False, (0.0, 0.0, 0.0))    # before any step (a state without the entry)
 
     def __init__(self, model, params: cap.CapacityParams):
-        self.T0 = require_positive("capacity.T0", params.T0)
+        check_fields(params, "capacity.")
+        self.T0 = float(params.T0)
         mat = cap.material(params.material)
         wall = params.bushingWall
-        if not (wall >= 0.0 and wall < 0.1):
-            raise ParameterError("capacity.bushingWall", wall, ">= 0 m and < 0.1 m")
         p, geo = model.params, model.geometry
         bores = cap.pin_bores(p.r_collar, wall)   # the planets turn on journals (Y_B)
         cond = cap.conditions(K_gamma=params.K_gamma)
@@ -119,6 +119,10 @@ class CapacityWatch(cap.StressWatch, Watch):
         super().set_state(self._FRESH if s is None else s)
 
 
+# overspeedLimit's range (spurdiff.bounds: the watch's check and the FMU's min/max)
+OVERSPEED_LIMIT = Bound(0.0, allowed=">= 0 rad/s (0: from the pin bushings)")
+
+
 class OverspeedWatch(Watch):
     """``indicator`` 1.0 while ``|w_A - w_c|`` is above ``limit`` (rad/s), else 0.0; one warning the
     first time. ``limit`` 0: the pin bushings' sliding-speed limit (``pin_bushing.toml``, C93200
@@ -129,8 +133,7 @@ class OverspeedWatch(Watch):
     name = "overspeed_watch"
 
     def __init__(self, model, limit: float = 0.0):
-        if not (limit >= 0.0 and limit < math.inf):
-            raise ParameterError("overspeedLimit", limit, ">= 0 rad/s (0: from the pin bushings)")
+        OVERSPEED_LIMIT.check("overspeedLimit", limit)
         t = model.geometry.table
         self.rho = max(t.sunA.z / t.planet1.z, t.sunB.z / t.planet2.z)
         r_j = model.params.r_collar

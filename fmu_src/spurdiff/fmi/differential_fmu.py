@@ -17,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 from spurdiff.attrpath import resolve
+from spurdiff.bounds import bound_of
 from spurdiff.fmi.binding import bindings, build_params, renamed
 from spurdiff.errors import ParameterError
 from spurdiff.fmi.variables import Var
@@ -30,7 +31,7 @@ from spurdiff.differential.mesh import rates as mesh_rates
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.rigid import RigidDifferential
 from spurdiff.differential.shafts import SHAFT_COUPLINGS, ShaftedDifferential, ShaftsParams
-from spurdiff.differential.watches import CapacityWatch, OverspeedWatch, attach
+from spurdiff.differential.watches import OVERSPEED_LIMIT, CapacityWatch, OverspeedWatch, attach
 from spurdiff.gears.capacity import CapacityParams
 
 FMU_NAME = "SpurDifferential"
@@ -81,8 +82,11 @@ _DEFAULTS = Setup()
 
 def _p(name: str, bind: str, description: str, unit: str | None = None, display: str | None = None,
        kind: str = "Real") -> Var:
-    """A parameter whose start value is its bound field's default (differential.toml)."""
-    return Var(name, "parameter", description, unit, display, resolve(_DEFAULTS, bind), kind=kind, bind=bind)
+    """A parameter whose start value is its bound field's default (differential.toml) and whose min and
+    max are the range the field's class declares and checks (spurdiff.bounds)."""
+    b = bound_of(_DEFAULTS, bind)
+    return Var(name, "parameter", description, unit, display, resolve(_DEFAULTS, bind), kind=kind, bind=bind,
+               min=None if b is None else b.lo, max=None if b is None else b.hi)
 
 
 def _gear_vars(name: str, label: str) -> list[Var]:
@@ -236,7 +240,7 @@ VARIABLES: list[Var] = [
     Var("overspeedLimit", "parameter", "Largest differential speed |w_A - w_c| the pin bushings are rated for "
         "(0: the bronze bushing's sliding-speed limit 3.81 m/s, spurdiff/data/pin_bushing.toml, over r_collar and the "
         "planets' spin ratio z_sun / z_planet)",
-        "rad/s", "rpm", 0.0, bind="overspeedLimit"),
+        "rad/s", "rpm", 0.0, min=OVERSPEED_LIMIT.lo, bind="overspeedLimit"),
     Var("overspeedLimitInUse", "calculatedParameter", "The differential-speed limit in use", "rad/s", "rpm"),
     Var("nStates", "calculatedParameter", "Number of continuous states of the selected fidelity", None, None, 0,
         kind="Integer"),

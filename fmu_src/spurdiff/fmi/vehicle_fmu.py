@@ -45,7 +45,9 @@ def _p(group: str, field: str, description: str, unit: str | None, display: str 
     (or ``start``: a choice of the default experiment, not data)."""
     start = getattr(getattr(_D, group), field) if start is None else start
     start = int(start) if kind == "Integer" else float(start)
-    return Var(f"{group}.{field}", "parameter", description, unit, display, start, kind=kind, bind=f"{group}.{field}")
+    b = getattr(type(getattr(_D, group)), "BOUNDS", {}).get(field)   # the range its class checks (spurdiff.bounds)
+    return Var(f"{group}.{field}", "parameter", description, unit, display, start, kind=kind, bind=f"{group}.{field}",
+               min=None if b is None else b.lo, max=None if b is None else b.hi)
 
 
 STEP = "the car's Runge-Kutta step"   # what the compiled kernel runs (solver.kernel)

@@ -54,8 +54,10 @@ def _p(group: str | None, field: str, description: str, unit: str | None, displa
     obj = getattr(_D, group) if group else _D
     start = getattr(obj, field)
     start = bool(start) if kind == "Boolean" else _num(start)
+    b = getattr(type(obj), "BOUNDS", {}).get(field)     # the range the field's class checks (spurdiff.bounds)
     return Var(f"{group or 'wheelLoad'}.{field}", "parameter", description, unit, display, start, kind=kind,
-               bind=f"{group}.{field}" if group else field)
+               bind=f"{group}.{field}" if group else field, min=None if b is None else b.lo,
+               max=None if b is None else b.hi)
 
 
 STEP = "the wheel's implicit-midpoint sub-steps"   # what the compiled kernel runs (solver.kernel)

@@ -33,7 +33,8 @@ import math
 from dataclasses import dataclass, field, replace
 
 from spurdiff.datafile import differential_default as _d
-from spurdiff.errors import ParameterError, require_finite, require_positive
+from spurdiff.bounds import Bound, check_fields
+from spurdiff.errors import ParameterError
 from spurdiff.gears.generating import form_radius
 from spurdiff.numerics import find_root
 
@@ -69,6 +70,11 @@ class Gear:
     da: float = 0.0
     axialStart: float | None = None     # None: not given (no axial layout: coplanar meshes, no stack-up check)
 
+    # the fields' ranges (spurdiff.bounds: GearTable.validate and the FMUs' min/max)
+    BOUNDS = {"z": Bound(6, 400, integer=True), "x": Bound(-3.0, 3.0), "b": Bound(0.0, lo_open=True),
+              "da": Bound(0.0, allowed=">= 0 (0 = untrimmed tip)"),
+              "axialStart": Bound(0.0, 1.0, allowed="between 0 and 1 m (from carrier wall A's inner face)")}
+
 
 @dataclass(frozen=True)
 class Carrier:
@@ -78,6 +84,8 @@ class Carrier:
 
     wallB: float
     axialClearance: float
+
+    BOUNDS = {"wallB": Bound(0.0, lo_open=True), "axialClearance": Bound(0.0, 0.01)}
 
 
 @dataclass(frozen=True)
@@ -110,47 +118,34 @@ class GearTable:
         """A copy with one gear's fields changed, e.g. ``with_gear('sunA', x=-0.5)``."""
         return replace(self, **{name: replace(getattr(self, name), **changes)})
 
+    # the fields' fixed ranges (spurdiff.bounds: validate and the FMUs' min/max); rhoaP0's upper bound
+    # and hf's lower one depend on other fields and are checked in validate
+    BOUNDS = {
+        "m": Bound(0.0, lo_open=True),
+        "alpha": Bound(math.radians(10.0), math.radians(35.0), allowed="between 10 and 35 deg (0.1745 .. 0.6109 rad)"),
+        "ha": Bound(0.0, lo_open=True),
+        "hf": Bound(0.0, lo_open=True),
+        "haP0": Bound(0.5, 2.0, allowed="between 0.5 and 2 (ISO 53: 1.25)"),
+        "rhoaP0": Bound(0.0, 2.0),   # and <= what fits the tool tip (validate)
+        "nPairs": Bound(1, 12, integer=True),
+    }
+
     def validate(self) -> None:
         """Raise ParameterError for values no gear set can have (before any geometry)."""
-        require_positive("gearing.m", self.m)
-        a = require_finite("gearing.alpha", self.alpha)
-        if not math.radians(10.0) <= a <= math.radians(35.0):
-            raise ParameterError("gearing.alpha", self.alpha, "between 10 and 35 deg (0.1745 .. 0.6109 rad)")
-        require_positive("gearing.ha", self.ha)
-        require_positive("gearing.hf", self.hf)
+        for name, b in self.BOUNDS.items():
+            b.check("nPairs" if name == "nPairs" else f"gearing.{name}", getattr(self, name))
+        a, h0, rho = self.alpha, self.haP0, self.rhoaP0
         if self.hf <= self.ha:
             raise ParameterError("gearing.hf", self.hf, f"> gearing.ha = {self.ha:g} (root clearance)")
-        h0 = require_positive("gearing.haP0", self.haP0)
-        if not 0.5 <= h0 <= 2.0:
-            raise ParameterError("gearing.haP0", self.haP0, "between 0.5 and 2 (ISO 53: 1.25)")
-        rho = require_finite("gearing.rhoaP0", self.rhoaP0)
         ta, ca = math.tan(a), math.cos(a)
         rho_max = max(0.0, (math.pi / 4.0 - h0 * ta) / (1.0 / ca - ta))   # the rounding fits the tool tip
         rho_max = min(rho_max, h0)
         if not 0.0 <= rho <= rho_max:
             raise ParameterError("gearing.rhoaP0", self.rhoaP0,
                                  f"between 0 and {rho_max:.4f} (the tip rounding must fit the tool tooth; ISO 53: 0.38)")
-        n = self.nPairs
-        if int(n) != n or not 1 <= n <= 12:
-            raise ParameterError("nPairs", n, "an integer from 1 to 12")
         for name, g in self.gears().items():
-            z = g.z
-            if int(z) != z or not 6 <= z <= 400:
-                raise ParameterError(f"{name}.z", z, "an integer from 6 to 400")
-            x = require_finite(f"{name}.x", g.x)
-            if not -3.0 <= x <= 3.0:
-                raise ParameterError(f"{name}.x", x, "between -3 and 3")
-            require_positive(f"{name}.b", g.b)
-            da = require_finite(f"{name}.da", g.da)
-            if da < 0.0:
-                raise ParameterError(f"{name}.da", da, ">= 0 (0 = untrimmed tip)")
-            z0 = None if g.axialStart is None else require_finite(f"{name}.axialStart", g.axialStart)
-            if z0 is not None and not 0.0 <= z0 <= 1.0:
-                raise ParameterError(f"{name}.axialStart", z0, "between 0 and 1 m (from carrier wall A's inner face)")
-        require_positive("carrier.wallB", self.carrier.wallB)
-        c = require_finite("carrier.axialClearance", self.carrier.axialClearance)
-        if not 0.0 <= c <= 0.01:
-            raise ParameterError("carrier.axialClearance", c, "between 0 and 0.01 m")
+            check_fields(g, f"{name}.")
+        check_fields(self.carrier, "carrier.")
 
 
 @dataclass(frozen=True)

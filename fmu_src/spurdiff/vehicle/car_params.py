@@ -10,8 +10,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from spurdiff.datafile import read_data, section
-from spurdiff.errors import ParameterError, require_finite, require_nonnegative, require_positive, require_range
-from spurdiff.vehicle.tyre import validate_shape
+from spurdiff.bounds import Bound, check_fields
+from spurdiff.errors import ParameterError, require_finite
+from spurdiff.vehicle.tyre import SHAPE_BOUNDS
 
 G = 9.80665  # standard gravity, m/s^2
 
@@ -45,19 +46,21 @@ class BodyParams:
     h_max: float = 0.002
     R_wheel: float = 0.3266
 
+    # the fields' fixed ranges (spurdiff.bounds: validate and the FMU's min/max); l_f < L in validate
+    BOUNDS = {
+        **{name: Bound(0.0, lo_open=True) for name in ("m", "Iz", "L", "trackFront", "trackRear", "v_rr", "tau_load",
+                                                       "R_wheel")},
+        **{name: Bound(0.0) for name in ("h_cg", "CdA", "rho_air", "f_rr")},
+        "l_f": Bound(0.0, lo_open=True),
+        "rollStiffnessShareRear": Bound(0.0, 1.0),
+        "h_max": Bound(0.0, 0.1, lo_open=True, allowed="between 0 and 0.1 s"),
+    }
+
     def validate(self) -> None:
-        for name in ("m", "Iz", "L", "trackFront", "trackRear", "v_rr", "tau_load", "R_wheel"):
-            require_positive(f"vehicle.{name}", getattr(self, name))
-        for name in ("h_cg", "CdA", "rho_air", "f_rr"):
-            require_nonnegative(f"vehicle.{name}", getattr(self, name))
-        lf = require_finite("vehicle.l_f", self.l_f)
-        if not 0.0 < lf < self.L:
+        check_fields(self, "vehicle.")
+        if not self.l_f < self.L:
             raise ParameterError("vehicle.l_f", self.l_f, f"0 < l_f < L = {self.L:g} m")
-        require_range("vehicle.rollStiffnessShareRear", self.rollStiffnessShareRear, 0.0, 1.0)
         require_finite("vehicle.vx_start", self.vx_start)
-        h = require_positive("vehicle.h_max", self.h_max)
-        if h > 0.1:
-            raise ParameterError("vehicle.h_max", self.h_max, "between 0 and 0.1 s")
 
 
 @dataclass
@@ -71,10 +74,10 @@ class LateralTyreParams:
     sigma: float = 0.10
     alpha_max: float = 1.0
 
+    BOUNDS = {**SHAPE_BOUNDS, "sigma": Bound(0.0, lo_open=True), "alpha_max": Bound(1e-6, 0.5 * math.pi)}
+
     def validate(self) -> None:
-        validate_shape("lateralTyre", self.B, self.C, self.E)
-        require_positive("lateralTyre.sigma", self.sigma)
-        require_range("lateralTyre.alpha_max", self.alpha_max, 1e-6, 0.5 * math.pi)
+        check_fields(self, "lateralTyre.")
 
 
 @dataclass
@@ -87,12 +90,11 @@ class SteeringParams:
     K_ri: float = 0.5
     delta_max: float = 0.6
 
+    BOUNDS = {"mode": Bound(STEER_PATH, STEER_ANGLE, integer=True, allowed="0 (path radius) or 1 (steering angle)"),
+              "K_r": Bound(0.0), "K_ri": Bound(0.0), "delta_max": Bound(1e-6, 1.2)}
+
     def validate(self) -> None:
-        if self.mode not in (STEER_PATH, STEER_ANGLE):
-            raise ParameterError("steering.mode", self.mode, "0 (path radius) or 1 (steering angle)")
-        require_nonnegative("steering.K_r", self.K_r)
-        require_nonnegative("steering.K_ri", self.K_ri)
-        require_range("steering.delta_max", self.delta_max, 1e-6, 1.2)
+        check_fields(self, "steering.")
 
 
 @dataclass
@@ -105,13 +107,11 @@ class SpeedControlParams:
     driveTorqueMax: float = 2000.0
     driveTorqueMin: float = -600.0
 
+    BOUNDS = {"Kp": Bound(0.0), "Ki": Bound(0.0), "driveTorqueMax": Bound(0.0, lo_open=True),
+              "driveTorqueMin": Bound(None, 0.0)}
+
     def validate(self) -> None:
-        require_nonnegative("speedControl.Kp", self.Kp)
-        require_nonnegative("speedControl.Ki", self.Ki)
-        require_positive("speedControl.driveTorqueMax", self.driveTorqueMax)
-        tmin = require_finite("speedControl.driveTorqueMin", self.driveTorqueMin)
-        if not tmin <= 0.0:
-            raise ParameterError("speedControl.driveTorqueMin", self.driveTorqueMin, "<= 0")
+        check_fields(self, "speedControl.")
 
 
 @dataclass

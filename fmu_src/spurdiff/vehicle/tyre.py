@@ -32,7 +32,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from spurdiff.errors import ParameterError, require_finite, require_nonnegative, require_positive
+from spurdiff.bounds import Bound, check_fields
+from spurdiff.errors import ParameterError, require_finite
 from spurdiff.numerics import find_root
 
 _HALF_PI = 0.5 * math.pi
@@ -100,15 +101,18 @@ def slip_for_force_ratio(ratio: float, B: float, C: float, E: float) -> float:
     return math.copysign(k, ratio)
 
 
+# the Magic Formula factors' ranges (spurdiff.bounds: validate_shape and the FMUs' min/max)
+SHAPE_BOUNDS = {
+    "B": Bound(0.0, lo_open=True),
+    "C": Bound(0.0, 2.0, lo_open=True, allowed="0 < C <= 2", hint="C > 2 reverses the force at large slip"),
+    "E": Bound(None, 1.0, allowed="E <= 1", hint="E > 1 makes the force non-monotonic near zero slip"),
+}
+
+
 def validate_shape(prefix: str, B: float, C: float, E: float) -> None:
     """Check Magic Formula factors; raise ParameterError naming ``prefix.B`` / ``.C`` / ``.E``."""
-    require_positive(f"{prefix}.B", B)
-    c = require_finite(f"{prefix}.C", C)
-    if not 0.0 < c <= 2.0:
-        raise ParameterError(f"{prefix}.C", C, "0 < C <= 2", "C > 2 reverses the force at large slip")
-    e = require_finite(f"{prefix}.E", E)
-    if not e <= 1.0:
-        raise ParameterError(f"{prefix}.E", E, "E <= 1", "E > 1 makes the force non-monotonic near zero slip")
+    for name, value in (("B", B), ("C", C), ("E", E)):
+        SHAPE_BOUNDS[name].check(f"{prefix}.{name}", value)
 
 
 @dataclass
@@ -131,14 +135,12 @@ class TyreParams:
     k_max: float = 1.0
     k_start: float = math.nan
 
+    # the fields' ranges (spurdiff.bounds: validate and the FMU's min/max)
+    BOUNDS = {**SHAPE_BOUNDS, "sigma": Bound(0.0, lo_open=True), "f_rr": Bound(0.0, 0.5),
+              "w_eps": Bound(0.0, lo_open=True), "k_max": Bound(0.0, lo_open=True)}
+
     def validate(self, prefix: str = "tyre") -> None:
-        validate_shape(prefix, self.B, self.C, self.E)
-        require_positive(f"{prefix}.sigma", self.sigma)
-        f = require_nonnegative(f"{prefix}.f_rr", self.f_rr)
-        if f > 0.5:
-            raise ParameterError(f"{prefix}.f_rr", self.f_rr, "between 0 and 0.5")
-        require_positive(f"{prefix}.w_eps", self.w_eps)
-        require_positive(f"{prefix}.k_max", self.k_max)
+        check_fields(self, f"{prefix}.")
         if not math.isnan(self.k_start):
             require_finite(f"{prefix}.k_start", self.k_start)
 

@@ -9,8 +9,9 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from spurdiff.bounds import Bound, check_fields
 from spurdiff.datafile import read_data, section
-from spurdiff.errors import ParameterError, require_finite, require_nonnegative, require_positive
+from spurdiff.errors import ParameterError, require_finite
 from spurdiff.vehicle.tyre import TyreParams
 
 SHAFT_COUPLINGS = ("torque", "wheel")
@@ -25,9 +26,10 @@ class HalfShaftParams:
     d: float = 10.0
     phi_rel_start: float = 0.0
 
+    BOUNDS = {"c": Bound(0.0, lo_open=True), "d": Bound(0.0)}   # spurdiff.bounds: validate and the FMU's min/max
+
     def validate(self) -> None:
-        require_positive("halfShaft.c", self.c)
-        require_nonnegative("halfShaft.d", self.d)
+        check_fields(self, "halfShaft.")
         require_finite("halfShaft.phi_rel_start", self.phi_rel_start)
 
 
@@ -40,9 +42,10 @@ class WheelParams:
     R: float = 0.3266
     w_start: float = math.nan
 
+    BOUNDS = {"J": Bound(0.0, lo_open=True), "R": Bound(0.0, lo_open=True)}   # spurdiff.bounds
+
     def validate(self) -> None:
-        require_positive("wheel.J", self.J)
-        require_positive("wheel.R", self.R)
+        check_fields(self, "wheel.")
         if not math.isnan(self.w_start):
             require_finite("wheel.w_start", self.w_start)
 
@@ -67,6 +70,8 @@ class WheelLoadParams:
     # the whole step in C without Python when the compiled kernel is in use (FMI solver.nativeStep; spurdiff.native_step)
     nativeStep: int = 1
 
+    BOUNDS = {"h_max": Bound(0.0, 0.1, lo_open=True, allowed="between 0 and 0.1 s")}   # spurdiff.bounds
+
     @classmethod
     def from_data(cls, data: dict) -> "WheelLoadParams":
         solver = dict(data.get("wheelLoad", {}))
@@ -88,9 +93,7 @@ class WheelLoadParams:
         self.halfShaft.validate()
         self.wheel.validate()
         self.tyre.validate("tyre")
-        h = require_positive("wheelLoad.h_max", self.h_max)
-        if h > 0.1:
-            raise ParameterError("wheelLoad.h_max", self.h_max, "between 0 and 0.1 s")
+        check_fields(self, "wheelLoad.")
         if self.followFlangeAngle not in (0, 1):
             raise ParameterError("wheelLoad.followFlangeAngle", self.followFlangeAngle, "0 or 1")
         if self.shaftCoupling not in SHAFT_COUPLINGS:

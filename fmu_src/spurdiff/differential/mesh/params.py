@@ -8,6 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from spurdiff.datafile import differential_default as _d
+from spurdiff.bounds import Bound
 from spurdiff.errors import ParameterError, require_range
 
 LEVELS = ("compliant", "contact")
@@ -89,9 +90,7 @@ class MeshParams:
             lo_v = getattr(self, lo) if isinstance(lo, str) else lo
             hi_v = getattr(self, hi) if isinstance(hi, str) else hi
             require_range(name, getattr(self, name), lo_v, hi_v, allowed.format(lo=lo_v, hi=hi_v), lo_open)
-        n = self.maxInternalSteps
-        if isinstance(n, bool) or int(n) != n or not 10 <= n <= 10 ** 8:
-            raise ParameterError("maxInternalSteps", n, "an integer from 10 to 1e8")
+        self.BOUNDS["maxInternalSteps"].check("maxInternalSteps", self.maxInternalSteps)
 
 
 def _per_mesh(stem: str, lo, hi, allowed: str, lo_open: bool = False) -> list[tuple]:
@@ -115,3 +114,11 @@ LIMITS: tuple[tuple, ...] = (
     ("vStiction", 0.0, 1.0, "> 0 and <= 1 m/s", True),
     ("vTransition", "vStiction", 10.0, "> vStiction = {lo:g} and <= 10 m/s", True),
 )
+
+# the fields' fixed ranges as spurdiff.bounds declares them (the FMU's min/max), from the same LIMITS
+# validate checks: a bound given by another field (muDynamic <= muStatic) is left open here
+MeshParams.BOUNDS = {
+    name: Bound(lo if not isinstance(lo, str) else None, hi if not isinstance(hi, str) else None,
+                lo_open=lo_open and not isinstance(lo, str), allowed=allowed if "{" not in allowed else None)
+    for name, lo, hi, allowed, lo_open in LIMITS}
+MeshParams.BOUNDS["maxInternalSteps"] = Bound(10, 10 ** 8, integer=True, allowed="an integer from 10 to 1e8")

@@ -8,6 +8,7 @@ import tomllib
 from dataclasses import dataclass, replace
 from functools import lru_cache
 
+from spurdiff.bounds import Bound
 from spurdiff.datafile import DATA_FOLDER
 from spurdiff.errors import ParameterError, require_finite
 
@@ -96,6 +97,9 @@ class CapacityParams:
     material: str = tomllib.loads(_MATERIALS_TEXT)["default"]
     bushingWall: float = 0.0     # m, wall of the planets' pin bushings: the bore is 2 (r_j + bushingWall)
     K_gamma: float = 0.0         # load-sharing factor; 0: K_gamma_default(nPairs)
+
+    # the fields' ranges (spurdiff.bounds: checked where the FMU's capacity watch is built, and its min/max)
+    BOUNDS = {"T0": Bound(0.0, lo_open=True), "bushingWall": Bound(0.0, 0.1, hi_open=True, allowed=">= 0 m and < 0.1 m")}
 
 
 def pin_bores(journal_radius: float, bushing_wall: float) -> dict[str, float] | None:

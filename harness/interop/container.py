@@ -1,0 +1,161 @@
+"""Export a scene as one FMU: an FMU container of fmu-manipulation-toolbox (``pip install
+fmu-manipulation-toolbox``), whose own C runtime (``container.so`` / ``container.dll``) steps the
+scene's FMUs inside it.
+
+``export_container(scene, fmu_files, path)`` writes ``path`` (``<scene>.fmu``). What goes in:
+
+* each instance of the scene as an embedded FMU of its own (``<instance>_<FMU>.fmu``: the container
+  names its embedded FMUs by file, so two wheels on one WheelLoad.fmu are two copies of it);
+* the scene's connections as the container's links, the scene's parameters and its inputs' values
+  at t = 0 as start values of the embedded FMUs (what :func:`harness.interop.ssp.instance_values` gives
+  every exporter: for a SpurDifferential instance the scene's effects under its own parameters);
+* the scene's recorded quantities as the container's outputs, named ``<instance>.<variable>``;
+* the scene's communication step as the container's internal step, its duration as the default
+  experiment, and its coupling: ``gauss-seidel`` in the scene's order is the container's
+  sequential mode (each FMU steps after the ones before it in the list, with their new outputs),
+  ``jacobi`` its default parallel mode.
+
+What the container cannot carry: an input that is a time table (only its value at t = 0; such a
+scene is refused unless ``tables_at_start``) and our master's per-step extras (input ramps between
+communication points are FMU inputs like any other and are connected, so they go in).
+"""
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+import tempfile
+import zipfile
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+
+from harness.common.paths import results_dir
+from harness.scene.spec import Scene, SceneError, safe_name
+from harness.interop.ssp import instance_values
+
+TOOL = "fmu-manipulation-toolbox"
+
+
+class ContainerError(RuntimeError):
+    """The container could not be made (the toolbox missing or failing, a scene it cannot carry)."""
+
+
+@dataclass
+class ContainerSummary:
+    path: Path
+    fmus: int
+    links: int
+    starts: int
+    outputs: int
+    sequential: bool
+    step: float
+    tool: str
+
+
+def description(scene: Scene, tables_at_start: bool = False, causality: dict[str, str] | None = None) -> dict:
+    """The toolbox's JSON description of the container for ``scene`` (see the module docstring);
+    ``causality``: ``instance.variable`` -> causality, to keep only outputs among the recorded."""
+    tables = sorted(ref for ref, p in scene.inputs.items() if p.kind != "constant")
+    if tables and not tables_at_start:
+        raise ContainerError(f"scene {scene.name}: input(s) {', '.join(tables)} are time tables; a container holds "
+                             "only start values (tables_at_start: their value at t = 0)")
+    values = instance_values(scene)
+    fmu = embedded_names(scene)
+    links = []
+    for to, frm in scene.connections.items():
+        (ti, tv), (fi, fv) = to.split(".", 1), frm.split(".", 1)
+        links.append([fmu[fi], fv, fmu[ti], tv])
+    starts = [[fmu[inst], name, _json_value(v)] for inst, vals in values.items() for name, v in vals.items()]
+    outputs = [[fmu[inst], var, ref] for ref in scene.record for inst, var in [ref.split(".", 1)]
+               if causality is None or causality.get(ref) == "output"]
+    return {"name": f"{safe_name('scene name', scene.name)}.fmu", "step_size": scene.step,
+            "sequential": scene.algorithm != "jacobi", "mt": False,
+            "auto_link": False, "auto_input": False, "auto_output": False, "auto_parameter": False,
+            "auto_local": False,
+            "fmu": [fmu[i.name] for i in scene.instances], "link": links, "start": starts, "output": outputs}
+
+
+def embedded_names(scene: Scene) -> dict[str, str]:
+    """The file of each instance inside the container, ``<instance>_<FMU>.fmu`` (the toolbox names
+    the links' variables after the file; ``<instance>.<variable>`` is left to the outputs)."""
+    return {i.name: f"{i.name}_{i.fmu}.fmu" for i in scene.instances}
+
+
+def _causalities(scene: Scene, fmu_files: dict[str, Path]) -> dict[str, str]:
+    from fmpy import read_model_description
+    mds = {f: read_model_description(str(fmu_files[f])) for f in {i.fmu for i in scene.instances}}
+    return {f"{i.name}.{v.name}": v.causality for i in scene.instances for v in mds[i.fmu].modelVariables}
+
+
+def _json_value(v):
+    if isinstance(v, bool):
+        return v
+    if isinstance(v, (int, float, str)):
+        return v
+    return float(v)
+
+
+def _toolbox() -> str:
+    exe = Path(sys.executable).parent / "fmucontainer"
+    if exe.is_file():
+        return str(exe)
+    found = shutil.which("fmucontainer")
+    if found is None:
+        raise ContainerError(f"{TOOL} is not installed (pip install {TOOL})")
+    return found
+
+
+def tool_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        return f"{TOOL} {version('fmu_manipulation_toolbox')}"
+    except PackageNotFoundError:
+        return TOOL
+
+
+def export_container(scene: Scene, fmu_files: dict[str, Path], path: Path | str,
+                     tables_at_start: bool = False) -> ContainerSummary:
+    """Write the container FMU of ``scene`` to ``path``; what went in."""
+    path = Path(path)
+    exe = _toolbox()
+    desc = description(scene, tables_at_start, _causalities(scene, fmu_files))
+    with tempfile.TemporaryDirectory(prefix="spurdiff_container_") as tmp:
+        work = Path(tmp)
+        for spec in scene.instances:
+            shutil.copyfile(fmu_files[spec.fmu], work / embedded_names(scene)[spec.name])
+        (work / "container.json").write_text(json.dumps(desc, indent=1))
+        r = subprocess.run([exe, "-container", "container.json", "-fmu-directory", str(work)],
+                           cwd=work, capture_output=True, text=True, timeout=600)
+        built = work / desc["name"]
+        if r.returncode != 0 or not built.is_file():
+            tail = [ln for ln in (r.stdout + r.stderr).splitlines() if "ERROR" in ln or "Error" in ln][-3:]
+            raise ContainerError(f"fmucontainer failed (exit {r.returncode}): "
+                                 + ("; ".join(tail) or (r.stdout + r.stderr).strip()[-300:]))
+        _check_description(built, desc)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        part = path.with_name(f".{path.name}.part")
+        shutil.copyfile(built, part)
+        part.replace(path)
+    return ContainerSummary(path, len(desc["fmu"]), len(desc["link"]), len(desc["start"]), len(desc["output"]),
+                            desc["sequential"], scene.step, tool_version())
+
+
+def _check_description(fmu: Path, desc: dict) -> None:
+    """The container's modelDescription has every output the description asked for."""
+    with zipfile.ZipFile(fmu) as z:
+        root = ET.fromstring(z.read("modelDescription.xml"))
+    names = {sv.get("name") for sv in root.iter("ScalarVariable")} | {
+        el.get("name") for el in root.find("ModelVariables") if el.get("name")}
+    missing = [o[2] for o in desc["output"] if o[2] not in names]
+    if missing:
+        raise ContainerError(f"the container has no output(s) {', '.join(missing)}")
+
+
+def default_output(scene: Scene) -> Path:
+    name = safe_name("scene name", scene.name)
+    return results_dir(name) / f"{name}.fmu"
+
+
+__all__ = ["ContainerError", "ContainerSummary", "default_output", "description", "export_container", "tool_version"]

@@ -1,0 +1,99 @@
+"""Issue 46.1/46.2: the container runtime of fmu-manipulation-toolbox as a host. A scene's container
+FMU (spurdiff export-container) run by ecos, the installable C++ host, as ``nobody`` in a mount
+namespace where every Python is hidden, with a bare environment, from a folder whose path has
+spaces and non-ASCII characters: the container's C runtime steps our four FMUs there, and the
+results equal those of the same container run by fmpy in this process (to ecos's six decimals)."""
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from test_travel import ECOS, WHY_NOT, _read_csv, hidden_run
+
+pytestmark = [pytest.mark.skipif(WHY_NOT is not None, reason=str(WHY_NOT)),
+              pytest.mark.skipif(ECOS is None, reason="the ecos command line (pip install ecospy; apt-get install "
+                                                      "libtbb12) does not run here")]
+STOP, STEP = 0.2, 5e-3
+
+
+@pytest.fixture(scope="module")
+def container_fmu(fmu_files, tmp_path_factory):
+    pytest.importorskip("fmu_manipulation_toolbox", reason="fmu-manipulation-toolbox is not installed")
+    from harness.interop.container import export_container
+    from harness.run.runner import prepare_scene
+    scene = prepare_scene("vehicle-cornering", duration=STOP)
+    files = {i.fmu: fmu_files[i.fmu] for i in scene.instances}
+    return export_container(scene, files, tmp_path_factory.mktemp("container") / "vehicle-cornering.fmu").path
+
+
+def test_the_container_runs_in_ecos_where_no_python_is(container_fmu):
+    from fmpy import simulate_fmu
+    root = Path(tempfile.mkdtemp(prefix="spurdiff container ü ", dir="/tmp"))
+    try:
+        os.chmod(root, 0o777)
+        shutil.copy(container_fmu, root / "scene.fmu")
+        shutil.copy(ECOS, root / "ecos")
+        os.chmod(root / "ecos", 0o755)
+        os.chmod(root / "scene.fmu", 0o644)
+        r = hidden_run(f"./ecos simulate --path scene.fmu --stopTime {STOP} --stepSize {STEP} >log.txt 2>&1; "
+                       "echo RC $?\n", root)
+        log = (root / "log.txt").read_text(errors="replace") if (root / "log.txt").exists() else ""
+        assert "RC 0" in r.stdout, r.stdout + r.stderr + log[-3000:]
+        got = {k.split("::", 1)[-1].split("[", 1)[0]: v for k, v in _read_csv(root / "scene.csv").items()}
+        ref = simulate_fmu(str(container_fmu), stop_time=STOP, step_size=STEP, output_interval=STEP)
+        common = [n for n in ref.dtype.names[1:] if n in got]
+        assert len(common) >= 20, common
+        t = got["time"]
+        n = min(len(t), len(ref["time"]))
+        assert n >= int(STOP / STEP) and np.allclose(t[:n], ref["time"][:n], atol=1e-9)
+        for name in common:
+            g, f = got[name][:n], np.asarray(ref[name][:n], dtype=float)
+            # ecos writes six decimals or seven significant digits: half a unit of either
+            assert np.allclose(g, f, rtol=5e-7, atol=5e-7), f"{name}: ecos differs from fmpy by {np.max(np.abs(g - f)):.3g}"
+        assert np.max(got["diff.lockingTorque"]) > 20.0      # the differential slips at its capacity
+    finally:
+        shutil.rmtree(root, ignore_errors=True)
+
+
+def test_the_container_runs_in_our_c_host_where_no_python_is(container_fmu, tmp_path):
+    """Our own C host (tests/c_host/fmi2_any_host.c: ours, not an independent host) runs the unzipped
+    container in the same hidden namespace; its outputs after the run equal fmpy's to the digit."""
+    import subprocess
+    import zipfile
+    from fmpy import read_model_description, simulate_fmu
+    if shutil.which("gcc") is None:
+        pytest.skip("no C compiler (gcc) for our own C host")
+    root = Path(tempfile.mkdtemp(prefix="spurdiff container ü ", dir="/tmp"))
+    try:
+        os.chmod(root, 0o777)
+        exe = root / "fmi2_any_host"
+        subprocess.run(["gcc", "-O1", "-o", str(exe), str(Path(__file__).resolve().parents[1] / "c_host" /
+                                                              "fmi2_any_host.c"), "-ldl", "-lm"], check=True)
+        unpacked = root / "scene ü"
+        with zipfile.ZipFile(container_fmu) as z:
+            z.extractall(unpacked)
+        subprocess.run(["chmod", "-R", "a+rX", str(root)], check=True)
+        md = read_model_description(str(unpacked))
+        outs = [v for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
+        so = unpacked / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
+        steps = int(round(STOP / STEP))
+        import shlex
+        cmd = " ".join(shlex.quote(a) for a in [str(exe), str(so), md.guid, (unpacked / "resources").as_uri(),
+                                                 str(steps), repr(STEP), "1", "get",
+                                                 ",".join(str(v.valueReference) for v in outs)])
+        r = hidden_run(cmd + " >out.txt 2>&1; echo RC $?\n", root)
+        text = (root / "out.txt").read_text(errors="replace")
+        assert "RC 0" in r.stdout, r.stdout + r.stderr + text[-3000:]
+        import re
+        got_by_vr = {int(k): float(v) for k, v in re.findall(r" (\d+)=(\S+)", text)}
+        ref = simulate_fmu(str(container_fmu), stop_time=STOP, step_size=STEP, output_interval=STEP)
+        assert len(got_by_vr) == len(outs), text[-2000:]
+        for v in outs:
+            assert got_by_vr[v.valueReference] == pytest.approx(float(ref[v.name][-1]), rel=1e-12, abs=1e-12), v.name
+    finally:
+        shutil.rmtree(root, ignore_errors=True)
