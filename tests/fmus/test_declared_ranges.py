@@ -1,5 +1,5 @@
 """Issue 46.3: the min and max a model description declares are the ranges the FMU enforces, from
-one declaration (spurdiff.bounds), and every variable has a description.
+one declaration (spurdiff.errors), and every variable has a description.
 
 A value just outside a declared min or max must be refused when the model is built (the path the
 FMU's adapter takes at fmi2ExitInitializationMode), naming the variable; the value at the start

@@ -6,7 +6,7 @@ import math
 from dataclasses import dataclass, field
 
 from spurdiff.datafile import differential_default as _d
-from spurdiff.bounds import Bound, check_fields
+from spurdiff.errors import Bound, check_fields
 from spurdiff.errors import ParameterError
 from spurdiff.gears.design import derive
 from spurdiff.gears.geometry import DifferentialGeometry, GearTable
@@ -46,7 +46,7 @@ class DifferentialParams:
     m_planet1: float = 0.0        # kg, one planet, 0 = from geometry (orbit inertia on the carrier)
     m_planet2: float = 0.0
 
-    # the fields' fixed ranges (spurdiff.bounds: validate and the FMU's min/max); mu_pinDynamic <= mu_pin
+    # the fields' fixed ranges (spurdiff.errors: validate and the FMU's min/max); mu_pinDynamic <= mu_pin
     # and r_collar's friction lever are checked in validate
     BOUNDS = {
         "mu_pin": Bound(0.0, 1.0),

@@ -8,7 +8,7 @@ import math
 from dataclasses import dataclass, field
 
 from spurdiff.datafile import differential_default as _d
-from spurdiff.bounds import Bound, check_fields
+from spurdiff.errors import Bound, check_fields
 from spurdiff.errors import ParameterError, require_finite, require_nonnegative, require_positive
 
 SHAFT_COUPLINGS = ("torque", "wheel")
@@ -22,7 +22,7 @@ class ShaftParams:
     d: float = _d("leftShaft.d")
     phi_rel_start: float = _d("leftShaft.phi_rel_start")
 
-    # the fields' ranges (spurdiff.bounds: validate and the FMU's min/max)
+    # the fields' ranges (spurdiff.errors: validate and the FMU's min/max)
     BOUNDS = {"c": Bound(0.0, 1e9, lo_open=True, allowed="between 0 and 1e9 N m/rad"),
               "d": Bound(0.0, 1e6, allowed="between 0 and 1e6 N m s/rad"),
               "phi_rel_start": Bound(-1.0, 1.0, allowed="between -1 and 1 rad")}

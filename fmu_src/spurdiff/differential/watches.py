@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 
-from spurdiff.bounds import Bound, check_fields
+from spurdiff.errors import Bound, check_fields
 from spurdiff.differential.bushing import bushing
 from spurdiff.differential.locking import breakaway, dynamic_pin_model, pin_friction
 from spurdiff.errors import ParameterError, require_positive
@@ -119,7 +119,7 @@ class CapacityWatch(cap.StressWatch, Watch):
         super().set_state(self._FRESH if s is None else s)
 
 
-# overspeedLimit's range (spurdiff.bounds: the watch's check and the FMU's min/max)
+# overspeedLimit's range (spurdiff.errors: the watch's check and the FMU's min/max)
 OVERSPEED_LIMIT = Bound(0.0, allowed=">= 0 rad/s (0: from the pin bushings)")
 
 

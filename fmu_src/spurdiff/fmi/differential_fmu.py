@@ -17,7 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 from spurdiff.attrpath import resolve
-from spurdiff.bounds import bound_of
+from spurdiff.errors import bound_of
 from spurdiff.fmi.binding import bindings, build_params, renamed
 from spurdiff.errors import ParameterError
 from spurdiff.fmi.variables import Var
@@ -83,7 +83,7 @@ _DEFAULTS = Setup()
 def _p(name: str, bind: str, description: str, unit: str | None = None, display: str | None = None,
        kind: str = "Real") -> Var:
     """A parameter whose start value is its bound field's default (differential.toml) and whose min and
-    max are the range the field's class declares and checks (spurdiff.bounds)."""
+    max are the range the field's class declares and checks (spurdiff.errors)."""
     b = bound_of(_DEFAULTS, bind)
     return Var(name, "parameter", description, unit, display, resolve(_DEFAULTS, bind), kind=kind, bind=bind,
                min=None if b is None else b.lo, max=None if b is None else b.hi)

@@ -45,7 +45,7 @@ def _p(group: str, field: str, description: str, unit: str | None, display: str 
     (or ``start``: a choice of the default experiment, not data)."""
     start = getattr(getattr(_D, group), field) if start is None else start
     start = int(start) if kind == "Integer" else float(start)
-    b = getattr(type(getattr(_D, group)), "BOUNDS", {}).get(field)   # the range its class checks (spurdiff.bounds)
+    b = getattr(type(getattr(_D, group)), "BOUNDS", {}).get(field)   # the range its class checks (spurdiff.errors)
     return Var(f"{group}.{field}", "parameter", description, unit, display, start, kind=kind, bind=f"{group}.{field}",
                min=None if b is None else b.lo, max=None if b is None else b.hi)
 

@@ -54,7 +54,7 @@ def _p(group: str | None, field: str, description: str, unit: str | None, displa
     obj = getattr(_D, group) if group else _D
     start = getattr(obj, field)
     start = bool(start) if kind == "Boolean" else _num(start)
-    b = getattr(type(obj), "BOUNDS", {}).get(field)     # the range the field's class checks (spurdiff.bounds)
+    b = getattr(type(obj), "BOUNDS", {}).get(field)     # the range the field's class checks (spurdiff.errors)
     return Var(f"{group or 'wheelLoad'}.{field}", "parameter", description, unit, display, start, kind=kind,
                bind=f"{group}.{field}" if group else field, min=None if b is None else b.lo,
                max=None if b is None else b.hi)

@@ -33,7 +33,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 from spurdiff.datafile import differential_default as _d
-from spurdiff.bounds import Bound, check_fields
+from spurdiff.errors import Bound, check_fields
 from spurdiff.errors import ParameterError
 from spurdiff.gears.generating import form_radius
 from spurdiff.numerics import find_root
@@ -70,7 +70,7 @@ class Gear:
     da: float = 0.0
     axialStart: float | None = None     # None: not given (no axial layout: coplanar meshes, no stack-up check)
 
-    # the fields' ranges (spurdiff.bounds: GearTable.validate and the FMUs' min/max)
+    # the fields' ranges (spurdiff.errors: GearTable.validate and the FMUs' min/max)
     BOUNDS = {"z": Bound(6, 400, integer=True), "x": Bound(-3.0, 3.0), "b": Bound(0.0, lo_open=True),
               "da": Bound(0.0, allowed=">= 0 (0 = untrimmed tip)"),
               "axialStart": Bound(0.0, 1.0, allowed="between 0 and 1 m (from carrier wall A's inner face)")}
@@ -118,7 +118,7 @@ class GearTable:
         """A copy with one gear's fields changed, e.g. ``with_gear('sunA', x=-0.5)``."""
         return replace(self, **{name: replace(getattr(self, name), **changes)})
 
-    # the fields' fixed ranges (spurdiff.bounds: validate and the FMUs' min/max); rhoaP0's upper bound
+    # the fields' fixed ranges (spurdiff.errors: validate and the FMUs' min/max); rhoaP0's upper bound
     # and hf's lower one depend on other fields and are checked in validate
     BOUNDS = {
         "m": Bound(0.0, lo_open=True),

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from spurdiff.datafile import read_data, section
-from spurdiff.bounds import Bound, check_fields
+from spurdiff.errors import Bound, check_fields
 from spurdiff.errors import ParameterError, require_finite
 from spurdiff.vehicle.tyre import SHAPE_BOUNDS
 
@@ -46,7 +46,7 @@ class BodyParams:
     h_max: float = 0.002
     R_wheel: float = 0.3266
 
-    # the fields' fixed ranges (spurdiff.bounds: validate and the FMU's min/max); l_f < L in validate
+    # the fields' fixed ranges (spurdiff.errors: validate and the FMU's min/max); l_f < L in validate
     BOUNDS = {
         **{name: Bound(0.0, lo_open=True) for name in ("m", "Iz", "L", "trackFront", "trackRear", "v_rr", "tau_load",
                                                        "R_wheel")},

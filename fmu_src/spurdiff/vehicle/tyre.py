@@ -32,7 +32,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from spurdiff.bounds import Bound, check_fields
+from spurdiff.errors import Bound, check_fields
 from spurdiff.errors import ParameterError, require_finite
 from spurdiff.numerics import find_root
 
@@ -101,7 +101,7 @@ def slip_for_force_ratio(ratio: float, B: float, C: float, E: float) -> float:
     return math.copysign(k, ratio)
 
 
-# the Magic Formula factors' ranges (spurdiff.bounds: validate_shape and the FMUs' min/max)
+# the Magic Formula factors' ranges (spurdiff.errors: validate_shape and the FMUs' min/max)
 SHAPE_BOUNDS = {
     "B": Bound(0.0, lo_open=True),
     "C": Bound(0.0, 2.0, lo_open=True, allowed="0 < C <= 2", hint="C > 2 reverses the force at large slip"),
@@ -135,7 +135,7 @@ class TyreParams:
     k_max: float = 1.0
     k_start: float = math.nan
 
-    # the fields' ranges (spurdiff.bounds: validate and the FMU's min/max)
+    # the fields' ranges (spurdiff.errors: validate and the FMU's min/max)
     BOUNDS = {**SHAPE_BOUNDS, "sigma": Bound(0.0, lo_open=True), "f_rr": Bound(0.0, 0.5),
               "w_eps": Bound(0.0, lo_open=True), "k_max": Bound(0.0, lo_open=True)}
 

@@ -9,7 +9,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from spurdiff.bounds import Bound, check_fields
+from spurdiff.errors import Bound, check_fields
 from spurdiff.datafile import read_data, section
 from spurdiff.errors import ParameterError, require_finite
 from spurdiff.vehicle.tyre import TyreParams
@@ -26,7 +26,7 @@ class HalfShaftParams:
     d: float = 10.0
     phi_rel_start: float = 0.0
 
-    BOUNDS = {"c": Bound(0.0, lo_open=True), "d": Bound(0.0)}   # spurdiff.bounds: validate and the FMU's min/max
+    BOUNDS = {"c": Bound(0.0, lo_open=True), "d": Bound(0.0)}   # spurdiff.errors: validate and the FMU's min/max
 
     def validate(self) -> None:
         check_fields(self, "halfShaft.")
@@ -42,7 +42,7 @@ class WheelParams:
     R: float = 0.3266
     w_start: float = math.nan
 
-    BOUNDS = {"J": Bound(0.0, lo_open=True), "R": Bound(0.0, lo_open=True)}   # spurdiff.bounds
+    BOUNDS = {"J": Bound(0.0, lo_open=True), "R": Bound(0.0, lo_open=True)}   # spurdiff.errors
 
     def validate(self) -> None:
         check_fields(self, "wheel.")
@@ -70,7 +70,7 @@ class WheelLoadParams:
     # the whole step in C without Python when the compiled kernel is in use (FMI solver.nativeStep; spurdiff.native_step)
     nativeStep: int = 1
 
-    BOUNDS = {"h_max": Bound(0.0, 0.1, lo_open=True, allowed="between 0 and 0.1 s")}   # spurdiff.bounds
+    BOUNDS = {"h_max": Bound(0.0, 0.1, lo_open=True, allowed="between 0 and 0.1 s")}   # spurdiff.errors
 
     @classmethod
     def from_data(cls, data: dict) -> "WheelLoadParams":

@@ -8,7 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from spurdiff.datafile import differential_default as _d
-from spurdiff.bounds import Bound
+from spurdiff.errors import Bound
 from spurdiff.errors import ParameterError, require_range
 
 LEVELS = ("compliant", "contact")
@@ -115,7 +115,7 @@ LIMITS: tuple[tuple, ...] = (
     ("vTransition", "vStiction", 10.0, "> vStiction = {lo:g} and <= 10 m/s", True),
 )
 
-# the fields' fixed ranges as spurdiff.bounds declares them (the FMU's min/max), from the same LIMITS
+# the fields' fixed ranges as spurdiff.errors declares them (the FMU's min/max), from the same LIMITS
 # validate checks: a bound given by another field (muDynamic <= muStatic) is left open here
 MeshParams.BOUNDS = {
     name: Bound(lo if not isinstance(lo, str) else None, hi if not isinstance(hi, str) else None,

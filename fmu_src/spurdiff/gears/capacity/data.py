@@ -8,7 +8,7 @@ import tomllib
 from dataclasses import dataclass, replace
 from functools import lru_cache
 
-from spurdiff.bounds import Bound
+from spurdiff.errors import Bound
 from spurdiff.datafile import DATA_FOLDER
 from spurdiff.errors import ParameterError, require_finite
 
@@ -98,7 +98,7 @@ class CapacityParams:
     bushingWall: float = 0.0     # m, wall of the planets' pin bushings: the bore is 2 (r_j + bushingWall)
     K_gamma: float = 0.0         # load-sharing factor; 0: K_gamma_default(nPairs)
 
-    # the fields' ranges (spurdiff.bounds: checked where the FMU's capacity watch is built, and its min/max)
+    # the fields' ranges (spurdiff.errors: checked where the FMU's capacity watch is built, and its min/max)
     BOUNDS = {"T0": Bound(0.0, lo_open=True), "bushingWall": Bound(0.0, 0.1, hi_open=True, allowed=">= 0 m and < 0.1 m")}
 
 
