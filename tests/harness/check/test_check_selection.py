@@ -169,7 +169,7 @@ def test_default_experiment_says_when_it_checked_only_part(tmp_path):
     """A time budget of 1 ms (half of a 2 ms 'timeout'): ChkCLateStep's refusal after 0.5 s (step 50)
     is not reached, and the rule says how much it checked."""
     from harness.check.archive import extract
-    from harness.check.isolation import run_isolated_outcome
+    from harness.check.processes.isolation import run_isolated_outcome
     d = extract(chk_build.chkc_fmu("ChkCLateStep"))
     try:
         o = run_isolated_outcome("cs.default-experiment", {"unzipdir": str(d), "timeout": 0.002}, 60.0)
@@ -198,7 +198,7 @@ def test_start_value_outside_min_max():
 @needs_gcc
 def test_binary_that_uses_libm_without_declaring_it():
     """ChkCNoLibm runs in the kit's Python processes (Python has libm), not in a bare C process."""
-    from harness.check.native import run_load_checks
+    from harness.check.processes.native import run_load_checks
     ids = ["load.needed-libraries", "load.bare-process"]
     bad = {r.check_id: r for r in run_load_checks(chk_build.chkc_fmu("ChkCNoLibm"), "nolibm", ids, 30.0)}
     good = {r.check_id: r for r in run_load_checks(chk_build.chkc_fmu("ChkC"), "good", ids, 30.0)}
