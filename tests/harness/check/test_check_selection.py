@@ -213,7 +213,7 @@ def test_binary_that_uses_libm_without_declaring_it():
 
 
 def test_bare_process_rule_skips_without_a_compiler(monkeypatch, tmp_path):
-    from harness.check import native
+    from harness.check.processes import native
     native.host_binary.cache_clear()
     monkeypatch.setattr(native.shutil, "which", lambda name: None)
     try:
