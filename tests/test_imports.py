@@ -78,7 +78,6 @@ def test_spurdiff_has_about_a_dozen_modules_at_the_top():
 
 # harness packages with more than a dozen modules at their top, and why
 CROWDED = {"harness.cli": "one module per command and python -m entry",
-           "harness.check": "the kit's own layout, reorganized by issue 42 item 2",
            "harness.sweep": "one module per job of a sweep (14)"}
 
 
@@ -93,8 +92,7 @@ def test_every_harness_package_has_about_a_dozen_modules_at_its_top():
 
 def test_every_package_init_says_what_it_holds_and_may_import():
     # the two roots say what their packages hold and in which order; data-only packages hold no code;
-    # not yet: the compliance kit (harness.check, being reorganized by issue 42 item 2)
-    skip = {"spurdiff", "spurdiff.data", "harness.check", *ig.HARNESS_FREE}
+    skip = {"spurdiff", "spurdiff.data", *ig.HARNESS_FREE}
     checked = [name for name, mod in ig.modules().items() if mod.is_package and name not in skip]
     assert "harness.run" in checked and "spurdiff.gears" in checked
     for name in checked:

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Sequence
 
 from .archive import ArchiveError, extract
-from .isolation import run_isolated, run_isolated_outcome
+from .processes.isolation import run_isolated, run_isolated_outcome
 from .report import FAIL, SKIP, CheckResult
 from .rules import BY_ID, RULES, rules
 

@@ -7,7 +7,7 @@ from typing import Sequence
 
 from .archive import peek_fmi_version
 from .lifecycle import LifecycleOptions, run_lifecycle_checks_many
-from .native import run_load_checks
+from .processes.native import run_load_checks
 from .report import FAIL, PASS, SKIP, CheckResult
 from .rules import BY_ID, RULES, applies, fmi_version
 from .selection import Selection

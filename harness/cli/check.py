@@ -22,10 +22,10 @@ import sys
 from pathlib import Path
 from typing import Sequence
 
-from harness.check.compare import DEFAULT_RTOL, Tolerance, compare_checks, opt_beside, suite_checks
-from harness.check.crosscheck import CsvFormatError, read_cross_check_csv, read_ref_opt
+from harness.check.crosscheck.compare import DEFAULT_RTOL, Tolerance, compare_checks, opt_beside, suite_checks
+from harness.check.crosscheck.formats import CsvFormatError, read_cross_check_csv, read_ref_opt
 from harness.check.lifecycle import LifecycleOptions
-from harness.check.reference import ReferenceUsageError, write_reference_results
+from harness.check.crosscheck.reference import ReferenceUsageError, write_reference_results
 from harness.check.report import EXIT_USAGE, FAIL, CheckResult, exit_code, format_report, write_junit
 from harness.check.rules import PROFILES, RULES, rule_table_markdown
 from harness.check.runner import run_checks_selected
@@ -166,7 +166,7 @@ def _beside(fmu: str) -> dict[str, Path]:
 
 
 def _cross_check(args) -> int:
-    from harness.check.xcheck import HOSTS, find_models, run_cross_check, verdict_table
+    from harness.check.crosscheck.xcheck import HOSTS, find_models, run_cross_check, verdict_table
     root = Path(args.cross_check)
     if not root.is_dir():
         raise UsageError(f"--cross-check {root}: not a folder")

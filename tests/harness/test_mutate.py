@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from harness import mutate
+from harness.measure import mutate
 from harness.cli.mutate import main
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -97,9 +97,10 @@ def test_an_unknown_only_id_is_refused(toy, capsys):
     assert "no mutation nope" in capsys.readouterr().err
 
 
-def test_the_projects_list_loads_and_every_snippet_is_in_its_file_once():
-    settings, ms = mutate.load(ROOT / "tests" / "mutations.toml")
-    assert len(ms) >= 20 and settings.packages == {"spurdiff_fmus": "fmu_src"}
+@pytest.mark.parametrize("name, at_least", [("mutations.toml", 20), ("mutations_guards.toml", 20)])
+def test_the_projects_list_loads_and_every_snippet_is_in_its_file_once(name, at_least):
+    settings, ms = mutate.load(ROOT / "tests" / name)
+    assert len(ms) >= at_least and settings.packages == {"spurdiff_fmus": "fmu_src"}
     mutate.check_snippets(ROOT, ms)
     for m in ms:
         for t in m.tests:

@@ -189,7 +189,7 @@ def _fake_host(place: Path, marker: Path) -> None:
 def _host_folder(cache: Path) -> Path:
     import hashlib
 
-    from harness.check import native
+    from harness.check.processes import native
     return cache / f"check-host-{hashlib.sha256(native.HOST_SOURCE.encode()).hexdigest()[:12]}"
 
 
@@ -198,7 +198,7 @@ def _host_folder(cache: Path) -> Path:
 def test_the_kits_bare_host_planted_is_never_run(cache, tmp_path, how):
     """Issue 45 item 1 (High): a host planted where the kit caches its bare C host is not run: the
     folder is refused (the rule SKIPs with the place, never PASSes)."""
-    from harness.check import native
+    from harness.check.processes import native
     marker = tmp_path / "planted-host-ran"
     pd.private_dir(cache)
     folder = _host_folder(cache)
@@ -224,7 +224,7 @@ def test_the_kits_bare_host_planted_is_never_run(cache, tmp_path, how):
 def test_a_planted_host_inside_our_own_folder_is_rebuilt_not_run(cache, tmp_path):
     """A 'host' in our private folder whose digest is not the recorded one (a truncated or swapped
     file) is compiled anew; the recorded digest itself is not enough."""
-    from harness.check import native
+    from harness.check.processes import native
     marker = tmp_path / "planted-host-ran"
     native.host_binary.cache_clear()
     try:

@@ -1,5 +1,5 @@
 """Inside a check process: the FMI session and the call-sequence rules, and :func:`worker_main`, the entry point
-:mod:`harness.check.isolation` starts (run one rule, write its outcome).
+:mod:`harness.check.processes.isolation` starts (run one rule, write its outcome).
 
 * :mod:`.fmi2`, :mod:`.fmi3`: one FMU instance of each version through fmpy, every call traced, with the same
   methods (initialize, run, outputs, state calls...), so a rule that means the same in both versions is one
@@ -9,8 +9,8 @@
   :mod:`.cs_steps` (the steps and the calls around them), :mod:`.me` (model exchange), :mod:`.cs3` and
   :mod:`.me3` (what only FMI 3.0 has).
 
-May import: :mod:`harness.check.report`, :mod:`harness.check.rules`, :mod:`harness.check.crosscheck`,
-:mod:`harness.check.reference_task`, :mod:`harness.fmi` and fmpy; never the parent-side modules.
+May import: :mod:`harness.check.report`, :mod:`harness.check.rules`, :mod:`harness.check.crosscheck.formats`,
+:mod:`harness.check.crosscheck.reference_task`, :mod:`harness.fmi` and fmpy; never the parent-side modules.
 """
 from __future__ import annotations
 

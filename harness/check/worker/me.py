@@ -130,7 +130,7 @@ def check_me_basic(s: Session, out_csv: str | None = None):
     a.terminate()
     a.free()
     if out_csv:
-        from ..crosscheck import write_cross_check_csv
+        from ..crosscheck.formats import write_cross_check_csv
         as_int = [v.type != s.REAL for v in s.outputs]
         write_cross_check_csv(out_csv, ["time"] + [v.name for v in s.outputs],
                               [[r[0]] + [int(x) if i else x for i, x in zip(as_int, r[1:])] for r in rows])

@@ -51,7 +51,7 @@ def run_task(task: str, payload: dict, tracer) -> tuple:
     """(status, reason[, severity]) of ``task``: a rule id (``cs.*``, ``me.*``, ``cs3.*``, ``me3.*``) or
     "reference"."""
     if task == "reference":
-        from ..reference_task import simulate_reference_task
+        from ..crosscheck.reference_task import simulate_reference_task
         return simulate_reference_task(payload, tracer)
     kind = task.split(".", 1)[0]
     if kind not in ("cs", "me", "cs3", "me3") or task not in TASKS:

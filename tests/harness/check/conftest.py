@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from harness.check.reaper import PR_SET_CHILD_SUBREAPER, children
+from harness.check.processes.reaper import PR_SET_CHILD_SUBREAPER, children
 
 
 def _live_children() -> dict[int, str]:

@@ -24,8 +24,8 @@ from harness.check import (CheckResult, compare_results, is_structured_name,  # 
                            safe_model_name, write_junit)
 from harness.check.rules import rules  # noqa: E402
 from harness.check.archive import ArchiveError, extract, member_name_problem  # noqa: E402
-from harness.check.crosscheck import write_cross_check_csv  # noqa: E402
-from harness.check.reference import ReferenceUsageError  # noqa: E402
+from harness.check.crosscheck.formats import write_cross_check_csv  # noqa: E402
+from harness.check.crosscheck.reference import ReferenceUsageError  # noqa: E402
 from harness.check.report import exit_code, format_report  # noqa: E402
 from harness.cli.check import main as _main  # noqa: E402
 

@@ -1,5 +1,5 @@
 """Issue 43 items 2 and 3: ``spurdiff check --cross-check DIR`` and ``--compare`` judge by the FMI cross-check
-suite's rule (harness/check/band.py), and agree with the suite's own validation (fmpy.cross_check.validate_result,
+suite's rule (harness/check/crosscheck/band.py), and agree with the suite's own validation (fmpy.cross_check.validate_result,
 the code that checks results submitted to modelica/fmi-cross-check) sample for sample.
 
 The shared cross-check FMUs (../shared/xcheck/) are used where that folder exists; the tests skip, naming it,
@@ -14,9 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from harness.check.band import judge, printed_rounding
-from harness.check.compare import suite_checks
-from harness.check.crosscheck import read_cross_check_csv, write_cross_check_csv, write_ref_opt
+from harness.check.crosscheck.band import judge, printed_rounding
+from harness.check.crosscheck.compare import suite_checks
+from harness.check.crosscheck.formats import read_cross_check_csv, write_cross_check_csv, write_ref_opt
 from harness.cli.check import main
 
 XCHECK = Path(__file__).resolve().parents[4] / "shared" / "xcheck"
@@ -196,7 +196,7 @@ def test_the_shared_cross_check_folder_gets_the_suites_verdicts(tmp_path, capsys
         got.setdefault(key, {})[importer] = verdict_file.name
         if verdict_file.name != "rejected":   # the suite's own code on the very same files
             src = next(FMUS.glob(f"{tool}/*/{model}"))
-            from harness.check.crosscheck import read_ref_opt
+            from harness.check.crosscheck.formats import read_ref_opt
             opt = read_ref_opt(src / f"{model}_ref.opt")
             res = read_cross_check_csv(folder / f"{model}_out.csv")
             ref = read_cross_check_csv(src / f"{model}_ref.csv")
@@ -209,7 +209,7 @@ def test_the_shared_cross_check_folder_gets_the_suites_verdicts(tmp_path, capsys
 
 @needs_xcheck
 def test_reference_results_follow_the_ref_opt_beside_the_fmu_and_stand_beside_its_reference(tmp_path, capsys):
-    from harness.check.crosscheck import read_ref_opt
+    from harness.check.crosscheck.formats import read_ref_opt
     src = next(FMUS.glob("*/*/TorsionBar"))
     folder = tmp_path / "TorsionBar"
     shutil.copytree(src, folder)

@@ -85,7 +85,7 @@ def _namespaces_allowed() -> bool:
     import subprocess
     import sys
 
-    from harness.check.isolation import REAPER
+    from harness.check.processes.isolation import REAPER
     probe = ("import ctypes, sys; sys.path.insert(0, sys.argv[1]); import reaper; "
              "sys.exit(0 if reaper._pid_namespace(ctypes.CDLL(None, use_errno=True)) else 1)")
     return subprocess.run([sys.executable, "-I", "-S", "-c", probe, str(REAPER.parent)]).returncode == 0
@@ -101,7 +101,7 @@ def test_reaper_ends_an_escaped_tree_and_keeps_the_status(tmp_path, flag):
     import subprocess
     import sys
 
-    from harness.check.isolation import REAPER
+    from harness.check.processes.isolation import REAPER
     tag = f"{random.randrange(10 ** 6):06d}"
     started = tmp_path / "started"
     script = f"setsid sh -c 'touch {started}; exec env -i sleep 299.{tag}' & " \
@@ -121,7 +121,7 @@ def test_reaper_ends_an_escaped_tree_and_keeps_the_status(tmp_path, flag):
 def test_reaper_reraises_the_signal_of_its_child(tmp_path):
     import subprocess
 
-    from harness.check.isolation import reaped
+    from harness.check.processes.isolation import reaped
     cmd, done = reaped(["/bin/sh", "-c", "kill -SEGV $$"], tmp_path)
     assert subprocess.run(cmd, timeout=60).returncode == -signal.SIGSEGV
     assert done.exists()
@@ -135,7 +135,7 @@ def test_a_killed_reaper_ends_its_namespace(tmp_path):
     import subprocess
     import sys
 
-    from harness.check.isolation import REAPER
+    from harness.check.processes.isolation import REAPER
     if not _namespaces_allowed():
         pytest.skip("no PID namespace allowed here")
     tag = f"{random.randrange(10 ** 6):06d}"

@@ -142,7 +142,7 @@ def test_broken_call_sequence_fails_exactly_its_rule(broken_results, name):
 
 @pytest.mark.parametrize("name", list(LOAD))
 def test_broken_binary_fails_exactly_its_load_rule(name):
-    from harness.check.native import run_load_checks
+    from harness.check.processes.native import run_load_checks
     breaks, expected = LOAD[name]
     results = run_load_checks(chk3_build.chk3c_fmu(name, breaks), name, ["load3.libraries", "load3.needed-libraries"],
                               60.0)

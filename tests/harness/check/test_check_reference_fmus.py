@@ -24,7 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "broken_fmus"))
 import chk_build  # noqa: E402
 
 from harness.check import LifecycleOptions, read_cross_check_csv, write_reference_results  # noqa: E402
-from harness.check.reference import default_experiment  # noqa: E402
+from harness.check.crosscheck.reference import default_experiment  # noqa: E402
 from harness.check.runner import run_checks  # noqa: E402
 
 HOSTS = Path(__file__).resolve().parents[4] / "shared" / "hosts"

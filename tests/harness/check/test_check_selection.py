@@ -166,13 +166,15 @@ def test_same_crash_in_several_rules_is_one_finding():
 
 @needs_gcc
 def test_default_experiment_says_when_it_checked_only_part(tmp_path):
-    """A time budget of 1 ms (half of a 2 ms 'timeout'): ChkCLateStep's refusal after 0.5 s (step 50)
-    is not reached, and the rule says how much it checked."""
+    """A time budget of 1 ns (half of a 2 ns 'timeout'): ChkCLateStep's refusal after 0.5 s (step 50)
+    is not reached, and the rule says how much it checked. The budget is checked after each doStep and
+    one doStep takes far more than 1 ns, so the run stops after the first; a budget of 1 ms was a race
+    (an idle machine did the 50 steps within it: the rule then failed on the refusal)."""
     from harness.check.archive import extract
-    from harness.check.isolation import run_isolated_outcome
+    from harness.check.processes.isolation import run_isolated_outcome
     d = extract(chk_build.chkc_fmu("ChkCLateStep"))
     try:
-        o = run_isolated_outcome("cs.default-experiment", {"unzipdir": str(d), "timeout": 0.002}, 60.0)
+        o = run_isolated_outcome("cs.default-experiment", {"unzipdir": str(d), "timeout": 2e-9}, 60.0)
         full = run_isolated_outcome("cs.default-experiment", {"unzipdir": str(d), "timeout": 60.0}, 60.0)
     finally:
         shutil.rmtree(d, ignore_errors=True)
@@ -180,7 +182,7 @@ def test_default_experiment_says_when_it_checked_only_part(tmp_path):
     m = re.match(r"checked only part of the experiment: (\d+) of 100 doSteps of 0.01 s \(t = 0 to ([0-9.]+) s of 1 s",
                  o.reason)
     assert o.status == "PASS" and m and int(m.group(1)) < 50, o.reason
-    assert "stopped at the time budget of 0.001 s (half the rule's timeout)" in o.reason
+    assert "stopped at the time budget of 1e-09 s (half the rule's timeout)" in o.reason
     assert full.status == "FAIL"
 
 
@@ -198,7 +200,7 @@ def test_start_value_outside_min_max():
 @needs_gcc
 def test_binary_that_uses_libm_without_declaring_it():
     """ChkCNoLibm runs in the kit's Python processes (Python has libm), not in a bare C process."""
-    from harness.check.native import run_load_checks
+    from harness.check.processes.native import run_load_checks
     ids = ["load.needed-libraries", "load.bare-process"]
     bad = {r.check_id: r for r in run_load_checks(chk_build.chkc_fmu("ChkCNoLibm"), "nolibm", ids, 30.0)}
     good = {r.check_id: r for r in run_load_checks(chk_build.chkc_fmu("ChkC"), "good", ids, 30.0)}
@@ -213,7 +215,7 @@ def test_binary_that_uses_libm_without_declaring_it():
 
 
 def test_bare_process_rule_skips_without_a_compiler(monkeypatch, tmp_path):
-    from harness.check import native
+    from harness.check.processes import native
     native.host_binary.cache_clear()
     monkeypatch.setattr(native.shutil, "which", lambda name: None)
     try:

@@ -27,8 +27,8 @@ from __future__ import annotations
 
 import math
 
-from .crosscheck import read_cross_check_csv, write_cross_check_csv
-from .report import FAIL, PASS
+from .formats import read_cross_check_csv, write_cross_check_csv
+from ..report import FAIL, PASS
 
 AUTO_STEPS = 2000         # communication steps when neither _ref.opt nor the FMU gives a step size
 READABLE = ("Real", "Integer", "Enumeration", "Boolean")

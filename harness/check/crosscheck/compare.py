@@ -17,8 +17,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping
 
-from .crosscheck import read_cross_check_csv
-from .report import FAIL, PASS, CheckResult
+from .band import ColumnVerdict
+from .formats import read_cross_check_csv
+from ..report import FAIL, PASS, CheckResult
 
 DEFAULT_RTOL = 1e-3
 ATOL_FLOOR = 1e-12
@@ -33,12 +34,10 @@ class Tolerance:
 
 
 @dataclass(frozen=True)
-class ColumnComparison:
-    """Outcome for one reference column."""
+class ColumnComparison(ColumnVerdict):
+    """Outcome for one reference column by the tube: a column verdict (``share_outside``: of the
+    reference's samples) with the largest error and the number of samples outside."""
 
-    name: str
-    passed: bool
-    reason: str
     max_error: float = math.nan
     samples_outside: int = 0
 
@@ -102,7 +101,7 @@ def compare_results(result_csv: str | Path, reference_csv: str | Path, rtol: flo
         else:
             i = int(np.argmax(err))
             reason = f"max |error| {float(err[i]):.3g} at t = {t_ref[i]:g} s; all {len(t_ref)} samples within {rule}"
-        out.append(ColumnComparison(name, n_out == 0, reason, float(np.max(err)), n_out))
+        out.append(ColumnComparison(name, n_out == 0, reason, n_out / len(t_ref), float(np.max(err)), n_out))
     return out
 
 
@@ -135,7 +134,7 @@ def suite_checks(result_csv: str | Path, reference_csv: str | Path, ref_opt: str
     one, from the reference, its last time taken as reached within the rounding of how it is printed.
     Raises CsvFormatError for unreadable files."""
     from .band import judge, printed_rounding
-    from .crosscheck import last_time_text, read_ref_opt
+    from .formats import last_time_text, read_ref_opt
     subject = subject if subject is not None else str(result_csv)
     names, rows = read_cross_check_csv(result_csv)
     ref_names, ref_rows = read_cross_check_csv(reference_csv)

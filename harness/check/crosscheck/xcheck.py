@@ -37,7 +37,7 @@ from pathlib import Path
 from typing import Sequence
 
 from .band import judge
-from .crosscheck import CsvFormatError, read_cross_check_csv, read_ref_opt
+from .formats import CsvFormatError, read_cross_check_csv, read_ref_opt
 
 HOSTS = ("fmpy", "spurdiff")
 VERDICTS = ("passed", "failed", "rejected")
@@ -105,9 +105,9 @@ def _why_not_run(m: Model) -> str | None:
     """Why the FMU is rejected without a run (see the module docstring), or None."""
     from fmpy import read_model_description
 
-    from .archive import ArchiveError, extract
-    from .native import unresolved_symbols
-    from .static import host_platform
+    from ..archive import ArchiveError, extract
+    from ..processes.native import unresolved_symbols
+    from ..static import host_platform
     if m.info["fmi_type"] != "cs":
         return f"a {m.info['fmi_type']} entry: the cross-check mode runs co-simulation FMUs"
     if not m.side("_ref.opt").is_file():
@@ -169,8 +169,8 @@ def _judge(m: Model, out_csv: Path) -> tuple[str, str]:
 
 def run_model(m: Model, host: str, out_root: Path, timeout: float) -> Row:
     """Run, judge and file one model in one host."""
-    from .isolation import run_isolated
-    from .archive import ArchiveError, extract
+    from ..processes.isolation import run_isolated
+    from ..archive import ArchiveError, extract
     t0 = time.perf_counter()
     name, ver = importer(host)
     i = m.info
@@ -210,8 +210,8 @@ def run_model(m: Model, host: str, out_root: Path, timeout: float) -> Row:
 
 def _readme(path: Path, m: Model, host: str, imp: tuple[str, str], opts: dict, verdict: str, reason: str) -> None:
     lines = [f"{m.name} ({m.info['tool']} {m.info['tool_version']}) imported by {imp[0]} {imp[1]}: {verdict}", "",
-             f"Run by `spurdiff check --cross-check` in its `{host}` host (harness/check/xcheck_host.py),",
-             "judged by the cross-check suite's rule (harness/check/band.py).", ""]
+             f"Run by `spurdiff check --cross-check` in its `{host}` host (harness/check/crosscheck/xcheck_host.py),",
+             "judged by the cross-check suite's rule (harness/check/crosscheck/band.py).", ""]
     if opts:
         lines.append("Options (_ref.opt): " + ", ".join(f"{k} {opts[k]!r}" for k in ("StartTime", "StopTime",
                                                                                       "StepSize", "RelTol")))

@@ -25,9 +25,9 @@ import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .report import FAIL
+from ..report import FAIL
 
-_PACKAGE_ROOT = Path(__file__).resolve().parents[2]  # the directory holding the ``harness`` package
+_PACKAGE_ROOT = Path(__file__).resolve().parents[3]  # the directory holding the ``harness`` package
 MARKER = "SPURDIFF_CHECK_RUN"
 
 

@@ -6,7 +6,7 @@ simulating an FMU in a fresh process; the simulation itself is :mod:`.reference_
 1e-4, handed to fmi2SetupExperiment) with :func:`fmpy.simulate_fmu` (co-simulation when the FMU
 offers it, else model exchange with fmpy's CVode), every parameter and input
 at its start value unless an input table says otherwise, in a fresh process (see
-:func:`harness.check.isolation.run_isolated`). ``modelName`` becomes a folder and file name only
+:func:`harness.check.processes.isolation.run_isolated`). ``modelName`` becomes a folder and file name only
 after :func:`safe_model_name` accepts it.
 """
 from __future__ import annotations
@@ -16,9 +16,9 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from .crosscheck import (INPUT_TYPES, MAX_CSV_BYTES, CsvFormatError, read_cross_check_csv, read_ref_opt,
+from .formats import (INPUT_TYPES, MAX_CSV_BYTES, CsvFormatError, read_cross_check_csv, read_ref_opt,
                          write_cross_check_csv, write_ref_opt)
-from .report import FAIL, PASS, CheckResult
+from ..report import FAIL, PASS, CheckResult
 
 DEFAULT_STEP_SIZE = 1e-3     # s
 DEFAULT_DURATION = 1.0       # s, when the DefaultExperiment has no stopTime
@@ -135,8 +135,8 @@ def write_reference_results(fmu_path: str | Path, out_dir: str | Path, input_csv
 
     from fmpy import read_model_description
 
-    from .archive import ArchiveError, extract
-    from .isolation import run_isolated   # the process runs .reference_task
+    from ..archive import ArchiveError, extract
+    from ..processes.isolation import run_isolated   # the process runs .reference_task
     subject = subject if subject is not None else str(fmu_path)
     t0 = time.perf_counter()
     try:

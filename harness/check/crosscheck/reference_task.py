@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import math
 
-from .crosscheck import INPUT_TYPES, read_cross_check_csv, write_cross_check_csv
-from .report import FAIL, PASS
+from .formats import INPUT_TYPES, read_cross_check_csv, write_cross_check_csv
+from ..report import FAIL, PASS
 
 
 def simulate_reference_task(payload: dict, trace) -> tuple[str, str]:

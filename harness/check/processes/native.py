@@ -30,9 +30,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from .archive import ArchiveError, extract
-from .report import FAIL, PASS, SKIP, CheckResult
-from .rules import BY_ID
+from ..archive import ArchiveError, extract
+from ..report import FAIL, PASS, SKIP, CheckResult
+from ..rules import BY_ID
 
 HOST_STEPS = 3
 
@@ -396,7 +396,7 @@ def run_load_checks(fmu_path: str | Path, subject: str, rule_ids, timeout: float
                     profiles: tuple[str, ...] = ()) -> list[CheckResult]:
     """The ``load`` rules in ``rule_ids`` for one FMU (parent side; the C host is its own process)."""
     from fmpy import read_model_description
-    from .static import host_platform
+    from ..static import host_platform
     results = []
     ids = [r for r in ("load.libraries", "load.needed-libraries", "load.bare-process", *LOAD3) if r in rule_ids]
     if not ids:
