@@ -99,7 +99,9 @@ class CapacityParams:
     K_gamma: float = 0.0         # load-sharing factor; 0: K_gamma_default(nPairs)
 
     # the fields' ranges (spurdiff.errors: checked where the FMU's capacity watch is built, and its min/max)
-    BOUNDS = {"T0": Bound(0.0, lo_open=True), "bushingWall": Bound(0.0, 0.1, hi_open=True, allowed=">= 0 m and < 0.1 m")}
+    BOUNDS = {"T0": Bound(0.0, lo_open=True), "bushingWall": Bound(0.0, 0.1, hi_open=True, allowed=">= 0 m and < 0.1 m"),
+              # the outer range; Conditions.validate refuses the values between 0 and 1
+              "K_gamma": Bound(0.0, 2.0, allowed="0 (the default for the number of planet pairs) or 1 .. 2")}
 
 
 def pin_bores(journal_radius: float, bushing_wall: float) -> dict[str, float] | None:
