@@ -63,11 +63,13 @@ class DifferentialParams:
         """Check every parameter; return the derived geometry. Raises ParameterError."""
         geo = derive(self.table)
         geo.raise_on_error()
-        check_fields(self)
-        mu = self.mu_pin
-        if not self.mu_pinDynamic <= mu:
+        mu = self.BOUNDS["mu_pin"].check("mu_pin", self.mu_pin)
+        # mu_pinDynamic's range depends on mu_pin: its error says mu_pin's value (the declared
+        # bound, 0 .. 1, is the FMU's min/max)
+        if not 0.0 <= self.mu_pinDynamic <= mu:        # (NaN fails too)
             raise ParameterError("mu_pinDynamic", self.mu_pinDynamic,
                                  f"between 0 and mu_pin = {mu:g} (0: equal to mu_pin)")
+        check_fields(self)
         if self.lockingLaw not in LOCKING_LAWS:
             raise ParameterError("lockingLaw", self.lockingLaw, " or ".join(LOCKING_LAWS))
         for name, allowed in (("pinModel", PIN_MODELS), ("pairHandedness", HANDEDNESS), ("leadingSun", LEADING_SUNS)):

@@ -207,7 +207,7 @@ def test_failed_runs_are_recorded_with_their_reason_and_the_rest_are_right(seria
     for r in rows:
         if float(r["diff.mu_pin"]) < 0:
             assert r["status"] == "failed"
-            assert "mu_pin" in r["reason"] and "allowed >= 0" in r["reason"]
+            assert "mu_pin" in r["reason"] and "allowed between 0 and 1" in r["reason"]
             assert math.isnan(float(r["K_measured"])) and math.isnan(float(r["K_theory"]))
         else:
             assert r["status"] == "ok" and r["reason"] == ""
@@ -298,7 +298,7 @@ os._exit(0)
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stderr[-2000:]
     assert p.stdout.split("\n")[:2] == ["ok", "diff failed at t = 0 s: invalid parameter: mu_pin = -1.0 is invalid: "
-                                                "allowed >= 0"]
+                                                "allowed between 0 and 1"]
 
 
 def test_a_run_over_its_time_limit_is_recorded_as_timeout(small, fmu_files):
