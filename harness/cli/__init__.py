@@ -46,6 +46,19 @@ def fail(prog: str, msg: str, code: int = 2) -> int:
     return code
 
 
+def add_scene_export_arguments(ap: argparse.ArgumentParser, what: str, into: str) -> None:
+    """The arguments every scene export shares (``spurdiff export-ssp``, ``export-container``): the
+    scene, ``-o`` (``what``: the file written, default ``results/<scene>/<scene>.<ext>``), the step and
+    stop time (``into``: where they are written), the mesh model and ``--set`` overrides."""
+    ap.add_argument("scene", help="scene name (see `spurdiff scenes`) or path to a .toml file")
+    ap.add_argument("-o", "--output", help=what)
+    ap.add_argument("--step", type=float, help=f"communication step {into}, s (default: the scene's)")
+    ap.add_argument("--duration", type=float, help=f"stop time {into}, s (default: the scene's)")
+    ap.add_argument("--mesh", help="differential mesh model (overrides the scene's effects.meshModel)")
+    ap.add_argument("--set", action="append", default=[], metavar="INST.PARAM=VALUE",
+                    help="override a parameter, e.g. --set diff.mu_pin=0.1")
+
+
 def build_parser() -> argparse.ArgumentParser:
     from harness.common.paths import package_version
 

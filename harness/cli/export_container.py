@@ -11,20 +11,15 @@ from harness.scene.schema import SceneError
 
 def main(argv: list[str] | None = None) -> int:
     """``spurdiff export-container SCENE [-o FILE] [--step H] [--duration T] [--mesh M] [--set I.P=V] [--compare]``."""
-    from harness.cli import fail
+    from harness.cli import add_scene_export_arguments, fail
     from harness.interop.container import ContainerError, default_output, export_container
     from harness.run.runner import fmu_files_for, prepare_scene
 
     prog = "spurdiff export-container"
     ap = argparse.ArgumentParser(prog=prog, description="Write a scene (its FMUs, connections, parameters and step) "
                                  "as one container FMU (fmu-manipulation-toolbox)")
-    ap.add_argument("scene", help="scene name (see `spurdiff scenes`) or path to a .toml file")
-    ap.add_argument("-o", "--output", help="FMU to write (default results/<scene>/<scene>.fmu)")
-    ap.add_argument("--step", type=float, help="communication step inside the container, s (default: the scene's)")
-    ap.add_argument("--duration", type=float, help="stop time of its default experiment, s (default: the scene's)")
-    ap.add_argument("--mesh", help="differential mesh model (overrides the scene's effects.meshModel)")
-    ap.add_argument("--set", action="append", default=[], metavar="INST.PARAM=VALUE",
-                    help="override a parameter, e.g. --set diff.mu_pin=0.1")
+    add_scene_export_arguments(ap, "FMU to write (default results/<scene>/<scene>.fmu)",
+                               "inside the container (its default experiment's)")
     ap.add_argument("--tables-at-start", action="store_true",
                     help="accept time-table inputs, carried as their value at t = 0")
     ap.add_argument("--compare", action="store_true",

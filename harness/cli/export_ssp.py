@@ -11,18 +11,13 @@ from harness.scene.schema import SceneError
 
 def main(argv: list[str] | None = None) -> int:
     """``spurdiff export-ssp SCENE [-o FILE] [--step H] [--duration T] [--mesh M] [--set I.P=V]``."""
+    from harness.cli import add_scene_export_arguments
     from harness.run.runner import fmu_files_for, prepare_scene
     from harness.interop.ssp import SCENE_ANNOTATION, SspError, default_output, export_ssp_summary
 
     ap = argparse.ArgumentParser(prog="spurdiff export-ssp",
                                  description="Write a scene as an SSP 1.0 file (SystemStructure.ssd + FMUs) for other masters")
-    ap.add_argument("scene", help="scene name (see `spurdiff scenes`) or path to a .toml file")
-    ap.add_argument("-o", "--output", help="SSP file to write (default results/<scene>/<scene>.ssp)")
-    ap.add_argument("--step", type=float, help="communication step written to the SSP, s (default: the scene's)")
-    ap.add_argument("--duration", type=float, help="stop time written to the SSP, s (default: the scene's)")
-    ap.add_argument("--mesh", help="differential mesh model (overrides the scene's effects.meshModel)")
-    ap.add_argument("--set", action="append", default=[], metavar="INST.PARAM=VALUE",
-                    help="override a parameter, e.g. --set diff.mu_pin=0.1")
+    add_scene_export_arguments(ap, "SSP file to write (default results/<scene>/<scene>.ssp)", "written to the SSP")
     ap.add_argument("--fmi-version", dest="fmi_version", type=int, choices=(2, 3), default=2,
                     help="put the FMI 2.0 FMUs (NAME.fmu, the default) or the FMI 3.0 ones (NAME-fmi3.fmu) in the SSP")
     args = ap.parse_args(argv)
