@@ -10,9 +10,12 @@
      3 double fork, setsid, then itself a child subreaper with a child of its own
      4 a spawner: double fork, setsid, and a new child every 20 ms for 3 s (each execs sleep)
      5 SIGKILL to its parent process (the kit's reaper, or what stands for it), then case 1
-   CHK_DAEMON_CASES (a macro, default "1234") picks the cases. */
+   CHK_DAEMON_CASES (a macro, default "1234") picks the cases. The constructor returns only once
+   each case's daemon has written its pid (a byte on a close-on-exec pipe, waited for up to 10 s):
+   a check that ends quickly cannot end before the daemons exist, which would prove nothing. */
 #define _GNU_SOURCE
 #include <fcntl.h>
+#include <poll.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -31,6 +34,8 @@
 #define CHK_DAEMON_CASES "1234"
 #endif
 
+static int ready_fd = -1;   /* write end of the pipe the loading process waits on; -1 once used */
+
 static void note_pid(void) {
     char path[512];
     int fd;
@@ -38,6 +43,12 @@ static void note_pid(void) {
     snprintf(path, sizeof path, "%s/%d", CHK_DAEMON_DIR, (int)getpid());
     fd = open(path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
     if (fd >= 0) close(fd);
+    if (ready_fd >= 0) {   /* once per daemon tree: later writers would meet a closed pipe (SIGPIPE) */
+        ssize_t n = write(ready_fd, "r", 1);
+        (void)n;
+        close(ready_fd);
+        ready_fd = -1;
+    }
 }
 
 static void become_sleep(void) {
@@ -51,12 +62,28 @@ static void become_sleep(void) {
 
 static void daemon_case(char which) {
     pid_t p;
+    int fds[2];
     if (which == '5') {
         kill(getppid(), SIGKILL);
         which = '1';
     }
+    if (pipe2(fds, O_CLOEXEC) != 0) fds[0] = fds[1] = -1;
     p = fork();
-    if (p != 0) return;
+    if (p != 0) {
+        if (fds[1] >= 0) close(fds[1]);
+        if (fds[0] >= 0) {
+            struct pollfd w = {fds[0], POLLIN, 0};
+            char c;
+            if (p > 0 && poll(&w, 1, 10000) > 0) {
+                ssize_t n = read(fds[0], &c, 1);
+                (void)n;
+            }
+            close(fds[0]);
+        }
+        return;
+    }
+    if (fds[0] >= 0) close(fds[0]);
+    ready_fd = fds[1];
     switch (which) {
     case '1':
         setsid();
