@@ -32,7 +32,7 @@ import time
 from pathlib import Path
 
 HOST_SOURCE = Path(__file__).with_name("startup_host.c")
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]   # the checkout: harness/measure/bench/ -> .
 CHK_BUILD = ROOT / "tests" / "broken_fmus" / "chk_build.py"
 STEP = 0.005
 

@@ -1,0 +1,21 @@
+"""The start-up bench (section 8 of ``spurdiff bench``) finds the plain C FMU it compares against:
+after the harness moved into packages it looked for tests/broken_fmus/ one folder too high and
+printed "not measured" instead of the section, silently."""
+from __future__ import annotations
+
+import shutil
+
+import pytest
+
+from harness.measure.bench import startup
+
+
+def test_the_c_fmu_source_is_found_in_the_checkout():
+    assert startup.CHK_BUILD.is_file(), startup.CHK_BUILD
+    assert startup.HOST_SOURCE.is_file(), startup.HOST_SOURCE
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="no C compiler (gcc) to build the kit's C FMU")
+def test_the_c_fmu_builds():
+    fmu = startup.c_fmu()
+    assert fmu is not None and fmu.is_file() and fmu.suffix == ".fmu"
