@@ -109,8 +109,9 @@ def test_vehicle_cornering(fmu_files):
     assert stat(r, "{diff.leftShaft.tau} - {diff.rightShaft.tau}", "min", w) > 0.0
     assert stat(r, "{diff.leftShaft.tau} - {diff.rightShaft.tau} - {diff.lockingCapacity}", "max", w) < 0.01
     # K at the operating point: the planets' centrifugal pin loads at the carrier speed (issue 27,
-    # spurdiff.differential.speed_law), for the scene's gear set (the designed one: 0.1702 against
-    # the standstill lockingCoefficient 0.1734; the paper's set 0.1754 against 0.1779)
+    # spurdiff.differential.speed_law), for the scene's gear set (under the 3-D pin law the designed
+    # one: 0.2369 against the standstill lockingCoefficient 0.2366; the paper's set 0.2328 against
+    # 0.2326: docs/paper-reproduction.md, "The main job with the new default law")
     from spurdiff.differential.inertia import mass_properties
     from spurdiff.differential.locking import pin_friction
     from spurdiff.differential.params import DifferentialParams
