@@ -25,11 +25,10 @@ is a row with its reason; ``resume`` reruns only the runs missing from the table
 
 The package, one module per job: :mod:`.spec` (the file's schema), :mod:`.sampling` (the runs),
 :mod:`.plan` (scene, FMUs and names checked), :mod:`.jobs` (what travels to the workers),
-:mod:`.worker` (one run, inside a worker), :mod:`.pool` (FMU instances reused per process),
-:mod:`.fmu_files` (FMU snapshots), :mod:`.theory` (closed-form metrics), :mod:`.table` (the CSV
-table, resume, the folder lock), :mod:`.executors` (this process or Dask), :mod:`.progress`,
-:mod:`.run` (all of it together), :mod:`.plots`, :mod:`.bench`; the command line is
-:mod:`harness.cli.sweep`.
+:mod:`.theory` (closed-form metrics), :mod:`.table` (the CSV table, resume, the folder lock),
+:mod:`.run` (all of it together), :mod:`.plots`, :mod:`.bench`; how the runs are carried out is
+the subpackage :mod:`.execution` (executors: this process or Dask; the worker; the instance pool;
+the FMU snapshots; the progress bar); the command line is :mod:`harness.cli.sweep`.
 
 May import: :mod:`harness.run`, :mod:`harness.build`, :mod:`harness.fmi`, :mod:`harness.scene`,
 :mod:`harness.common` and :mod:`spurdiff`; not :mod:`harness.measure` nor :mod:`harness.check`.
@@ -38,7 +37,7 @@ from __future__ import annotations
 
 from harness.sweep.jobs import STATUSES, FmuRef, Job, Metric, Task
 from harness.sweep.plan import Plan, plan_sweep
-from harness.sweep.progress import ProgressBar
+from harness.sweep.execution.progress import ProgressBar
 from harness.sweep.run import Outcome, run_sweep
 from harness.sweep.sampling import expand, unit_samples
 from harness.sweep.spec import SWEEP_DIR, Param, Plot, Sweep, SweepError, available, load_sweep, parse_sweep, sweep_path

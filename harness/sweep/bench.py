@@ -9,12 +9,12 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from harness.sweep.executors import local_cluster
+from harness.sweep.execution.executors import local_cluster
 from harness.sweep.plan import plan_sweep
 from harness.sweep.run import run_sweep
 from harness.sweep.sampling import expand
 from harness.sweep.spec import Param, Sweep
-from harness.sweep.worker import scene_for
+from harness.sweep.execution.worker import scene_for
 
 def bench(sweep: Sweep, n_runs: int = 64, worker_counts=(1, 2), duration: float | None = None,
           out=print) -> dict:

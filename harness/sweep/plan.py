@@ -8,7 +8,7 @@ from pathlib import Path
 from harness.common.messages import shown
 from harness.scene.schema import SceneError, parameter_value
 from harness.scene.spec import refs_of
-from harness.sweep.fmu_files import fmu_ref
+from harness.sweep.execution.fmu_files import fmu_ref
 from harness.sweep.jobs import Job, Task
 from harness.sweep.sampling import expand
 from harness.sweep.spec import Sweep, SweepError

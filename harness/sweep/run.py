@@ -7,12 +7,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from harness.sweep.executors import Runner, dask_rows, local_cluster, serial_rows
+from harness.sweep.execution.executors import Runner, dask_rows, local_cluster, serial_rows
 from harness.sweep.plan import Plan, plan_sweep
-from harness.sweep.progress import ProgressBar
+from harness.sweep.execution.progress import ProgressBar
 from harness.sweep.spec import Sweep, SweepError
 from harness.sweep.table import FolderLock, TableWriter, prepare_table, read_table, table_path, write_table
-from harness.sweep.worker import run_one
+from harness.sweep.execution.worker import run_one
 
 @dataclass
 class Outcome:

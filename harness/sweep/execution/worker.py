@@ -3,7 +3,7 @@
 One call of :func:`run_one` runs one sample of a sweep and returns its table row. It never
 raises for a failed run: an FMU that refuses a call, a run over its time limit or any other
 exception becomes a row with ``status`` and a one-line ``reason``. FMU instances come from the
-process's pool (:mod:`harness.sweep.pool`), FMU files from snapshots (:mod:`harness.sweep.fmu_files`).
+process's pool (:mod:`harness.sweep.execution.pool`), FMU files from snapshots (:mod:`harness.sweep.execution.fmu_files`).
 """
 from __future__ import annotations
 
@@ -17,9 +17,9 @@ from typing import Any
 from harness.scene.expressions import compile_expression
 from harness.run.master import Interrupted
 from harness.scene.spec import Scene
-from harness.sweep.fmu_files import local_fmu
+from harness.sweep.execution.fmu_files import local_fmu
 from harness.sweep.jobs import Job, Metric, Task
-from harness.sweep.pool import POOL, InstancePool, ReusingMaster, RunTimeout
+from harness.sweep.execution.pool import POOL, InstancePool, ReusingMaster, RunTimeout
 from harness.sweep.theory import THEORIES
 
 def scene_for(job: Job, task: Task) -> Scene:

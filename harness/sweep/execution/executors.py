@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Callable, Iterator
 
 from harness.sweep.jobs import FmuRef, Job, Task
-from harness.sweep.worker import evaluate_metrics, scene_for
+from harness.sweep.execution.worker import evaluate_metrics, scene_for
 
 Runner = Callable[[Task, Job], dict]
 
