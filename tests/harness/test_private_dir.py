@@ -246,7 +246,7 @@ def test_the_sweep_snapshot_folder_planted_is_refused(cache, how):
     import hashlib
 
     from harness.scene.schema import SceneError
-    from harness.sweep.fmu_files import snapshot
+    from harness.sweep.execution.fmu_files import snapshot
     data = b"PK fake fmu bytes"
     digest = hashlib.sha256(data).hexdigest()
     pd.private_dir(cache)
@@ -262,7 +262,7 @@ def test_a_same_size_snapshot_of_other_bytes_is_replaced(cache):
     """The old check trusted a file whose size matched: 20 of 20 runs failed on a planted one."""
     import hashlib
 
-    from harness.sweep.fmu_files import snapshot
+    from harness.sweep.execution.fmu_files import snapshot
     data = b"PK the real fmu"
     digest = hashlib.sha256(data).hexdigest()
     p = snapshot("M", data, digest)

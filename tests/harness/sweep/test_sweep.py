@@ -17,8 +17,8 @@ import pytest
 from harness.sweep import (ProgressBar, SweepError, available, expand, load_sweep, parse_sweep, plan_sweep,
                            read_table, run_sweep, sweep_path)
 from harness.cli.sweep import main
-from harness.sweep.pool import InstancePool, ReusingMaster
-from harness.sweep.worker import run_one, scene_for
+from harness.sweep.execution.pool import InstancePool, ReusingMaster
+from harness.sweep.execution.worker import run_one, scene_for
 
 SMALL = """
 name = "small"
@@ -287,7 +287,7 @@ def test_a_sweep_run_after_other_fmu_users_in_the_process_still_gets_the_reason(
 import os, sys
 from harness.run.master import run_scene
 from harness.sweep import load_sweep, plan_sweep
-from harness.sweep.worker import run_one, scene_for
+from harness.sweep.execution.worker import run_one, scene_for
 plan = plan_sweep(load_sweep({str(sweep)!r}))
 print(run_one(plan.tasks[5], plan.job)["status"])
 run_scene(scene_for(plan.job, plan.tasks[5]), plan.fmu_files)   # instantiates and frees its own
