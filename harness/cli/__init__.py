@@ -3,7 +3,7 @@
 ``spurdiff COMMAND ...`` hands the arguments after the command to ``harness.cli.<command>.main``
 (each command parses its own options, ``spurdiff COMMAND -h`` shows them). The library modules
 never import this package: the ``python -m`` entries live here (``python -m harness.cli.info``,
-``python -m harness.cli.mesh_bench``...) or in a package's ``__main__`` that calls one of these
+``python -m harness.cli.tools.mesh_bench``...) or in a package's ``__main__`` that calls one of these
 (``python -m harness.sweep``, ``python -m harness.measure.accuracy``).
 
 May import: every harness package and :mod:`spurdiff`; nothing imports it but the ``__main__`` modules.

@@ -10,7 +10,7 @@ as our master does).
 
 :func:`run_ssp` returns a :class:`harness.run.result.Result` (``result["inst.var"]`` arrays, ``.time``,
 ``.step``) as our master does. By default libcosim runs in a child process
-(``python -m harness.cli.libcosim_run``): pythonfmu FMUs share one interpreter per process, and a
+(``python -m harness.cli.tools.libcosim_run``): pythonfmu FMUs share one interpreter per process, and a
 crash inside libcosim or an FMU then cannot take the caller down.
 
 After the run, every start value the SSP binds is read back through a libcosim observer and
@@ -279,7 +279,7 @@ def run_ssp(ssp_path: Path | str, record: list[str] | None = None, step: float |
         return run_here(ssp_path, record, step, duration)
     with tempfile.TemporaryDirectory(prefix="spurdiff_libcosim_") as tmp:
         out = Path(tmp) / "result.npz"
-        cmd = [sys.executable, "-m", "harness.cli.libcosim_run", str(Path(ssp_path).resolve()), "--out", str(out)]
+        cmd = [sys.executable, "-m", "harness.cli.tools.libcosim_run", str(Path(ssp_path).resolve()), "--out", str(out)]
         if record is not None:
             cmd += ["--record", *record] if record else []
         if step is not None:

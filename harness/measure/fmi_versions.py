@@ -4,7 +4,7 @@ Both runs go through the same master (:mod:`harness.run.master`; an FMI 3.0 inst
 calls, :mod:`harness.fmi.instance3`) with Event Mode, early return and output derivatives off, so
 the model computes the same steps from the same inputs: the recorded results must agree to the
 last bits. :func:`compare` gives the largest difference over every recorded variable, absolute and
-relative to the variable's largest magnitude. ``python -m harness.cli.fmi_versions`` prints it
+relative to the variable's largest magnitude. ``python -m harness.cli.tools.fmi_versions`` prints it
 per scene.
 """
 from __future__ import annotations

@@ -236,7 +236,7 @@ def test_ecos_runs_each_fmi3_fmu_bare(odd_dir, fmu_files):
 
 @pytest.mark.parametrize("scene", ["vehicle-cornering", "tip-in-tip-out", "wheel-lift"])
 def test_a_scene_gives_the_fmi2_results_with_the_fmi3_fmus(scene, fmu3_files):
-    """Shortened (0.1 s); every scene at full length: python -m harness.cli.fmi_versions."""
+    """Shortened (0.1 s); every scene at full length: python -m harness.cli.tools.fmi_versions."""
     from harness.measure.fmi_versions import compare
 
     c = compare(scene, duration=0.1)

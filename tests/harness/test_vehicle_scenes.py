@@ -194,7 +194,7 @@ def old_reference(fmu_files, name, duration):
 
 
 # (scene, window of the means): issue 19's 1e-3 on the wheel-speed ratio and 1 % on the locking
-# torque, met at 1 to 10 ms (measured with python -m harness.cli.coupling_bench: wheel-lift 1.2e-4
+# torque, met at 1 to 10 ms (measured with python -m harness.cli.tools.coupling_bench: wheel-lift 1.2e-4
 # and 1.0e-3 at 10 ms, split-mu-launch 6.3e-4 and 2.7e-4; wheel-lift's ratio was 1.4e-3 before
 # its path radius and the car's wheel loads and speeds ramped over the step)
 TRANSIENT_CASES = [("split-mu-launch", (1.0, 2.0)), ("wheel-lift", (1.1, 2.2))]

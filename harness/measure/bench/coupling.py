@@ -4,7 +4,7 @@ over the step) at its stable 0.2 ms step. Prints one table: per scene and step t
 outer/inner wheel-speed ratio's difference (absolute) and the mean locking torque's difference
 (relative to the reference mean, and in N m), over the scene's window.
 
-    SPURDIFF_FMU_DIR=/tmp/fmus_x python -m harness.cli.coupling_bench [scene ...] [--steps 1e-3,5e-3] [--fresh]
+    SPURDIFF_FMU_DIR=/tmp/fmus_x python -m harness.cli.tools.coupling_bench [scene ...] [--steps 1e-3,5e-3] [--fresh]
 
 The reference runs' means are cached in ./results/coupling_refs.json (keyed by scene and window;
 ``--cache PATH`` for another file); ``--fresh`` recomputes them (do so after changing the old
@@ -83,7 +83,7 @@ def parse_steps(text: str) -> list[float]:
 
 
 def run(scenes: list[str], steps: list[float], fresh: bool = False, cache_path: Path | None = None) -> int:
-    """Measure and print the table (the command line: :mod:`harness.cli.coupling_bench`); the exit
+    """Measure and print the table (the command line: :mod:`harness.cli.tools.coupling_bench`); the exit
     code: 0, 1 if a reference run failed, 2 for a bad scene or step (one line on stderr)."""
     for s in scenes:
         if s not in WINDOWS:

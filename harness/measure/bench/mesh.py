@@ -2,7 +2,7 @@
 tolerance sweep that chose the default tolerance, and the comparison with scipy's solve_ivp on the
 same differential ODE (:mod:`harness.measure.bench.mesh_ivp`; the cases: :mod:`harness.measure.bench.mesh_cases`).
 
-Run ``python -m harness.cli.mesh_bench [--full] [--section paper|tolerance|ivp]``. The paper's cases
+Run ``python -m harness.cli.tools.mesh_bench [--full] [--section paper|tolerance|ivp]``. The paper's cases
 are read from the scenes ``paper-straight`` and ``paper-cornering`` (carrier speed, sun loads,
 locking law, duration, step). Wall times are measured here and printed, never asserted.
 
@@ -77,7 +77,7 @@ def methods(tols=(1e-4, 1e-6, 1e-8), repeats: int = 3) -> list[dict]:
     0.3 s of the paper scenes (METHOD_CASES), per tolerance: internal steps, wall (fastest of
     ``repeats``), the largest scaled state error at the end and the loss error against a
     tolerance-1e-10 ROS34PW2 run. Printed and returned. Command:
-    ``python -m harness.cli.mesh_bench --section methods``."""
+    ``python -m harness.cli.tools.mesh_bench --section methods``."""
     rows = []
     for scene, mesh in METHOD_CASES:
         spec = paper_case(scene)
@@ -111,7 +111,7 @@ def tight_tolerances(tols=(1e-8, 1e-9, 1e-10), t_end: float = 0.02,
     from unloaded meshes, every effect and each phase effect alone, 1 ms steps over ``t_end``,
     both methods; per case the internal steps (rejected), the loaded flanks' single/double
     contact switches, the CPU time of the run (compiled kernel where it loads) or the failure
-    (StepError). Printed and returned. Command: ``python -m harness.cli.mesh_bench --section
+    (StepError). Printed and returned. Command: ``python -m harness.cli.tools.mesh_bench --section
     tight``."""
     cases = {"all effects": dict(backlash=True, meshStiffnessVariation=True, flankFriction=True),
              "stiffness wave": dict(meshStiffnessVariation=True), "flank friction": dict(flankFriction=True),
@@ -161,7 +161,7 @@ def step_bound(tols=(1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8), case: str = "contact, 
     ``"gradient"``: g = dP/dy at the step's start by central differences (8 extra evaluations per
     step: a measurement of the step counts and the accuracy, not of the cost). ``loss_error``:
     against a run at ``ref_tol`` with the Simpson loss (compiled kernel where it loads). Printed and
-    returned. Command: ``python -m harness.cli.mesh_bench --section step-bound`` (all three)."""
+    returned. Command: ``python -m harness.cli.tools.mesh_bench --section step-bound`` (all three)."""
     if quadrature_state not in (None, "zero row", "gradient"):
         raise ValueError(f"quadrature_state = {quadrature_state!r}: allowed None, 'zero row', 'gradient'")
     import statistics

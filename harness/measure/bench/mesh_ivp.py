@@ -1,6 +1,6 @@
 """Our mesh solver and scipy's solve_ivp on the same differential ODE: the two cases
 (:data:`IVP_CASES`), our solver's variants (:data:`OURS`), solve_ivp's sweep and the work-precision
-points of both (:func:`ivp_points`), printed by :func:`ivp` (``python -m harness.cli.mesh_bench
+points of both (:func:`ivp_points`), printed by :func:`ivp` (``python -m harness.cli.tools.mesh_bench
 --section ivp``) and stored by ``spurdiff accuracy --only-ivp`` (:mod:`harness.measure.accuracy.ivp`).
 Times (CPU time of this thread, :data:`CLOCK`: what one core spends, whatever else a shared machine
 runs; every run single-threaded) are measured and printed, never asserted."""

@@ -7,8 +7,8 @@ against the compiled kernel), CPU time of the stepping thread, fastest of ``roun
 * the whole scene through FMI and directly (:func:`harness.measure.bench.core.cpu_clock`): us per step and
   the real-time factor.
 
-Run ``python -m harness.cli.rigid_kernel_bench [--rounds N]`` (the command line is
-harness/cli/rigid_kernel_bench.py). Printed, never asserted.
+Run ``python -m harness.cli.tools.rigid_kernel_bench [--rounds N]`` (the command line is
+harness/cli/tools/rigid_kernel_bench.py). Printed, never asserted.
 """
 from __future__ import annotations
 

@@ -15,7 +15,7 @@ state before the shaft kernel), CPU time of the stepping thread, fastest of ``ro
 * the FMI path without the physics (:func:`harness.measure.bench.core.fmi_path_cost`): what bounds FMI /
   direct as the physics gets cheaper.
 
-Run ``python -m harness.cli.vehicle_kernel_bench [--rounds N]``. Printed, never asserted.
+Run ``python -m harness.cli.tools.vehicle_kernel_bench [--rounds N]``. Printed, never asserted.
 """
 from __future__ import annotations
 

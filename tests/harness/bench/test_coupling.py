@@ -1,18 +1,18 @@
 """harness.measure.bench.coupling (issue 19 item 2): the vehicle scenes against the old coupling at 0.2 ms;
-its command line harness/cli/coupling_bench.py (``python -m harness.cli.coupling_bench``)."""
+its command line harness/cli/tools/coupling_bench.py (``python -m harness.cli.tools.coupling_bench``)."""
 from __future__ import annotations
 
 import json
 
 import pytest
 
-from harness.cli.coupling_bench import main
+from harness.cli.tools.coupling_bench import main
 
 
 def test_help_names_the_module(capsys):
     with pytest.raises(SystemExit) as e:
         main(["-h"])
-    assert e.value.code == 0 and "python -m harness.cli.coupling_bench" in capsys.readouterr().out
+    assert e.value.code == 0 and "python -m harness.cli.tools.coupling_bench" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("argv, message", [

@@ -1,4 +1,4 @@
-"""``python -m harness.cli.import_graph``: write the package picture of ``spurdiff`` and
+"""``python -m harness.cli.tools.import_graph``: write the package picture of ``spurdiff`` and
 ``harness`` (drawn from the code by :mod:`harness.common.import_graph`) into docs/architecture.md between
 its markers; ``--check``: exit 1 if the page's picture is out of date. Also prints the import
 cycles, the arrows against spurdiff's and the harness's layers and the library imports of the CLI
@@ -12,7 +12,7 @@ import sys
 def main(argv: list[str] | None = None) -> int:
     from harness.common import import_graph as ig
 
-    ap = argparse.ArgumentParser(prog="python -m harness.cli.import_graph", description=__doc__)
+    ap = argparse.ArgumentParser(prog="python -m harness.cli.tools.import_graph", description=__doc__)
     ap.add_argument("--check", action="store_true", help="do not write; exit 1 if the picture is out of date")
     a = ap.parse_args(argv)
     doc = ig.ROOT / "docs" / "architecture.md"
@@ -27,7 +27,7 @@ def main(argv: list[str] | None = None) -> int:
     if a.check:
         stale = ig.current_picture(doc) != ig.picture(g)
         if stale:
-            print(f"{doc}: the picture is out of date (run python -m harness.cli.import_graph)", file=sys.stderr)
+            print(f"{doc}: the picture is out of date (run python -m harness.cli.tools.import_graph)", file=sys.stderr)
         return 1 if stale or problems else 0
     changed = ig.write_picture(doc)
     print(f"{doc}: {'written' if changed else 'up to date'}")

@@ -1,4 +1,4 @@
-"""``python -m harness.cli.coupling_bench``: the vehicle scenes at 1 to 20 ms against the old coupling
+"""``python -m harness.cli.tools.coupling_bench``: the vehicle scenes at 1 to 20 ms against the old coupling
 at 0.2 ms (issue 19 item 2; :mod:`harness.measure.bench.coupling`)."""
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from pathlib import Path
 def main(argv: list[str] | None = None) -> int:
     from harness.measure.bench import coupling
 
-    ap = argparse.ArgumentParser(prog="python -m harness.cli.coupling_bench", description=coupling.__doc__,
+    ap = argparse.ArgumentParser(prog="python -m harness.cli.tools.coupling_bench", description=coupling.__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("scenes", nargs="*", default=list(coupling.WINDOWS), help="scenes (default: all five)")
     ap.add_argument("--steps", default="1e-3,5e-3,1e-2,2e-2", help="communication steps, s, comma-separated")

@@ -1,5 +1,5 @@
 """The command line of the libcosim runner's child process (:func:`harness.interop.libcosim_run.run_ssp`
-starts ``python -m harness.cli.libcosim_run``): run an SSP file with libcosim, write the recorded
+starts ``python -m harness.cli.tools.libcosim_run``): run an SSP file with libcosim, write the recorded
 trajectories. Not a ``spurdiff`` command."""
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ import numpy as np
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m harness.cli.libcosim_run SSP [--record C.V ...] [--step H] [--duration T] --out FILE``."""
-    ap = argparse.ArgumentParser(prog="python -m harness.cli.libcosim_run",
+    """``python -m harness.cli.tools.libcosim_run SSP [--record C.V ...] [--step H] [--duration T] --out FILE``."""
+    ap = argparse.ArgumentParser(prog="python -m harness.cli.tools.libcosim_run",
                                  description="Run an SSP file with libcosim (fixed step, Jacobi) and write the recorded trajectories")
     ap.add_argument("ssp", help="SSP file (e.g. from `spurdiff export-ssp`)")
     ap.add_argument("--record", nargs="*", help="component.variable names (default: the recording list in the SSP)")

@@ -1,6 +1,6 @@
-"""``python -m harness.cli.rigid_kernel_bench``: the rigid level's compiled kernel against its Python
+"""``python -m harness.cli.tools.rigid_kernel_bench``: the rigid level's compiled kernel against its Python
 reference on vehicle-cornering, A/B interleaved (:mod:`harness.measure.bench.rigid_kernel`). Its
-:func:`kernel_bench` is the command line of every such A/B bench (``harness.cli.vehicle_kernel_bench``)."""
+:func:`kernel_bench` is the command line of every such A/B bench (``harness.cli.tools.vehicle_kernel_bench``)."""
 from __future__ import annotations
 
 import argparse

@@ -1,7 +1,7 @@
 """What the planets' tangential pin loads change, and what holding the carrier acceleration of the
 last step costs (docs/locking-law.md, "Carrier acceleration in the pin loads").
 
-    python -m harness.cli.pin_tangential [SCENE ...]     (default: vehicle-cornering tip-in-tip-out)
+    python -m harness.cli.tools.pin_tangential [SCENE ...]     (default: vehicle-cornering tip-in-tip-out)
 
 Runs each scene (rigid level, direct physics calls, its own communication step) three ways:
 
@@ -106,7 +106,7 @@ def measure(name: str) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m harness.cli.pin_tangential", description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m harness.cli.tools.pin_tangential", description=__doc__.split("\n")[0])
     ap.add_argument("scenes", nargs="*", default=list(SCENES))
     args = ap.parse_args(argv)
     for name in args.scenes:

@@ -1,4 +1,4 @@
-"""``python -m harness.cli.mesh_bench``: the measurements behind docs/mesh-dynamics.md (the compiled
+"""``python -m harness.cli.tools.mesh_bench``: the measurements behind docs/mesh-dynamics.md (the compiled
 kernel against the Python reference, the paper's two cases at each mesh level, the tolerance
 sweep, the comparison with scipy's solve_ivp; :mod:`harness.measure.bench.mesh`)."""
 from __future__ import annotations
@@ -12,7 +12,7 @@ SECTIONS = ("paper", "tolerance", "ivp", "kernel", "step-bound", "methods", "tig
 def main(argv: list[str] | None = None) -> int:
     from harness.measure.bench import mesh
 
-    ap = argparse.ArgumentParser(prog="python -m harness.cli.mesh_bench", description=mesh.__doc__)
+    ap = argparse.ArgumentParser(prog="python -m harness.cli.tools.mesh_bench", description=mesh.__doc__)
     ap.add_argument("--full", action="store_true", help="also cornering with all effects (slow: tens of s)")
     ap.add_argument("--section", choices=SECTIONS, action="append",
                     help="default: paper, tolerance, ivp, kernel; step-bound (which error estimate sets the "

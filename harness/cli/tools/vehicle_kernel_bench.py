@@ -1,10 +1,10 @@
-"""``python -m harness.cli.vehicle_kernel_bench``: the car's and the wheel's compiled steps against their
+"""``python -m harness.cli.tools.vehicle_kernel_bench``: the car's and the wheel's compiled steps against their
 Python reference on vehicle-cornering, A/B interleaved (:mod:`harness.measure.bench.vehicle_kernel`)."""
 from __future__ import annotations
 
 import sys
 
-from harness.cli.rigid_kernel_bench import kernel_bench
+from harness.cli.tools.rigid_kernel_bench import kernel_bench
 
 
 def main(argv: list[str] | None = None) -> int:

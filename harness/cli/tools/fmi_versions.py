@@ -1,4 +1,4 @@
-"""``python -m harness.cli.fmi_versions [SCENE...] [--duration S]``: each scene (default: all) run
+"""``python -m harness.cli.tools.fmi_versions [SCENE...] [--duration S]``: each scene (default: all) run
 with the FMI 2.0 FMUs and with the FMI 3.0 ones; prints the largest difference of the recorded
 results per scene (:mod:`harness.measure.fmi_versions`). Exit 1 when a difference exceeds ``--tolerance``
 (default 1e-12, relative to each variable's largest magnitude) or only one version failed."""
@@ -12,7 +12,7 @@ from harness.cli import fail
 def main(argv: list[str] | None = None) -> int:
     from harness.measure.fmi_versions import compare, scene_names
 
-    p = argparse.ArgumentParser(prog="python -m harness.cli.fmi_versions",
+    p = argparse.ArgumentParser(prog="python -m harness.cli.tools.fmi_versions",
                                 description="compare each scene's results with the FMI 2.0 and the FMI 3.0 FMUs")
     p.add_argument("scenes", nargs="*", help="scene names (default: every scene)")
     p.add_argument("--duration", type=float, default=None, help="simulated time per scene, s (default: the scene's)")

@@ -1,4 +1,4 @@
-"""``python -m harness.cli.fmi3_features [--foh SCENE...] [--early SCENE...] [--steps MS...] [--out FILE]``:
+"""``python -m harness.cli.tools.fmi3_features [--foh SCENE...] [--early SCENE...] [--steps MS...] [--out FILE]``:
 what the FMI 3.0 features of the harness's FMI 3.0 master change (:mod:`harness.measure.fmi3_features`):
 first-order hold with the FMUs' output derivatives against zero-order hold (Gauss-Seidel and
 Jacobi), and early return at the differential's stick/slip switches, in accuracy against a
@@ -15,7 +15,7 @@ def main(argv: list[str] | None = None) -> int:
     from harness.measure.fmi3_features import ER_VARIANTS, FOH_VARIANTS, markdown, measure
     from harness.scene.spec import SceneError
 
-    p = argparse.ArgumentParser(prog="python -m harness.cli.fmi3_features",
+    p = argparse.ArgumentParser(prog="python -m harness.cli.tools.fmi3_features",
                                 description="measure first-order hold and early return with the FMI 3.0 FMUs")
     p.add_argument("--foh", nargs="*", default=["vehicle-cornering", "tip-in-tip-out"],
                    help="scenes for zero- against first-order hold")
@@ -41,9 +41,9 @@ def main(argv: list[str] | None = None) -> int:
                             log=lambda m: print(m, file=sys.stderr))
     except (SceneError, RuntimeError) as e:
         return fail("fmi3_features", str(e), 1)
-    cmd = "python -m harness.cli.fmi3_features" + ("" if argv is None else " " + " ".join(argv))
+    cmd = "python -m harness.cli.tools.fmi3_features" + ("" if argv is None else " " + " ".join(argv))
     if argv is None:
-        cmd = "python -m harness.cli.fmi3_features " + " ".join(sys.argv[1:])
+        cmd = "python -m harness.cli.tools.fmi3_features " + " ".join(sys.argv[1:])
     text = markdown(rows, cmd.strip())
     print(text)
     if args.out:
