@@ -87,15 +87,7 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
     mesh_model = "rigid"
 
     def __init__(self, params: DifferentialParams | None = None):
-        self.params = params or DifferentialParams()
-        # inputs
-        self.w_ref = 0.0
-        self.tau_c = 0.0
-        self.tau_L = 0.0
-        self.tau_R = 0.0
-        # start values
-        self.w_start_carrier = 0.0
-        self.w_start_left = float("nan")  # nan: same as the carrier
+        super().__init__(params or DifferentialParams())    # the inputs and start values
         # implementation of the pin-load solve (``solver.kernel``): auto (the compiled kernel,
         # spurdiff.differential.rigid_kernel, if it loads, else the Python reference) | compiled | python
         self.kernel = "auto"
