@@ -1,5 +1,5 @@
 """The three numerical solvers the physics needs, in plain Python (numpy for the linear algebra only),
-so that the FMUs run without scipy.
+so that the FMUs run without scipy, and the 2 x 2 linear solve of their Newton steps.
 
 * :func:`find_root`: a root of a scalar function in a bracket ``[a, b]`` with a sign change, by
   Brent's method (bisection safeguarding secant and inverse quadratic interpolation; R. P. Brent,
@@ -25,6 +25,10 @@ so that the FMUs run without scipy.
   start (rounding level).
   It never raises for a numerical failure: it returns the best point with ``success = False`` and
   a message (singular or non-finite Jacobian, non-finite ``F``, no decrease, ``maxiter``).
+* :func:`solve_2x2`: ``A x = b`` for a 2 x 2 ``A`` by Cramer's rule, in a fixed order of
+  operations (the compiled kernels write it out the same way, so the results agree bit for bit);
+  for the Newton steps of the break-away (:mod:`spurdiff.differential.locking`) and the rigid
+  level's slip (:mod:`spurdiff.differential.rigid`).
 
 :func:`find_root` raises :class:`SolverError`, naming the function, for a bracket without a sign
 change, a non-finite function value, or no convergence in ``maxiter`` iterations;
@@ -43,6 +47,13 @@ _SQRT_EPS = math.sqrt(EPS)
 _GOLDEN = 0.5 * (3.0 - math.sqrt(5.0))  # the golden section's smaller part, 0.381966...
 _REL_TOL_MIN = math.sqrt(2.2e-16)       # minimize_bounded's relative resolution in x (1.483e-8; the
                                         # value scipy's bounded method uses, so results agree)
+
+
+def solve_2x2(a11: float, a12: float, a21: float, a22: float, b1: float, b2: float) -> tuple[float, float]:
+    """(x1, x2) with ``[[a11, a12], [a21, a22]] x = (b1, b2)`` by Cramer's rule (det = a11 a22 - a12 a21;
+    a singular matrix gives ZeroDivisionError, a non-finite one non-finite x)."""
+    det = a11 * a22 - a12 * a21
+    return (b1 * a22 - a12 * b2) / det, (a11 * b2 - a21 * b1) / det
 
 
 class SolverError(ArithmeticError):

@@ -1,6 +1,7 @@
 """Our solvers (spurdiff.numerics) against scipy's: Brent's root finder against ``brentq``, the
 bounded minimiser against ``minimize_scalar(method="bounded")``, the Newton system solver against
-``fsolve`` on the mesh model's consistent-start system; and the package runs without scipy."""
+``fsolve`` on the mesh model's consistent-start system, the 2 x 2 solve against numpy's; and the
+package runs without scipy."""
 from __future__ import annotations
 
 import math
@@ -14,7 +15,7 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 from scipy.optimize import brentq, fsolve, minimize_scalar
 
-from spurdiff.numerics import EPS, SolverError, find_root, minimize_bounded, solve_system
+from spurdiff.numerics import EPS, SolverError, find_root, minimize_bounded, solve_2x2, solve_system
 
 TOLS = [(2e-12, 4 * EPS), (1e-15, 1e-15), (1e-6, 1e-9), (1e-3, 1e-3)]   # (xtol, rtol)
 
@@ -462,6 +463,25 @@ _NO_SCIPY = textwrap.dedent("""
     assert not [m for m in sys.modules if m == "scipy" or m.startswith("scipy.")]
     print(len(names), "modules")
 """)
+
+
+@given(st.lists(st.floats(-1e3, 1e3), min_size=6, max_size=6))
+def test_solve_2x2_solves_the_system(v):
+    """solve_2x2 agrees with numpy's solve wherever the matrix is well conditioned, and a singular
+    matrix is refused (ZeroDivisionError), not answered."""
+    a11, a12, a21, a22, b1, b2 = v
+    A = np.array([[a11, a12], [a21, a22]])
+    assume(np.linalg.cond(A) < 1e6)
+    x = solve_2x2(a11, a12, a21, a22, b1, b2)
+    ref = np.linalg.solve(A, [b1, b2])
+    scale = 1.0 + np.max(np.abs(ref))
+    assert np.max(np.abs(np.array(x) - ref)) <= 1e-9 * scale
+
+
+def test_solve_2x2_exact_and_singular():
+    assert solve_2x2(2.0, 1.0, 1.0, 3.0, 5.0, 10.0) == (1.0, 3.0)
+    with pytest.raises(ZeroDivisionError):
+        solve_2x2(1.0, 2.0, 2.0, 4.0, 1.0, 1.0)
 
 
 def test_the_package_runs_without_scipy():

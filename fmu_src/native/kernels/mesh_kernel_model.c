@@ -220,6 +220,15 @@ static void pin_force(const MkParams *P, const double *g, int i, double Fs, doub
     *d12 = dt12;
 }
 
+/* forces._slipping_pin: a slipping planet's pin friction moment -s cap; its derivatives by the sun
+ * mesh's force (column sun of the planet's row Cp) and the planet mesh's (column 2) added to that row,
+ * at the sliding lever cd */
+static inline double slipping_pin(double *Cp, int sun, int s, double cap, double cd, double dpS, double dp12) {
+    Cp[sun] -= s * cd * dpS;
+    Cp[2] -= s * cd * dp12;
+    return -s * cap;
+}
+
 MK_HIDDEN void mk_relative_angles(const MkState *S, const MkParams *P, const double *y, double *psiB, double *th1, double *th2) {
     double t1 = (S->dA0 - y[DA] - P->rbA * y[PSI]) / P->rb1;
     double t2 = (y[D12] - S->d120 - P->rb1 * t1) / P->rb2;
@@ -296,17 +305,13 @@ MK_HIDDEN void mk_eval(const MkParams *P, const MkState *S, const double *y, dou
     double Q1nf = Q1, Q2nf = Q2, M1 = 0.0, M2 = 0.0;
     if (P->pin) {
         if (!stuck1) {
-            M1 = -s1 * cap1;
+            M1 = slipping_pin(C[2], 0, s1, cap1, cd, dp1S, dp112);
             Q1 += M1;
-            C[2][0] -= s1 * cd * dp1S;
-            C[2][2] -= s1 * cd * dp112;
             Pw += n * fabs(M1 * W[2]);
         }
         if (!stuck2) {
-            M2 = -s2 * cap2;
+            M2 = slipping_pin(C[3], 1, s2, cap2, cd, dp2S, dp212);
             Q2 += M2;
-            C[3][1] -= s2 * cd * dp2S;
-            C[3][2] -= s2 * cd * dp212;
             Pw += n * fabs(M2 * W[3]);
         }
     }

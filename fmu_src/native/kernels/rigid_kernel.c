@@ -81,7 +81,7 @@ int64_t rk_step_slip(const double *k, double *io)
 
 /* The accelerations, the sun mesh forces and the two pins' force vectors at the iterate (ad, F12):
  * evaluated in the Newton loop and once more at convergence (the same operations as the Python
- * reference, spurdiff/differential/rigid_pinload.py, which writes them out twice on its hot path). */
+ * reference, spurdiff/differential/rigid_pinload.py, whose loop makes a last pass for the latter). */
 #define PIN_FORCES()                                                     \
     do {                                                                 \
         ac = given ? ac_given : (Qc - Mcd * ad) / Mcc;                   \

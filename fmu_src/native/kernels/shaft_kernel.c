@@ -864,6 +864,20 @@ enum {
 int64_t sk_noc(void) { return OC_N; }
 int64_t sk_nv(void) { return SKV_N; }
 
+/* a native step's outputs once it is taken (either coupling): 20..52 the Real outputs out, 53 the loaded
+ * flanks (the sign of the sun torques' sum T0), 54 mode switches, 55 internal steps, 57..59 the largest
+ * |force| per mesh, 61..80 the inputs the step took */
+static void native_outputs(double *v, const double *out, double T0, double nsw, double nsteps, const double *Fm)
+{
+    memcpy(v + SKV_OUT, out, 33 * sizeof *out);
+    v[53] = T0 > 0.0 ? 1.0 : (T0 < 0.0 ? -1.0 : 0.0);
+    v[54] = nsw;
+    v[55] = nsteps;
+    v[57] = Fm[0]; v[58] = Fm[1]; v[59] = Fm[2];
+    for (int i = 0; i < 20; i++)
+        v[61 + i] = v[i];
+}
+
 static int surrogate_ok(const double *m)
 {
     return isfinite(m[0] + m[1] + m[2] + m[3] + m[4] + m[5]) && m[1] >= 0.0 && m[4] >= 0.0 && m[5] >= 0.0
@@ -966,14 +980,7 @@ int64_t sk_native(const SkNative *x, double *v, double t, double h)
         }
         return 5;
     }
-    memcpy(v + SKV_OUT, o, sizeof o);
-    const double T0 = tmL + tmR;
-    v[53] = T0 > 0.0 ? 1.0 : (T0 < 0.0 ? -1.0 : 0.0);
-    v[54] = rs[R_NSW];
-    v[55] = ss[S_NSTEPS];
-    v[57] = Fm[0]; v[58] = Fm[1]; v[59] = Fm[2];
-    for (int i = 0; i < 20; i++)
-        v[61 + i] = v[i];
+    native_outputs(v, o, tmL + tmR, rs[R_NSW], ss[S_NSTEPS], Fm);
     return 0;
 }
 
@@ -1071,13 +1078,6 @@ int64_t sk_rigid_native(const SkRigidNative *x, double *v, double t, double h)
         x->k[49 + i] = c.k[49 + i];
         x->k[54 + i] = c.k[54 + i];
     }
-    memcpy(o, r, sizeof r);
-    const double T0 = tmL + tmR;
-    v[53] = T0 > 0.0 ? 1.0 : (T0 < 0.0 ? -1.0 : 0.0);
-    v[54] = s[R_NSW];
-    v[55] = s[R_NSTEPS];
-    v[57] = Fm[0]; v[58] = Fm[1]; v[59] = Fm[2];
-    for (int i = 0; i < 20; i++)
-        v[61 + i] = v[i];
+    native_outputs(v, r, tmL + tmR, s[R_NSW], s[R_NSTEPS], Fm);
     return 0;
 }

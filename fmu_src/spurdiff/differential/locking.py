@@ -70,6 +70,7 @@ from dataclasses import dataclass
 
 from spurdiff.gears.geometry import DifferentialGeometry
 from spurdiff.gears.layout import PinLayout, kinematics
+from spurdiff.numerics import solve_2x2
 
 LOCKING_LAWS = ("pinFriction", "paper")
 
@@ -186,9 +187,7 @@ def breakaway(pf: PinFriction, T0: float, s: float) -> Breakaway:
         a12 = -rb1 - sg1 * c112
         a21 = -(rb2 - sg2 * c2S) / (2 * n * rbB)
         a22 = -rb2 - sg2 * c212
-        det = a11 * a22 - a12 * a21
-        dD = (r1 * a22 - a12 * r2) / det
-        dF = (a11 * r2 - a21 * r1) / det
+        dD, dF = solve_2x2(a11, a12, a21, a22, r1, r2)
         D -= dD
         F12 -= dF
         if abs(dD) <= 1e-14 * abs(T0) and abs(dF) <= 1e-14 * abs(F12) + 1e-300:

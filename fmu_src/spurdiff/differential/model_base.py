@@ -65,6 +65,19 @@ class DifferentialModel:
     potential_energy = 0.0
     parametric_work = 0.0     # the stiffness wave's work (mesh levels with meshStiffnessVariation)
 
+    def __init__(self, params) -> None:
+        """The parameters ``params`` (:class:`spurdiff.differential.params.DifferentialParams`), the inputs
+        at 0 and the start values (``w_start_left`` nan: the carrier's speed)."""
+        self.params = params
+        # inputs
+        self.w_ref = 0.0
+        self.tau_c = 0.0
+        self.tau_L = 0.0
+        self.tau_R = 0.0
+        # start values
+        self.w_start_carrier = 0.0
+        self.w_start_left = float("nan")
+
     @property
     def loaded_flanks(self) -> int:
         """Which flanks carry the load: 1 the drive flanks (T_A + T_B > 0, the carrier drives the

@@ -65,6 +65,7 @@ from spurdiff.differential.model_base import DifferentialModel
 from spurdiff.differential.rigid_pinload import PinLoadLaw
 from spurdiff.differential.statics import MeshForces, mesh_forces_for
 from spurdiff.gears.layout import kinematics
+from spurdiff.numerics import solve_2x2
 
 _STATE_KEYS = (
     "t", "wc", "wd", "phic", "phid", "ac", "ad", "Qf", "slip_dir", "F12", "cap", "_ad_guess", "_slip_key", "_slip_val",
@@ -86,15 +87,7 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
     mesh_model = "rigid"
 
     def __init__(self, params: DifferentialParams | None = None):
-        self.params = params or DifferentialParams()
-        # inputs
-        self.w_ref = 0.0
-        self.tau_c = 0.0
-        self.tau_L = 0.0
-        self.tau_R = 0.0
-        # start values
-        self.w_start_carrier = 0.0
-        self.w_start_left = float("nan")  # nan: same as the carrier
+        super().__init__(params or DifferentialParams())    # the inputs and start values
         # implementation of the pin-load solve (``solver.kernel``): auto (the compiled kernel,
         # spurdiff.differential.rigid_kernel, if it loads, else the Python reference) | compiled | python
         self.kernel = "auto"
@@ -206,8 +199,7 @@ class RigidDifferential(PinLoadLaw, DifferentialModel):
         Qc = self.tau_c + self.tau_L + self.tau_R
         a11, a12, b1 = self.Mcc, self.Mcd, Qc
         a21, a22, b2 = self.Mcd + kf * alpha_c, self.Mdd + kf * beta, Fd - kf * alpha0
-        det = a11 * a22 - a12 * a21
-        return (b1 * a22 - a12 * b2) / det, (a11 * b2 - a21 * b1) / det
+        return solve_2x2(a11, a12, a21, a22, b1, b2)
 
     def _slip_accelerations(self, ac_given: float | None, s: float,
                             K: float | None = None) -> tuple[float, float, float]:

@@ -160,7 +160,8 @@ class PinLoadLaw:
         dFB = J_B * (g + lam) / nrbB
         a11_0 = J1 * (g + rho1)
         a21_0 = J2 * (g + rho2)
-        for _ in range(50):
+        final = False    # True: the Newton step fell below rounding, this pass evaluates the pins at the new iterate
+        for it in range(51):
             ac = ac_given if given else (Qc - Mcd * ad) / Mcc
             FA = (J_A * (ac + ad) - tau_L) / nrbA
             FB = (J_B * (ac + lam * ad) - tau_R) / nrbB
@@ -180,6 +181,8 @@ class PinLoadLaw:
             mL2 = sqrt(e2x * e2x + e2y * e2y)
             c1 = cpin * (mag1 + mL1) + M01
             c2 = cpin * (mag2 + mL2) + M02
+            if final:
+                break
             r1 = rb1 * (FA - F12) - sg1 * c1 - J1 * (ac + rho1 * ad)
             r2 = rb2 * (FB - F12) - sg2 * c2 - J2 * (ac + rho2 * ad)
             # moment residuals at rounding level of the largest moment: converged
@@ -205,31 +208,15 @@ class PinLoadLaw:
             a12_ = -rb1 - sg1 * c112
             a21 = (rb2 - sg2 * c2S) * dFB - a21_0
             a22 = -rb2 - sg2 * c212
-            det = a11 * a22 - a12_ * a21
+            det = a11 * a22 - a12_ * a21     # spurdiff.numerics.solve_2x2, written out (no call per iteration)
             d_ad = (r1 * a22 - a12_ * r2) / det
             d_F = (a11 * r2 - a21 * r1) / det
             ad -= d_ad
             F12 -= d_F
             scale = aA + aB + abs(F12) + 1e-300
-            if abs(d_F) <= 1e-15 * scale and abs(d_ad) * (abs(dFA) + abs(dFB)) <= 1e-15 * scale:
-                # the loop's first lines again, at the converged iterate: written out rather than a
-                # function because a call per Newton iteration costs more than its arithmetic here
-                # (the C kernel writes them once, as the macro PIN_FORCES)
-                ac = ac_given if given else (Qc - Mcd * ad) / Mcc
-                FA = (J_A * (ac + ad) - tau_L) / nrbA
-                FB = (J_B * (ac + lam * ad) - tau_R) / nrbB
-                aA, aB, a12 = abs(FA), abs(FB), abs(F12)
-                f1x = FA * t1x + aA * r1x + F12 * u1x + a12 * q1x + g1x + h1x
-                f1y = FA * t1y + aA * r1y + F12 * u1y + a12 * q1y + g1y + h1y
-                f2x = FB * t2x + aB * r2x + F12 * u2x + a12 * q2x + g2x + h2x
-                f2y = FB * t2y + aB * r2y + F12 * u2y + a12 * q2y + g2y + h2y
-                e1x = FA * T1x + aA * R1x + F12 * U1x + a12 * Q1x + G1x + H1x
-                e1y = FA * T1y + aA * R1y + F12 * U1y + a12 * Q1y + G1y + H1y
-                e2x = FB * T2x + aB * R2x + F12 * U2x + a12 * Q2x + G2x + H2x
-                e2y = FB * T2y + aB * R2y + F12 * U2y + a12 * Q2y + G2y + H2y
-                c1 = cpin * (sqrt(f1x * f1x + f1y * f1y) + sqrt(e1x * e1x + e1y * e1y)) + M01
-                c2 = cpin * (sqrt(f2x * f2x + f2y * f2y) + sqrt(e2x * e2x + e2y * e2y)) + M02
-                break
+            final = abs(d_F) <= 1e-15 * scale and abs(d_ad) * (abs(dFA) + abs(dFB)) <= 1e-15 * scale
+            if it == 49 and not final:
+                break   # 50 Newton steps: the pins as at the last step's start (the C kernel's limit too)
         self.F12 = F12
         self.cap = n * (abs(rho1) * c1 + abs(rho2) * c2)
         return ac, ad, -s * self.cap

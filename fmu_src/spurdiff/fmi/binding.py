@@ -158,24 +158,23 @@ class Bindings:
             io = self.io_of[model.__class__] = (self._push(model), self._pull(model))
         return io
 
-    def _push(self, model: Any) -> Callable[[Any, dict], None]:
-        f = self._push_of.get(model.__class__)
+    @staticmethod
+    def _compiled(cache: dict, compile_fn: Callable, variables: Sequence[Var], model: Any) -> Callable:
+        """``compile_fn(variables, model)`` for ``model``'s class, compiled at its first model (kept in ``cache``)."""
+        f = cache.get(model.__class__)
         if f is None:
-            f = self._push_of[model.__class__] = compile_push(self.inputs, model)
+            f = cache[model.__class__] = compile_fn(variables, model)
         return f
 
+    def _push(self, model: Any) -> Callable[[Any, dict], None]:
+        return self._compiled(self._push_of, compile_push, self.inputs, model)
+
     def _pull(self, model: Any) -> Callable[[Any, dict], None]:
-        f = self._pull_of.get(model.__class__)
-        if f is None:
-            f = self._pull_of[model.__class__] = compile_pull(self.outputs, model)
-        return f
+        return self._compiled(self._pull_of, compile_pull, self.outputs, model)
 
     def pull_total(self, model: Any) -> Callable[[Any, dict], Any]:
         """:func:`compile_pull_total` for ``model``'s class (compiled at its first model)."""
-        f = self._pull_total_of.get(model.__class__)
-        if f is None:
-            f = self._pull_total_of[model.__class__] = compile_pull_total(self.outputs, model)
-        return f
+        return self._compiled(self._pull_total_of, compile_pull_total, self.outputs, model)
 
     def push(self, model: Any, values: dict) -> None:
         """The inputs into ``model`` (also before it is initialized)."""

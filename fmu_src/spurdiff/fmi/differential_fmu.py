@@ -379,14 +379,10 @@ VARIABLES: list[Var] = [
     *_mesh_vars("A1", "sun A / planet 1"),
     *_mesh_vars("B2", "sun B / planet 2"),
     *_mesh_vars("12", "planet 1 / planet 2"),
-    Var("sunA.rw", "calculatedParameter", "Operating pitch radius of sun A (mesh A1), r_a", "m", "mm",
-        bind="geometry.r_a"),
-    Var("planet1.rw", "calculatedParameter", "Operating pitch radius of planet 1 in mesh A1, r_1", "m", "mm",
-        bind="geometry.r_1"),
-    Var("sunB.rw", "calculatedParameter", "Operating pitch radius of sun B (mesh B2), r_b", "m", "mm",
-        bind="geometry.r_b"),
-    Var("planet2.rw", "calculatedParameter", "Operating pitch radius of planet 2 in mesh B2, r_2", "m", "mm",
-        bind="geometry.r_2"),
+    *(Var(f"{gear}.rw", "calculatedParameter", f"Operating pitch radius of {where}, {r}", "m", "mm",
+          bind=f"geometry.{r}")
+      for gear, where, r in (("sunA", "sun A (mesh A1)", "r_a"), ("planet1", "planet 1 in mesh A1", "r_1"),
+                             ("sunB", "sun B (mesh B2)", "r_b"), ("planet2", "planet 2 in mesh B2", "r_2"))),
     Var("lockingCoefficient", "calculatedParameter",
         "Locking coefficient in drive (load on the drive flanks: the carrier drives the suns), |T_A - T_B| / "
         "(T_A + T_B) at break-away; with flankFriction (compliant/contact) it includes the flanks' Coulomb "

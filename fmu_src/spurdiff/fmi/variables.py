@@ -10,7 +10,7 @@ copying between the FMU's value table and the model follows from these bindings
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Callable
 
 
 @dataclass(frozen=True)
@@ -38,3 +38,12 @@ class Var:
             return self.variability
         return {"parameter": "fixed", "calculatedParameter": "fixed"}.get(
             self.causality, "continuous" if self.kind == "Real" else "discrete")
+
+
+def magic_formula_factors(param: Callable[..., Var], group: str, who: str = "") -> list[Var]:
+    """The Magic Formula factors B, C, E of the tyre parameters ``group`` (a WheelLoad's longitudinal
+    tyre, the Vehicle's lateral axle tyres; their ranges :data:`spurdiff.vehicle.tyre.SHAPE_BOUNDS`),
+    declared by the FMU's ``param(group, field, description, unit)``; ``who`` starts each description."""
+    return [param(group, "B", f"{who}Magic Formula stiffness factor", "1"),
+            param(group, "C", f"{who}Magic Formula shape factor (0 < C <= 2)", "1"),
+            param(group, "E", f"{who}Magic Formula curvature factor (<= 1)", "1")]

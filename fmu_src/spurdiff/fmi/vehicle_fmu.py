@@ -17,7 +17,7 @@ from __future__ import annotations
 from spurdiff.fmi.binding import build_params
 from spurdiff.fmi.kernel_vars import initialized, kernel_message, kernel_variables
 from spurdiff.datafile import read_data
-from spurdiff.fmi.variables import Var
+from spurdiff.fmi.variables import Var, magic_formula_factors
 from spurdiff.vehicle.car import Vehicle, VehicleParams
 
 FMU_NAME = "Vehicle"
@@ -132,9 +132,7 @@ VARIABLES: list[Var] = [
     _p("vehicle", "h_max", "Largest internal step of the Runge-Kutta integrator", "s", "ms"),
     _p("vehicle", "R_wheel", "Rear rolling radius (only to start the speed controller at the holding torque)",
        "m", "mm"),
-    _p("lateralTyre", "B", "Axle lateral Magic Formula stiffness factor", "1"),
-    _p("lateralTyre", "C", "Axle lateral Magic Formula shape factor (0 < C <= 2)", "1"),
-    _p("lateralTyre", "E", "Axle lateral Magic Formula curvature factor (<= 1)", "1"),
+    *magic_formula_factors(_p, "lateralTyre", "Axle lateral "),
     _p("lateralTyre", "sigma", "Lateral relaxation length", "m", "mm"),
     _p("lateralTyre", "alpha_max", "Largest |slip angle| state", "rad", "deg"),
     _p("steering", "mode", "0: follow pathRadius (feed-forward + yaw-rate PI); 1: use steeringAngleCommand",

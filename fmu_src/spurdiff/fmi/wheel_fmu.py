@@ -22,7 +22,7 @@ import math
 from spurdiff.fmi.binding import build_params
 from spurdiff.fmi.kernel_vars import initialized, kernel_message, kernel_variables
 from spurdiff.datafile import read_data
-from spurdiff.fmi.variables import Var
+from spurdiff.fmi.variables import Var, magic_formula_factors
 from spurdiff.vehicle.wheel import WheelLoad, WheelLoadParams
 
 FMU_NAME = "WheelLoad"
@@ -146,9 +146,7 @@ VARIABLES: list[Var] = [
         "true: the wheel starts at the flange speed (wheel.w_start ignored); false: at wheel.w_start",
         None, None, bool(math.isnan(_D.wheel.w_start)), kind="Boolean"),
     _p("wheel", "w_start", "Wheel speed at the start (used when wheel.w_startFromFlange = false)", "rad/s", "rpm"),
-    _p("tyre", "B", "Magic Formula stiffness factor", "1"),
-    _p("tyre", "C", "Magic Formula shape factor (0 < C <= 2)", "1"),
-    _p("tyre", "E", "Magic Formula curvature factor (<= 1)", "1"),
+    *magic_formula_factors(_p, "tyre"),
     _p("tyre", "sigma", "Longitudinal relaxation length of the tyre", "m", "mm"),
     _p("tyre", "f_rr", "Rolling-resistance coefficient", "1"),
     _p("tyre", "w_eps", "Wheel speed below which rolling resistance fades to zero (tanh)", "rad/s", "rpm"),

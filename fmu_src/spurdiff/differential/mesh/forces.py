@@ -271,6 +271,15 @@ def gear_meshes(md) -> tuple:
                  for g in (GEAR_A, GEAR_B, GEAR_1, GEAR_2))
 
 
+def _slipping_pin(C_planet: list, sun: int, s: int, cap: float, cd: float, dpS: float, dp12: float) -> float:
+    """A slipping planet's pin friction moment ``-s cap`` (N m, s its slip direction); its derivatives
+    by the sun mesh's force (column ``sun`` of the planet's row ``C_planet``) and by the planet mesh's
+    (column 2) added to that row, at the sliding lever ``cd``."""
+    C_planet[sun] -= s * cd * dpS
+    C_planet[2] -= s * cd * dp12
+    return -s * cap
+
+
 def evaluate(c, y, f, J) -> SideValues:
     """f = y'(y) in the current friction modes; J = df/dy rows that depend on y (if J is given).
 
@@ -345,16 +354,12 @@ def evaluate(c, y, f, J) -> SideValues:
     M1 = M2 = 0.0
     if pin:
         if not stuck1:
-            M1 = -s1 * cap1
+            M1 = _slipping_pin(C[2], 0, s1, cap1, cd, dp1S, dp112)
             Q1 += M1
-            C[2][0] -= s1 * cd * dp1S
-            C[2][2] -= s1 * cd * dp112
             P += n * abs(M1 * W[2])
         if not stuck2:
-            M2 = -s2 * cap2
+            M2 = _slipping_pin(C[3], 1, s2, cap2, cd, dp2S, dp212)
             Q2 += M2
-            C[3][1] -= s2 * cd * dp2S
-            C[3][2] -= s2 * cd * dp212
             P += n * abs(M2 * W[3])
     # carrier acceleration
     J1_, J2_ = c.J1, c.J2

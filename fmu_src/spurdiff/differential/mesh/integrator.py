@@ -306,6 +306,17 @@ class RosenbrockW:
         return ym
 
 
+def _pivot_row(A: list, j: int) -> int:
+    """Partial pivoting: the row ``p >= j`` with the largest ``|A[p][j]|``, the first of equal ones
+    (the kernel's pivot search, the same comparisons)."""
+    p, amax = j, abs(A[j][j])
+    for i in range(j + 1, len(A)):
+        a = abs(A[i][j])
+        if a > amax:
+            p, amax = i, a
+    return p
+
+
 def lu_factor(A: list) -> tuple:
     """LU factorization with partial pivoting of the rows ``A`` (a list of lists, changed in
     place): (A holding L below the diagonal (unit diagonal) and U, the pivot rows), or (None, None)
@@ -315,12 +326,7 @@ def lu_factor(A: list) -> tuple:
     N = len(A)
     piv = [0] * N
     for j in range(N):
-        p, amax = j, abs(A[j][j])
-        for i in range(j + 1, N):
-            a = abs(A[i][j])
-            if a > amax:
-                p, amax = i, a
-        piv[j] = p
+        p = piv[j] = _pivot_row(A, j)
         if A[p][j] == 0.0:
             return None, None
         if p != j:
@@ -393,29 +399,21 @@ def split_solve(F: tuple, _piv, r: list) -> list:
     Si, Jvp, B, e, pos, vel = F
     m = len(vel)
     rp = [r[p] for p in pos]
-    t = []
-    for i in range(m):
-        a = Jvp[i]
-        s = a[0] * rp[0]
-        for k in range(1, m):
-            s += a[k] * rp[k]
-        t.append(r[vel[i]] + e * s)
+    t = [r[vel[i]] + e * _dot(Jvp[i], rp) for i in range(m)]
     x = [0.0] * len(r)
-    xv = []
+    xv = [_dot(Si[i], t) for i in range(m)]
     for i in range(m):
-        a = Si[i]
-        s = a[0] * t[0]
-        for k in range(1, m):
-            s += a[k] * t[k]
-        xv.append(s)
-        x[vel[i]] = s
-    for i in range(m):
-        a = B[i]
-        s = a[0] * xv[0]
-        for k in range(1, m):
-            s += a[k] * xv[k]
-        x[pos[i]] = e * (rp[i] + s)
+        x[vel[i]] = xv[i]
+        x[pos[i]] = e * (rp[i] + _dot(B[i], xv))
     return x
+
+
+def _dot(a: list, x: list) -> float:
+    """``a . x`` summed from the first term on (the kernel's order)."""
+    s = a[0] * x[0]
+    for k in range(1, len(x)):
+        s += a[k] * x[k]
+    return s
 
 
 def gj_inverse(A: list) -> list | None:
@@ -425,11 +423,7 @@ def gj_inverse(A: list) -> list | None:
     m = len(A)
     X = [[1.0 if i == j else 0.0 for j in range(m)] for i in range(m)]
     for j in range(m):
-        p, amax = j, abs(A[j][j])
-        for i in range(j + 1, m):
-            a = abs(A[i][j])
-            if a > amax:
-                p, amax = i, a
+        p = _pivot_row(A, j)
         if A[p][j] == 0.0:
             return None
         if p != j:

@@ -69,14 +69,8 @@ class MeshDifferential(DifferentialModel):
     ATOMIC_STEP = True   # do_step leaves the state as it was when it raises (the FMU adapter relies on it)
 
     def __init__(self, params: DifferentialParams | None = None, mesh: MeshParams | None = None):
-        self.params = params or DifferentialParams()
+        super().__init__(params or DifferentialParams())    # the inputs and start values
         self.mesh = mesh or MeshParams()
-        self.w_ref = 0.0
-        self.tau_c = 0.0
-        self.tau_L = 0.0
-        self.tau_R = 0.0
-        self.w_start_carrier = 0.0
-        self.w_start_left = float("nan")
         self.input_names = dict(self.INPUT_NAMES)
         self._ready = False
 
