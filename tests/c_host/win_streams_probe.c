@@ -13,19 +13,14 @@
 #include <wchar.h>
 #include <windows.h>
 
-typedef struct {
-    void (*logger)(void *, const char *, int, const char *, const char *, ...);
-    void *(*allocateMemory)(size_t, size_t);
-    void (*freeMemory)(void *);
-    void *stepFinished;
-    void *componentEnvironment;
-} Callbacks;
+#include "fmi2FunctionTypes.h"   /* the standard's types (-I fmpy's c-code folder, as the tests build it) */
 
-static void logger(void *env, const char *name, int status, const char *cat, const char *msg, ...)
+static void logger(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status, fmi2String cat,
+                   fmi2String msg, ...)
 {
     (void)env;
     (void)cat;
-    printf("log[%d] %s: %s\n", status, name, msg);   /* the message as it is: enough for a test */
+    printf("log[%d] %s: %s\n", (int)status, name, msg);   /* the message as it is: enough for a test */
 }
 
 static char *utf8(const wchar_t *w)
@@ -51,16 +46,16 @@ int wmain(int argc, wchar_t **argv)
         return 2;
     }
     HMODULE fmu = LoadLibraryW(argv[1]);
-    void *(*instantiate)(const char *, int, const char *, const char *, const Callbacks *, int, int);
+    fmi2InstantiateTYPE *instantiate;
     void *sym = symbol(fmu, "fmi2Instantiate");
     if (!sym) {
         printf("cannot load the FMU's fmi2Instantiate (Windows error %lu)\n", (unsigned long)GetLastError());
         return 3;
     }
     memcpy(&instantiate, &sym, sizeof sym);
-    Callbacks cb = {logger, calloc, free, NULL, NULL};
+    fmi2CallbackFunctions cb = {logger, calloc, free, NULL, NULL};
     char *guid = utf8(argv[2]), *uri = utf8(argv[3]), *code = utf8(argv[4]);
-    if (!instantiate("probe", 1 /* fmi2CoSimulation */, guid, uri, &cb, 0, 0)) {
+    if (!instantiate("probe", fmi2CoSimulation, guid, uri, &cb, fmi2False, fmi2False)) {
         printf("fmi2Instantiate returned NULL\n");
         return 4;
     }

@@ -68,9 +68,11 @@ def test_what_the_fmu_python_reads_and_writes_is_the_host_files(wine, unpacked, 
     """The streams are the host's files, not NUL: a probe (tests/c_host/win_streams_probe.c) with stdin,
     stdout and stderr regular files instantiates the FMU, then runs code in the FMU's Python that reads
     a line from sys.stdin and writes to sys.stdout and sys.stderr."""
+    from harness.build.fmu import _fmi2_headers
+
     env, _ = wine
     exe = tmp_path / "win_streams_probe.exe"
-    subprocess.run([MINGW, "-O2", "-Wall", "-municode", "-static", "-o", str(exe),
+    subprocess.run([MINGW, "-O2", "-Wall", "-municode", "-static", f"-I{_fmi2_headers()}", "-o", str(exe),
                     str(Path(__file__).resolve().parents[1] / "c_host" / "win_streams_probe.c")], check=True)
     name = "SpurDifferential"
     guid, _, _, _ = _args(unpacked[name], name)
