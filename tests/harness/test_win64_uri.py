@@ -2,12 +2,19 @@
 whether the host writes its path in UTF-8 or in the ANSI code page (Windows-1252 here: 'ü' is the byte
 0xFC, which is not UTF-8), percent-encoded or not (fmu_src/native/fmi/platform.h: plat_path_utf8).
 The host (tests/c_host/fmi2_any_host.c) reads its arguments as UTF-16, so the ANSI forms reach the
-FMU percent-encoded; the not-encoded UTF-8 form as the character itself."""
+FMU percent-encoded; the not-encoded UTF-8 form as the character itself.
+
+A host whose standard streams are regular files starts the FMU's Python, and what that Python reads
+and writes on them is the host's files (fmu_src/native/fmi/win_stdio.h: under wine such handles are
+ones CPython's io.FileIO refuses)."""
 from __future__ import annotations
+
+import subprocess
+from pathlib import Path
 
 import pytest
 
-from tests.harness.test_win64 import CASES, ODD, _args, _outputs, _run, hosts, unpacked, wine  # noqa: F401
+from tests.harness.test_win64 import MINGW,  CASES, ODD, _args, _outputs, _run, hosts, unpacked, wine  # noqa: F401
 
 FORMS = {   # how the host writes C:/<ODD>/<name>/resources
     "UTF-8, percent-encoded": lambda p: p.encode("utf-8"),
@@ -40,12 +47,8 @@ def test_the_resource_uri_resolves_in_either_encoding(form, wine, hosts, unpacke
     assert "does not exist" not in r.stdout
 
 
-@pytest.mark.xfail(strict=True, reason="issue 44 item 5, not mended yet: under wine the FMU's Python stops in "
-                   "init_sys_streams when the host's stdout and stderr are regular files")
 def test_a_host_whose_stdout_and_stderr_are_regular_files_starts_the_python(wine, hosts, unpacked, tmp_path):
     """The host's standard streams are files (a CI job's log, a service): the FMU's Python starts."""
-    import subprocess
-
     env, _ = wine
     exe, _ = hosts
     name = "SpurDifferential"
@@ -59,3 +62,29 @@ def test_a_host_whose_stdout_and_stderr_are_regular_files_starts_the_python(wine
     text = out.read_text(errors="replace") + err.read_text(errors="replace")
     assert r.returncode == 0, text[-3000:]
     assert len(_outputs(out.read_text(errors="replace"))) == 1, text[-3000:]
+
+
+def test_what_the_fmu_python_reads_and_writes_is_the_host_files(wine, unpacked, tmp_path):
+    """The streams are the host's files, not NUL: a probe (tests/c_host/win_streams_probe.c) with stdin,
+    stdout and stderr regular files instantiates the FMU, then runs code in the FMU's Python that reads
+    a line from sys.stdin and writes to sys.stdout and sys.stderr."""
+    from harness.build.fmu import _fmi2_headers
+
+    env, _ = wine
+    exe = tmp_path / "win_streams_probe.exe"
+    subprocess.run([MINGW, "-O2", "-Wall", "-municode", "-static", f"-I{_fmi2_headers()}", "-o", str(exe),
+                    str(Path(__file__).resolve().parents[1] / "c_host" / "win_streams_probe.c")], check=True)
+    name = "SpurDifferential"
+    guid, _, _, _ = _args(unpacked[name], name)
+    binary = "C:\\" + ODD + "\\" + name + "\\binaries\\win64\\" + name + ".dll"
+    code = ("import sys; line = sys.stdin.readline().strip(); print('python read:', line); sys.stdout.flush(); "
+            "sys.stderr.write('python to stderr\\n'); sys.stderr.flush()")
+    src, out, err = tmp_path / "in.txt", tmp_path / "out.txt", tmp_path / "err.txt"
+    src.write_text("a line from the host's stdin\n")
+    with open(src) as fi, open(out, "w") as fo, open(err, "w") as fe:
+        r = subprocess.run(["wine", str(exe), binary, *guid, _uri(name, "UTF-8, percent-encoded"), code],
+                           stdin=fi, stdout=fo, stderr=fe, env=env, timeout=600)
+    said, complained = out.read_text(errors="replace"), err.read_text(errors="replace")
+    assert r.returncode == 0, (said + complained)[-3000:]
+    assert "python read: a line from the host's stdin" in said.splitlines(), said
+    assert "python to stderr" in complained.splitlines(), complained

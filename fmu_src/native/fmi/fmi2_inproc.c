@@ -8,7 +8,9 @@
 #include "fmi2_inproc.h"
 
 #ifdef _WIN32
+#include "win_stdio.h"
 #define BRIDGE_FILE "fmi2_pybridge.dll"
+static HANDLE std_nul[3];   /* the NUL handles python3X.dll's C runtime started on (win_stdio.h), for the bridge */
 #else
 #define BRIDGE_FILE "fmi2_pybridge.so"
 #endif
@@ -91,6 +93,15 @@ static int load_bridge(const char *bindir, char *err, size_t errsize)
         return -1;
     }
     memcpy(&B_do_step_early, &sym, sizeof sym);
+#ifdef _WIN32
+    if (!(sym = plat_symbol(h, BRIDGE_PREFIX "winStdioHeld"))) {
+        snprintf(err, errsize, "the bridge %s lacks %s", file, BRIDGE_PREFIX "winStdioHeld");
+        return -1;
+    }
+    void (*held)(const HANDLE *);
+    memcpy(&held, &sym, sizeof sym);
+    held(std_nul);   /* the bridge reconnects them once Python has made its streams */
+#endif
 #undef X_LOAD
 #undef LOAD
     return 0;
@@ -102,7 +113,14 @@ int inproc_load(const RuntimeCfg *cfg, const char *resources, const char *bindir
     int rc = 0;
     pthread_mutex_lock(&load_lock);
     if (!B_loaded) {
+#ifdef _WIN32
+        HANDLE saved[3];
+        winstd_hold(saved, std_nul);   /* the C runtime python3X.dll brings starts on NUL for a stream Python refuses */
         rc = load_python(cfg, resources, err, errsize);
+        winstd_release(saved, std_nul);
+#else
+        rc = load_python(cfg, resources, err, errsize);
+#endif
         if (rc == 0) rc = load_bridge(bindir, err, errsize);
         if (rc == 0) B_loaded = 1;
     } else {

@@ -87,6 +87,15 @@ static void stderr_release(int mfd, int saved, int pass_on)
 #else
 static int stderr_hold(int *saved) { *saved = -1; return -1; }
 static void stderr_release(int mfd, int saved, int pass_on) { (void)mfd; (void)saved; (void)pass_on; }
+/* The standard streams the loader started python3X.dll's C runtime on (win_stdio.h): given here
+ * by the loader after it loaded the bridge (exported like every function here: mingw-w64 exports
+ * all when none is marked dllexport), reconnected to the host's once Python has started. */
+#include "win_stdio.h"
+static HANDLE std_nul[3];
+void spurdiff_bridge_winStdioHeld(const HANDLE nul[3])
+{
+    memcpy(std_nul, nul, sizeof std_nul);
+}
 #endif
 
 /* Start the FMU's Python when the process has none (GIL released on return). */
@@ -127,6 +136,9 @@ static int start_python(const RuntimeCfg *cfg, const char *resources, char *err,
         int saved, held = stderr_hold(&saved);
         status = Py_InitializeFromConfig(&config);
         stderr_release(held, saved, !PyStatus_Exception(status));
+#ifdef _WIN32
+        if (!PyStatus_Exception(status)) winstd_reconnect(std_nul);
+#endif
     }
     PyConfig_Clear(&config);
     if (PyStatus_Exception(status)) {
