@@ -218,7 +218,7 @@ def test_mesh_levels_are_passive_and_finite_for_any_loads(t0, dt, h, level, back
     300 N m, five times the paper's locking torque), applied as a step to the preloaded paper state.
     (Larger differences on the bare differential, with nothing but the suns' own inertia, spin the
     suns past 10,000 rad/s within 20 ms; a step the integrator cannot finish then ends in a
-    StepError with the state unchanged, tested in test_mesh_dynamics.py.)"""
+    StepError with the state unchanged, tested in mesh/test_mesh_interface.py.)"""
     m = meshed(level=level, backlash=backlash, flankFriction=flank)
     e0 = m.kinetic_energy + m.potential_energy
     m.tau_L, m.tau_R = t0 - dt / 2, t0 + dt / 2
