@@ -222,7 +222,8 @@ def chkc_fmu(variant: str) -> Path:
         old, new = CHKC_XML_EDITS[variant]
         assert old in xml, variant
         xml = xml.replace(old, new)
-    key = _digest("chkc", src.read_bytes(), COMMON.read_bytes(), xml, macro, variant in NO_LIBM, Path(__file__).read_bytes())
+    key = _digest("chkc", src.read_bytes(), COMMON.read_bytes(), xml, macro, variant in NO_LIBM,
+                  Path(__file__).read_bytes())
 
     def make(tmp: Path) -> Path:
         binary = tmp / "binaries" / fmpy.platform / f"ChkC{fmpy.sharedLibraryExtension}"
@@ -291,7 +292,8 @@ def chk3c_fmu(name: str, breaks: str | None = None, edits: list[tuple[str, str]]
     from fmpy import platform_tuple
     src = HERE / "chk3c.c"
     xml = _edited(name, edits)
-    key = _digest("chk3c", src.read_bytes(), COMMON.read_bytes(), xml, breaks, drop, sorted((add or {}).items()), Path(__file__).read_bytes())
+    key = _digest("chk3c", src.read_bytes(), COMMON.read_bytes(), xml, breaks, drop, sorted((add or {}).items()),
+                  Path(__file__).read_bytes())
 
     def make(tmp: Path) -> Path:
         binary = tmp / "Chk3C.so"
