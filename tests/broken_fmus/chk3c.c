@@ -1,6 +1,6 @@
 /* Chk3C: a small FMI 3.0 FMU in C (co-simulation and model exchange) for the compliance-kit tests, the
-   FMI 3.0 counterpart of chkc.c, built by tests/broken_fmus/chk3_build.py against the FMI 3.0 headers fmpy
-   ships.
+   FMI 3.0 counterpart of chkc.c, built by tests/broken_fmus/chk_build.py against the FMI 3.0 headers fmpy
+   ships; what the two share is in chk_common.h.
 
    Model: x' = k u (x a state, start 0), y = k u (direct feedthrough); input u (start 1), fixed parameter k
    (start 2), structural parameter n (start 1: internal substeps per doStep; settable in Configuration Mode).
@@ -44,12 +44,6 @@
                         only: after fmi3SetFloat64(u) it keeps its old value (model exchange: until the next
                         integrator step)
 */
-#include <math.h>
-#include <stdarg.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
-
 #include "fmi3Functions.h"
 
 #ifndef TOKEN
@@ -70,8 +64,6 @@ typedef struct {
     fmi3IntermediateUpdateCallback update;
 } Inst;
 
-typedef struct { double u, k, x, time, ystale; int state; } Saved;
-
 #ifdef BREAK_SHARED_GLOBAL
 static double shared_x;
 #define X(m) shared_x
@@ -79,24 +71,18 @@ static double shared_x;
 #define X(m) ((m)->x)
 #endif
 
-static void logmsg(Inst *m, fmi3Status st, const char *cat, const char *fmt, ...) {
-    char buf[256];
-    va_list ap;
-    if (!m->log) return;
-    va_start(ap, fmt);
-    vsnprintf(buf, sizeof buf, fmt, ap);
-    va_end(ap);
+#define CHK_STATUS fmi3Status
+#define CHK_OK fmi3OK
+#define CHK_ERROR fmi3Error
+#define CHK_STOP_STATUS fmi3Error
+#define CHK_VR fmi3ValueReference
+#define CHK_TIME_VR VR_TIME
 #ifdef BREAK_LOGGER
-    m->log(NULL, st, cat, buf);
+#define CHK_LOG(m, st, cat, msg) do { if ((m)->log) (m)->log(NULL, st, cat, msg); } while (0)
 #else
-    m->log(m->env, st, cat, buf);
+#define CHK_LOG(m, st, cat, msg) do { if ((m)->log) (m)->log((m)->env, st, cat, msg); } while (0)
 #endif
-}
-
-static fmi3Status refuse(Inst *m, const char *fn) {
-    logmsg(m, fmi3Error, "logStatusError", "%s: illegal call in this state", fn);
-    return fmi3Error;
-}
+#include "chk_common.h"
 
 static void reset_values(Inst *m) {
 #ifdef BREAK_RESET
@@ -112,19 +98,7 @@ const char *fmi3GetVersion(void) { return fmi3Version; }
 #endif
 
 fmi3Status fmi3SetDebugLogging(fmi3Instance c, fmi3Boolean on, size_t n, const fmi3String cats[]) {
-    Inst *m = (Inst *)c;
-    size_t i;
-    for (i = 0; i < n; i++) {
-#ifdef BREAK_DEBUG_LOGGING
-        return fmi3Error;
-#endif
-        if (strcmp(cats[i], "logStatusError") && strcmp(cats[i], "logEvents")) {
-            logmsg(m, fmi3Error, "logStatusError", "unknown log category %s", cats[i]);
-            return fmi3Error;
-        }
-    }
-    m->logging = on;
-    return fmi3OK;
+    return debug_logging((Inst *)c, on, n, cats);
 }
 
 static Inst *make(fmi3String name, fmi3String token, fmi3Boolean logging, fmi3InstanceEnvironment env,
@@ -180,19 +154,15 @@ void fmi3FreeInstance(fmi3Instance c) { free(c); }
 fmi3Status fmi3EnterInitializationMode(fmi3Instance c, fmi3Boolean tolDefined, fmi3Float64 tol, fmi3Float64 start,
                                        fmi3Boolean stopDefined, fmi3Float64 stop) {
     Inst *m = (Inst *)c;
+    fmi3Status st = start_initialization(m, start, stopDefined, stop, "fmi3EnterInitializationMode");
     (void)tolDefined; (void)tol;
-    if (m->state != INSTANTIATED) return refuse(m, "fmi3EnterInitializationMode");
-    m->time = start; m->stopDefined = stopDefined; m->stop = stop;
-    m->state = INITIALIZATION;
-    return fmi3OK;
+    if (st == fmi3OK) m->state = INITIALIZATION;
+    return st;
 }
 
 fmi3Status fmi3ExitInitializationMode(fmi3Instance c) {
     Inst *m = (Inst *)c;
-    if (m->state != INITIALIZATION) return refuse(m, "fmi3ExitInitializationMode");
-    m->ystale = m->k * m->u;
-    m->state = (m->type == CS && !m->eventModeUsed) ? STEP : EVENT;
-    return fmi3OK;
+    return exit_initialization(m, (m->type == CS && !m->eventModeUsed) ? STEP : EVENT, "fmi3ExitInitializationMode");
 }
 
 fmi3Status fmi3EnterEventMode(fmi3Instance c) {
@@ -203,13 +173,7 @@ fmi3Status fmi3EnterEventMode(fmi3Instance c) {
     return fmi3OK;
 }
 
-fmi3Status fmi3Terminate(fmi3Instance c) {
-    Inst *m = (Inst *)c;
-    if (m->state == INSTANTIATED || m->state == CONFIGURATION || m->state == INITIALIZATION || m->state == TERMINATED)
-        return refuse(m, "fmi3Terminate");
-    m->state = TERMINATED;
-    return fmi3OK;
-}
+fmi3Status fmi3Terminate(fmi3Instance c) { return terminate((Inst *)c, "fmi3Terminate"); }
 
 fmi3Status fmi3Reset(fmi3Instance c) {
     Inst *m = (Inst *)c;
@@ -218,40 +182,10 @@ fmi3Status fmi3Reset(fmi3Instance c) {
     return fmi3OK;
 }
 
-static double value(Inst *m, fmi3ValueReference vr, int *ok) {
-    *ok = 1;
-    switch (vr) {
-    case VR_TIME: return m->time;
-    case VR_U: return m->u;
-    case VR_K: return m->k;
-    case VR_X: return X(m);
-#ifdef BREAK_STALE_Y
-    case VR_Y: return m->ystale;
-#else
-    case VR_Y: return m->k * m->u;
-#endif
-    case VR_DX: return m->k * m->u;
-    }
-    *ok = 0;
-    return 0.0;
-}
-
 fmi3Status fmi3GetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, fmi3Float64 v[], size_t nv) {
     Inst *m = (Inst *)c;
-    size_t i;
-    int ok;
     if (m->state == INSTANTIATED || m->state == CONFIGURATION || nv != nvr) return refuse(m, "fmi3GetFloat64");
-#ifdef BREAK_INIT_GET
-    if (m->state == INITIALIZATION) return refuse(m, "fmi3GetFloat64");
-#endif
-#ifdef BREAK_TERMINATED_GET
-    if (m->state == TERMINATED) return refuse(m, "fmi3GetFloat64");
-#endif
-    for (i = 0; i < nvr; i++) {
-        v[i] = value(m, vr[i], &ok);
-        if (!ok) return refuse(m, "fmi3GetFloat64 (value reference)");
-    }
-    return fmi3OK;
+    return get_reals(m, vr, nvr, v, "fmi3GetFloat64");
 }
 
 fmi3Status fmi3SetFloat64(fmi3Instance c, const fmi3ValueReference vr[], size_t nvr, const fmi3Float64 v[], size_t nv) {
@@ -329,72 +263,17 @@ fmi3Status fmi3GetVariableDependencies(fmi3Instance c, fmi3ValueReference dep, s
     return refuse((Inst *)c, "fmi3GetVariableDependencies");
 }
 
-fmi3Status fmi3GetFMUState(fmi3Instance c, fmi3FMUState *s) {
-    Inst *m = (Inst *)c;
-    Saved *p = *s ? (Saved *)*s : (Saved *)malloc(sizeof(Saved));
-    if (!p) return fmi3Error;
-    p->u = m->u; p->k = m->k; p->x = X(m); p->time = m->time; p->ystale = m->ystale; p->state = m->state;
-    *s = p;
-    return fmi3OK;
-}
-
-fmi3Status fmi3SetFMUState(fmi3Instance c, fmi3FMUState s) {
-    Inst *m = (Inst *)c;
-    Saved *p = (Saved *)s;
-    if (!p) return refuse(m, "fmi3SetFMUState (NULL)");
-#ifdef BREAK_STATE_NOOP
-    return fmi3OK;
-#endif
-    m->u = p->u; m->k = p->k; X(m) = p->x; m->time = p->time; m->ystale = p->ystale; m->state = p->state;
-    return fmi3OK;
-}
-
-fmi3Status fmi3FreeFMUState(fmi3Instance c, fmi3FMUState *s) {
-    (void)c;
-    if (!s || !*s) return fmi3OK;
-    free(*s);
-#ifndef BREAK_FREE_STATE
-    *s = NULL;
-#endif
-    return fmi3OK;
-}
-
-fmi3Status fmi3SerializedFMUStateSize(fmi3Instance c, fmi3FMUState s, size_t *n) {
-    (void)c; (void)s; *n = sizeof(Saved); return fmi3OK;
-}
-fmi3Status fmi3SerializeFMUState(fmi3Instance c, fmi3FMUState s, fmi3Byte b[], size_t n) {
-    (void)c; if (n != sizeof(Saved)) return fmi3Error; memcpy(b, s, n); return fmi3OK;
-}
-fmi3Status fmi3DeserializeFMUState(fmi3Instance c, const fmi3Byte b[], size_t n, fmi3FMUState *s) {
-    (void)c;
-    if (n != sizeof(Saved)) return fmi3Error;
-    if (!*s) *s = malloc(sizeof(Saved));
-    if (!*s) return fmi3Error;
-    memcpy(*s, b, n);
-#ifdef BREAK_SERIALIZE
-    ((Saved *)*s)->x = 0.0;
-#endif
-    return fmi3OK;
-}
+CHK_STATE_FUNCTIONS(fmi3Instance, fmi3FMUState, fmi3Byte, fmi3GetFMUState, fmi3SetFMUState, fmi3FreeFMUState,
+                    fmi3SerializedFMUStateSize, fmi3SerializeFMUState, fmi3DeserializeFMUState)
 
 fmi3Status fmi3GetDirectionalDerivative(fmi3Instance c, const fmi3ValueReference unk[], size_t nu,
                                         const fmi3ValueReference kn[], size_t nk, const fmi3Float64 seed[], size_t ns,
                                         fmi3Float64 sens[], size_t nsens) {
-    Inst *m = (Inst *)c;
-    size_t i, j;
 #ifdef BREAK_DIRDER
-    return refuse(m, "fmi3GetDirectionalDerivative");
+    return refuse((Inst *)c, "fmi3GetDirectionalDerivative");
 #endif
-    if (ns != nk || nsens != nu) return refuse(m, "fmi3GetDirectionalDerivative (sizes)");
-    for (i = 0; i < nu; i++) {
-        sens[i] = 0.0;
-        for (j = 0; j < nk; j++) {
-            if (kn[j] == VR_U && (unk[i] == VR_Y || unk[i] == VR_DX)) sens[i] += m->k * seed[j];
-#ifdef BREAK_JACOBIAN
-            else if (kn[j] == VR_X && unk[i] == VR_DX) sens[i] += seed[j];
-#endif
-        }
-    }
+    if (ns != nk || nsens != nu) return refuse((Inst *)c, "fmi3GetDirectionalDerivative (sizes)");
+    directional_derivative((Inst *)c, unk, nu, kn, nk, seed, sens);
     return fmi3OK;
 }
 fmi3Status fmi3GetAdjointDerivative(fmi3Instance c, const fmi3ValueReference unk[], size_t nu,
@@ -405,19 +284,13 @@ fmi3Status fmi3GetAdjointDerivative(fmi3Instance c, const fmi3ValueReference unk
 }
 
 fmi3Status fmi3EnterConfigurationMode(fmi3Instance c) {
-    Inst *m = (Inst *)c;
-    if (m->state != INSTANTIATED) return refuse(m, "fmi3EnterConfigurationMode");
-    m->state = CONFIGURATION;
-    return fmi3OK;
+    return move((Inst *)c, INSTANTIATED, CONFIGURATION, "fmi3EnterConfigurationMode");
 }
 fmi3Status fmi3ExitConfigurationMode(fmi3Instance c) {
-    Inst *m = (Inst *)c;
 #ifdef BREAK_CONFIGURATION
-    return refuse(m, "fmi3ExitConfigurationMode");
+    return refuse((Inst *)c, "fmi3ExitConfigurationMode");
 #endif
-    if (m->state != CONFIGURATION) return refuse(m, "fmi3ExitConfigurationMode");
-    m->state = INSTANTIATED;
-    return fmi3OK;
+    return move((Inst *)c, CONFIGURATION, INSTANTIATED, "fmi3ExitConfigurationMode");
 }
 
 /* clocks: this FMU has none */
@@ -538,6 +411,7 @@ fmi3Status fmi3GetOutputDerivatives(fmi3Instance c, const fmi3ValueReference vr[
 fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 t, fmi3Float64 h, fmi3Boolean noPrior, fmi3Boolean *eventNeeded,
                       fmi3Boolean *terminate, fmi3Boolean *earlyReturn, fmi3Float64 *lastTime) {
     Inst *m = (Inst *)c;
+    fmi3Status st;
 #ifndef BREAK_CLOCK
     unsigned long long i;
 #endif
@@ -550,25 +424,7 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 t, fmi3Float64 h, fmi3Boolean 
 #ifdef BREAK_ZERO_STEP
     if (h == 0) return fmi3Discard;
 #endif
-    if (!(h > 0)) {
-        logmsg(m, fmi3Error, "logStatusError", "step size must be > 0, was %g", h);
-        return fmi3Error;
-    }
-#ifndef BREAK_CLOCK
-    if (fabs(t - m->time) > 1e-9 * (1.0 + fabs(t))) {
-        logmsg(m, fmi3Error, "logStatusError", "communication point %g, expected %g", t, m->time);
-        return fmi3Error;
-    }
-#endif
-#ifndef BREAK_STOP_TIME
-    if (m->stopDefined && t + h > m->stop + 1e-9 * (1.0 + fabs(m->stop))) {
-        logmsg(m, fmi3Error, "logStatusError", "a step to %g passes the stop time %g", t + h, m->stop);
-        return fmi3Error;
-    }
-#endif
-#ifdef BREAK_LATE_STEP
-    if (t >= 0.5) return refuse(m, "fmi3DoStep (late)");
-#endif
+    if ((st = step_checks(m, t, h, "fmi3DoStep (late)")) != fmi3OK) return st;
 #ifdef BREAK_BASIC
     if (t > 1.5 * h) return refuse(m, "fmi3DoStep (third step)");
 #endif
@@ -578,11 +434,7 @@ fmi3Status fmi3DoStep(fmi3Instance c, fmi3Float64 t, fmi3Float64 h, fmi3Boolean 
     if (m->firsth == 0) m->firsth = h;
     if (!isfinite(m->u)) return fmi3Discard;
 #ifdef BREAK_CLOCK
-    {   /* its own clock: whole internal steps of 0.01 s from where it was, whatever t says */
-        long k = (long)floor(h / 0.01 + 1e-9);
-        X(m) += m->k * m->u * 0.01 * k;
-        m->time += 0.01 * k;
-    }
+    own_clock_step(m, h);
 #elif defined(BREAK_LIBM)
     for (i = 0; i < m->n; i++) X(m) += m->k * m->u * h / (double)m->n * exp(0.0 * X(m));
     m->time = t + h;

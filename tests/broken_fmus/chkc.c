@@ -1,8 +1,8 @@
 /* ChkC: a small FMI 2.0 FMU in C (co-simulation and model exchange) for the compliance-kit tests.
 
    Model: x' = k u (x a state, start 0), y = k u (direct feedthrough); input u (start 1), fixed
-   parameter k (start 2). Built by tests/check_fmus.py with the standard FMI 2.0 headers that fmpy
-   ships. Without any BREAK_* macro it follows FMI 2.0 in everything the kit checks; each BREAK_*
+   parameter k (start 2). Built by tests/broken_fmus/chk_build.py with the standard FMI 2.0 headers that
+   fmpy ships; what it shares with Chk3C (chk3c.c) is in chk_common.h. Without any BREAK_* macro it follows FMI 2.0 in everything the kit checks; each BREAK_*
    macro breaks one thing that pythonfmu's own C++ layer would not let a Python script break:
 
    BREAK_VERSION       fmi2GetVersion returns "1.0"
@@ -36,12 +36,6 @@
    BREAK_NAN_HANG      a doStep with a NaN input never returns, and a step past the stop time is accepted
                        (so no step is ever discarded: cs.status-after-discard has nothing to check)
 */
-#include <math.h>
-#include <stdarg.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
-
 #include "fmi2Functions.h"
 
 #ifdef BREAK_NAN_HANG
@@ -63,26 +57,25 @@ typedef struct {
     fmi2CallbackFunctions cb;
 } Inst;
 
-typedef struct { double u, k, x, time; int state; } Saved;
-
-static void logmsg(Inst *m, fmi2Status st, const char *cat, const char *fmt, ...) {
-    char buf[256];
-    va_list ap;
-    if (!m->cb.logger) return;
-    va_start(ap, fmt);
-    vsnprintf(buf, sizeof buf, fmt, ap);
-    va_end(ap);
-#ifdef BREAK_LOGGER
-    m->cb.logger(NULL, "someoneElse", st, cat, "%s", buf);
+#define CHK_STATUS fmi2Status
+#define CHK_OK fmi2OK
+#define CHK_ERROR fmi2Error
+#define CHK_VR fmi2ValueReference
+#define X(m) ((m)->x)
+#if defined(DISCARD_AT_STOP) || defined(BREAK_STATUS)
+#define CHK_STOP_STATUS fmi2Discard
+#elif defined(WARN_AT_STOP)
+#define CHK_STOP_STATUS fmi2Warning
 #else
-    m->cb.logger(m->cb.componentEnvironment, m->name, st, cat, "%s", buf);
+#define CHK_STOP_STATUS fmi2Error
 #endif
-}
-
-static fmi2Status refuse(Inst *m, const char *fn) {
-    logmsg(m, fmi2Error, "logStatusError", "%s: illegal call in this state", fn);
-    return fmi2Error;
-}
+#ifdef BREAK_LOGGER
+#define CHK_LOG(m, st, cat, msg) do { if ((m)->cb.logger) (m)->cb.logger(NULL, "someoneElse", st, cat, "%s", msg); } while (0)
+#else
+#define CHK_LOG(m, st, cat, msg) \
+    do { if ((m)->cb.logger) (m)->cb.logger((m)->cb.componentEnvironment, (m)->name, st, cat, "%s", msg); } while (0)
+#endif
+#include "chk_common.h"
 
 const char *fmi2GetTypesPlatform(void) {
 #ifdef BREAK_TYPES
@@ -101,19 +94,7 @@ const char *fmi2GetVersion(void) {
 }
 
 fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean on, size_t n, const fmi2String cats[]) {
-    Inst *m = (Inst *)c;
-    size_t i;
-    for (i = 0; i < n; i++) {
-#ifdef BREAK_DEBUG_LOGGING
-        return fmi2Error;
-#endif
-        if (strcmp(cats[i], "logStatusError") && strcmp(cats[i], "logEvents")) {
-            logmsg(m, fmi2Error, "logStatusError", "unknown log category %s", cats[i]);
-            return fmi2Error;
-        }
-    }
-    m->logging = on;
-    return fmi2OK;
+    return debug_logging((Inst *)c, on, n, cats);
 }
 
 fmi2Component fmi2Instantiate(fmi2String name, fmi2Type type, fmi2String guid, fmi2String res,
@@ -142,37 +123,20 @@ void fmi2FreeInstance(fmi2Component c) { free(c); }
 
 fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean tolDefined, fmi2Real tol, fmi2Real start,
                                fmi2Boolean stopDefined, fmi2Real stop) {
-    Inst *m = (Inst *)c;
     (void)tolDefined; (void)tol;
-    if (m->state != INSTANTIATED) return refuse(m, "fmi2SetupExperiment");
-    m->time = start;
-    m->stopDefined = stopDefined;
-    m->stop = stop;
-    return fmi2OK;
+    return start_initialization((Inst *)c, start, stopDefined, stop, "fmi2SetupExperiment");
 }
 
 fmi2Status fmi2EnterInitializationMode(fmi2Component c) {
-    Inst *m = (Inst *)c;
-    if (m->state != INSTANTIATED) return refuse(m, "fmi2EnterInitializationMode");
-    m->state = INITIALIZATION;
-    return fmi2OK;
+    return move((Inst *)c, INSTANTIATED, INITIALIZATION, "fmi2EnterInitializationMode");
 }
 
 fmi2Status fmi2ExitInitializationMode(fmi2Component c) {
     Inst *m = (Inst *)c;
-    if (m->state != INITIALIZATION) return refuse(m, "fmi2ExitInitializationMode");
-    m->ystale = m->k * m->u;
-    m->state = m->type == fmi2CoSimulation ? STEP : EVENT;
-    return fmi2OK;
+    return exit_initialization(m, m->type == fmi2CoSimulation ? STEP : EVENT, "fmi2ExitInitializationMode");
 }
 
-fmi2Status fmi2Terminate(fmi2Component c) {
-    Inst *m = (Inst *)c;
-    if (m->state == INSTANTIATED || m->state == INITIALIZATION || m->state == TERMINATED)
-        return refuse(m, "fmi2Terminate");
-    m->state = TERMINATED;
-    return fmi2OK;
-}
+fmi2Status fmi2Terminate(fmi2Component c) { return terminate((Inst *)c, "fmi2Terminate"); }
 
 fmi2Status fmi2Reset(fmi2Component c) {
     Inst *m = (Inst *)c;
@@ -181,39 +145,10 @@ fmi2Status fmi2Reset(fmi2Component c) {
     return fmi2OK;
 }
 
-static double value(Inst *m, fmi2ValueReference vr, int *ok) {
-    *ok = 1;
-    switch (vr) {
-    case VR_U: return m->u;
-    case VR_K: return m->k;
-    case VR_X: return m->x;
-#ifdef BREAK_STALE_Y
-    case VR_Y: return m->ystale;
-#else
-    case VR_Y: return m->k * m->u;
-#endif
-    case VR_DX: return m->k * m->u;
-    }
-    *ok = 0;
-    return 0.0;
-}
-
 fmi2Status fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[]) {
     Inst *m = (Inst *)c;
-    size_t i;
-    int ok;
     if (m->state == INSTANTIATED) return refuse(m, "fmi2GetReal");
-#ifdef BREAK_INIT_GET
-    if (m->state == INITIALIZATION) return refuse(m, "fmi2GetReal");
-#endif
-#ifdef BREAK_TERMINATED_GET
-    if (m->state == TERMINATED) return refuse(m, "fmi2GetReal");
-#endif
-    for (i = 0; i < n; i++) {
-        v[i] = value(m, vr[i], &ok);
-        if (!ok) return refuse(m, "fmi2GetReal (value reference)");
-    }
-    return fmi2OK;
+    return get_reals(m, vr, n, v, "fmi2GetReal");
 }
 
 fmi2Status fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real v[]) {
@@ -250,63 +185,15 @@ fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
     (void)vr; (void)v; return n ? refuse((Inst *)c, "fmi2SetString") : fmi2OK;
 }
 
-fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *s) {
-    Inst *m = (Inst *)c;
-    Saved *p = *s ? (Saved *)*s : (Saved *)malloc(sizeof(Saved));
-    if (!p) return fmi2Error;
-    p->u = m->u; p->k = m->k; p->x = m->x; p->time = m->time; p->state = m->state;
-    *s = p;
-    return fmi2OK;
-}
-
-fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate s) {
-    Inst *m = (Inst *)c;
-    Saved *p = (Saved *)s;
-    if (!p) return refuse(m, "fmi2SetFMUstate (NULL)");
-    m->u = p->u; m->k = p->k; m->x = p->x; m->time = p->time; m->state = p->state;
-    return fmi2OK;
-}
-
-fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *s) {
-    (void)c;
-    if (!s || !*s) return fmi2OK;
-    free(*s);
-#ifndef BREAK_FREE_STATE
-    *s = NULL;
-#endif
-    return fmi2OK;
-}
-
-fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *n) {
-    (void)c; (void)s; *n = sizeof(Saved); return fmi2OK;
-}
-fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate s, fmi2Byte b[], size_t n) {
-    (void)c; if (n != sizeof(Saved)) return fmi2Error; memcpy(b, s, n); return fmi2OK;
-}
-fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte b[], size_t n, fmi2FMUstate *s) {
-    (void)c;
-    if (n != sizeof(Saved)) return fmi2Error;
-    if (!*s) *s = malloc(sizeof(Saved));
-    if (!*s) return fmi2Error;
-    memcpy(*s, b, n);
-    return fmi2OK;
-}
+CHK_STATE_FUNCTIONS(fmi2Component, fmi2FMUstate, fmi2Byte, fmi2GetFMUstate, fmi2SetFMUstate, fmi2FreeFMUstate,
+                    fmi2SerializedFMUstateSize, fmi2SerializeFMUstate, fmi2DeSerializeFMUstate)
 
 fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference unk[], size_t nu,
                                         const fmi2ValueReference kn[], size_t nk, const fmi2Real dk[], fmi2Real du[]) {
-    Inst *m = (Inst *)c;
-    size_t i, j;
 #ifdef BREAK_DIRDER
-    return refuse(m, "fmi2GetDirectionalDerivative");
+    return refuse((Inst *)c, "fmi2GetDirectionalDerivative");
 #endif
-    for (i = 0; i < nu; i++) {
-        du[i] = 0.0;
-        for (j = 0; j < nk; j++)
-            if (kn[j] == VR_U && (unk[i] == VR_Y || unk[i] == VR_DX)) du[i] += m->k * dk[j];
-#ifdef BREAK_JACOBIAN
-            else if (kn[j] == VR_X && unk[i] == VR_DX) du[i] += dk[j];
-#endif
-    }
+    directional_derivative((Inst *)c, unk, nu, kn, nk, dk, du);
     return fmi2OK;
 }
 
@@ -328,33 +215,10 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
 
 fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noPrior) {
     Inst *m = (Inst *)c;
+    fmi2Status st;
     (void)noPrior;
     if (m->state != STEP) return refuse(m, "fmi2DoStep");
-    if (!(h > 0)) {
-        logmsg(m, fmi2Error, "logStatusError", "step size must be > 0, was %g", h);
-        return fmi2Error;
-    }
-#ifndef BREAK_CLOCK
-    if (fabs(t - m->time) > 1e-9 * (1.0 + fabs(t))) {
-        logmsg(m, fmi2Error, "logStatusError", "communication point %g, expected %g", t, m->time);
-        return fmi2Error;
-    }
-#endif
-#ifndef BREAK_STOP_TIME
-    if (m->stopDefined && t + h > m->stop + 1e-9 * (1.0 + fabs(m->stop))) {
-        logmsg(m, fmi2Error, "logStatusError", "a step to %g passes the stop time %g", t + h, m->stop);
-#if defined(DISCARD_AT_STOP) || defined(BREAK_STATUS)
-        return fmi2Discard;
-#elif defined(WARN_AT_STOP)
-        return fmi2Warning;
-#else
-        return fmi2Error;
-#endif
-    }
-#endif
-#ifdef BREAK_LATE_STEP
-    if (t >= 0.5) return refuse(m, "fmi2DoStep (late)");
-#endif
+    if ((st = step_checks(m, t, h, "fmi2DoStep (late)")) != fmi2OK) return st;
     if (!isfinite(m->u)) {
 #ifdef BREAK_NAN_HANG
         volatile int spin = 1;
@@ -363,11 +227,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noPri
         return fmi2Discard;
     }
 #if defined(BREAK_CLOCK)
-    {   /* its own clock: whole internal steps of 0.01 s from where it was, whatever t says */
-        long n = (long)floor(h / 0.01 + 1e-9);
-        m->x += m->k * m->u * 0.01 * n;
-        m->time += 0.01 * n;
-    }
+    own_clock_step(m, h);
 #elif defined(BREAK_HISTORY)
     {   /* a correction by the direction x last moved in: xprev is not in the saved FMU state, so the
            first step after a restore (xprev from a later time) is corrected the other way */
@@ -432,10 +292,7 @@ fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *e) {
 }
 
 fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) {
-    Inst *m = (Inst *)c;
-    if (m->state != EVENT) return refuse(m, "fmi2EnterContinuousTimeMode");
-    m->state = CONTINUOUS;
-    return fmi2OK;
+    return move((Inst *)c, EVENT, CONTINUOUS, "fmi2EnterContinuousTimeMode");
 }
 
 fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noPrior, fmi2Boolean *enter, fmi2Boolean *term) {

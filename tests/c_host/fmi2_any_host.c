@@ -8,71 +8,47 @@
  *   fmi2_any_host BINARY GUID RESOURCE_URI STEPS STEP contract IN_VR PARAM_VR BAD_VALUE OUT_VR
  *       The FMI-contract and hostile-input checks a C host can drive, one line "ok NAME" or
  *       "FAIL NAME: why" each; exit 0 when all passed.
- * On Windows the arguments are read as UTF-16 (wmain) and passed on as UTF-8, so folders with
- * non-ASCII characters reach the FMU intact; the binary is loaded with LoadLibraryW.
+ * Compiled against the FMI 2.0 standard headers (fmpy ships them). On Windows the arguments are read
+ * as UTF-16 (wmain) and passed on as UTF-8, so folders with non-ASCII characters reach the FMU intact;
+ * the binary is loaded with LoadLibraryW (both in host_common.h).
  */
 #include <math.h>
 #include <stdarg.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
-#ifdef _WIN32
-#include <windows.h>
-#else
-#include <dlfcn.h>
-#endif
 
-typedef void *fmi2Component;
-typedef void *fmi2FMUstate;
-typedef struct {
-    void (*logger)(void *, const char *, int, const char *, const char *, ...);
-    void *(*allocateMemory)(size_t, size_t);
-    void (*freeMemory)(void *);
-    void *stepFinished;
-    void *componentEnvironment;
-} fmi2CallbackFunctions;
+#define HOST_BUFFERED_STDOUT
+#include "fmi2FunctionTypes.h"
+#include "host_common.h"
 
 static char last_log[8192];
 static int quiet;
 
-static void logger(void *env, const char *name, int status, const char *cat, const char *msg, ...)
+static void logger(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status, fmi2String cat, fmi2String msg, ...)
 {
     va_list ap;
     va_start(ap, msg);
     vsnprintf(last_log, sizeof last_log, msg, ap);
     va_end(ap);
     (void)env; (void)cat;
-    if (!quiet) printf("log[%d] %s: %s\n", status, name ? name : "", last_log);
+    if (!quiet) printf("log[%d] %s: %s\n", (int)status, name ? name : "", last_log);
 }
 
-typedef fmi2Component (*instantiate_t)(const char *, int, const char *, const char *, const fmi2CallbackFunctions *, int, int);
-typedef int (*setup_t)(fmi2Component, int, double, double, int, double);
-typedef int (*call_t)(fmi2Component);
-typedef int (*step_t)(fmi2Component, double, double, int);
-typedef int (*getreal_t)(fmi2Component, const unsigned *, size_t, double *);
-typedef int (*setreal_t)(fmi2Component, const unsigned *, size_t, const double *);
-typedef void (*free_t)(fmi2Component);
-typedef int (*getstate_t)(fmi2Component, fmi2FMUstate *);
-typedef int (*setstate_t)(fmi2Component, fmi2FMUstate);
-typedef int (*freestate_t)(fmi2Component, fmi2FMUstate *);
-typedef int (*sersize_t)(fmi2Component, fmi2FMUstate, size_t *);
-typedef int (*ser_t)(fmi2Component, fmi2FMUstate, char *, size_t);
-typedef int (*deser_t)(fmi2Component, const char *, size_t, fmi2FMUstate *);
-
 static struct {
-    instantiate_t Instantiate;
-    setup_t SetupExperiment;
-    call_t EnterInit, ExitInit, Terminate, Reset;
-    step_t DoStep;
-    getreal_t GetReal;
-    setreal_t SetReal;
-    free_t FreeInstance;
-    getstate_t GetState;
-    setstate_t SetState;
-    freestate_t FreeState;
-    sersize_t SerSize;
-    ser_t Serialize;
-    deser_t Deserialize;
+    fmi2InstantiateTYPE *Instantiate;
+    fmi2SetupExperimentTYPE *SetupExperiment;
+    fmi2EnterInitializationModeTYPE *EnterInit;
+    fmi2ExitInitializationModeTYPE *ExitInit;
+    fmi2TerminateTYPE *Terminate;
+    fmi2ResetTYPE *Reset;
+    fmi2DoStepTYPE *DoStep;
+    fmi2GetRealTYPE *GetReal;
+    fmi2SetRealTYPE *SetReal;
+    fmi2FreeInstanceTYPE *FreeInstance;
+    fmi2GetFMUstateTYPE *GetState;
+    fmi2SetFMUstateTYPE *SetState;
+    fmi2FreeFMUstateTYPE *FreeState;
+    fmi2SerializedFMUstateSizeTYPE *SerSize;
+    fmi2SerializeFMUstateTYPE *Serialize;
+    fmi2DeSerializeFMUstateTYPE *Deserialize;
 } F;
 
 static const char *FMU_GUID, *URI;
@@ -80,32 +56,24 @@ static fmi2CallbackFunctions CB = {logger, calloc, free, NULL, NULL};
 
 static int load(const char *binary)
 {
-#ifdef _WIN32
-    int n = MultiByteToWideChar(CP_UTF8, 0, binary, -1, NULL, 0);
-    wchar_t *w = (wchar_t *)malloc((size_t)n * sizeof *w);
-    MultiByteToWideChar(CP_UTF8, 0, binary, -1, w, n);
-    HMODULE h = LoadLibraryW(w);
-    free(w);
-    if (!h) { printf("cannot load %s: Windows error %lu\n", binary, (unsigned long)GetLastError()); return 2; }
-#define LOOK(name) GetProcAddress(h, name)
-#else
-    void *h = dlopen(binary, RTLD_NOW | RTLD_LOCAL);
-    if (!h) { printf("cannot load %s: %s\n", binary, dlerror()); return 2; }
-#define LOOK(name) dlsym(h, name)
-#endif
-#define SYM(field, name)                                                                    \
-    {                                                                                       \
-        void (*f_)(void) = (void (*)(void))LOOK(name);                                      \
-        if (!f_) { printf("missing %s\n", name); return 3; }                                \
-        memcpy(&F.field, &f_, sizeof f_);                                                   \
-    }
-    SYM(Instantiate, "fmi2Instantiate") SYM(SetupExperiment, "fmi2SetupExperiment")
-    SYM(EnterInit, "fmi2EnterInitializationMode") SYM(ExitInit, "fmi2ExitInitializationMode")
-    SYM(Terminate, "fmi2Terminate") SYM(Reset, "fmi2Reset") SYM(DoStep, "fmi2DoStep")
-    SYM(GetReal, "fmi2GetReal") SYM(SetReal, "fmi2SetReal") SYM(FreeInstance, "fmi2FreeInstance")
-    SYM(GetState, "fmi2GetFMUstate") SYM(SetState, "fmi2SetFMUstate") SYM(FreeState, "fmi2FreeFMUstate")
-    SYM(SerSize, "fmi2SerializedFMUstateSize") SYM(Serialize, "fmi2SerializeFMUstate")
-    SYM(Deserialize, "fmi2DeSerializeFMUstate")
+    host_library h = load_binary(binary);
+    if (!h) return 2;
+    HOST_SYM(F.Instantiate, h, "fmi2Instantiate");
+    HOST_SYM(F.SetupExperiment, h, "fmi2SetupExperiment");
+    HOST_SYM(F.EnterInit, h, "fmi2EnterInitializationMode");
+    HOST_SYM(F.ExitInit, h, "fmi2ExitInitializationMode");
+    HOST_SYM(F.Terminate, h, "fmi2Terminate");
+    HOST_SYM(F.Reset, h, "fmi2Reset");
+    HOST_SYM(F.DoStep, h, "fmi2DoStep");
+    HOST_SYM(F.GetReal, h, "fmi2GetReal");
+    HOST_SYM(F.SetReal, h, "fmi2SetReal");
+    HOST_SYM(F.FreeInstance, h, "fmi2FreeInstance");
+    HOST_SYM(F.GetState, h, "fmi2GetFMUstate");
+    HOST_SYM(F.SetState, h, "fmi2SetFMUstate");
+    HOST_SYM(F.FreeState, h, "fmi2FreeFMUstate");
+    HOST_SYM(F.SerSize, h, "fmi2SerializedFMUstateSize");
+    HOST_SYM(F.Serialize, h, "fmi2SerializeFMUstate");
+    HOST_SYM(F.Deserialize, h, "fmi2DeSerializeFMUstate");
     return 0;
 }
 
@@ -319,19 +287,3 @@ static int run(int argc, char **argv)
     fflush(stdout);
     return rc;
 }
-
-#ifdef _WIN32
-int wmain(int argc, wchar_t **wargv)
-{
-    char **argv = (char **)calloc((size_t)argc + 1, sizeof *argv);
-    for (int i = 0; i < argc; i++) {
-        int n = WideCharToMultiByte(CP_UTF8, 0, wargv[i], -1, NULL, 0, NULL, NULL);
-        argv[i] = (char *)malloc((size_t)n);
-        WideCharToMultiByte(CP_UTF8, 0, wargv[i], -1, argv[i], n, NULL, NULL);
-    }
-    setvbuf(stdout, NULL, _IOFBF, 1 << 16);
-    return run(argc, argv);
-}
-#else
-int main(int argc, char **argv) { return run(argc, argv); }
-#endif

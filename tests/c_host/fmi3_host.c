@@ -8,17 +8,9 @@
  * "get VR VALUE" per requested value, "time T", "status S", "freed"; exits with the worst status.
  * Cross-built for Windows with mingw-w64 (-municode): the arguments are read as UTF-16 (wmain) and
  * passed on as UTF-8, the binary (BINARY.dll) is loaded with LoadLibraryW, RESOURCE_DIR is a
- * native path (C:\...\resources\). */
-#ifdef _WIN32
-#include <windows.h>
-#else
-#include <dlfcn.h>
-#endif
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
-
+ * native path (C:\...\resources\). Loading and wmain: host_common.h. */
 #include "fmi3FunctionTypes.h"
+#include "host_common.h"
 
 static void log_message(fmi3InstanceEnvironment env, fmi3Status status, fmi3String category, fmi3String message)
 {
@@ -26,29 +18,15 @@ static void log_message(fmi3InstanceEnvironment env, fmi3Status status, fmi3Stri
     printf("log[%d] %s\n", (int)status, message);
 }
 
-#ifdef _WIN32
-#define LOOK(name) ((void *)GetProcAddress(h, name))
-#else
-#define LOOK(name) dlsym(h, name)
-#endif
 #define SYM(type, name)                                                                            \
-    type *name = (type *)LOOK(#name);                                                              \
-    if (!name) { printf("missing %s\n", #name); return 3; }
+    type *name;                                                                                    \
+    HOST_SYM(name, h, #name);
 
 static int run(int argc, char **argv)
 {
     if (argc < 6) { printf("usage: fmi3_host BINARY.so TOKEN RESOURCE_DIR STOP STEP [set:VR=VALUE]... [get:VR]...\n"); return 1; }
-#ifdef _WIN32
-    int n = MultiByteToWideChar(CP_UTF8, 0, argv[1], -1, NULL, 0);
-    wchar_t *w = (wchar_t *)malloc((size_t)n * sizeof *w);
-    MultiByteToWideChar(CP_UTF8, 0, argv[1], -1, w, n);
-    HMODULE h = LoadLibraryW(w);
-    free(w);
-    if (!h) { printf("cannot load %s: Windows error %lu\n", argv[1], (unsigned long)GetLastError()); return 2; }
-#else
-    void *h = dlopen(argv[1], RTLD_NOW | RTLD_LOCAL);
-    if (!h) { printf("dlopen failed: %s\n", dlerror()); return 2; }
-#endif
+    host_library h = load_binary(argv[1]);
+    if (!h) return 2;
     SYM(fmi3InstantiateCoSimulationTYPE, fmi3InstantiateCoSimulation)
     SYM(fmi3EnterInitializationModeTYPE, fmi3EnterInitializationMode)
     SYM(fmi3ExitInitializationModeTYPE, fmi3ExitInitializationMode)
@@ -100,18 +78,3 @@ static int run(int argc, char **argv)
     fflush(stdout);
     return (int)worst;
 }
-
-#ifdef _WIN32
-int wmain(int argc, wchar_t **wargv)
-{
-    char **argv = (char **)calloc((size_t)argc + 1, sizeof *argv);
-    for (int i = 0; i < argc; i++) {
-        int n = WideCharToMultiByte(CP_UTF8, 0, wargv[i], -1, NULL, 0, NULL, NULL);
-        argv[i] = (char *)malloc((size_t)n);
-        WideCharToMultiByte(CP_UTF8, 0, wargv[i], -1, argv[i], n, NULL, NULL);
-    }
-    return run(argc, argv);
-}
-#else
-int main(int argc, char **argv) { return run(argc, argv); }
-#endif

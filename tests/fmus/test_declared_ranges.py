@@ -39,8 +39,22 @@ def _differential_values(name: str) -> dict:
     return values
 
 
-BOUNDED = [v for v in differential_fmu.VARIABLES
-           if v.causality == "parameter" and (v.min is not None or v.max is not None)]
+def _bounded(module) -> list:
+    """The parameters of an FMU's adapter ``module`` that declare a min or a max."""
+    return [v for v in module.VARIABLES if v.causality == "parameter" and (v.min is not None or v.max is not None)]
+
+
+def _refuses_outside(module, values: dict, v) -> None:
+    """The model builds from ``values`` (the start value is inside); each value just outside the declared
+    range of ``v`` is refused, naming ``v``."""
+    module.build_model(dict(values))
+    for bad in _outside(v):
+        with pytest.raises(ParameterError) as e:
+            module.build_model(dict(values, **{v.name: bad}))
+        assert e.value.name == v.name, (v.name, bad, str(e.value))
+
+
+BOUNDED = _bounded(differential_fmu)
 
 
 def test_most_differential_parameters_declare_their_range():
@@ -52,24 +66,12 @@ def test_most_differential_parameters_declare_their_range():
 
 @pytest.mark.parametrize("v", BOUNDED, ids=lambda v: v.name)
 def test_differential_refuses_values_outside_the_declared_range(v):
-    values = _differential_values(v.name)
-    differential_fmu.build_model(dict(values))      # the start value is inside
-    for bad in _outside(v):
-        trial = dict(values, **{v.name: bad})
-        with pytest.raises(ParameterError) as e:
-            differential_fmu.build_model(trial)
-        assert e.value.name == v.name, (v.name, bad, str(e.value))
+    _refuses_outside(differential_fmu, _differential_values(v.name), v)
 
 
-@pytest.mark.parametrize("v", [v for v in wheel_fmu.VARIABLES if v.causality == "parameter"
-                               and (v.min is not None or v.max is not None)], ids=lambda v: v.name)
+@pytest.mark.parametrize("v", _bounded(wheel_fmu), ids=lambda v: v.name)
 def test_wheel_refuses_values_outside_the_declared_range(v):
-    values = {x.name: x.start for x in wheel_fmu.VARIABLES}
-    wheel_fmu.build_model(dict(values))
-    for bad in _outside(v):
-        with pytest.raises(ParameterError) as e:
-            wheel_fmu.build_model(dict(values, **{v.name: bad}))
-        assert e.value.name == v.name, (v.name, bad, str(e.value))
+    _refuses_outside(wheel_fmu, {x.name: x.start for x in wheel_fmu.VARIABLES}, v)
 
 
 @pytest.mark.parametrize("module", [differential_fmu, wheel_fmu, vehicle_fmu], ids=lambda m: m.FMU_NAME)
@@ -118,15 +120,9 @@ def test_checksum_file_is_the_fmus_own_digest(fmu_files):
         assert digest == hashlib.sha256(fmu.read_bytes()).hexdigest()
 
 
-@pytest.mark.parametrize("v", [v for v in vehicle_fmu.VARIABLES if v.causality == "parameter"
-                               and (v.min is not None or v.max is not None)], ids=lambda v: v.name)
+@pytest.mark.parametrize("v", _bounded(vehicle_fmu), ids=lambda v: v.name)
 def test_vehicle_refuses_values_outside_the_declared_range(v):
-    values = {x.name: x.start for x in vehicle_fmu.VARIABLES}
-    vehicle_fmu.build_model(dict(values))
-    for bad in _outside(v):
-        with pytest.raises(ParameterError) as e:
-            vehicle_fmu.build_model(dict(values, **{v.name: bad}))
-        assert e.value.name == v.name, (v.name, bad, str(e.value))
+    _refuses_outside(vehicle_fmu, {x.name: x.start for x in vehicle_fmu.VARIABLES}, v)
 
 
 def test_an_fmu_changed_after_its_build_is_not_current(tmp_path):

@@ -16,9 +16,9 @@ import math
 import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
-from fmpy.fmi1 import FMICallException
 from fmpy.fmi3 import FMU3Model, FMU3Slave
 from fmpy.validation import validate_fmu
+from fmu_session import enter_initialization, status_of
 from test_fmu_contract import CASES
 
 from harness.fmi.instance import fmu_cache
@@ -44,12 +44,8 @@ def pair(request, fmu_files, fmu3_files):
 def start3(path, name, case, stop=None, params=None) -> Instance3:
     inst = open_instance(name, path)
     assert isinstance(inst, Instance3)
-    s = inst.slave
-    s.setupExperiment(startTime=0.0, stopTime=stop)
-    s.enterInitializationMode()
-    for k, v in {**(params or {}), **case["inputs"]}.items():
-        inst.set_value(k, v)
-    s.exitInitializationMode()
+    enter_initialization(inst, params, case["inputs"], stop)
+    inst.slave.exitInitializationMode()
     return inst
 
 
@@ -66,12 +62,6 @@ def fmu3(path, name="raw") -> FMU3Slave:
 def real_outputs(inst) -> list[float]:
     return inst.slave.getReal([v.valueReference for v in inst.vars.values()
                                if v.causality == "output" and v.type == "Real"])
-
-
-def status_of(call) -> int:
-    with pytest.raises(FMICallException) as e:
-        call()
-    return e.value.status
 
 
 def test_fmpy_validates_the_fmi3_description(pair):

@@ -105,16 +105,23 @@ def test_a_mesh_levels_speed_derivatives():
         assert abs(fd - seen[1][1][k]) < 1e-3 * abs(fd), (k, fd, seen[1][1][k])
 
 
-def test_a_step_ends_at_the_stick_switch():
-    m = model_of(**STICKING)
-    t_cross = -m.wd / m.ad   # the rigid level: constant accelerations until w_d reaches 0
-    saved, n0 = m.get_state(), m.n_mode_switches
+def _switches_after(m, t0: float = 0.0):
+    """``step(hh)``: the mode switches of ``m`` after one step of ``hh`` from ``t0``, from its state now
+    (restored before every call)."""
+    saved = m.get_state()
 
     def step(hh):
         m.set_state(saved)
-        m.do_step(0.0, hh)
+        m.do_step(t0, hh)
         return m.n_mode_switches
 
+    return step
+
+
+def test_a_step_ends_at_the_stick_switch():
+    m = model_of(**STICKING)
+    t_cross = -m.wd / m.ad   # the rigid level: constant accelerations until w_d reaches 0
+    n0, step = m.n_mode_switches, _switches_after(m)
     h = 5e-3
     hx = transition_step(step, h, n0)
     assert hx is not None and 0.0 <= hx - t_cross <= 2e-6 * h
@@ -122,25 +129,14 @@ def test_a_step_ends_at_the_stick_switch():
     assert step(hx - 2e-6 * h) == n0   # just before it: still slipping
     # no switch in the next step (it stays stuck): None, the model stepped the whole step
     step(hx)
-    saved, t1 = m.get_state(), m.t
-
-    def step_on(hh):
-        m.set_state(saved)
-        m.do_step(t1, hh)
-        return m.n_mode_switches
-
+    t1 = m.t
+    step_on = _switches_after(m, t1)
     assert transition_step(step_on, h, n0 + 1) is None and m.t == pytest.approx(t1 + h) and m.stuck
 
 
 def test_a_mesh_levels_pin_stiction_ends_the_step_too():
     m = model_of(**STICKING, meshModel="compliant")
-    saved, n0 = m.get_state(), m.n_mode_switches
-
-    def step(hh):
-        m.set_state(saved)
-        m.do_step(0.0, hh)
-        return m.n_mode_switches
-
+    n0, step = m.n_mode_switches, _switches_after(m)
     h = 5e-3
     hx = transition_step(step, h, n0)
     assert hx is not None and 0.0 < hx < h and m.stuck

@@ -19,9 +19,10 @@ import zipfile
 
 import pytest
 from fmpy import read_model_description
-from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
+
+from fmu_session import enter_initialization, status_of, steps
 
 from harness.run.master import Instance, _make_logger
 
@@ -46,13 +47,8 @@ H = 1e-3
 
 
 def start(fmu, name, case, stop=None, params=None):
-    inst = Instance(name, fmu)
-    s = inst.slave
-    s.setupExperiment(startTime=0.0, stopTime=stop)
-    s.enterInitializationMode()
-    for k, v in {**(params or {}), **case["inputs"]}.items():
-        inst.set_value(k, v)
-    s.exitInitializationMode()
+    inst = enter_initialization(Instance(name, fmu), params, case["inputs"], stop)
+    inst.slave.exitInitializationMode()
     return inst
 
 
@@ -64,20 +60,6 @@ def outputs(inst) -> list[float]:
 
 def get(inst, name):
     return inst.slave.getReal([inst.var(name).valueReference])[0]
-
-
-def steps(inst, n, t0=0.0):
-    t = t0
-    for _ in range(n):
-        inst.slave.doStep(t, H)
-        t += H
-    return t
-
-
-def status_of(call) -> int:
-    with pytest.raises(FMICallException) as e:
-        call()
-    return e.value.status
 
 
 def last(inst) -> str:
@@ -332,13 +314,16 @@ def _serialized(inst) -> bytes:
     return data
 
 
+def _stepped(path, name, case):
+    """An instance after five steps, its time, its Real outputs and its serialized state."""
+    inst = start(path, name, case)
+    t = steps(inst, 5)
+    return inst, t, outputs(inst), _serialized(inst)
+
+
 def test_tampered_foreign_and_garbage_states_are_refused_and_the_instance_kept(fmu, fmu_files):
     name, path, case = fmu
-    inst = start(path, "s", case)
-    t = steps(inst, 5)
-    outs = [v.valueReference for v in inst.vars.values() if v.causality == "output" and v.type == "Real"]
-    before = inst.slave.getReal(outs)
-    good = _serialized(inst)
+    inst, t, before, good = _stepped(path, "s", case)
     doc = json.loads(good)
     param, bad_value = case["bad_param"]
     doc["values"][param] = bad_value
@@ -351,12 +336,12 @@ def test_tampered_foreign_and_garbage_states_are_refused_and_the_instance_kept(f
                       (good[: len(good) // 2], "not"), (b"", "not")):
         assert status_of(lambda: inst.slave.deSerializeFMUstate(data)) == 3, why
         assert why in last(inst), (why, last(inst))
-    assert inst.slave.getReal(outs) == before   # untouched
+    assert outputs(inst) == before   # untouched
     # a valid state still restores exactly, and the instance still steps
     state = inst.slave.deSerializeFMUstate(good)
     steps(inst, 3, t)
     inst.slave.setFMUstate(state)
-    assert inst.slave.getReal(outs) == before
+    assert outputs(inst) == before
     inst.slave.freeFMUstate(state)
     steps(inst, 3, t)
     inst.slave.freeInstance()
@@ -379,11 +364,7 @@ def test_nan_and_inf_inside_a_deserialized_state_are_refused_like_inputs(fmu):
     (the speeds, the integrator's memory, the bookkeeping) is refused with fmi2Error naming the entry,
     the instance untouched; the good state still restores (issue 45 item 5)."""
     name, path, case = fmu
-    inst = start(path, "nan", case)
-    t = steps(inst, 5)
-    outs = [v.valueReference for v in inst.vars.values() if v.causality == "output" and v.type == "Real"]
-    before = inst.slave.getReal(outs)
-    good = _serialized(inst)
+    inst, t, before, good = _stepped(path, "nan", case)
     doc = json.loads(good)
     paths = list(_finite_paths(doc["model"]))
     assert len(paths) > 5
@@ -397,7 +378,7 @@ def test_nan_and_inf_inside_a_deserialized_state_are_refused_like_inputs(fmu):
         msg = last(inst)
         # named by the model state's entry, or by the parameter the model's own set_state checks it as
         assert "finite number" in msg and ("model." in msg or "invalid parameter" in msg), msg
-    assert inst.slave.getReal(outs) == before
+    assert outputs(inst) == before
     state = inst.slave.deSerializeFMUstate(good)
     inst.slave.setFMUstate(state)
     inst.slave.freeFMUstate(state)

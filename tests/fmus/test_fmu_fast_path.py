@@ -8,9 +8,8 @@ from __future__ import annotations
 import math
 
 import pytest
-from fmpy.fmi1 import FMICallException
 
-from tests.fmus.fmu_session import start
+from tests.fmus.fmu_session import start, status_of, steps
 
 H = 1e-3
 CASES = {   # inputs of a normal run; an input with a declared range and a value outside it
@@ -27,19 +26,6 @@ def case(request, fmu_files):
 
 def reals(inst) -> list:
     return [v for v in inst.vars.values() if v.type == "Real"]
-
-
-def steps(inst, n: int, t: float) -> float:
-    for _ in range(n):
-        inst.slave.doStep(t, H)
-        t += H
-    return t
-
-
-def refusal(call) -> int:
-    with pytest.raises(FMICallException) as e:
-        call()
-    return e.value.status
 
 
 def test_reads_while_stepping_equal_the_slaves_own_getter(case):
@@ -89,10 +75,10 @@ def test_a_bad_input_stored_while_stepping_is_named_by_the_next_step_unless_repl
     for value, what in ((math.nan, "not a finite number"), (outside, "outside")):
         inst.messages.clear()
         inst.slave.setReal([vr], [value])
-        assert refusal(lambda: inst.slave.doStep(t, H)) == 2   # fmi2Discard
+        assert status_of(lambda: inst.slave.doStep(t, H)) == 2   # fmi2Discard
         errs = [m for s, m in inst.messages if s >= 2]
         assert len(errs) == 1 and bad in errs[0] and what in errs[0], errs
-        assert refusal(lambda: inst.slave.doStep(t, H)) == 2   # still there: refused again
+        assert status_of(lambda: inst.slave.doStep(t, H)) == 2   # still there: refused again
         inst.slave.setReal([vr], [good])
         t = steps(inst, 1, t)                                  # replaced: steps on
     inst.slave.setReal([vr], [math.nan])                       # bad, then good before the step
@@ -114,7 +100,7 @@ def test_a_restored_state_with_a_bad_input_is_checked_again(case):
     inst.slave.setReal([vr], [good])
     steps(inst, 1, t)
     inst.slave.setFMUState(state)
-    assert refusal(lambda: inst.slave.doStep(t, H)) == 2
+    assert status_of(lambda: inst.slave.doStep(t, H)) == 2
     assert bad in inst.last_message()
     inst.slave.freeFMUState(state)
     inst.slave.freeInstance()
@@ -148,8 +134,8 @@ def test_unknown_and_output_references_are_refused_while_stepping(case):
     n = max(v.valueReference for v in inst.vars.values())
     out = next(v for v in reals(inst) if v.causality == "output")
     for _ in range(2):   # the second time from the bridge's cache
-        assert refusal(lambda: inst.slave.getReal([n + 1000])) == 3
-        assert refusal(lambda: inst.slave.setReal([out.valueReference], [1.0])) == 3
+        assert status_of(lambda: inst.slave.getReal([n + 1000])) == 3
+        assert status_of(lambda: inst.slave.setReal([out.valueReference], [1.0])) == 3
     assert "value reference" in inst.last_message()
     steps(inst, 1, t)
     inst.slave.freeInstance()

@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from test_travel import ECOS, WHY_NOT, _read_csv, hidden_run
+from host_cases import build_c_host, read_csv
+from test_travel import ECOS, WHY_NOT, hidden_run
 
 pytestmark = [pytest.mark.skipif(WHY_NOT is not None, reason=str(WHY_NOT)),
               pytest.mark.skipif(ECOS is None, reason="the ecos command line (pip install ecospy; apt-get install "
@@ -44,7 +45,7 @@ def test_the_container_runs_in_ecos_where_no_python_is(container_fmu):
                        "echo RC $?\n", root)
         log = (root / "log.txt").read_text(errors="replace") if (root / "log.txt").exists() else ""
         assert "RC 0" in r.stdout, r.stdout + r.stderr + log[-3000:]
-        got = {k.split("::", 1)[-1].split("[", 1)[0]: v for k, v in _read_csv(root / "scene.csv").items()}
+        got = {k.split("::", 1)[-1].split("[", 1)[0]: v for k, v in read_csv(root / "scene.csv").items()}
         ref = simulate_fmu(str(container_fmu), stop_time=STOP, step_size=STEP, output_interval=STEP)
         common = [n for n in ref.dtype.names[1:] if n in got]
         assert len(common) >= 20, common
@@ -72,8 +73,7 @@ def test_the_container_runs_in_our_c_host_where_no_python_is(container_fmu, tmp_
     try:
         os.chmod(root, 0o777)
         exe = root / "fmi2_any_host"
-        subprocess.run(["gcc", "-O1", "-o", str(exe), str(Path(__file__).resolve().parents[1] / "c_host" /
-                                                              "fmi2_any_host.c"), "-ldl", "-lm"], check=True)
+        build_c_host("fmi2_any_host", exe)
         unpacked = root / "scene ü"
         with zipfile.ZipFile(container_fmu) as z:
             z.extractall(unpacked)

@@ -1,5 +1,5 @@
 """The damaged-runtime cases of tests/harness/test_hosts.py (which ran in fmusim, no longer in
-../shared/hosts) in OUR OWN C host (tests/c_host/fmi2_host.c: not an independent host, a host
+../shared/hosts) in OUR OWN C host (tests/c_host/fmi2_any_host.c: not an independent host, a host
 written here on fmpy's FMI headers), bare environment: each damaged copy of SpurDifferential.fmu
 must be refused at instantiation (the host's exit 4, never a signal) with the cause our loader
 logged. ecos, the installable C++ host, cannot show this: it exits 0 and writes zeros when an FMU
@@ -7,6 +7,7 @@ fails to instantiate (seen with the "no libpython" copy), so it is not used for 
 """
 from __future__ import annotations
 
+import re
 import shutil
 import subprocess
 import zipfile
@@ -15,35 +16,47 @@ from pathlib import Path
 import pytest
 from fmpy import read_model_description
 
-from test_hosts import BARE_ENV, CASES, _copy
+from host_cases import build_c_host
+from test_hosts import BARE_ENV, CASES, _copy, planted_env
 
-HERE = Path(__file__).resolve().parents[1]   # tests/
 
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="no C compiler (gcc) for our own C host")
 
 
 @pytest.fixture(scope="module")
 def own_host(tmp_path_factory) -> Path:
-    exe = tmp_path_factory.mktemp("own host") / "fmi2_host"
-    subprocess.run(["gcc", "-o", str(exe), str(HERE / "c_host" / "fmi2_host.c"), "-ldl"], check=True)
-    return exe
+    return build_c_host("fmi2_any_host", tmp_path_factory.mktemp("own host") / "fmi2_any_host")
 
 
-def _run(exe: Path, fmu: Path, where: Path) -> subprocess.CompletedProcess:
+def _run(exe: Path, fmu: Path, where: Path, env: dict = BARE_ENV) -> subprocess.CompletedProcess:
     unpacked = where / "unpacked ü"
     with zipfile.ZipFile(fmu) as z:
         z.extractall(unpacked)
     md = read_model_description(str(unpacked))
+    return subprocess.run(straight_line_args(exe, unpacked, md), cwd=where, env=env, capture_output=True, text=True,
+                          timeout=120)
+
+
+def straight_line_args(exe: Path, unpacked: Path, md) -> list[str]:
+    """fmi2_any_host's command line for the paper's straight-line case in the unzipped SpurDifferential:
+    10 steps of 1 ms, the carrier torque printed ("run 0 status 0 VR=2100...")."""
     vr = {v.name: v.valueReference for v in md.modelVariables}
-    args = [str(exe), str(unpacked / "binaries" / "linux64" / "SpurDifferential.so"), md.guid,
-            (unpacked / "resources").as_uri(), str(vr["carrier.w_ref"]), str(vr["left.tau"]), str(vr["right.tau"]),
-            str(vr["carrier.tauDrive"])]
-    return subprocess.run(args, cwd=where, env=BARE_ENV, capture_output=True, text=True, timeout=120)
+    return [str(exe), str(unpacked / "binaries" / "linux64" / "SpurDifferential.so"), md.guid,
+            (unpacked / "resources").as_uri(), "10", "1e-3", "1", f"{vr['carrier.w_ref']}=1.389",
+            f"{vr['left.tau']}=-1050", f"{vr['right.tau']}=-1050", "get", str(vr["carrier.tauDrive"])]
+
+
+def tau_drive(r: subprocess.CompletedProcess, md) -> float | None:
+    """The carrier torque of a run that ended with status 0 (None: no such line)."""
+    vr = next(v.valueReference for v in md.modelVariables if v.name == "carrier.tauDrive")
+    found = re.findall(rf"^run 0 status 0 {vr}=(\S+)$", r.stdout, re.M)
+    return float(found[0]) if len(found) == 1 else None
 
 
 def test_the_intact_fmu_runs_in_our_host(own_host, differential_fmu, tmp_path):
     r = _run(own_host, differential_fmu, tmp_path)
-    assert r.returncode == 0 and "status 0 tauDrive 2100.000000" in r.stdout, r.stdout[-2000:] + r.stderr[-2000:]
+    drive = tau_drive(r, read_model_description(str(differential_fmu)))
+    assert r.returncode == 0 and drive is not None and abs(drive - 2100.0) < 5e-7, r.stdout[-2000:] + r.stderr[-2000:]
 
 
 @pytest.mark.parametrize("case", list(CASES))
@@ -61,23 +74,8 @@ def test_the_hosts_python_variables_and_planted_files_do_not_reach_the_fmu_in_ou
     """test_hosts.py's planted-files case (it ran in fmusim): PYTHONHOME, PYTHONPATH, PYTHONSTARTUP
     at a folder with a planted numpy.py and sitecustomize.py, the same files in the working folder:
     none runs, the FMU runs."""
-    evil = tmp_path / "evil"
-    evil.mkdir()
-    marker = tmp_path / "RAN"
-    payload = f"open({str(marker)!r}, 'w').write('planted code ran')\n"
-    for name in ("numpy.py", "sitecustomize.py", "usercustomize.py", "encodings.py", "startup.py"):
-        (evil / name).write_text(payload)
-        (tmp_path / name).write_text(payload)
-    env = {**BARE_ENV, "PYTHONPATH": str(evil), "PYTHONHOME": str(evil), "PYTHONSTARTUP": str(evil / "startup.py"),
-           "PYTHONUSERBASE": str(evil)}
-    unpacked = tmp_path / "unpacked"
-    with zipfile.ZipFile(differential_fmu) as z:
-        z.extractall(unpacked)
-    md = read_model_description(str(unpacked))
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    args = [str(own_host), str(unpacked / "binaries" / "linux64" / "SpurDifferential.so"), md.guid,
-            (unpacked / "resources").as_uri(), str(vr["carrier.w_ref"]), str(vr["left.tau"]), str(vr["right.tau"]),
-            str(vr["carrier.tauDrive"])]
-    r = subprocess.run(args, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
-    assert r.returncode == 0 and "status 0 tauDrive 2100.000000" in r.stdout, r.stdout[-2000:] + r.stderr[-2000:]
+    env, marker = planted_env(tmp_path)
+    r = _run(own_host, differential_fmu, tmp_path, env)
+    drive = tau_drive(r, read_model_description(str(differential_fmu)))
+    assert r.returncode == 0 and drive is not None and abs(drive - 2100.0) < 5e-7, r.stdout[-2000:] + r.stderr[-2000:]
     assert not marker.exists(), "a planted file ran inside the FMU"

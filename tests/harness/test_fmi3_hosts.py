@@ -12,7 +12,6 @@ export names the FMI 3.0 FMUs when asked to.
 """
 from __future__ import annotations
 
-import csv
 import os
 import shlex
 import shutil
@@ -25,7 +24,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
-from host_cases import CASES, STEP, STOP
+from host_cases import CASES, STEP, STOP, build_c_host, compare, ecos_binary, read_csv
 
 from harness.fmi.instance import fmu_cache
 
@@ -75,30 +74,6 @@ def reference(fmu_files):
     return out
 
 
-def _read_csv(path: Path) -> dict[str, np.ndarray]:
-    with open(path, newline="") as f:
-        rows = list(csv.reader(f))
-    out = {}
-    for i, n in enumerate(n.strip().strip('"') for n in rows[0]):
-        try:
-            out[n] = np.array([float(r[i]) for r in rows[1:] if r], dtype=float)
-        except ValueError:
-            continue
-    return out
-
-
-def _compare(got: dict, ref: dict, what: str, tol: float = 1e-12):
-    t_ref = ref["time"]
-    common = [n for n in got if n in ref and n != "time"]
-    assert len(common) >= 3, f"{what}: too few common columns ({common})"
-    idx = np.searchsorted(got["time"], t_ref - 1e-12)
-    ok = (idx < len(got["time"])) & (np.abs(got["time"][np.minimum(idx, len(got["time"]) - 1)] - t_ref) < 1e-9)
-    assert ok.sum() >= int(STOP / STEP), f"{what}: the host wrote {len(got['time'])} rows"
-    for n in common:
-        g, r = got[n][idx[ok]], ref[n][ok]
-        assert np.allclose(g, r, rtol=tol, atol=tol), f"{what}: {n} differs by {np.max(np.abs(g - r)):.3g}"
-
-
 def _loop(cmd: str, runs: int = RUNS) -> str:
     return f"i=1; while [ $i -le {runs} ]; do {cmd}; echo RUN $i $?; i=$((i+1)); done\n"
 
@@ -125,7 +100,7 @@ def test_fmusim_runs_each_fmi3_fmu_bare(odd_dir, reference):
     for name, codes in _side_by_side(scripts, odd_dir).items():
         err = odd_dir / f"err-fmusim-{name}.txt"
         assert codes == [0] * RUNS, f"{name}: exit codes {codes}\n{err.read_text(errors='replace')[-3000:] if err.exists() else ''}"
-        _compare(_read_csv(odd_dir / f"out-fmusim-{name}.csv"), reference[name], f"fmusim {name}")
+        compare(read_csv(odd_dir / f"out-fmusim-{name}.csv"), reference[name], f"fmusim {name}", tol=1e-12)
 
 
 FMPY_SCRIPT = """
@@ -149,16 +124,12 @@ def test_fmpy_runs_each_fmi3_fmu_bare(odd_dir, unpacked, reference):
     for name, codes in _side_by_side(scripts, odd_dir).items():
         log = odd_dir / f"log-fmpy-{name}.txt"
         assert codes == [0] * RUNS, f"{name}: exit codes {codes}\n{log.read_text(errors='replace')[-3000:] if log.exists() else ''}"
-        _compare(_read_csv(odd_dir / f"out-fmpy-{name}.csv"), reference[name], f"fmpy {name}")
+        compare(read_csv(odd_dir / f"out-fmpy-{name}.csv"), reference[name], f"fmpy {name}", tol=1e-12)
 
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="no C compiler")
 def test_our_c_host_runs_each_fmi3_fmu_bare(odd_dir, unpacked, reference):
-    from harness.build.fmu import _fmi2_headers
-
-    exe = odd_dir / "fmi3_host"
-    subprocess.run(["gcc", "-O2", "-Wall", f"-I{_fmi2_headers()}", "-o", str(exe), str(HERE / "c_host" / "fmi3_host.c"),
-                    "-ldl"], check=True)
+    exe = build_c_host("fmi3_host", odd_dir / "fmi3_host")
     scripts, gets = {}, {}
     for name in CASES:
         md = read_model_description(str(unpacked[name]))
@@ -192,19 +163,7 @@ def test_our_c_host_runs_each_fmi3_fmu_bare(odd_dir, unpacked, reference):
     assert got == pytest.approx(reference[name]["left.w"][-1], rel=1e-12, abs=1e-12)
 
 
-def _ecos_binary() -> Path | None:
-    try:
-        import ecospy
-    except (ImportError, OSError):
-        return None
-    exe = Path(ecospy.__file__).parent / "binaries" / "ecos"
-    if not exe.is_file():
-        return None
-    r = subprocess.run(["ldd", str(exe)], capture_output=True, text=True)
-    return exe if "not found" not in r.stdout else None
-
-
-ECOS = _ecos_binary()
+ECOS = ecos_binary()
 
 
 @pytest.mark.skipif(ECOS is None, reason="the ecos command line (pip install ecospy; apt-get install libtbb12) "
@@ -230,8 +189,8 @@ def test_ecos_runs_each_fmi3_fmu_bare(odd_dir, fmu_files):
         assert codes == [0] * runs, f"{name}: exit codes {codes}\n{log[-3000:]}"
         res = simulate_fmu(fmu_cache().get(fmu_files[name])[0], stop_time=STOP, output_interval=STEP)
         ref = {n: np.asarray(res[n], dtype=float) for n in res.dtype.names}
-        got = {k.split("::", 1)[-1].split("[", 1)[0]: v for k, v in _read_csv(work / f"{name}.csv").items()}
-        _compare(got, ref, f"ecos {name}", tol=5e-7)
+        got = {k.split("::", 1)[-1].split("[", 1)[0]: v for k, v in read_csv(work / f"{name}.csv").items()}
+        compare(got, ref, f"ecos {name}", tol=5e-7)
 
 
 @pytest.mark.parametrize("scene", ["vehicle-cornering", "tip-in-tip-out", "wheel-lift"])
@@ -283,4 +242,4 @@ def test_fmusim_runs_each_fmi3_fmu_where_no_python_is(odd_dir, reference):
     codes = {line.split()[1]: int(line.split()[2]) for line in r.stdout.splitlines() if line.startswith("RUN ")}
     assert codes == {name: 0 for name in CASES}, r.stdout + r.stderr
     for name in CASES:
-        _compare(_read_csv(odd_dir / f"hidden-{name}.csv"), reference[name], f"fmusim hidden {name}")
+        compare(read_csv(odd_dir / f"hidden-{name}.csv"), reference[name], f"fmusim hidden {name}", tol=1e-12)

@@ -112,19 +112,27 @@ def test_the_description_as_a_special_file_is_refused_at_once(differential_fmu, 
         shutil.rmtree(unpacked)
 
 
+def planted_env(where: Path) -> tuple[dict, Path]:
+    """A bare environment whose PYTHONHOME, PYTHONPATH, PYTHONSTARTUP and PYTHONUSERBASE name a folder
+    with a planted numpy.py, sitecustomize.py, ... (the same files in ``where``, the working folder);
+    and the file any of them creates when it runs."""
+    evil = where / "evil"
+    evil.mkdir()
+    marker = where / "RAN"
+    payload = f"open({str(marker)!r}, 'w').write('planted code ran')\n"
+    for name in ("numpy.py", "sitecustomize.py", "usercustomize.py", "encodings.py", "startup.py"):
+        (evil / name).write_text(payload)
+        (where / name).write_text(payload)
+    env = {**BARE_ENV, "PYTHONPATH": str(evil), "PYTHONHOME": str(evil), "PYTHONSTARTUP": str(evil / "startup.py"),
+           "PYTHONUSERBASE": str(evil)}
+    return env, marker
+
+
 @NEED_FMUSIM
 def test_the_hosts_python_variables_and_planted_files_do_not_reach_the_fmu(differential_fmu, tmp_path):
     """PYTHONHOME, PYTHONPATH, PYTHONSTARTUP pointing at a folder with a planted numpy.py and
     sitecustomize.py, and the same files in the working folder: none runs, the FMU runs."""
-    evil = tmp_path / "evil"
-    evil.mkdir()
-    marker = tmp_path / "RAN"
-    payload = f"open({str(marker)!r}, 'w').write('planted code ran')\n"
-    for name in ("numpy.py", "sitecustomize.py", "usercustomize.py", "encodings.py", "startup.py"):
-        (evil / name).write_text(payload)
-        (tmp_path / name).write_text(payload)
-    env = {**BARE_ENV, "PYTHONPATH": str(evil), "PYTHONHOME": str(evil), "PYTHONSTARTUP": str(evil / "startup.py"),
-           "PYTHONUSERBASE": str(evil)}
+    env, marker = planted_env(tmp_path)
     r = _fmusim(differential_fmu, tmp_path, env=env)
     assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
     assert not marker.exists(), "a planted file ran inside the FMU"

@@ -12,9 +12,8 @@ import signal
 import subprocess
 import sys
 import time
-import zipfile
 
-from tests.harness.test_python_hosts import _children, _gone
+from tests.harness.test_python_hosts import _children, _gone, _misbehaving_copy
 
 HOST = r"""
 import os, signal, sys, time
@@ -85,20 +84,7 @@ def test_the_call_deadline(differential_fmu):
 
 def _sleeping_copy(fmu, out):
     """The FMU with a do_step that blocks for good (sleeps, no CPU) after the first steps."""
-    with zipfile.ZipFile(fmu) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as zout:
-        for item in zin.infolist():
-            data = zin.read(item.filename)
-            if item.filename == "resources/spurdiff/_fmu_entry.py":
-                data += (b"\nimport time as _t\n_base = SpurDifferential\n"
-                         b"class SpurDifferential(_base):\n"
-                         b"    def fmi2_native_enter(self):\n"
-                         b"        return False\n"
-                         b"    def fmi2_do_step(self, t, h, nsp):\n"
-                         b"        if t > 0.5e-3:\n"
-                         b"            _t.sleep(3600)\n"
-                         b"        return super().fmi2_do_step(t, h, nsp)\n")
-            zout.writestr(item, data)
-    return out
+    return _misbehaving_copy(fmu, out, 0.5e-3, "time", "_m.sleep(3600)")
 
 
 def test_a_silent_model_process_ends_the_call_with_an_error(differential_fmu, tmp_path):

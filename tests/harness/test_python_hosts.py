@@ -92,22 +92,28 @@ def test_fmpy_under_each_python_gives_the_same_results(label, fmpy_targets, fmu_
             assert np.allclose(got["results"][name][n], ref[n], rtol=1e-12, atol=0), f"{label} {name} {n}"
 
 
-def _crashing_copy(fmu: Path, out: Path) -> Path:
-    """The FMU with a model that dereferences NULL in its third step."""
+def _misbehaving_copy(fmu: Path, out: Path, after: float, module: str, action: str) -> Path:
+    """The FMU with a model whose steps past t = ``after`` run ``action`` (with ``module`` imported as
+    ``_m``) before stepping; every step goes through fmi2_do_step (no native step)."""
     with zipfile.ZipFile(fmu) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as zout:
         for item in zin.infolist():
             data = zin.read(item)
             if item.filename == "resources/spurdiff/_fmu_entry.py":
-                data += (b"\nimport ctypes as _c\n_base = SpurDifferential\n"
-                         b"class SpurDifferential(_base):\n"
-                         b"    def fmi2_native_enter(self):\n"    # every step through fmi2_do_step
-                         b"        return False\n"
-                         b"    def fmi2_do_step(self, t, h, nsp):\n"
-                         b"        if t > 1.5e-3:\n"
-                         b"            _c.string_at(0)\n"
-                         b"        return super().fmi2_do_step(t, h, nsp)\n")
+                data += (f"\nimport {module} as _m\n_base = SpurDifferential\n"
+                         "class SpurDifferential(_base):\n"
+                         "    def fmi2_native_enter(self):\n"
+                         "        return False\n"
+                         "    def fmi2_do_step(self, t, h, nsp):\n"
+                         f"        if t > {after!r}:\n"
+                         f"            {action}\n"
+                         "        return super().fmi2_do_step(t, h, nsp)\n").encode()
             zout.writestr(item, data)
     return out
+
+
+def _crashing_copy(fmu: Path, out: Path) -> Path:
+    """The FMU with a model that dereferences NULL in its third step."""
+    return _misbehaving_copy(fmu, out, 1.5e-3, "ctypes", "_m.string_at(0)")
 
 
 def test_a_crash_of_the_model_in_its_own_process_is_an_error_status(differential_fmu, tmp_path):

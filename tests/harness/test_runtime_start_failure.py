@@ -6,18 +6,17 @@ from __future__ import annotations
 import shutil
 import subprocess
 import zipfile
-from pathlib import Path
 
 import pytest
 from fmpy import read_model_description
 
-HERE = Path(__file__).resolve().parents[1]   # tests/
+from host_cases import build_c_host
+from test_damaged_runtime_own_host import straight_line_args
 
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="no C compiler")
 def test_a_runtime_that_fails_to_start_says_why_in_one_line(differential_fmu, tmp_path):
-    exe = tmp_path / "fmi2_host"
-    subprocess.run(["gcc", "-o", str(exe), str(HERE / "c_host" / "fmi2_host.c"), "-ldl"], check=True)
+    exe = build_c_host("fmi2_any_host", tmp_path / "fmi2_any_host")
     unpacked = tmp_path / "broken"
     with zipfile.ZipFile(differential_fmu) as z:
         z.extractall(unpacked)
@@ -25,11 +24,8 @@ def test_a_runtime_that_fails_to_start_says_why_in_one_line(differential_fmu, tm
     assert stdlib.is_file()
     stdlib.unlink()                      # no standard library: the interpreter cannot start
     md = read_model_description(str(differential_fmu))
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    r = subprocess.run([str(exe), str(unpacked / "binaries" / "linux64" / "SpurDifferential.so"), md.guid,
-                        (unpacked / "resources").as_uri(), *(str(vr[k]) for k in
-                                                             ("carrier.w_ref", "left.tau", "right.tau", "carrier.tauDrive"))],
-                       env={"PATH": "/usr/bin:/bin"}, capture_output=True, text=True, timeout=60)
+    r = subprocess.run(straight_line_args(exe, unpacked, md), env={"PATH": "/usr/bin:/bin"}, capture_output=True,
+                       text=True, timeout=60)
     assert r.returncode != 0
     assert "cannot start the FMU's Python 3.11" in r.stdout, r.stdout + r.stderr
     assert "Python path configuration" not in r.stdout + r.stderr and "sys.path" not in r.stderr, r.stderr

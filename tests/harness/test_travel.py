@@ -11,7 +11,6 @@ where namespaces are not permitted (CI runs as root, so it runs them).
 """
 from __future__ import annotations
 
-import csv
 import glob
 import os
 import re
@@ -26,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
-from host_cases import CASES, STEP, STOP
+from host_cases import CASES, STEP, STOP, build_c_host, compare, ecos_binary, read_csv
 
 HERE = Path(__file__).resolve().parents[1]   # tests/
 HOSTS = HERE.parent.parent / "shared" / "hosts"
@@ -113,32 +112,6 @@ def reference(fmu_files):
     return out
 
 
-def _read_csv(path: Path) -> dict[str, np.ndarray]:
-    with open(path, newline="") as f:
-        rows = list(csv.reader(f))
-    names = [n.strip().strip('"') for n in rows[0]]
-    out = {}
-    for i, n in enumerate(names):
-        try:
-            out[n] = np.array([float(r[i]) for r in rows[1:] if r], dtype=float)
-        except ValueError:
-            continue
-    return out
-
-
-def _compare(got: dict, ref: dict, what: str, rtol: float = 1e-9, atol: float = 1e-9):
-    """The host's columns against fmpy's at the times both wrote (a host may also write t = 0)."""
-    t_ref = ref["time"]
-    common = [n for n in got if n in ref and n != "time"]
-    assert len(common) >= 3, f"{what}: too few common columns ({common})"
-    idx = np.searchsorted(got["time"], t_ref - 1e-12)
-    ok = (idx < len(got["time"])) & (np.abs(got["time"][np.minimum(idx, len(got["time"]) - 1)] - t_ref) < 1e-9)
-    assert ok.sum() >= int(STOP / STEP), f"{what}: the host wrote {len(got['time'])} rows"
-    for n in common:
-        g, r = got[n][idx[ok]], ref[n][ok]
-        assert np.allclose(g, r, rtol=rtol, atol=atol), f"{what}: {n} differs from fmpy by {np.max(np.abs(g - r)):.3g}"
-
-
 def _loop(cmd: str, runs: int = RUNS) -> str:
     """`runs` runs of cmd; prints 'RUN i rc' after each."""
     return f"i=1; while [ $i -le {runs} ]; do {cmd}; echo RUN $i $?; i=$((i+1)); done\n"
@@ -175,7 +148,7 @@ def test_fmusim_runs_each_fmu_where_no_python_is(odd_dir, reference):
         err = err.read_text(errors="replace") if err.exists() else ""
         codes = _exit_codes(r.stdout)
         assert codes == [0] * RUNS, f"{name}: exit codes {codes}\n{r.stdout[-2000:]}{r.stderr[-2000:]}{err[-3000:]}"
-        _compare(_read_csv(odd_dir / f"out-fmusim-{name}.csv"), reference[name], f"fmusim {name}")
+        compare(read_csv(odd_dir / f"out-fmusim-{name}.csv"), reference[name], f"fmusim {name}")
 
 
 @pytest.mark.skipif(not (HOSTS / "fmuCheck.linux64").is_file(), reason=f"{HOSTS}/fmuCheck.linux64 is absent")
@@ -197,13 +170,13 @@ def test_fmucheck_runs_each_fmu_where_no_python_is(odd_dir, reference):
         log = (odd_dir / f"log-fmucheck-{name}.txt").read_text(errors="replace")
         codes = _exit_codes(r.stdout)
         assert codes == [0] * RUNS, f"{name}: exit codes {codes}\n{r.stderr[-2000:]}{log[-3000:]}"
-        _compare(_read_csv(odd_dir / f"out-fmucheck-{name}.csv"), reference[name], f"fmuCheck {name}")
+        compare(read_csv(odd_dir / f"out-fmucheck-{name}.csv"), reference[name], f"fmuCheck {name}")
 
 
 @pytest.mark.skipif(shutil.which("gcc") is None, reason="no C compiler")
 def test_our_c_host_runs_the_differential_where_no_python_is(odd_dir, differential_fmu):
     exe = odd_dir / "fmi2_any_host"
-    subprocess.run(["gcc", "-o", str(exe), str(HERE / "c_host" / "fmi2_any_host.c"), "-ldl"], check=True)
+    build_c_host("fmi2_any_host", exe)
     os.chmod(exe, 0o755)
     unpacked = odd_dir / "unpacked differential ü"
     with zipfile.ZipFile(differential_fmu) as z:
@@ -225,19 +198,7 @@ def test_our_c_host_runs_the_differential_where_no_python_is(odd_dir, differenti
     assert len(drive) == RUNS and all(abs(float(x) - 2100.0) < 1e-6 for x in drive), text[-3000:]
 
 
-def _ecos_binary() -> Path | None:
-    try:
-        import ecospy
-    except (ImportError, OSError):
-        return None
-    exe = Path(ecospy.__file__).parent / "binaries" / "ecos"
-    if not exe.is_file():
-        return None
-    r = subprocess.run(["ldd", str(exe)], capture_output=True, text=True)
-    return exe if "not found" not in r.stdout else None
-
-
-ECOS = _ecos_binary()
+ECOS = ecos_binary()
 
 
 @pytest.mark.skipif(ECOS is None, reason="the ecos command line (pip install ecospy; apt-get install libtbb12) "
@@ -263,6 +224,6 @@ def test_ecos_runs_each_fmu_where_no_python_is(odd_dir, fmu_files):
         assert codes == [0] * RUNS, f"{name}: exit codes {codes}\n{r.stderr[-2000:]}{log[-3000:]}"
         res = simulate_fmu(str(fmu_files[name]), stop_time=STOP, output_interval=STEP)
         ref = {n: np.asarray(res[n], dtype=float) for n in res.dtype.names}
-        got = {k.split("::", 1)[-1].split("[", 1)[0]: v for k, v in _read_csv(work / f"{name}.csv").items()}
+        got = {k.split("::", 1)[-1].split("[", 1)[0]: v for k, v in read_csv(work / f"{name}.csv").items()}
         # ecos writes six decimals (or seven significant digits for large values): half a unit of either
-        _compare(got, ref, f"ecos {name}", rtol=5e-7, atol=5e-7)
+        compare(got, ref, f"ecos {name}", tol=5e-7)

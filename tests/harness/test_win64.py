@@ -25,11 +25,8 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from host_cases import CASES, STEP, STOP  # noqa: E402
+from host_cases import CASES, MINGW, STEP, STOP, build_c_host  # noqa: E402
 
-HERE = Path(__file__).resolve().parent.parent
-HOST = HERE / "c_host" / "fmi2_any_host.c"
-MINGW = "x86_64-w64-mingw32-gcc"
 PROCESSES = int(os.environ.get("SPURDIFF_WINE_PROCESSES", "1"))
 RUNS_PER_PROCESS = 2
 # (input for NaN, parameter, value outside its range) per FMU, as tests/fmus/test_fmu_contract.py
@@ -66,9 +63,8 @@ def wine(tmp_path_factory):
 def hosts(tmp_path_factory):
     out = tmp_path_factory.mktemp("hosts")
     exe, elf = out / "fmi2_any_host.exe", out / "fmi2_any_host"
-    subprocess.run([MINGW, "-O2", "-Wall", "-municode", "-D__USE_MINGW_ANSI_STDIO=1", "-static", "-o", str(exe),
-                    str(HOST)], check=True)
-    subprocess.run(["gcc", "-O2", "-Wall", "-o", str(elf), str(HOST), "-ldl", "-lm"], check=True)
+    build_c_host("fmi2_any_host", exe, windows=True)
+    build_c_host("fmi2_any_host", elf)
     return exe, elf
 
 
@@ -324,14 +320,12 @@ def test_the_coupled_scene_under_a_windows_master_equals_linux64(fmi, wine, wind
 
 
 # ---------------------------------------------------------------- FMI 3.0: binaries/x86_64-windows
-HOST3 = HERE / "c_host" / "fmi3_host.c"
 
 
 @pytest.fixture(scope="module")
 def fmi3_under_wine(fmu_files, wine, tmp_path_factory):
     """The FMI 3.0 FMUs unzipped into C:/spurdiff wine ü/<name>-fmi3/, and tests/c_host/fmi3_host.c
     built for linux64 and (with mingw-w64, -municode) for win64."""
-    from harness.build.fmu import _fmi2_headers
     from harness.build.fmu3 import build
 
     _, prefix = wine
@@ -347,9 +341,8 @@ def fmi3_under_wine(fmu_files, wine, tmp_path_factory):
         out[name] = root / f"{name}-fmi3"
     bins = tmp_path_factory.mktemp("hosts3")
     exe, elf = bins / "fmi3_host.exe", bins / "fmi3_host"
-    subprocess.run([MINGW, "-O2", "-Wall", "-municode", "-D__USE_MINGW_ANSI_STDIO=1", "-static", f"-I{_fmi2_headers()}",
-                    "-o", str(exe), str(HOST3)], check=True)
-    subprocess.run(["gcc", "-O2", "-Wall", f"-I{_fmi2_headers()}", "-o", str(elf), str(HOST3), "-ldl"], check=True)
+    build_c_host("fmi3_host", exe, windows=True)
+    build_c_host("fmi3_host", elf)
     yield out, exe, elf
     for folder in out.values():
         shutil.rmtree(folder, ignore_errors=True)

@@ -147,6 +147,15 @@ def energy_balance(m, e0):
     return m.work_in - (m.kinetic_energy + m.potential_energy - e0) - m.energy_loss
 
 
+def step_with_growing_loss(m, duration: float, h: float) -> None:
+    """Steps of ``h`` from t = 0 over ``duration``; the dissipated energy never decreases."""
+    loss = 0.0
+    for k in range(int(round(duration / h))):
+        m.do_step(k * h, h)
+        assert m.energy_loss >= loss - 1e-12
+        loss = m.energy_loss
+
+
 @pytest.mark.parametrize("h", STEPS)
 def test_stiff_contact_from_unloaded_meshes_at_a_coarse_step(h):
     """The paper's loads applied at t = 0 to unloaded IMPACT contacts with backlash (mesh modes
@@ -209,15 +218,11 @@ def test_mesh_levels_are_passive_and_finite_for_any_loads(t0, dt, h, level, back
     300 N m, five times the paper's locking torque), applied as a step to the preloaded paper state.
     (Larger differences on the bare differential, with nothing but the suns' own inertia, spin the
     suns past 10,000 rad/s within 20 ms; a step the integrator cannot finish then ends in a
-    StepError with the state unchanged, tested in test_mesh_dynamics.py.)"""
+    StepError with the state unchanged, tested in mesh/test_mesh_interface.py.)"""
     m = meshed(level=level, backlash=backlash, flankFriction=flank)
     e0 = m.kinetic_energy + m.potential_energy
     m.tau_L, m.tau_R = t0 - dt / 2, t0 + dt / 2
-    loss = 0.0
-    for k in range(int(round(0.02 / h))):
-        m.do_step(k * h, h)
-        assert m.energy_loss >= loss - 1e-12
-        loss = m.energy_loss
+    step_with_growing_loss(m, 0.02, h)
     assert finite(m.wc, m.w_L, m.w_R, m.tau_drive, m.tau_mesh_L, m.tau_mesh_R, *forces(m))
     scale = max(abs(m.work_in), m.kinetic_energy, m.energy_loss, 1.0)
     assert energy_balance(m, e0) > -1e-3 * scale   # never a gain beyond the integration tolerance
@@ -363,11 +368,7 @@ def test_drawn_gear_tables_loads_and_steps_stay_finite_passive_and_kinematic(zs,
     m.initialize()
     e0 = m.kinetic_energy + getattr(m, "potential_energy", 0.0)
     m.tau_c = t0                         # drive against the loads, plus their difference
-    loss = 0.0
-    for k in range(int(round(0.05 / h))):
-        m.do_step(k * h, h)
-        assert m.energy_loss >= loss - 1e-12
-        loss = m.energy_loss
+    step_with_growing_loss(m, 0.05, h)
     assert finite(m.wc, m.w_L, m.w_R, m.tau_mesh_L, m.tau_mesh_R, m.locking_torque, *forces(m))
     stored = m.kinetic_energy + getattr(m, "potential_energy", 0.0) - e0
     scale = max(abs(m.work_in), m.kinetic_energy, m.energy_loss, 1.0)

@@ -11,9 +11,9 @@ import math
 import pytest
 
 from spurdiff.errors import ParameterError, StepError
-from spurdiff.vehicle.car import STEER_ANGLE, Vehicle, VehicleParams
+from spurdiff.vehicle.car import Vehicle, VehicleParams
 from spurdiff.vehicle.wheel import WheelLoad, WheelLoadParams
-from tests.physics.test_vehicle_kernel import _car_inputs, _same, _wheel_inputs, library  # noqa: F401
+from tests.physics.test_vehicle_kernel import _car_inputs, _car_params, _same, _started, _wheel_inputs, library  # noqa: F401
 
 
 def _both(cls, params):
@@ -32,15 +32,7 @@ def _native_outputs(plan) -> dict:
 
 @pytest.mark.parametrize("mode", ["path", "angle"])
 def test_car_native_step_is_the_python_step(library, mode):
-    p = VehicleParams.defaults()
-    p.vehicle.vx_start = 8.0
-    if mode == "angle":
-        p.steering.mode = STEER_ANGLE
-    ref, nat = _both(Vehicle, p)
-    for m in (ref, nat):
-        for k, v in _car_inputs(0).items():
-            setattr(m, k, v)
-        m.initialize(0.0)
+    ref, nat = _started(_both(Vehicle, _car_params(mode)), _car_inputs(0))
     plan = nat.native_step()
     assert plan is not None and ref.kernel_note == "compiled"
     plan.load(nat)
@@ -66,13 +58,8 @@ def test_car_native_step_is_the_python_step(library, mode):
 def test_wheel_native_step_is_the_python_step(library, coupling, anchor, follow, h):
     p = WheelLoadParams.defaults()
     p.shaftCoupling, p.rampAnchor, p.followFlangeAngle = coupling, anchor, follow
-    ref, nat = _both(WheelLoad, p)
     wheel_mode = coupling == "wheel"
-    for m in (ref, nat):
-        for k, v in _wheel_inputs(0, wheel_mode).items():
-            setattr(m, k, v)
-        m.flange_w = 25.0
-        m.initialize(0.0)
+    ref, nat = _started(_both(WheelLoad, p), _wheel_inputs(0, wheel_mode), flange_w=25.0)
     plan = nat.native_step()
     plan.load(nat)
     t = 0.0

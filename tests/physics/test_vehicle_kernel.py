@@ -60,17 +60,27 @@ def _car_inputs(i: int) -> dict:
             "steering_angle_cmd": 0.3 * math.sin(1.3 * t)}
 
 
-@pytest.mark.parametrize("mode", ["path", "angle"])
-def test_car_state_after_every_step(library, mode):
+def _car_params(mode: str) -> VehicleParams:
+    """The car from 8 m/s, steered along a path or by the wheel angle (``mode`` "path" or "angle")."""
     p = VehicleParams.defaults()
     p.vehicle.vx_start = 8.0
     if mode == "angle":
         p.steering.mode = STEER_ANGLE
-    ref, cmp_ = _pair(Vehicle, p)
-    for m in (ref, cmp_):
-        for k, v in _car_inputs(0).items():
+    return p
+
+
+def _started(models: list, inputs: dict, **attrs) -> list:
+    """``models`` given ``inputs`` and ``attrs`` and initialized at t = 0."""
+    for m in models:
+        for k, v in {**inputs, **attrs}.items():
             setattr(m, k, v)
         m.initialize(0.0)
+    return models
+
+
+@pytest.mark.parametrize("mode", ["path", "angle"])
+def test_car_state_after_every_step(library, mode):
+    ref, cmp_ = _started(_pair(Vehicle, _car_params(mode)), _car_inputs(0))
     assert ref.kernel_note.startswith("python") and cmp_.kernel_note == "compiled"
     assert ref.get_state() == cmp_.get_state()
     t, steps = 0.0, 0
@@ -119,13 +129,8 @@ def _wheel_inputs(i: int, wheel_mode: bool) -> dict:
 def test_wheel_state_after_every_step(library, coupling, anchor, h):
     p = WheelLoadParams.defaults()
     p.shaftCoupling, p.rampAnchor = coupling, anchor
-    ref, cmp_ = _pair(WheelLoad, p)
     wheel_mode = coupling == "wheel"
-    for m in (ref, cmp_):
-        for k, v in _wheel_inputs(0, wheel_mode).items():
-            setattr(m, k, v)
-        m.flange_w = 25.0
-        m.initialize(0.0)
+    ref, cmp_ = _started(_pair(WheelLoad, p), _wheel_inputs(0, wheel_mode), flange_w=25.0)
     assert ref.kernel_note.startswith("python") and cmp_.kernel_note == "compiled"
     t = 0.0
     for i in range(1, 1500):

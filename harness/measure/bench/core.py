@@ -93,6 +93,18 @@ def recording_cost(scene_name: str, repeats: int = 3) -> dict:
             "recorded": len(scene.record), "every": round(scene.output_interval / scene.step)}
 
 
+def initialized(inst) -> tuple[list[int], list[int]]:
+    """``inst`` through Initialization Mode with its start values; the value references of its first
+    4 Real outputs and first 4 Real inputs (the calls the benches time)."""
+    inst.slave.setupExperiment(startTime=0.0)
+    inst.slave.enterInitializationMode()
+    inst.slave.exitInitializationMode()
+    reals = [v for v in inst.md.modelVariables if v.type == "Real"]
+    outs = [v.valueReference for v in reals if v.causality == "output"][:4]
+    ins = [v.valueReference for v in reals if v.causality == "input"][:4]
+    return outs, ins
+
+
 def fmi_call_cost(scene_name: str, calls: int = 2000) -> dict:
     """Microseconds per FMI call as the master's step loop makes it (:class:`harness.fmi.instance.Port`:
     the FMU's C function through ctypes with its arguments converted once; then our loader, the
@@ -112,12 +124,7 @@ def fmi_call_cost(scene_name: str, calls: int = 2000) -> dict:
     for fmu_name, path in sorted(files.items()):
         inst = Instance("bench", path)
         try:
-            inst.slave.setupExperiment(startTime=0.0)
-            inst.slave.enterInitializationMode()
-            inst.slave.exitInitializationMode()
-            reals = [v for v in inst.md.modelVariables if v.type == "Real"]
-            outs = [v.valueReference for v in reals if v.causality == "output"][:4]
-            ins = [v.valueReference for v in reals if v.causality == "input"][:4]
+            outs, ins = initialized(inst)
             getter, setter = Port(inst, outs, False, fail), Port(inst, ins, True, fail)
             setter.val[:] = Port(inst, ins, False, fail).get()   # the inputs' own values for the setter
             row = {}

@@ -45,16 +45,12 @@ def model_process(mode: str):
 def _calls(path: Path, mode: str, n: int, h: float = 5e-3) -> dict[str, float]:
     """Microseconds per getReal(4) and per setReal(4) + doStep + getReal(4), median of 5 rounds."""
     from harness.fmi.instance import Instance
+    from harness.measure.bench.core import initialized
 
     with model_process(mode):
         inst = Instance("bench", path)
     try:
-        inst.slave.setupExperiment(startTime=0.0)
-        inst.slave.enterInitializationMode()
-        inst.slave.exitInitializationMode()
-        reals = [v for v in inst.md.modelVariables if v.type == "Real"]
-        outs = [v.valueReference for v in reals if v.causality == "output"][:4]
-        ins = [v.valueReference for v in reals if v.causality == "input"][:4]
+        outs, ins = initialized(inst)
         get, set_, step = (inst.fast_function(f) for f in ("fmi2GetReal", "fmi2SetReal", "fmi2DoStep"))
         c = inst.c_component
         vo, vi = (c_uint * len(outs))(*outs), (c_uint * len(ins))(*ins)

@@ -1,7 +1,7 @@
 """The compliance kit on FMI 3.0 FMUs of our own (issue 43 item 5, issue 46 item 5): Chk3C (tests/broken_fmus/chk3c.c,
 co-simulation and model exchange) gives 0 errors, and every FMI 3.0 rule catches a broken FMU of its own: Chk3C
 with its modelDescription.xml edited for the static rules, built with one BREAK_* macro of chk3c.c for the call
-sequences (tests/broken_fmus/chk3_build.py). Built once (cached by their sources); skipped, with the reason,
+sequences (tests/broken_fmus/chk_build.py). Built once (cached by their sources); skipped, with the reason,
 without gcc. No Reference FMU is used.
 """
 from __future__ import annotations
@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "broken_fmus"))
-import chk3_build  # noqa: E402
 
+import chk_build  # noqa: E402
 from harness.check import LifecycleOptions, run_lifecycle_checks_many, run_static_checks  # noqa: E402
 from harness.check.rules import BY_ID, RULES3, rules  # noqa: E402
 from harness.cli.check import main  # noqa: E402
@@ -77,7 +77,7 @@ BROKEN = {
     "Chk3CIntermediate": ("INTERMEDIATE", {"cs3.intermediate-update": "error"}),
     "Chk3CConfiguration": ("CONFIGURATION", {"cs3.configuration-mode": "error"}),
 }
-# broken FMU -> (how chk3_build links it, {load rule: severity of the expected failure})
+# broken FMU -> (how chk_build links it, {load rule: severity of the expected failure})
 LOAD = {
     "Chk3CNoLibm": ("LIBM", {"load3.needed-libraries": "warning"}),
     # a library found nowhere also leaves the symbols it would define undefined
@@ -91,7 +91,7 @@ def static_fmus():
     for name, (edits, _, _) in STATIC.items():
         drop = ("binaries/",) if name == "Chk3Binary" else ()
         add = {"../outside.txt": b"x"} if name == "Chk3Archive" else None
-        made[name] = chk3_build.static_variant(name, edits, drop=drop, add=add)
+        made[name] = chk_build.static_variant(name, edits, drop=drop, add=add)
     return made
 
 
@@ -101,14 +101,14 @@ def broken_results():
     jobs = []
     for name, (breaks, expected) in BROKEN.items():
         ids = set(expected) | {"cs3.basic"} | ({"me3.basic"} if any(r.startswith("me3") for r in expected) else set())
-        jobs.append((chk3_build.chk3c_fmu(name, breaks), name, sorted({r.split(".")[0] for r in ids}), ids))
+        jobs.append((chk_build.chk3c_fmu(name, breaks), name, sorted({r.split(".")[0] for r in ids}), ids))
     return run_lifecycle_checks_many(jobs, LifecycleOptions(timeout=60.0, jobs=2))
 
 
 def test_chk3c_passes_every_rule_with_no_error():
     """The well-behaved Chk3C: every static3, cs3 and me3 rule passes, none is skipped but those whose feature it
     lacks (arrays, min/max)."""
-    fmu = chk3_build.chk3c_fmu("Chk3C")
+    fmu = chk_build.chk3c_fmu("Chk3C")
     static = run_static_checks(fmu)
     assert [r.check_id for r in static] == [r.id for r in rules("static3")]
     assert [(r.check_id, r.reason) for r in static if r.failed] == []
@@ -144,7 +144,7 @@ def test_broken_call_sequence_fails_exactly_its_rule(broken_results, name):
 def test_broken_binary_fails_exactly_its_load_rule(name):
     from harness.check.processes.native import run_load_checks
     breaks, expected = LOAD[name]
-    results = run_load_checks(chk3_build.chk3c_fmu(name, breaks), name, ["load3.libraries", "load3.needed-libraries"],
+    results = run_load_checks(chk_build.chk3c_fmu(name, breaks), name, ["load3.libraries", "load3.needed-libraries"],
                               60.0)
     assert {r.check_id: r.severity for r in results if r.failed} == expected, [(r.check_id, r.reason) for r in results]
 

@@ -44,10 +44,7 @@ def test_stop_time_passes_the_same_fmu_refusing_with_fmi2error():
 
 
 def _chk3c(name: str, breaks: str | None):
-    import chk3_build
-    if not hasattr(chk3_build, "chk3c_fmu"):
-        pytest.skip("tests/broken_fmus/chk3_build.py has no chk3c_fmu (Chk3C, the FMI 3.0 test FMU in C)")
-    return chk3_build.chk3c_fmu(name, breaks)
+    return chk_build.chk3c_fmu(name, breaks)
 
 
 @needs_gcc

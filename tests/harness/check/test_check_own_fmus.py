@@ -13,7 +13,6 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "broken_fmus"))
-import chk3_build  # noqa: E402
 import chk_build  # noqa: E402
 
 from harness.check import LifecycleOptions  # noqa: E402
@@ -27,7 +26,7 @@ needs_gcc = pytest.mark.skipif(shutil.which("gcc") is None, reason="no C compile
 @needs_gcc
 @pytest.mark.parametrize("version", ["2.0", "3.0"])
 def test_our_test_fmu_gives_no_error_in_any_rule(version):
-    fmu = str(chk_build.chkc_fmu("ChkC") if version == "2.0" else chk3_build.chk3c_fmu("Chk3C"))
+    fmu = str(chk_build.chkc_fmu("ChkC") if version == "2.0" else chk_build.chk3c_fmu("Chk3C"))
     results = run_checks([fmu], LifecycleOptions(timeout=60.0, jobs=2))
     assert [(r.check_id, r.reason) for r in results if r.failed] == []
     ran = {r.check_id.split(".")[0] for r in results if r.status == "PASS"}
