@@ -42,13 +42,14 @@ def main(argv: list[str] | None = None) -> int:
     print(f"wrote {s.path}: FMI {s.fmi_version}.0, {s.fmus} FMU(s), {s.links} link(s), {s.starts} start value(s), "
           f"{s.outputs} output(s); step {s.step:g} s, stop time {scene.duration:g} s, {mode}; made with {s.tool}")
     if args.compare:
-        from harness.interop.container_compare import compare, table
+        from harness.interop.container_compare import compare, start_differences, table
         hosts = ("fmpy",) + _libcosim_host(s.fmi_version)
         try:
             rows = compare(scene, files, s.path, hosts=hosts)
         except RuntimeError as e:
             return fail(prog, str(e))
         print(table(rows, 0.5 * scene.duration, scene.duration))
+        print(start_differences(rows))
     return 0
 
 

@@ -19,6 +19,8 @@ class Row:
     name: str
     master: float
     hosts: dict[str, float] = field(default_factory=dict)   # host -> the container's mean there
+    master_start: float = float("nan")                      # the values at t = 0 (after initialization)
+    hosts_start: dict[str, float] = field(default_factory=dict)
 
     @property
     def container(self) -> float:
@@ -73,11 +75,23 @@ def compare(scene: Scene, fmu_files: dict[str, Path], container: Path, t_from: f
     for name in first:
         if name not in ours.names:
             continue
-        means = {}
-        for h, (t, cols) in runs.items():
-            means[h] = float(np.mean(cols[name][t >= t0 - 1e-12]))
-        rows.append(Row(name, float(np.mean(ours[name][m_ours])), means))
+        means = {h: float(np.mean(cols[name][t >= t0 - 1e-12])) for h, (t, cols) in runs.items()}
+        starts = {h: float(cols[name][0]) for h, (t, cols) in runs.items()}
+        rows.append(Row(name, float(np.mean(ours[name][m_ours])), means, float(ours[name][0]), starts))
     return rows
+
+
+def start_differences(rows: list[Row], n: int = 3) -> str:
+    """The ``n`` outputs whose values at t = 0 differ most (relative) between our master and the
+    container in the first host, in one line."""
+    def rel(r: Row) -> float:
+        c = next(iter(r.hosts_start.values()))
+        scale = max(abs(c), abs(r.master_start))
+        return abs(c - r.master_start) / scale if scale > 0 else 0.0
+    worst = sorted(rows, key=rel, reverse=True)[:n]
+    differ = sum(rel(r) > 0 for r in rows)
+    return (f"at t = 0, {differ} of {len(rows)} outputs differ; most: " + ", ".join(
+        f"{r.name} {r.master_start:.6g} (master) / {next(iter(r.hosts_start.values())):.6g} (container)" for r in worst))
 
 
 def table(rows: list[Row], t_from: float, duration: float) -> str:
@@ -97,4 +111,4 @@ def table(rows: list[Row], t_from: float, duration: float) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["HOSTS", "Row", "compare", "run_container", "table"]
+__all__ = ["HOSTS", "Row", "compare", "run_container", "start_differences", "table"]
