@@ -136,3 +136,20 @@ def test_fmus_of_the_other_fmi_version_are_refused(fmu_files, tmp_path):
     with pytest.raises(container.ContainerError, match=r"is an FMI 2.0 FMU; an FMI 3.0 container takes FMI 3.0 FMUs"):
         container.export_container(scene, files, tmp_path / "scene.fmu", fmi_version=3)
     assert not (tmp_path / "scene.fmu").exists()
+
+
+def test_compare_says_why_libcosim_is_not_run(monkeypatch, capsys):
+    """``--compare`` runs libcosim only where it can: an FMI 3.0 container, or no libcosimpy, is
+    a note naming the reason, not a crash."""
+    from harness.cli import export_container as cli
+    assert cli._libcosim_host(3) == ()
+    assert "imports FMI 1.0 and 2.0 FMUs only" in capsys.readouterr().out
+    monkeypatch.setattr("importlib.util.find_spec", lambda name: None)
+    assert cli._libcosim_host(2) == ()
+    assert "libcosimpy is not installed (pip install libcosimpy)" in capsys.readouterr().out
+
+
+def test_an_unknown_fmi_version_is_refused(tmp_path):
+    scene = prepare_scene("vehicle-cornering", duration=0.2)
+    with pytest.raises(container.ContainerError, match="FMI version 4: allowed 2 or 3"):
+        container.export_container(scene, {}, tmp_path / "x.fmu", fmi_version=4)
