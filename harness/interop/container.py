@@ -11,9 +11,12 @@ scene's FMUs inside it.
   every exporter: for a SpurDifferential instance the scene's effects under its own parameters);
 * the scene's recorded quantities as the container's outputs, named ``<instance>.<variable>``;
 * the scene's communication step as the container's internal step, its duration as the default
-  experiment, and its coupling: ``gauss-seidel`` in the scene's order is the container's
+  experiment's stop time (the toolbox takes the first FMU's; the written modelDescription is set to
+  the scene's), and its coupling: ``gauss-seidel`` in the scene's order is the container's
   sequential mode (each FMU steps after the ones before it in the list, with their new outputs),
-  ``jacobi`` its default parallel mode.
+  ``jacobi`` its default parallel mode;
+* ``fmi_version``: 2 puts the FMI 2.0 FMUs in an FMI 2.0 container, 3 the FMI 3.0 ones
+  (``NAME-fmi3.fmu``) in an FMI 3.0 container (``fmucontainer -fmi 3``).
 
 What the container cannot carry: an input that is a time table (only its value at t = 0; such a
 scene is refused unless ``tables_at_start``) and our master's per-step extras (input ramps between
@@ -52,6 +55,7 @@ class ContainerSummary:
     sequential: bool
     step: float
     tool: str
+    fmi_version: int = 2
 
 
 def description(scene: Scene, tables_at_start: bool = False, causality: dict[str, str] | None = None) -> dict:
@@ -116,36 +120,68 @@ def tool_version() -> str:
 
 
 def export_container(scene: Scene, fmu_files: dict[str, Path], path: Path | str,
-                     tables_at_start: bool = False) -> ContainerSummary:
-    """Write the container FMU of ``scene`` to ``path``; what went in."""
+                     tables_at_start: bool = False, fmi_version: int = 2) -> ContainerSummary:
+    """Write the container FMU of ``scene`` to ``path``; what went in. ``fmu_files``: the FMUs of
+    ``fmi_version`` (2 or 3), which is also the container's own FMI version."""
+    from harness.common.outputs import private_path
+
     path = Path(path)
+    if fmi_version not in (2, 3):
+        raise ContainerError(f"FMI version {fmi_version!r}: allowed 2 or 3")
     exe = _toolbox()
+    _check_versions(scene, fmu_files, fmi_version)
     desc = description(scene, tables_at_start, _causalities(scene, fmu_files))
     with tempfile.TemporaryDirectory(prefix="spurdiff_container_") as tmp:
         work = Path(tmp)
         for spec in scene.instances:
             shutil.copyfile(fmu_files[spec.fmu], work / embedded_names(scene)[spec.name])
         (work / "container.json").write_text(json.dumps(desc, indent=1))
-        r = subprocess.run([exe, "-container", "container.json", "-fmu-directory", str(work)],
-                           cwd=work, capture_output=True, text=True, timeout=600)
+        r = subprocess.run([exe, "-container", "container.json", "-fmu-directory", str(work),
+                            "-fmi", str(fmi_version)], cwd=work, capture_output=True, text=True, timeout=600)
         built = work / desc["name"]
         if r.returncode != 0 or not built.is_file():
             tail = [ln for ln in (r.stdout + r.stderr).splitlines() if "ERROR" in ln or "Error" in ln][-3:]
             raise ContainerError(f"fmucontainer failed (exit {r.returncode}): "
                                  + ("; ".join(tail) or (r.stdout + r.stderr).strip()[-300:]))
-        _check_description(built, desc)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        part = path.with_name(f".{path.name}.part")
-        shutil.copyfile(built, part)
-        part.replace(path)
+        with private_path(path) as partial:
+            _write_with_experiment(built, partial, desc, fmi_version, scene.duration)
     return ContainerSummary(path, len(desc["fmu"]), len(desc["link"]), len(desc["start"]), len(desc["output"]),
-                            desc["sequential"], scene.step, tool_version())
+                            desc["sequential"], scene.step, tool_version(), fmi_version)
 
 
-def _check_description(fmu: Path, desc: dict) -> None:
+def _check_versions(scene: Scene, fmu_files: dict[str, Path], fmi_version: int) -> None:
+    """Every embedded FMU is of the container's FMI version (the toolbox only warns otherwise)."""
+    for name in sorted({i.fmu for i in scene.instances}):
+        with zipfile.ZipFile(fmu_files[name]) as z:
+            got = ET.fromstring(z.read("modelDescription.xml")).get("fmiVersion", "")
+        if got.split(".")[0] != str(fmi_version):
+            raise ContainerError(f"{Path(fmu_files[name]).name} is an FMI {got} FMU; an FMI {fmi_version}.0 "
+                                 f"container takes FMI {fmi_version}.0 FMUs")
+
+
+def _write_with_experiment(built: Path, out: Path, desc: dict, fmi_version: int, stop: float) -> None:
+    """Copy the toolbox's container to ``out`` with the scene's stop time in its DefaultExperiment,
+    after checking its modelDescription (FMI version, every output asked for)."""
+    with zipfile.ZipFile(built) as zin, zipfile.ZipFile(out, "w") as zout:
+        root = ET.fromstring(zin.read("modelDescription.xml"))
+        if root.get("fmiVersion", "").split(".")[0] != str(fmi_version):
+            raise ContainerError(f"fmucontainer wrote an FMI {root.get('fmiVersion')} container, "
+                                 f"not FMI {fmi_version}.0")
+        _check_description(root, desc)
+        exp = root.find("DefaultExperiment")
+        if exp is None:   # before ModelVariables, where both schemas put it
+            exp = ET.Element("DefaultExperiment")
+            root.insert(list(root).index(root.find("ModelVariables")), exp)
+        exp.set("stopTime", repr(float(stop)))
+        for info in zin.infolist():
+            data = zin.read(info)
+            if info.filename == "modelDescription.xml":
+                data = b'<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="utf-8")
+            zout.writestr(info, data)
+
+
+def _check_description(root: ET.Element, desc: dict) -> None:
     """The container's modelDescription has every output the description asked for."""
-    with zipfile.ZipFile(fmu) as z:
-        root = ET.fromstring(z.read("modelDescription.xml"))
     names = {sv.get("name") for sv in root.iter("ScalarVariable")} | {
         el.get("name") for el in root.find("ModelVariables") if el.get("name")}
     missing = [o[2] for o in desc["output"] if o[2] not in names]
