@@ -42,10 +42,12 @@ def test_every_binding_is_used_and_every_output_answered(name):
 
 
 def test_the_differentials_start_values_are_its_data_file():
-    """The parameters' start values are differential.toml's (keys: the FMU's names), and setting a
-    parameter reaches its field in the parameter objects."""
+    """The parameters' start values are differential.toml's (keys: the FMU's names) but for the gear set,
+    default_experiment.toml's (the designed set, sun B 17 mm wide, issue 46), and setting a parameter
+    reaches its field in the parameter objects."""
     from spurdiff.fmi import differential_fmu as d
     from spurdiff.datafile import DIFFERENTIAL_DATA, read_data
+    from spurdiff.gears.design_sets import fmu_parameters
 
     data = read_data(bundled=DIFFERENTIAL_DATA)
     flat = {}
@@ -54,6 +56,9 @@ def test_the_differentials_start_values_are_its_data_file():
             flat.update({f"{key}.{k}": v for k, v in value.items()})
         else:
             flat[key] = value
+    designed = fmu_parameters("designed")
+    assert fmu_parameters(d.DEFAULT_GEAR_TABLE) == {**designed, "sunB.b": 0.017}
+    flat.update(designed, **{"sunB.b": 0.017})
     solver = {"solver.tolerance": "tolerance", "solver.maxInternalSteps": "maxInternalSteps",
               "solver.kernel": "solver.kernel", "solver.method": "solver.method"}
     starts = {v.name: v.start for v in d.VARIABLES}

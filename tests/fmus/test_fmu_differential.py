@@ -12,7 +12,8 @@ LOADS = {"carrier.w_ref": 1.389, "left.tau": -1050.0, "right.tau": -1050.0}
 
 
 def start(fmu, name="diff", params=None, inputs=LOADS, expect_error=False):
-    return fmu_session.start(fmu, name, params, inputs, expect_error)
+    """An instance on the paper's gear set (fmu_session.PAPER_CASE) with ``params`` and ``inputs``."""
+    return fmu_session.start(fmu, name, {**fmu_session.PAPER_CASE, **(params or {})}, inputs, expect_error)
 
 
 def steps(inst, n, h=1e-3, t0=0.0):
@@ -107,7 +108,6 @@ def test_form_diameters_and_usable_contact_ratios_are_reported(differential_fmu)
     from spurdiff.errors import ParameterError
 
     values = {v.name: v.start for v in d.VARIABLES}
-    values.update({"carrier.w_ref": 1.389, "carrier.tau": 0.0, "left.tau": -1050.0, "right.tau": -1050.0,
-                   "gearing.rhoaP0": 0.0})
+    values.update({**fmu_session.PAPER_CASE, "carrier.tau": 0.0, "gearing.rhoaP0": 0.0})
     with pytest.raises(ParameterError, match="usable transverse contact ratio 0.930"):
         d.build_model(values)

@@ -41,7 +41,9 @@ def _sim(fmu, start, stop=0.05, out=None, logs=None):
     import subprocess
     import sys
 
-    arg = json.dumps({"fmu": str(fmu), "start": start, "stop": stop, "out": out})
+    from fmu_session import PAPER_CASE     # the paper's set and load unless ``start`` says otherwise
+
+    arg = json.dumps({"fmu": str(fmu), "start": {**PAPER_CASE, **start}, "stop": stop, "out": out})
     cp = subprocess.run([sys.executable, "-c", _RUNNER, arg], capture_output=True, text=True, timeout=600)
     assert cp.returncode == 0, cp.stderr[-2000:]
     d = json.loads(cp.stdout.strip().splitlines()[-1])

@@ -100,10 +100,12 @@ def test_a_bad_gear_set_is_one_line_naming_it(where, value, words):
 
 def test_the_vehicle_scenes_run_the_designed_gear_set_and_the_paper_scenes_the_paper_set():
     """Issue 27: the designed set is the data set the vehicle scenes use; the paper scenes keep the
-    paper's (no gearSet: the defaults of differential.toml, the paper's table)."""
+    paper's, named (issue 46: the FMU's default experiment runs another set), with its whole table."""
     from harness.scene.spec import available, load_scene
+    from spurdiff.gears.design_sets import fmu_parameters
 
     for name in available():
         sc = load_scene(name)
-        want = None if name.startswith("paper-") else "designed"
+        want = "paper" if name.startswith("paper-") else "designed"
         assert sc.instance("diff").gear_set == want, name
+        assert sc.instance("diff").gear_parameters == fmu_parameters(want), name

@@ -48,11 +48,13 @@ meshModel = "rigid"
 
 [fmus.a]
 fmu = "SpurDifferential"
-parameters = { carrierDrive = "speed", mu_pin = 0.2, lockingLaw = "paper" }
+gearSet = "paper"
+parameters = { carrierDrive = "speed", mu_pin = 0.2, lockingLaw = "paper", "differential.w_start" = 0.0 }
 
 [fmus.b]
 fmu = "SpurDifferential"
-parameters = { carrierDrive = "speed", lockingLaw = "paper" }
+gearSet = "paper"
+parameters = { carrierDrive = "speed", lockingLaw = "paper", "differential.w_start" = 0.0 }
 
 [inputs]
 "a.carrier.w_ref" = { table = [[0.0, 0.5], [0.05, 1.389], [0.1, 1.389]] }
@@ -112,6 +114,7 @@ def _both(scene_name: str, tmp_path: Path, algorithm: str = "jacobi"):
 # ------------------------------------------------------------------------------------ export
 def test_export_paper_cornering_reads_back_and_passes_the_schema(tmp_path):
     from pyssp_standard import SSP
+    from spurdiff.gears.design_sets import fmu_parameters
 
     scene = prepare_scene("paper-cornering")
     files = fmu_files_for(scene)
@@ -128,8 +131,10 @@ def test_export_paper_cornering_reads_back_and_passes_the_schema(tmp_path):
         assert kinds["left.tau"] == "input" and kinds["left.w"] == "output" and kinds["mu_pin"] == "parameter"
         bound = {p["name"]: (p["type_name"], p["type_value"].parameter["value"])
                  for b in diff.parameter_bindings for p in b.ssv.parameters}
+    gear = {k: ("Integer" if isinstance(v, int) else "Real", repr(float(v)) if isinstance(v, float) else str(v))
+            for k, v in fmu_parameters("paper").items()}    # the scene names the paper's gear set (issue 46)
     assert bound == {"meshModel": ("String", "rigid"), "carrierDrive": ("String", "speed"),
-                     "lockingLaw": ("String", "paper"),
+                     "lockingLaw": ("String", "paper"), "differential.w_start": ("Real", "0.0"), **gear,
                      "carrier.w_ref": ("Real", "1.389"), "left.tau": ("Real", "-1110.201"),
                      "right.tau": ("Real", "-989.799")}
     facts = read_facts(path)

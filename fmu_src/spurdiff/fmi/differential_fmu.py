@@ -14,6 +14,7 @@ set-up they bind to.)
 """
 from __future__ import annotations
 
+import tomllib
 from dataclasses import dataclass, field, replace
 
 from spurdiff.attrpath import resolve
@@ -24,7 +25,9 @@ from spurdiff.fmi.variables import Var
 from spurdiff.differential import derivatives
 from spurdiff.differential.locking import torque_bias_ratio
 from spurdiff.gears.axial import AxialLayout
+from spurdiff.datafile import DATA_FOLDER
 from spurdiff.gears.design import derive
+from spurdiff.gears.design_sets import gear_set, table_from_data
 from spurdiff.gears.phasing import mesh_phases
 from spurdiff.differential.mesh import MeshParams
 from spurdiff.differential.mesh import rates as mesh_rates
@@ -37,15 +40,22 @@ from spurdiff.gears.capacity import CapacityParams
 FMU_NAME = "SpurDifferential"
 DESCRIPTION = ("Spur-gear planetary inter-wheel differential: two suns on the half-shafts, pairs of "
                "meshing planets on a driven carrier, pin-bushing friction locking")
-# The default experiment, what any host runs with nothing connected: the paper's straight-line case
-# (docs/paper-reproduction.md), from the inputs' start values below: carrier speed 1.389 rad/s imposed
-# (carrierDrive = speed), both suns loaded with -1050 N m; the differential turns locked, the carrier
-# drive delivers 2100 N m. A slipping (cornering) steady state cannot come from constant inputs: with
-# Coulomb locking and constant torques the suns either stick or accelerate without bound, and with
-# shaftCoupling = wheel the wheel angles must advance. docs/use-the-fmu.md has the recipes for both.
+# The default experiment, what any host runs with nothing connected (spurdiff/data/default_experiment.toml,
+# docs/use-the-fmu.md): a gear set the FMU does not call failing hardware (the designed set, sun B
+# trimmed to the 17 mm it meshes on: no rating or stack-up finding at capacity.T0), the paper's carrier
+# speed imposed, an uneven load within the locking capacity (-200 / -300 N m) and sun A starting 20 rad/s
+# ahead of the carrier: the locking friction brakes the relative speed to 0 in about 7 ms, then holds
+# the uneven split locked (slip, then stick). The paper's set stays the physics default
+# (DifferentialParams); the paper scenes select it (gearSet = "paper"). A slipping (cornering) steady
+# state cannot come from constant inputs (Coulomb locking with constant torques sticks or runs away;
+# shaftCoupling = wheel needs advancing wheel angles): the recipes in docs/use-the-fmu.md drive one.
 DEFAULT_EXPERIMENT = {"startTime": 0.0, "stopTime": 0.3, "stepSize": 1e-3}
-DEFAULT_CARRIER_SPEED = 1.389      # rad/s, the paper's carrier speed
-DEFAULT_SUN_LOAD = -1050.0         # N m on each sun, the paper's straight-line load
+_DEFAULT_DATA = tomllib.loads((DATA_FOLDER / "default_experiment.toml").read_text(encoding="utf-8"))
+DEFAULT_GEAR_TABLE = table_from_data(_DEFAULT_DATA, gear_set(_DEFAULT_DATA["gearSet"]))
+DEFAULT_CARRIER_SPEED = _DEFAULT_DATA["inputs"]["carrierSpeed"]      # rad/s, the paper's carrier speed
+DEFAULT_LEFT_LOAD = _DEFAULT_DATA["inputs"]["leftLoad"]              # N m on sun A (a load is negative)
+DEFAULT_RIGHT_LOAD = _DEFAULT_DATA["inputs"]["rightLoad"]            # N m on sun B
+DEFAULT_DIFFERENTIAL_START = _DEFAULT_DATA["inputs"]["differentialStart"]   # rad/s, sun A - carrier
 
 # FMI 3.0: first derivatives of the outputs output_rates answers (shaft torques and twists, flange
 # and carrier speeds and angles; spurdiff.differential.derivatives), the others refused by name
@@ -67,13 +77,13 @@ EFFECTS = ("backlash", "meshStiffnessVariation", "pinFriction", "flankFriction")
 class Setup:
     """What the parameters bind to: the parameter objects and the start values of the model."""
 
-    diff: DifferentialParams = field(default_factory=DifferentialParams)
+    diff: DifferentialParams = field(default_factory=lambda: DifferentialParams(table=DEFAULT_GEAR_TABLE))
     mesh: MeshParams = field(default_factory=MeshParams)
     shafts: ShaftsParams = field(default_factory=ShaftsParams)
     capacity: CapacityParams = field(default_factory=CapacityParams)   # load capacity (block after VARIABLES)
     shaftCoupling: str = "torque"
     w_start_carrier: float = 0.0
-    w_start_differential: float = 0.0
+    w_start_differential: float = DEFAULT_DIFFERENTIAL_START   # the default experiment's slip
     overspeedLimit: float = 0.0        # rad/s, |w_A - w_c|; 0: the pin bushings' sliding-speed limit
 
 
@@ -137,11 +147,11 @@ VARIABLES: list[Var] = [
     Var("carrier.tau", "input", "External torque driving the carrier (carrierDrive = torque)", "N.m", "N.mm", 0.0,
         min=-1e6, max=1e6, bind="tau_c"),
     Var("left.tau", "input", "shaftCoupling = torque: external torque on the left half-shaft flange (sun A), "
-        "Modelica sign: a load is negative (start value: the paper's straight-line load; ignored with "
-        "shaftCoupling = wheel)", "N.m", "N.mm", DEFAULT_SUN_LOAD, min=-1e6, max=1e6, bind="tau_L"),
+        "Modelica sign: a load is negative (start value: the default experiment's, -200 N m; ignored with "
+        "shaftCoupling = wheel)", "N.m", "N.mm", DEFAULT_LEFT_LOAD, min=-1e6, max=1e6, bind="tau_L"),
     Var("right.tau", "input", "shaftCoupling = torque: external torque on the right half-shaft flange (sun B), "
-        "Modelica sign: a load is negative (start value: the paper's straight-line load; ignored with "
-        "shaftCoupling = wheel)", "N.m", "N.mm", DEFAULT_SUN_LOAD, min=-1e6, max=1e6, bind="tau_R"),
+        "Modelica sign: a load is negative (start value: the default experiment's, -300 N m; ignored with "
+        "shaftCoupling = wheel)", "N.m", "N.mm", DEFAULT_RIGHT_LOAD, min=-1e6, max=1e6, bind="tau_R"),
     Var("leftWheel.phi", "input", "shaftCoupling = wheel: angle of the wheel end of the left half-shaft "
         "(WheelLoad's wheel.phi)", "rad", "deg", 0.0, min=-1e9, max=1e9, bind="wheelL_phi"),
     Var("leftWheel.w", "input", "shaftCoupling = wheel: speed of the wheel end of the left half-shaft "
@@ -352,7 +362,8 @@ VARIABLES: list[Var] = [
     _p("J_planet2", "diff.J_planet2", "Inertia of one planet 2 about its axis (0: from geometry)", "kg.m2"),
     Var("carrier.w_start", "parameter", "Initial carrier speed (carrierDrive = torque)", "rad/s", "rpm", 0.0,
         bind="w_start_carrier"),
-    Var("differential.w_start", "parameter", "Initial speed of sun A relative to the carrier", "rad/s", "rpm", 0.0,
+    Var("differential.w_start", "parameter", "Initial speed of sun A relative to the carrier (start value: the "
+        "default experiment's 20 rad/s, a slip the locking stops)", "rad/s", "rpm", DEFAULT_DIFFERENTIAL_START,
         bind="w_start_differential"),
     # --- mesh data (compliant / contact levels)
     *[v for key, label in (("A1", "sun A / planet 1"), ("B2", "sun B / planet 2"), ("12", "planet 1 / planet 2"))
