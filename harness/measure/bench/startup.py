@@ -218,20 +218,21 @@ def measure(ours: Path, theirs: Path, runs: int = 5) -> dict:
         shutil.rmtree(tmp, ignore_errors=True)
 
 
-def report(runs: int = 5) -> list[str]:
+def report(runs: int = 5, ours: Path | None = None) -> list[str]:
+    """The section's lines for SpurDifferential as built here (or the FMU file ``ours``)."""
     from harness.build.fmu import build
 
     theirs = c_fmu()
     if theirs is None:
         return ["   not measured: the plain C FMU (tests/broken_fmus/chkc.c) or gcc is not here"]
-    ours = build(["SpurDifferential"], quiet=True)[0]
+    ours = Path(ours) if ours else build(["SpurDifferential"], quiet=True)[0]
     try:
         m = measure(ours, theirs, runs)
     except (RuntimeError, OSError, subprocess.SubprocessError) as e:   # said in the report, not fatal to the bench
         return [f"   not measured: {type(e).__name__}: {str(e)[-300:]}"]
     w, i, s = m["whole"], m["init"], m["step"]
     mb = 1024 * 1024
-    lines = [f"   SpurDifferential.fmu {m['size']['ours'] / mb:.1f} MB ({m['files']['ours']} files, "
+    lines = [f"   {ours.name} {m['size']['ours'] / mb:.1f} MB ({m['files']['ours']} files, "
              f"{m['unpacked']['ours'] / mb:.1f} MB unpacked) against the C FMU ChkC.fmu "
              f"{m['size']['c'] / 1024:.0f} kB; medians of {runs} interleaved runs (per step: fastest)",
              f"   {'':58s}{'ours':>10s}{'C FMU':>10s}{'ratio':>8s}{'target':>10s}",
@@ -249,8 +250,25 @@ def report(runs: int = 5) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    runs = int(argv[0]) if argv else 5
-    print("\n".join(report(runs)))
+    """``[RUNS] [--against OTHER.fmu]``: the section (RUNS interleaved runs, default 5); with
+    ``--against``, the same measures of another SpurDifferential FMU (an earlier build) after it,
+    each against the C FMU in its own interleaved runs; the load average before and after."""
+    import argparse
+
+    ap = argparse.ArgumentParser(prog="python -m harness.measure.bench.startup")
+    ap.add_argument("runs", nargs="?", type=int, default=5)
+    ap.add_argument("--against", type=Path, default=None, metavar="OTHER.fmu")
+    a = ap.parse_args(argv)
+    if a.runs < 1:
+        ap.error(f"runs {a.runs}: allowed 1 or more")
+    if a.against is not None and not a.against.is_file():
+        ap.error(f"--against {a.against}: no such FMU file")
+    print(f"   load average {os.getloadavg()[0]:.1f} (1 min) on {os.cpu_count()} cores")
+    print("\n".join(report(a.runs)))
+    if a.against is not None:
+        print(f"   against {a.against}:")
+        print("\n".join(report(a.runs, a.against)))
+    print(f"   load average {os.getloadavg()[0]:.1f} (1 min), {os.getloadavg()[1]:.1f} (5 min) on {os.cpu_count()} cores")
     return 0
 
 
