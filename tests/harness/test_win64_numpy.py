@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from test_numpy_archive import RUN as LINUX_RUN  # noqa: E402
 from test_win64 import MINGW, ODD, _run, _wine_path, wine, windows_python  # noqa: E402,F401 (fixtures)
 
 pytestmark = [
@@ -25,21 +26,11 @@ pytestmark = [
                        reason=f"{MINGW} is not installed (Debian: apt-get install gcc-mingw-w64-x86-64)"),
 ]
 
-RUN = r"""
-import os, sys
-os.environ['LOCALAPPDATA'] = sys.argv[2]          # the user's cache folder of this test
-sys.path[:] = [p for p in sys.path if 'site-packages' not in p]   # this Python's own numpy hidden
-sys.path.insert(0, sys.argv[1])
-import spurdiff._fmu_entry                         # installs the finder (resources/python-win64/numpy.zip)
-import numpy
-print('NUMPY', numpy.__file__)
-from spurdiff.fmi import differential_fmu
-values = {v.name: v.start for v in differential_fmu.VARIABLES}
-values['meshModel'] = 'contact'
-m = differential_fmu.build_model(values)
-m.do_step(0.0, 1e-3)
-print('CONTACT STEPPED')
-"""
+# the Linux test's run (tests/harness/test_numpy_archive.py: install the finder, import numpy, step the
+# contact level), after pointing %LOCALAPPDATA% at this test's folder and hiding this Python's own numpy
+RUN = ("import os, sys\n"
+       "os.environ['LOCALAPPDATA'] = sys.argv[2]\n"
+       "sys.path[:] = [p for p in sys.path if 'site-packages' not in p]\n" + LINUX_RUN)
 
 
 def test_the_win64_numpy_archive_is_unpacked_once_into_localappdata(wine, windows_python, differential_fmu, tmp_path):
