@@ -486,7 +486,7 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
         try:
             if runtime is not None:    # the runtimes' entries, compressed once, come first
                 shutil.copyfile(_base_archive(runtime, win64), part)
-                notes.append(_drop_numpy(part) if name in NUMPY_FREE_FMUS else _numpy_as_archive(part, runtime, tmp, win64))
+                notes.append(_drop_numpy(part) if name in NUMPY_FREE_FMUS else _numpy_as_archive(part, runtime, win64))
             with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(part, "a" if runtime else "w", zipfile.ZIP_DEFLATED) as zout:
                 guid = None
                 for item in zin.infolist():

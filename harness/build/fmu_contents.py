@@ -178,7 +178,7 @@ def cached_numpy_archive(site: Path, folder: Path) -> Path:
     return out
 
 
-def numpy_as_archive(part: Path, runtime, tmp: Path, win64=None) -> str:
+def numpy_as_archive(part: Path, runtime, win64=None) -> str:
     """Each runtime's numpy in ``part`` (linux64's; win64's when ``win64``, its cached runtime, is given)
     replaced by one stored member, resources/<home>/numpy.zip, and its SHA-256 (spurdiff.numpy_archive
     unpacks it into the user's cache at the first import)."""
