@@ -1,49 +1,58 @@
 """numpy carried as one archive, unpacked once per user and version (issue 44 item 1).
 
-An FMU's Linux runtime carries numpy not as some 200 files a host's unzip writes on every
-extraction but as one member, ``resources/python/numpy.zip`` (stored: the host copies it, it does
-not inflate it), with its SHA-256 in ``numpy.zip.sha256`` beside it. Only the mesh levels and gear
+An FMU's runtimes carry numpy not as some 200 files a host's unzip writes on every extraction but
+as one member each, ``resources/python/numpy.zip`` (Linux) and ``resources/python-win64/numpy.zip``
+(Windows; :data:`HOMES`), stored (the host copies it, it does not inflate it), with its SHA-256 in
+``numpy.zip.sha256`` beside it. Only the mesh levels and gear
 sets other than the FMU's default import numpy (the car, the wheel and the rigid level never do),
 so :func:`install` (called by the FMU's entry module) puts a finder on ``sys.meta_path`` that acts on
 the first ``import numpy`` a model makes when the process has no numpy of its own: it unpacks the
 archive into the user's cache, ``$XDG_CACHE_HOME/spurdiff/numpy-<sha256[:16]>`` (``~/.cache`` by
-default), and imports numpy from there. Every FMU and process of the same numpy shares that folder.
+default; on Windows ``%LOCALAPPDATA%\\spurdiff\\``), and imports numpy from there. Every FMU and
+process of the same numpy shares that folder.
 
 The folder is made private and atomically: the archive's digest checked first, unpacked into a
 temporary folder (mode 0700) beside the target, every member's path checked to stay inside, then
 renamed into place (a concurrent process that renamed first wins; its folder is used). A folder
 found there is used only when it is a directory (not a link) owned by this user with mode 0700 and
-holds the marker naming this digest; anything else is refused with one line naming it.
+holds the marker naming this digest; anything else is refused with one line naming it. On Windows,
+where a folder has an access list rather than an owner and mode, the check is that it is a
+directory and not a reparse point (a link or junction); %LOCALAPPDATA% is the user's own.
+
+The module imports only ``os`` and ``sys`` at load (it is imported at every FMU start, numpy or
+not): hashing, unpacking and the import machinery's classes are imported when numpy is wanted.
 """
 from __future__ import annotations
 
-import hashlib
-import importlib.abc
-import importlib.machinery
 import os
 import stat
 import sys
-import tempfile
-import zipfile
 from pathlib import Path
 
-ARCHIVE = "numpy.zip"          # in resources/python/
+ARCHIVE = "numpy.zip"          # in resources/<home>/
+HOMES = {"posix": "python", "nt": "python-win64"}   # the runtime's folder in resources/, by os.name
 MARKER = ".spurdiff-numpy"     # in the unpacked folder: the archive's digest
+REPARSE_POINT = 0x400          # FILE_ATTRIBUTE_REPARSE_POINT (Windows: a link or a junction)
 
 
 def cache_root() -> Path:
+    if os.name == "nt":
+        base = os.environ.get("LOCALAPPDATA") or os.path.join(os.path.expanduser("~"), "AppData", "Local")
+        return Path(base) / "spurdiff"
     base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
     return Path(base) / "spurdiff"
 
 
 def _private_dir(p: Path) -> str | None:
-    """Why ``p`` is not a folder of ours with mode 0700, or None."""
+    """Why ``p`` is not a folder of ours with mode 0700 (Windows: a folder, not a reparse point), or None."""
     try:
         st = os.lstat(p)
     except OSError as e:
         return f"{p}: {e.strerror}"
-    if not stat.S_ISDIR(st.st_mode):
+    if not stat.S_ISDIR(st.st_mode) or getattr(st, "st_file_attributes", 0) & REPARSE_POINT:
         return f"{p} is not a folder (a link or a file)"
+    if os.name == "nt":
+        return None
     if st.st_uid != os.getuid():
         return f"{p} belongs to uid {st.st_uid}, not to this user ({os.getuid()})"
     if stat.S_IMODE(st.st_mode) & 0o077:
@@ -54,6 +63,10 @@ def _private_dir(p: Path) -> str | None:
 def unpacked(archive: Path, digest: str, root: Path | None = None) -> Path:
     """The folder holding numpy unpacked from ``archive`` (SHA-256 ``digest``), made if needed.
     OSError (with one line naming the place) when it cannot be made or found safely."""
+    import hashlib
+    import tempfile
+    import zipfile
+
     root = Path(root) if root else cache_root()
     target = root / f"numpy-{digest[:16]}"
     if os.path.lexists(target):
@@ -98,8 +111,9 @@ def unpacked(archive: Path, digest: str, root: Path | None = None) -> Path:
     return target
 
 
-class _Finder(importlib.abc.MetaPathFinder):
-    """``import numpy`` with no numpy on the path: from the archive, unpacked into the cache."""
+class _Finder:
+    """``import numpy`` with no numpy on the path: from the archive, unpacked into the cache (a
+    meta path finder: ``find_spec`` is all the import system asks of one)."""
 
     def __init__(self, archive: Path, digest: str):
         self.archive, self.digest = archive, digest
@@ -107,6 +121,7 @@ class _Finder(importlib.abc.MetaPathFinder):
     def find_spec(self, name, path=None, target=None):
         if name != "numpy":
             return None
+        import importlib.machinery
         if importlib.machinery.PathFinder.find_spec(name, sys.path) is not None:
             return None           # the process's own numpy comes first
         folder = str(unpacked(self.archive, self.digest))
@@ -116,9 +131,9 @@ class _Finder(importlib.abc.MetaPathFinder):
 
 
 def install(resources: str | Path) -> bool:
-    """The finder for the FMU whose resources folder is ``resources``, when its runtime carries numpy as
-    an archive; False when it does not (numpy is then where the process finds it)."""
-    archive = Path(resources) / "python" / ARCHIVE
+    """The finder for the FMU whose resources folder is ``resources``, when this platform's runtime
+    carries numpy as an archive; False when it does not (numpy is then where the process finds it)."""
+    archive = Path(resources) / HOMES.get(os.name, HOMES["posix"]) / ARCHIVE
     sha = archive.with_name(ARCHIVE + ".sha256")
     if not archive.is_file() or not sha.is_file():
         return False

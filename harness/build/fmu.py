@@ -123,7 +123,7 @@ def source_digest(name: str) -> str:
 
 
 from harness.build.fmu_contents import (NUMPY_ENTRIES, NUMPY_FREE_FMUS, PLATFORMS, PLATFORMS_ENV,  # noqa: E402,F401
-                                   drop_numpy as _drop_numpy, form_radius_table, numpy_archive,
+                                   archived_numpy, drop_numpy as _drop_numpy, form_radius_table, numpy_archive,
                                    numpy_as_archive as _numpy_as_archive, platform_sizes, platforms)
 
 
@@ -388,7 +388,8 @@ _STAGED: dict[str, Path] = {}     # package digest -> the staged, byte-compiled 
 
 def _compile_pycs(path: Path, root: Path) -> None:
     """Byte-compile ``path`` (a folder or a file) with pycs checked against their source's hash: used
-    whatever the file times after extraction; ``co_filename`` relative to ``root``."""
+    whatever the file times after extraction; ``co_filename`` relative to ``root``. (Unchecked pycs,
+    which skip reading the sources, measured no faster at start-up: docs/performance.md, start-up.)"""
     mode = py_compile.PycInvalidationMode.CHECKED_HASH
     ok = (compileall.compile_dir(str(path), quiet=2, workers=1, stripdir=str(root), prependdir=None,
                                  invalidation_mode=mode) if path.is_dir()
@@ -485,7 +486,7 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
         try:
             if runtime is not None:    # the runtimes' entries, compressed once, come first
                 shutil.copyfile(_base_archive(runtime, win64), part)
-                notes.append(_drop_numpy(part) if name in NUMPY_FREE_FMUS else _numpy_as_archive(part, runtime, tmp))
+                notes.append(_drop_numpy(part) if name in NUMPY_FREE_FMUS else _numpy_as_archive(part, runtime, win64))
             with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(part, "a" if runtime else "w", zipfile.ZIP_DEFLATED) as zout:
                 guid = None
                 for item in zin.infolist():

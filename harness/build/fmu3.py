@@ -111,8 +111,8 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
         shutil.copyfile(start, part)
         if name in build2.NUMPY_FREE_FMUS:      # as the FMI 2.0 FMU (whose numpy archive, if any, comes below)
             build2._drop_numpy(part)
-        elif "resources/python/numpy.zip" in zipfile.ZipFile(fmu2).namelist():
-            build2._drop_numpy(part, build2.NUMPY_ENTRIES[:1])
+        elif build2.archived_numpy(zipfile.ZipFile(fmu2).namelist()):   # numpy as archives, as the FMI 2.0 FMU
+            build2._drop_numpy(part, build2.archived_numpy(zipfile.ZipFile(fmu2).namelist()))
         with zipfile.ZipFile(part) as z:
             in_runtime |= set(z.namelist())        # (the folders drop_numpy kept)
         with zipfile.ZipFile(fmu2) as zin, zipfile.ZipFile(part, "a", zipfile.ZIP_DEFLATED) as zout:

@@ -120,34 +120,85 @@ def drop_numpy(archive: Path, patterns: tuple[str, ...] = NUMPY_ENTRIES) -> str:
     return "without numpy (its models never import it)"
 
 
-def numpy_archive(runtime, tmp: Path) -> Path:
-    """The linux64 runtime's numpy (numpy/ and numpy.libs/) as one deflated archive in ``tmp``, members
-    in sorted order with a fixed time (the same bytes for the same numpy)."""
-    site = runtime.folder / runtime_bundle.PYLIB / "site-packages"
-    out = tmp / "numpy.zip"
-    with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as z:
+NUMPY_ARCHIVES = tuple(f"resources/{home}/numpy.zip" for home in ("python", runtime_win64.HOME))   # per NUMPY_ENTRIES
+
+
+def archived_numpy(names) -> tuple[str, ...]:
+    """The patterns of :data:`NUMPY_ENTRIES` whose runtime carries numpy as an archive among the
+    archive member ``names`` (an FMI 3.0 build drops those runtimes' unpacked numpy as well)."""
+    return tuple(p for p, a in zip(NUMPY_ENTRIES, NUMPY_ARCHIVES) if a in names)
+
+
+def _sourceless(path: Path, rel: str) -> bytes:
+    """The module ``path`` byte-compiled by this interpreter (the runtime's 3.X: the same bytecode on
+    every platform) as an unchecked hash-based pyc naming ``rel``."""
+    import py_compile
+    import tempfile
+
+    with tempfile.TemporaryDirectory(prefix="spurdiff_pyc_") as tmp:
+        out = Path(tmp) / "m.pyc"
+        py_compile.compile(str(path), cfile=str(out), dfile=rel, doraise=True,
+                           invalidation_mode=py_compile.PycInvalidationMode.UNCHECKED_HASH)
+        return out.read_bytes()
+
+
+NUMPY_ARCHIVE_FORMAT = "lzma-pyc-1"    # how numpy_archive packs (part of its cached file's name)
+
+
+def numpy_archive(site: Path, out: Path) -> Path:
+    """numpy (numpy/ and numpy.libs/) of the site-packages folder ``site`` as one archive ``out``,
+    LZMA-compressed (a third smaller than deflate: fewer bytes for every host's unzip to copy; unpacked
+    once per user, which reads LZMA with the runtime's own ``_lzma``), members in sorted order with a
+    fixed time (the same bytes for the same numpy). Modules still in source form (the win64 wheel's)
+    become sourceless pycs (``module.pyc`` in place of ``module.py``): the FMU's Python writes no
+    bytecode, and would compile them at every start."""
+    with zipfile.ZipFile(out, "w", zipfile.ZIP_LZMA) as z:
         for top in ("numpy", "numpy.libs"):
             for p in sorted((site / top).rglob("*")):
                 if p.is_file():
-                    z.writestr(_entry(str(p.relative_to(site)), 0o755 if os.access(p, os.X_OK) else 0o644),
-                               p.read_bytes())
+                    rel = p.relative_to(site).as_posix()
+                    mode = 0o755 if os.access(p, os.X_OK) else 0o644
+                    info = _entry(rel[:-3] + ".pyc" if p.suffix == ".py" else rel, mode)
+                    info.compress_type = zipfile.ZIP_LZMA
+                    z.writestr(info, _sourceless(p, rel) if p.suffix == ".py" else p.read_bytes())
     return out
 
 
-def numpy_as_archive(part: Path, runtime, tmp: Path) -> str:
-    """The linux64 runtime's numpy in ``part`` replaced by one stored member, resources/python/numpy.zip,
-    and its SHA-256 (spurdiff.numpy_archive unpacks it into the user's cache at the first import)."""
+def cached_numpy_archive(site: Path, folder: Path) -> Path:
+    """:func:`numpy_archive` of ``site`` kept in the cached runtime ``folder`` (made once: LZMA takes
+    half a minute), written beside it and renamed into place."""
+    out = folder / f"numpy-{NUMPY_ARCHIVE_FORMAT}.zip"
+    if not out.is_file():
+        staged = folder / f".{out.name}.{os.getpid()}"
+        try:
+            numpy_archive(site, staged)
+            os.replace(staged, out)
+        finally:
+            staged.unlink(missing_ok=True)
+    return out
+
+
+def numpy_as_archive(part: Path, runtime, win64=None) -> str:
+    """Each runtime's numpy in ``part`` (linux64's; win64's when ``win64``, its cached runtime, is given)
+    replaced by one stored member, resources/<home>/numpy.zip, and its SHA-256 (spurdiff.numpy_archive
+    unpacks it into the user's cache at the first import)."""
     from spurdiff import numpy_archive as na
 
     if shutil.which("zip") is None:
         return "numpy unpacked (no zip command to replace it)"
-    drop_numpy(part, NUMPY_ENTRIES[:1])
-    inner = numpy_archive(runtime, tmp)
-    data = inner.read_bytes()
-    with zipfile.ZipFile(part, "a") as z:
-        info = _entry(f"resources/{runtime_bundle.HOME}/{na.ARCHIVE}")
-        info.compress_type = zipfile.ZIP_STORED        # a host's unzip copies it
-        z.writestr(info, data)
-        z.writestr(_entry(f"resources/{runtime_bundle.HOME}/{na.ARCHIVE}.sha256"),
-                   hashlib.sha256(data).hexdigest() + "\n")
-    return f"numpy as one archive ({len(data) / 1e6:.1f} MB, unpacked once per user into the cache)"
+    sites = {runtime_bundle.HOME: (runtime.folder, runtime.folder / runtime_bundle.PYLIB / "site-packages",
+                                   NUMPY_ENTRIES[0])}
+    if win64 is not None:
+        sites[runtime_win64.HOME] = (win64.folder, win64.folder / runtime_win64.HOME / "Lib" / "site-packages",
+                                     NUMPY_ENTRIES[1])
+    drop_numpy(part, tuple(pattern for *_, pattern in sites.values()))
+    said = []
+    for home, (folder, site, _) in sites.items():
+        data = cached_numpy_archive(site, folder).read_bytes()
+        with zipfile.ZipFile(part, "a") as z:
+            info = _entry(f"resources/{home}/{na.ARCHIVE}")
+            info.compress_type = zipfile.ZIP_STORED        # a host's unzip copies it
+            z.writestr(info, data)
+            z.writestr(_entry(f"resources/{home}/{na.ARCHIVE}.sha256"), hashlib.sha256(data).hexdigest() + "\n")
+        said.append(f"{home} {len(data) / 1e6:.1f} MB")
+    return f"numpy as one archive per runtime ({', '.join(said)}; unpacked once per user into the cache)"

@@ -15,7 +15,10 @@ this interpreter's headers, so the Windows runtime is the same ``3.X``)::
     resources/python/lib/python3X.zip             the standard library: the linux64 runtime's (harness.build.runtime_bundle:
                                                   the modules the FMUs import, ntpath and nturl2path among them,
                                                   sourceless pycs of this 3.X, stored), shared by both platforms
-    resources/python-win64/Lib/site-packages/     numpy :data:`NUMPY_VERSION` (``win_amd64`` wheel for 3.X)
+    resources/python-win64/numpy.zip              numpy :data:`NUMPY_VERSION` (``win_amd64`` wheel for 3.X) as one
+                                                  archive, sourceless (harness.build.fmu_contents), unpacked once
+                                                  per user into %LOCALAPPDATA% (spurdiff.numpy_archive); the
+                                                  runtime's Lib/site-packages/ stays, empty
     resources/spurdiff/.../mesh_kernel.dll        the kernels beside the ``.so`` ones (SpurDifferential)
 
 The embeddable distribution's own standard library (``python3X.zip``, 4.2 MB zipped, its whole

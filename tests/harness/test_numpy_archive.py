@@ -92,3 +92,22 @@ def test_planted_foreign_and_altered_caches_are_refused(resources, tmp_path):
     with pytest.raises(OSError, match="is not the"):        # an altered archive
         na.unpacked(archive, "f" * 64, root)
     assert na.unpacked(archive, digest, root) == target      # and the real one unpacks
+
+
+LAZY = r"""
+import sys
+sys.path.insert(0, sys.argv[1])
+import spurdiff._fmu_entry                      # the finder installed, numpy not wanted
+print('LOADED', sorted(m for m in ('zipfile', 'tempfile', 'shutil', 'importlib.abc', 'importlib.resources', 'lzma',
+                                   'bz2', 'numpy') if m in sys.modules))
+"""
+
+
+def test_the_finder_costs_the_start_up_no_unpacking_machinery(resources, tmp_path):
+    """At every FMU start the entry installs the finder: without numpy wanted, nothing of the
+    unpacking (zipfile, tempfile, shutil, the importlib ABCs) is imported (issue 44 item 2)."""
+    r = subprocess.run([sys.executable, "-I", "-S", "-c", LAZY, str(resources)], capture_output=True, text=True,
+                       timeout=120, env={"PATH": "/usr/bin:/bin", "XDG_CACHE_HOME": str(tmp_path)})
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert "LOADED []" in r.stdout, r.stdout
+    assert not (tmp_path / "spurdiff").exists()      # nothing unpacked

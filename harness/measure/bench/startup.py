@@ -17,7 +17,9 @@ Each measure runs both FMUs interleaved in the same command, so machine noise hi
   ``getReal`` of every Real output (fmpy's Python API, as a script would call it), fastest of the
   rounds; and the same with the C FMU's one input and two outputs.
 
-``python -m harness.measure.bench.startup`` prints the section (section 8 of ``spurdiff bench``).
+``python -m harness.measure.bench.startup [RUNS] [--against EARLIER.fmu]`` prints the section (section 8 of
+``spurdiff bench``) with the load average; ``--against`` measures an earlier build of SpurDifferential
+in the same interleaved runs (a change's before and after).
 """
 from __future__ import annotations
 
@@ -183,34 +185,36 @@ def per_step(fmu: Path, unzipped: Path, n: int = 2000, rounds: int = 5) -> float
         s.freeInstance()
 
 
-def measure(ours: Path, theirs: Path, runs: int = 5) -> dict:
-    """Every measure for both FMUs, interleaved."""
+def measure(ours: Path, theirs: Path, runs: int = 5, before: Path | None = None) -> dict:
+    """Every measure for both FMUs (and ``before``, an earlier build of ours, when given), interleaved."""
     tmp = Path(tempfile.mkdtemp(prefix="spurdiff-startup-"))
     try:
         host = _host(tmp)
+        fmus = {"ours": ours, "c": theirs, **({"before": before} if before is not None else {})}
+        ourside = [k for k in fmus if k != "c"]
         unz = {}
-        for name, f in (("ours", ours), ("c", theirs)):
+        for name, f in fmus.items():
             unz[name] = tmp / f"unzipped-{name}"
             subprocess.run(["unzip", "-q", str(f), "-d", str(unz[name])], check=True)
-        fmus = {"ours": ours, "c": theirs}
-        whole = {"ours": [], "c": []}
-        init = {"ours": [], "c": [], "ours_out": []}
-        for name in ("ours", "c"):    # warm the page cache once
+        whole = {k: [] for k in fmus}
+        init = {**{k: [] for k in fmus}, **{f"{k}_out": [] for k in ourside}}
+        for name in fmus:    # warm the page cache once
             whole_run(fmus[name], host, tmp)
         for _ in range(runs):
-            for name in ("ours", "c"):
+            for name in fmus:
                 whole[name].append(whole_run(fmus[name], host, tmp))
                 init[name].append(init_time(fmus[name], unz[name], False))
-            init["ours_out"].append(init_time(ours, unz["ours"], True))
-        step = {"ours": [], "c": []}
+            for name in ourside:
+                init[f"{name}_out"].append(init_time(fmus[name], unz[name], True))
+        step = {k: [] for k in fmus}
         for _ in range(2):
-            for name in ("ours", "c"):
+            for name in fmus:
                 step[name].append(per_step(fmus[name], unz[name]))
-        host_pss, pss = own_process_pss(ours, unz["ours"], 4)
+        pss = {k: own_process_pss(fmus[k], unz[k], 4) for k in ourside}
         return {"whole": {k: statistics.median(v) for k, v in whole.items()},
                 "init": {k: statistics.median(v) for k, v in init.items()},
                 "step": {k: min(v) for k, v in step.items()},
-                "pss_host": host_pss, "pss": pss,
+                "pss_host": {k: v[0] for k, v in pss.items()}, "pss": {k: v[1] for k, v in pss.items()},
                 "size": {k: f.stat().st_size for k, f in fmus.items()},
                 "files": {k: sum(1 for p in unz[k].rglob("*") if p.is_file()) for k in unz},
                 "unpacked": {k: sum(p.stat().st_size for p in unz[k].rglob("*") if p.is_file()) for k in unz}}
@@ -218,7 +222,29 @@ def measure(ours: Path, theirs: Path, runs: int = 5) -> dict:
         shutil.rmtree(tmp, ignore_errors=True)
 
 
-def report(runs: int = 5) -> list[str]:
+def _lines(m: dict, k: str, fmu: Path, runs: int) -> list[str]:
+    """The section's lines for ``k`` ("ours" or "before") of the measures ``m``."""
+    w, i, s = m["whole"], m["init"], m["step"]
+    mb = 1024 * 1024
+    return [f"   {fmu.name} {m['size'][k] / mb:.1f} MB ({m['files'][k]} files, "
+            f"{m['unpacked'][k] / mb:.1f} MB unpacked) against the C FMU ChkC.fmu "
+            f"{m['size']['c'] / 1024:.0f} kB; medians of {runs} interleaved runs (per step: fastest)",
+            f"   {'':58s}{'ours':>10s}{'C FMU':>10s}{'ratio':>8s}{'target':>10s}",
+            f"   {'whole run: unzip + C host (load, init, one 5 ms step, free)':58s}{w[k] * 1e3:8.1f}ms"
+            f"{w['c'] * 1e3:8.1f}ms{w[k] / w['c']:8.1f}{'<= 20x':>10s}",
+            f"   {'fmpy 3.11, instantiate + initialize, in the host process':58s}{i[k] * 1e3:8.1f}ms"
+            f"{i['c'] * 1e3:8.1f}ms{'':8s}{'<= 60 ms':>10s}",
+            f"   {'the same, the model in its own process':58s}{i[k + '_out'] * 1e3:8.1f}ms{'':10s}{'':8s}"
+            f"{'<= 150 ms':>10s}",
+            f"   {'per step in fmpy (setReal all, doStep, getReal all), us':58s}{s[k]:10.1f}{s['c']:10.1f}"
+            f"{s[k] / s['c']:8.1f}{'<= 3x':>10s}",
+            f"   own-process instance PSS (4 instances in one fmpy host, whose own PSS is {m['pss_host'][k]:.1f} MB): "
+            f"{', '.join(f'{x:.1f}' for x in m['pss'][k])} MB (target <= 8 MB each)"]
+
+
+def report(runs: int = 5, before: Path | None = None) -> list[str]:
+    """The section's lines for SpurDifferential as built here; with ``before`` (an earlier build's
+    FMU file), its lines after them, measured in the same interleaved runs."""
     from harness.build.fmu import build
 
     theirs = c_fmu()
@@ -226,31 +252,34 @@ def report(runs: int = 5) -> list[str]:
         return ["   not measured: the plain C FMU (tests/broken_fmus/chkc.c) or gcc is not here"]
     ours = build(["SpurDifferential"], quiet=True)[0]
     try:
-        m = measure(ours, theirs, runs)
+        m = measure(ours, theirs, runs, before)
     except (RuntimeError, OSError, subprocess.SubprocessError) as e:   # said in the report, not fatal to the bench
         return [f"   not measured: {type(e).__name__}: {str(e)[-300:]}"]
-    w, i, s = m["whole"], m["init"], m["step"]
-    mb = 1024 * 1024
-    lines = [f"   SpurDifferential.fmu {m['size']['ours'] / mb:.1f} MB ({m['files']['ours']} files, "
-             f"{m['unpacked']['ours'] / mb:.1f} MB unpacked) against the C FMU ChkC.fmu "
-             f"{m['size']['c'] / 1024:.0f} kB; medians of {runs} interleaved runs (per step: fastest)",
-             f"   {'':58s}{'ours':>10s}{'C FMU':>10s}{'ratio':>8s}{'target':>10s}",
-             f"   {'whole run: unzip + C host (load, init, one 5 ms step, free)':58s}{w['ours'] * 1e3:8.1f}ms"
-             f"{w['c'] * 1e3:8.1f}ms{w['ours'] / w['c']:8.1f}{'<= 20x':>10s}",
-             f"   {'fmpy 3.11, instantiate + initialize, in the host process':58s}{i['ours'] * 1e3:8.1f}ms"
-             f"{i['c'] * 1e3:8.1f}ms{'':8s}{'<= 60 ms':>10s}",
-             f"   {'the same, the model in its own process':58s}{i['ours_out'] * 1e3:8.1f}ms{'':10s}{'':8s}"
-             f"{'<= 150 ms':>10s}",
-             f"   {'per step in fmpy (setReal all, doStep, getReal all), us':58s}{s['ours']:10.1f}{s['c']:10.1f}"
-             f"{s['ours'] / s['c']:8.1f}{'<= 3x':>10s}",
-             f"   own-process instance PSS (4 instances in one fmpy host, whose own PSS is {m['pss_host']:.1f} MB): "
-             f"{', '.join(f'{x:.1f}' for x in m['pss'])} MB (target <= 8 MB each)"]
+    lines = _lines(m, "ours", ours, runs)
+    if before is not None:
+        lines += [f"   the same runs, interleaved, of the earlier build {before}:", *_lines(m, "before", before, runs)]
     return lines
 
 
 def main(argv: list[str] | None = None) -> int:
-    runs = int(argv[0]) if argv else 5
-    print("\n".join(report(runs)))
+    """``[RUNS] [--against EARLIER.fmu]``: the section (RUNS interleaved runs, default 5); with
+    ``--against``, an earlier build of SpurDifferential measured in the same interleaved runs (before
+    and after a change); the load average before and after."""
+    import argparse
+
+    ap = argparse.ArgumentParser(prog="python -m harness.measure.bench.startup")
+    ap.add_argument("runs", nargs="?", type=int, default=5)
+    ap.add_argument("--against", type=Path, default=None, metavar="EARLIER.fmu")
+    a = ap.parse_args(argv)
+    if a.runs < 1:
+        ap.error(f"runs {a.runs}: allowed 1 or more")
+    if a.against is not None and not a.against.is_file():
+        ap.error(f"--against {a.against}: no such FMU file")
+    load = os.getloadavg()
+    print(f"   load average {load[0]:.1f} (1 min), {load[1]:.1f} (5 min) on {os.cpu_count()} cores at the start")
+    print("\n".join(report(a.runs, a.against)))
+    load = os.getloadavg()
+    print(f"   load average {load[0]:.1f} (1 min), {load[1]:.1f} (5 min) on {os.cpu_count()} cores at the end")
     return 0
 
 
