@@ -42,14 +42,14 @@ def test_argparse_lives_only_in_the_cli_package():
 
 @pytest.mark.parametrize("module", ["mesh_bench", "rigid_kernel_bench", "vehicle_kernel_bench"])
 def test_bench_modules_answer_help(module, capsys):
-    """The benchmark modules' command lines (``python -m harness.cli.<name>``) answer -h."""
+    """The benchmark modules' command lines (``python -m harness.cli.tools.<name>``) answer -h."""
     with pytest.raises(SystemExit) as e:
-        importlib.import_module(f"harness.cli.{module}").main(["-h"])
-    assert e.value.code == 0 and f"python -m harness.cli.{module}" in capsys.readouterr().out
+        importlib.import_module(f"harness.cli.tools.{module}").main(["-h"])
+    assert e.value.code == 0 and f"python -m harness.cli.tools.{module}" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize("module", ["rigid_kernel_bench", "vehicle_kernel_bench"])
 def test_kernel_benches_reject_zero_rounds(module, capsys):
     with pytest.raises(SystemExit) as e:
-        importlib.import_module(f"harness.cli.{module}").main(["--rounds", "0"])
+        importlib.import_module(f"harness.cli.tools.{module}").main(["--rounds", "0"])
     assert e.value.code == 2 and "--rounds must be >= 1, got 0" in capsys.readouterr().err

@@ -11,7 +11,7 @@ import sys
 def kernel_bench(name: str, argv: list[str] | None) -> int:
     """Parse ``--rounds N`` for the A/B kernel bench :mod:`harness.measure.bench` ``.<name>`` and run it."""
     bench = importlib.import_module(f"harness.measure.bench.{name}")
-    ap = argparse.ArgumentParser(prog=f"python -m harness.cli.{name}_bench",
+    ap = argparse.ArgumentParser(prog=f"python -m harness.cli.tools.{name}_bench",
                                  description=bench.__doc__.splitlines()[0])
     ap.add_argument("--rounds", type=int, default=5, help="interleaved rounds; the fastest counts (default 5)")
     a = ap.parse_args(argv)

@@ -17,7 +17,7 @@ Each measure runs both FMUs interleaved in the same command, so machine noise hi
   ``getReal`` of every Real output (fmpy's Python API, as a script would call it), fastest of the
   rounds; and the same with the C FMU's one input and two outputs.
 
-``python -m harness.measure.bench.startup [RUNS] [--against EARLIER.fmu]`` prints the section (section 8 of
+``python -m harness.cli.tools.startup_bench [RUNS] [--against EARLIER.fmu]`` prints the section (section 8 of
 ``spurdiff bench``) with the load average; ``--against`` measures an earlier build of SpurDifferential
 in the same interleaved runs (a change's before and after).
 """
@@ -259,29 +259,3 @@ def report(runs: int = 5, before: Path | None = None) -> list[str]:
     if before is not None:
         lines += [f"   the same runs, interleaved, of the earlier build {before}:", *_lines(m, "before", before, runs)]
     return lines
-
-
-def main(argv: list[str] | None = None) -> int:
-    """``[RUNS] [--against EARLIER.fmu]``: the section (RUNS interleaved runs, default 5); with
-    ``--against``, an earlier build of SpurDifferential measured in the same interleaved runs (before
-    and after a change); the load average before and after."""
-    import argparse
-
-    ap = argparse.ArgumentParser(prog="python -m harness.measure.bench.startup")
-    ap.add_argument("runs", nargs="?", type=int, default=5)
-    ap.add_argument("--against", type=Path, default=None, metavar="EARLIER.fmu")
-    a = ap.parse_args(argv)
-    if a.runs < 1:
-        ap.error(f"runs {a.runs}: allowed 1 or more")
-    if a.against is not None and not a.against.is_file():
-        ap.error(f"--against {a.against}: no such FMU file")
-    load = os.getloadavg()
-    print(f"   load average {load[0]:.1f} (1 min), {load[1]:.1f} (5 min) on {os.cpu_count()} cores at the start")
-    print("\n".join(report(a.runs, a.against)))
-    load = os.getloadavg()
-    print(f"   load average {load[0]:.1f} (1 min), {load[1]:.1f} (5 min) on {os.cpu_count()} cores at the end")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main(sys.argv[1:]))

@@ -7,6 +7,7 @@ import shutil
 
 import pytest
 
+from harness.cli.tools import startup_bench
 from harness.measure.bench import startup
 
 
@@ -23,9 +24,9 @@ def test_the_c_fmu_builds():
 
 def test_an_earlier_build_that_is_not_a_file_is_refused_with_one_line(tmp_path, capsys):
     with pytest.raises(SystemExit) as e:
-        startup.main(["3", "--against", str(tmp_path / "missing.fmu")])
+        startup_bench.main(["3", "--against", str(tmp_path / "missing.fmu")])
     assert e.value.code != 0
     assert f"--against {tmp_path / 'missing.fmu'}: no such FMU file" in capsys.readouterr().err
     with pytest.raises(SystemExit):
-        startup.main(["0"])
+        startup_bench.main(["0"])
     assert "runs 0: allowed 1 or more" in capsys.readouterr().err

@@ -279,8 +279,10 @@ def test_the_fmu_parameter_solver_method_reaches_the_integrator(differential_fmu
     unknown method is refused, naming the parameter."""
     from fmpy import simulate_fmu
 
-    start = {"meshModel": "contact", "mesh.preload": False, "carrier.w_ref": 1.389, "left.tau": -1050.0,
-             "right.tau": -1050.0, "tolerance": 1e-8}
+    from spurdiff.gears.design_sets import fmu_parameters
+    # the paper's gear set from rest, as the direct model below (DifferentialParams() is the paper's set)
+    start = {**fmu_parameters("paper"), "differential.w_start": 0.0, "meshModel": "contact", "mesh.preload": False,
+             "carrier.w_ref": 1.389, "left.tau": -1050.0, "right.tau": -1050.0, "tolerance": 1e-8}
     steps = {}
     for method in ("auto",) + METHODS:
         res = simulate_fmu(str(differential_fmu), stop_time=0.01, output_interval=1e-3,
