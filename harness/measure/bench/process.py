@@ -10,6 +10,9 @@ this process, interleaved with the in-process runs so machine noise hits both si
   outputs, and the sequence ``fmi2SetReal`` (4 inputs) + ``fmi2DoStep`` + ``fmi2GetReal`` (4
   outputs) of one communication step of SpurDifferential (rigid, 5 ms); the difference between
   the two sides is the cost of the round trips;
+* the same step under load (issue 44 item 4): with ``2 x cores`` processes that only spin beside it
+  (:func:`busy_load`), the own process's step against this process's, both measured under that load
+  in the same run as the quiet ones (target: within 1.5x);
 * a whole scene: vehicle-cornering through FMI with every FMU in its own process against in this
   process (:func:`harness.measure.bench.core.fmi_overhead`'s run, wall and CPU time of this process:
   the model processes' CPU is not counted, it runs on the other core).
@@ -21,6 +24,8 @@ from __future__ import annotations
 import contextlib
 import os
 import statistics
+import subprocess
+import sys
 import time
 from ctypes import c_double, c_size_t, c_uint
 from pathlib import Path
@@ -40,6 +45,22 @@ def model_process(mode: str):
             os.environ.pop(ENV, None)
         else:
             os.environ[ENV] = old
+
+
+@contextlib.contextmanager
+def busy_load(n: int):
+    """``n`` processes of this Python that only spin, for the block (each ended by its pid after it):
+    a machine oversubscribed as a busy host's is."""
+    procs = [subprocess.Popen([sys.executable, "-c", "while True: pass"], stdin=subprocess.DEVNULL)
+             for _ in range(n)]
+    try:
+        time.sleep(0.2)   # all of them running
+        yield
+    finally:
+        for p in procs:
+            p.kill()
+        for p in procs:
+            p.wait()
 
 
 def _calls(path: Path, mode: str, n: int, h: float = 5e-3) -> dict[str, float]:
@@ -84,17 +105,36 @@ def _calls(path: Path, mode: str, n: int, h: float = 5e-3) -> dict[str, float]:
         inst.close()
 
 
-def round_trips(n: int = 2000) -> dict:
-    """SpurDifferential's calls in this process and in its own, interleaved (in, out, in, out)."""
+def _differential() -> Path:
     from harness.build.fmu import build
 
-    path = build(["SpurDifferential"], quiet=True)[0]
+    return build(["SpurDifferential"], quiet=True)[0]
+
+
+def round_trips(n: int = 2000, path: Path | None = None) -> dict:
+    """SpurDifferential's calls in this process and in its own, interleaved (in, out, in, out)."""
+    path = path or _differential()
     runs = {"in": [], "out": []}
     for mode in ("in", "out", "in", "out"):
         runs[mode].append(_calls(path, mode, n))
     best = {m: {k: min(r[k] for r in rs) for k in rs[0]} for m, rs in runs.items()}
     return {"in": best["in"], "out": best["out"],
             "overhead": {k: best["out"][k] - best["in"][k] for k in best["in"]}}
+
+
+def under_load(n: int = 2000, load: int | None = None) -> dict:
+    """The communication step's cost (set + doStep + get) in its own process against this process,
+    quiet and with ``load`` spinning processes beside it (default: twice the cores), in one run:
+    {"load": load, "quiet": round_trips(), "loaded": round_trips() under the load, and "ratio_quiet",
+    "ratio_loaded": own process / this process per step}."""
+    path = _differential()
+    load = load or 2 * (os.cpu_count() or 1)
+    quiet = round_trips(n, path)
+    with busy_load(load):
+        loaded = round_trips(n, path)
+    k = "set+doStep+get"
+    return {"load": load, "quiet": quiet, "loaded": loaded, "ratio_quiet": quiet["out"][k] / quiet["in"][k],
+            "ratio_loaded": loaded["out"][k] / loaded["in"][k]}
 
 
 def scene_in_own_processes(scene_name: str = "vehicle-cornering", repeats: int = 3) -> dict:
@@ -121,7 +161,8 @@ def scene_in_own_processes(scene_name: str = "vehicle-cornering", repeats: int =
 
 
 def report(repeats: int = 3) -> list[str]:
-    rt = round_trips()
+    ul = under_load()
+    rt = ul["quiet"]
     lines = ["   SpurDifferential (rigid, 5 ms step), us per call as a master's loop makes it, best of 2 interleaved "
              "rounds:",
              f"   {'':24s}{'this process':>14s}{'own process':>14s}{'difference':>12s}"]
@@ -129,6 +170,12 @@ def report(repeats: int = 3) -> list[str]:
         lines.append(f"   {k:24s}{rt['in'][k]:14.1f}{rt['out'][k]:14.1f}{rt['overhead'][k]:12.1f}")
     lines.append(f"   one round trip (getReal's difference): {rt['overhead']['getReal']:.1f} us; "
                  f"a communication step's three: {rt['overhead']['set+doStep+get']:.1f} us (target <= 10)")
+    ld = ul["loaded"]
+    lines.append(f"   with {ul['load']} spinning processes beside it ({ul['load'] / (os.cpu_count() or 1):g} x the cores): "
+                 f"set+doStep+get {ld['in']['set+doStep+get']:.1f} us in this process, "
+                 f"{ld['out']['set+doStep+get']:.1f} us in its own")
+    lines.append(f"   own process / this process per step: quiet {ul['ratio_quiet']:.2f}x, under that load "
+                 f"{ul['ratio_loaded']:.2f}x (target <= 1.5x)")
     try:
         s = scene_in_own_processes(repeats=repeats)
     except Exception as e:   # noqa: BLE001 - a scene that cannot run here is reported, not fatal
@@ -141,7 +188,26 @@ def report(repeats: int = 3) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    print("\n".join(report()))
+    """``python -m harness.measure.bench.process [--load N]``: the table; with --load only the step
+    quiet and beside N spinning processes (default 2 x cores), the same run."""
+    import argparse
+
+    ap = argparse.ArgumentParser(prog="python -m harness.measure.bench.process")
+    ap.add_argument("--load", type=int, nargs="?", const=0, default=None,
+                    help="only the per-step ratio quiet and beside LOAD spinning processes (default 2 x cores)")
+    ap.add_argument("--steps", type=int, default=2000, help="communication steps per round (default 2000)")
+    args = ap.parse_args(argv)
+    if args.load is None:
+        print("\n".join(report()))
+        return 0
+    if args.load < 0 or args.steps < 1:
+        ap.error("--load must be >= 0 and --steps >= 1")
+    ul = under_load(args.steps, args.load or None)
+    for what in ("quiet", "loaded"):
+        r = ul[what]
+        print(f"{what:7s} set+doStep+get: this process {r['in']['set+doStep+get']:.1f} us, own process "
+              f"{r['out']['set+doStep+get']:.1f} us, ratio {ul['ratio_' + what]:.2f}x"
+              + (f" (load {ul['load']} on {os.cpu_count()} cores)" if what == "loaded" else ""))
     return 0
 
 
