@@ -7,7 +7,8 @@
  * arguments into `data`, increments `req` and wakes the server; the server answers in `data`
  * (status first, then the results), appends the log records its model emitted to the log area,
  * sets `resp = req` and wakes the host. Both sides spin a short while before sleeping on a futex
- * (while spinning pays: IpcSpin), so a set / doStep / get sequence costs microseconds. Values are in the host's byte order.
+ * (while spinning pays: IpcSpin), so a round trip costs microseconds. Values are in the host's
+ * byte order.
  * Deferred calls (fmi2_remote_batch.c) stand at the start of `data` (`pre_len` bytes: records of
  * i32 call, then the call's arguments, each record 8-byte aligned), the call after them; the
  * server serves them first, in order.

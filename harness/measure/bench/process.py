@@ -1,15 +1,17 @@
 """What the model's own process costs (issue 25): the same FMU in this process and in its own.
 
 A host whose Python is not the FMU runtime's version runs the model in a process of its own
-(fmu_src/native/fmi/fmi2_remote.c, fmi2_server.c: shared memory, one round trip per FMI call);
+(fmu_src/native/fmi/fmi2_remote.c, fmi2_server.c: shared memory, one round trip per FMI call, but
+for a step's set and get: fmi2_remote_batch.c);
 ``SPURDIFF_FMU_PROCESS=out`` asks for that in any host, which is how this module measures it from
 this process, interleaved with the in-process runs so machine noise hits both sides:
 
 * per call, as a master's step loop makes it (the C function through ctypes with its arguments
   converted once, :meth:`harness.fmi.instance.Instance.fast_function`): ``fmi2GetReal`` of 4
-  outputs, and the sequence ``fmi2SetReal`` (4 inputs) + ``fmi2DoStep`` + ``fmi2GetReal`` (4
-  outputs) of one communication step of SpurDifferential (rigid, 5 ms); the difference between
-  the two sides is the cost of the round trips;
+  outputs before any step (in its own process a round trip each), and the sequence
+  ``fmi2SetReal`` (4 inputs) + ``fmi2DoStep`` + ``fmi2GetReal`` (4 outputs) of one communication
+  step of SpurDifferential (rigid, 5 ms); the difference between the two sides is the cost of the
+  round trips;
 * the same step under load (issue 44 item 4): with ``2 x cores`` processes that only spin beside it
   (:func:`busy_load`), the own process's step against this process's, both measured under that load
   in the same run as the quiet ones (target: within 1.5x);
@@ -17,7 +19,8 @@ this process, interleaved with the in-process runs so machine noise hits both si
   process (:func:`harness.measure.bench.core.fmi_overhead`'s run, wall and CPU time of this process:
   the model processes' CPU is not counted, it runs on the other core).
 
-``python -m harness.measure.bench.process`` prints the table.
+``python -m harness.measure.bench.process`` prints the table; ``--load [N]`` only the step quiet
+and beside N spinning processes (default 2 x cores).
 """
 from __future__ import annotations
 
@@ -86,11 +89,12 @@ def _calls(path: Path, mode: str, n: int, h: float = 5e-3) -> dict[str, float]:
         hh = c_double(h)
         t = 0.0
         rounds_get, rounds_step = [], []
-        for _ in range(5):
+        for _ in range(5):   # before any step: in its own process each get is a round trip
             t0 = time.perf_counter()
             for _ in range(n):
                 get(c, vo, no, xo)
             rounds_get.append(time.perf_counter() - t0)
+        for _ in range(5):   # the step's set and get need none there (fmi2_remote_batch.c)
             t0 = time.perf_counter()
             for _ in range(n):
                 set_(c, vi, ni, xi)
@@ -122,12 +126,13 @@ def round_trips(n: int = 2000, path: Path | None = None) -> dict:
             "overhead": {k: best["out"][k] - best["in"][k] for k in best["in"]}}
 
 
-def under_load(n: int = 2000, load: int | None = None) -> dict:
+def under_load(n: int = 2000, load: int | None = None, path: Path | None = None) -> dict:
     """The communication step's cost (set + doStep + get) in its own process against this process,
     quiet and with ``load`` spinning processes beside it (default: twice the cores), in one run:
     {"load": load, "quiet": round_trips(), "loaded": round_trips() under the load, and "ratio_quiet",
-    "ratio_loaded": own process / this process per step}."""
-    path = _differential()
+    "ratio_loaded": own process / this process per step}; ``path``: another build of the FMU
+    (an older one, to compare)."""
+    path = path or _differential()
     load = load or 2 * (os.cpu_count() or 1)
     quiet = round_trips(n, path)
     with busy_load(load):
@@ -168,8 +173,9 @@ def report(repeats: int = 3) -> list[str]:
              f"   {'':24s}{'this process':>14s}{'own process':>14s}{'difference':>12s}"]
     for k in ("getReal", "set+doStep+get"):
         lines.append(f"   {k:24s}{rt['in'][k]:14.1f}{rt['out'][k]:14.1f}{rt['overhead'][k]:12.1f}")
-    lines.append(f"   one round trip (getReal's difference): {rt['overhead']['getReal']:.1f} us; "
-                 f"a communication step's three: {rt['overhead']['set+doStep+get']:.1f} us (target <= 10)")
+    lines.append(f"   one round trip (getReal's difference, before any step): {rt['overhead']['getReal']:.1f} us; "
+                 f"a communication step's (one round trip: the set deferred, the get answered from the step's "
+                 f"answer): {rt['overhead']['set+doStep+get']:.1f} us (target <= 10)")
     ld = ul["loaded"]
     lines.append(f"   with {ul['load']} spinning processes beside it ({ul['load'] / (os.cpu_count() or 1):g} x the cores): "
                  f"set+doStep+get {ld['in']['set+doStep+get']:.1f} us in this process, "
@@ -196,18 +202,26 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--load", type=int, nargs="?", const=0, default=None,
                     help="only the per-step ratio quiet and beside LOAD spinning processes (default 2 x cores)")
     ap.add_argument("--steps", type=int, default=2000, help="communication steps per round (default 2000)")
+    ap.add_argument("--fmu", type=Path, action="append", default=[],
+                    help="with --load: this SpurDifferential.fmu instead of this checkout's build (repeatable: "
+                         "each measured in turn, e.g. an older build beside today's)")
     args = ap.parse_args(argv)
     if args.load is None:
         print("\n".join(report()))
         return 0
     if args.load < 0 or args.steps < 1:
         ap.error("--load must be >= 0 and --steps >= 1")
-    ul = under_load(args.steps, args.load or None)
-    for what in ("quiet", "loaded"):
-        r = ul[what]
-        print(f"{what:7s} set+doStep+get: this process {r['in']['set+doStep+get']:.1f} us, own process "
-              f"{r['out']['set+doStep+get']:.1f} us, ratio {ul['ratio_' + what]:.2f}x"
-              + (f" (load {ul['load']} on {os.cpu_count()} cores)" if what == "loaded" else ""))
+    for fmu in args.fmu:
+        if not fmu.is_file():
+            ap.error(f"--fmu {fmu}: no such file")
+    for fmu in args.fmu or [None]:
+        ul = under_load(args.steps, args.load or None, fmu)
+        print(f"{fmu or 'SpurDifferential.fmu of this checkout'}:")
+        for what in ("quiet", "loaded"):
+            r = ul[what]
+            print(f"  {what:7s} set+doStep+get: this process {r['in']['set+doStep+get']:.1f} us, own process "
+                  f"{r['out']['set+doStep+get']:.1f} us, ratio {ul['ratio_' + what]:.2f}x"
+                  + (f" (beside {ul['load']} spinning processes, {os.cpu_count()} cores)" if what == "loaded" else ""))
     return 0
 
 
