@@ -179,8 +179,8 @@ static inline void ipc_pause(void)
  * runs on another core, and takes a core the other side may be waiting for when the machine has
  * more runnable processes than cores: so the budget follows what it bought. A change seen while
  * spinning after w ns sets it to 4 w (at least 2 us, at most max_ns); a wait that had to sleep
- * leaves none; without one, every 64th wait spins max_ns / 8 to find out whether spinning pays
- * again. */
+ * leaves a quarter (none below 1 us); without one, every 64th wait spins max_ns / 2 to find out
+ * whether spinning pays again. */
 typedef struct {
     uint64_t max_ns, spin_ns;
     unsigned waits;
@@ -193,12 +193,12 @@ static inline int ipc_wait_change(_Atomic uint32_t *word, uint32_t old, _Atomic 
                                   long slice_ns, int (*alive)(void *), void *ctx)
 {
     uint64_t budget = spin->spin_ns;
-    if (!budget && (++spin->waits & 63) == 0) budget = spin->max_ns / 8;
+    if (!budget && (++spin->waits & 63) == 0) budget = spin->max_ns / 2;
     if (budget) {
-        uint64_t start = ipc_now_ns(), w = 0;
+        uint64_t start = ipc_now_ns();
         for (unsigned i = 1;; i++) {
             if (atomic_load_explicit(word, memory_order_acquire) != old) {
-                w = 4 * (ipc_now_ns() - start);
+                uint64_t w = 4 * (ipc_now_ns() - start);
                 spin->spin_ns = w < 2000 ? 2000 : w < spin->max_ns ? w : spin->max_ns;
                 return 0;
             }
@@ -206,7 +206,7 @@ static inline int ipc_wait_change(_Atomic uint32_t *word, uint32_t old, _Atomic 
             if ((i & 15) == 0 && ipc_now_ns() - start > budget) break;
         }
     }
-    spin->spin_ns = 0;
+    spin->spin_ns = budget / 4 >= 1000 ? budget / 4 : 0;
     for (;;) {
         atomic_store(sleeps, 1);
         if (atomic_load(word) != old) { atomic_store(sleeps, 0); return 0; }
