@@ -1,14 +1,15 @@
 /* The model in its own process, seen from the host (see ipc.h for the protocol and
  * fmi2_server.c for the other side).
  *
- * remote_instantiate starts binaries/<platform>/spurdiff_fmu_server (fmi2_remote_spawn.c: a memfd
- * and the read end of a pipe handed over) and forwards fmi2Instantiate. Every later call is one round trip, but for fmi2SetReal
- * deferred to the next call and fmi2GetReal answered from what fmi2DoStep brought back
- * (fmi2_remote_batch.c: a set / doStep / get step is one round trip); the model's log
- * records come back with the answer and go to the host's logger on the calling thread. When the
- * server dies (a crash of the model), the call returns fmi2Error with the signal named, and so
- * does every later call but fmi2FreeInstance. The server ends with fmi2FreeInstance, or by itself
- * when the host process is gone (its pipe reads end of file, or its parent is no longer the host).
+ * remote_instantiate starts binaries/<platform>/spurdiff_fmu_server (fmi2_remote_spawn.c: a
+ * memfd and the read end of a pipe handed over) and forwards fmi2Instantiate. Every later call is
+ * one round trip, but for fmi2SetReal deferred to the next call and fmi2GetReal answered from
+ * what fmi2DoStep brought back (fmi2_remote_batch.c: a set / doStep / get step is one round
+ * trip); the model's log records come back with the answer and go to the host's logger on the
+ * calling thread. When the server dies (a crash of the model), the call returns fmi2Error with
+ * the signal named, and so does every later call but fmi2FreeInstance. The server ends with
+ * fmi2FreeInstance, or by itself when the host process is gone (its pipe reads end of file, or
+ * its parent is no longer the host).
  *
  * No call waits without bound (call_watch): a model process that is stopped (SIGSTOP, SIGTSTP,
  * SIGTTIN, SIGTTOU) for STOPPED_MS, that uses no CPU for SILENT_MS while a call is out, or that has
@@ -17,7 +18,6 @@
  * like a crashed one. A process that forked after fmi2Instantiate: the model's process belongs to
  * the parent; the child's calls are refused with the reason logged and its fmi2FreeInstance frees
  * only its own copy (the parent's model process goes on).
-
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -433,7 +433,8 @@ static fmi2Status r_get(fmi2Component c, uint32_t call, const fmi2ValueReference
                         size_t size, const char *fn)
 {
     R_ENTER
-    if (call == CALL_GET_REAL && !r->dead && getpid() == r->owner && batch_get(&r->batch, vr, n, (fmi2Real *)v)) return fmi2OK;
+    if (call == CALL_GET_REAL && !r->dead && getpid() == r->owner && batch_get(&r->batch, vr, n, (fmi2Real *)v))
+        return fmi2OK;
     ipc_u64(&b, n);
     ipc_put_array(&b, vr, n, sizeof *vr);
     R_SEND(call, fn)

@@ -5,6 +5,9 @@
 #define SPURDIFF_FMI2_REMOTE_BATCH_H
 
 #include <stddef.h>
+
+/* not exported from the loader (a host's own symbol of the same name never takes its place) */
+#define BATCH_INTERNAL __attribute__((visibility("hidden")))
 #include <stdint.h>
 
 #include "fmi2Functions.h"
@@ -26,17 +29,19 @@ typedef struct {
 
 /* fmi2SetReal deferred to the next call (written at the data area's start): 1, or 0 when it must
  * be sent now (not in Step Mode, a reference not known settable, no room). */
-int batch_defer_set(Batch *b, unsigned char *data, const fmi2ValueReference vr[], size_t n, const fmi2Real v[]);
+BATCH_INTERNAL int batch_defer_set(Batch *b, unsigned char *data, const fmi2ValueReference vr[], size_t n,
+                                   const fmi2Real v[]);
 /* fmi2GetReal from the values the last doStep brought back: 1, or 0 when it must be sent. */
-int batch_get(Batch *b, const fmi2ValueReference vr[], size_t n, fmi2Real v[]);
+BATCH_INTERNAL int batch_get(Batch *b, const fmi2ValueReference vr[], size_t n, fmi2Real v[]);
 /* After a sent fmi2SetReal / fmi2GetReal (status s, `logged`: the model's process sent messages
  * with the answer): remember references that can be deferred / brought back. */
-void batch_learn(Batch *b, uint32_t call, fmi2Status s, int logged, const fmi2ValueReference vr[], size_t n);
+BATCH_INTERNAL void batch_learn(Batch *b, uint32_t call, fmi2Status s, int logged, const fmi2ValueReference vr[],
+                                size_t n);
 /* After any round trip: what the call may have changed (the values, Step Mode). */
-void batch_answered(Batch *b, uint32_t call, fmi2Status s);
+BATCH_INTERNAL void batch_answered(Batch *b, uint32_t call, fmi2Status s);
 /* fmi2DoStep's request: the references to bring back; its answer: their values (when the model's
  * process could read them: the step ended with at most fmi2Discard, the read was fmi2OK and silent). */
-void batch_put_want(const Batch *b, IpcBuf *req);
-void batch_take_values(Batch *b, IpcBuf *ans);
+BATCH_INTERNAL void batch_put_want(const Batch *b, IpcBuf *req);
+BATCH_INTERNAL void batch_take_values(Batch *b, IpcBuf *ans);
 
 #endif

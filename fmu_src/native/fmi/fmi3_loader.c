@@ -649,8 +649,9 @@ NOT_OFFERED(fmi3GetAdjointDerivative,
 NOT_OFFERED(fmi3EnterConfigurationMode, (fmi3Instance instance), "not offered (this FMU has no structural parameters)")
 NOT_OFFERED(fmi3ExitConfigurationMode, (fmi3Instance instance), "not offered (this FMU has no structural parameters)")
 /* the clock functions: (instance, vr, n, and what each takes) */
-#define NO_CLOCKS(fn, ...) NOT_OFFERED(fn, (fmi3Instance instance, const fmi3ValueReference vr[], size_t n, __VA_ARGS__), \
-                                       "this FMU has no clocks")
+#define NO_CLOCKS(fn, ...)                                                                         \
+    NOT_OFFERED(fn, (fmi3Instance instance, const fmi3ValueReference vr[], size_t n, __VA_ARGS__),            \
+                "this FMU has no clocks")
 NO_CLOCKS(fmi3GetIntervalDecimal, fmi3Float64 intervals[], fmi3IntervalQualifier qualifiers[])
 NO_CLOCKS(fmi3GetIntervalFraction, fmi3UInt64 counters[], fmi3UInt64 resolutions[], fmi3IntervalQualifier qualifiers[])
 NO_CLOCKS(fmi3GetShiftDecimal, fmi3Float64 shifts[])
