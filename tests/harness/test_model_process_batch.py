@@ -187,3 +187,69 @@ def test_the_steps_set_and_get_make_no_round_trip(differential_fmu):
         assert host.step() == 0 and host.get(TORQUES) == (0, [9.0, 8.0, 7.0])
     finally:
         host.close()
+
+
+@pytest.mark.parametrize("early", [False, True])
+def test_fmi3_binary_in_its_own_process_gives_this_process_results_bit_for_bit(fmu_files, early):
+    """SpurDifferential-fmi3.fmu (fmi3_loader.c on the same loader): fmi3SetFloat64, fmi3DoStep
+    (with early return allowed: the loader's spurdiffDoStepEarly), fmi3GetFloat64 of the outputs and
+    `time`, the same in both processes."""
+    from fmpy.fmi3 import FMU3Slave
+
+    from harness.build.fmu3 import build
+    from harness.fmi.instance import fmu_cache
+
+    path = build(["SpurDifferential"], quiet=True)[0]
+    unzipdir, md = fmu_cache().get(path)
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    outputs = [vr[v.name] for v in md.modelVariables if v.causality == "output" and v.type == "Float64"]
+    inputs = [vr[n] for n in TORQUES]
+    runs = {}
+    for mode in ("in", "out"):
+        with model_process(mode):
+            s = FMU3Slave(guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=md.coSimulation.modelIdentifier,
+                          instanceName=f"b3-{mode}")
+            s.instantiate(loggingOn=False, earlyReturnAllowed=early)
+        try:
+            s.enterInitializationMode(startTime=0.0)
+            s.exitInitializationMode()
+            t, trace = 0.0, []
+            for k in range(30):
+                s.setFloat64(inputs, _torques(k))
+                r = s.doStep(t, H)
+                t = r[-1] if early else t + H   # lastSuccessfulTime
+                trace.append((r, s.getFloat64(outputs + [vr["time"]])))
+            runs[mode] = trace
+        finally:
+            s.terminate()
+            s.freeInstance()
+    assert runs["out"] == runs["in"]
+
+
+def test_the_load_bench_spins_beside_the_step_and_ends_its_spinners(differential_fmu, capsys):
+    """`python -m harness.measure.bench.process --load N`: the step quiet and beside N spinning
+    processes, which are gone after it."""
+    import os
+    from pathlib import Path
+
+    from harness.measure.bench import process
+
+    def children():
+        return {int(x) for t in Path(f"/proc/{os.getpid()}/task").iterdir() for x in (t / "children").read_text().split()}
+
+    started = []
+    real_popen = process.subprocess.Popen
+
+    def popen(*a, **k):
+        p = real_popen(*a, **k)
+        started.append(p.pid)
+        return p
+
+    process.subprocess.Popen = popen
+    try:
+        assert process.main(["--load", "2", "--steps", "20", "--fmu", str(differential_fmu)]) == 0
+    finally:
+        process.subprocess.Popen = real_popen
+    out = capsys.readouterr().out
+    assert len(started) == 2 and not set(started) & children()
+    assert "quiet   set+doStep+get" in out and "beside 2 spinning processes" in out and out.count("ratio") == 2
