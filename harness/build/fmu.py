@@ -55,7 +55,7 @@ from harness.build.elf import find_patchelf
 from harness.common.paths import fmu_cache_dir, fmu_sources, physics_package, sources_digest
 
 # the C files compiled together into binaries/linux64/<model>.so (-ldl -lpthread, no Python headers)
-LOADER_SOURCES: tuple = ("fmi2_loader.c", "fmi2_inproc.c", "fmi2_remote.c")
+LOADER_SOURCES: tuple = ("fmi2_loader.c", "fmi2_inproc.c", "fmi2_remote.c", "fmi2_remote_batch.c", "fmi2_remote_spawn.c")
 # the C files compiled together into the executable binaries/linux64/spurdiff_fmu_server (none: no server)
 SERVER_SOURCES: tuple = ("fmi2_server.c", "fmi2_inproc.c")
 # the bridge into the interpreter, by job: the instances and calls, the native step and fast paths,

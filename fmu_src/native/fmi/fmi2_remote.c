@@ -1,14 +1,15 @@
 /* The model in its own process, seen from the host (see ipc.h for the protocol and
  * fmi2_server.c for the other side).
  *
- * remote_instantiate starts binaries/<platform>/spurdiff_fmu_server with posix_spawn (in its own
- * process group, so a terminal's Ctrl-C reaches the host, which decides; through the dynamic
- * loader when the extracted file lost its execute bit), hands it a memfd and the read end of a
- * pipe, and forwards fmi2Instantiate. Every later call is one round trip; the model's log
- * records come back with the answer and go to the host's logger on the calling thread. When the
- * server dies (a crash of the model), the call returns fmi2Error with the signal named, and so
- * does every later call but fmi2FreeInstance. The server ends with fmi2FreeInstance, or by itself
- * when the host process is gone (its pipe reads end of file, or its parent is no longer the host).
+ * remote_instantiate starts binaries/<platform>/spurdiff_fmu_server (fmi2_remote_spawn.c: a
+ * memfd and the read end of a pipe handed over) and forwards fmi2Instantiate. Every later call is
+ * one round trip, but for fmi2SetReal deferred to the next call and fmi2GetReal answered from
+ * what fmi2DoStep brought back (fmi2_remote_batch.c: a set / doStep / get step is one round
+ * trip); the model's log records come back with the answer and go to the host's logger on the
+ * calling thread. When the server dies (a crash of the model), the call returns fmi2Error with
+ * the signal named, and so does every later call but fmi2FreeInstance. The server ends with
+ * fmi2FreeInstance, or by itself when the host process is gone (its pipe reads end of file, or
+ * its parent is no longer the host).
  *
  * No call waits without bound (call_watch): a model process that is stopped (SIGSTOP, SIGTSTP,
  * SIGTTIN, SIGTTOU) for STOPPED_MS, that uses no CPU for SILENT_MS while a call is out, or that has
@@ -17,9 +18,6 @@
  * like a crashed one. A process that forked after fmi2Instantiate: the model's process belongs to
  * the parent; the child's calls are refused with the reason logged and its fmi2FreeInstance frees
  * only its own copy (the parent's model process goes on).
- *
- * Over 800 lines: the host's side of every FMI call of the protocol in one place, with the
- * wait that guards each; a second file would need the Remote internals in a header for one table.
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -27,7 +25,6 @@
 #include <limits.h>
 #include <pthread.h>
 #include <signal.h>
-#include <spawn.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -38,22 +35,15 @@
 #include <unistd.h>
 
 #include "fmi2_remote.h"
+#include "fmi2_remote_batch.h"
+#include "fmi2_remote_spawn.h"
 #include "ipc.h"
 
-#define SERVER_FILE "spurdiff_fmu_server"
 #define STOPPED_MS 1000            /* stopped this long during a call: fmi2Error */
 #define SILENT_MS 10000            /* no CPU used this long during a call (blocked for good): fmi2Error */
 #define DEADLINE_S 600.0           /* any call, unless SPURDIFF_FMU_CALL_TIMEOUT says otherwise */
 #define REMOTE_MAGIC 0x52454D54u   /* "REMT" */
 #define RSTATE_MAGIC 0x52535441u   /* "RSTA" */
-
-#if defined(__x86_64__)
-#define DYNAMIC_LOADER "/lib64/ld-linux-x86-64.so.2"
-#elif defined(__aarch64__)
-#define DYNAMIC_LOADER "/lib/ld-linux-aarch64.so.1"
-#else
-#define DYNAMIC_LOADER ""
-#endif
 
 typedef struct {
     unsigned magic;
@@ -70,6 +60,9 @@ typedef struct {
     long long cpu;
     char *strings;             /* the last fmi2GetString / fmi2GetStringStatus answer's text */
     fmi2String *string_ptrs;
+    int logged;                /* the last answer came with the model's messages */
+    Batch batch;               /* deferred sets, the values the last step brought back */
+    IpcSpin spin;              /* the host's spin before it sleeps on an answer */
 } Remote;
 
 typedef struct {
@@ -272,23 +265,26 @@ static fmi2Status roundtrip(Remote *r, uint32_t call, size_t len, IpcBuf *answer
     IpcHeader *h = r->h;
     h->call = call;
     h->len = len;
+    h->pre_len = r->batch.pre_len;   /* the deferred calls before it */
+    r->batch.pre_len = 0;
     uint32_t seq = atomic_load(&h->req) + 1;
     ipc_publish(&h->req, seq, &h->server_sleeps);
     uint32_t old = seq - 1;
-    /* spin 100 us: the answer to a get or set comes in a few microseconds */
-    if (ipc_wait_change(&h->resp, old, &h->host_sleeps, 100000, 50000000L, call_watch, r) != 0) return fmi2Error;
+    /* spin up to 100 us (while it pays): the answer to a get or set comes in a few microseconds */
+    if (ipc_wait_change(&h->resp, old, &h->host_sleeps, &r->spin, 50000000L, call_watch, r) != 0) return fmi2Error;
+    r->logged = h->log_len || h->log_dropped;
     replay(r);
-    answer->p = ipc_data(r->base);
-    answer->cap = h->len <= IPC_DATA_CAP ? (size_t)h->len : 0;
-    answer->pos = 0;
-    answer->bad = 0;
+    *answer = (IpcBuf){ipc_data(r->base), h->len <= IPC_DATA_CAP ? (size_t)h->len : 0, 0, 0};
     int32_t s = h->status;
-    return (s >= fmi2OK && s <= fmi2Pending) ? (fmi2Status)s : fmi2Error;
+    fmi2Status st = (s >= fmi2OK && s <= fmi2Pending) ? (fmi2Status)s : fmi2Error;
+    batch_answered(&r->batch, call, st);
+    return st;
 }
 
+/* The call's arguments go after the deferred calls waiting at the data area's start. */
 static IpcBuf request(Remote *r)
 {
-    IpcBuf b = {ipc_data(r->base), IPC_DATA_CAP, 0, 0};
+    IpcBuf b = {ipc_data(r->base) + r->batch.pre_len, IPC_DATA_CAP - r->batch.pre_len, 0, 0};
     return b;
 }
 
@@ -296,14 +292,6 @@ static fmi2Status too_large(Remote *r, const char *fn)
 {
     sayf(r, fmi2Error, "%s: the arguments do not fit the shared memory's %zu bytes", fn, (size_t)IPC_DATA_CAP);
     return fmi2Error;
-}
-
-static int move_up(int fd)
-{
-    if (fd < 0 || fd > 10) return fd;
-    int up = fcntl(fd, F_DUPFD_CLOEXEC, 10);
-    close(fd);
-    return up;
 }
 
 static void drop(Remote *r)
@@ -319,86 +307,6 @@ static void drop(Remote *r)
     free(r);
 }
 
-/* Wait up to `ms` for the server to exit; SIGKILL after that. */
-static void reap(Remote *r, int ms)
-{
-    if (r->pid <= 0) return;
-    for (int i = 0; i < ms; i++) {
-        pid_t w = waitpid(r->pid, NULL, WNOHANG);
-        if (w == r->pid || (w < 0 && errno == ECHILD)) return;
-        usleep(1000);
-    }
-    kill(r->pid, SIGKILL);
-    waitpid(r->pid, NULL, 0);
-}
-
-static int start_server(Remote *r, const char *resources, const char *bindir, char *err, size_t errsize)
-{
-    char server[PATH_MAX];
-    if (snprintf(server, sizeof server, "%s/%s", bindir, SERVER_FILE) >= (int)sizeof server) {
-        snprintf(err, errsize, "the FMU's path is too long");
-        return -1;
-    }
-    if (access(server, R_OK) != 0) {
-        snprintf(err, errsize, "cannot read %s: %s (the FMU was not extracted completely)", server, strerror(errno));
-        return -1;
-    }
-    r->shm_fd = move_up(memfd_create("spurdiff-fmu", MFD_CLOEXEC));
-    if (r->shm_fd < 0 || ftruncate(r->shm_fd, (off_t)IPC_SIZE) != 0) {
-        snprintf(err, errsize, "cannot make the shared memory for the model's process: %s", strerror(errno));
-        return -1;
-    }
-    r->base = mmap(NULL, IPC_SIZE, PROT_READ | PROT_WRITE, MAP_SHARED, r->shm_fd, 0);
-    if (r->base == MAP_FAILED) {
-        snprintf(err, errsize, "cannot map the shared memory: %s", strerror(errno));
-        return -1;
-    }
-    r->h = (IpcHeader *)r->base;
-    r->h->magic = IPC_MAGIC;
-    r->h->version = IPC_VERSION;
-    int p[2];
-    if (pipe2(p, O_CLOEXEC) != 0) {
-        snprintf(err, errsize, "cannot make a pipe for the model's process: %s", strerror(errno));
-        return -1;
-    }
-    int pipe_r = move_up(p[0]);
-    r->pipe_w = move_up(p[1]);
-    posix_spawn_file_actions_t fa;
-    posix_spawnattr_t at;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_adddup2(&fa, r->shm_fd, IPC_SHM_FD);
-    posix_spawn_file_actions_adddup2(&fa, pipe_r, IPC_PIPE_FD);
-    posix_spawn_file_actions_addopen(&fa, 0, "/dev/null", O_RDONLY, 0);
-    posix_spawn_file_actions_addclosefrom_np(&fa, IPC_PIPE_FD + 1);
-    posix_spawnattr_init(&at);
-    sigset_t none, all;
-    sigemptyset(&none);
-    sigfillset(&all);
-    posix_spawnattr_setsigmask(&at, &none);
-    posix_spawnattr_setsigdefault(&at, &all);
-    posix_spawnattr_setpgroup(&at, 0);
-    posix_spawnattr_setflags(&at, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETPGROUP);
-    char *envp[] = {"LC_ALL=C.UTF-8", NULL};
-    int rc;
-    if (access(server, X_OK) == 0) {
-        char *argv[] = {server, (char *)resources, (char *)bindir, NULL};
-        rc = posix_spawn(&r->pid, server, &fa, &at, argv, envp);
-    } else {
-        /* unpacked without its execute bit (most hosts' unzip): run it through the dynamic loader */
-        char *argv[] = {DYNAMIC_LOADER, server, (char *)resources, (char *)bindir, NULL};
-        rc = *DYNAMIC_LOADER ? posix_spawn(&r->pid, DYNAMIC_LOADER, &fa, &at, argv, envp) : EACCES;
-    }
-    posix_spawn_file_actions_destroy(&fa);
-    posix_spawnattr_destroy(&at);
-    close(pipe_r);
-    if (rc != 0) {
-        r->pid = 0;
-        snprintf(err, errsize, "cannot start the model's process %s: %s", server, strerror(rc));
-        return -1;
-    }
-    return 0;
-}
-
 fmi2Component remote_instantiate(fmi2String name, fmi2Type type, fmi2String guid, const char *resources,
                                  const char *bindir, const fmi2CallbackFunctions *cb, fmi2Boolean visible,
                                  fmi2Boolean logging, char *err, size_t errsize)
@@ -410,10 +318,12 @@ fmi2Component remote_instantiate(fmi2String name, fmi2Type type, fmi2String guid
     r->owner = getpid();
     r->name = strdup(name ? name : "");
     if (cb) r->cb = *cb;
-    if (start_server(r, resources, bindir, err, errsize) != 0) {
+    if (spawn_server(resources, bindir, &r->shm_fd, &r->base, &r->pipe_w, &r->pid, err, errsize) != 0) {
         drop(r);
         return NULL;
     }
+    r->h = (IpcHeader *)r->base;
+    r->spin = (IpcSpin){100000, 100000, 0};
     IpcBuf b = request(r), a;
     ipc_str(&b, name);
     ipc_i32(&b, (int32_t)type);
@@ -428,7 +338,7 @@ fmi2Component remote_instantiate(fmi2String name, fmi2Type type, fmi2String guid
             IpcBuf f = request(r);
             roundtrip(r, CALL_FREE, 0, &f);
         }
-        reap(r, 2000);
+        reap_server(r->pid, 2000);
         drop(r);
         return NULL;
     }
@@ -457,7 +367,7 @@ static void remote_free(fmi2Component c)
         roundtrip(r, CALL_FREE, 0, &a);
     }
     if (r->pipe_w >= 0) { close(r->pipe_w); r->pipe_w = -1; }   /* the server sees end of file */
-    reap(r, 5000);
+    reap_server(r->pid, 5000);
     drop(r);
 }
 
@@ -523,10 +433,14 @@ static fmi2Status r_get(fmi2Component c, uint32_t call, const fmi2ValueReference
                         size_t size, const char *fn)
 {
     R_ENTER
+    if (call == CALL_GET_REAL && !r->dead && getpid() == r->owner && batch_get(&r->batch, vr, n, (fmi2Real *)v))
+        return fmi2OK;
     ipc_u64(&b, n);
     ipc_put_array(&b, vr, n, sizeof *vr);
     R_SEND(call, fn)
-    return take_values(&a, s, v, n, size);
+    s = take_values(&a, s, v, n, size);
+    batch_learn(&r->batch, call, s, r->logged, vr, n);
+    return s;
 }
 
 static fmi2Status remote_fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[])
@@ -586,10 +500,14 @@ static fmi2Status r_set(fmi2Component c, uint32_t call, const fmi2ValueReference
                         size_t size, const char *fn)
 {
     R_ENTER
+    if (call == CALL_SET_REAL && !r->dead && getpid() == r->owner
+        && batch_defer_set(&r->batch, ipc_data(r->base), vr, n, (const fmi2Real *)v))
+        return fmi2OK;
     ipc_u64(&b, n);
     ipc_put_array(&b, vr, n, sizeof *vr);
     ipc_put_array(&b, v, n, size);
     R_SEND(call, fn)
+    batch_learn(&r->batch, call, s, r->logged, vr, n);
     return s;
 }
 
@@ -616,6 +534,16 @@ static fmi2Status remote_fmi2SetString(fmi2Component c, const fmi2ValueReference
     return s;
 }
 
+/* *p = a new handle of the model process's state `id`: the call's status s, or fmi2Error (no memory). */
+static fmi2Status new_state(Remote *r, uint64_t id, fmi2FMUstate *p, fmi2Status s)
+{
+    RState *st = (RState *)calloc(1, sizeof *st);
+    if (!st) return fmi2Error;
+    *st = (RState){RSTATE_MAGIC, r, id};
+    *p = st;
+    return s;
+}
+
 static RState *valid_state(Remote *r, fmi2FMUstate p)
 {
     RState *st = (RState *)p;
@@ -633,13 +561,7 @@ static fmi2Status remote_fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *p)
     uint64_t id = ipc_get_u64(&a);
     if (s > fmi2Warning || a.bad || !id) return s > fmi2Warning ? s : fmi2Error;
     if (old) { old->id = id; return s; }
-    RState *st = (RState *)calloc(1, sizeof *st);
-    if (!st) return fmi2Error;
-    st->magic = RSTATE_MAGIC;
-    st->owner = r;
-    st->id = id;
-    *p = st;
-    return s;
+    return new_state(r, id, p, s);
 }
 
 static fmi2Status remote_fmi2SetFMUstate(fmi2Component c, fmi2FMUstate p)
@@ -702,13 +624,7 @@ static fmi2Status remote_fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte
     R_SEND(CALL_DESERIALIZE, "fmi2DeSerializeFMUstate")
     uint64_t id = ipc_get_u64(&a);
     if (s > fmi2Warning || a.bad || !id) return s > fmi2Warning ? s : fmi2Error;
-    RState *st = (RState *)calloc(1, sizeof *st);
-    if (!st) return fmi2Error;
-    st->magic = RSTATE_MAGIC;
-    st->owner = r;
-    st->id = id;
-    *p = st;
-    return s;
+    return new_state(r, id, p, s);
 }
 
 static fmi2Status remote_fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference u[], size_t nu,
@@ -748,25 +664,33 @@ static fmi2Status remote_fmi2GetRealOutputDerivatives(fmi2Component c, const fmi
     return take_values(&a, s, v, n, sizeof *v);
 }
 
-static fmi2Status remote_fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp)
+/* fmi2DoStep (end NULL) or spurdiffDoStepEarly; the answer brings back the values fmi2GetReal
+ * asked for after the earlier steps (fmi2_remote_batch.c). */
+static fmi2Status r_step(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end)
 {
     R_ENTER
     ipc_f64(&b, t);
     ipc_f64(&b, h);
     ipc_i32(&b, nsp);
-    R_SEND(CALL_DO_STEP, "fmi2DoStep")
+    batch_put_want(&r->batch, &b);
+    R_SEND(end ? CALL_DO_STEP_EARLY : CALL_DO_STEP, "fmi2DoStep")
+    if (s > fmi2Discard) return s;   /* (no answer when the process is lost) */
+    double e = end ? ipc_get_f64(&a) : t;
+    if (end) *end = a.bad ? t : e;
+    batch_take_values(&r->batch, &a);
     return s;
+}
+
+static fmi2Status remote_fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp)
+{
+    return r_step(c, t, h, nsp, NULL);
 }
 
 fmi2Status remote_do_step_early(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end)
 {
-    R_ENTER
-    ipc_f64(&b, t);
-    ipc_f64(&b, h);
-    ipc_i32(&b, nsp);
-    R_SEND(CALL_DO_STEP_EARLY, "fmi2DoStep")
-    double e = ipc_get_f64(&a);
-    if (end) *end = a.bad ? t : e;
+    fmi2Real e = t;
+    fmi2Status s = r_step(c, t, h, nsp, &e);
+    if (end) *end = e;
     return s;
 }
 

@@ -6,6 +6,9 @@
  * (fmi2_inproc.c, the same code a C host runs in process), and serves one instance's FMI calls
  * until fmi2FreeInstance, or until the host process is gone (the pipe reads end of file: the
  * host exited, failed or was killed), whichever comes first. It never outlives its host.
+ * The host's deferred fmi2SetReal calls come before the call they go with, and are served first
+ * (serve_deferred); fmi2DoStep's answer carries the values of the Real references the host named
+ * with it, read right after the step (bring_back), so that its fmi2GetReal needs no round trip.
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -99,17 +102,47 @@ static void *scratch_for(size_t n)
     return scratch;
 }
 
+static void free_strings(char **v, size_t n)
+{
+    for (size_t i = 0; v && i < n; i++) free(v[i]);
+    free(v);
+}
+
+/* n strings of the request (each NULL or a copy), or NULL (no memory, or the request ended) */
+static char **take_strings(IpcBuf *in, size_t n)
+{
+    char **v = (char **)calloc(n ? n : 1, sizeof *v);
+    for (size_t i = 0, len; v && i < n; i++) {
+        const char *p = ipc_get_str(in, &len);
+        v[i] = p ? strndup(p, len) : NULL;
+    }
+    if (v && in->bad) { free_strings(v, n); v = NULL; }
+    return v;
+}
+
+/* After a step: the values of the `n` Real references the host will ask for (fmi2_remote_batch.c)
+ * as i32 1 and the array, when the step ended with at most fmi2Discard and reading them was
+ * fmi2OK and silent; else i32 0 (the read's messages dropped: the host asks, and hears them, then). */
+static void bring_back(fmi2Status step, const fmi2ValueReference *vr, size_t n, IpcBuf *out)
+{
+    uint64_t log_len = H->log_len;
+    uint32_t dropped = H->log_dropped;
+    fmi2Real *v = step <= fmi2Discard ? (fmi2Real *)scratch_for(n * sizeof *v + 8) : NULL;
+    int ok = v && (!n || T->fmi2GetReal(C, vr, n, v) == fmi2OK) && H->log_len == log_len && H->log_dropped == dropped;
+    if (!ok) { H->log_len = log_len; H->log_dropped = dropped; }
+    ipc_i32(out, ok);
+    if (ok) ipc_put_array(out, v, n, sizeof *v);
+}
+
 /* Serve the call in `in` (a private copy of the request); the answer goes to the shared data
- * area `out`. Returns 1 after fmi2FreeInstance (the server then exits). */
-static int serve(uint32_t call, IpcBuf *in, IpcBuf *out)
+ * area `out`. Its status; *bye = 1 after fmi2FreeInstance (the server then exits). */
+static fmi2Status serve(uint32_t call, IpcBuf *in, IpcBuf *out, int *bye)
 {
     fmi2Status s = fmi2Error;
-    int bye = 0;
     size_t n, len;
     if (!C && call != CALL_INSTANTIATE && call != CALL_PING && call != CALL_FREE) {
         logger(NULL, "", fmi2Error, "logStatusError", "the model's process has no instance");
-        H->status = fmi2Error;
-        return 0;
+        return fmi2Error;
     }
     switch (call) {
     case CALL_PING:
@@ -132,20 +165,15 @@ static int serve(uint32_t call, IpcBuf *in, IpcBuf *out)
         if (C) T->fmi2FreeInstance(C);
         C = NULL;
         s = fmi2OK;
-        bye = 1;
+        *bye = 1;
         break;
     case CALL_SET_DEBUG_LOGGING: {
         int32_t on = ipc_get_i32(in);
         n = (size_t)ipc_get_u64(in);
         if (in->bad || n > 4096) break;
-        char **cats = (char **)calloc(n ? n : 1, sizeof *cats);
-        for (size_t i = 0; cats && i < n; i++) {
-            const char *p = ipc_get_str(in, &len);
-            cats[i] = p ? strndup(p, len) : NULL;
-        }
-        if (cats && !in->bad) s = T->fmi2SetDebugLogging(C, on, n, (const fmi2String *)cats);
-        for (size_t i = 0; cats && i < n; i++) free(cats[i]);
-        free(cats);
+        char **cats = take_strings(in, n);
+        if (cats) s = T->fmi2SetDebugLogging(C, on, n, (const fmi2String *)cats);
+        free_strings(cats, n);
         break;
     }
     case CALL_SETUP_EXPERIMENT: {
@@ -199,15 +227,10 @@ static int serve(uint32_t call, IpcBuf *in, IpcBuf *out)
     case CALL_SET_STRING: {
         n = (size_t)ipc_get_u64(in);
         const fmi2ValueReference *vr = (const fmi2ValueReference *)ipc_take_array(in, n, sizeof *vr);
-        if (in->bad) break;
-        char **v = (char **)calloc(n ? n : 1, sizeof *v);
-        for (size_t i = 0; v && i < n; i++) {
-            const char *p = ipc_get_str(in, &len);
-            v[i] = p ? strndup(p, len) : NULL;
-        }
-        if (v && !in->bad) s = T->fmi2SetString(C, vr, n, (const fmi2String *)v);
-        for (size_t i = 0; v && i < n; i++) free(v[i]);
-        free(v);
+        if (in->bad || n > IPC_DATA_CAP / 8) break;
+        char **v = take_strings(in, n);
+        if (v) s = T->fmi2SetString(C, vr, n, (const fmi2String *)v);
+        free_strings(v, n);
         break;
     }
     case CALL_GET_STATE: {
@@ -289,18 +312,16 @@ static int serve(uint32_t call, IpcBuf *in, IpcBuf *out)
         }
         break;
     }
-    case CALL_DO_STEP: {
+    case CALL_DO_STEP: case CALL_DO_STEP_EARLY: {   /* then the references to bring back */
         double t = ipc_get_f64(in), h = ipc_get_f64(in);
         int32_t nsp = ipc_get_i32(in);
-        if (!in->bad) s = T->fmi2DoStep(C, t, h, nsp);
-        break;
-    }
-    case CALL_DO_STEP_EARLY: {
-        double t = ipc_get_f64(in), h = ipc_get_f64(in);
-        int32_t nsp = ipc_get_i32(in);
+        n = (size_t)ipc_get_u64(in);
+        const fmi2ValueReference *vr = (const fmi2ValueReference *)ipc_take_array(in, n, sizeof *vr);
         fmi2Real end = t;
-        if (!in->bad) s = inproc_do_step_early(C, t, h, nsp, &end);
-        ipc_f64(out, end);
+        if (in->bad) break;
+        s = call == CALL_DO_STEP ? T->fmi2DoStep(C, t, h, nsp) : inproc_do_step_early(C, t, h, nsp, &end);
+        if (call == CALL_DO_STEP_EARLY) ipc_f64(out, end);
+        bring_back(s, vr, n, out);
         break;
     }
     case CALL_GET_STATUS: case CALL_GET_REAL_STATUS: case CALL_GET_INTEGER_STATUS:
@@ -326,8 +347,48 @@ static int serve(uint32_t call, IpcBuf *in, IpcBuf *out)
         out->pos = 0;
         out->bad = 0;
     }
-    H->status = (int32_t)s;
-    return bye;
+    return s;
+}
+
+static const char *status_name(fmi2Status s)
+{
+    static const char *names[] = {"fmi2OK", "fmi2Warning", "fmi2Discard", "fmi2Error", "fmi2Fatal", "fmi2Pending"};
+    return s <= fmi2Pending ? names[s] : "an unknown status";
+}
+
+/* The host's deferred calls (fmi2SetReal only), in order, until one fails: the worst status. One
+ * that did not answer fmi2OK is named with its value references; after one worse than fmi2Warning
+ * the call they went with is not made (the host's call returns that status). */
+static fmi2Status serve_deferred(IpcBuf *pre, uint32_t then)
+{
+    fmi2Status worst = fmi2OK;
+    while (pre->pos < pre->cap && worst <= fmi2Warning) {
+        if (ipc_get_i32(pre) != CALL_SET_REAL) pre->bad = 1;
+        IpcBuf peek = *pre;
+        size_t n = pre->bad ? 0 : (size_t)ipc_get_u64(&peek);
+        const fmi2ValueReference *vr = (const fmi2ValueReference *)ipc_take_array(&peek, n, sizeof *vr);
+        IpcBuf none = {NULL, 0, 0, 0};
+        int bye = 0;
+        fmi2Status s = pre->bad || peek.bad ? fmi2Error : serve(CALL_SET_REAL, pre, &none, &bye);
+        if (pre->bad || ipc_skip_align(pre) != 0) {
+            logger(NULL, "", fmi2Error, "logStatusError", "the model's process got a malformed deferred call");
+            return fmi2Error;
+        }
+        if (s != fmi2OK) {
+            char refs[256];
+            size_t k = 0;
+            for (size_t i = 0; i < n && k < sizeof refs - 16; i++)
+                k += (size_t)snprintf(refs + k, sizeof refs - k, "%s%u", i ? ", " : "", vr[i]);
+            char msg[512];
+            snprintf(msg, sizeof msg, "fmi2SetReal of value reference%s %s%s (deferred by the loader to the next "
+                     "call) returned %s%s", n == 1 ? "" : "s", refs, k < sizeof refs - 16 ? "" : ", ...",
+                     status_name(s), s > fmi2Warning ? (then == CALL_FREE ? "" : "; the call after it is not made")
+                     : "");
+            logger(NULL, "", s, s > fmi2Warning ? "logStatusError" : "logStatusWarning", msg);
+        }
+        if (s > worst) worst = s;
+    }
+    return worst;
 }
 
 int main(int argc, char **argv)
@@ -354,14 +415,18 @@ int main(int argc, char **argv)
     int loaded = cfg_read(argv[1], &cfg, err, sizeof err) == 0 &&
                  inproc_load(&cfg, argv[1], argv[2], &T, err, sizeof err) == 0;
     uint32_t seen = 0;
+    IpcSpin spin = {50000, 50000, 0};   /* up to 50 us for the host's next call (while it pays) */
     for (;;) {
-        if (ipc_wait_change(&H->req, seen, &H->server_sleeps, 50000, 100000000L, host_alive, NULL) != 0)
+        if (ipc_wait_change(&H->req, seen, &H->server_sleeps, &spin, 100000000L, host_alive, NULL) != 0)
             return 0;   /* the host is gone */
         seen = atomic_load_explicit(&H->req, memory_order_acquire);
-        size_t len = H->len <= IPC_DATA_CAP ? (size_t)H->len : 0;
-        void *copy = len ? malloc(len) : NULL;
-        if (len && copy) memcpy(copy, ipc_data(BASE), len);
-        IpcBuf in = {(unsigned char *)copy, copy ? len : 0, 0, (len && !copy) || H->len > IPC_DATA_CAP};
+        int fits = H->pre_len <= IPC_DATA_CAP && H->len <= IPC_DATA_CAP - H->pre_len;
+        size_t pre = fits ? (size_t)H->pre_len : 0, len = fits ? (size_t)H->len : 0;
+        unsigned char *copy = pre + len ? (unsigned char *)malloc(pre + len) : NULL;
+        if (pre + len && copy) memcpy(copy, ipc_data(BASE), pre + len);
+        int bad = (pre + len && !copy) || !fits;
+        IpcBuf deferred = {copy, copy ? pre : 0, 0, bad};
+        IpcBuf in = {copy ? copy + pre : NULL, copy ? len : 0, 0, bad};
         IpcBuf out = {ipc_data(BASE), IPC_DATA_CAP, 0, 0};
         H->log_len = 0;
         H->log_dropped = 0;
@@ -371,7 +436,12 @@ int main(int argc, char **argv)
             H->status = fmi2Error;
             bye = H->call == CALL_FREE;
         } else {
-            bye = serve(H->call, &in, &out);
+            fmi2Status s = pre ? serve_deferred(&deferred, H->call) : fmi2OK;
+            if (s <= fmi2Warning || H->call == CALL_FREE) {
+                fmi2Status m = serve(H->call, &in, &out, &bye);
+                if (m > s) s = m;
+            }
+            H->status = (int32_t)s;
         }
         free(copy);
         H->len = out.pos;

@@ -551,16 +551,23 @@ fmi3Status fmi3SetClock(fmi3Instance instance, const fmi3ValueReference valueRef
     return no_clocks(I, "fmi3SetClock", valueReferences, nValueReferences);
 }
 
+/* fmi3GetBinary / fmi3SetBinary: the arrays checked; nothing to do for no value references, else
+ * fmi3Error (no Binary variables here) */
+static fmi3Status no_binary(Instance3 *I, const char *fn, const fmi3ValueReference vr[], size_t n, const void *values,
+                            size_t nValues)
+{
+    if (!arrays_ok(I, fn, vr, n, values, nValues)) return fmi3Error;
+    if (!n) return fmi3OK;
+    sayf(I, fmi3Error, "%s: value reference %u is not a Binary variable of this FMU (it has none)", fn, vr[0]);
+    return fmi3Error;
+}
+
 fmi3Status fmi3GetBinary(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
                          size_t valueSizes[], fmi3Binary values[], size_t nValues)
 {
     ENTER3
     (void)valueSizes;
-    if (!arrays_ok(I, "fmi3GetBinary", valueReferences, nValueReferences, values, nValues)) return fmi3Error;
-    if (!nValueReferences) return fmi3OK;
-    sayf(I, fmi3Error, "fmi3GetBinary: value reference %u is not a Binary variable of this FMU (it has none)",
-         valueReferences[0]);
-    return fmi3Error;
+    return no_binary(I, "fmi3GetBinary", valueReferences, nValueReferences, values, nValues);
 }
 
 fmi3Status fmi3SetBinary(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
@@ -568,11 +575,7 @@ fmi3Status fmi3SetBinary(fmi3Instance instance, const fmi3ValueReference valueRe
 {
     ENTER3
     (void)valueSizes;
-    if (!arrays_ok(I, "fmi3SetBinary", valueReferences, nValueReferences, values, nValues)) return fmi3Error;
-    if (!nValueReferences) return fmi3OK;
-    sayf(I, fmi3Error, "fmi3SetBinary: value reference %u is not a Binary variable of this FMU (it has none)",
-         valueReferences[0]);
-    return fmi3Error;
+    return no_binary(I, "fmi3SetBinary", valueReferences, nValueReferences, values, nValues);
 }
 
 /* ------------------------------------------------------------------------------ FMU state */
@@ -645,34 +648,19 @@ NOT_OFFERED(fmi3GetAdjointDerivative,
             "not offered (providesAdjointDerivatives is false)")
 NOT_OFFERED(fmi3EnterConfigurationMode, (fmi3Instance instance), "not offered (this FMU has no structural parameters)")
 NOT_OFFERED(fmi3ExitConfigurationMode, (fmi3Instance instance), "not offered (this FMU has no structural parameters)")
-NOT_OFFERED(fmi3GetIntervalDecimal,
-            (fmi3Instance instance, const fmi3ValueReference vr[], size_t n, fmi3Float64 intervals[],
-             fmi3IntervalQualifier qualifiers[]),
-            "this FMU has no clocks")
-NOT_OFFERED(fmi3GetIntervalFraction,
-            (fmi3Instance instance, const fmi3ValueReference vr[], size_t n, fmi3UInt64 counters[],
-             fmi3UInt64 resolutions[], fmi3IntervalQualifier qualifiers[]),
-            "this FMU has no clocks")
-NOT_OFFERED(fmi3GetShiftDecimal, (fmi3Instance instance, const fmi3ValueReference vr[], size_t n, fmi3Float64 shifts[]),
-            "this FMU has no clocks")
-NOT_OFFERED(fmi3GetShiftFraction,
-            (fmi3Instance instance, const fmi3ValueReference vr[], size_t n, fmi3UInt64 counters[],
-             fmi3UInt64 resolutions[]),
-            "this FMU has no clocks")
-NOT_OFFERED(fmi3SetIntervalDecimal,
-            (fmi3Instance instance, const fmi3ValueReference vr[], size_t n, const fmi3Float64 intervals[]),
-            "this FMU has no clocks")
-NOT_OFFERED(fmi3SetIntervalFraction,
-            (fmi3Instance instance, const fmi3ValueReference vr[], size_t n, const fmi3UInt64 counters[],
-             const fmi3UInt64 resolutions[]),
-            "this FMU has no clocks")
-NOT_OFFERED(fmi3SetShiftDecimal,
-            (fmi3Instance instance, const fmi3ValueReference vr[], size_t n, const fmi3Float64 shifts[]),
-            "this FMU has no clocks")
-NOT_OFFERED(fmi3SetShiftFraction,
-            (fmi3Instance instance, const fmi3ValueReference vr[], size_t n, const fmi3UInt64 counters[],
-             const fmi3UInt64 resolutions[]),
-            "this FMU has no clocks")
+/* the clock functions: (instance, vr, n, and what each takes) */
+#define NO_CLOCKS(fn, ...)                                                                         \
+    NOT_OFFERED(fn, (fmi3Instance instance, const fmi3ValueReference vr[], size_t n, __VA_ARGS__),            \
+                "this FMU has no clocks")
+NO_CLOCKS(fmi3GetIntervalDecimal, fmi3Float64 intervals[], fmi3IntervalQualifier qualifiers[])
+NO_CLOCKS(fmi3GetIntervalFraction, fmi3UInt64 counters[], fmi3UInt64 resolutions[], fmi3IntervalQualifier qualifiers[])
+NO_CLOCKS(fmi3GetShiftDecimal, fmi3Float64 shifts[])
+NO_CLOCKS(fmi3GetShiftFraction, fmi3UInt64 counters[], fmi3UInt64 resolutions[])
+NO_CLOCKS(fmi3SetIntervalDecimal, const fmi3Float64 intervals[])
+NO_CLOCKS(fmi3SetIntervalFraction, const fmi3UInt64 counters[], const fmi3UInt64 resolutions[])
+NO_CLOCKS(fmi3SetShiftDecimal, const fmi3Float64 shifts[])
+NO_CLOCKS(fmi3SetShiftFraction, const fmi3UInt64 counters[], const fmi3UInt64 resolutions[])
+#undef NO_CLOCKS
 NOT_OFFERED(fmi3EvaluateDiscreteStates, (fmi3Instance instance), "not offered (Model Exchange and Event Mode only)")
 NOT_OFFERED(fmi3UpdateDiscreteStates,
             (fmi3Instance instance, fmi3Boolean *discreteStatesNeedUpdate, fmi3Boolean *terminateSimulation,

@@ -6,8 +6,12 @@
  * time (FMI 2.0 allows one thread per instance at a time): the host writes the call and its
  * arguments into `data`, increments `req` and wakes the server; the server answers in `data`
  * (status first, then the results), appends the log records its model emitted to the log area,
- * sets `resp = req` and wakes the host. Both sides spin a short while before sleeping on a futex,
- * so a set / doStep / get sequence costs microseconds. Values are in the host's byte order.
+ * sets `resp = req` and wakes the host. Both sides spin a short while before sleeping on a futex
+ * (while spinning pays: IpcSpin), so a round trip costs microseconds. Values are in the host's
+ * byte order.
+ * Deferred calls (fmi2_remote_batch.c) stand at the start of `data` (`pre_len` bytes: records of
+ * i32 call, then the call's arguments, each record 8-byte aligned), the call after them; the
+ * server serves them first, in order.
  */
 #ifndef SPURDIFF_IPC_H
 #define SPURDIFF_IPC_H
@@ -18,7 +22,7 @@
 #include <string.h>
 
 #define IPC_MAGIC 0x53504950u     /* "SPIP" */
-#define IPC_VERSION 1u
+#define IPC_VERSION 2u
 #define IPC_HEADER 4096u
 #define IPC_LOG_CAP (1u << 20)
 #define IPC_DATA_CAP ((size_t)63 << 20)
@@ -47,6 +51,7 @@ typedef struct {
     uint32_t call;
     int32_t status;
     uint64_t len;                    /* bytes of the call, then of the answer, in data */
+    uint64_t pre_len;                /* bytes of deferred calls before the call in data */
     uint64_t log_len;                /* bytes of log records in the log area */
     uint32_t log_dropped;            /* records that did not fit */
 } IpcHeader;
@@ -87,27 +92,19 @@ static inline const void *ipc_take(IpcBuf *b, size_t n)
     b->pos += n;
     return p;
 }
-static inline uint64_t ipc_get_u64(IpcBuf *b)
-{
-    uint64_t v = 0;
-    const void *p = ipc_take(b, sizeof v);
-    if (p) memcpy(&v, p, sizeof v);
-    return v;
-}
-static inline int32_t ipc_get_i32(IpcBuf *b)
-{
-    int32_t v = 0;
-    const void *p = ipc_take(b, sizeof v);
-    if (p) memcpy(&v, p, sizeof v);
-    return v;
-}
-static inline double ipc_get_f64(IpcBuf *b)
-{
-    double v = 0;
-    const void *p = ipc_take(b, sizeof v);
-    if (p) memcpy(&v, p, sizeof v);
-    return v;
-}
+/* ipc_get_u64, ipc_get_i32, ipc_get_f64: the next value, or 0 (and `bad` set) past the end */
+#define IPC_GETTER(name, type)                                                                     \
+    static inline type name(IpcBuf *b)                                                             \
+    {                                                                                              \
+        type v = 0;                                                                                \
+        const void *p = ipc_take(b, sizeof v);                                                     \
+        if (p) memcpy(&v, p, sizeof v);                                                            \
+        return v;                                                                                  \
+    }
+IPC_GETTER(ipc_get_u64, uint64_t)
+IPC_GETTER(ipc_get_i32, int32_t)
+IPC_GETTER(ipc_get_f64, double)
+#undef IPC_GETTER
 /* Arrays start at a multiple of 8 bytes, so the side that reads them gets aligned values. */
 static inline void ipc_align(IpcBuf *b)
 {
@@ -122,10 +119,15 @@ static inline void ipc_put_array(IpcBuf *b, const void *v, size_t n, size_t size
     if (size && n > (SIZE_MAX / size)) { b->bad = 1; return; }
     ipc_put(b, v, n * size);
 }
-static inline const void *ipc_take_array(IpcBuf *b, size_t n, size_t size)
+/* Past the padding ipc_align wrote (0, or -1 past the end). */
+static inline int ipc_skip_align(IpcBuf *b)
 {
     size_t pad = (8 - (b->pos & 7)) & 7;
-    if (!ipc_take(b, pad) && pad) return NULL;
+    return (!ipc_take(b, pad) && pad) ? -1 : 0;
+}
+static inline const void *ipc_take_array(IpcBuf *b, size_t n, size_t size)
+{
+    if (ipc_skip_align(b) != 0) return NULL;
     if (size && n > (SIZE_MAX / size)) { b->bad = 1; return NULL; }
     return ipc_take(b, n * size);
 }
@@ -143,6 +145,7 @@ static inline const char *ipc_get_str(IpcBuf *b, size_t *len)
 }
 
 /* ---------------------------------------------------------------------------- waiting */
+
 #include <linux/futex.h>
 #include <sys/syscall.h>
 #include <time.h>
@@ -172,18 +175,38 @@ static inline void ipc_pause(void)
 #endif
 }
 
-/* Wait until *word != old: spin for `spin_ns`, then sleep on the futex (flag `sleeps` set while
+/* How long a side spins before it sleeps. Spinning saves the futex's wake-up when the other side
+ * runs on another core, and takes a core the other side may be waiting for when the machine has
+ * more runnable processes than cores: so the budget follows what it bought. A change seen while
+ * spinning after w ns sets it to 4 w (at least 2 us, at most max_ns); a wait that had to sleep
+ * leaves a quarter (none below 1 us); without one, every 64th wait spins max_ns / 2 to find out
+ * whether spinning pays again. */
+typedef struct {
+    uint64_t max_ns, spin_ns;
+    unsigned waits;
+} IpcSpin;
+
+/* Wait until *word != old: spin (see IpcSpin), then sleep on the futex (flag `sleeps` set while
  * asleep) in slices of `slice_ns`, calling `alive(ctx)` after each slice: it returns 0 to stop
  * waiting. Returns 0 when the word changed, -1 when alive() said stop. */
-static inline int ipc_wait_change(_Atomic uint32_t *word, uint32_t old, _Atomic uint32_t *sleeps,
-                                  uint64_t spin_ns, long slice_ns, int (*alive)(void *), void *ctx)
+static inline int ipc_wait_change(_Atomic uint32_t *word, uint32_t old, _Atomic uint32_t *sleeps, IpcSpin *spin,
+                                  long slice_ns, int (*alive)(void *), void *ctx)
 {
-    uint64_t start = ipc_now_ns();
-    for (unsigned i = 1;; i++) {
-        if (atomic_load_explicit(word, memory_order_acquire) != old) return 0;
-        ipc_pause();
-        if ((i & 63) == 0 && ipc_now_ns() - start > spin_ns) break;
+    uint64_t budget = spin->spin_ns;
+    if (!budget && (++spin->waits & 63) == 0) budget = spin->max_ns / 2;
+    if (budget) {
+        uint64_t start = ipc_now_ns();
+        for (unsigned i = 1;; i++) {
+            if (atomic_load_explicit(word, memory_order_acquire) != old) {
+                uint64_t w = 4 * (ipc_now_ns() - start);
+                spin->spin_ns = w < 2000 ? 2000 : w < spin->max_ns ? w : spin->max_ns;
+                return 0;
+            }
+            ipc_pause();
+            if ((i & 15) == 0 && ipc_now_ns() - start > budget) break;
+        }
     }
+    spin->spin_ns = budget / 4 >= 1000 ? budget / 4 : 0;
     for (;;) {
         atomic_store(sleeps, 1);
         if (atomic_load(word) != old) { atomic_store(sleeps, 0); return 0; }

@@ -1,26 +1,34 @@
 """What the model's own process costs (issue 25): the same FMU in this process and in its own.
 
 A host whose Python is not the FMU runtime's version runs the model in a process of its own
-(fmu_src/native/fmi/fmi2_remote.c, fmi2_server.c: shared memory, one round trip per FMI call);
+(fmu_src/native/fmi/fmi2_remote.c, fmi2_server.c: shared memory, one round trip per FMI call, but
+for a step's set and get: fmi2_remote_batch.c);
 ``SPURDIFF_FMU_PROCESS=out`` asks for that in any host, which is how this module measures it from
 this process, interleaved with the in-process runs so machine noise hits both sides:
 
 * per call, as a master's step loop makes it (the C function through ctypes with its arguments
   converted once, :meth:`harness.fmi.instance.Instance.fast_function`): ``fmi2GetReal`` of 4
-  outputs, and the sequence ``fmi2SetReal`` (4 inputs) + ``fmi2DoStep`` + ``fmi2GetReal`` (4
-  outputs) of one communication step of SpurDifferential (rigid, 5 ms); the difference between
-  the two sides is the cost of the round trips;
+  outputs before any step (in its own process a round trip each), and the sequence
+  ``fmi2SetReal`` (4 inputs) + ``fmi2DoStep`` + ``fmi2GetReal`` (4 outputs) of one communication
+  step of SpurDifferential (rigid, 5 ms); the difference between the two sides is the cost of the
+  round trips;
+* the same step under load (issue 44 item 4): with ``2 x cores`` processes that only spin beside it
+  (:func:`busy_load`), the own process's step against this process's, both measured under that load
+  in the same run as the quiet ones (target: within 1.5x);
 * a whole scene: vehicle-cornering through FMI with every FMU in its own process against in this
   process (:func:`harness.measure.bench.core.fmi_overhead`'s run, wall and CPU time of this process:
   the model processes' CPU is not counted, it runs on the other core).
 
-``python -m harness.measure.bench.process`` prints the table.
+``python -m harness.cli.tools.process_bench`` prints the table; ``--load [N]`` only the step quiet
+and beside N spinning processes (default 2 x cores).
 """
 from __future__ import annotations
 
 import contextlib
 import os
 import statistics
+import subprocess
+import sys
 import time
 from ctypes import c_double, c_size_t, c_uint
 from pathlib import Path
@@ -42,6 +50,22 @@ def model_process(mode: str):
             os.environ[ENV] = old
 
 
+@contextlib.contextmanager
+def busy_load(n: int):
+    """``n`` processes of this Python that only spin, for the block (each ended by its pid after it):
+    a machine oversubscribed as a busy host's is."""
+    procs = [subprocess.Popen([sys.executable, "-c", "while True: pass"], stdin=subprocess.DEVNULL)
+             for _ in range(n)]
+    try:
+        time.sleep(0.2)   # all of them running
+        yield
+    finally:
+        for p in procs:
+            p.kill()
+        for p in procs:
+            p.wait()
+
+
 def _calls(path: Path, mode: str, n: int, h: float = 5e-3) -> dict[str, float]:
     """Microseconds per getReal(4) and per setReal(4) + doStep + getReal(4), median of 5 rounds."""
     from harness.fmi.instance import Instance
@@ -61,11 +85,12 @@ def _calls(path: Path, mode: str, n: int, h: float = 5e-3) -> dict[str, float]:
         hh = c_double(h)
         t = 0.0
         rounds_get, rounds_step = [], []
-        for _ in range(5):
+        for _ in range(5):   # before any step: in its own process each get is a round trip
             t0 = time.perf_counter()
             for _ in range(n):
                 get(c, vo, no, xo)
             rounds_get.append(time.perf_counter() - t0)
+        for _ in range(5):   # the step's set and get need none there (fmi2_remote_batch.c)
             t0 = time.perf_counter()
             for _ in range(n):
                 set_(c, vi, ni, xi)
@@ -80,17 +105,37 @@ def _calls(path: Path, mode: str, n: int, h: float = 5e-3) -> dict[str, float]:
         inst.close()
 
 
-def round_trips(n: int = 2000) -> dict:
-    """SpurDifferential's calls in this process and in its own, interleaved (in, out, in, out)."""
+def _differential() -> Path:
     from harness.build.fmu import build
 
-    path = build(["SpurDifferential"], quiet=True)[0]
+    return build(["SpurDifferential"], quiet=True)[0]
+
+
+def round_trips(n: int = 2000, path: Path | None = None) -> dict:
+    """SpurDifferential's calls in this process and in its own, interleaved (in, out, in, out)."""
+    path = path or _differential()
     runs = {"in": [], "out": []}
     for mode in ("in", "out", "in", "out"):
         runs[mode].append(_calls(path, mode, n))
     best = {m: {k: min(r[k] for r in rs) for k in rs[0]} for m, rs in runs.items()}
     return {"in": best["in"], "out": best["out"],
             "overhead": {k: best["out"][k] - best["in"][k] for k in best["in"]}}
+
+
+def under_load(n: int = 2000, load: int | None = None, path: Path | None = None) -> dict:
+    """The communication step's cost (set + doStep + get) in its own process against this process,
+    quiet and with ``load`` spinning processes beside it (default: twice the cores), in one run:
+    {"load": load, "quiet": round_trips(), "loaded": round_trips() under the load, and "ratio_quiet",
+    "ratio_loaded": own process / this process per step}; ``path``: another build of the FMU
+    (an older one, to compare)."""
+    path = path or _differential()
+    load = load or 2 * (os.cpu_count() or 1)
+    quiet = round_trips(n, path)
+    with busy_load(load):
+        loaded = round_trips(n, path)
+    k = "set+doStep+get"
+    return {"load": load, "quiet": quiet, "loaded": loaded, "ratio_quiet": quiet["out"][k] / quiet["in"][k],
+            "ratio_loaded": loaded["out"][k] / loaded["in"][k]}
 
 
 def scene_in_own_processes(scene_name: str = "vehicle-cornering", repeats: int = 3) -> dict:
@@ -117,14 +162,22 @@ def scene_in_own_processes(scene_name: str = "vehicle-cornering", repeats: int =
 
 
 def report(repeats: int = 3) -> list[str]:
-    rt = round_trips()
+    ul = under_load()
+    rt = ul["quiet"]
     lines = ["   SpurDifferential (rigid, 5 ms step), us per call as a master's loop makes it, best of 2 interleaved "
              "rounds:",
              f"   {'':24s}{'this process':>14s}{'own process':>14s}{'difference':>12s}"]
     for k in ("getReal", "set+doStep+get"):
         lines.append(f"   {k:24s}{rt['in'][k]:14.1f}{rt['out'][k]:14.1f}{rt['overhead'][k]:12.1f}")
-    lines.append(f"   one round trip (getReal's difference): {rt['overhead']['getReal']:.1f} us; "
-                 f"a communication step's three: {rt['overhead']['set+doStep+get']:.1f} us (target <= 10)")
+    lines.append(f"   one round trip (getReal's difference, before any step): {rt['overhead']['getReal']:.1f} us; "
+                 f"a communication step's (one round trip: the set deferred, the get answered from the step's "
+                 f"answer): {rt['overhead']['set+doStep+get']:.1f} us (target <= 10)")
+    ld = ul["loaded"]
+    lines.append(f"   with {ul['load']} spinning processes beside it ({ul['load'] / (os.cpu_count() or 1):g} x the cores): "
+                 f"set+doStep+get {ld['in']['set+doStep+get']:.1f} us in this process, "
+                 f"{ld['out']['set+doStep+get']:.1f} us in its own")
+    lines.append(f"   own process / this process per step: quiet {ul['ratio_quiet']:.2f}x, under that load "
+                 f"{ul['ratio_loaded']:.2f}x (target <= 1.5x)")
     try:
         s = scene_in_own_processes(repeats=repeats)
     except Exception as e:   # noqa: BLE001 - a scene that cannot run here is reported, not fatal
@@ -134,12 +187,3 @@ def report(repeats: int = 3) -> list[str]:
                      f"{s['out_wall'] / s['in_wall']:.2f} ({s['out_wall']:.2f} s / {s['in_wall']:.2f} s), "
                      f"this process's CPU {s['out_cpu'] / s['in_cpu']:.2f}")
     return lines
-
-
-def main(argv: list[str] | None = None) -> int:
-    print("\n".join(report()))
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

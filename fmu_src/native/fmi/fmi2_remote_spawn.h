@@ -1,0 +1,19 @@
+/* Starting and ending the model's own process (fmi2_remote_spawn.c). */
+#ifndef SPURDIFF_FMI2_REMOTE_SPAWN_H
+#define SPURDIFF_FMI2_REMOTE_SPAWN_H
+
+#include <stddef.h>
+
+/* not exported from the loader (a host's own symbol of the same name never takes its place) */
+#define SPAWN_INTERNAL __attribute__((visibility("hidden")))
+#include <sys/types.h>
+
+/* Make the shared memory (*shm_fd, mapped at *base, its header written) and the pipe (*pipe_w the
+ * host's end), start the server for `resources` and `bindir`: 0, or -1 with the reason in `err`
+ * (what was made so far is in the out arguments, for the caller to close). */
+SPAWN_INTERNAL int spawn_server(const char *resources, const char *bindir, int *shm_fd, void **base, int *pipe_w,
+                                pid_t *pid, char *err, size_t errsize);
+/* Wait up to `ms` for the server `pid` to exit; SIGKILL after that (nothing for pid <= 0). */
+SPAWN_INTERNAL void reap_server(pid_t pid, int ms);
+
+#endif
