@@ -51,7 +51,8 @@ _REL_TOL_MIN = math.sqrt(2.2e-16)       # minimize_bounded's relative resolution
 
 def solve_2x2(a11: float, a12: float, a21: float, a22: float, b1: float, b2: float) -> tuple[float, float]:
     """(x1, x2) with ``[[a11, a12], [a21, a22]] x = (b1, b2)`` by Cramer's rule (det = a11 a22 - a12 a21;
-    a singular matrix gives ZeroDivisionError, a non-finite one non-finite x)."""
+    a singular matrix gives ZeroDivisionError, a non-finite one non-finite x; so does a regular one
+    whose determinant underflows, entries below about 1e-154)."""
     det = a11 * a22 - a12 * a21
     return (b1 * a22 - a12 * b2) / det, (a11 * b2 - a21 * b1) / det
 
