@@ -45,9 +45,6 @@ UNITS: dict[str, tuple[dict[str, int] | None, dict[str, tuple[float, float]]]] =
     "N.m/s": ({"kg": 1, "m": 2, "s": -3}, {"kN.m/s": (1e-3, 0.0)}),
     "N/s": ({"kg": 1, "m": 1, "s": -3}, {"kN/s": (1e-3, 0.0)}),
     "1/(kg.m2)": ({"kg": -1, "m": -2}, {"1/(kg.mm2)": (1e-6, 0.0)}),
-    # IMPACT stiffness for e = 1.5: the base unit has a fractional exponent (kg m^-0.5 s^-2), which
-    # FMI's integer BaseUnit cannot express, so it is declared without one
-    "N/m1.5": (None, {"N/mm1.5": (1e-3 ** 1.5, 0.0)}),
 }
 
 

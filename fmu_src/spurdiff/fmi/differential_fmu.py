@@ -372,8 +372,8 @@ VARIABLES: list[Var] = [
            "operating pitch circle (used with backlash = true)", "m", "mm"),
         _p(f"mesh{key}.c", f"mesh.stiffness{key}", f"Mean mesh stiffness of mesh {label} per planet pair "
            "(0: ISO 6336-1 c_gamma_alpha times face width)", "N/m", "N/mm"),
-        _p(f"mesh{key}.contactStiffness", f"mesh.contactStiffness{key}", f"IMPACT stiffness K of mesh {label} "
-           "(F = K delta^e; unit for the default e = 1.5)", "N/m1.5", "N/mm1.5"),
+        _p(f"mesh{key}.contactStiffness", f"mesh.contactStiffness{key}", f"IMPACT stiffness K of mesh {label}, "
+           "the contact force at 1 m of penetration: F = K (delta / 1 m)^e (the value of K in N/m^e)", "N", "kN"),
     )],
     _p("mesh.preload", "mesh.preload", "Start with the meshes statically loaded (false: unloaded, the loads act from "
         "t = 0, a start transient like the paper's ADAMS run)", None, kind="Boolean"),
