@@ -19,12 +19,11 @@ from pathlib import Path
 from lxml import etree as ET
 
 from harness.interop.libcosim_run import NS, SSD_FILE, LibcosimError, run_ssp
+from harness.interop.ssp import FMU_TYPE, OSP_ANNOTATION, SCENE_ANNOTATION
 from harness.run.result import Result
 from harness.scene.spec import Scene
 
 COMPONENT = "scene"
-_SCENE_ANNOTATION = "org.spurdiff.scene"
-_OSP_ANNOTATION = "com.opensimulationplatform"
 
 
 def container_outputs(container: Path) -> tuple[str, list[str]]:
@@ -49,8 +48,8 @@ def ssd_text(scene: Scene, fmu_name: str, outputs: list[str]) -> bytes:
     system = ET.SubElement(root, q("ssd", "System"), name=scene.name)
     elements = ET.SubElement(system, q("ssd", "Elements"))
     ET.SubElement(elements, q("ssd", "Component"), name=COMPONENT, source=f"resources/{fmu_name}",
-                  type="application/x-fmu-sharedlibrary")
-    ann = ET.SubElement(ET.SubElement(system, q("ssd", "Annotations")), q("ssc", "Annotation"), type=_SCENE_ANNOTATION)
+                  type=FMU_TYPE)
+    ann = ET.SubElement(ET.SubElement(system, q("ssd", "Annotations")), q("ssc", "Annotation"), type=SCENE_ANNOTATION)
     sd = ET.SubElement(ann, q("sd", "Scene"), nsmap={"sd": NS["sd"]}, name=scene.name, step=repr(scene.step),
                        algorithm="container", duration=repr(scene.duration))
     for name in outputs:
@@ -59,7 +58,7 @@ def ssd_text(scene: Scene, fmu_name: str, outputs: list[str]) -> bytes:
     # the osp prefix is declared on ssc:Annotation: libcosim takes any attribute of osp:Algorithm
     # (an xmlns declaration too) for an algorithm (docs/interoperability.md)
     osp = ET.SubElement(ET.SubElement(exp, q("ssd", "Annotations")), q("ssc", "Annotation"),
-                        nsmap={"osp": NS["osp"]}, type=_OSP_ANNOTATION)
+                        nsmap={"osp": NS["osp"]}, type=OSP_ANNOTATION)
     ET.SubElement(ET.SubElement(osp, q("osp", "Algorithm")), q("osp", "FixedStepAlgorithm"),
                   baseStepSize=repr(scene.step))
     return ET.tostring(root, xml_declaration=True, encoding="UTF-8", pretty_print=True)

@@ -106,7 +106,6 @@ def test_the_differentials_default_experiment_in_our_c_host_is_fmpys(fmu_files, 
     0.3 s is fmpy's (bit for bit but the angles, to rounding)."""
     import zipfile
 
-    sys.path.insert(0, str(HERE))
     from host_cases import build_c_host
 
     fmu = fmu_files["SpurDifferential"]

@@ -307,7 +307,7 @@ def test_the_fmu_parameter_solver_method_reaches_the_integrator(differential_fmu
 HOSTS = Path(__file__).resolve().parents[4] / "shared" / "hosts"   # ../shared/hosts beside the checkout
 
 
-@pytest.mark.skipif(not (HOSTS / "fmusim").is_file(), reason=f"{HOSTS} is absent (third-party FMI hosts)")
+@pytest.mark.skipif(not (HOSTS / "fmusim").is_file(), reason=f"{HOSTS / 'fmusim'} is absent")
 @pytest.mark.parametrize("method", METHODS)
 def test_fmusim_runs_the_compiled_kernel_with_a_bare_environment(differential_fmu, tmp_path, method):
     """The Reference FMUs' fmusim, started with env -i: the log names the compiled implementation
