@@ -55,7 +55,8 @@ from harness.build.elf import find_patchelf
 from harness.common.paths import fmu_cache_dir, fmu_sources, physics_package, sources_digest
 
 # the C files compiled together into binaries/linux64/<model>.so (-ldl -lpthread, no Python headers)
-LOADER_SOURCES: tuple = ("fmi2_loader.c", "fmi2_inproc.c", "fmi2_remote.c", "fmi2_remote_batch.c", "fmi2_remote_spawn.c")
+LOADER_SOURCES: tuple = ("fmi2_loader.c", "native_start.c", "fmi2_inproc.c", "fmi2_remote.c", "fmi2_remote_batch.c",
+                         "fmi2_remote_spawn.c")
 # the C files compiled together into the executable binaries/linux64/spurdiff_fmu_server (none: no server)
 SERVER_SOURCES: tuple = ("fmi2_server.c", "fmi2_inproc.c")
 # the bridge into the interpreter, by job: the instances and calls, the native step and fast paths,
@@ -435,6 +436,41 @@ def _stage(name: str, tmp: Path, carried: bool, notes: list[str]) -> Path:
     return pkg
 
 
+NATIVE_START = "native_start.bin"    # spurdiff.fmi.native_start.FILE (read by fmu_src/native/fmi/native_start.c)
+_NATIVE_START_SCRIPT = """
+import importlib, sys
+root, name = sys.argv[1], sys.argv[2]
+sys.path.insert(0, root)
+import spurdiff
+if not spurdiff.__file__.startswith(root):
+    sys.exit("the staged package is not the one imported: " + spurdiff.__file__)
+from spurdiff.fmi import native_start
+klass = getattr(importlib.import_module("spurdiff.{entry}"), name)
+try:
+    data = native_start.snapshot(klass)
+except native_start.NoSnapshot as e:
+    sys.stderr.write(str(e))
+    sys.exit(3)
+sys.stdout.buffer.write(data)
+"""
+
+
+def _native_start(name: str, pkg: Path, notes: list[str]) -> bytes | None:
+    """The FMU's native start (:mod:`spurdiff.fmi.native_start`), made by the staged package itself
+    (the FMU's copy with its kernels) in a fresh interpreter; None, said in ``notes``, when the FMU has
+    none (BuildError when making it fails otherwise)."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("SPURDIFF_", "PYTHON"))}
+    r = subprocess.run([sys.executable, "-I", "-c", _NATIVE_START_SCRIPT.format(entry=fmu_package.ENTRY_MODULE),
+                        str(pkg.parent), name], capture_output=True, env=env, cwd=pkg.parent, timeout=300)
+    if r.returncode == 3:
+        notes.append(f"no native start ({r.stderr.decode(errors='replace').strip()})")
+        return None
+    if r.returncode != 0:
+        raise BuildError(f"{name}: making its native start failed:\n{r.stderr.decode(errors='replace').strip()[-3000:]}")
+    notes.append(f"native start {len(r.stdout) / 1024:.1f} kB")
+    return r.stdout
+
+
 def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
     from pythonfmu.builder import FmuBuilder
 
@@ -516,6 +552,9 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
                         if f.is_file():
                             zout.write(f, f"resources/{f.relative_to(pkg.parent).as_posix()}")
                     zout.writestr(_entry(f"resources/{RUNTIME_CFG}"), runtime_bundle.cfg_text(runtime, name, guid))
+                    start = _native_start(name, pkg, notes)
+                    if start is not None:
+                        zout.writestr(_entry(f"resources/{NATIVE_START}"), start)
                     notes.append(f"carries its Python runtime ({runtime.folder.name})")
                 if win64 is not None:
                     zout.writestr(_entry(f"binaries/win64/{name}.dll", 0o755), win64.loader.read_bytes())

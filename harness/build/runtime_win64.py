@@ -76,7 +76,7 @@ LEAVE_OUT = {"python.exe", "pythonw.exe", f"python{TAG}._pth", "python.cat", f"p
              "libcrypto-1_1.dll", "libssl-1_1.dll", "_ssl.pyd", "_hashlib.pyd", "sqlite3.dll", "_sqlite3.pyd",
              "winsound.pyd"}
 PRELOAD = ("vcruntime140.dll", "vcruntime140_1.dll")   # the VC runtime, before python3X.dll
-LOADER_SOURCES = ("fmi2_loader.c", "fmi2_inproc.c")    # no fmi2_remote.c: the model's own process is not built for Windows
+LOADER_SOURCES = ("fmi2_loader.c", "native_start.c", "fmi2_inproc.c")    # no fmi2_remote.c: the model's own process is not built for Windows
 LOADER3_SOURCES = ("fmi3_loader.c", *LOADER_SOURCES)  # a PE DLL's calls into itself never leave it: no -Bsymbolic needed
 FLAGS = ["-O2", "-Wall", "-Werror=implicit-function-declaration", "-D__USE_MINGW_ANSI_STDIO=1", "-s"]
 LINK = ["-static", "-static-libgcc", "-lpthread"]      # only KERNEL32 and msvcrt needed at run time

@@ -15,6 +15,11 @@
  * auto: as above. Either way the model is the bridge (fmi2_pybridge.c) over the FMU's package.
  * Any failure is logged through the host's logger with the reason, and fmi2Instantiate returns
  * NULL. Getters and setters refuse a NULL array for n > 0 here, whichever side runs the model.
+ * Before any of that, an FMU that carries a native start (resources/native_start.bin, native_start.c)
+ * answers the instance without Python while the host keeps the FMU's defaults: its Python (in this
+ * process or its own, as above) starts at the first call the native start does not answer, which
+ * is then passed on after the calls so far were replayed there (promote). SPURDIFF_FMU_START=python
+ * starts the Python at fmi2Instantiate, as an FMU without a native start does; unset or auto: as above.
  * binaries/win64/<modelIdentifier>.dll is this file cross-built with mingw-w64 (the system calls in
  * platform.h): the model runs in the host's process only, on the FMU's own Python (described by
  * resources/python_runtime_win64.cfg) or the host's of the same version; the model's own process
@@ -30,9 +35,12 @@
 
 #include "fmi2_inproc.h"
 #include "fmi2_remote.h"
+#include "native_start.h"
 
 #define HANDLE_MAGIC 0x5350444Cu   /* "SPDL" */
 #define PROCESS_ENV "SPURDIFF_FMU_PROCESS"
+#define START_ENV "SPURDIFF_FMU_START"
+#define HELD_MAX 65536             /* the bytes of the messages held while the Python starts */
 
 typedef struct {
     unsigned magic;
@@ -41,15 +49,24 @@ typedef struct {
     fmi2CallbackFunctions cb;
     char *iname;
     int fmi3;                  /* the FMI 3.0 binary's instance (spurdiffEnableFmi3): output derivatives */
+    /* the native start and what starting the Python later needs */
+    NsInst *ns;                /* answering natively, no model yet */
+    int broken;                /* the Python could not start after a native start: every call fails */
+    int remote;
+    RuntimeCfg cfg;
+    fmi2Type type;
+    char *guid, *resources, *bindir;
+    fmi2Boolean visible, logging;
+    fmi2CallbackFunctions relay_cb;   /* the model's callbacks after a native start (relay below) */
+    int muted;                 /* the replay runs: its messages are held, shown only if it fails */
+    char *held;
+    size_t held_len;
 } Handle;
 
-static void log_error(const fmi2CallbackFunctions *f, fmi2String name, const char *fmt, ...)
+static void log_va(const fmi2CallbackFunctions *f, fmi2String name, fmi2Status status, const char *fmt, va_list ap)
 {
     char msg[4 * CFG_MAX_LINE];
-    va_list ap;
-    va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
-    va_end(ap);
     if (f && f->logger) {   /* the text as the format, '%' doubled (see fmi2_pybridge.c: emit) */
         char buf[sizeof msg * 2 + 1];
         size_t n = 0;
@@ -58,10 +75,27 @@ static void log_error(const fmi2CallbackFunctions *f, fmi2String name, const cha
             buf[n++] = *p;
         }
         buf[n] = 0;
-        f->logger(f->componentEnvironment, name ? name : "", fmi2Error, "logStatusError", buf);
+        f->logger(f->componentEnvironment, name ? name : "", status,
+                  status == fmi2Warning ? "logStatusWarning" : "logStatusError", buf);
     }
     else
         fprintf(stderr, "%s: %s\n", name ? name : "fmi2Instantiate", msg);
+}
+
+static void log_error(const fmi2CallbackFunctions *f, fmi2String name, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    log_va(f, name, fmi2Error, fmt, ap);
+    va_end(ap);
+}
+
+static void log_warning(const fmi2CallbackFunctions *f, fmi2String name, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    log_va(f, name, fmi2Warning, fmt, ap);
+    va_end(ap);
 }
 
 /* Directory of this shared object (binaries/<platform>/). */
@@ -72,6 +106,113 @@ static int own_dir(char *out, size_t size)
 
 const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
 const char *fmi2GetVersion(void) { return fmi2Version; }
+
+/* Start the model (its Python in this process or its own, as the header says) with the callbacks `cb`:
+ * 0, or -1 (`err` says why, or is empty when the model logged it). */
+static int start_model(Handle *h, const fmi2CallbackFunctions *cb, char *err, size_t errsize)
+{
+#ifndef _WIN32
+    if (h->remote) {
+        h->t = &REMOTE_TABLE;
+        h->inner = remote_instantiate(h->iname, h->type, h->guid, h->resources, h->bindir, cb, h->visible, h->logging,
+                                      err, errsize);
+    } else
+#endif
+    if (inproc_load(&h->cfg, h->resources, h->bindir, &h->t, err, errsize) == 0) {
+        h->inner = h->t->fmi2Instantiate(h->iname, h->type, h->guid, h->resources, cb, h->visible, h->logging);
+    }
+    return h->inner ? 0 : -1;
+}
+
+static void drop(Handle *h)
+{
+    if (h->ns) ns_free(h->ns);
+    cfg_free(&h->cfg);
+    h->magic = 0;
+    free(h->iname);
+    free(h->guid);
+    free(h->resources);
+    free(h->bindir);
+    free(h->held);
+    free(h);
+}
+
+/* The model's logger after a native start: the host's, but for the messages of the replay, which are
+ * held (the host saw them from the native start) and shown only if the replay fails. */
+static void relay(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status, fmi2String category,
+                  fmi2String message, ...)
+{
+    Handle *h = (Handle *)env;
+    char text[16384];
+    va_list ap;
+    va_start(ap, message);
+    vsnprintf(text, sizeof text, message ? message : "", ap);
+    va_end(ap);
+    if (h->muted) {
+        size_t n = strlen(text) + 2;
+        char *held = h->held_len + n <= HELD_MAX ? (char *)realloc(h->held, h->held_len + n) : NULL;
+        if (held) {
+            held[h->held_len] = (char)('0' + (int)status);
+            memcpy(held + h->held_len + 1, text, n - 1);
+            h->held = held;
+            h->held_len += n;
+        }
+        return;
+    }
+    if (!h->cb.logger) {
+        if (status >= fmi2Warning) fprintf(stderr, "%s: %s\n", name ? name : "", text);
+        return;
+    }
+    char buf[sizeof text * 2 + 1];   /* the text as the format, '%' doubled (fmi2_pybridge_log.c: emit) */
+    size_t n = 0;
+    for (const char *p = text; *p; p++) {
+        if (*p == '%') buf[n++] = '%';
+        buf[n++] = *p;
+    }
+    buf[n] = 0;
+    h->cb.logger(h->cb.componentEnvironment, name, status, category, buf);
+}
+
+/* the model's early-return step (FMI 3.0), wherever it runs */
+static NsStepEarly *early_step_of(const Handle *h)
+{
+#ifndef _WIN32
+    if (h->remote) return remote_do_step_early;
+#endif
+    (void)h;
+    return inproc_do_step_early;
+}
+
+/* The call the native start does not answer: start the model's Python, replay the native start's
+ * calls there, go on with the model. 0, or -1 (logged; the instance then fails every call). */
+static int promote(Handle *h)
+{
+    char err[4 * CFG_MAX_LINE];
+    err[0] = 0;
+    long steps = ns_steps(h->ns);
+    h->relay_cb = h->cb;
+    h->relay_cb.logger = relay;
+    h->relay_cb.componentEnvironment = h;
+    h->muted = 1;
+    int rc = start_model(h, &h->relay_cb, err, sizeof err);
+    if (rc == 0) rc = ns_replay(h->ns, h->t, h->inner, early_step_of(h), err, sizeof err);
+    h->muted = 0;
+    if (rc != 0) {
+        for (size_t i = 0; h->held && i < h->held_len; i += strlen(h->held + i + 1) + 2)
+            relay(h, h->iname, (fmi2Status)(h->held[i] - '0'), "logAll", h->held + i + 1);
+        log_error(&h->cb, h->iname, "starting the model's Python after the native start (%ld steps): %s", steps,
+                  err[0] ? err : "see the messages above");
+        if (h->inner) h->t->fmi2FreeInstance(h->inner);
+        h->inner = NULL;
+        h->broken = 1;
+    }
+    free(h->held);
+    h->held = NULL;
+    h->held_len = 0;
+    ns_free(h->ns);
+    h->ns = NULL;
+    return rc;
+}
 
 fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
                               fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
@@ -138,6 +279,14 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         cfg_free(&cfg);
         return NULL;
     }
+    const char *start = getenv(START_ENV);
+    if (!start || !*start) start = "auto";
+    if (strcmp(start, "auto") && strcmp(start, "python")) {
+        log_error(functions, instanceName, "fmi2Instantiate: %s = '%.40s'; allowed: auto (default), python",
+                  START_ENV, start);
+        cfg_free(&cfg);
+        return NULL;
+    }
     Handle *h = (Handle *)calloc(1, sizeof *h);
     if (!h) {
         cfg_free(&cfg);
@@ -146,22 +295,26 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     h->magic = HANDLE_MAGIC;
     h->iname = strdup(instanceName);
     if (functions) h->cb = *functions;
+    h->remote = remote;
+    h->cfg = cfg;
+    h->type = fmuType;
+    h->guid = strdup(fmuGUID);
+    h->resources = strdup(resources);
+    h->bindir = strdup(bindir);
+    h->visible = visible;
+    h->logging = loggingOn;
     err[0] = 0;
-#ifndef _WIN32
-    if (remote) {
-        h->t = &REMOTE_TABLE;
-        h->inner = remote_instantiate(instanceName, fmuType, fmuGUID, resources, bindir, functions, visible,
-                                      loggingOn, err, sizeof err);
-    } else
-#endif
-    if (inproc_load(&cfg, resources, bindir, &h->t, err, sizeof err) == 0) {
-        h->inner = h->t->fmi2Instantiate(instanceName, fmuType, fmuGUID, resources, functions, visible, loggingOn);
+    int native = 0;
+    if (!strcmp(start, "auto") && h->iname && h->guid && h->resources && h->bindir) {
+        native = ns_open(resources, instanceName, functions, loggingOn ? 1 : 0, &h->ns, err, sizeof err);
+        if (native < 0) {   /* a damaged native start: the Python starts now, as without one */
+            log_warning(functions, instanceName, "fmi2Instantiate: the native start is not used: %s", err);
+            err[0] = 0;
+        }
     }
-    cfg_free(&cfg);
-    if (!h->inner) {
+    if (native <= 0 && start_model(h, functions, err, sizeof err) != 0) {
         if (err[0]) log_error(functions, instanceName, "fmi2Instantiate: %s", err);
-        free(h->iname);
-        free(h);
+        drop(h);
         return NULL;
     }
     return h;
@@ -173,15 +326,56 @@ static Handle *handle(fmi2Component c)
     return (h && h->magic == HANDLE_MAGIC) ? h : NULL;
 }
 
+/* The instance ready for the model's call: 0, or -1 (it cannot start: logged once, then silent). */
+static int model_ready(Handle *h)
+{
+    if (h->broken) return -1;
+    return h->ns ? promote(h) : 0;
+}
+
 void fmi2FreeInstance(fmi2Component c)
 {
     Handle *h = handle(c);
     if (!h) return;
-    h->t->fmi2FreeInstance(h->inner);
-    h->magic = 0;
-    free(h->iname);
-    free(h);
+    if (h->inner) h->t->fmi2FreeInstance(h->inner);
+    drop(h);
 }
+
+/* ------------------------------------------------------------------------------ the native start's calls
+ * nsw_<function>: the native start's answer to the call (a status), or NS_PYTHON */
+#define NS(c) (((Handle *)(c))->ns)
+static int nsw_fmi2GetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[]) { return ns_get_real(NS(c), vr, n, v); }
+static int nsw_fmi2GetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer v[]) { return ns_get_integer(NS(c), vr, n, v); }
+static int nsw_fmi2GetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[]) { return ns_get_boolean(NS(c), vr, n, v); }
+static int nsw_fmi2SetReal(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real v[]) { return ns_set_real(NS(c), vr, n, v); }
+static int nsw_fmi2SetInteger(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer v[]) { return ns_set_integer(NS(c), vr, n, v); }
+static int nsw_fmi2SetBoolean(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Boolean v[]) { return ns_set_boolean(NS(c), vr, n, v); }
+static int nsw_fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2String v[]) { return ns_set_string(NS(c), vr, n, v); }
+static int nsw_fmi2SetDebugLogging(fmi2Component c, fmi2Boolean on, size_t n, const fmi2String cat[]) { (void)cat; return ns_set_debug_logging(NS(c), on, n); }
+static int nsw_fmi2SetupExperiment(fmi2Component c, fmi2Boolean td, fmi2Real tol, fmi2Real t0, fmi2Boolean sd, fmi2Real t1) { return ns_setup_experiment(NS(c), td, tol, t0, sd, t1); }
+static int nsw_fmi2EnterInitializationMode(fmi2Component c) { return ns_enter_initialization_mode(NS(c)); }
+static int nsw_fmi2ExitInitializationMode(fmi2Component c) { return ns_exit_initialization_mode(NS(c)); }
+static int nsw_fmi2Terminate(fmi2Component c) { return ns_terminate(NS(c)); }
+static int nsw_fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp) { return ns_do_step(NS(c), t, h, nsp, 0, NULL); }
+/* the model's Python answers these */
+#define NS_NONE(name, params, args) static int nsw_##name params { return NS_PYTHON; }
+NS_NONE(fmi2Reset, (fmi2Component c), (c))
+NS_NONE(fmi2GetFMUstate, (fmi2Component c, fmi2FMUstate *s), (c, s))
+NS_NONE(fmi2SetFMUstate, (fmi2Component c, fmi2FMUstate s), (c, s))
+NS_NONE(fmi2FreeFMUstate, (fmi2Component c, fmi2FMUstate *s), (c, s))
+NS_NONE(fmi2SerializedFMUstateSize, (fmi2Component c, fmi2FMUstate s, size_t *n), (c, s, n))
+NS_NONE(fmi2SerializeFMUstate, (fmi2Component c, fmi2FMUstate s, fmi2Byte b[], size_t n), (c, s, b, n))
+NS_NONE(fmi2DeSerializeFMUstate, (fmi2Component c, const fmi2Byte b[], size_t n, fmi2FMUstate *s), (c, b, n, s))
+NS_NONE(fmi2GetDirectionalDerivative, (fmi2Component c, const fmi2ValueReference u[], size_t nu, const fmi2ValueReference z[], size_t nz, const fmi2Real du[], fmi2Real dz[]), (c, u, nu, z, nz, du, dz))
+NS_NONE(fmi2SetRealInputDerivatives, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer o[], const fmi2Real v[]), (c, vr, n, o, v))
+NS_NONE(fmi2GetRealOutputDerivatives, (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Integer o[], fmi2Real v[]), (c, vr, n, o, v))
+NS_NONE(fmi2CancelStep, (fmi2Component c), (c))
+NS_NONE(fmi2GetStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Status *v), (c, k, v))
+NS_NONE(fmi2GetRealStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Real *v), (c, k, v))
+NS_NONE(fmi2GetIntegerStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Integer *v), (c, k, v))
+NS_NONE(fmi2GetBooleanStatus, (fmi2Component c, const fmi2StatusKind k, fmi2Boolean *v), (c, k, v))
+NS_NONE(fmi2GetStringStatus, (fmi2Component c, const fmi2StatusKind k, fmi2String *v), (c, k, v))
+#undef NS_NONE
 
 /* Strings are handed out even when the call fails ("" each): some hosts read them without
  * looking at the status (the ecos command line did, after an fmi2Instantiate that returned NULL). */
@@ -191,8 +385,12 @@ fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
     fmi2Status s = fmi2Error;
     if (h && n && (!vr || !v))
         log_error(&h->cb, h->iname, "fmi2GetString: %s is NULL for nvr = %zu", vr ? "value" : "vr", n);
-    else if (h)
+    else if (h && h->ns && (s = (fmi2Status)ns_get_string(h->ns, vr, n, v)) != (fmi2Status)NS_PYTHON)
+        ;
+    else if (h && model_ready(h) == 0)
         s = h->t->fmi2GetString(h->inner, vr, n, v);
+    else
+        s = fmi2Error;
     if (s > fmi2Warning && v)
         for (size_t i = 0; i < n; i++) v[i] = "";
     return s;
@@ -207,6 +405,11 @@ fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
             log_error(&hd_->cb, hd_->iname, #name ": %s is NULL for nvr = %zu", vr ? "value" : "vr", n); \
             return fmi2Error;                                                                      \
         }                                                                                          \
+        if (hd_->ns) {                                                                             \
+            int r_ = nsw_##name args;                                                              \
+            if (r_ != NS_PYTHON) return (fmi2Status)r_;                                            \
+        }                                                                                          \
+        if (model_ready(hd_) != 0) return fmi2Error;                                               \
         c = hd_->inner;                                                                              \
         return hd_->t->name args;                                                                    \
     }
@@ -228,6 +431,11 @@ static int refused_in_fmi2(const Handle *h, const char *fn)
     {                                                                                              \
         Handle *hd_ = handle(c);                                                                     \
         if (!hd_ || refused_in_fmi2(hd_, #name)) return fmi2Error;                                 \
+        if (hd_->ns) {                                                                             \
+            int r_ = nsw_##name args;                                                              \
+            if (r_ != NS_PYTHON) return (fmi2Status)r_;                                            \
+        }                                                                                          \
+        if (model_ready(hd_) != 0) return fmi2Error;                                               \
         c = hd_->inner;                                                                              \
         return hd_->t->name args;                                                                    \
     }
@@ -252,8 +460,10 @@ fmi2Status spurdiffDoStepEarly(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Bool
 {
     Handle *hd = handle(c);
     if (!hd) return fmi2Error;
-#ifndef _WIN32
-    if (hd->t == &REMOTE_TABLE) return remote_do_step_early(hd->inner, t, h, nsp, end);
-#endif
-    return inproc_do_step_early(hd->inner, t, h, nsp, end);
+    if (hd->ns) {
+        int r = ns_do_step(hd->ns, t, h, nsp, 1, end);
+        if (r != NS_PYTHON) return (fmi2Status)r;
+    }
+    if (model_ready(hd) != 0) return fmi2Error;
+    return early_step_of(hd)(hd->inner, t, h, nsp, end);
 }

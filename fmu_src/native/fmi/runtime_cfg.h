@@ -155,21 +155,16 @@ CFG_FN int cfg_join(const char *resources, const char *rel, char *out, size_t si
     return (n < 0 || (size_t)n >= size) ? -1 : 0;
 }
 
-/* Read `<resources>/python_runtime.cfg`. Returns 0, or -1 with a reason in `err`. */
-CFG_FN int cfg_read(const char *resources, RuntimeCfg *c, char *err, size_t errsize)
+/* The whole regular file `file` (at most `max` bytes) in a new buffer with a NUL after its `*len`
+ * bytes (free()), or NULL with a reason in `err`. A FIFO planted in its place does not block the
+ * open (platform.h) and is refused. */
+CFG_FN char *cfg_slurp(const char *file, long long max, size_t *len, char *err, size_t errsize)
 {
-    char file[CFG_MAX_LINE];
-    memset(c, 0, sizeof *c);
-    if (cfg_join(resources, CFG_FILE, file, sizeof file) != 0) {
-        snprintf(err, errsize, "the resources path is longer than %d bytes", CFG_MAX_LINE - 32);
-        return -1;
-    }
-    /* a FIFO planted in its place must not block the open (platform.h); it is refused below */
     int fd = plat_open_read(file);
     if (fd < 0) {
         snprintf(err, errsize, "cannot read %s: %s (the FMU's resources are incomplete or not readable)",
                  file, strerror(errno));
-        return -1;
+        return NULL;
     }
 #ifdef _WIN32
     struct _stat64 st;
@@ -180,13 +175,12 @@ CFG_FN int cfg_read(const char *resources, RuntimeCfg *c, char *err, size_t errs
 #endif
         snprintf(err, errsize, "%s is not a regular file (the FMU's resources are damaged)", file);
         close(fd);
-        return -1;
+        return NULL;
     }
-    if (st.st_size > CFG_MAX_FILE) {
-        snprintf(err, errsize, "%s has %lld bytes, more than the %d a runtime description may have",
-                 file, (long long)st.st_size, CFG_MAX_FILE);
+    if (st.st_size > max) {
+        snprintf(err, errsize, "%s has %lld bytes, more than the %lld it may have", file, (long long)st.st_size, max);
         close(fd);
-        return -1;
+        return NULL;
     }
     char *text = (char *)malloc((size_t)st.st_size + 1);
     size_t got = 0;
@@ -200,9 +194,25 @@ CFG_FN int cfg_read(const char *resources, RuntimeCfg *c, char *err, size_t errs
     if (!text || got != (size_t)st.st_size) {
         snprintf(err, errsize, "cannot read %s completely", file);
         free(text);
-        return -1;
+        return NULL;
     }
     text[got] = 0;
+    *len = got;
+    return text;
+}
+
+/* Read `<resources>/python_runtime.cfg`. Returns 0, or -1 with a reason in `err`. */
+CFG_FN int cfg_read(const char *resources, RuntimeCfg *c, char *err, size_t errsize)
+{
+    char file[CFG_MAX_LINE];
+    memset(c, 0, sizeof *c);
+    if (cfg_join(resources, CFG_FILE, file, sizeof file) != 0) {
+        snprintf(err, errsize, "the resources path is longer than %d bytes", CFG_MAX_LINE - 32);
+        return -1;
+    }
+    size_t got = 0;
+    char *text = cfg_slurp(file, CFG_MAX_FILE, &got, err, errsize);
+    if (!text) return -1;
     if (memchr(text, 0, got)) {
         snprintf(err, errsize, "%s contains a NUL byte (the FMU's resources are damaged)", file);
         free(text);

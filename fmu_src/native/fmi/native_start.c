@@ -1,0 +1,661 @@
+/* The native start: an instance of an FMU whose model steps natively at its defaults, answered here
+ * without Python for as long as its host keeps those defaults (spurdiff/fmi/native_start.py says what
+ * resources/native_start.bin holds and how it is made).
+ *
+ * What is answered here, as the model's Python (spurdiff/fmi/adapter.py through fmi2_pybridge.c)
+ * answers it: fmi2SetDebugLogging without categories; fmi2SetupExperiment with a finite start and a
+ * stop time not before it; entering and leaving Initialization Mode once, in order; every read of a
+ * variable before the first step (the values the snapshot recorded for that mode), and after it the
+ * native step's slots and the parameters; a set of any settable variable to the value it has before
+ * the first step, of the Real inputs after it; fmi2DoStep on the FMU's time by the compiled step;
+ * fmi2Terminate. The messages the model logs in these calls go to the host's logger as the bridge
+ * sends them (fmi2OK ones only with logging on). Everything else returns NS_PYTHON: a parameter set to
+ * another value, an input outside its range at the next step, a step the compiled function does not
+ * take (a watch that would log), a step the adapter refuses, FMU states, fmi2Reset, the status
+ * functions, a reference the snapshot does not know. Every call answered is kept on a tape (one record
+ * each), which the loader replays into the model's Python when it starts it. */
+#define _GNU_SOURCE
+#include "native_start.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "platform.h"
+#include "runtime_cfg.h"
+
+#define NS_MAGIC "SPNS"
+#define NS_FORMAT 1u
+#define NS_MAX_FILE (16 * 1024 * 1024)
+#define NS_MAX_TAPE ((size_t)64 * 1024 * 1024)   /* a longer run starts its Python and goes on there */
+#define NS_MAX_LIBS 8
+#define NS_MAX_FIELDS 32
+#define NS_KINDS 4
+
+enum { K_REAL, K_INTEGER, K_BOOLEAN, K_STRING };
+enum { F_SETTABLE = 1, F_INPUT = 2, F_CONSTANT = 4 };
+enum { FIELD_NULL, FIELD_DOUBLES, FIELD_FUNCTION };
+enum { M_INSTANTIATE, M_SETUP, M_ENTER, M_BUILD, N_PHASES };
+enum { P_INSTANTIATED, P_INITIALIZING, P_STEPPING, P_TERMINATED };
+enum { T_LOGGING, T_SETUP, T_ENTER, T_EXIT, T_TERMINATE, T_SET_REAL, T_SET_INTEGER, T_SET_BOOLEAN, T_SET_STRING,
+       T_STEP };
+
+typedef struct {
+    int kind, flags, slot;
+    unsigned vr;
+    double lo, hi;
+    double val[3];            /* instantiated, initializing, stepping (Integer and Boolean as doubles) */
+    char *sval[3];            /* String: into the file's buffer */
+} Var;
+
+typedef struct {
+    int phase, status;
+    char *category, *text;    /* into the file's buffer */
+} Msg;
+
+typedef int64_t NativeFn(const void *ctx, double *v, double t, double h);
+
+struct NsInst {
+    char *file;               /* the file's bytes (strings point into it, NUL-terminated in place) */
+    fmi2CallbackFunctions cb;
+    char *name;
+    int logging_on;
+    int early;                /* the model may end a step early: such a step needs its Python */
+    PlatLibrary libs[NS_MAX_LIBS];
+    int n_libs;
+    NativeFn *fn;
+    void *ctx[NS_MAX_FIELDS];
+    double *arrays[NS_MAX_FIELDS];
+    int n_fields;
+    double *v;
+    size_t nv, n_in;
+    Var *vars;
+    size_t n_vars;
+    int *index[NS_KINDS];     /* value reference -> variable, -1 none */
+    unsigned max_vr[NS_KINDS];
+    Msg *msgs;
+    size_t n_msgs;
+    /* the instance */
+    int phase, dirty, bad;
+    long steps;
+    double time, stop, stop_tol;
+    unsigned char *tape;
+    size_t tape_len, tape_cap;
+};
+
+static void emit_phase(NsInst *I, int phase);
+
+/* ------------------------------------------------------------------------------ the file */
+typedef struct {
+    char *p, *end;
+    int ok;
+} Rd;
+
+static void *rd_take(Rd *r, size_t n)
+{
+    if (!r->ok || (size_t)(r->end - r->p) < n) {
+        r->ok = 0;
+        return NULL;
+    }
+    void *q = r->p;
+    r->p += n;
+    return q;
+}
+
+static uint32_t rd_u32(Rd *r)
+{
+    uint32_t x = 0;
+    void *q = rd_take(r, 4);
+    if (q) memcpy(&x, q, 4);
+    return x;
+}
+
+static int64_t rd_i64(Rd *r)
+{
+    int64_t x = 0;
+    void *q = rd_take(r, 8);
+    if (q) memcpy(&x, q, 8);
+    return x;
+}
+
+static double rd_f64(Rd *r)
+{
+    double x = 0.0;
+    void *q = rd_take(r, 8);
+    if (q) memcpy(&x, q, 8);
+    return x;
+}
+
+/* A string: its length then its bytes, made NUL-terminated in place (the next field's bytes were
+ * read already: the length field before the next string is read before its first byte is changed) */
+static char *rd_str(Rd *r)
+{
+    uint32_t n = rd_u32(r);
+    char *s = (char *)rd_take(r, n);
+    if (!s) return NULL;
+    /* the bytes one back onto the length field's last byte, which is read: room for a NUL after them */
+    char *d = s - 1;
+    memmove(d, s, n);
+    d[n] = 0;
+    return d;
+}
+
+static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t errsize)
+{
+    Rd r = {I->file, I->file + len, 1};
+    char *magic = (char *)rd_take(&r, 4);
+    if (!magic || memcmp(magic, NS_MAGIC, 4) != 0 || rd_u32(&r) != NS_FORMAT) {
+        snprintf(err, errsize, "%s is not a native start of format %u", NS_FILE, NS_FORMAT);
+        return -1;
+    }
+    I->early = rd_u32(&r) != 0;
+    uint32_t n_libs = rd_u32(&r);
+    if (n_libs > NS_MAX_LIBS) r.ok = 0;
+    for (uint32_t i = 0; r.ok && i < n_libs; i++) {
+        char *rel = rd_str(&r), path[PATH_MAX];
+        if (!rel || !cfg_relative_ok(rel)) { r.ok = 0; break; }
+#ifdef _WIN32
+        int w = snprintf(path, sizeof path, "%s/%s.dll", resources, rel);
+#else
+        int w = snprintf(path, sizeof path, "%s/%s.so", resources, rel);
+#endif
+        if (w < 0 || (size_t)w >= sizeof path) { r.ok = 0; break; }
+        I->libs[i] = plat_open_library(path, 0);
+        if (!I->libs[i]) {
+            char why[512];
+            snprintf(err, errsize, "cannot load %s: %s", path, plat_library_error(why, sizeof why));
+            return -1;
+        }
+        I->n_libs = (int)i + 1;
+    }
+    uint32_t n_checks = rd_u32(&r);
+    for (uint32_t i = 0; r.ok && i < n_checks; i++) {
+        uint32_t lib = rd_u32(&r);
+        char *sym = rd_str(&r);
+        int64_t want = rd_i64(&r);
+        if (!r.ok || lib >= n_libs) { r.ok = 0; break; }
+        int64_t (*f)(void) = (int64_t (*)(void))(uintptr_t)plat_symbol(I->libs[lib], sym);
+        int64_t got = f ? f() : 0;
+        if (!f || got != want) {
+            snprintf(err, errsize, "the kernel %s: %s is %lld, not %lld (the FMU's files do not belong together)",
+                     sym, f ? "its value" : "missing", (long long)got, (long long)want);
+            return -1;
+        }
+    }
+    uint32_t fn_lib = rd_u32(&r);
+    char *fn_name = rd_str(&r);
+    if (r.ok && fn_lib < n_libs) I->fn = (NativeFn *)(uintptr_t)plat_symbol(I->libs[fn_lib], fn_name);
+    uint32_t n_fields = rd_u32(&r);
+    if (n_fields > NS_MAX_FIELDS) r.ok = 0;
+    for (uint32_t i = 0; r.ok && i < n_fields; i++) {
+        uint32_t kind = rd_u32(&r);
+        if (kind == FIELD_DOUBLES) {
+            uint32_t n = rd_u32(&r);
+            double *src = (double *)rd_take(&r, (size_t)n * 8);
+            I->arrays[i] = (double *)malloc(((size_t)n + 1) * sizeof(double));
+            if (!src || !I->arrays[i]) { r.ok = 0; break; }
+            memcpy(I->arrays[i], src, (size_t)n * 8);
+            I->ctx[i] = I->arrays[i];
+        } else if (kind == FIELD_FUNCTION) {
+            uint32_t lib = rd_u32(&r);
+            char *sym = rd_str(&r);
+            if (!r.ok || lib >= n_libs || !(I->ctx[i] = (void *)(uintptr_t)plat_symbol(I->libs[lib], sym))) r.ok = 0;
+        } else if (kind != FIELD_NULL) {
+            r.ok = 0;
+        }
+        I->n_fields = (int)i + 1;
+    }
+    I->nv = rd_u32(&r);
+    double *v0 = (double *)rd_take(&r, I->nv * 8);
+    I->v = (double *)malloc((I->nv + 1) * sizeof(double));
+    if (v0 && I->v) memcpy(I->v, v0, I->nv * 8);
+    I->n_in = rd_u32(&r);
+    I->n_vars = rd_u32(&r);
+    I->vars = r.ok && I->v && I->n_in <= I->nv ? (Var *)calloc(I->n_vars + 1, sizeof(Var)) : NULL;
+    if (!I->vars) r.ok = 0;
+    for (size_t i = 0; r.ok && i < I->n_vars; i++) {
+        Var *x = &I->vars[i];
+        x->kind = (int)rd_u32(&r);
+        x->vr = rd_u32(&r);
+        x->flags = (int)rd_u32(&r);
+        x->slot = (int)(int32_t)rd_u32(&r);
+        x->lo = rd_f64(&r);
+        x->hi = rd_f64(&r);
+        for (int p = 0; p < 3; p++) {
+            if (x->kind == K_STRING) x->sval[p] = rd_str(&r);
+            else x->val[p] = rd_f64(&r);
+        }
+        if (x->kind < 0 || x->kind >= NS_KINDS || x->slot >= (int)I->nv
+            || (x->kind == K_REAL && (x->flags & F_INPUT) && (x->slot < 0 || (size_t)x->slot >= I->n_in)))
+            r.ok = 0;
+        else if (x->vr > I->max_vr[x->kind])
+            I->max_vr[x->kind] = x->vr;
+    }
+    for (int k = 0; r.ok && k < NS_KINDS; k++) {
+        I->index[k] = (int *)malloc(((size_t)I->max_vr[k] + 1) * sizeof(int));
+        if (!I->index[k]) { r.ok = 0; break; }
+        for (unsigned j = 0; j <= I->max_vr[k]; j++) I->index[k][j] = -1;
+    }
+    for (size_t i = 0; r.ok && i < I->n_vars; i++) I->index[I->vars[i].kind][I->vars[i].vr] = (int)i;
+    I->n_msgs = rd_u32(&r);
+    I->msgs = r.ok ? (Msg *)calloc(I->n_msgs + 1, sizeof(Msg)) : NULL;
+    if (!I->msgs) r.ok = 0;
+    for (size_t i = 0; r.ok && i < I->n_msgs; i++) {
+        I->msgs[i].phase = (int)rd_u32(&r);
+        I->msgs[i].status = (int)rd_u32(&r);
+        I->msgs[i].category = rd_str(&r);
+        I->msgs[i].text = rd_str(&r);
+        if (I->msgs[i].phase >= N_PHASES || I->msgs[i].status > fmi2Error) r.ok = 0;
+    }
+    if (!r.ok || r.p != r.end || !I->fn) {
+        snprintf(err, errsize, "%s is damaged (%s)", NS_FILE, !I->fn && r.ok ? "its step function is missing" : "bad layout");
+        return -1;
+    }
+    return 0;
+}
+
+int ns_open(const char *resources, const char *name, const fmi2CallbackFunctions *cb, int logging_on,
+            NsInst **out, char *err, size_t errsize)
+{
+    char file[PATH_MAX];
+    *out = NULL;
+    if (cfg_join(resources, NS_FILE, file, sizeof file) != 0) return 0;
+    /* plat_open_read refuses nothing: a missing file is "no native start", anything else is read strictly */
+    int fd = plat_open_read(file);
+    if (fd < 0) return 0;
+    close(fd);
+    size_t len = 0;
+    char *text = cfg_slurp(file, NS_MAX_FILE, &len, err, errsize);
+    if (!text) return -1;
+    NsInst *I = (NsInst *)calloc(1, sizeof *I);
+    if (!I || !(I->name = cfg_strdup(name))) {
+        free(I);
+        free(text);
+        snprintf(err, errsize, "out of memory");
+        return -1;
+    }
+    I->file = text;
+    if (cb) I->cb = *cb;
+    I->logging_on = logging_on;
+    if (parse(I, resources, len, err, errsize) != 0) {
+        ns_free(I);
+        return -1;
+    }
+    I->phase = P_INSTANTIATED;
+    I->dirty = 1;
+    I->stop = INFINITY;
+    emit_phase(I, M_INSTANTIATE);
+    *out = I;
+    return 1;
+}
+
+void ns_free(NsInst *I)
+{
+    if (!I) return;
+    for (int i = 0; i < NS_MAX_FIELDS; i++) free(I->arrays[i]);
+    for (int k = 0; k < NS_KINDS; k++) free(I->index[k]);
+    /* the kernels stay loaded: the model's Python loads the same files (a dlclose gains nothing) */
+    free(I->vars);
+    free(I->msgs);
+    free(I->v);
+    free(I->tape);
+    free(I->file);
+    free(I->name);
+    free(I);
+}
+
+long ns_steps(const NsInst *I) { return I->steps; }
+
+/* ------------------------------------------------------------------------------ messages */
+static void emit_phase(NsInst *I, int phase)
+{
+    for (size_t i = 0; i < I->n_msgs; i++) {
+        const Msg *m = &I->msgs[i];
+        if (m->phase != phase || !(m->status != fmi2OK || I->logging_on)) continue;
+        if (!I->cb.logger) {
+            if (m->status >= fmi2Warning) fprintf(stderr, "%s: %s\n", I->name, m->text);
+            continue;
+        }
+        size_t n = strlen(m->text);
+        char *buf = (char *)malloc(2 * n + 1), *q = buf;
+        if (!buf) continue;
+        for (const char *p = m->text; *p; p++) {   /* the text as the format, '%' doubled (the bridge's emit) */
+            if (*p == '%') *q++ = '%';
+            *q++ = *p;
+        }
+        *q = 0;
+        I->cb.logger(I->cb.componentEnvironment, I->name, (fmi2Status)m->status, m->category, buf);
+        free(buf);
+    }
+}
+
+/* ------------------------------------------------------------------------------ the tape */
+static int tape_put(NsInst *I, const void *p, size_t n)
+{
+    if (I->tape_len + n > I->tape_cap) {
+        size_t cap = I->tape_cap ? 2 * I->tape_cap : 4096;
+        while (cap < I->tape_len + n) cap *= 2;
+        unsigned char *t = (unsigned char *)realloc(I->tape, cap);
+        if (!t) return -1;
+        I->tape = t;
+        I->tape_cap = cap;
+    }
+    memcpy(I->tape + I->tape_len, p, n);
+    I->tape_len += n;
+    return 0;
+}
+
+typedef struct {
+    int32_t op, status;
+    uint64_t n;               /* values, or the payload's bytes */
+} Rec;
+
+static int record(NsInst *I, int op, uint64_t n, const void *a, size_t na, const void *b, size_t nb)
+{
+    Rec h = {op, fmi2OK, n};
+    size_t mark = I->tape_len;
+    if (tape_put(I, &h, sizeof h) != 0 || (na && tape_put(I, a, na) != 0) || (nb && tape_put(I, b, nb) != 0)) {
+        I->tape_len = mark;
+        return -1;
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------------------------ the calls */
+static const Var *var_of(const NsInst *I, int kind, fmi2ValueReference vr)
+{
+    if (vr > I->max_vr[kind] || !I->index[kind]) return NULL;
+    int i = I->index[kind][vr];
+    return i < 0 ? NULL : &I->vars[i];
+}
+
+int ns_set_debug_logging(NsInst *I, fmi2Boolean on, size_t n)
+{
+    int32_t x = on ? 1 : 0;
+    if (n != 0 || record(I, T_LOGGING, 0, &x, sizeof x, NULL, 0) != 0) return NS_PYTHON;
+    I->logging_on = x;
+    return fmi2OK;
+}
+
+int ns_setup_experiment(NsInst *I, fmi2Boolean td, fmi2Real tol, fmi2Real t0, fmi2Boolean sd, fmi2Real t1)
+{
+    if (I->phase != P_INSTANTIATED || !isfinite(t0) || (sd && !(isfinite(t1) && t1 >= t0))) return NS_PYTHON;
+    double d[3] = {tol, t0, t1};
+    int32_t b[2] = {td ? 1 : 0, sd ? 1 : 0};
+    if (record(I, T_SETUP, 0, d, sizeof d, b, sizeof b) != 0) return NS_PYTHON;
+    I->time = t0;
+    I->stop = sd ? t1 : INFINITY;
+    /* the adapter's _time_tolerance(stop, 0.0): 1e-9 * max(1, |stop|) */
+    I->stop_tol = sd ? 1e-9 * (fabs(t1) > 1.0 ? fabs(t1) : 1.0) : 0.0;
+    emit_phase(I, M_SETUP);
+    return fmi2OK;
+}
+
+int ns_enter_initialization_mode(NsInst *I)
+{
+    if (I->phase != P_INSTANTIATED || record(I, T_ENTER, 0, NULL, 0, NULL, 0) != 0) return NS_PYTHON;
+    I->phase = P_INITIALIZING;
+    emit_phase(I, M_ENTER);
+    return fmi2OK;
+}
+
+int ns_exit_initialization_mode(NsInst *I)
+{
+    if (I->phase != P_INITIALIZING || record(I, T_EXIT, 0, NULL, 0, NULL, 0) != 0) return NS_PYTHON;
+    if (I->dirty) emit_phase(I, M_BUILD);   /* the model is built now unless a read built it */
+    I->dirty = 0;
+    I->phase = P_STEPPING;
+    return fmi2OK;
+}
+
+int ns_terminate(NsInst *I)
+{
+    if (I->phase != P_STEPPING || record(I, T_TERMINATE, 0, NULL, 0, NULL, 0) != 0) return NS_PYTHON;
+    I->phase = P_TERMINATED;
+    return fmi2OK;
+}
+
+/* A read of `n` variables of `kind`: -1 (the model's Python answers), or the value's source for each
+ * in the order asked (0: the snapshot's values of the mode, 1: the slot) checked for all first. */
+static int readable(NsInst *I, int kind, const fmi2ValueReference vr[], size_t n)
+{
+    for (size_t i = 0; i < n; i++) {
+        const Var *x = var_of(I, kind, vr[i]);
+        if (!x) return -1;
+        if (I->phase >= P_STEPPING && !(x->flags & F_CONSTANT) && x->slot < 0) return -1;
+    }
+    if (I->phase == P_INITIALIZING && I->dirty) {   /* the read builds the model (the adapter's _read) */
+        emit_phase(I, M_BUILD);
+        I->dirty = 0;
+    }
+    return 0;
+}
+
+static double value_of(const NsInst *I, const Var *x)
+{
+    if (I->phase >= P_STEPPING)
+        return x->slot >= 0 && !(x->flags & F_CONSTANT) ? I->v[x->slot] : x->val[2];
+    return x->val[I->phase == P_INITIALIZING ? 1 : 0];
+}
+
+int ns_get_real(NsInst *I, const fmi2ValueReference vr[], size_t n, fmi2Real v[])
+{
+    if (readable(I, K_REAL, vr, n) != 0) return NS_PYTHON;
+    for (size_t i = 0; i < n; i++) v[i] = value_of(I, var_of(I, K_REAL, vr[i]));
+    return fmi2OK;
+}
+
+int ns_get_integer(NsInst *I, const fmi2ValueReference vr[], size_t n, fmi2Integer v[])
+{
+    if (readable(I, K_INTEGER, vr, n) != 0) return NS_PYTHON;
+    for (size_t i = 0; i < n; i++) v[i] = (fmi2Integer)value_of(I, var_of(I, K_INTEGER, vr[i]));
+    return fmi2OK;
+}
+
+int ns_get_boolean(NsInst *I, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[])
+{
+    if (readable(I, K_BOOLEAN, vr, n) != 0) return NS_PYTHON;
+    for (size_t i = 0; i < n; i++) v[i] = value_of(I, var_of(I, K_BOOLEAN, vr[i])) != 0.0 ? fmi2True : fmi2False;
+    return fmi2OK;
+}
+
+int ns_get_string(NsInst *I, const fmi2ValueReference vr[], size_t n, fmi2String v[])
+{
+    if (readable(I, K_STRING, vr, n) != 0) return NS_PYTHON;
+    for (size_t i = 0; i < n; i++) {
+        const Var *x = var_of(I, K_STRING, vr[i]);
+        v[i] = x->sval[I->phase >= P_STEPPING ? 2 : I->phase == P_INITIALIZING ? 1 : 0];
+    }
+    return fmi2OK;
+}
+
+/* A set before the first step: every variable settable and set to the value it has (the start
+ * value): then the model's build is as recorded. */
+static int unchanged(NsInst *I, int kind, const fmi2ValueReference vr[], size_t n, const double *d,
+                     const fmi2String *s)
+{
+    if (I->phase != P_INSTANTIATED && I->phase != P_INITIALIZING) return 0;
+    for (size_t i = 0; i < n; i++) {
+        const Var *x = var_of(I, kind, vr[i]);
+        if (!x || !(x->flags & F_SETTABLE)) return 0;
+        if (kind == K_STRING) {
+            if (!s[i] || strcmp(s[i], x->sval[0]) != 0) return 0;
+        } else if (kind == K_BOOLEAN ? ((d[i] != 0.0) != (x->val[0] != 0.0)) : memcmp(&d[i], &x->val[0], sizeof(double)) != 0) {
+            return 0;   /* a Real bit for bit (-0.0 is not 0.0 here) */
+        }
+    }
+    return 1;
+}
+
+int ns_set_real(NsInst *I, const fmi2ValueReference vr[], size_t n, const fmi2Real v[])
+{
+    if (I->phase == P_STEPPING) {   /* the inputs into their slots, each checked against its range */
+        for (size_t i = 0; i < n; i++) {
+            const Var *x = var_of(I, K_REAL, vr[i]);
+            if (!x || !(x->flags & F_INPUT)) return NS_PYTHON;
+        }
+        if (record(I, T_SET_REAL, n, vr, n * sizeof *vr, v, n * sizeof *v) != 0) return NS_PYTHON;
+        for (size_t i = 0; i < n; i++) {
+            const Var *x = var_of(I, K_REAL, vr[i]);
+            I->v[x->slot] = v[i];
+            if (!(x->lo <= v[i] && v[i] <= x->hi)) I->bad = 1;   /* NaN too: the next step needs the Python */
+        }
+        return fmi2OK;
+    }
+    if (!unchanged(I, K_REAL, vr, n, v, NULL) || record(I, T_SET_REAL, n, vr, n * sizeof *vr, v, n * sizeof *v) != 0)
+        return NS_PYTHON;
+    I->dirty = 1;
+    return fmi2OK;
+}
+
+static int set_ints(NsInst *I, int kind, int op, const fmi2ValueReference vr[], size_t n, const int *v)
+{
+    double d[64];
+    if (n > 64) return NS_PYTHON;
+    for (size_t i = 0; i < n; i++) d[i] = (double)v[i];
+    if (!unchanged(I, kind, vr, n, d, NULL) || record(I, op, n, vr, n * sizeof *vr, v, n * sizeof *v) != 0)
+        return NS_PYTHON;
+    I->dirty = 1;
+    return fmi2OK;
+}
+
+int ns_set_integer(NsInst *I, const fmi2ValueReference vr[], size_t n, const fmi2Integer v[])
+{
+    return set_ints(I, K_INTEGER, T_SET_INTEGER, vr, n, v);
+}
+
+int ns_set_boolean(NsInst *I, const fmi2ValueReference vr[], size_t n, const fmi2Boolean v[])
+{
+    return set_ints(I, K_BOOLEAN, T_SET_BOOLEAN, vr, n, v);
+}
+
+int ns_set_string(NsInst *I, const fmi2ValueReference vr[], size_t n, const fmi2String v[])
+{
+    /* equal to the start values: the tape keeps the references only (the values are the snapshot's) */
+    if (!unchanged(I, K_STRING, vr, n, NULL, v) || record(I, T_SET_STRING, n, vr, n * sizeof *vr, NULL, 0) != 0)
+        return NS_PYTHON;
+    I->dirty = 1;
+    return fmi2OK;
+}
+
+int ns_do_step(NsInst *I, fmi2Real t, fmi2Real h, fmi2Boolean nsp, int early, fmi2Real *end)
+{
+    /* the adapter's checks (fmi2_do_step) and the bridge's native_step: anything it would refuse or
+     * take in Python is left to the Python */
+    if (I->phase != P_STEPPING || I->bad || (early && I->early) || !(h > 0.0 && h < INFINITY)) return NS_PYTHON;
+    double at = t >= 0.0 ? t : -t;
+    if (!(fabs(t - I->time) <= 1e-9 * (at > 1.0 ? at : 1.0) + 1e-6 * h) || at == INFINITY) return NS_PYTHON;
+    if (t + h > I->stop + (I->stop_tol + 1e-6 * h)) return NS_PYTHON;
+    if (I->tape_len > NS_MAX_TAPE) return NS_PYTHON;
+    double d[2] = {t, h};
+    int32_t b[2] = {nsp ? 1 : 0, early ? 1 : 0};
+    size_t mark = I->tape_len;
+    if (record(I, T_STEP, 0, d, sizeof d, b, sizeof b) != 0) return NS_PYTHON;
+    if (I->fn(I->ctx, I->v, t, h) != 0) {   /* not taken: nothing but scratch changed */
+        I->tape_len = mark;
+        return NS_PYTHON;
+    }
+    I->time = t + h;
+    I->steps++;
+    if (end) *end = t + h;
+    return fmi2OK;
+}
+
+/* ------------------------------------------------------------------------------ the replay */
+int ns_replay(const NsInst *I, const Fmi2Table *t, fmi2Component c, NsStepEarly *early_step, char *err,
+              size_t errsize)
+{
+    static const char *const NAMES[] = {"fmi2SetDebugLogging", "fmi2SetupExperiment", "fmi2EnterInitializationMode",
+                                        "fmi2ExitInitializationMode", "fmi2Terminate", "fmi2SetReal",
+                                        "fmi2SetInteger", "fmi2SetBoolean", "fmi2SetString", "fmi2DoStep"};
+    size_t pos = 0, count = 0;
+    while (pos < I->tape_len) {
+        Rec h;
+        memcpy(&h, I->tape + pos, sizeof h);
+        const unsigned char *p = I->tape + pos + sizeof h;
+        size_t n = (size_t)h.n, size = 0;
+        fmi2Status s = fmi2Error;
+        switch (h.op) {
+        case T_LOGGING: {
+            int32_t on;
+            memcpy(&on, p, sizeof on);
+            s = t->fmi2SetDebugLogging(c, on ? fmi2True : fmi2False, 0, NULL);
+            size = sizeof on;
+            break;
+        }
+        case T_SETUP: {
+            double d[3];
+            int32_t b[2];
+            memcpy(d, p, sizeof d);
+            memcpy(b, p + sizeof d, sizeof b);
+            s = t->fmi2SetupExperiment(c, b[0], d[0], d[1], b[1], d[2]);
+            size = sizeof d + sizeof b;
+            break;
+        }
+        case T_ENTER: s = t->fmi2EnterInitializationMode(c); break;
+        case T_EXIT: s = t->fmi2ExitInitializationMode(c); break;
+        case T_TERMINATE: s = t->fmi2Terminate(c); break;
+        case T_SET_REAL:
+        case T_SET_INTEGER:
+        case T_SET_BOOLEAN:
+        case T_SET_STRING: {
+            fmi2ValueReference *vr = (fmi2ValueReference *)malloc((n ? n : 1) * sizeof *vr);
+            size_t each = h.op == T_SET_REAL ? sizeof(fmi2Real) : h.op == T_SET_STRING ? 0 : sizeof(int);
+            void *vals = malloc((n ? n : 1) * (each ? each : sizeof(fmi2String)));
+            if (!vr || !vals) {
+                free(vr);
+                free(vals);
+                snprintf(err, errsize, "out of memory replaying the start");
+                return -1;
+            }
+            memcpy(vr, p, n * sizeof *vr);
+            if (each) memcpy(vals, p + n * sizeof *vr, n * each);
+            if (h.op == T_SET_REAL) s = t->fmi2SetReal(c, vr, n, (const fmi2Real *)vals);
+            else if (h.op == T_SET_INTEGER) s = t->fmi2SetInteger(c, vr, n, (const fmi2Integer *)vals);
+            else if (h.op == T_SET_BOOLEAN) s = t->fmi2SetBoolean(c, vr, n, (const fmi2Boolean *)vals);
+            else {
+                fmi2String *sv = (fmi2String *)vals;
+                for (size_t i = 0; i < n; i++) sv[i] = var_of(I, K_STRING, vr[i])->sval[0];
+                s = t->fmi2SetString(c, vr, n, sv);
+            }
+            free(vr);
+            free(vals);
+            size = n * (sizeof(fmi2ValueReference) + each);
+            break;
+        }
+        case T_STEP: {
+            double d[2], end;
+            int32_t b[2];
+            memcpy(d, p, sizeof d);
+            memcpy(b, p + sizeof d, sizeof b);
+            s = b[1] ? early_step(c, d[0], d[1], b[0], &end) : t->fmi2DoStep(c, d[0], d[1], b[0]);
+            size = sizeof d + sizeof b;
+            break;
+        }
+        default:
+            snprintf(err, errsize, "the start's record %zu is damaged", count);
+            return -1;
+        }
+        if (s != (fmi2Status)h.status) {
+            snprintf(err, errsize, "replaying the start in the model's Python: call %zu (%s) answered %d, not %d as "
+                     "natively", count + 1, NAMES[h.op], (int)s, (int)h.status);
+            return -1;
+        }
+        pos += sizeof h + size;
+        count++;
+    }
+    /* the outputs as the native step left them */
+    for (size_t i = 0; I->phase >= P_STEPPING && i < I->n_vars; i++) {
+        const Var *x = &I->vars[i];
+        if (x->kind != K_REAL || x->slot < (int)I->n_in || (x->flags & F_CONSTANT)) continue;
+        fmi2Real got;
+        if (t->fmi2GetReal(c, &x->vr, 1, &got) > fmi2Warning || memcmp(&got, &I->v[x->slot], sizeof got) != 0) {
+            snprintf(err, errsize, "replaying the start in the model's Python: the variable with value reference "
+                     "%u is %.17g there, %.17g natively, after %ld steps", x->vr, got, I->v[x->slot], I->steps);
+            return -1;
+        }
+    }
+    return 0;
+}

@@ -1,0 +1,49 @@
+/* The native start (native_start.c): an instance answered without Python while its host keeps the
+ * FMU's defaults, from resources/native_start.bin (spurdiff/fmi/native_start.py writes it at build
+ * time). The loader (fmi2_loader.c) asks it first; NS_PYTHON from any call means "start the model
+ * now": the loader starts it, replays the tape (ns_replay) and passes the call on. */
+#ifndef SPURDIFF_NATIVE_START_H
+#define SPURDIFF_NATIVE_START_H
+
+#include <stddef.h>
+
+#include "fmi2_table.h"
+
+#define NS_FILE "native_start.bin"
+#define NS_PYTHON (-1)     /* a call the native start does not answer: the model's Python must */
+
+typedef struct NsInst NsInst;
+
+/* The native start of an instance: 1 and *out, 0 none (no file: the FMU has none), -1 with the
+ * reason in `err` (a damaged file, a kernel that does not load or fails its check). Messages go to
+ * `cb`'s logger under `name` as the model's bridge sends them. */
+int ns_open(const char *resources, const char *name, const fmi2CallbackFunctions *cb, int logging_on,
+            NsInst **out, char *err, size_t errsize);
+void ns_free(NsInst *I);
+
+/* the calls: a status, or NS_PYTHON (nothing changed) */
+int ns_set_debug_logging(NsInst *I, fmi2Boolean on, size_t n);
+int ns_setup_experiment(NsInst *I, fmi2Boolean td, fmi2Real tol, fmi2Real t0, fmi2Boolean sd, fmi2Real t1);
+int ns_enter_initialization_mode(NsInst *I);
+int ns_exit_initialization_mode(NsInst *I);
+int ns_terminate(NsInst *I);
+int ns_get_real(NsInst *I, const fmi2ValueReference vr[], size_t n, fmi2Real v[]);
+int ns_get_integer(NsInst *I, const fmi2ValueReference vr[], size_t n, fmi2Integer v[]);
+int ns_get_boolean(NsInst *I, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[]);
+int ns_get_string(NsInst *I, const fmi2ValueReference vr[], size_t n, fmi2String v[]);
+int ns_set_real(NsInst *I, const fmi2ValueReference vr[], size_t n, const fmi2Real v[]);
+int ns_set_integer(NsInst *I, const fmi2ValueReference vr[], size_t n, const fmi2Integer v[]);
+int ns_set_boolean(NsInst *I, const fmi2ValueReference vr[], size_t n, const fmi2Boolean v[]);
+int ns_set_string(NsInst *I, const fmi2ValueReference vr[], size_t n, const fmi2String v[]);
+/* early: the host allows the step to end early (FMI 3.0); *end the time reached */
+int ns_do_step(NsInst *I, fmi2Real t, fmi2Real h, fmi2Boolean nsp, int early, fmi2Real *end);
+long ns_steps(const NsInst *I);
+
+/* The tape into the started model `c` (its functions `t`, its early-return step `early_step`): every
+ * call the native start answered, in order; then its outputs compared with the native ones. 0, or
+ * -1 with the reason in `err` (a call answered otherwise, an output that differs). */
+typedef fmi2Status NsStepEarly(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end);
+int ns_replay(const NsInst *I, const Fmi2Table *t, fmi2Component c, NsStepEarly *early_step, char *err,
+              size_t errsize);
+
+#endif

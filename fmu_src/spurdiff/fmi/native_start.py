@@ -1,0 +1,236 @@
+"""The native start: what the FMU's binary needs to run an instance without starting Python while its
+host keeps the FMU's defaults (``fmu_src/native/fmi/native_start.c`` reads it).
+
+An FMU whose model steps natively at its defaults (:mod:`spurdiff.native_step`; the differential's
+default interface) carries ``resources/native_start.bin``, written at build time by :func:`snapshot`
+from this package's own adapter run as the bridge runs it: every variable's value as a host reads it
+after fmi2Instantiate, in Initialization Mode and after it; the messages each call logs; the native
+step's function, its context's arrays and the array ``v`` after fmi2ExitInitializationMode; which
+value references read and write which slot of ``v``, each input's accepted range.
+
+The binary then answers fmi2Instantiate without Python and keeps every call it took on a tape. As long
+as the host only does what the snapshot answers (sets a variable to the value it already has, sets the
+inputs and steps, reads any variable, terminates), the instance runs the compiled step, bit for bit
+what the Python instance computes (the same function on the same arrays). Anything else (a parameter
+set to another value, a refused input, a step a watch would log, an FMU state, ...) starts Python as
+before and replays the tape through the bridge, checking that every replayed call answers as it did
+and that the replayed outputs equal the native ones, then passes the call on.
+
+The file is data, little-endian, made of: u32 numbers, f64 numbers, strings (u32 length, UTF-8 bytes).
+Nothing of the build machine is in it (the kernels are named relative to the resources folder, the
+snapshot is refused when a value or message would carry the instance name or the resources path).
+"""
+from __future__ import annotations
+
+import math
+import struct
+
+MAGIC = b"SPNS"
+FORMAT = 1
+FILE = "native_start.bin"
+KINDS = ("Real", "Integer", "Boolean", "String")
+# the variable flags
+SETTABLE, INPUT, CONSTANT = 1, 2, 4
+# the context fields
+NULL, DOUBLES, FUNCTION = 0, 1, 2
+# the phases of the recorded messages: fmi2Instantiate, fmi2SetupExperiment, fmi2EnterInitializationMode,
+# the model's build (at the first read in Initialization Mode, else in fmi2ExitInitializationMode)
+PHASES = ("instantiate", "setup", "enter", "build")
+
+_PROBE_NAME = "spurdiff-native-start-probe-3f9c"
+_PROBE_RESOURCES = "/nonexistent/spurdiff-native-start-probe-3f9c/resources"
+
+
+class NoSnapshot(Exception):
+    """This FMU cannot start natively (the reason)."""
+
+
+class _Writer:
+    def __init__(self):
+        self.parts: list[bytes] = []
+
+    def u32(self, x: int) -> None:
+        self.parts.append(struct.pack("<I", x))
+
+    def i64(self, x: int) -> None:
+        self.parts.append(struct.pack("<q", x))
+
+    def f64s(self, xs) -> None:
+        xs = [float(x) for x in xs]
+        self.parts.append(struct.pack(f"<{len(xs)}d", *xs))
+
+    def text(self, s: str) -> None:
+        b = s.encode("utf-8")
+        if b"\0" in b:
+            raise NoSnapshot("a string with a NUL character")
+        self.u32(len(b))
+        self.parts.append(b)
+
+    def bytes(self) -> bytes:
+        return b"".join(self.parts)
+
+
+def _drain(slave) -> list[tuple[int, str, str]]:
+    out = [(int(m.status), str(m.category), str(m.msg)) for m in slave.log_queue]
+    slave.log_queue.clear()
+    return out
+
+
+def _values(slave, kind: str, vrs: tuple) -> list:
+    return list(getattr(slave, f"fmi2_get_{kind.lower()}")(vrs)) if vrs else []
+
+
+def _library(module) -> tuple[str, list[tuple[str, int]]]:
+    """A kernel's binding module: its shipped library relative to the resources folder (no suffix:
+    the binary adds .so or .dll) and its checks (function, value)."""
+    rel = "/".join(module.__name__.split(".")[:-1] + [module.LIB_NAME.rsplit(".", 1)[0]])
+    checks = [(n, int(w)) for c in module._BINDING.checks for n, w in zip(c.names, c.want)]
+    return rel, checks
+
+
+def snapshot(klass) -> bytes:
+    """The native start of the FMU class ``klass`` (a :func:`spurdiff.fmi.adapter.fmu_class`) at its
+    defaults, or NoSnapshot saying why it has none."""
+    def make():
+        return klass(instance_name=_PROBE_NAME, resources=_PROBE_RESOURCES, visible=False, logging_on=True)
+
+    a = make()
+    msgs = {p: [] for p in PHASES}
+    msgs["instantiate"] = _drain(a)
+    vrs = {k: tuple(sorted(a._get[k])) for k in KINDS}
+    phase0 = {k: _values(a, k, vrs[k]) for k in KINDS}
+    statuses = [a.fmi2_setup_experiment(False, 0.0, 0.0, False, 0.0)]
+    msgs["setup"] = _drain(a)
+    statuses.append(a.fmi2_enter_initialization_mode())
+    msgs["enter"] = _drain(a)
+    statuses.append(a.fmi2_exit_initialization_mode())
+    msgs["build"] = _drain(a)
+    phase2 = {k: _values(a, k, vrs[k]) for k in KINDS}
+    if _drain(a):
+        raise NoSnapshot("reading the variables after initialization logs")
+    # the same start with a read in Initialization Mode: the build's messages move to that read
+    b = make()
+    _drain(b)
+    b.fmi2_setup_experiment(False, 0.0, 0.0, False, 0.0)
+    b.fmi2_enter_initialization_mode()
+    _drain(b)
+    phase1 = {k: _values(b, k, vrs[k]) for k in KINDS}
+    if _drain(b) != msgs["build"]:
+        raise NoSnapshot("the model's build logs differently when read in Initialization Mode")
+    if b.fmi2_exit_initialization_mode() != statuses[2] or _drain(b):
+        raise NoSnapshot("fmi2ExitInitializationMode logs after a read in Initialization Mode")
+    if any(statuses):
+        raise NoSnapshot(f"the start's statuses are {statuses}, not fmi2OK")
+
+    # the inputs' start values checked as fmi2DoStep checks them (its first step then runs natively)
+    for name, lo, hi in a._inputs:
+        if not lo <= a.values[name] <= hi:
+            raise NoSnapshot(f"the input {name}'s start value is outside [{lo}, {hi}]")
+    a._inputs_ok = True
+    answer = a.fmi2_native_enter()
+    if not isinstance(answer, tuple):
+        raise NoSnapshot("the model has no native step at its defaults")
+    model, plan = a._native_key
+    layout = getattr(plan, "layout", None)
+    if layout is None:
+        raise NoSnapshot(f"{type(plan).__name__} does not describe its context")
+    (fn_module, fn_name), fields = layout()
+    _, _, _, native, _ = answer
+    _, _, _, slots, n_in, params, ints, early = native
+
+    libs: list = []
+
+    def lib_index(module) -> int:
+        if module not in libs:
+            libs.append(module)
+        return libs.index(module)
+
+    fn_lib = lib_index(fn_module)
+    for f in fields:
+        if f[0] == FUNCTION:
+            lib_index(f[1])
+
+    w = _Writer()
+    w.parts.append(MAGIC)
+    w.u32(FORMAT)
+    w.u32(1 if early else 0)
+    w.u32(len(libs))
+    checks = []
+    for i, m in enumerate(libs):
+        rel, cs = _library(m)
+        w.text(rel)
+        checks += [(i, n, x) for n, x in cs]
+    w.u32(len(checks))
+    for i, n, x in checks:
+        w.u32(i)
+        w.text(n)
+        w.i64(x)
+    w.u32(fn_lib)
+    w.text(fn_name)
+    w.u32(len(fields))
+    for f in fields:
+        w.u32(f[0])
+        if f[0] == DOUBLES:
+            w.u32(len(f[1]))
+            w.f64s(f[1])
+        elif f[0] == FUNCTION:
+            w.u32(lib_index(f[1]))
+            w.text(f[2])
+    w.u32(len(plan.v))
+    w.f64s(plan.v)
+    w.u32(n_in)
+
+    slot_of = {name: j for j, name in enumerate(slots) if name is not None}
+    int_slot = dict(zip(ints[0::2], ints[1::2]))
+    by_name = {v.name: v for v in klass.VARIABLES}
+    inputs = {n: (lo, hi) for n, lo, hi in a._inputs}
+    rows = []
+    for kind in KINDS:
+        for i, vr in enumerate(vrs[kind]):
+            name = a._get[kind][vr]
+            var = by_name[name]
+            flags = (SETTABLE if vr in a._set[kind] else 0) | (INPUT if var.causality == "input" else 0)
+            if var.causality in ("parameter", "calculatedParameter") or var.fmi_variability == "constant":
+                flags |= CONSTANT
+            slot = -1
+            if kind == "Real" and name in slot_of and (var.causality != "input" or slot_of[name] < n_in):
+                slot = slot_of[name]
+            elif kind == "Integer" and vr in int_slot:
+                slot = int_slot[vr]
+            if kind == "Real" and var.causality == "input" and not 0 <= slot < n_in:
+                raise NoSnapshot(f"the input {name} has no slot in the native step's array")
+            if kind == "Real" and flags & CONSTANT and name not in params:
+                raise NoSnapshot(f"the parameter {name} is not among the native step's parameters")
+            lo, hi = inputs.get(name, (-math.inf, math.inf))
+            vals = [phase0[kind][i], phase1[kind][i], phase2[kind][i]]
+            rows.append((KINDS.index(kind), vr, flags, slot, lo, hi, vals))
+    w.u32(len(rows))
+    for k, vr, flags, slot, lo, hi, vals in rows:
+        w.u32(k)
+        w.u32(vr)
+        w.u32(flags)
+        w.u32(slot & 0xFFFFFFFF)
+        w.f64s((lo, hi))
+        for x in vals:
+            if k == 3:
+                _clean(str(x), "the value of a String variable")
+                w.text(str(x))
+            else:
+                w.f64s((float(int(x)) if k else float(x),))
+    all_msgs = [(i, m) for i, p in enumerate(PHASES) for m in msgs[p]]
+    w.u32(len(all_msgs))
+    for i, (status, category, text) in all_msgs:
+        _clean(text, "a message")
+        w.u32(i)
+        w.u32(status)
+        w.text(category)
+        w.text(text)
+    return w.bytes()
+
+
+def _clean(s: str, what: str) -> None:
+    if _PROBE_NAME in s or _PROBE_RESOURCES in s:
+        raise NoSnapshot(f"{what} names the instance or its resources folder: {s[:200]!r}")
+
+
+__all__ = ["snapshot", "NoSnapshot", "FILE", "MAGIC", "FORMAT"]

@@ -1,0 +1,185 @@
+"""The native start (fmu_src/native/fmi/native_start.c, spurdiff/fmi/native_start.py): a host that keeps
+SpurDifferential's defaults runs it without its Python starting, and sees exactly what it sees with
+the Python started at fmi2Instantiate (SPURDIFF_FMU_START=python): every status, every value of every
+variable at every step, every message. A call the native start does not answer starts the Python,
+replays the calls so far there and goes on, again exactly as the Python-started instance does."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+
+import pytest
+from fmpy.fmi1 import FMICallException
+
+from harness.fmi.instance import Instance
+
+KINDS = ("Real", "Integer", "Boolean", "String")
+
+
+def _all(inst) -> dict:
+    """Every variable's value (its kind's getter, one call per kind), or the failure."""
+    out = {}
+    for kind in KINDS:
+        vs = [v for v in inst.md.modelVariables if v.type == kind]
+        try:
+            got = getattr(inst.slave, f"get{kind}")([v.valueReference for v in vs])
+        except FMICallException as e:
+            out[kind] = f"failed: {e}"
+            continue
+        out.update({v.name: x for v, x in zip(vs, got)})
+    return out
+
+
+def _outputs(inst) -> list:
+    vs = [v.valueReference for v in inst.md.modelVariables if v.type == "Real" and v.causality == "output"]
+    return list(inst.slave.getReal(vs))
+
+
+def _run(fmu, mode: str, program, monkeypatch, unzipdir=None, md=None) -> list:
+    """The trace of ``program`` (a list of actions) on a new instance started in ``mode``: each action's
+    results, then the messages the instance logged."""
+    monkeypatch.setenv("SPURDIFF_FMU_START", mode)
+    inst = Instance("ns", None, unzipdir=unzipdir, md=md) if unzipdir else Instance("ns", fmu)
+    trace, t = [], 0.0
+    try:
+        for act, *args in program:
+            try:
+                if act == "setup":
+                    inst.slave.setupExperiment(startTime=0.0, stopTime=args[0])
+                elif act == "enter":
+                    inst.slave.enterInitializationMode()
+                elif act == "exit":
+                    inst.slave.exitInitializationMode()
+                elif act == "set":
+                    inst.set_value(*args)
+                elif act == "all":
+                    trace.append(_all(inst))
+                elif act == "steps":
+                    n, h = args
+                    for _ in range(n):
+                        inst.slave.doStep(t, h)
+                        t += h
+                        trace.append(_outputs(inst))
+                elif act == "state":
+                    s = inst.slave.getFMUstate()
+                    inst.slave.setFMUstate(s)
+                    inst.slave.freeFMUstate(s)
+                elif act == "reset":
+                    inst.slave.reset()
+                    t = 0.0
+                elif act == "terminate":
+                    inst.slave.terminate()
+                trace.append((act, "ok"))
+            except FMICallException as e:
+                trace.append((act, str(e)))
+    finally:
+        inst.close()
+    return trace + [("messages", list(inst.messages))]
+
+
+START = [("all",), ("setup", 10.0), ("enter",), ("all",), ("exit",), ("all",)]
+DEFAULT = START + [("steps", 50, 1e-3), ("set", "left.tau", -150.0), ("set", "right.tau", -350.0),
+                   ("steps", 50, 2e-3), ("all",), ("terminate",), ("all",)]
+
+
+def test_default_run_equals_the_python_start(differential_fmu, monkeypatch):
+    """The whole default experiment with input changes: statuses, every variable before, in and after
+    Initialization Mode and at the end, the outputs after each of 100 steps, the messages."""
+    native = _run(differential_fmu, "auto", DEFAULT, monkeypatch)
+    python = _run(differential_fmu, "python", DEFAULT, monkeypatch)
+    assert native == python
+    assert native[-1][1], "the start logs its messages (logging on): the comparison would prove little"
+    assert len([x for x in native if isinstance(x, list)]) == 100
+
+
+@pytest.mark.parametrize("late", [
+    [("set", "differential.w_start", 5.0)],                  # a parameter set to another value
+    [("set", "left.tau", 1e9)],                              # an input out of range: refused at the step
+], ids=["parameter", "input-range"])
+def test_a_change_starts_the_python_and_equals_it(differential_fmu, monkeypatch, late):
+    program = START[:3] + late + START[3:] + [("steps", 20, 1e-3)] + late + [("steps", 5, 1e-3), ("all",)]
+    assert _run(differential_fmu, "auto", program, monkeypatch) == _run(differential_fmu, "python", program,
+                                                                         monkeypatch)
+
+
+@pytest.mark.parametrize("process", ["in", "out"])
+@pytest.mark.parametrize("call", ["state", "reset"])
+def test_a_call_after_native_steps_replays_them(differential_fmu, monkeypatch, process, call):
+    """FMU states and fmi2Reset after 40 native steps: the Python starts (in the host's process or its
+    own), replays the 40 steps and the input sets, checks its outputs against the native ones, goes on."""
+    monkeypatch.setenv("SPURDIFF_FMU_PROCESS", process)
+    program = DEFAULT[:-3] + [("set", "left.tau", -120.0), ("steps", 20, 1e-3), (call,)]
+    program += START[1:] if call == "reset" else []
+    program += [("steps", 20, 1e-3), ("all",)]
+    native = _run(differential_fmu, "auto", program, monkeypatch)
+    assert native == _run(differential_fmu, "python", program, monkeypatch)
+    assert (call, "ok") in native
+
+
+def test_a_damaged_native_start_warns_and_starts_the_python(differential_fmu, monkeypatch, tmp_path):
+    from fmpy import extract, read_model_description
+
+    unzipdir = extract(str(differential_fmu), str(tmp_path / "x"))
+    md = read_model_description(unzipdir)
+    f = os.path.join(unzipdir, "resources", "native_start.bin")
+    with open(f, "r+b") as fh:
+        fh.truncate(os.path.getsize(f) // 2)
+    native = _run(differential_fmu, "auto", DEFAULT, monkeypatch, unzipdir=unzipdir, md=md)
+    python = _run(differential_fmu, "python", DEFAULT, monkeypatch, unzipdir=unzipdir, md=md)
+    warned = [m for m in native[-1][1] if "the native start is not used" in m[1]]
+    assert warned and "native_start.bin is damaged" in warned[0][1]
+    assert native[:-1] == python[:-1]
+
+
+def test_an_unknown_start_mode_is_refused_naming_it(differential_fmu, monkeypatch):
+    monkeypatch.setenv("SPURDIFF_FMU_START", "fast")
+    inst = Instance("ns", differential_fmu, instantiate=False)
+    assert not inst.instantiate(raise_on_null=False)
+    assert any("SPURDIFF_FMU_START = 'fast'; allowed: auto (default), python" in m for _, m in inst.messages)
+
+
+def test_the_default_run_starts_no_python(differential_fmu, tmp_path):
+    """In a fresh fmpy process: after the default experiment (simulate_fmu) no module of the FMU's
+    package is loaded with the native start, and the Python-started run does load it (the check can fail)."""
+    script = textwrap.dedent("""
+        import os, sys
+        from fmpy import extract, simulate_fmu
+        d = str(extract(sys.argv[1], sys.argv[2]))
+        r = simulate_fmu(d, output_interval=0.001)
+        mine = [m for m, x in list(sys.modules.items()) if str(getattr(x, "__file__", "")).startswith(d)]
+        print(len(r), len(mine))
+    """)
+    counts = {}
+    for mode in ("auto", "python"):
+        env = {**os.environ, "SPURDIFF_FMU_START": mode}
+        r = subprocess.run([sys.executable, "-c", script, str(differential_fmu), str(tmp_path / mode)],
+                           capture_output=True, text=True, env=env, timeout=300)
+        assert r.returncode == 0, r.stderr
+        counts[mode] = tuple(int(x) for x in r.stdout.split())
+    assert counts["auto"][0] == counts["python"][0] > 100
+    assert counts["auto"][1] == 0 and counts["python"][1] > 20
+
+
+def test_the_fmi3_default_run_equals_the_python_start(fmu_files, monkeypatch, tmp_path):
+    from fmpy import simulate_fmu
+
+    from harness.build.fmu3 import build
+
+    fmu3 = build(["SpurDifferential"], quiet=True)[0]
+    results = {}
+    for mode in ("auto", "python"):
+        monkeypatch.setenv("SPURDIFF_FMU_START", mode)
+        results[mode] = simulate_fmu(str(fmu3), output_interval=0.001)
+    assert results["auto"].dtype.names == results["python"].dtype.names
+    assert len(results["auto"]) > 100
+    assert results["auto"].tobytes() == results["python"].tobytes()
+
+
+def test_the_build_writes_the_native_start(differential_fmu):
+    import zipfile
+
+    with zipfile.ZipFile(differential_fmu) as z:
+        data = z.read("resources/native_start.bin")
+    assert data[:4] == b"SPNS"
