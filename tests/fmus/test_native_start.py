@@ -80,15 +80,26 @@ def _run(fmu, mode: str, program, monkeypatch, unzipdir=None, md=None) -> list:
 
 
 START = [("all",), ("setup", 10.0), ("enter",), ("all",), ("exit",), ("all",)]
-DEFAULT = START + [("steps", 50, 1e-3), ("set", "left.tau", -150.0), ("set", "right.tau", -350.0),
-                   ("steps", 50, 2e-3), ("all",), ("terminate",), ("all",)]
 
 
-def test_default_run_equals_the_python_start(differential_fmu, monkeypatch):
+def _default(changes):
+    return START + [("steps", 50, 1e-3), *(("set", k, v) for k, v in changes), ("steps", 50, 2e-3), ("all",),
+                    ("terminate",), ("all",)]
+
+
+DEFAULT = _default([("left.tau", -150.0), ("right.tau", -350.0)])
+CHANGES = {"SpurDifferential": [("left.tau", -150.0), ("right.tau", -350.0)],
+           "Vehicle": [("speedTarget", 12.0), ("rearLeft.Fx", 300.0)],
+           "WheelLoad": [("shaftIn.tau", 50.0), ("Fz", 3500.0)]}
+
+
+@pytest.mark.parametrize("name", list(CHANGES))
+def test_default_run_equals_the_python_start(fmu_files, monkeypatch, name):
     """The whole default experiment with input changes: statuses, every variable before, in and after
-    Initialization Mode and at the end, the outputs after each of 100 steps, the messages."""
-    native = _run(differential_fmu, "auto", DEFAULT, monkeypatch)
-    python = _run(differential_fmu, "python", DEFAULT, monkeypatch)
+    Initialization Mode and at the end, the outputs after each of 100 steps, the messages (each FMU)."""
+    program = _default(CHANGES[name])
+    native = _run(fmu_files[name], "auto", program, monkeypatch)
+    python = _run(fmu_files[name], "python", program, monkeypatch)
     assert native == python
     assert native[-1][1], "the start logs its messages (logging on): the comparison would prove little"
     assert len([x for x in native if isinstance(x, list)]) == 100
@@ -140,9 +151,11 @@ def test_an_unknown_start_mode_is_refused_naming_it(differential_fmu, monkeypatc
     assert any("SPURDIFF_FMU_START = 'fast'; allowed: auto (default), python" in m for _, m in inst.messages)
 
 
-def test_the_default_run_starts_no_python(differential_fmu, tmp_path):
-    """In a fresh fmpy process: after the default experiment (simulate_fmu) no module of the FMU's
-    package is loaded with the native start, and the Python-started run does load it (the check can fail)."""
+@pytest.mark.parametrize("name", list(CHANGES))
+def test_the_default_run_starts_no_python(fmu_files, tmp_path, name):
+    """In a fresh fmpy process: after the default experiment (simulate_fmu, every output recorded at
+    every step) no module of the FMU's package is loaded with the native start, and the Python-started
+    run does load it (the check can fail)."""
     script = textwrap.dedent("""
         import os, sys
         from fmpy import extract, simulate_fmu
@@ -154,7 +167,7 @@ def test_the_default_run_starts_no_python(differential_fmu, tmp_path):
     counts = {}
     for mode in ("auto", "python"):
         env = {**os.environ, "SPURDIFF_FMU_START": mode}
-        r = subprocess.run([sys.executable, "-c", script, str(differential_fmu), str(tmp_path / mode)],
+        r = subprocess.run([sys.executable, "-c", script, str(fmu_files[name]), str(tmp_path / mode)],
                            capture_output=True, text=True, env=env, timeout=300)
         assert r.returncode == 0, r.stderr
         counts[mode] = tuple(int(x) for x in r.stdout.split())
@@ -177,9 +190,9 @@ def test_the_fmi3_default_run_equals_the_python_start(fmu_files, monkeypatch, tm
     assert results["auto"].tobytes() == results["python"].tobytes()
 
 
-def test_the_build_writes_the_native_start(differential_fmu):
+@pytest.mark.parametrize("name", list(CHANGES))
+def test_every_fmu_carries_a_native_start(fmu_files, name):
     import zipfile
 
-    with zipfile.ZipFile(differential_fmu) as z:
-        data = z.read("resources/native_start.bin")
-    assert data[:4] == b"SPNS"
+    with zipfile.ZipFile(fmu_files[name]) as z:
+        assert z.read("resources/native_start.bin")[:8] == b"SPNS\x02\0\0\0"

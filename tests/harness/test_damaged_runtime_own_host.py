@@ -61,12 +61,20 @@ def test_the_intact_fmu_runs_in_our_host(own_host, differential_fmu, tmp_path):
 
 @pytest.mark.parametrize("case", list(CASES))
 def test_a_damaged_runtime_is_refused_with_the_cause_in_our_host(case, own_host, differential_fmu, tmp_path):
+    """With the Python started at fmi2Instantiate (SPURDIFF_FMU_START=python) the damage refuses the
+    instance there; with the native start (the default) the run's first set of an input to another
+    value needs the Python and fails naming the same cause (a damaged description is read at
+    fmi2Instantiate either way)."""
     change, cause = CASES[case]
     fmu = _copy(differential_fmu, tmp_path / "SpurDifferential.fmu", change)
-    r = _run(own_host, fmu, tmp_path)
+    r = _run(own_host, fmu, tmp_path, {**BARE_ENV, "SPURDIFF_FMU_START": "python"})
     text = r.stdout + r.stderr
     assert r.returncode == 4, f"{case}: expected the host's instantiate failure (4), got {r.returncode}\n{text[-3000:]}"
     assert cause in text, f"{case}: the cause is not named\n{text[-3000:]}"
+    (tmp_path / "native").mkdir()
+    r = _run(own_host, fmu, tmp_path / "native")
+    text = r.stdout + r.stderr
+    assert r.returncode > 0 and cause in text, f"{case}, native start: {r.returncode}\n{text[-3000:]}"
 
 
 def test_the_hosts_python_variables_and_planted_files_do_not_reach_the_fmu_in_our_host(own_host, differential_fmu,

@@ -13,7 +13,7 @@ import subprocess
 import sys
 import time
 
-from tests.harness.test_python_hosts import _children, _gone, _misbehaving_copy
+from tests.harness.test_python_hosts import OWN_PROCESS, _children, _gone, _misbehaving_copy
 
 HOST = r"""
 import os, signal, sys, time
@@ -36,7 +36,7 @@ def server():
 
 def _host(fmu, body: str, env: dict | None = None, timeout: float = 90) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-c", HOST + body, str(fmu)], capture_output=True, text=True,
-                          timeout=timeout, env={**os.environ, "SPURDIFF_FMU_PROCESS": "out", **(env or {})})
+                          timeout=timeout, env={**os.environ, **OWN_PROCESS, **(env or {})})
 
 
 STEP_TIMED = r"""
@@ -138,7 +138,7 @@ print('CHILD', child, flush=True)
 time.sleep(60)
 """
     p = subprocess.Popen([sys.executable, "-c", HOST + body, str(differential_fmu)], stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True, env={**os.environ, "SPURDIFF_FMU_PROCESS": "out"})
+                         stderr=subprocess.PIPE, text=True, env={**os.environ, **OWN_PROCESS})
     child = None
     try:
         lines = []

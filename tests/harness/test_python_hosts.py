@@ -26,6 +26,10 @@ from fmpy import simulate_fmu
 
 from host_cases import CASES, STEP, STOP
 
+# the model in its own process, its Python started at fmi2Instantiate (at the defaults the FMU would
+# start natively, with no model process to test: fmu_src/native/fmi/native_start.c)
+OWN_PROCESS = {"SPURDIFF_FMU_PROCESS": "out", "SPURDIFF_FMU_START": "python"}
+
 INTERPRETERS = {
     "pyenv 3.11": "/root/.pyenv/versions/3.11.7/bin/python3.11",
     "debian 3.11": "/usr/bin/python3.11",
@@ -132,7 +136,7 @@ except Exception as e:
 print('\\n'.join(msgs))
 """
     r = subprocess.run([sys.executable, "-c", code, str(crashing)], capture_output=True, text=True, timeout=120,
-                       env={**os.environ, "SPURDIFF_FMU_PROCESS": "out"})
+                       env={**os.environ, **OWN_PROCESS})
     assert r.returncode == 0, f"the host crashed: {r.returncode}\n{r.stdout}{r.stderr}"
     assert "ERROR" in r.stdout and "NO ERROR" not in r.stdout, r.stdout
     assert "ended with signal 11" in r.stdout, r.stdout
@@ -177,7 +181,7 @@ else:
 """
     p = subprocess.Popen([sys.executable, "-c", code, str(differential_fmu)], stdin=subprocess.PIPE,
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         env={**os.environ, "SPURDIFF_FMU_PROCESS": "out"})
+                         env={**os.environ, **OWN_PROCESS})
     try:
         seen = []                       # the FMU's log lines (fmpy prints them on stdout) come first
         for line in p.stdout:

@@ -71,6 +71,7 @@ def test_what_the_fmu_python_reads_and_writes_is_the_host_files(wine, unpacked, 
     from harness.build.fmu import _fmi2_headers
 
     env, _ = wine
+    env = {**env, "SPURDIFF_FMU_START": "python"}   # the probe runs code in the FMU's Python
     exe = tmp_path / "win_streams_probe.exe"
     subprocess.run([MINGW, "-O2", "-Wall", "-municode", "-static", f"-I{_fmi2_headers()}", "-o", str(exe),
                     str(Path(__file__).resolve().parents[1] / "c_host" / "win_streams_probe.c")], check=True)

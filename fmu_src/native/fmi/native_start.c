@@ -27,7 +27,7 @@
 #include "runtime_cfg.h"
 
 #define NS_MAGIC "SPNS"
-#define NS_FORMAT 1u
+#define NS_FORMAT 2u
 #define NS_MAX_FILE (16 * 1024 * 1024)
 #define NS_MAX_TAPE ((size_t)64 * 1024 * 1024)   /* a longer run starts its Python and goes on there */
 #define NS_MAX_LIBS 8
@@ -66,7 +66,8 @@ struct NsInst {
     PlatLibrary libs[NS_MAX_LIBS];
     int n_libs;
     NativeFn *fn;
-    void *ctx[NS_MAX_FIELDS];
+    void *ctx[NS_MAX_FIELDS];  /* a structure of pointers, as the step function takes it */
+    const void *step_ctx;      /* ctx, or the one array of doubles the function takes itself */
     double *arrays[NS_MAX_FIELDS];
     int n_fields;
     double *v;
@@ -187,8 +188,9 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
     uint32_t fn_lib = rd_u32(&r);
     char *fn_name = rd_str(&r);
     if (r.ok && fn_lib < n_libs) I->fn = (NativeFn *)(uintptr_t)plat_symbol(I->libs[fn_lib], fn_name);
+    uint32_t direct = rd_u32(&r);   /* 1: the context is the first field's array itself */
     uint32_t n_fields = rd_u32(&r);
-    if (n_fields > NS_MAX_FIELDS) r.ok = 0;
+    if (n_fields > NS_MAX_FIELDS || (direct && n_fields != 1)) r.ok = 0;
     for (uint32_t i = 0; r.ok && i < n_fields; i++) {
         uint32_t kind = rd_u32(&r);
         if (kind == FIELD_DOUBLES) {
@@ -207,6 +209,8 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
         }
         I->n_fields = (int)i + 1;
     }
+    I->step_ctx = direct ? (const void *)I->arrays[0] : (const void *)I->ctx;
+    if (direct && !I->arrays[0]) r.ok = 0;
     I->nv = rd_u32(&r);
     double *v0 = (double *)rd_take(&r, I->nv * 8);
     I->v = (double *)malloc((I->nv + 1) * sizeof(double));
@@ -553,7 +557,7 @@ int ns_do_step(NsInst *I, fmi2Real t, fmi2Real h, fmi2Boolean nsp, int early, fm
     int32_t b[2] = {nsp ? 1 : 0, early ? 1 : 0};
     size_t mark = I->tape_len;
     if (record(I, T_STEP, 0, d, sizeof d, b, sizeof b) != 0) return NS_PYTHON;
-    if (I->fn(I->ctx, I->v, t, h) != 0) {   /* not taken: nothing but scratch changed */
+    if (I->fn(I->step_ctx, I->v, t, h) != 0) {   /* not taken: nothing but scratch changed */
         I->tape_len = mark;
         return NS_PYTHON;
     }

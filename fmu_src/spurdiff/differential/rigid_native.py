@@ -100,15 +100,15 @@ class RigidNative(NativeStep):
 
     def layout(self) -> tuple:
         """For the native start (:mod:`spurdiff.fmi.native_start`): the step function as (binding module,
-        name) and the context's fields in order, each (1, values) an array of doubles, (2, binding module,
-        name) a function of a kernel, (0,) NULL."""
+        name), the context's fields in order, each (1, values) an array of doubles, (2, binding module,
+        name) a function of a kernel, (0,) NULL, and False: the context is a structure of their pointers."""
         if self.rk is not None:
             fp = ((2, rigid_kernel, "rk_slip"), (2, rigid_kernel, "rk_step_slip"))
             k, pp = list(self.rk.const), (0,)
         else:
             fp, k, pp = ((0,), (0,)), list(self.k), (1, list(self.pp))
         return ((sk, "sk_rigid_native"),
-                [(1, list(self.sc)), (1, k), (1, list(self.rs)), *fp, (1, list(self.oc)), pp])
+                [(1, list(self.sc)), (1, k), (1, list(self.rs)), *fp, (1, list(self.oc)), pp], False)
 
     def store(self, m) -> None:
         sk.unpack_rigid(self.rs, m.__dict__)

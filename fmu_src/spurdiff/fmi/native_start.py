@@ -26,7 +26,7 @@ import math
 import struct
 
 MAGIC = b"SPNS"
-FORMAT = 1
+FORMAT = 2
 FILE = "native_start.bin"
 KINDS = ("Real", "Integer", "Boolean", "String")
 # the variable flags
@@ -134,7 +134,9 @@ def snapshot(klass) -> bytes:
     layout = getattr(plan, "layout", None)
     if layout is None:
         raise NoSnapshot(f"{type(plan).__name__} does not describe its context")
-    (fn_module, fn_name), fields = layout()
+    (fn_module, fn_name), fields, direct = layout()
+    if direct and (len(fields) != 1 or fields[0][0] != DOUBLES):
+        raise NoSnapshot("a context given as itself must be one array of doubles")
     _, _, _, native, _ = answer
     _, _, _, slots, n_in, params, ints, early = native
 
@@ -167,6 +169,7 @@ def snapshot(klass) -> bytes:
         w.i64(x)
     w.u32(fn_lib)
     w.text(fn_name)
+    w.u32(1 if direct else 0)
     w.u32(len(fields))
     for f in fields:
         w.u32(f[0])

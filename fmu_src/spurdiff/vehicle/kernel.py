@@ -19,6 +19,7 @@ reference, the reason logged once) | compiled (refuse without it) | python.
 from __future__ import annotations
 
 import ctypes as C
+import sys
 from pathlib import Path
 
 from spurdiff import native_library
@@ -99,6 +100,11 @@ class CarNative(NativeStep):
         assert len(self.inputs) + len(self.outputs) == _CAR_STATE
         self.v[_CAR_RANGE:_CAR_RANGE + 2] = grade_range
 
+    def layout(self) -> tuple:
+        """For the native start (:mod:`spurdiff.fmi.native_start`): the step function, and its constants
+        as the context itself (not a structure of pointers)."""
+        return (sys.modules[__name__], "vk_car_native"), [(1, list(self.const))], True
+
     def load(self, m) -> None:
         v = self.v
         v[0:_CAR_STATE] = [getattr(m, k) for k in self.inputs + self.outputs]
@@ -151,6 +157,10 @@ class WheelNative(NativeStep):
         p = m.params
         self.v[41:46] = (1.0 if m.wheel_mode else 0.0, 1.0 if p.interfaceStiffness else 0.0,
                          1.0 if p.rampAnchor == "end" else 0.0, 1.0 if p.followFlangeAngle else 0.0, p.h_max)
+
+    def layout(self) -> tuple:
+        """As :meth:`CarNative.layout`."""
+        return (sys.modules[__name__], "vk_wheel_native"), [(1, list(self.const))], True
 
     def load(self, m) -> None:
         v = self.v

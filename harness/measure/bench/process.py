@@ -34,20 +34,25 @@ from ctypes import c_double, c_size_t, c_uint
 from pathlib import Path
 
 ENV = "SPURDIFF_FMU_PROCESS"
+START_ENV = "SPURDIFF_FMU_START"
 
 
 @contextlib.contextmanager
 def model_process(mode: str):
-    """Instances made inside the block run the model in this process ("in") or its own ("out")."""
-    old = os.environ.get(ENV)
+    """Instances made inside the block run the model in this process ("in") or its own ("out"), its
+    Python started at fmi2Instantiate (``SPURDIFF_FMU_START=python``: at its defaults an FMU would
+    otherwise start natively, with no model process at all: fmu_src/native/fmi/native_start.c)."""
+    old = {k: os.environ.get(k) for k in (ENV, START_ENV)}
     os.environ[ENV] = mode
+    os.environ[START_ENV] = "python"
     try:
         yield
     finally:
-        if old is None:
-            os.environ.pop(ENV, None)
-        else:
-            os.environ[ENV] = old
+        for k, v in old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
 
 
 @contextlib.contextmanager

@@ -17,6 +17,10 @@ Each measure runs both FMUs interleaved in the same command, so machine noise hi
   ``getReal`` of every Real output (fmpy's Python API, as a script would call it), fastest of the
   rounds; and the same with the C FMU's one input and two outputs.
 
+SpurDifferential is measured twice, as its host meets it: with the native start (the defaults kept: no
+Python starts, fmu_src/native/fmi/native_start.c) and with its Python started
+(``SPURDIFF_FMU_START=python``: what a run pays that sets a parameter to another value, at that set).
+
 ``python -m harness.cli.tools.startup_bench [RUNS] [--against EARLIER.fmu]`` prints the section (section 8 of
 ``spurdiff bench``) with the load average; ``--against`` measures an earlier build of SpurDifferential
 in the same interleaved runs (a change's before and after).
@@ -63,15 +67,17 @@ def _identity(fmu: Path) -> tuple[str, str]:
     return md.coSimulation.modelIdentifier, md.guid
 
 
-def whole_run(fmu: Path, host: Path, tmp: Path) -> float:
-    """Seconds of one whole run: unzip into a fresh folder, the C host's run; the folder removed after."""
+def whole_run(fmu: Path, host: Path, tmp: Path, env: dict | None = None) -> float:
+    """Seconds of one whole run: unzip into a fresh folder, the C host's run (``env`` added to the
+    environment); the folder removed after."""
     ident, guid = _identity(fmu)
     d = Path(tempfile.mkdtemp(dir=tmp))
     try:
         t0 = time.perf_counter()
         subprocess.run(["unzip", "-q", str(fmu), "-d", str(d)], check=True)
         r = subprocess.run([str(host), str(d / "binaries" / "linux64" / f"{ident}.so"), guid,
-                            (d / "resources").as_uri(), str(STEP)], capture_output=True, text=True)
+                            (d / "resources").as_uri(), str(STEP)], capture_output=True, text=True,
+                           env={**os.environ, **(env or {})})
         dt = time.perf_counter() - t0
         if r.returncode != 0:
             raise RuntimeError(f"{fmu.name}: the C host failed ({r.returncode}): {r.stderr.strip()[-300:]}")
@@ -99,9 +105,9 @@ print('INIT', t1 - t0)
 """
 
 
-def init_time(fmu: Path, unzipped: Path, own_process: bool) -> float:
+def init_time(fmu: Path, unzipped: Path, own_process: bool, env: dict | None = None) -> float:
     """Seconds of instantiate + initialize in a fresh fmpy process (the FMU extracted before)."""
-    env = {**os.environ, "SPURDIFF_FMU_PROCESS": "out" if own_process else "in"}
+    env = {**os.environ, **(env or {}), "SPURDIFF_FMU_PROCESS": "out" if own_process else "in"}
     r = subprocess.run([sys.executable, "-c", _INIT, str(unzipped / "modelDescription.xml"), str(unzipped)],
                        capture_output=True, text=True,
                        env=env, timeout=120)
@@ -136,11 +142,12 @@ for s in slaves:
 """
 
 
-def own_process_pss(fmu: Path, unzipped: Path, n: int) -> tuple[float, list[float]]:
-    """(the host's PSS, each model process's PSS), MB, with ``n`` own-process instances."""
+def own_process_pss(fmu: Path, unzipped: Path, n: int, env: dict | None = None) -> tuple[float, list[float]]:
+    """(the host's PSS, each model process's PSS), MB, with ``n`` own-process instances (none with
+    the native start: no model process then)."""
     r = subprocess.run([sys.executable, "-c", _PSS, str(unzipped / "modelDescription.xml"), str(unzipped), str(n)],
                        capture_output=True,
-                       text=True, env={**os.environ, "SPURDIFF_FMU_PROCESS": "out"}, timeout=300)
+                       text=True, env={**os.environ, **(env or {}), "SPURDIFF_FMU_PROCESS": "out"}, timeout=300)
     if r.returncode != 0:
         raise RuntimeError(f"{fmu.name}: own-process instances failed: {r.stderr.strip()[-300:]}")
     line = next(ln for ln in r.stdout.splitlines() if ln.startswith('PSS '))   # the FMU's log lines too
@@ -148,9 +155,22 @@ def own_process_pss(fmu: Path, unzipped: Path, n: int) -> tuple[float, list[floa
     return kb[0] / 1024, [k / 1024 for k in kb[1:]]
 
 
-def per_step(fmu: Path, unzipped: Path, n: int = 2000, rounds: int = 5) -> float:
+def per_step(fmu: Path, unzipped: Path, n: int = 2000, rounds: int = 5, env: dict | None = None) -> float:
     """Microseconds per setReal(all inputs) + doStep + getReal(all outputs) through fmpy, the FMU's
-    defaults, fastest of ``rounds``."""
+    defaults, fastest of ``rounds`` (``env`` set while the instance is made)."""
+    saved = {k: os.environ.get(k) for k in env or {}}
+    os.environ.update(env or {})
+    try:
+        return _per_step(fmu, unzipped, n, rounds)
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def _per_step(fmu: Path, unzipped: Path, n: int, rounds: int) -> float:
     from fmpy import calloc, free, read_model_description
     from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                            fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
@@ -185,32 +205,38 @@ def per_step(fmu: Path, unzipped: Path, n: int = 2000, rounds: int = 5) -> float
         s.freeInstance()
 
 
+PYTHON_START = {"SPURDIFF_FMU_START": "python"}
+
+
 def measure(ours: Path, theirs: Path, runs: int = 5, before: Path | None = None) -> dict:
-    """Every measure for both FMUs (and ``before``, an earlier build of ours, when given), interleaved."""
+    """Every measure for both FMUs, ours with the native start ("ours") and its Python started
+    ("python"), and ``before`` (an earlier build of ours, when given), interleaved."""
     tmp = Path(tempfile.mkdtemp(prefix="spurdiff-startup-"))
     try:
         host = _host(tmp)
-        fmus = {"ours": ours, "c": theirs, **({"before": before} if before is not None else {})}
+        fmus = {"ours": ours, "python": ours, "c": theirs, **({"before": before} if before is not None else {})}
+        envs = {k: PYTHON_START if k == "python" else {} for k in fmus}
         ourside = [k for k in fmus if k != "c"]
         unz = {}
         for name, f in fmus.items():
-            unz[name] = tmp / f"unzipped-{name}"
-            subprocess.run(["unzip", "-q", str(f), "-d", str(unz[name])], check=True)
+            unz[name] = unz.get("ours") if name == "python" else tmp / f"unzipped-{name}"
+            if name != "python":
+                subprocess.run(["unzip", "-q", str(f), "-d", str(unz[name])], check=True)
         whole = {k: [] for k in fmus}
         init = {**{k: [] for k in fmus}, **{f"{k}_out": [] for k in ourside}}
         for name in fmus:    # warm the page cache once
-            whole_run(fmus[name], host, tmp)
+            whole_run(fmus[name], host, tmp, envs[name])
         for _ in range(runs):
             for name in fmus:
-                whole[name].append(whole_run(fmus[name], host, tmp))
-                init[name].append(init_time(fmus[name], unz[name], False))
+                whole[name].append(whole_run(fmus[name], host, tmp, envs[name]))
+                init[name].append(init_time(fmus[name], unz[name], False, envs[name]))
             for name in ourside:
-                init[f"{name}_out"].append(init_time(fmus[name], unz[name], True))
+                init[f"{name}_out"].append(init_time(fmus[name], unz[name], True, envs[name]))
         step = {k: [] for k in fmus}
         for _ in range(2):
             for name in fmus:
-                step[name].append(per_step(fmus[name], unz[name]))
-        pss = {k: own_process_pss(fmus[k], unz[k], 4) for k in ourside}
+                step[name].append(per_step(fmus[name], unz[name], env=envs[name]))
+        pss = {k: own_process_pss(fmus[k], unz[k], 4, envs[k]) for k in ourside}
         return {"whole": {k: statistics.median(v) for k, v in whole.items()},
                 "init": {k: statistics.median(v) for k, v in init.items()},
                 "step": {k: min(v) for k, v in step.items()},
@@ -222,24 +248,39 @@ def measure(ours: Path, theirs: Path, runs: int = 5, before: Path | None = None)
         shutil.rmtree(tmp, ignore_errors=True)
 
 
+def _row(label: str, ours: str, python: str, c: str, ratio: str, target: str) -> str:
+    return f"   {label:52s}{ours:>12s}{python:>12s}{c:>10s}{ratio:>8s}{target:>10s}"
+
+
+def _pss(m: dict, k: str) -> str:
+    kids = m["pss"][k]
+    return (", ".join(f"{x:.1f}" for x in kids) + " MB each") if kids else "no model process"
+
+
 def _lines(m: dict, k: str, fmu: Path, runs: int) -> list[str]:
-    """The section's lines for ``k`` ("ours" or "before") of the measures ``m``."""
+    """The section's lines for ``k`` ("ours" or "before") of the measures ``m``; for "ours" its Python
+    start ("python") beside it."""
     w, i, s = m["whole"], m["init"], m["step"]
+    p = "python" if k == "ours" else k
     mb = 1024 * 1024
+    ms = "{:.1f} ms".format
     return [f"   {fmu.name} {m['size'][k] / mb:.1f} MB ({m['files'][k]} files, "
             f"{m['unpacked'][k] / mb:.1f} MB unpacked) against the C FMU ChkC.fmu "
-            f"{m['size']['c'] / 1024:.0f} kB; medians of {runs} interleaved runs (per step: fastest)",
-            f"   {'':58s}{'ours':>10s}{'C FMU':>10s}{'ratio':>8s}{'target':>10s}",
-            f"   {'whole run: unzip + C host (load, init, one 5 ms step, free)':58s}{w[k] * 1e3:8.1f}ms"
-            f"{w['c'] * 1e3:8.1f}ms{w[k] / w['c']:8.1f}{'<= 20x':>10s}",
-            f"   {'fmpy 3.11, instantiate + initialize, in the host process':58s}{i[k] * 1e3:8.1f}ms"
-            f"{i['c'] * 1e3:8.1f}ms{'':8s}{'<= 60 ms':>10s}",
-            f"   {'the same, the model in its own process':58s}{i[k + '_out'] * 1e3:8.1f}ms{'':10s}{'':8s}"
-            f"{'<= 150 ms':>10s}",
-            f"   {'per step in fmpy (setReal all, doStep, getReal all), us':58s}{s[k]:10.1f}{s['c']:10.1f}"
-            f"{s[k] / s['c']:8.1f}{'<= 3x':>10s}",
-            f"   own-process instance PSS (4 instances in one fmpy host, whose own PSS is {m['pss_host'][k]:.1f} MB): "
-            f"{', '.join(f'{x:.1f}' for x in m['pss'][k])} MB (target <= 8 MB each)"]
+            f"{m['size']['c'] / 1024:.0f} kB; medians of {runs} interleaved runs (per step: fastest);",
+            "   'native': the defaults kept (no Python starts); 'Python': started (SPURDIFF_FMU_START=python), as a run "
+            "that sets a parameter to another value starts it at that set; ratio: native / C FMU",
+            _row("", "native", "Python", "C FMU", "ratio", "target"),
+            _row("whole run: unzip + C host (load, init, 5 ms step)", ms(w[k] * 1e3), ms(w[p] * 1e3),
+                 ms(w["c"] * 1e3), f"{w[k] / w['c']:.1f}", "<= 20x"),
+            _row("fmpy 3.11, instantiate + initialize, host process", ms(i[k] * 1e3), ms(i[p] * 1e3),
+                 ms(i["c"] * 1e3), "", "<= 60 ms"),
+            _row("the same, the model in its own process", ms(i[k + "_out"] * 1e3), ms(i[p + "_out"] * 1e3),
+                 "", "", "<= 150 ms"),
+            _row("per step in fmpy (setReal, doStep, getReal), us", f"{s[k]:.1f}", f"{s[p]:.1f}", f"{s['c']:.1f}",
+                 f"{s[k] / s['c']:.1f}", "<= 3x"),
+            f"   own-process instance PSS (4 instances in one fmpy host, SPURDIFF_FMU_PROCESS=out; target <= 8 MB "
+            f"each): native: {_pss(m, k)} (host {m['pss_host'][k]:.1f} MB); Python: {_pss(m, p)} "
+            f"(host {m['pss_host'][p]:.1f} MB)"]
 
 
 def report(runs: int = 5, before: Path | None = None) -> list[str]:
