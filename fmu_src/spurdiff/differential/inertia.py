@@ -22,12 +22,12 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass
 
 from spurdiff.datafile import DATA_FOLDER
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.gears.axial import axial_layout
 from spurdiff.gears.geometry import DifferentialGeometry, GearGeometry
+from spurdiff.attrpath import record
 
 PARTS_FILE = "parts.toml"
 PARTS = tomllib.loads((DATA_FOLDER / PARTS_FILE).read_text(encoding="utf-8"))   # read once, at import
@@ -76,7 +76,7 @@ def planet(g: GearGeometry, geo: DifferentialGeometry, density: float, bore: flo
     return m1 + m2, J1 + J2
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class MassProperties:
     """Inertias (kg m^2) and planet masses (kg) used by the dynamic models."""
 

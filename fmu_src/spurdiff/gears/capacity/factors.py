@@ -16,10 +16,10 @@ the standard's coefficients are written; docs/capacity.md gives each beside its 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 from spurdiff.gears.capacity.data import K1_SPUR, K2_SPUR, Material
 from spurdiff.gears.geometry import MeshGeometry, inv
+from spurdiff.attrpath import record
 
 
 def zone_factor(alpha_w: float, alpha: float) -> float:
@@ -67,7 +67,7 @@ def transverse_load_factors(F_t: float, b_mm: float, K_A: float, K_v: float, K_H
     return min(max(K_al, 1.0), eps / (eps * Z_eps ** 2)), min(max(K_al, 1.0), eps / (0.25 * eps + 0.75))
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ToothForm:
     """ISO 6336-3 method B root section: form factor Y_F, stress correction Y_S, the 30-deg
     tangent section s_Fn, bending arm h_Fe, fillet radius rho_F (m), for one load point."""
