@@ -14,7 +14,6 @@ set-up they bind to.)
 """
 from __future__ import annotations
 
-import tomllib
 from dataclasses import field, replace
 
 from spurdiff.attrpath import record, resolve
@@ -24,7 +23,7 @@ from spurdiff.errors import ParameterError
 from spurdiff.fmi.variables import Var
 from spurdiff.differential.locking import torque_bias_ratio
 from spurdiff.gears.axial import AxialLayout
-from spurdiff.datafile import DATA_FOLDER
+from spurdiff.datafile import parse_bundled
 from spurdiff.gears.design import derive
 from spurdiff.gears.design_sets import gear_set, table_from_data
 from spurdiff.gears.phasing import mesh_phases
@@ -48,7 +47,7 @@ DESCRIPTION = ("Spur-gear planetary inter-wheel differential: two suns on the ha
 # state cannot come from constant inputs (Coulomb locking with constant torques sticks or runs away;
 # shaftCoupling = wheel needs advancing wheel angles): the recipes in docs/use-the-fmu.md drive one.
 DEFAULT_EXPERIMENT = {"startTime": 0.0, "stopTime": 0.3, "stepSize": 1e-3}
-_DEFAULT_DATA = tomllib.loads((DATA_FOLDER / "default_experiment.toml").read_text(encoding="utf-8"))
+_DEFAULT_DATA = parse_bundled("default_experiment.toml")
 DEFAULT_GEAR_TABLE = table_from_data(_DEFAULT_DATA, gear_set(_DEFAULT_DATA["gearSet"]))
 DEFAULT_CARRIER_SPEED = _DEFAULT_DATA["inputs"]["carrierSpeed"]      # rad/s, the paper's carrier speed
 DEFAULT_LEFT_LOAD = _DEFAULT_DATA["inputs"]["leftLoad"]              # N m on sun A (a load is negative)

@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import copy
 import math
-import tomllib
 from dataclasses import replace
 from functools import lru_cache
 
 from spurdiff.errors import Bound
-from spurdiff.datafile import DATA_FOLDER
+from spurdiff.datafile import DATA_FOLDER, parse_bundled
 from spurdiff.errors import ParameterError, require_finite
 from spurdiff.attrpath import record
 
@@ -21,7 +20,7 @@ _MATERIALS_TEXT = (DATA_FOLDER / MATERIALS_FILE).read_text(encoding="utf-8")
 @lru_cache(maxsize=None)
 def _materials_parsed() -> dict:
     """``materials.toml`` parsed once per process (never changed: :func:`materials_data` hands out copies)."""
-    return tomllib.loads(_MATERIALS_TEXT)
+    return parse_bundled(MATERIALS_FILE, _MATERIALS_TEXT)
 
 
 MM = 1e-3

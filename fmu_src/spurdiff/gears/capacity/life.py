@@ -26,9 +26,8 @@ pitch-line speed.
 from __future__ import annotations
 
 import math
-import tomllib
 
-from spurdiff.datafile import DATA_FOLDER
+from spurdiff.datafile import DATA_FOLDER, parse_bundled
 from spurdiff.errors import ParameterError, require_finite
 from spurdiff.gears.capacity.data import MPA, Conditions, Material, conditions, material
 from spurdiff.gears.capacity.loads import face_widths, pitch_line_speed
@@ -52,7 +51,7 @@ class DutyBin:
 
 def duty_cycle(data: dict | None = None) -> tuple[DutyBin, ...]:
     """The bins of ``data`` (default: the bundled ``duty_cycle.toml``), checked."""
-    data = tomllib.loads(_DUTY_TEXT) if data is None else data
+    data = parse_bundled(DUTY_FILE, _DUTY_TEXT) if data is None else data
     out = []
     for k, b in enumerate(data.get("bin", [])):
         try:
