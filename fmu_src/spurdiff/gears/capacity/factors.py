@@ -16,6 +16,7 @@ the standard's coefficients are written; docs/capacity.md gives each beside its 
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 from spurdiff.gears.capacity.data import K1_SPUR, K2_SPUR, Material
 from spurdiff.gears.geometry import MeshGeometry, inv
@@ -80,9 +81,11 @@ class ToothForm:
     q_s: float
 
 
+@lru_cache(maxsize=256)
 def tooth_form(z: int, x: float, m: float, alpha: float, haP0: float, rhoaP0: float, d_en: float) -> ToothForm:
     """Y_F and Y_S of a rack-generated external spur gear (tool addendum ``haP0 m``, tip radius
-    ``rhoaP0 m``) loaded at diameter ``d_en`` (ISO 6336-3:2006 method B, no protuberance)."""
+    ``rhoaP0 m``) loaded at diameter ``d_en`` (ISO 6336-3:2006 method B, no protuberance). (Cached: a
+    set's rating and its limited life ask for the same few points some 80 times at an FMU's start.)"""
     hfP, rho = haP0, rhoaP0                      # in modules
     E = math.pi / 4.0 - hfP * math.tan(alpha) - (1.0 - math.sin(alpha)) * rho / math.cos(alpha)
     G = rho - hfP + x
