@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import operator
+import sys
 from typing import Any
 
 
@@ -39,10 +40,10 @@ def _values(names: list[str]):
 
 
 def _methods(cls: type) -> dict:
-    """``__repr__``, ``__eq__`` and ``__hash__`` of the dataclass ``cls`` as dataclasses writes them
-    (Python 3.11: the repr of the fields with ``repr``, ``...`` for a recursive call; equal when of the
-    same class and the tuples of the fields with ``compare`` are; the hash of the tuple of the fields
-    with ``hash``, or ``compare`` where that is None)."""
+    """``__repr__``, ``__eq__`` and ``__hash__`` of the dataclass ``cls`` as dataclasses writes them:
+    the repr of the fields with ``repr``, ``...`` for a recursive call; equal when of the same class
+    and the tuples of the fields with ``compare`` are (3.13: the same object, or each field equal in
+    turn); the hash of the tuple of the fields with ``hash``, or ``compare`` where that is None."""
     fields = dataclasses.fields(cls)
     shown = [f.name for f in fields if f.repr]
     compared = _values([f.name for f in fields if f.compare])
@@ -61,10 +62,25 @@ def _methods(cls: type) -> dict:
         finally:
             running.discard(key)
 
-    def __eq__(self, other):
-        if other.__class__ is self.__class__:
-            return compared(self) == compared(other)
-        return NotImplemented
+    if sys.version_info < (3, 13):
+        def __eq__(self, other):
+            if other.__class__ is self.__class__:
+                return compared(self) == compared(other)
+            return NotImplemented
+    else:                    # 3.13: the same object equal, then field by field (``a == b and ...``)
+        names = [f.name for f in fields if f.compare]
+
+        def __eq__(self, other):
+            if self is other:
+                return True
+            if other.__class__ is self.__class__:
+                result = True
+                for name in names:
+                    result = getattr(self, name) == getattr(other, name)
+                    if not result:
+                        return result
+                return result
+            return NotImplemented
 
     def __hash__(self):
         return hash(hashed(self))
