@@ -7,11 +7,19 @@ this file: never through the package's global name (an FMU loads its copy of the
 private name) and never later (a host may delete an FMU's extraction folder while its instances
 live on). Section and key names are the models' structured parameter names (``halfShaft.c``,
 ``vehicle.m``, ``sunA.z``, ``meshA1.backlash``...).
+
+Every bundled data file is parsed by :func:`parse_bundled`: from ``data/parsed_toml.json`` (the
+files parsed beforehand: each one's size, CRC-32 and what ``tomllib`` made of it, written by
+:func:`write_parsed`) when the file's text is the one that was parsed, else by ``tomllib`` as the
+file is. So an FMU starts without importing ``tomllib`` (its parser, regular expressions and
+``datetime``: some 5 ms of a start, docs/performance.md), and an edited data file is still read as
+it is; ``tests/physics/test_parsed_toml.py`` fails until :func:`write_parsed` (run from a checkout)
+brought the parsed copy up to date.
 """
 from __future__ import annotations
 
 import copy
-import tomllib
+import zlib
 from dataclasses import fields
 from functools import lru_cache
 from pathlib import Path
@@ -21,6 +29,7 @@ from spurdiff.errors import ParameterError
 DEFAULT_DATA = "passenger_car.toml"
 DIFFERENTIAL_DATA = "differential.toml"
 DATA_FOLDER = Path(__file__).resolve().parent / "data"     # this package's own data/, whatever its name
+PARSED_FILE = DATA_FOLDER / "parsed_toml.json"    # the bundled files parsed (write_parsed)
 # the bundled files' text, read at import from this package's own folder
 _BUNDLED = {name: (DATA_FOLDER / name).read_text(encoding="utf-8") for name in (DEFAULT_DATA, DIFFERENTIAL_DATA)}
 
@@ -32,6 +41,7 @@ def read_data(path: str | Path | None = None, bundled: str = DEFAULT_DATA) -> di
         if bundled not in _BUNDLED:
             raise ValueError(f"bundled = {bundled!r}: the bundled data files are {', '.join(_BUNDLED)}")
         return copy.deepcopy(_parsed(bundled))     # the caller's own copy: it may change it
+    import tomllib
     return tomllib.loads(Path(path).read_text())
 
 
@@ -39,7 +49,57 @@ def read_data(path: str | Path | None = None, bundled: str = DEFAULT_DATA) -> di
 def _parsed(bundled: str) -> dict:
     """A bundled file parsed once per process (a run's setup asked for them about 15 times: 1.3 ms
     a parse, 0.05 ms a copy)."""
-    return tomllib.loads(_BUNDLED[bundled])
+    return parse_bundled(bundled, _BUNDLED[bundled])
+
+
+def parse_bundled(name: str, text: str | None = None) -> dict:
+    """``tomllib.loads(text)`` of the bundled data file ``data/<name>`` whose text is ``text`` (read
+    now when None): the parsed copy's data when it was made of this very text (size and CRC-32 of
+    its UTF-8), else the text parsed; a new dict at each call either way (the caller may change it)."""
+    if text is None:
+        text = (DATA_FOLDER / name).read_text(encoding="utf-8")
+    entry = _parsed_files().get(name)
+    if entry is not None:
+        raw = text.encode("utf-8")
+        if entry["size"] == len(raw) and entry["crc32"] == zlib.crc32(raw):
+            return copy.deepcopy(entry["data"])
+    import tomllib      # (a data file edited since write_parsed)
+    return tomllib.loads(text)
+
+
+@lru_cache(maxsize=None)
+def _parsed_files() -> dict:
+    """The entries of :data:`PARSED_FILE` by file name ({} without a readable one: every file parsed)."""
+    import json
+    try:
+        files = json.loads(PARSED_FILE.read_text(encoding="utf-8"))["files"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return {}
+    return files if isinstance(files, dict) else {}
+
+
+def parsed_entries() -> dict:
+    """What :data:`PARSED_FILE` holds for the data files as they are now: name -> size, CRC-32 (of
+    the UTF-8 text) and ``tomllib``'s data, for every ``data/*.toml``."""
+    import tomllib
+    out = {}
+    for path in sorted(DATA_FOLDER.glob("*.toml")):
+        text = path.read_text(encoding="utf-8")
+        raw = text.encode("utf-8")
+        out[path.name] = {"size": len(raw), "crc32": zlib.crc32(raw), "data": tomllib.loads(text)}
+    return out
+
+
+def write_parsed() -> Path:
+    """Write :data:`PARSED_FILE` from the data files as they are (after one changed); its path. (A
+    ``nan`` of a file is written as JSON's ``NaN``, which :mod:`json` reads back.)"""
+    import json
+    doc = {"about": "spurdiff/data/*.toml parsed by tomllib, each with the size and CRC-32 of its UTF-8 text: "
+                    "written by write_parsed() of the package's datafile module (do not edit; the TOML files are "
+                    "the sources)",
+           "files": parsed_entries()}
+    PARSED_FILE.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+    return PARSED_FILE
 
 
 @lru_cache(maxsize=None)
@@ -67,4 +127,5 @@ def section(cls, data: dict, name: str):
     return cls(**values)
 
 
-__all__ = ["read_data", "section", "differential_default", "DEFAULT_DATA", "DIFFERENTIAL_DATA"]
+__all__ = ["read_data", "section", "differential_default", "parse_bundled", "write_parsed", "DEFAULT_DATA",
+           "DIFFERENTIAL_DATA"]

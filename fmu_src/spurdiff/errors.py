@@ -7,8 +7,9 @@ clear line and the harness can print one line and exit non-zero.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any
+
+from spurdiff.attrpath import record
 
 
 class ParameterError(ValueError):
@@ -83,7 +84,7 @@ def require_range(name: str, value: float, lo: float, hi: float, allowed: str | 
 # refused at ``lo`` itself by the check. Bounds that depend on another parameter (``mu_pinDynamic <=
 # mu_pin``) stay in ``validate`` beside the fixed outer range declared here.
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Bound:
     """lo <= value <= hi (either side None: unbounded there), finite; ``integer``: a whole number."""
 

@@ -21,8 +21,6 @@ without one, the reason logged once).
 from __future__ import annotations
 
 import ctypes as C
-import hashlib
-import logging
 import os
 import sys
 from pathlib import Path
@@ -37,6 +35,7 @@ _SOURCES = (_PACKAGE.parent / "native" / "kernels",                      # check
 
 def source_digest(native: Path, stem: str) -> str:
     """Digest of a kernel's sources (``<stem>*.c`` and ``.h`` in the folder ``native``)."""
+    import hashlib      # (a checkout's sources only: an FMU carries none, and starts without hashlib)
     h = hashlib.sha256()
     for p in sorted(native.glob(f"{stem}*.[ch]")):
         h.update(p.name.encode())
@@ -93,6 +92,21 @@ def load_cached(binding) -> tuple[C.CDLL | None, str]:
     return binding._LIB
 
 
+class _Logger:
+    """The logger ``name`` (:func:`logging.getLogger`), imported at its first use: the logging
+    module is needed only when auto falls back to the Python reference, so an FMU starts without it.
+    Every attribute is the logger's own."""
+
+    __slots__ = ("name",)
+
+    def __init__(self, name: str):
+        self.name = name
+
+    def __getattr__(self, attr: str):
+        import logging
+        return getattr(logging.getLogger(self.name), attr)
+
+
 KERNELS = ("auto", "compiled", "python")     # the switch solver.kernel: the compiled kernel when it loads | it or refuse | the reference
 
 
@@ -131,7 +145,7 @@ class Binding:
         self.module, self.stem, self.checks = module, stem, tuple(checks)
         self.functions = (dict(functions) if isinstance(functions, dict)
                           else dict.fromkeys(functions, (None, C.c_int64)))
-        self.log = logging.getLogger(logger)
+        self.log = _Logger(logger)     # (logging imported when a fallback is logged)
         self.fallback, self.param, self.values = fallback, param, values
         self.missing = (f"no compiled {label} kernel found (build it with `spurdiff build`, which compiles "
                         f"fmu_src/native/kernels/{sources or stem + '.c'})")

@@ -39,7 +39,8 @@ from __future__ import annotations
 
 import math
 import sys
-from dataclasses import dataclass
+
+from spurdiff.attrpath import record
 
 
 EPS = sys.float_info.epsilon     # numpy's finfo(float).eps; numpy is imported where arrays are used
@@ -138,7 +139,7 @@ def find_root(f, a: float, b: float, args: tuple = (), xtol: float = 2e-12, rtol
                       f"(last x = {x!r}, f = {fx!r}, bracket half width {abs(0.5 * (xc - x))!r})")
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Minimum:
     """Result of :func:`minimize_bounded`: the point, the value there, function evaluations,
     whether the tolerance was met (``False``: ``maxiter`` evaluations reached) and why it stopped."""
@@ -228,7 +229,7 @@ def minimize_bounded(f, lo: float, hi: float, args: tuple = (), xatol: float = 1
     return Minimum(x, fx, nfev, success, message)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class SystemSolution:
     """Result of :func:`solve_system`: the best point found, ``F`` there, whether a convergence
     test was met and which (or why it failed), Newton iterations and function evaluations."""

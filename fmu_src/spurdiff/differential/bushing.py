@@ -18,20 +18,19 @@ and the tooth height ``h_t = (d_a - d_f) / 2``; ``d_bore = 2 (r_j + wall)``.
 from __future__ import annotations
 
 import math
-import tomllib
-from dataclasses import dataclass
 
-from spurdiff.datafile import DATA_FOLDER
+from spurdiff.datafile import parse_bundled
 from spurdiff.gears.geometry import DifferentialGeometry
+from spurdiff.attrpath import record
 
 PIN_DATA = "pin_bushing.toml"
 # read once at import, from this package's own data folder (see spurdiff.datafile)
-_SETS = tomllib.loads((DATA_FOLDER / PIN_DATA).read_text(encoding="utf-8"))
+_SETS = parse_bundled(PIN_DATA)
 PIN_SETS = tuple(_SETS)
 BACKUP_RATIO_MIN = 1.2      # AGMA 2001-D04 / ISO 6336-3: rim as solid at and above (pin_bushing.toml)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Bushing:
     name: str
     description: str
@@ -79,7 +78,7 @@ def bushing(name: str) -> Bushing:
                    float(d["bushingWall"]), float(d["pMax"]), float(d["vMax"]), float(d["pvMax"]))
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class BushingCheck:
     planet: str
     backup_ratio: float

@@ -21,16 +21,15 @@ Every value can be overridden (parameters ``J_*`` and ``m_planet*``: values > 0 
 from __future__ import annotations
 
 import math
-import tomllib
-from dataclasses import dataclass
 
-from spurdiff.datafile import DATA_FOLDER
+from spurdiff.datafile import parse_bundled
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.gears.axial import axial_layout
 from spurdiff.gears.geometry import DifferentialGeometry, GearGeometry
+from spurdiff.attrpath import record
 
 PARTS_FILE = "parts.toml"
-PARTS = tomllib.loads((DATA_FOLDER / PARTS_FILE).read_text(encoding="utf-8"))   # read once, at import
+PARTS = parse_bundled(PARTS_FILE)   # read once, at import
 CARRIER_PLATE_THICKNESS = PARTS["carrier"]["plateThickness"]   # m, each of two side plates (assumed)
 CARRIER_RIM_MARGIN = PARTS["carrier"]["rimMargin"]             # m beyond the planets' outer reach (assumed)
 
@@ -76,7 +75,7 @@ def planet(g: GearGeometry, geo: DifferentialGeometry, density: float, bore: flo
     return m1 + m2, J1 + J2
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class MassProperties:
     """Inertias (kg m^2) and planet masses (kg) used by the dynamic models."""
 

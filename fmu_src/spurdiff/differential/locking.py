@@ -66,11 +66,11 @@ mirrored assembly swaps the drive and coast values).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 from spurdiff.gears.geometry import DifferentialGeometry
 from spurdiff.gears.layout import PinLayout, kinematics
 from spurdiff.numerics import solve_2x2
+from spurdiff.attrpath import record
 
 LOCKING_LAWS = ("pinFriction", "paper")
 
@@ -81,7 +81,7 @@ def paper_locking_coefficient(mu: float, r_d: float, n_pairs: int, r_a: float, r
     return mu * r_d / n_pairs * (1.0 / (r_a + r_1) + 1.0 / (r_b + r_2))
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class PinFriction:
     """Constants of the pin-friction law of one gear set (see the module docstring)."""
 
@@ -144,7 +144,7 @@ def first_order_K(pf: PinFriction, sign: float = 1.0) -> float:
     return pf.c * (abs(pf.rho[0]) * p1 + abs(pf.rho[1]) * p2) / (rbA + rbB)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Breakaway:
     """Quasi-static break-away state (planet inertia 0): sun torques and mesh forces per pair."""
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import field
 
 from spurdiff.datafile import differential_default as _d
 from spurdiff.errors import Bound, check_fields
@@ -11,6 +11,7 @@ from spurdiff.errors import ParameterError
 from spurdiff.gears.design import derive
 from spurdiff.gears.geometry import DifferentialGeometry, GearTable
 from spurdiff.gears.layout import HANDEDNESS, PIN_MODELS
+from spurdiff.attrpath import record
 
 LEADING_SUNS = ("either", "A", "B")   # as spurdiff.differential.locking.LEADING_SUNS
 
@@ -18,7 +19,7 @@ CARRIER_DRIVES = ("speed", "torque")
 LOCKING_LAWS = ("pinFriction", "paper")
 
 
-@dataclass
+@record
 class DifferentialParams:
     """Parameters shared by every fidelity level of the differential.
 

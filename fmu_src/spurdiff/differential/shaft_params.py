@@ -5,15 +5,16 @@ the wheel reports; equations in :mod:`spurdiff.differential.shafts`). Defaults: 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import field
 
 from spurdiff.datafile import differential_default as _d
 from spurdiff.errors import Bound, check_fields
 from spurdiff.errors import ParameterError, require_finite, require_nonnegative, require_positive
+from spurdiff.attrpath import record
 
 SHAFT_COUPLINGS = ("torque", "wheel")
 
-@dataclass
+@record
 class ShaftParams:
     """One half-shaft: c torsional stiffness (N m/rad), d damping (N m s/rad), phi_rel_start twist
     at the start (rad)."""
@@ -31,7 +32,7 @@ class ShaftParams:
         check_fields(self, f"{name}.")
 
 
-@dataclass
+@record
 class ShaftsParams:
     """Both half-shafts and the largest sub-step h_max (s) of the implicit shaft integration
     (5 ms: one sub-step at the vehicle scenes' step; measured: the steady results as with 0.25 ms)."""
@@ -48,7 +49,7 @@ class ShaftsParams:
         check_fields(self, "shafts.")
 
 
-@dataclass
+@record
 class WheelSurrogate:
     """The wheel side's linear model over the coming step, reported by the wheel at the
     communication point (WheelLoad's ``wheel.aFree`` ... outputs; equations in :mod:`spurdiff.differential.shafts`).

@@ -22,10 +22,10 @@ Statics with ``n`` planet pairs and the input torque ``T0`` on the carrier:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 from spurdiff.differential.locking import locking_coefficients, pin_friction
 from spurdiff.gears.geometry import DifferentialGeometry
+from spurdiff.attrpath import record
 
 
 def locking_coefficient(mu: float, r_d: float, n_pairs: int, r_a: float, r_1: float, r_b: float, r_2: float) -> float:
@@ -39,7 +39,7 @@ def torque_bias_ratio(K: float) -> float:
     return (1.0 + K) / (1.0 - K)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class MeshForces:
     """Normal tooth forces per planet pair (N)."""
 

@@ -97,7 +97,7 @@ class CapacityWatch(cap.StressWatch, Watch):
         v = cap.pitch_line_speed(geo, model.wd)
         self.report = cap.capacity_report(geo, forces, mat, cond, bores, v=v)
         self.life = cap.life_report(geo, cap.scaled(forces, 1.0 / self.T0), mat=mat, cond=cond, bores=bores)
-        super().__init__(geo, forces, mat, cond, bores, v=v)
+        super().__init__(geo, forces, mat, cond, bores, v=v, report=self.report)   # (the same rating)
 
     def after_step(self, model, t: float, h: float) -> str | None:
         f = model.mesh_forces

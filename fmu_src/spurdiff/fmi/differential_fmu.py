@@ -14,26 +14,23 @@ set-up they bind to.)
 """
 from __future__ import annotations
 
-import tomllib
-from dataclasses import dataclass, field, replace
+from dataclasses import field, replace
 
-from spurdiff.attrpath import resolve
+from spurdiff.attrpath import record, resolve
 from spurdiff.errors import bound_of
 from spurdiff.fmi.binding import bindings, build_params, renamed
 from spurdiff.errors import ParameterError
 from spurdiff.fmi.variables import Var
-from spurdiff.differential import derivatives
 from spurdiff.differential.locking import torque_bias_ratio
 from spurdiff.gears.axial import AxialLayout
-from spurdiff.datafile import DATA_FOLDER
+from spurdiff.datafile import parse_bundled
 from spurdiff.gears.design import derive
 from spurdiff.gears.design_sets import gear_set, table_from_data
 from spurdiff.gears.phasing import mesh_phases
 from spurdiff.differential.mesh import MeshParams
-from spurdiff.differential.mesh import rates as mesh_rates
 from spurdiff.differential.params import DifferentialParams
 from spurdiff.differential.rigid import RigidDifferential
-from spurdiff.differential.shafts import SHAFT_COUPLINGS, ShaftedDifferential, ShaftsParams
+from spurdiff.differential.shaft_params import SHAFT_COUPLINGS, ShaftsParams
 from spurdiff.differential.watches import OVERSPEED_LIMIT, CapacityWatch, OverspeedWatch, attach
 from spurdiff.gears.capacity import CapacityParams
 
@@ -50,7 +47,7 @@ DESCRIPTION = ("Spur-gear planetary inter-wheel differential: two suns on the ha
 # state cannot come from constant inputs (Coulomb locking with constant torques sticks or runs away;
 # shaftCoupling = wheel needs advancing wheel angles): the recipes in docs/use-the-fmu.md drive one.
 DEFAULT_EXPERIMENT = {"startTime": 0.0, "stopTime": 0.3, "stepSize": 1e-3}
-_DEFAULT_DATA = tomllib.loads((DATA_FOLDER / "default_experiment.toml").read_text(encoding="utf-8"))
+_DEFAULT_DATA = parse_bundled("default_experiment.toml")
 DEFAULT_GEAR_TABLE = table_from_data(_DEFAULT_DATA, gear_set(_DEFAULT_DATA["gearSet"]))
 DEFAULT_CARRIER_SPEED = _DEFAULT_DATA["inputs"]["carrierSpeed"]      # rad/s, the paper's carrier speed
 DEFAULT_LEFT_LOAD = _DEFAULT_DATA["inputs"]["leftLoad"]              # N m on sun A (a load is negative)
@@ -66,6 +63,8 @@ MIGHT_RETURN_EARLY = True
 
 def output_rates(model) -> dict[str, float]:
     """The FMI 3.0 output derivatives of ``model`` (any level; spurdiff.differential.derivatives)."""
+    from spurdiff.differential import derivatives                  # (imported at the first derivative asked
+    from spurdiff.differential.mesh import rates as mesh_rates     # for: a start imports neither)
     return derivatives.output_rates(model, mesh_rates.sun_accelerations)
 
 
@@ -73,7 +72,7 @@ MESH_MODELS = ("rigid", "compliant", "contact")
 EFFECTS = ("backlash", "meshStiffnessVariation", "pinFriction", "flankFriction")
 
 
-@dataclass
+@record
 class Setup:
     """What the parameters bind to: the parameter objects and the start values of the model."""
 
@@ -512,6 +511,7 @@ def build_model(values: dict):
     if s.shaftCoupling not in SHAFT_COUPLINGS:
         raise ParameterError("shaftCoupling", s.shaftCoupling, " | ".join(SHAFT_COUPLINGS))
     if s.shaftCoupling == "wheel":
+        from spurdiff.differential.shafts import ShaftedDifferential   # (the wheel coupling only)
         model = ShaftedDifferential(model, s.shafts)
         model.native = bool(s.mesh.nativeStep)
         io.push(model, values)

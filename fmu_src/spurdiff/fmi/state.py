@@ -10,18 +10,18 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
 from typing import Any
 
 from spurdiff import __version__
 from spurdiff.errors import ParameterError
+from spurdiff.attrpath import record
 
 OK, WARNING, DISCARD, ERROR = 0, 1, 2, 3     # fmi2Status
 _STATE_FORMAT = "spurdiff-fmu-state"
 _STATE_VERSION = 1
 
 
-@dataclass
+@record
 class FmuState:
     """An FMU state: what ``fmi2GetFMUstate`` hands out (opaque to the host)."""
 

@@ -9,11 +9,12 @@ copying between the FMU's value table and the model follows from these bindings
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any, Callable
 
+from spurdiff.attrpath import record
 
-@dataclass(frozen=True)
+
+@record(frozen=True)
 class Var:
     """One FMI variable of an FMU built on this adapter."""
 

@@ -34,9 +34,9 @@ design checks of :mod:`spurdiff.gears.checks`):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 from spurdiff.gears.geometry import MM, DifferentialGeometry, Finding, GearTable
+from spurdiff.attrpath import record
 
 MESHES = (("A1", "sunA", "planet1"), ("12", "planet1", "planet2"), ("B2", "sunB", "planet2"))
 PLANETS = ("planet1", "planet2")
@@ -47,7 +47,7 @@ def _mm(v: float) -> str:
     return f"{v / MM:.2f} mm"
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class MeshAxial:
     """One mesh along the axis (m)."""
 
@@ -67,7 +67,7 @@ class MeshAxial:
         return 0.5 * (self.start + self.end)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Journal:
     """A planet's bore on its pin: from ``start`` to ``end`` (m, along the axis); the positions of
     its sun mesh, its planet mesh and its mass centre as fractions of the length from ``start``."""
@@ -89,7 +89,7 @@ class Journal:
         return self.sun_mesh == self.planet_mesh == self.mass
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class AxialLayout:
     """The axial layout of a gear table (see the module docstring)."""
 

@@ -39,18 +39,18 @@ run by :func:`spurdiff.gears.design.derive` on the derived geometry (equations i
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 from spurdiff.datafile import differential_default
 from spurdiff.errors import ParameterError
 from spurdiff.gears.generating import generating_shift, thickness_allowances
 from spurdiff.gears.geometry import MM, Finding, GearGeometry, GearTable, MeshGeometry
+from spurdiff.attrpath import record
 
 MIN_TIP_CLEARANCE = 0.25  # smallest tip-to-root clearance, in modules: the basic rack's c_P = 0.25 m (ISO 53)
 DEFAULT_BACKLASH = {k: differential_default(f"mesh{k}.backlash") for k in ("A1", "B2", "12")}
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class DesignLimits:
     """The margins the design checks want (each an argument of ``spurdiff design``):
     ``undercut_margin`` (in x) between the generating shift and the undercut limit; ``clearance``

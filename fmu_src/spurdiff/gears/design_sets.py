@@ -8,10 +8,9 @@ parameters that select it (``sunA.x``, ``sunA.da``, ...), for a scene's ``[fmus.
 """
 from __future__ import annotations
 
-import tomllib
 from dataclasses import fields, replace
 
-from spurdiff.datafile import DATA_FOLDER
+from spurdiff.datafile import DATA_FOLDER, parse_bundled
 from spurdiff.errors import ParameterError
 from spurdiff.gears.geometry import Gear, GearTable
 
@@ -55,7 +54,7 @@ def gear_set(name: str = "paper") -> GearTable:
     if name == "paper":
         return GearTable.paper()
     if name == "designed":
-        return table_from_data(tomllib.loads(_DESIGNED_TEXT))
+        return table_from_data(parse_bundled(DESIGNED_FILE, _DESIGNED_TEXT))
     raise ParameterError("gearSet", name, " | ".join(SETS))
 
 

@@ -30,13 +30,14 @@ pointed tip, tip interference, contact ratio, form circle, tip clearance, symmet
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import field, replace
 
 from spurdiff.datafile import differential_default as _d
 from spurdiff.errors import Bound, check_fields
 from spurdiff.errors import ParameterError
 from spurdiff.gears.generating import form_radius
 from spurdiff.numerics import find_root
+from spurdiff.attrpath import record
 
 MM = 1e-3  # metres per millimetre
 
@@ -55,7 +56,7 @@ def inv_inverse(value: float, name: str = "alpha_w") -> float:
     return find_root(lambda a: inv(a) - value, 1e-9, hi, xtol=1e-15, rtol=1e-15)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Gear:
     """One spur gear: tooth count, profile shift, optional trimmed tip diameter, face width, and
     where its face starts along the axis (from carrier wall A's inner face; the axial layout,
@@ -76,7 +77,7 @@ class Gear:
               "axialStart": Bound(0.0, 1.0, allowed="between 0 and 1 m (from carrier wall A's inner face)")}
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Carrier:
     """The carrier's walls along the axis (m): wall A's inner face at 0, wall B's at ``wallB``;
     ``axialClearance`` the smallest running clearance between faces that turn relative to each
@@ -88,7 +89,7 @@ class Carrier:
     BOUNDS = {"wallB": Bound(0.0, lo_open=True), "axialClearance": Bound(0.0, 0.01)}
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class GearTable:
     """The differential's gear table (inputs). Lengths in m, angles in rad. Defaults: the paper's
     gear table, from ``spurdiff/data/differential.toml`` (sections ``[gearing]``, ``[sunA]``...)."""
@@ -148,7 +149,7 @@ class GearTable:
         check_fields(self.carrier, "carrier.")
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class GearGeometry:
     """Derived geometry of one gear (m)."""
 
@@ -165,7 +166,7 @@ class GearGeometry:
     undercut: bool = False  # the generating tool's tip cuts into the involute
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class MeshGeometry:
     """Derived geometry of one external mesh. Radii in m, angles in rad."""
 
@@ -242,7 +243,7 @@ class MeshGeometry:
         return self.rw2 / self.rw1
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Finding:
     """One result of a design check."""
 
@@ -291,7 +292,7 @@ def mesh_geometry(name: str, g1: GearGeometry, g2: GearGeometry, t: GearTable) -
                         g_alpha / pb, pb, min(g1.b, g2.b), g_alpha, g1.rF, g2.rF)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class DifferentialGeometry:
     """Everything derived from a :class:`GearTable`, with the design findings."""
 

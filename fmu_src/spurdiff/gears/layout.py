@@ -9,9 +9,9 @@ ratios of the planets and of sun B relative to sun A, from the tooth counts (ext
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 from spurdiff.gears.geometry import DifferentialGeometry
+from spurdiff.attrpath import record
 
 
 PIN_MODELS = ("endReactions", "linearPressure", "planar")
@@ -19,7 +19,7 @@ HANDEDNESS = ("leading", "trailing")
 _ZERO8 = (0.0,) * 8
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class PinLayout:
     """Directions of the mesh forces on the two planets of a pair (unit vectors, in the carrier),
     and where along each planet's journal they act.
@@ -196,7 +196,7 @@ def linear_pressure_load(R0x: float, R0y: float, RLx: float, RLy: float) -> floa
     return dn * 0.5 * (prim(1.0 + p) - prim(p))
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Kinematics:
     """Speed ratios of the differential relative to the carrier (dimensionless)."""
 

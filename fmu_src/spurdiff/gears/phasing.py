@@ -33,10 +33,10 @@ n times) is exact; otherwise they do not, and :func:`phase_findings` warns.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 from spurdiff.gears.geometry import DifferentialGeometry, Finding, MeshGeometry, inv
 from spurdiff.gears.layout import PinLayout
+from spurdiff.attrpath import record
 
 
 def _frac(v: float) -> float:
@@ -44,7 +44,7 @@ def _frac(v: float) -> float:
     return 0.0 if f >= 1.0 - 1e-12 else f
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class MeshPhase:
     """Phases of one mesh at the reference configuration (pitches, in [0, 1))."""
 

@@ -5,11 +5,11 @@ Defaults and their sources: docs/mesh-dynamics.md.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 
 from spurdiff.datafile import differential_default as _d
 from spurdiff.errors import Bound
 from spurdiff.errors import ParameterError, require_range
+from spurdiff.attrpath import record
 
 LEVELS = ("compliant", "contact")
 KERNELS = ("auto", "compiled", "python")
@@ -21,7 +21,7 @@ N_PER_MM15 = 1e3 ** 1.5  # 1 N/mm^1.5 in N/m^1.5
 SWITCHES = ("backlash", "meshStiffnessVariation", "pinFriction", "flankFriction", "preload")
 
 
-@dataclass
+@record
 class MeshParams:
     """Selects the mesh effects and their data (SI units)."""
 

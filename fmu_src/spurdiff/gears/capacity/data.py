@@ -4,17 +4,24 @@ from __future__ import annotations
 
 import copy
 import math
-import tomllib
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from functools import lru_cache
 
 from spurdiff.errors import Bound
-from spurdiff.datafile import DATA_FOLDER
+from spurdiff.datafile import DATA_FOLDER, parse_bundled
 from spurdiff.errors import ParameterError, require_finite
+from spurdiff.attrpath import record
 
 MATERIALS_FILE = "materials.toml"
 # read once at import, from this package's own data folder (see spurdiff.datafile)
 _MATERIALS_TEXT = (DATA_FOLDER / MATERIALS_FILE).read_text(encoding="utf-8")
+
+
+@lru_cache(maxsize=None)
+def _materials_parsed() -> dict:
+    """``materials.toml`` parsed once per process (never changed: :func:`materials_data` hands out copies)."""
+    return parse_bundled(MATERIALS_FILE, _MATERIALS_TEXT)
+
 
 MM = 1e-3
 MPA = 1e6
@@ -23,7 +30,7 @@ K1_SPUR = {3: 2.1, 4: 3.9, 5: 7.5, 6: 14.9, 7: 26.8, 8: 39.1, 9: 52.8, 10: 76.6,
 K2_SPUR = 0.0193
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Material:
     """A gear material: elastic constants (Pa, 1), endurance limits (Pa), static life factors."""
 
@@ -50,7 +57,7 @@ def K_gamma_default(n_planets: int) -> float:
     return float(table["K_gamma"][str(min(max(n, keys[0]), keys[-1]))])
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class Conditions:
     """Rating conditions (ISO 6336 factors not computed from the geometry). ``K_gamma`` 0: the
     default of the set's number of planet pairs (:func:`K_gamma_default`)."""
@@ -87,14 +94,14 @@ class Conditions:
         return self.K_gamma if self.K_gamma > 0.0 else K_gamma_default(n_pairs)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class CapacityParams:
     """What an FMU rates its gear set with: the carrier torque ``T0`` (N m) of the safety factors
     and of the stress scaling, the material's name, the planets' bushing wall, and the load-sharing
     factor (0: the default for nPairs) (defaults: ``materials.toml``)."""
 
-    T0: float = tomllib.loads(_MATERIALS_TEXT)["rating"]["T0"]
-    material: str = tomllib.loads(_MATERIALS_TEXT)["default"]
+    T0: float = _materials_parsed()["rating"]["T0"]
+    material: str = _materials_parsed()["default"]
     bushingWall: float = 0.0     # m, wall of the planets' pin bushings: the bore is 2 (r_j + bushingWall)
     K_gamma: float = 0.0         # load-sharing factor; 0: K_gamma_default(nPairs)
 
@@ -116,11 +123,6 @@ def pin_bores(journal_radius: float, bushing_wall: float) -> dict[str, float] | 
 def materials_data() -> dict:
     """The bundled ``materials.toml`` as a dict (the caller's own copy; parsed once per process)."""
     return copy.deepcopy(_materials_parsed())
-
-
-@lru_cache(maxsize=None)
-def _materials_parsed() -> dict:
-    return tomllib.loads(_MATERIALS_TEXT)
 
 
 def material(name: str | None = None) -> Material:

@@ -16,10 +16,11 @@ the standard's coefficients are written; docs/capacity.md gives each beside its 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from functools import lru_cache
 
 from spurdiff.gears.capacity.data import K1_SPUR, K2_SPUR, Material
 from spurdiff.gears.geometry import MeshGeometry, inv
+from spurdiff.attrpath import record
 
 
 def zone_factor(alpha_w: float, alpha: float) -> float:
@@ -67,7 +68,7 @@ def transverse_load_factors(F_t: float, b_mm: float, K_A: float, K_v: float, K_H
     return min(max(K_al, 1.0), eps / (eps * Z_eps ** 2)), min(max(K_al, 1.0), eps / (0.25 * eps + 0.75))
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class ToothForm:
     """ISO 6336-3 method B root section: form factor Y_F, stress correction Y_S, the 30-deg
     tangent section s_Fn, bending arm h_Fe, fillet radius rho_F (m), for one load point."""
@@ -80,9 +81,11 @@ class ToothForm:
     q_s: float
 
 
+@lru_cache(maxsize=256)
 def tooth_form(z: int, x: float, m: float, alpha: float, haP0: float, rhoaP0: float, d_en: float) -> ToothForm:
     """Y_F and Y_S of a rack-generated external spur gear (tool addendum ``haP0 m``, tip radius
-    ``rhoaP0 m``) loaded at diameter ``d_en`` (ISO 6336-3:2006 method B, no protuberance)."""
+    ``rhoaP0 m``) loaded at diameter ``d_en`` (ISO 6336-3:2006 method B, no protuberance). (Cached: a
+    set's rating and its limited life ask for the same few points some 80 times at an FMU's start.)"""
     hfP, rho = haP0, rhoaP0                      # in modules
     E = math.pi / 4.0 - hfP * math.tan(alpha) - (1.0 - math.sin(alpha)) * rho / math.cos(alpha)
     G = rho - hfP + x

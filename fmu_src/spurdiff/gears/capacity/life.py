@@ -26,15 +26,14 @@ pitch-line speed.
 from __future__ import annotations
 
 import math
-import tomllib
-from dataclasses import dataclass
 
-from spurdiff.datafile import DATA_FOLDER
+from spurdiff.datafile import DATA_FOLDER, parse_bundled
 from spurdiff.errors import ParameterError, require_finite
 from spurdiff.gears.capacity.data import MPA, Conditions, Material, conditions, material
 from spurdiff.gears.capacity.loads import face_widths, pitch_line_speed
 from spurdiff.gears.capacity.rating import (IDLERS, rate_mesh, static_contact_strength, static_root_strength)
 from spurdiff.gears.geometry import DifferentialGeometry, Finding
+from spurdiff.attrpath import record
 
 DUTY_FILE = "duty_cycle.toml"
 _DUTY_TEXT = (DATA_FOLDER / DUTY_FILE).read_text(encoding="utf-8")   # read once, at import
@@ -42,7 +41,7 @@ N_H_STATIC, N_H_ENDURANCE = 1e5, 5e7     # ISO 6336-2 table 2, Eh (no pitting pe
 N_F_STATIC, N_F_ENDURANCE = 1e3, 3e6     # ISO 6336-3 table 3, Eh
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class DutyBin:
     name: str
     T0: float        # carrier torque, N m
@@ -52,7 +51,7 @@ class DutyBin:
 
 def duty_cycle(data: dict | None = None) -> tuple[DutyBin, ...]:
     """The bins of ``data`` (default: the bundled ``duty_cycle.toml``), checked."""
-    data = tomllib.loads(_DUTY_TEXT) if data is None else data
+    data = parse_bundled(DUTY_FILE, _DUTY_TEXT) if data is None else data
     out = []
     for k, b in enumerate(data.get("bin", [])):
         try:
@@ -80,7 +79,7 @@ def allowed_cycles(sigma: float, G_static: float, G_end: float, N_static: float,
     return N_static * (G_static / sigma) ** k
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class LifeEntry:
     """One gear in one mesh, one mode (contact | root): cycles, damage and the limited-life safety."""
 
@@ -125,7 +124,7 @@ def _safety(stresses, cycles, line) -> float:
     return 0.5 * (lo + hi)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class LifeReport:
     entries: tuple[LifeEntry, ...]
     findings: tuple[Finding, ...]

@@ -27,7 +27,7 @@ is :mod:`.life`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import field
 
 from spurdiff.errors import ParameterError
 from spurdiff.gears.capacity.data import MM, MPA, Conditions, Material, conditions, material
@@ -37,11 +37,12 @@ from spurdiff.gears.capacity.factors import (contact_ratio_factor, dynamic_facto
 from spurdiff.gears.capacity.loads import face_widths
 from spurdiff.gears.capacity.stiffness import mesh_stiffness
 from spurdiff.gears.geometry import DifferentialGeometry, Finding, GearGeometry, GearTable, MeshGeometry
+from spurdiff.attrpath import record
 
 IDLERS = ("planet1", "planet2")   # the differential's planets: each tooth loaded on both flanks
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class GearRating:
     """Stresses and safety factors of one gear in one mesh (Pa, 1)."""
 
@@ -62,7 +63,7 @@ class GearRating:
     backup_ratio: float  # s_R / h_t (inf: solid)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class MeshRating:
     """ISO 6336 rating of one mesh at normal force F_n (N, mean per pair)."""
 
@@ -184,7 +185,7 @@ def rate_mesh(me: MeshGeometry, gg: dict[str, GearGeometry], t: GearTable, F_n: 
                       K_gamma=K_gamma, v=v, b=b)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class CapacityReport:
     """The rating of the three meshes at given mesh forces, with the findings."""
 

@@ -10,11 +10,11 @@ its comparison with the paper's IMPACT contact law::
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 from spurdiff.gears.capacity.data import MM, MPA
 from spurdiff.gears.capacity.loads import nominal_mesh_forces, face_width
 from spurdiff.gears.geometry import DifferentialGeometry, GearGeometry, GearTable, MeshGeometry
+from spurdiff.attrpath import record
 
 # ISO 6336-1 method B single-stiffness coefficients (q' in mm um / N)
 ISO_Q = (0.04723, 0.15551, 0.25791, -0.00635, -0.11654, -0.00193, -0.24188, 0.00529, 0.00182)
@@ -58,7 +58,7 @@ def impact_secant(K: float, F0: float, e: float = 1.5) -> float:
     return F0 / (F0 / K) ** (1.0 / e)
 
 
-@dataclass(frozen=True)
+@record(frozen=True)
 class StiffnessComparison:
     """One mesh's ISO 6336-1 stiffness beside the paper's IMPACT law at the force F0 (N; N/m)."""
 

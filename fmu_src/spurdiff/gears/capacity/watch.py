@@ -21,24 +21,28 @@ class StressWatch:
     """
 
     def __init__(self, geo: DifferentialGeometry, forces: dict[str, float], mat: Material | None = None,
-                 cond: Conditions | None = None, bores: dict[str, float] | None = None, *, v: float):
+                 cond: Conditions | None = None, bores: dict[str, float] | None = None, *, v: float,
+                 report=None):
         mat = mat or material()
         cond = cond or conditions()
         self.geo, self.mat, self.cond, self.bores, self.v = geo, mat, cond, bores, v
         self.sigma_HG_static = static_contact_strength(mat, cond)
         self.sigma_FG_static = static_root_strength(mat, cond)
-        self.calibrate(forces)
+        self.calibrate(forces, report)
         self.sigma_H_max = 0.0
         self.sigma_F_max = 0.0
         self.exceeded = False
         self._F_max = (0.0, 0.0, 0.0)    # largest |force| booked per mesh
 
-    def calibrate(self, forces: dict[str, float]) -> None:
-        """Take the load factors at ``forces`` (N per mesh, each > 0); stresses scale from there."""
+    def calibrate(self, forces: dict[str, float], report=None) -> None:
+        """Take the load factors at ``forces`` (N per mesh, each > 0); stresses scale from there.
+        ``report``: the caller's :func:`capacity_report` of these forces with this watch's material,
+        conditions, bores and ``v``, if it made one (the same rating is then not computed again)."""
         for k, F in forces.items():
             if not (math.isfinite(F) and F > 0.0):
                 raise ParameterError(f"capacity.F_{k}", F, "> 0 N (the reference force of the stress scaling)")
-        rep = capacity_report(self.geo, forces, self.mat, self.cond, self.bores, v=self.v)
+        rep = report if report is not None else capacity_report(self.geo, forces, self.mat, self.cond, self.bores,
+                                                                v=self.v)
         self._aH = tuple(r.sigma_H / math.sqrt(r.F_n) if r.F_n > 0 else 0.0 for r in rep.meshes)
         self._aF = tuple(r.sigma_F / r.F_n if r.F_n > 0 else 0.0 for r in rep.meshes)
 
