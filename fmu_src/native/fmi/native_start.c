@@ -57,6 +57,16 @@ typedef struct {
 
 typedef int64_t NativeFn(const void *ctx, double *v, double t, double h);
 
+/* A Real value-reference vector read or written while stepping, with where each value is: a master
+ * calls with the same few vectors every step (the bridge keeps the same, fmi2_pybridge.h: VrCache) */
+#define NS_VECTORS 4
+typedef struct {
+    fmi2ValueReference *vr;
+    size_t n;
+    const double **at;        /* each value's place (a slot of v or the parameter's value) */
+    const Var **var;          /* each value's variable */
+} Vector;
+
 struct NsInst {
     char *file;               /* the file's bytes (strings point into it, NUL-terminated in place) */
     fmi2CallbackFunctions cb;
@@ -84,6 +94,8 @@ struct NsInst {
     double time, stop, stop_tol;
     unsigned char *tape;
     size_t tape_len, tape_cap;
+    Vector vectors[2][NS_VECTORS];   /* reads, writes */
+    int next_vector[2];
 };
 
 static void emit_phase(NsInst *I, int phase);
@@ -301,6 +313,12 @@ void ns_free(NsInst *I)
     for (int i = 0; i < NS_MAX_FIELDS; i++) free(I->arrays[i]);
     for (int k = 0; k < NS_KINDS; k++) free(I->index[k]);
     /* the kernels stay loaded: the model's Python loads the same files (a dlclose gains nothing) */
+    for (int w = 0; w < 2; w++)
+        for (int k = 0; k < NS_VECTORS; k++) {
+            free(I->vectors[w][k].vr);
+            free(I->vectors[w][k].at);
+            free(I->vectors[w][k].var);
+        }
     free(I->vars);
     free(I->msgs);
     free(I->v);
@@ -444,8 +462,51 @@ static double value_of(const NsInst *I, const Var *x)
     return x->val[I->phase == P_INITIALIZING ? 1 : 0];
 }
 
+/* The vector `vr` (reads: every value readable while stepping; writes: every value an input) with its
+ * places, made once per vector; NULL: not such a vector (the slow path decides). */
+static const Vector *vector(NsInst *I, int write, const fmi2ValueReference vr[], size_t n)
+{
+    Vector *c = I->vectors[write];
+    for (int k = 0; k < NS_VECTORS; k++)
+        if (c[k].vr && c[k].n == n && memcmp(c[k].vr, vr, n * sizeof *vr) == 0) return &c[k];
+    if (n == 0 || n > 4096) return NULL;
+    for (size_t i = 0; i < n; i++) {
+        const Var *x = var_of(I, K_REAL, vr[i]);
+        if (!x || (write ? !(x->flags & F_INPUT) : (!(x->flags & F_CONSTANT) && x->slot < 0))) return NULL;
+    }
+    Vector *e = &c[I->next_vector[write]];
+    I->next_vector[write] = (I->next_vector[write] + 1) % NS_VECTORS;
+    free(e->vr);
+    free(e->at);
+    free(e->var);
+    e->vr = (fmi2ValueReference *)malloc(n * sizeof *vr);
+    e->at = (const double **)malloc(n * sizeof *e->at);
+    e->var = (const Var **)malloc(n * sizeof *e->var);
+    if (!e->vr || !e->at || !e->var) {
+        free(e->vr);
+        free(e->at);
+        free(e->var);
+        e->vr = NULL;
+        e->at = NULL;
+        e->var = NULL;
+        return NULL;
+    }
+    memcpy(e->vr, vr, n * sizeof *vr);
+    for (size_t i = 0; i < n; i++) {
+        const Var *x = e->var[i] = var_of(I, K_REAL, vr[i]);
+        e->at[i] = x->slot >= 0 && !(x->flags & F_CONSTANT) ? &I->v[x->slot] : &x->val[2];
+    }
+    e->n = n;
+    return e;
+}
+
 int ns_get_real(NsInst *I, const fmi2ValueReference vr[], size_t n, fmi2Real v[])
 {
+    const Vector *e = I->phase >= P_STEPPING ? vector(I, 0, vr, n) : NULL;
+    if (e) {
+        for (size_t i = 0; i < n; i++) v[i] = *e->at[i];
+        return fmi2OK;
+    }
     if (readable(I, K_REAL, vr, n) != 0) return NS_PYTHON;
     for (size_t i = 0; i < n; i++) v[i] = value_of(I, var_of(I, K_REAL, vr[i]));
     return fmi2OK;
@@ -496,13 +557,11 @@ static int unchanged(NsInst *I, int kind, const fmi2ValueReference vr[], size_t 
 int ns_set_real(NsInst *I, const fmi2ValueReference vr[], size_t n, const fmi2Real v[])
 {
     if (I->phase == P_STEPPING) {   /* the inputs into their slots, each checked against its range */
+        if (n == 0) return fmi2OK;
+        const Vector *e = vector(I, 1, vr, n);
+        if (!e || record(I, T_SET_REAL, n, vr, n * sizeof *vr, v, n * sizeof *v) != 0) return NS_PYTHON;
         for (size_t i = 0; i < n; i++) {
-            const Var *x = var_of(I, K_REAL, vr[i]);
-            if (!x || !(x->flags & F_INPUT)) return NS_PYTHON;
-        }
-        if (record(I, T_SET_REAL, n, vr, n * sizeof *vr, v, n * sizeof *v) != 0) return NS_PYTHON;
-        for (size_t i = 0; i < n; i++) {
-            const Var *x = var_of(I, K_REAL, vr[i]);
+            const Var *x = e->var[i];
             I->v[x->slot] = v[i];
             if (!(x->lo <= v[i] && v[i] <= x->hi)) I->bad = 1;   /* NaN too: the next step needs the Python */
         }

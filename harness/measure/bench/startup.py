@@ -155,9 +155,12 @@ def own_process_pss(fmu: Path, unzipped: Path, n: int, env: dict | None = None) 
     return kb[0] / 1024, [k / 1024 for k in kb[1:]]
 
 
-def per_step(fmu: Path, unzipped: Path, n: int = 2000, rounds: int = 5, env: dict | None = None) -> float:
-    """Microseconds per setReal(all inputs) + doStep + getReal(all outputs) through fmpy, the FMU's
-    defaults, fastest of ``rounds`` (``env`` set while the instance is made)."""
+def per_step(fmu: Path, unzipped: Path, n: int = 2000, rounds: int = 5,
+             env: dict | None = None) -> tuple[float, float]:
+    """Microseconds per setReal(all inputs) + doStep + getReal(all outputs), the FMU's defaults, fastest
+    of ``rounds`` (``env`` set while the instance is made): through fmpy's Python API (its lists
+    converted to C arrays at each call), and through ctypes with the arrays made once (as a master's
+    loop or a C host calls: what the FMU itself costs)."""
     saved = {k: os.environ.get(k) for k in env or {}}
     os.environ.update(env or {})
     try:
@@ -170,7 +173,9 @@ def per_step(fmu: Path, unzipped: Path, n: int = 2000, rounds: int = 5, env: dic
                 os.environ[k] = v
 
 
-def _per_step(fmu: Path, unzipped: Path, n: int, rounds: int) -> float:
+def _per_step(fmu: Path, unzipped: Path, n: int, rounds: int) -> tuple[float, float]:
+    from ctypes import c_double, c_uint
+
     from fmpy import calloc, free, read_model_description
     from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                            fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
@@ -199,8 +204,21 @@ def _per_step(fmu: Path, unzipped: Path, n: int, rounds: int) -> float:
                 s.getReal(outs)
                 t += STEP
             best.append((time.perf_counter() - t0) / n * 1e6)
+        vi, xi = (c_uint * len(ins))(*ins), (c_double * len(ins))(*values)
+        vo, xo = (c_uint * len(outs))(*outs), (c_double * len(outs))()
+        set_real, do_step, get_real, c = s.dll.fmi2SetReal, s.dll.fmi2DoStep, s.dll.fmi2GetReal, s.component
+        h, direct = c_double(STEP), []
+        for _ in range(rounds):
+            t0 = time.perf_counter()
+            for _ in range(n):
+                set_real(c, vi, len(ins), xi)
+                if do_step(c, c_double(t), h, 1) != 0:
+                    raise RuntimeError(f"{fmu.name}: fmi2DoStep failed at t = {t}")
+                get_real(c, vo, len(outs), xo)
+                t += STEP
+            direct.append((time.perf_counter() - t0) / n * 1e6)
         s.terminate()
-        return min(best)
+        return min(best), min(direct)
     finally:
         s.freeInstance()
 
@@ -237,10 +255,16 @@ def measure(ours: Path, theirs: Path, runs: int = 5, before: Path | None = None)
             for name in fmus:
                 step[name].append(per_step(fmus[name], unz[name], env=envs[name]))
         pss = {k: own_process_pss(fmus[k], unz[k], 4, envs[k]) for k in ourside}
+        from fmpy import read_model_description
+        reals = [v for v in read_model_description(str(unz["ours"] / "modelDescription.xml")).modelVariables
+                 if v.type == "Real"]
         return {"whole": {k: statistics.median(v) for k, v in whole.items()},
                 "init": {k: statistics.median(v) for k, v in init.items()},
-                "step": {k: min(v) for k, v in step.items()},
+                "step": {k: min(x[0] for x in v) for k, v in step.items()},
+                "direct": {k: min(x[1] for x in v) for k, v in step.items()},
                 "pss_host": {k: v[0] for k, v in pss.items()}, "pss": {k: v[1] for k, v in pss.items()},
+                "n_in": sum(v.causality == "input" for v in reals),
+                "n_out": sum(v.causality == "output" for v in reals),
                 "size": {k: f.stat().st_size for k, f in fmus.items()},
                 "files": {k: sum(1 for p in unz[k].rglob("*") if p.is_file()) for k in unz},
                 "unpacked": {k: sum(p.stat().st_size for p in unz[k].rglob("*") if p.is_file()) for k in unz}}
@@ -260,7 +284,7 @@ def _pss(m: dict, k: str) -> str:
 def _lines(m: dict, k: str, fmu: Path, runs: int) -> list[str]:
     """The section's lines for ``k`` ("ours" or "before") of the measures ``m``; for "ours" its Python
     start ("python") beside it."""
-    w, i, s = m["whole"], m["init"], m["step"]
+    w, i, s, d = m["whole"], m["init"], m["step"], m["direct"]
     p = "python" if k == "ours" else k
     mb = 1024 * 1024
     ms = "{:.1f} ms".format
@@ -268,7 +292,8 @@ def _lines(m: dict, k: str, fmu: Path, runs: int) -> list[str]:
             f"{m['unpacked'][k] / mb:.1f} MB unpacked) against the C FMU ChkC.fmu "
             f"{m['size']['c'] / 1024:.0f} kB; medians of {runs} interleaved runs (per step: fastest);",
             "   'native': the defaults kept (no Python starts); 'Python': started (SPURDIFF_FMU_START=python), as a run "
-            "that sets a parameter to another value starts it at that set; ratio: native / C FMU",
+            "that sets a parameter to another value starts it at that set; ratio: native / C FMU; per step: every Real "
+            f"input set and every Real output read ({m['n_in']} and {m['n_out']}; the C FMU's 1 and 2)",
             _row("", "native", "Python", "C FMU", "ratio", "target"),
             _row("whole run: unzip + C host (load, init, 5 ms step)", ms(w[k] * 1e3), ms(w[p] * 1e3),
                  ms(w["c"] * 1e3), f"{w[k] / w['c']:.1f}", "<= 20x"),
@@ -278,6 +303,8 @@ def _lines(m: dict, k: str, fmu: Path, runs: int) -> list[str]:
                  "", "", "<= 150 ms"),
             _row("per step in fmpy (setReal, doStep, getReal), us", f"{s[k]:.1f}", f"{s[p]:.1f}", f"{s['c']:.1f}",
                  f"{s[k] / s['c']:.1f}", "<= 3x"),
+            _row("  the same through ctypes, arrays made once, us", f"{d[k]:.1f}", f"{d[p]:.1f}", f"{d['c']:.1f}",
+                 f"{d[k] / d['c']:.1f}", ""),
             f"   own-process instance PSS (4 instances in one fmpy host, SPURDIFF_FMU_PROCESS=out; target <= 8 MB "
             f"each): native: {_pss(m, k)} (host {m['pss_host'][k]:.1f} MB); Python: {_pss(m, p)} "
             f"(host {m['pss_host'][p]:.1f} MB)"]
