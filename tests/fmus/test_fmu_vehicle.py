@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import subprocess
 import sys
 import textwrap
@@ -181,7 +182,9 @@ def test_the_fmus_load_their_bundled_package_and_data(wheel_fmu, vehicle_fmu, tm
             s.freeInstance()
         print(json.dumps(out))
     """)
-    p = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    # the Python started at fmi2Instantiate: at their defaults the FMUs would start natively, no package loaded
+    p = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=120,
+                       env={**os.environ, "SPURDIFF_FMU_START": "python"})
     assert p.returncode == 0, p.stderr + p.stdout
     out = json.loads(p.stdout.strip().splitlines()[-1])
     assert out["WheelLoad"]["value"] == DATA["halfShaft"]["c"]

@@ -151,6 +151,24 @@ def test_each_fmu_runs_under_wine_exits_cleanly_and_equals_linux64(name, wine, h
 
 
 @pytest.mark.parametrize("name", list(CASES))
+def test_the_native_start_under_wine_equals_the_python_start(name, wine, hosts, unpacked):
+    """The defaults kept (no value set): the win64 loader's native start (fmu_src/native/fmi/native_start.c,
+    its kernels loaded from the FMU's resources as DLLs) answers without a warning and gives the
+    Python-started run's numbers (SPURDIFF_FMU_START=python) bit for bit."""
+    env, _ = wine
+    exe, _ = hosts
+    guid, timing, outs, _ = _args(unpacked[name], name)
+    binary, uri = _win(name, "binaries", "win64", f"{name}.dll")
+    got = {}
+    for mode in ("auto", "python"):
+        r = _run(["wine", str(exe), binary, *guid, uri, *timing, "1", "get", ",".join(map(str, outs))],
+                 env={**env, "SPURDIFF_FMU_START": mode})
+        assert r.returncode == 0 and "native start is not used" not in r.stdout, r.stdout[-3000:]
+        (got[mode],) = _outputs(r.stdout)
+    assert len(got["auto"]) == len(outs) and got["auto"] == got["python"]
+
+
+@pytest.mark.parametrize("name", list(CASES))
 def test_the_contract_a_c_host_can_drive_holds_under_wine(name, wine, hosts, unpacked):
     env, _ = wine
     exe, _ = hosts
@@ -187,7 +205,8 @@ def test_a_damaged_win64_runtime_is_refused_with_the_reason(damage, wine, hosts,
         cfg.write_text(cfg.read_text() + "guid=again\n")
         expected = "'guid' given twice"
     binary, uri = _win(name, "binaries", "win64", "WheelLoad.dll")
-    r = _run(["wine", str(exe), binary, *guid, uri, *timing, "1", *sets, "get", str(outs[0])], env=env)
+    r = _run(["wine", str(exe), binary, *guid, uri, *timing, "1", *sets, "get", str(outs[0])],
+             env={**env, "SPURDIFF_FMU_START": "python"})   # the Python's start refused (not the native one's)
     shutil.rmtree(folder, ignore_errors=True)
     assert r.returncode == 4, r.stdout[-2000:]     # the host's "instantiate failed"
     assert expected in r.stdout, r.stdout
