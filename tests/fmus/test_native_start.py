@@ -129,14 +129,23 @@ def test_a_call_after_native_steps_replays_them(differential_fmu, monkeypatch, p
     assert (call, "ok") in native
 
 
-def test_a_damaged_native_start_warns_and_starts_the_python(differential_fmu, monkeypatch, tmp_path):
+@pytest.mark.parametrize("damage", ["truncated", "one byte of a number"])
+def test_a_damaged_native_start_warns_and_starts_the_python(differential_fmu, monkeypatch, tmp_path, damage):
+    """A file cut short, or with one bit of one of its numbers flipped (which would parse: the CRC-32
+    at its end refuses it), is never run: a warning naming it, then the Python start."""
     from fmpy import extract, read_model_description
 
     unzipdir = extract(str(differential_fmu), str(tmp_path / "x"))
     md = read_model_description(unzipdir)
     f = os.path.join(unzipdir, "resources", "native_start.bin")
     with open(f, "r+b") as fh:
-        fh.truncate(os.path.getsize(f) // 2)
+        if damage == "truncated":
+            fh.truncate(os.path.getsize(f) // 2)
+        else:
+            data = bytearray(fh.read())
+            data[len(data) // 3] ^= 0x01
+            fh.seek(0)
+            fh.write(data)
     native = _run(differential_fmu, "auto", DEFAULT, monkeypatch, unzipdir=unzipdir, md=md)
     python = _run(differential_fmu, "python", DEFAULT, monkeypatch, unzipdir=unzipdir, md=md)
     warned = [m for m in native[-1][1] if "the native start is not used" in m[1]]
@@ -195,4 +204,4 @@ def test_every_fmu_carries_a_native_start(fmu_files, name):
     import zipfile
 
     with zipfile.ZipFile(fmu_files[name]) as z:
-        assert z.read("resources/native_start.bin")[:8] == b"SPNS\x02\0\0\0"
+        assert z.read("resources/native_start.bin")[:8] == b"SPNS\x03\0\0\0"

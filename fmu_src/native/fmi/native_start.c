@@ -27,12 +27,13 @@
 #include "runtime_cfg.h"
 
 #define NS_MAGIC "SPNS"
-#define NS_FORMAT 2u
+#define NS_FORMAT 3u
 #define NS_MAX_FILE (16 * 1024 * 1024)
 #define NS_MAX_TAPE ((size_t)64 * 1024 * 1024)   /* a longer run starts its Python and goes on there */
 #define NS_MAX_LIBS 8
 #define NS_MAX_FIELDS 32
 #define NS_KINDS 4
+#define NS_MAX_VR 1000000u                       /* a larger value reference: a damaged file */
 
 enum { K_REAL, K_INTEGER, K_BOOLEAN, K_STRING };
 enum { F_SETTABLE = 1, F_INPUT = 2, F_CONSTANT = 4 };
@@ -155,8 +156,26 @@ static char *rd_str(Rd *r)
     return d;
 }
 
+/* CRC-32 (zlib's: reflected, polynomial 0xEDB88320) of n bytes */
+static uint32_t crc32_of(const unsigned char *p, size_t n)
+{
+    uint32_t c = 0xFFFFFFFFu;
+    for (size_t i = 0; i < n; i++) {
+        c ^= p[i];
+        for (int k = 0; k < 8; k++) c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
+    }
+    return ~c;
+}
+
 static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t errsize)
 {
+    uint32_t crc = 0;
+    if (len >= 4) memcpy(&crc, I->file + len - 4, 4);
+    if (len < 8 || crc32_of((const unsigned char *)I->file, len - 4) != crc) {
+        snprintf(err, errsize, "%s is damaged (its CRC-32 does not match)", NS_FILE);
+        return -1;
+    }
+    len -= 4;
     Rd r = {I->file, I->file + len, 1};
     char *magic = (char *)rd_take(&r, 4);
     if (!magic || memcmp(magic, NS_MAGIC, 4) != 0 || rd_u32(&r) != NS_FORMAT) {
@@ -207,8 +226,8 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
         uint32_t kind = rd_u32(&r);
         if (kind == FIELD_DOUBLES) {
             uint32_t n = rd_u32(&r);
-            double *src = (double *)rd_take(&r, (size_t)n * 8);
-            I->arrays[i] = (double *)malloc(((size_t)n + 1) * sizeof(double));
+            double *src = (double *)rd_take(&r, (size_t)n * 8);   /* bounds first: no allocation from a bad count */
+            I->arrays[i] = src ? (double *)malloc(((size_t)n + 1) * sizeof(double)) : NULL;
             if (!src || !I->arrays[i]) { r.ok = 0; break; }
             memcpy(I->arrays[i], src, (size_t)n * 8);
             I->ctx[i] = I->arrays[i];
@@ -225,10 +244,12 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
     if (direct && !I->arrays[0]) r.ok = 0;
     I->nv = rd_u32(&r);
     double *v0 = (double *)rd_take(&r, I->nv * 8);
-    I->v = (double *)malloc((I->nv + 1) * sizeof(double));
+    I->v = v0 ? (double *)malloc((I->nv + 1) * sizeof(double)) : NULL;
     if (v0 && I->v) memcpy(I->v, v0, I->nv * 8);
     I->n_in = rd_u32(&r);
     I->n_vars = rd_u32(&r);
+    /* a variable takes at least 48 bytes of the file: a count the rest cannot hold is damage */
+    if (I->n_vars > (size_t)(r.end - r.p) / 48) r.ok = 0;
     I->vars = r.ok && I->v && I->n_in <= I->nv ? (Var *)calloc(I->n_vars + 1, sizeof(Var)) : NULL;
     if (!I->vars) r.ok = 0;
     for (size_t i = 0; r.ok && i < I->n_vars; i++) {
@@ -243,7 +264,7 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
             if (x->kind == K_STRING) x->sval[p] = rd_str(&r);
             else x->val[p] = rd_f64(&r);
         }
-        if (x->kind < 0 || x->kind >= NS_KINDS || x->slot >= (int)I->nv
+        if (x->kind < 0 || x->kind >= NS_KINDS || x->slot >= (int)I->nv || x->vr > NS_MAX_VR
             || (x->kind == K_REAL && (x->flags & F_INPUT) && (x->slot < 0 || (size_t)x->slot >= I->n_in)))
             r.ok = 0;
         else if (x->vr > I->max_vr[x->kind])
@@ -256,6 +277,7 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
     }
     for (size_t i = 0; r.ok && i < I->n_vars; i++) I->index[I->vars[i].kind][I->vars[i].vr] = (int)i;
     I->n_msgs = rd_u32(&r);
+    if (I->n_msgs > (size_t)(r.end - r.p) / 16) r.ok = 0;   /* at least 16 bytes each */
     I->msgs = r.ok ? (Msg *)calloc(I->n_msgs + 1, sizeof(Msg)) : NULL;
     if (!I->msgs) r.ok = 0;
     for (size_t i = 0; r.ok && i < I->n_msgs; i++) {
@@ -263,7 +285,9 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
         I->msgs[i].status = (int)rd_u32(&r);
         I->msgs[i].category = rd_str(&r);
         I->msgs[i].text = rd_str(&r);
-        if (I->msgs[i].phase >= N_PHASES || I->msgs[i].status > fmi2Error) r.ok = 0;
+        if (I->msgs[i].phase < 0 || I->msgs[i].phase >= N_PHASES || I->msgs[i].status < 0
+            || I->msgs[i].status > fmi2Error)
+            r.ok = 0;
     }
     if (!r.ok || r.p != r.end || !I->fn) {
         snprintf(err, errsize, "%s is damaged (%s)", NS_FILE, !I->fn && r.ok ? "its step function is missing" : "bad layout");

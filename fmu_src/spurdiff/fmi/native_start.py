@@ -16,7 +16,8 @@ set to another value, a refused input, a step a watch would log, an FMU state, .
 before and replays the tape through the bridge, checking that every replayed call answers as it did
 and that the replayed outputs equal the native ones, then passes the call on.
 
-The file is data, little-endian, made of: u32 numbers, f64 numbers, strings (u32 length, UTF-8 bytes).
+The file is data, little-endian, made of: u32 numbers, f64 numbers, strings (u32 length, UTF-8 bytes),
+and ends with the CRC-32 of everything before it (zlib's; a damaged file is refused, not run).
 Nothing of the build machine is in it (the kernels are named relative to the resources folder, the
 snapshot is refused when a value or message would carry the instance name or the resources path).
 """
@@ -24,9 +25,10 @@ from __future__ import annotations
 
 import math
 import struct
+import zlib
 
 MAGIC = b"SPNS"
-FORMAT = 2
+FORMAT = 3
 FILE = "native_start.bin"
 KINDS = ("Real", "Integer", "Boolean", "String")
 # the variable flags
@@ -228,7 +230,8 @@ def snapshot(klass) -> bytes:
         w.u32(status)
         w.text(category)
         w.text(text)
-    return w.bytes()
+    body = w.bytes()
+    return body + struct.pack("<I", zlib.crc32(body))
 
 
 def _clean(s: str, what: str) -> None:
