@@ -160,8 +160,9 @@ def test_an_unknown_start_mode_is_refused_naming_it(differential_fmu, monkeypatc
     assert any("SPURDIFF_FMU_START = 'fast'; allowed: auto (default), python" in m for _, m in inst.messages)
 
 
+@pytest.mark.parametrize("version", [2, 3])
 @pytest.mark.parametrize("name", list(CHANGES))
-def test_the_default_run_starts_no_python(fmu_files, tmp_path, name):
+def test_the_default_run_starts_no_python(fmu_files, tmp_path, name, version):
     """In a fresh fmpy process: after the default experiment (simulate_fmu, every output recorded at
     every step) no module of the FMU's package is loaded with the native start, and the Python-started
     run does load it (the check can fail)."""
@@ -173,10 +174,16 @@ def test_the_default_run_starts_no_python(fmu_files, tmp_path, name):
         mine = [m for m, x in list(sys.modules.items()) if str(getattr(x, "__file__", "")).startswith(d)]
         print(len(r), len(mine))
     """)
+    if version == 3:
+        from harness.build.fmu3 import build
+
+        fmu = build([name], quiet=True)[0]
+    else:
+        fmu = fmu_files[name]
     counts = {}
     for mode in ("auto", "python"):
         env = {**os.environ, "SPURDIFF_FMU_START": mode}
-        r = subprocess.run([sys.executable, "-c", script, str(fmu_files[name]), str(tmp_path / mode)],
+        r = subprocess.run([sys.executable, "-c", script, str(fmu), str(tmp_path / mode)],
                            capture_output=True, text=True, env=env, timeout=300)
         assert r.returncode == 0, r.stderr
         counts[mode] = tuple(int(x) for x in r.stdout.split())
