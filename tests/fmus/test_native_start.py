@@ -195,4 +195,4 @@ def test_every_fmu_carries_a_native_start(fmu_files, name):
     import zipfile
 
     with zipfile.ZipFile(fmu_files[name]) as z:
-        assert z.read("resources/native_start.bin")[:8] == b"SPNS\x02\0\0\0"
+        assert z.read("resources/native_start.bin")[:8] == b"SPNS\x03\0\0\0"

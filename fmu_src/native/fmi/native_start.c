@@ -27,12 +27,13 @@
 #include "runtime_cfg.h"
 
 #define NS_MAGIC "SPNS"
-#define NS_FORMAT 2u
+#define NS_FORMAT 3u
 #define NS_MAX_FILE (16 * 1024 * 1024)
 #define NS_MAX_TAPE ((size_t)64 * 1024 * 1024)   /* a longer run starts its Python and goes on there */
 #define NS_MAX_LIBS 8
 #define NS_MAX_FIELDS 32
 #define NS_KINDS 4
+#define NS_MAX_VR (1u << 20)    /* value references index a table: bounded (native_start.py refuses more) */
 
 enum { K_REAL, K_INTEGER, K_BOOLEAN, K_STRING };
 enum { F_SETTABLE = 1, F_INPUT = 2, F_CONSTANT = 4 };
@@ -40,7 +41,7 @@ enum { FIELD_NULL, FIELD_DOUBLES, FIELD_FUNCTION };
 enum { M_INSTANTIATE, M_SETUP, M_ENTER, M_BUILD, N_PHASES };
 enum { P_INSTANTIATED, P_INITIALIZING, P_STEPPING, P_TERMINATED };
 enum { T_LOGGING, T_SETUP, T_ENTER, T_EXIT, T_TERMINATE, T_SET_REAL, T_SET_INTEGER, T_SET_BOOLEAN, T_SET_STRING,
-       T_STEP };
+       T_STEP, T_BUILD };
 
 typedef struct {
     int kind, flags, slot;
@@ -155,6 +156,14 @@ static char *rd_str(Rd *r)
     return d;
 }
 
+/* FNV-1a, 64 bits: the file's last 8 bytes are that of the bytes before them (native_start.py: digest) */
+static uint64_t fnv1a(const unsigned char *p, size_t n)
+{
+    uint64_t h = 0xCBF29CE484222325ull;
+    for (size_t i = 0; i < n; i++) h = (h ^ p[i]) * 0x100000001B3ull;
+    return h;
+}
+
 static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t errsize)
 {
     Rd r = {I->file, I->file + len, 1};
@@ -163,6 +172,12 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
         snprintf(err, errsize, "%s is not a native start of format %u", NS_FILE, NS_FORMAT);
         return -1;
     }
+    uint64_t want = 0;
+    if (len < 16 || (memcpy(&want, I->file + len - 8, 8), fnv1a((const unsigned char *)I->file, len - 8) != want)) {
+        snprintf(err, errsize, "%s is damaged (its digest does not match its bytes)", NS_FILE);
+        return -1;
+    }
+    r.end -= 8;
     I->early = rd_u32(&r) != 0;
     uint32_t n_libs = rd_u32(&r);
     if (n_libs > NS_MAX_LIBS) r.ok = 0;
@@ -243,7 +258,7 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
             if (x->kind == K_STRING) x->sval[p] = rd_str(&r);
             else x->val[p] = rd_f64(&r);
         }
-        if (x->kind < 0 || x->kind >= NS_KINDS || x->slot >= (int)I->nv
+        if (x->kind < 0 || x->kind >= NS_KINDS || x->slot >= (int)I->nv || x->vr >= NS_MAX_VR
             || (x->kind == K_REAL && (x->flags & F_INPUT) && (x->slot < 0 || (size_t)x->slot >= I->n_in)))
             r.ok = 0;
         else if (x->vr > I->max_vr[x->kind])
@@ -252,18 +267,19 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
     for (int k = 0; r.ok && k < NS_KINDS; k++) {
         I->index[k] = (int *)malloc(((size_t)I->max_vr[k] + 1) * sizeof(int));
         if (!I->index[k]) { r.ok = 0; break; }
-        for (unsigned j = 0; j <= I->max_vr[k]; j++) I->index[k][j] = -1;
+        for (size_t j = 0; j <= I->max_vr[k]; j++) I->index[k][j] = -1;
     }
     for (size_t i = 0; r.ok && i < I->n_vars; i++) I->index[I->vars[i].kind][I->vars[i].vr] = (int)i;
     I->n_msgs = rd_u32(&r);
     I->msgs = r.ok ? (Msg *)calloc(I->n_msgs + 1, sizeof(Msg)) : NULL;
     if (!I->msgs) r.ok = 0;
     for (size_t i = 0; r.ok && i < I->n_msgs; i++) {
-        I->msgs[i].phase = (int)rd_u32(&r);
-        I->msgs[i].status = (int)rd_u32(&r);
+        uint32_t phase = rd_u32(&r), status = rd_u32(&r);   /* checked unsigned: no negative one slips through */
+        I->msgs[i].phase = (int)phase;
+        I->msgs[i].status = (int)status;
         I->msgs[i].category = rd_str(&r);
         I->msgs[i].text = rd_str(&r);
-        if (I->msgs[i].phase >= N_PHASES || I->msgs[i].status > fmi2Error) r.ok = 0;
+        if (phase >= N_PHASES || status > fmi2Error) r.ok = 0;
     }
     if (!r.ok || r.p != r.end || !I->fn) {
         snprintf(err, errsize, "%s is damaged (%s)", NS_FILE, !I->fn && r.ok ? "its step function is missing" : "bad layout");
@@ -449,6 +465,9 @@ static int readable(NsInst *I, int kind, const fmi2ValueReference vr[], size_t n
         if (I->phase >= P_STEPPING && !(x->flags & F_CONSTANT) && x->slot < 0) return -1;
     }
     if (I->phase == P_INITIALIZING && I->dirty) {   /* the read builds the model (the adapter's _read) */
+        /* on the tape too: a later set the Python refuses leaves the model built by this read in place */
+        int32_t what[3] = {kind, n ? (int32_t)vr[0] : 0, n ? 1 : 0};   /* a read of none builds it too */
+        if (record(I, T_BUILD, 0, what, sizeof what, NULL, 0) != 0) return -1;
         emit_phase(I, M_BUILD);
         I->dirty = 0;
     }
@@ -632,7 +651,8 @@ int ns_replay(const NsInst *I, const Fmi2Table *t, fmi2Component c, NsStepEarly 
 {
     static const char *const NAMES[] = {"fmi2SetDebugLogging", "fmi2SetupExperiment", "fmi2EnterInitializationMode",
                                         "fmi2ExitInitializationMode", "fmi2Terminate", "fmi2SetReal",
-                                        "fmi2SetInteger", "fmi2SetBoolean", "fmi2SetString", "fmi2DoStep"};
+                                        "fmi2SetInteger", "fmi2SetBoolean", "fmi2SetString", "fmi2DoStep",
+                                        "a read in Initialization Mode"};
     size_t pos = 0, count = 0;
     while (pos < I->tape_len) {
         Rec h;
@@ -695,6 +715,20 @@ int ns_replay(const NsInst *I, const Fmi2Table *t, fmi2Component c, NsStepEarly 
             memcpy(b, p + sizeof d, sizeof b);
             s = b[1] ? early_step(c, d[0], d[1], b[0], &end) : t->fmi2DoStep(c, d[0], d[1], b[0]);
             size = sizeof d + sizeof b;
+            break;
+        }
+        case T_BUILD: {   /* the read that built the model: the same read (its values are the snapshot's) */
+            int32_t what[3];
+            memcpy(what, p, sizeof what);
+            fmi2ValueReference vr = (fmi2ValueReference)what[1];
+            size_t k = (size_t)what[2];
+            fmi2Real r;
+            fmi2Integer i;
+            fmi2Boolean b;
+            fmi2String str;
+            s = what[0] == K_REAL ? t->fmi2GetReal(c, &vr, k, &r) : what[0] == K_INTEGER ? t->fmi2GetInteger(c, &vr, k, &i)
+                : what[0] == K_BOOLEAN ? t->fmi2GetBoolean(c, &vr, k, &b) : t->fmi2GetString(c, &vr, k, &str);
+            size = sizeof what;
             break;
         }
         default:

@@ -1,0 +1,635 @@
+"""The native start against the Python start at its edges (fmu_src/native/fmi/native_start.c,
+fmi2_loader.c): call-order violations, stop and start times, odd step sizes, non-finite inputs,
+logging switched in every way, unknown value references, sets equal and unequal to the start values,
+two instances at once, a long tape replayed, the FMI 3.0 binary, the model's own process, a damaged
+resources/native_start.bin. Every case runs the same calls with SPURDIFF_FMU_START=auto and =python
+and compares what the host sees: each status, each value bit for bit, every message."""
+from __future__ import annotations
+
+import math
+import os
+import struct
+import subprocess
+import sys
+import textwrap
+from ctypes import c_char_p, c_double, c_int, c_size_t, c_uint, c_void_p
+
+import pytest
+from test_native_start import CHANGES, KINDS
+
+from harness.fmi.instance import Instance, fmu_cache
+
+NAMES = list(CHANGES)
+CTYPE = {"Real": c_double, "Integer": c_int, "Boolean": c_int, "String": c_char_p}
+
+
+def _bits(kind, x):
+    if kind == "Real":
+        return struct.pack("<d", x).hex()
+    if kind == "String":
+        return x.decode("utf-8", "replace") if x is not None else None
+    return int(x)
+
+
+class Md:
+    """The variables of an FMU picked by role (any of the three FMUs)."""
+
+    def __init__(self, path):
+        self.path = path
+        self.unzipdir, self.md = fmu_cache().get(path)
+        self.vars = list(self.md.modelVariables)
+        self.by = {v.name: v for v in self.vars}
+        self.inputs = [v for v in self.vars if v.causality == "input" and v.type == "Real"]
+        self.outputs = [v.valueReference for v in self.vars if v.causality == "output" and v.type == "Real"]
+
+    def vr(self, name):
+        return self.by[name].valueReference
+
+    def params(self, kind):
+        return [v for v in self.vars if v.causality == "parameter" and v.type == kind and v.start is not None]
+
+    def start(self, v):
+        if v.type == "Real":
+            return float(v.start)
+        if v.type == "Integer":
+            return int(v.start)
+        if v.type == "Boolean":
+            return v.start in ("true", "1", True)
+        return v.start
+
+
+def _call(inst, name, *args):
+    return int(inst.c_function(name)(inst.component, *args))
+
+
+def _get(inst, kind, vrs):
+    n = len(vrs)
+    vals = (CTYPE[kind] * max(n, 1))()
+    s = _call(inst, f"fmi2Get{kind}", (c_uint * max(n, 1))(*vrs), c_size_t(n), vals)
+    return (s, [_bits(kind, x) for x in vals[:n]] if s <= 1 else None)
+
+
+def _set(inst, kind, vrs, values):
+    n = len(vrs)
+    if kind == "String":
+        arr = (c_char_p * max(n, 1))(*[v.encode() for v in values])
+    else:
+        arr = (CTYPE[kind] * max(n, 1))(*[(int(v) if kind != "Real" else v) for v in values])
+    return _call(inst, f"fmi2Set{kind}", (c_uint * max(n, 1))(*vrs), c_size_t(n), arr)
+
+
+def _all(inst, m):
+    return [_get(inst, k, [v.valueReference for v in m.vars if v.type == k]) for k in KINDS]
+
+
+def _do(inst, m, act):
+    op, *a = act
+    if op == "setup":      # (start, stop or None)
+        t0, t1 = a
+        return _call(inst, "fmi2SetupExperiment", 0, c_double(0.0), c_double(t0), 1 if t1 is not None else 0,
+                     c_double(t1 if t1 is not None else 0.0))
+    if op in ("enter", "exit", "terminate", "reset"):
+        fn = {"enter": "fmi2EnterInitializationMode", "exit": "fmi2ExitInitializationMode",
+              "terminate": "fmi2Terminate", "reset": "fmi2Reset"}[op]
+        return _call(inst, fn)
+    if op == "step":       # (t, h): its status and the outputs after it
+        s = _call(inst, "fmi2DoStep", c_double(a[0]), c_double(a[1]), 1)
+        return s, _get(inst, "Real", m.outputs)
+    if op == "steps":      # (t0, n, h): the statuses, the outputs every 100 steps and at the end
+        t, n, h = a
+        fn, comp = inst.c_function("fmi2DoStep"), inst.component
+        out = []
+        for i in range(n):
+            s = int(fn(comp, c_double(t), c_double(h), 1))
+            t += h
+            if s != 0 or i % 100 == 99 or i == n - 1:
+                out.append((i, s, _get(inst, "Real", m.outputs)))
+        return out
+    if op == "get":
+        return _get(inst, *a)
+    if op == "set":
+        return _set(inst, *a)
+    if op == "all":
+        return _all(inst, m)
+    if op == "log":        # (on, categories)
+        on, cats = a
+        arr = (c_char_p * max(len(cats), 1))(*[c.encode() for c in cats])
+        return _call(inst, "fmi2SetDebugLogging", 1 if on else 0, c_size_t(len(cats)), arr)
+    if op == "state":
+        st = c_void_p()
+        from ctypes import byref
+        s1 = _call(inst, "fmi2GetFMUstate", byref(st))
+        s2 = _call(inst, "fmi2SetFMUstate", st) if s1 == 0 else None
+        s3 = _call(inst, "fmi2FreeFMUstate", byref(st)) if s1 == 0 else None
+        return s1, s2, s3
+    raise ValueError(op)
+
+
+def _instance(m, mode, monkeypatch, logging=True, name="ns", unzipdir=None, md=None):
+    monkeypatch.setenv("SPURDIFF_FMU_START", mode)
+    inst = Instance(name, None, unzipdir=unzipdir or m.unzipdir, md=md or m.md, instantiate=False)
+    if not logging:
+        orig = inst.slave.instantiate
+        inst.slave.instantiate = lambda **kw: orig(**{**kw, "loggingOn": False})
+    inst.instantiate()
+    return inst
+
+
+def trace(m, mode, program, monkeypatch, logging=True, **kw):
+    """Each action's result on a new instance started in ``mode``, then its messages."""
+    inst = _instance(m, mode, monkeypatch, logging, **kw)
+    try:
+        out = [(act[0], _do(inst, m, act)) for act in program]
+    finally:
+        inst.close()
+    return out + [("messages", list(inst.messages))]
+
+
+def same(m, program, monkeypatch, logging=True, **kw):
+    native = trace(m, "auto", program, monkeypatch, logging, **kw)
+    python = trace(m, "python", program, monkeypatch, logging, **kw)
+    assert native == python
+    return native
+
+
+@pytest.fixture(params=NAMES)
+def m(request, fmu_files):
+    return Md(fmu_files[request.param])
+
+
+INIT = [("setup", 0.0, None), ("enter",), ("exit",)]
+H = 1e-3
+
+
+def _steps(t0, n, h=H):
+    return [("steps", t0, n, h)]
+
+
+# ------------------------------------------------------------------------------ call order
+ORDER = {
+    "step-before-init": [("step", 0.0, H)] + INIT + _steps(0.0, 5),
+    "exit-before-enter": [("setup", 0.0, None), ("exit",), ("enter",), ("exit",)] + _steps(0.0, 5),
+    "enter-twice": [("setup", 0.0, None), ("enter",), ("enter",), ("exit",)] + _steps(0.0, 5),
+    "setup-after-enter": [("setup", 0.0, None), ("enter",), ("setup", 1.0, None), ("exit",)] + _steps(0.0, 5),
+    "setup-twice": [("setup", 0.0, 5.0), ("setup", 0.0, None), ("enter",), ("exit",)] + _steps(0.0, 5),
+    "setup-after-exit": INIT + [("setup", 0.0, None)] + _steps(0.0, 5),
+    "exit-twice": INIT + [("exit",)] + _steps(0.0, 5),
+    "terminate-before-init": [("terminate",)] + INIT + _steps(0.0, 3),
+    "terminate-in-init": [("setup", 0.0, None), ("enter",), ("terminate",), ("exit",)] + _steps(0.0, 3),
+    "terminate-twice": INIT + _steps(0.0, 5) + [("terminate",), ("terminate",), ("all",)],
+    "after-terminate": INIT + _steps(0.0, 5) + [("terminate",), ("all",), ("step", 5 * H, H)],
+    "reset-after-terminate": INIT + _steps(0.0, 5) + [("terminate",), ("reset",)] + INIT + _steps(0.0, 5),
+    "reset-before-init": [("reset",)] + INIT + _steps(0.0, 5),
+    "reset-in-init": [("setup", 0.0, None), ("enter",), ("reset",)] + INIT + _steps(0.0, 5),
+    "no-setup": [("enter",), ("exit",)] + _steps(0.0, 5),
+}
+
+
+@pytest.mark.parametrize("case", list(ORDER))
+def test_call_order_violations(m, monkeypatch, case):
+    same(m, ORDER[case], monkeypatch)
+
+
+def test_set_after_terminate(m, monkeypatch):
+    u = m.inputs[0]
+    p = m.params("Real")[0]
+    prog = INIT + _steps(0.0, 3) + [("terminate",), ("set", "Real", [u.valueReference], [m.start(u)]),
+                                     ("set", "Real", [p.valueReference], [m.start(p)]), ("all",)]
+    same(m, prog, monkeypatch)
+
+
+# ------------------------------------------------------------------------------ times
+TIMES = {
+    "stop-exactly-reached": [("setup", 0.0, 0.01), ("enter",), ("exit",)] + _steps(0.0, 10)
+    + [("step", 0.01, H)],
+    "stop-step-lands-on-it": [("setup", 0.0, 0.01), ("enter",), ("exit",), ("step", 0.0, 0.009),
+                              ("step", 0.009, 0.001), ("step", 0.01, 1e-12)],
+    "stop-step-past-it": [("setup", 0.0, 0.01), ("enter",), ("exit",), ("step", 0.0, 0.0105)],
+    "stop-equals-start": [("setup", 0.5, 0.5), ("enter",), ("exit",), ("step", 0.5, H)],
+    "stop-before-start": [("setup", 1.0, 0.5), ("enter",), ("exit",), ("step", 1.0, H)],
+    "start-2.5": [("setup", 2.5, None), ("enter",), ("exit",)] + _steps(2.5, 20),
+    "start-negative": [("setup", -1.0, 1.0), ("enter",), ("exit",)] + _steps(-1.0, 20),
+    "start-huge": [("setup", 1e9, None), ("enter",), ("exit",)] + _steps(1e9, 5),
+    "start-nan": [("setup", math.nan, None), ("enter",), ("exit",), ("step", 0.0, H)],
+    "start-inf": [("setup", math.inf, None), ("enter",), ("exit",), ("step", 0.0, H)],
+    "stop-nan": [("setup", 0.0, math.nan), ("enter",), ("exit",), ("step", 0.0, H)],
+    "stop-inf": [("setup", 0.0, math.inf), ("enter",), ("exit",), ("step", 0.0, H)],
+    "step-wrong-time": INIT + [("step", 0.5, H), ("step", 0.0, H), ("step", 0.0, H), ("step", 5e-4, H)],
+    "step-start-ignored": [("setup", 2.5, None), ("enter",), ("exit",), ("step", 0.0, H), ("step", 2.5, H)],
+    "step-time-within-tolerance": INIT + [("step", 1e-10, H), ("step", H + 1e-9, H)],
+    "step-time-at-tolerance": INIT + [("step", 0.0, H), ("step", H + 1e-9 * 1 + 1e-6 * H, H)],
+}
+
+
+@pytest.mark.parametrize("case", list(TIMES))
+def test_times(m, monkeypatch, case):
+    same(m, TIMES[case], monkeypatch)
+
+
+@pytest.mark.parametrize("h", [0.0, -H, math.nan, math.inf, -math.inf, 1e-300, 5e-324, 10.0],
+                         ids=["zero", "negative", "nan", "inf", "-inf", "tiny", "denormal", "large"])
+def test_step_sizes(m, monkeypatch, h):
+    same(m, INIT + _steps(0.0, 3) + [("step", 3 * H, h), ("step", 3 * H, H)], monkeypatch)
+
+
+# ------------------------------------------------------------------------------ inputs
+@pytest.mark.parametrize("x", [math.nan, math.inf, -math.inf, -0.0, 1e308],
+                         ids=["nan", "inf", "-inf", "-zero", "huge"])
+@pytest.mark.parametrize("when", ["instantiated", "initializing", "stepping"])
+def test_non_finite_inputs(m, monkeypatch, x, when):
+    u = m.inputs[0].valueReference
+    s = ("set", "Real", [u], [x])
+    prog = {"instantiated": [s] + INIT + _steps(0.0, 3),
+            "initializing": INIT[:2] + [s, ("all",), ("exit",)] + _steps(0.0, 3),
+            "stepping": INIT + _steps(0.0, 3) + [s, ("step", 3 * H, H), ("get", "Real", [u]),
+                                                 ("set", "Real", [u], [m.start(m.inputs[0])]), ("step", 4 * H, H)]}
+    same(m, prog[when] + [("all",)], monkeypatch)
+
+
+def test_every_input_set_to_its_start_before_init_then_read(m, monkeypatch):
+    """Sets equal to the start values (native) then reads in Initialization Mode: the build's messages
+    at the first read, again after another set (the model is rebuilt), none at exitInitializationMode."""
+    vrs = [v.valueReference for v in m.inputs]
+    starts = [m.start(v) for v in m.inputs]
+    prog = [("set", "Real", vrs, starts), ("setup", 0.0, None), ("set", "Real", vrs, starts), ("enter",),
+            ("set", "Real", vrs, starts), ("all",), ("all",), ("set", "Real", vrs[:1], starts[:1]), ("all",),
+            ("exit",)] + _steps(0.0, 5)
+    native = same(m, prog, monkeypatch)
+    assert native[-1][1], "the messages are compared"
+
+
+def test_input_set_while_stepping_in_a_changing_order(m, monkeypatch):
+    """More input vectors than the native start caches (4), in changing orders, with reads between."""
+    us = m.inputs
+    prog = list(INIT)
+    t = 0.0
+    for k in range(12):
+        pick = [us[(k + j) % len(us)] for j in range(1 + k % len(us))]
+        prog += [("set", "Real", [v.valueReference for v in pick], [m.start(v) for v in pick]),
+                 ("step", t, H), ("get", "Real", list(reversed(m.outputs))[: 1 + k])]
+        t += H
+    same(m, prog, monkeypatch)
+
+
+# ------------------------------------------------------------------------------ logging
+LOGS = {
+    "off": [("log", False, [])],
+    "off-on": [("log", False, []), ("log", True, [])],
+    "on-with-categories": [("log", True, ["logAll"])],
+    "off-with-categories": [("log", False, ["logAll"])],
+    "unknown-category": [("log", True, ["noSuchCategory"])],
+}
+
+
+@pytest.mark.parametrize("logging", [True, False], ids=["logging-on", "logging-off"])
+@pytest.mark.parametrize("case", list(LOGS))
+@pytest.mark.parametrize("where", ["before-setup", "in-init", "stepping"])
+def test_debug_logging(m, monkeypatch, case, logging, where):
+    u = m.inputs[0]
+    tail = _steps(0.0, 3) + [("set", "Real", [u.valueReference], [1e300]), ("step", 3 * H, H)]
+    calls = LOGS[case]
+    prog = {"before-setup": calls + INIT + tail,
+            "in-init": INIT[:2] + calls + [("all",), ("exit",)] + tail,
+            "stepping": INIT + calls + tail}[where]
+    same(m, prog, monkeypatch, logging=logging)
+
+
+def test_logging_off_at_instantiate_shows_fewer_messages(m, monkeypatch):
+    """loggingOn = False: the start's fmi2OK messages are not shown (a check the comparison can fail)."""
+    prog = INIT + _steps(0.0, 3)
+    off = same(m, prog, monkeypatch, logging=False)[-1][1]
+    on = trace(m, "auto", prog, monkeypatch)[-1][1]
+    assert all(s >= 1 for s, _ in off)
+    assert len(on) > len(off)
+
+
+# ------------------------------------------------------------------------------ references and values
+UNKNOWN = [99999, 2 ** 31 - 1, 2 ** 32 - 1]
+
+
+@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("when", ["instantiated", "initializing", "stepping"])
+def test_unknown_value_references(m, monkeypatch, kind, when):
+    known = [v.valueReference for v in m.vars if v.type == kind][:1]
+    other = [v.valueReference for v in m.vars if v.type != kind and v.valueReference not in
+             {w.valueReference for w in m.vars if w.type == kind}][:1]
+    acts = []
+    for vr in UNKNOWN + other:
+        acts += [("get", kind, [vr]), ("get", kind, known + [vr])]
+    start = {"Real": 0.0, "Integer": 0, "Boolean": False, "String": ""}[kind]
+    acts += [("set", kind, [UNKNOWN[0]], [start]), ("get", kind, [])]
+    prog = {"instantiated": acts + INIT, "initializing": INIT[:2] + acts + [("exit",)],
+            "stepping": INIT + _steps(0.0, 2) + acts}[when]
+    same(m, prog + _steps(0.0 if when != "stepping" else 2 * H, 2), monkeypatch)
+
+
+@pytest.mark.parametrize("kind", ["String", "Boolean", "Integer", "Real"])
+@pytest.mark.parametrize("value", ["equal", "unequal", "invalid"])
+@pytest.mark.parametrize("when", ["instantiated", "initializing", "stepping"])
+def test_parameter_sets(m, monkeypatch, kind, value, when):
+    """A parameter set to its start value (native), another valid one, an invalid one (the Python),
+    before, in and after Initialization Mode (in it after a read that built the model)."""
+    ps = m.params(kind)
+    if not ps:
+        pytest.skip(f"no {kind} parameter with a start value")
+    p = ps[0]
+    x = m.start(p)
+    if value == "unequal":
+        x = {"String": lambda: p.start + "x", "Boolean": lambda: not x, "Integer": lambda: x + 1,
+             "Real": lambda: x + 1.0}[kind]()
+    elif value == "invalid":
+        x = {"String": "noSuchChoice", "Boolean": 7, "Integer": -2 ** 31, "Real": math.nan}[kind]
+    s = ("set", kind, [p.valueReference], [x])
+    prog = {"instantiated": [s] + INIT, "initializing": INIT[:2] + [("all",), s, ("all",), ("exit",)],
+            "stepping": INIT + _steps(0.0, 2) + [s]}[when]
+    same(m, prog + [("all",)] + _steps(0.0 if when != "stepping" else 2 * H, 3), monkeypatch)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_a_read_of_no_variable_in_initialization_mode(m, monkeypatch, kind):
+    """A read of none builds the model as any read does (its messages then, not at the exit)."""
+    p = m.params("String")[0]
+    same(m, INIT[:2] + [("get", kind, []), ("set", "String", [p.valueReference], ["noSuchChoice"]), ("all",),
+                        ("exit",)] + _steps(0.0, 2), monkeypatch)
+
+
+def test_strings_of_parameters_in_every_mode(m, monkeypatch):
+    vrs = [v.valueReference for v in m.vars if v.type == "String"]
+    g = ("get", "String", vrs)
+    same(m, [g, ("setup", 0.0, None), g, ("enter",), g, ("exit",), g] + _steps(0.0, 3)
+         + [g, ("terminate",), g], monkeypatch)
+
+
+# ------------------------------------------------------------------------------ two instances
+def test_two_instances_one_promoted_one_native(m, monkeypatch):
+    """A and B at once; A is promoted (an FMU state) between B's native steps; both as with the Python."""
+    def run(mode):
+        a = _instance(m, mode, monkeypatch, name="a")
+        b = _instance(m, mode, monkeypatch, name="b")
+        out = []
+        try:
+            for inst in (a, b):
+                out += [_do(inst, m, act) for act in INIT]
+            for k in range(10):
+                out.append(_do(a, m, ("step", k * H, H)))
+                out.append(_do(b, m, ("step", k * H, H)))
+                if k == 4:
+                    out.append(_do(a, m, ("state",)))
+            out += [_do(a, m, ("all",)), _do(b, m, ("all",))]
+        finally:
+            a.close()
+            b.close()
+        return out, list(a.messages), list(b.messages)
+    assert run("auto") == run("python")
+
+
+# ------------------------------------------------------------------------------ a long tape
+def test_a_long_tape_replayed_at_an_fmu_state_call(differential_fmu, monkeypatch):
+    m = Md(differential_fmu)
+    u = m.inputs[2].valueReference
+    prog = INIT + [("set", "Real", [u], [m.start(m.inputs[2]) * 0.9])] + _steps(0.0, 20000, 1e-4) + [
+        ("state",), ("step", 2.0, 1e-4), ("all",)]
+    native = same(m, prog, monkeypatch)
+    assert native[-4] == ("state", (0, 0, 0))
+
+
+def test_a_promotion_in_the_model_s_own_process(m, monkeypatch):
+    monkeypatch.setenv("SPURDIFF_FMU_PROCESS", "out")
+    u = m.inputs[0].valueReference
+    same(m, INIT + _steps(0.0, 30) + [("set", "Real", [u], [math.nan]), ("step", 30 * H, H), ("state",), ("all",)],
+         monkeypatch)
+
+
+# ------------------------------------------------------------------------------ FMI 3.0
+def _trace3(path, mode, program, monkeypatch):
+    from fmpy.fmi1 import FMICallException
+    from fmpy.fmi3 import FMU3Slave
+
+    monkeypatch.setenv("SPURDIFF_FMU_START", mode)
+    unzipdir, md = fmu_cache().get(path)
+    s = FMU3Slave(guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=md.coSimulation.modelIdentifier,
+                  instanceName="ns3")
+    log = []
+    s.instantiate(loggingOn=True, logMessage=lambda env, st, cat, msg: log.append((st, msg.decode())))
+    outs = [v.valueReference for v in md.modelVariables if v.causality == "output" and v.type in ("Real", "Float64")]
+    ins = [v.valueReference for v in md.modelVariables if v.causality == "input" and v.type in ("Real", "Float64")]
+    assert outs and ins
+    out = []
+    for op, *a in program:
+        try:
+            if op == "init":
+                s.enterInitializationMode(startTime=a[0], stopTime=a[1])
+                s.exitInitializationMode()
+                r = None
+            elif op == "step":
+                r = s.doStep(currentCommunicationPoint=a[0], communicationStepSize=a[1])
+                r = (tuple(r), [struct.pack("<d", x).hex() for x in s.getFloat64(outs)])
+            elif op == "set":
+                r = s.setFloat64([ins[0]], [a[0]])
+            elif op == "exit":
+                r = s.exitInitializationMode()
+            elif op == "state":
+                st = s.getFMUState()
+                s.setFMUState(st)
+                s.freeFMUState(st)
+                r = None
+            elif op == "terminate":
+                r = s.terminate()
+            out.append((op, "ok", r))
+        except FMICallException as e:
+            out.append((op, "failed", e.status))
+    try:
+        s.terminate()
+    except Exception:
+        pass
+    s.freeInstance()
+    return out, log
+
+
+PROGRAMS3 = {
+    "stop-and-past": [("init", 0.0, 0.01)] + [("step", k * H, H) for k in range(10)] + [("step", 0.01, H)],
+    "wrong-time": [("init", 0.0, None), ("step", 0.5, H), ("step", 0.0, H)],
+    "h-zero-nan": [("init", 0.0, None), ("step", 0.0, 0.0), ("step", 0.0, math.nan), ("step", 0.0, H)],
+    "nan-input": [("init", 0.0, None), ("step", 0.0, H), ("set", math.nan), ("step", H, H), ("step", H, H)],
+    "exit-twice-terminate-twice": [("init", 0.0, None), ("exit",), ("step", 0.0, H), ("terminate",),
+                                   ("terminate",), ("step", H, H)],
+    "long-then-state": [("init", 0.0, None)] + [("step", k * H, H) for k in range(300)] + [("state",),
+                                                                                         ("step", 0.3, H)],
+}
+
+
+@pytest.mark.parametrize("case", list(PROGRAMS3))
+def test_fmi3(fmu_files, monkeypatch, case):
+    from harness.build.fmu3 import build
+
+    path = build(["SpurDifferential"], quiet=True)[0]
+    assert _trace3(path, "auto", PROGRAMS3[case], monkeypatch) == _trace3(path, "python", PROGRAMS3[case],
+                                                                          monkeypatch)
+
+
+# ------------------------------------------------------------------------------ a damaged file
+_RUN = textwrap.dedent("""
+    import json, os, struct, sys
+    from fmpy import read_model_description
+    from harness.fmi.instance import Instance
+    d = sys.argv[1]
+    md = read_model_description(d)
+    inst = Instance("ns", None, unzipdir=d, md=md)
+    outs = [v.valueReference for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
+    inst.slave.setupExperiment(startTime=0.0)
+    inst.slave.enterInitializationMode()
+    inst.slave.exitInitializationMode()
+    res = []
+    for k in range(5):
+        inst.slave.doStep(k * 1e-3, 1e-3)
+        res.append([struct.pack("<d", x).hex() for x in inst.slave.getReal(outs)])
+    inst.close()
+    print(json.dumps({"values": res, "messages": inst.messages}))
+""")
+
+
+def _damaged_run(unzipdir, mode):
+    import json
+
+    env = {**os.environ, "SPURDIFF_FMU_START": mode}
+    r = subprocess.run([sys.executable, "-c", _RUN, unzipdir], capture_output=True, text=True, env=env, timeout=120)
+    assert r.returncode == 0, f"the host died ({r.returncode}): {r.stderr[-2000:]}"
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def _corruptions(data: bytes) -> dict:
+    n = len(data)
+    u32 = lambda x: struct.pack("<I", x)  # noqa: E731
+    cuts = {"0": 0, "3": 3, "4": 4, "8": 8, "12": 12, "16": 16, "20": 20, "quarter": n // 4, "half": n // 2,
+            "end-8": n - 8, "end-1": n - 1}
+    out = {f"truncated-{k}": data[:at] for k, at in cuts.items()}
+    out["appended"] = data + b"\0"
+    out["libs-huge"] = data[:12] + u32(0xFFFFFFFF) + data[16:]
+    out["libs-zero"] = data[:12] + u32(0) + data[16:]
+    out["lib-name-length-huge"] = data[:16] + u32(0xFFFFFFFF) + data[20:]
+    out["lib-name-length-1"] = data[:16] + u32(1) + data[20:]
+    out["format"] = data[:4] + u32(99) + data[8:]
+    for k in range(1, 12):      # one byte changed anywhere: a value, a count, a reference, a message
+        at = k * n // 12
+        out[f"byte-{k}-of-12"] = data[:at] + bytes([data[at] ^ 0x5A]) + data[at + 1:]
+    return out
+
+
+@pytest.fixture(scope="module")
+def pristine(differential_fmu, tmp_path_factory):
+    from fmpy import extract
+
+    d = extract(str(differential_fmu), str(tmp_path_factory.mktemp("pristine")))
+    with open(os.path.join(d, "resources", "native_start.bin"), "rb") as f:
+        data = f.read()
+    return d, data, _damaged_run(d, "python")
+
+
+@pytest.mark.parametrize("case", list(_corruptions(b"\0" * 1200)))
+def test_a_damaged_native_start_warns_and_starts_the_python(pristine, tmp_path, case):
+    """Truncated, extended, a count or a length made huge, one byte changed anywhere: the warning and the
+    Python start, never a crash, never a silent other answer."""
+    import shutil
+
+    d, data, python = pristine
+    mine = str(tmp_path / "fmu")
+    shutil.copytree(d, mine)
+    with open(os.path.join(mine, "resources", "native_start.bin"), "wb") as f:
+        f.write(_corruptions(data)[case])
+    got = _damaged_run(mine, "auto")
+    warned = [t for s, t in got["messages"] if "the native start is not used" in t]
+    assert len(warned) == 1, got["messages"][:3]
+    assert got["values"] == python["values"]
+    assert [m for m in got["messages"] if "the native start is not used" not in m[1]] == python["messages"]
+
+
+def _layout(data: bytes) -> dict:
+    """Where the counts and the first variable's fields are in a native_start.bin (native_start.py's order)."""
+    at = [8]
+
+    def u32():
+        at[0] += 4
+        return struct.unpack_from("<I", data, at[0] - 4)[0]
+
+    def skip(n):
+        at[0] += n
+
+    def text():
+        skip(u32())
+
+    u32()                                   # early
+    for _ in range(u32()):                  # libraries
+        text()
+    for _ in range(u32()):                  # checks
+        u32(), text(), skip(8)
+    u32(), text(), u32()                    # the function, direct
+    out = {"n_fields": at[0]}
+    for _ in range(u32()):
+        kind = u32()
+        if kind == 1:
+            skip(8 * u32())
+        elif kind == 2:
+            u32(), text()
+    out["nv"] = at[0]
+    nv = u32()
+    skip(8 * nv)
+    u32()                                   # n_in
+    out["n_vars"] = at[0]
+    u32()
+    out["kind"], out["vr"], out["slot"] = at[0], at[0] + 4, at[0] + 12
+    out["nv_value"] = nv
+    # the messages' count: after every variable
+    for _ in range(struct.unpack_from("<I", data, out["n_vars"])[0]):
+        kind = u32()
+        skip(12 + 16)
+        for _ in range(3):
+            text() if kind == 3 else skip(8)
+    out["n_msgs"] = at[0]
+    u32()
+    out["msg_phase"], out["msg_status"] = at[0], at[0] + 4
+    return out
+
+
+def _redigested(data: bytes, changes: dict) -> bytes:
+    from spurdiff.fmi.native_start import digest
+
+    body = bytearray(data[:-8])
+    for at, x in changes.items():
+        struct.pack_into("<I", body, at, x & 0xFFFFFFFF)
+    return bytes(body) + struct.pack("<Q", digest(bytes(body)))
+
+
+LAYOUT_DAMAGE = {
+    "vr-max": lambda L: {L["vr"]: 0xFFFFFFFF},
+    "vr-past-the-bound": lambda L: {L["vr"]: 1 << 20},
+    "kind-7": lambda L: {L["kind"]: 7},
+    "kind-negative": lambda L: {L["kind"]: 0xFFFFFFFF},
+    "slot-past-v": lambda L: {L["slot"]: L["nv_value"]},
+    "slot-huge": lambda L: {L["slot"]: 0x7FFFFFFF},
+    "input-without-slot": lambda L: {L["slot"]: 0xFFFFFFFF},
+    "n-vars-huge": lambda L: {L["n_vars"]: 0xFFFFFFFF},
+    "n-vars-zero": lambda L: {L["n_vars"]: 0},
+    "nv-huge": lambda L: {L["nv"]: 0xFFFFFFFF},
+    "n-fields-33": lambda L: {L["n_fields"]: 33},
+    "n-msgs-huge": lambda L: {L["n_msgs"]: 0xFFFFFFFF},
+    "msg-phase-huge": lambda L: {L["msg_phase"]: 0xFFFFFFFF},
+    "msg-status-huge": lambda L: {L["msg_status"]: 0xFFFFFFFF},
+}
+
+
+@pytest.mark.parametrize("case", list(LAYOUT_DAMAGE))
+def test_a_bad_layout_behind_a_good_digest_warns_and_starts_the_python(pristine, tmp_path, case):
+    """A file whose digest matches but whose numbers do not hold together (as a faulty writer would make
+    it): refused by the reader's own checks, never a crash, an endless loop or a huge allocation."""
+    import shutil
+
+    d, data, python = pristine
+    assert _layout(data)["nv_value"] > 0
+    mine = str(tmp_path / "fmu")
+    shutil.copytree(d, mine)
+    with open(os.path.join(mine, "resources", "native_start.bin"), "wb") as f:
+        f.write(_redigested(data, LAYOUT_DAMAGE[case](_layout(data))))
+    got = _damaged_run(mine, "auto")
+    warned = [t for s, t in got["messages"] if "the native start is not used" in t]
+    assert len(warned) == 1 and "native_start.bin is damaged (bad layout)" in warned[0], got["messages"][:3]
+    assert got["values"] == python["values"]
