@@ -448,6 +448,33 @@ def test_strings_of_parameters_in_every_mode(m, monkeypatch):
          + [g, ("terminate",), g], monkeypatch)
 
 
+@pytest.mark.parametrize("fmu_type", [0, 2, -1], ids=["model-exchange", "unknown-2", "unknown-negative"])
+def test_an_instance_of_another_type_is_refused_alike(m, monkeypatch, fmu_type):
+    """fmi2Instantiate asked for another FMU type than co-simulation: NULL and the same message."""
+    from ctypes import byref
+
+    from fmpy import calloc, free
+    from fmpy.fmi2 import fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions
+    from pathlib import Path
+
+    def run(mode):
+        monkeypatch.setenv("SPURDIFF_FMU_START", mode)
+        inst = Instance("ns", None, unzipdir=m.unzipdir, md=m.md, instantiate=False)
+        cb = fmi2CallbackFunctions()
+        cb.logger = _logger(inst.messages)
+        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        f = inst.slave.dll.fmi2Instantiate
+        uri = Path(m.unzipdir, "resources").as_uri().encode()
+        c = f(b"ns", fmu_type, m.md.guid.encode(), uri, byref(cb), 0, 1)
+        if c:
+            inst.slave.dll.fmi2FreeInstance(c)
+        return bool(c), list(inst.messages)
+    native = run("auto")
+    assert native == run("python")
+    assert not native[0] and native[1]
+
+
 # ------------------------------------------------------------------------------ two instances
 def test_two_instances_one_promoted_one_native(m, monkeypatch):
     """A and B at once; A is promoted (an FMU state) between B's native steps; both as with the Python."""
