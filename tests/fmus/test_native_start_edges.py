@@ -1,8 +1,8 @@
 """The native start against the Python start at its edges (fmu_src/native/fmi/native_start.c,
 fmi2_loader.c): call-order violations, stop and start times, odd step sizes, non-finite inputs,
 logging switched in every way, unknown value references, sets equal and unequal to the start values,
-two instances at once, a long tape replayed, the FMI 3.0 binary, the model's own process (a damaged
-resources/native_start.bin: test_native_start_damaged.py). Every case runs the same calls with SPURDIFF_FMU_START=auto and =python
+two instances at once, a long tape replayed, the model's own process (the FMI 3.0 binary:
+test_native_start_fmi3.py; a damaged resources/native_start.bin: test_native_start_damaged.py). Every case runs the same calls with SPURDIFF_FMU_START=auto and =python
 and compares what the host sees: each status, each value bit for bit, every message."""
 from __future__ import annotations
 
@@ -16,7 +16,6 @@ from test_native_start import CHANGES, KINDS
 from harness.fmi.instance import Instance, fmu_cache
 
 NAMES = list(CHANGES)
-TIME_VR = 2147483647      # the FMI 3.0 FMU's independent variable
 CTYPE = {"Real": c_double, "Integer": c_int, "Boolean": c_int, "String": c_char_p}
 
 
@@ -103,6 +102,25 @@ def _do(inst, m, act):
             if s != 0 or i % 100 == 99 or i == n - 1:
                 out.append((i, s, _get(inst, "Real", m.outputs)))
         return out
+    if op == "status":     # (function, kind): its status and the value
+        from ctypes import byref
+        fn, k = a
+        x = {"fmi2GetStatus": c_int, "fmi2GetRealStatus": c_double, "fmi2GetIntegerStatus": c_int,
+             "fmi2GetBooleanStatus": c_int, "fmi2GetStringStatus": c_char_p}[fn]()
+        st = _call(inst, fn, c_int(k), byref(x))
+        return st, _bits("Real", x.value) if isinstance(x, c_double) else x.value
+    if op == "other":      # the functions the native start leaves to the Python, with harmless arguments
+        fn = a[0]
+        if fn == "fmi2CancelStep":
+            return _call(inst, fn)
+        if fn == "fmi2GetDirectionalDerivative":
+            u, z = (c_uint * 1)(m.inputs[0].valueReference), (c_uint * 1)(m.outputs[0])
+            du, dz = (c_double * 1)(1.0), (c_double * 1)()
+            return _call(inst, fn, u, c_size_t(1), z, c_size_t(1), du, dz), _bits("Real", dz[0])
+        vr, order, v = (c_uint * 1)(m.inputs[0].valueReference), (c_int * 1)(1), (c_double * 1)(0.0)
+        return _call(inst, fn, vr, c_size_t(1), order, v)
+    if op in ("nullget", "nullset"):   # (kind): n = 0 with NULL arrays
+        return _call(inst, f"fmi2{op[4:].capitalize()}{a[0]}", None, c_size_t(0), None)
     if op == "get":
         return _get(inst, *a)
     if op == "set":
@@ -441,6 +459,32 @@ def test_a_long_message_after_a_promotion(m, monkeypatch, when):
         assert max(len(x[1]) for x in native[-1][1]) > 16000, "the message quotes the value (else this proves little)"
 
 
+STATUS_CALLS = [("status", "fmi2GetStatus", 0), ("status", "fmi2GetRealStatus", 2), ("status", "fmi2GetIntegerStatus", 0),
+                ("status", "fmi2GetBooleanStatus", 3), ("status", "fmi2GetStringStatus", 1),
+                ("status", "fmi2GetRealStatus", 99), ("other", "fmi2CancelStep"),
+                ("other", "fmi2GetDirectionalDerivative"), ("other", "fmi2SetRealInputDerivatives"),
+                ("other", "fmi2GetRealOutputDerivatives")]
+
+
+@pytest.mark.parametrize("call", STATUS_CALLS, ids=lambda c: f"{c[1]}-{c[2]}" if len(c) > 2 else c[1])
+@pytest.mark.parametrize("when", ["instantiated", "initializing", "stepping", "terminated"])
+def test_the_calls_left_to_the_python(m, monkeypatch, call, when):
+    prog = {"instantiated": [call] + INIT + _steps(0.0, 2),
+            "initializing": INIT[:2] + [call, ("exit",)] + _steps(0.0, 2),
+            "stepping": INIT + _steps(0.0, 2) + [call] + _steps(2 * H, 2),
+            "terminated": INIT + _steps(0.0, 2) + [("terminate",), call, ("all",)]}[when]
+    same(m, prog, monkeypatch)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_sets_and_reads_of_no_variable(m, monkeypatch, kind):
+    """n = 0 (arrays given, or NULL) in every mode; in Initialization Mode between reads (a set of none
+    may or may not make the model build again: as the Python does)."""
+    g, z = [("get", kind, []), ("nullget", kind)], [("set", kind, [], []), ("nullset", kind)]
+    prog = g + z + INIT[:2] + [("all",)] + z + [("all",)] + g + [("exit",)] + g + z + _steps(0.0, 2) + g + z
+    same(m, prog + [("terminate",)] + g + z, monkeypatch)
+
+
 def test_strings_of_parameters_in_every_mode(m, monkeypatch):
     vrs = [v.valueReference for v in m.vars if v.type == "String"]
     g = ("get", "String", vrs)
@@ -534,79 +578,3 @@ OWN_PROCESS = {
 def test_a_promotion_in_the_model_s_own_process(m, monkeypatch, case):
     monkeypatch.setenv("SPURDIFF_FMU_PROCESS", "out")
     same(m, OWN_PROCESS[case](m), monkeypatch)
-
-
-# ------------------------------------------------------------------------------ FMI 3.0
-def _trace3(path, mode, program, monkeypatch):
-    from fmpy.fmi1 import FMICallException
-    from fmpy.fmi3 import FMU3Slave
-
-    monkeypatch.setenv("SPURDIFF_FMU_START", mode)
-    unzipdir, md = fmu_cache().get(path)
-    s = FMU3Slave(guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=md.coSimulation.modelIdentifier,
-                  instanceName="ns3")
-    log = []
-    s.instantiate(loggingOn=True, logMessage=lambda env, st, cat, msg: log.append((st, msg.decode())))
-    outs = [v.valueReference for v in md.modelVariables if v.causality == "output" and v.type in ("Real", "Float64")]
-    ins = [v.valueReference for v in md.modelVariables if v.causality == "input" and v.type in ("Real", "Float64")]
-    assert outs and ins
-    out = []
-    for op, *a in program:
-        try:
-            if op == "init":
-                s.enterInitializationMode(startTime=a[0], stopTime=a[1])
-                s.exitInitializationMode()
-                r = None
-            elif op == "step":
-                r = s.doStep(currentCommunicationPoint=a[0], communicationStepSize=a[1])
-                r = (tuple(r), [struct.pack("<d", x).hex() for x in s.getFloat64(outs)])
-            elif op == "set":
-                r = s.setFloat64([ins[0]], [a[0]])
-            elif op == "exit":
-                r = s.exitInitializationMode()
-            elif op == "state":
-                st = s.getFMUState()
-                s.setFMUState(st)
-                s.freeFMUState(st)
-                r = None
-            elif op == "terminate":
-                r = s.terminate()
-            elif op == "read":     # the independent variable and every output, in any mode
-                r = [struct.pack("<d", x).hex() for x in s.getFloat64([TIME_VR] + outs)]
-            elif op == "enter":
-                r = s.enterInitializationMode(startTime=a[0], stopTime=a[1])
-            out.append((op, "ok", r))
-        except FMICallException as e:
-            out.append((op, "failed", e.status))
-    try:
-        s.terminate()
-    except Exception:
-        pass
-    s.freeInstance()
-    return out, log
-
-
-PROGRAMS3 = {
-    "stop-and-past": [("init", 0.0, 0.01)] + [("step", k * H, H) for k in range(10)] + [("step", 0.01, H)],
-    "wrong-time": [("init", 0.0, None), ("step", 0.5, H), ("step", 0.0, H)],
-    "h-zero-nan": [("init", 0.0, None), ("step", 0.0, 0.0), ("step", 0.0, math.nan), ("step", 0.0, H)],
-    "nan-input": [("init", 0.0, None), ("step", 0.0, H), ("set", math.nan), ("step", H, H), ("step", H, H)],
-    "exit-twice-terminate-twice": [("init", 0.0, None), ("exit",), ("step", 0.0, H), ("terminate",),
-                                   ("terminate",), ("step", H, H)],
-    "time-read": [("read",), ("enter", 2.5, 3.0), ("read",), ("exit",), ("read",), ("step", 2.5, H), ("read",),
-                  ("terminate",), ("read",)],
-    "time-offset": [("enter", 0.0, None), ("exit",), ("step", 1e-10, H), ("read",), ("step", H + 3e-10, H),
-                    ("read",), ("step", 2 * H, H), ("read",)],
-    "input-set-in-init": [("enter", 0.0, None), ("set", 0.0), ("read",), ("exit",), ("step", 0.0, H), ("read",)],
-    "long-then-state": [("init", 0.0, None)] + [("step", k * H, H) for k in range(300)] + [("state",),
-                                                                                         ("step", 0.3, H)],
-}
-
-
-@pytest.mark.parametrize("case", list(PROGRAMS3))
-def test_fmi3(fmu_files, monkeypatch, case):
-    from harness.build.fmu3 import build
-
-    path = build(["SpurDifferential"], quiet=True)[0]
-    assert _trace3(path, "auto", PROGRAMS3[case], monkeypatch) == _trace3(path, "python", PROGRAMS3[case],
-                                                                          monkeypatch)
