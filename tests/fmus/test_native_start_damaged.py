@@ -29,16 +29,24 @@ _RUN = textwrap.dedent("""
     for k in range(5):
         inst.slave.doStep(k * 1e-3, 1e-3)
         res.append([struct.pack("<d", x).hex() for x in inst.slave.getReal(outs)])
+    after = []
+    if sys.argv[2:] == ["state"]:   # a call that starts the Python, then one more of each kind
+        f = lambda name, *a: int(inst.c_function(name)(inst.component, *a))
+        from ctypes import byref, c_double, c_size_t, c_uint, c_void_p
+        st, vals = c_void_p(), (c_double * 1)()
+        after = [f("fmi2GetFMUstate", byref(st)), f("fmi2DoStep", c_double(5e-3), c_double(1e-3), 1),
+                 f("fmi2GetReal", (c_uint * 1)(outs[0]), c_size_t(1), vals), f("fmi2Terminate")]
     inst.close()
-    print(json.dumps({"values": res, "messages": inst.messages}))
+    print(json.dumps({"values": res, "messages": inst.messages, "after": after}))
 """)
 
 
-def _damaged_run(unzipdir, mode):
+def _damaged_run(unzipdir, mode, *more):
     import json
 
     env = {**os.environ, "SPURDIFF_FMU_START": mode}
-    r = subprocess.run([sys.executable, "-c", _RUN, unzipdir], capture_output=True, text=True, env=env, timeout=120)
+    r = subprocess.run([sys.executable, "-c", _RUN, unzipdir, *more], capture_output=True, text=True, env=env,
+                       timeout=120)
     assert r.returncode == 0, f"the host died ({r.returncode}): {r.stderr[-2000:]}"
     return json.loads(r.stdout.strip().splitlines()[-1])
 
@@ -187,3 +195,29 @@ def test_a_bad_layout_behind_a_good_digest_warns_and_starts_the_python(pristine,
     warned = [t for s, t in got["messages"] if "the native start is not used" in t]
     assert len(warned) == 1 and "native_start.bin is damaged (bad layout)" in warned[0], got["messages"][:3]
     assert got["values"] == python["values"]
+
+
+def test_a_start_that_disagrees_with_its_python_is_an_error_at_the_promotion(pristine, tmp_path):
+    """A file whose state values do not belong to its model (a faulty writer, the digest matching): the
+    native steps differ from the Python's (undetectable then); the first call that starts the Python
+    replays them, finds an output that differs, and fails with the reason; every later call fails (an
+    error, never a crash, never the Python's numbers mixed with the native ones)."""
+    import shutil
+
+    d, data, python = pristine
+    L = _layout(data)
+    body = bytearray(data[:-8])
+    at = L["nv"] + 4
+    v = struct.unpack_from(f"<{L['nv_value']}d", body, at)
+    struct.pack_into(f"<{L['nv_value']}d", body, at, *[x * 1.5 + 0.25 for x in v])
+    from spurdiff.fmi.native_start import digest
+    mine = str(tmp_path / "fmu")
+    shutil.copytree(d, mine)
+    with open(os.path.join(mine, "resources", "native_start.bin"), "wb") as f:
+        f.write(bytes(body) + struct.pack("<Q", digest(bytes(body))))
+    got = _damaged_run(mine, "auto", "state")
+    assert got["values"] != python["values"], "the changed state shows in the native steps"
+    assert got["after"] == [3, 3, 3, 3]
+    errors = [t for s, t in got["messages"] if s == 3]
+    assert len(errors) == 1 and "starting the model's Python after the native start (5 steps)" in errors[0]
+    assert "natively" in errors[0], errors[0]
