@@ -221,3 +221,100 @@ def test_a_start_that_disagrees_with_its_python_is_an_error_at_the_promotion(pri
     errors = [t for s, t in got["messages"] if s == 3]
     assert len(errors) == 1 and "starting the model's Python after the native start (5 steps)" in errors[0]
     assert "natively" in errors[0], errors[0]
+
+
+
+_PROBE = r"""
+#include <stdio.h>
+#include "native_start.h"
+static void lg(fmi2ComponentEnvironment e, fmi2String n, fmi2Status s, fmi2String c, fmi2String m, ...)
+{ (void)e; (void)n; (void)s; (void)c; (void)m; }
+/* argv[1]: a resources folder; argv[2..]: files each copied there as native_start.bin, opened, used, freed */
+int main(int argc, char **argv)
+{
+    fmi2CallbackFunctions cb = {lg, 0, 0, 0, 0};
+    char err[2048], path[4096], buf[1 << 16];
+    fmi2ValueReference vr[256];
+    double v[1];
+    int iv[1], opened = 0;
+    fmi2String sv[1];
+    for (int i = 0; i < 256; i++) vr[i] = (fmi2ValueReference)i;
+    snprintf(path, sizeof path, "%s/native_start.bin", argv[1]);
+    for (int f = 2; f < argc; f++) {
+        FILE *in = fopen(argv[f], "rb"), *out = fopen(path, "wb");
+        size_t n;
+        while ((n = fread(buf, 1, sizeof buf, in)) > 0) fwrite(buf, 1, n, out);
+        fclose(in);
+        fclose(out);
+        NsInst *I = NULL;
+        if (ns_open(argv[1], "probe", &cb, 1, &I, err, sizeof err) != 1) continue;
+        opened++;
+        ns_setup_experiment(I, 0, 0.0, 0.0, 0, 0.0);
+        ns_enter_initialization_mode(I);
+        ns_get_real(I, vr, 1, v);
+        ns_exit_initialization_mode(I);
+        for (int k = 0; k < 3; k++) ns_do_step(I, k * 1e-3, 1e-3, 1, 0, NULL);
+        for (int i = 0; i < 256; i++) {
+            ns_get_real(I, vr + i, 1, v);
+            ns_get_integer(I, vr + i, 1, iv);
+            ns_get_boolean(I, vr + i, 1, iv);
+            ns_get_string(I, vr + i, 1, sv);
+        }
+        ns_free(I);
+    }
+    printf("%d\n", opened);
+    return 0;
+}
+"""
+
+
+def test_the_reader_under_address_sanitizer(pristine, tmp_path):
+    """native_start.c built with AddressSanitizer and UBSan reads 300 files changed at random behind a
+    matching digest (bytes, counts set to 0, 2^31, 2^32 - 1, ..., cuts) and 9 with a count made huge (the
+    variables, the messages, the array v): no invalid access, no undefined
+    behaviour, no allocation the file's size does not justify (ASan aborts past its limit)."""
+    import random
+    import shutil
+
+    from harness.build.fmu import NATIVE_FMI, _fmi2_headers
+    from spurdiff.fmi.native_start import digest
+
+    d, data, _ = pristine
+    exe = tmp_path / "probe"
+    (tmp_path / "probe.c").write_text(_PROBE)
+    r = subprocess.run(["gcc", "-g", "-O1", "-fsanitize=address,undefined", "-fno-sanitize-recover=all",
+                        f"-I{_fmi2_headers()}", f"-I{NATIVE_FMI}", str(tmp_path / "probe.c"),
+                        str(NATIVE_FMI / "native_start.c"), "-o", str(exe), "-ldl", "-lm"], capture_output=True,
+                       text=True)
+    if r.returncode != 0:
+        pytest.skip(f"no compiler with the sanitizers here: {r.stderr[-300:]}")
+    res = tmp_path / "resources"
+    shutil.copytree(os.path.join(d, "resources"), res, ignore=shutil.ignore_patterns("python*"))
+    rnd = random.Random(44)
+    body0, files = data[:-8], []
+    for k in range(300):
+        b = bytearray(body0)
+        pick = rnd.random()
+        if pick < 0.4:
+            for _ in range(rnd.randint(1, 4)):
+                b[rnd.randrange(8, len(b))] = rnd.randrange(256)
+        elif pick < 0.8:
+            x = rnd.choice([0, 1, 2, 3, 31, 32, 33, 0x7FFFFFFF, 0x80000000, 0xFFFFFFFF, rnd.randrange(1 << 32)])
+            struct.pack_into("<I", b, rnd.randrange(8, len(b) - 4) & ~3, x)
+        else:
+            b = b[:rnd.randrange(8, len(b))]
+        f = tmp_path / f"m{k}.bin"
+        f.write_bytes(bytes(b) + struct.pack("<Q", digest(bytes(b))))
+        files.append(str(f))
+    L = _layout(data)
+    for k, (at, x) in enumerate((at, x) for at in (L["n_vars"], L["n_msgs"], L["nv"])
+                                for x in (0xFFFFFFFF, 0x10000000, 0x01000000)):
+        f = tmp_path / f"count{k}.bin"
+        f.write_bytes(_redigested(data, {at: x}))
+        files.append(str(f))
+    files.append(str(tmp_path / "pristine.bin"))
+    (tmp_path / "pristine.bin").write_bytes(data)
+    r = subprocess.run([str(exe), str(res), *files], capture_output=True, text=True, errors="replace", timeout=600,
+                       env={**os.environ, "ASAN_OPTIONS": "detect_leaks=1:allocator_may_return_null=0"})
+    assert r.returncode == 0 and "runtime error" not in r.stderr, r.stderr[-3000:]
+    assert int(r.stdout.split()[-1]) >= 1, "the file as built opens (the probe works)"

@@ -223,8 +223,7 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
         if (kind == FIELD_DOUBLES) {
             uint32_t n = rd_u32(&r);
             double *src = (double *)rd_take(&r, (size_t)n * 8);
-            I->arrays[i] = (double *)malloc(((size_t)n + 1) * sizeof(double));
-            if (!src || !I->arrays[i]) { r.ok = 0; break; }
+            if (!src || !(I->arrays[i] = (double *)malloc(((size_t)n + 1) * sizeof(double)))) { r.ok = 0; break; }
             memcpy(I->arrays[i], src, (size_t)n * 8);
             I->ctx[i] = I->arrays[i];
         } else if (kind == FIELD_FUNCTION) {
@@ -240,10 +239,13 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
     if (direct && !I->arrays[0]) r.ok = 0;
     I->nv = rd_u32(&r);
     double *v0 = (double *)rd_take(&r, I->nv * 8);
-    I->v = (double *)malloc((I->nv + 1) * sizeof(double));
+    I->v = v0 ? (double *)malloc((I->nv + 1) * sizeof(double)) : NULL;
     if (v0 && I->v) memcpy(I->v, v0, I->nv * 8);
     I->n_in = rd_u32(&r);
     I->n_vars = rd_u32(&r);
+    /* a count is allocated for only when the bytes left can hold it (a variable takes 40 bytes or more,
+     * a message 16): a huge count is a bad layout, never a huge allocation */
+    if (I->n_vars > (size_t)(r.end - r.p) / 40) r.ok = 0;
     I->vars = r.ok && I->v && I->n_in <= I->nv ? (Var *)calloc(I->n_vars + 1, sizeof(Var)) : NULL;
     if (!I->vars) r.ok = 0;
     for (size_t i = 0; r.ok && i < I->n_vars; i++) {
@@ -271,6 +273,7 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
     }
     for (size_t i = 0; r.ok && i < I->n_vars; i++) I->index[I->vars[i].kind][I->vars[i].vr] = (int)i;
     I->n_msgs = rd_u32(&r);
+    if (I->n_msgs > (size_t)(r.end - r.p) / 16) r.ok = 0;
     I->msgs = r.ok ? (Msg *)calloc(I->n_msgs + 1, sizeof(Msg)) : NULL;
     if (!I->msgs) r.ok = 0;
     for (size_t i = 0; r.ok && i < I->n_msgs; i++) {
