@@ -141,13 +141,13 @@ def _do(inst, m, act):
     raise ValueError(op)
 
 
-def _instance(m, mode, monkeypatch, logging=True, name="ns", unzipdir=None, md=None):
+def _instance(m, mode, monkeypatch, logging=True, name="ns", unzipdir=None, md=None, env=0x5150):
     monkeypatch.setenv("SPURDIFF_FMU_START", mode)
     inst = Instance(name, None, unzipdir=unzipdir or m.unzipdir, md=md or m.md, instantiate=False)
     if not logging:
         orig = inst.slave.instantiate
         inst.slave.instantiate = lambda **kw: orig(**{**kw, "loggingOn": False})
-    inst.instantiate(logger=_logger(inst.messages))
+    inst.instantiate(logger=_logger(inst.messages), environment=env)
     return inst
 
 
@@ -159,7 +159,7 @@ def _logger(sink):
         return b.decode("utf-8", "replace") if isinstance(b, bytes) else str(b)
 
     def log(env, name, status, category, message):
-        sink.append((int(status), text(message), text(name), text(category)))
+        sink.append((int(status), text(message), text(name), text(category), env))
     log.c = fmi2CallbackLoggerTYPE(log)
     return log.c
 
@@ -523,8 +523,8 @@ def test_an_instance_of_another_type_is_refused_alike(m, monkeypatch, fmu_type):
 def test_two_instances_one_promoted_one_native(m, monkeypatch):
     """A and B at once; A is promoted (an FMU state) between B's native steps; both as with the Python."""
     def run(mode):
-        a = _instance(m, mode, monkeypatch, name="a")
-        b = _instance(m, mode, monkeypatch, name="b")
+        a = _instance(m, mode, monkeypatch, name="a", env=0xA1)
+        b = _instance(m, mode, monkeypatch, name="b", env=0xB2)
         out = []
         try:
             for inst in (a, b):
@@ -534,12 +534,16 @@ def test_two_instances_one_promoted_one_native(m, monkeypatch):
                 out.append(_do(b, m, ("step", k * H, H)))
                 if k == 4:
                     out.append(_do(a, m, ("state",)))
+                    out.append(_do(a, m, ("set", "Real", [m.inputs[0].valueReference], [math.nan])))
+                    out.append(_do(b, m, ("set", "Real", [m.inputs[0].valueReference], [math.nan])))
             out += [_do(a, m, ("all",)), _do(b, m, ("all",))]
         finally:
             a.close()
             b.close()
         return out, list(a.messages), list(b.messages)
-    assert run("auto") == run("python")
+    native = run("auto")
+    assert native == run("python")
+    assert {x[4] for x in native[1]} == {0xA1} and {x[4] for x in native[2]} == {0xB2}, "each its own environment"
 
 
 @pytest.mark.parametrize("name", ["a%sb%%c%n", "x" * 2000, "\u00e9t\u00e9 ns"], ids=["percent", "long", "utf8"])
