@@ -305,7 +305,8 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     h->logging = loggingOn;
     err[0] = 0;
     int native = 0;
-    if (!strcmp(start, "auto") && h->iname && h->guid && h->resources && h->bindir) {
+    /* another type than co-simulation: the model refuses it (its message), never the native start */
+    if (!strcmp(start, "auto") && fmuType == fmi2CoSimulation && h->iname && h->guid && h->resources && h->bindir) {
         native = ns_open(resources, instanceName, functions, loggingOn ? 1 : 0, &h->ns, err, sizeof err);
         if (native < 0) {   /* a damaged native start: the Python starts now, as without one */
             log_warning(functions, instanceName, "fmi2Instantiate: the native start is not used: %s", err);

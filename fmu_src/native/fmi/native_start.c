@@ -33,7 +33,7 @@
 #define NS_MAX_LIBS 8
 #define NS_MAX_FIELDS 32
 #define NS_KINDS 4
-#define NS_MAX_VR 1000000u                       /* a larger value reference: a damaged file */
+#define NS_MAX_VR (1u << 20)    /* value references index a table: bounded (native_start.py refuses more) */
 
 enum { K_REAL, K_INTEGER, K_BOOLEAN, K_STRING };
 enum { F_SETTABLE = 1, F_INPUT = 2, F_CONSTANT = 4 };
@@ -41,7 +41,7 @@ enum { FIELD_NULL, FIELD_DOUBLES, FIELD_FUNCTION };
 enum { M_INSTANTIATE, M_SETUP, M_ENTER, M_BUILD, N_PHASES };
 enum { P_INSTANTIATED, P_INITIALIZING, P_STEPPING, P_TERMINATED };
 enum { T_LOGGING, T_SETUP, T_ENTER, T_EXIT, T_TERMINATE, T_SET_REAL, T_SET_INTEGER, T_SET_BOOLEAN, T_SET_STRING,
-       T_STEP };
+       T_STEP, T_BUILD };
 
 typedef struct {
     int kind, flags, slot;
@@ -156,32 +156,28 @@ static char *rd_str(Rd *r)
     return d;
 }
 
-/* CRC-32 (zlib's: reflected, polynomial 0xEDB88320) of n bytes */
-static uint32_t crc32_of(const unsigned char *p, size_t n)
+/* FNV-1a, 64 bits: the file's last 8 bytes are that of the bytes before them (native_start.py: digest) */
+static uint64_t fnv1a(const unsigned char *p, size_t n)
 {
-    uint32_t c = 0xFFFFFFFFu;
-    for (size_t i = 0; i < n; i++) {
-        c ^= p[i];
-        for (int k = 0; k < 8; k++) c = (c >> 1) ^ (0xEDB88320u & (0u - (c & 1u)));
-    }
-    return ~c;
+    uint64_t h = 0xCBF29CE484222325ull;
+    for (size_t i = 0; i < n; i++) h = (h ^ p[i]) * 0x100000001B3ull;
+    return h;
 }
 
 static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t errsize)
 {
-    uint32_t crc = 0;
-    if (len >= 4) memcpy(&crc, I->file + len - 4, 4);
-    if (len < 8 || crc32_of((const unsigned char *)I->file, len - 4) != crc) {
-        snprintf(err, errsize, "%s is damaged (its CRC-32 does not match)", NS_FILE);
-        return -1;
-    }
-    len -= 4;
     Rd r = {I->file, I->file + len, 1};
     char *magic = (char *)rd_take(&r, 4);
     if (!magic || memcmp(magic, NS_MAGIC, 4) != 0 || rd_u32(&r) != NS_FORMAT) {
         snprintf(err, errsize, "%s is not a native start of format %u", NS_FILE, NS_FORMAT);
         return -1;
     }
+    uint64_t want = 0;
+    if (len < 16 || (memcpy(&want, I->file + len - 8, 8), fnv1a((const unsigned char *)I->file, len - 8) != want)) {
+        snprintf(err, errsize, "%s is damaged (its digest does not match its bytes)", NS_FILE);
+        return -1;
+    }
+    r.end -= 8;
     I->early = rd_u32(&r) != 0;
     uint32_t n_libs = rd_u32(&r);
     if (n_libs > NS_MAX_LIBS) r.ok = 0;
@@ -226,9 +222,8 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
         uint32_t kind = rd_u32(&r);
         if (kind == FIELD_DOUBLES) {
             uint32_t n = rd_u32(&r);
-            double *src = (double *)rd_take(&r, (size_t)n * 8);   /* bounds first: no allocation from a bad count */
-            I->arrays[i] = src ? (double *)malloc(((size_t)n + 1) * sizeof(double)) : NULL;
-            if (!src || !I->arrays[i]) { r.ok = 0; break; }
+            double *src = (double *)rd_take(&r, (size_t)n * 8);
+            if (!src || !(I->arrays[i] = (double *)malloc(((size_t)n + 1) * sizeof(double)))) { r.ok = 0; break; }
             memcpy(I->arrays[i], src, (size_t)n * 8);
             I->ctx[i] = I->arrays[i];
         } else if (kind == FIELD_FUNCTION) {
@@ -248,8 +243,9 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
     if (v0 && I->v) memcpy(I->v, v0, I->nv * 8);
     I->n_in = rd_u32(&r);
     I->n_vars = rd_u32(&r);
-    /* a variable takes at least 48 bytes of the file: a count the rest cannot hold is damage */
-    if (I->n_vars > (size_t)(r.end - r.p) / 48) r.ok = 0;
+    /* a count is allocated for only when the bytes left can hold it (a variable takes 40 bytes or more,
+     * a message 16): a huge count is a bad layout, never a huge allocation */
+    if (I->n_vars > (size_t)(r.end - r.p) / 40) r.ok = 0;
     I->vars = r.ok && I->v && I->n_in <= I->nv ? (Var *)calloc(I->n_vars + 1, sizeof(Var)) : NULL;
     if (!I->vars) r.ok = 0;
     for (size_t i = 0; r.ok && i < I->n_vars; i++) {
@@ -264,7 +260,7 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
             if (x->kind == K_STRING) x->sval[p] = rd_str(&r);
             else x->val[p] = rd_f64(&r);
         }
-        if (x->kind < 0 || x->kind >= NS_KINDS || x->slot >= (int)I->nv || x->vr > NS_MAX_VR
+        if (x->kind < 0 || x->kind >= NS_KINDS || x->slot >= (int)I->nv || x->vr >= NS_MAX_VR
             || (x->kind == K_REAL && (x->flags & F_INPUT) && (x->slot < 0 || (size_t)x->slot >= I->n_in)))
             r.ok = 0;
         else if (x->vr > I->max_vr[x->kind])
@@ -273,21 +269,20 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
     for (int k = 0; r.ok && k < NS_KINDS; k++) {
         I->index[k] = (int *)malloc(((size_t)I->max_vr[k] + 1) * sizeof(int));
         if (!I->index[k]) { r.ok = 0; break; }
-        for (unsigned j = 0; j <= I->max_vr[k]; j++) I->index[k][j] = -1;
+        for (size_t j = 0; j <= I->max_vr[k]; j++) I->index[k][j] = -1;
     }
     for (size_t i = 0; r.ok && i < I->n_vars; i++) I->index[I->vars[i].kind][I->vars[i].vr] = (int)i;
     I->n_msgs = rd_u32(&r);
-    if (I->n_msgs > (size_t)(r.end - r.p) / 16) r.ok = 0;   /* at least 16 bytes each */
+    if (I->n_msgs > (size_t)(r.end - r.p) / 16) r.ok = 0;
     I->msgs = r.ok ? (Msg *)calloc(I->n_msgs + 1, sizeof(Msg)) : NULL;
     if (!I->msgs) r.ok = 0;
     for (size_t i = 0; r.ok && i < I->n_msgs; i++) {
-        I->msgs[i].phase = (int)rd_u32(&r);
-        I->msgs[i].status = (int)rd_u32(&r);
+        uint32_t phase = rd_u32(&r), status = rd_u32(&r);   /* checked unsigned: no negative one slips through */
+        I->msgs[i].phase = (int)phase;
+        I->msgs[i].status = (int)status;
         I->msgs[i].category = rd_str(&r);
         I->msgs[i].text = rd_str(&r);
-        if (I->msgs[i].phase < 0 || I->msgs[i].phase >= N_PHASES || I->msgs[i].status < 0
-            || I->msgs[i].status > fmi2Error)
-            r.ok = 0;
+        if (phase >= N_PHASES || status > fmi2Error) r.ok = 0;
     }
     if (!r.ok || r.p != r.end || !I->fn) {
         snprintf(err, errsize, "%s is damaged (%s)", NS_FILE, !I->fn && r.ok ? "its step function is missing" : "bad layout");
@@ -473,6 +468,9 @@ static int readable(NsInst *I, int kind, const fmi2ValueReference vr[], size_t n
         if (I->phase >= P_STEPPING && !(x->flags & F_CONSTANT) && x->slot < 0) return -1;
     }
     if (I->phase == P_INITIALIZING && I->dirty) {   /* the read builds the model (the adapter's _read) */
+        /* on the tape too: a later set the Python refuses leaves the model built by this read in place */
+        int32_t what[3] = {kind, n ? (int32_t)vr[0] : 0, n ? 1 : 0};   /* a read of none builds it too */
+        if (record(I, T_BUILD, 0, what, sizeof what, NULL, 0) != 0) return -1;
         emit_phase(I, M_BUILD);
         I->dirty = 0;
     }
@@ -656,7 +654,8 @@ int ns_replay(const NsInst *I, const Fmi2Table *t, fmi2Component c, NsStepEarly 
 {
     static const char *const NAMES[] = {"fmi2SetDebugLogging", "fmi2SetupExperiment", "fmi2EnterInitializationMode",
                                         "fmi2ExitInitializationMode", "fmi2Terminate", "fmi2SetReal",
-                                        "fmi2SetInteger", "fmi2SetBoolean", "fmi2SetString", "fmi2DoStep"};
+                                        "fmi2SetInteger", "fmi2SetBoolean", "fmi2SetString", "fmi2DoStep",
+                                        "a read in Initialization Mode"};
     size_t pos = 0, count = 0;
     while (pos < I->tape_len) {
         Rec h;
@@ -719,6 +718,20 @@ int ns_replay(const NsInst *I, const Fmi2Table *t, fmi2Component c, NsStepEarly 
             memcpy(b, p + sizeof d, sizeof b);
             s = b[1] ? early_step(c, d[0], d[1], b[0], &end) : t->fmi2DoStep(c, d[0], d[1], b[0]);
             size = sizeof d + sizeof b;
+            break;
+        }
+        case T_BUILD: {   /* the read that built the model: the same read (its values are the snapshot's) */
+            int32_t what[3];
+            memcpy(what, p, sizeof what);
+            fmi2ValueReference vr = (fmi2ValueReference)what[1];
+            size_t k = (size_t)what[2];
+            fmi2Real r;
+            fmi2Integer i;
+            fmi2Boolean b;
+            fmi2String str;
+            s = what[0] == K_REAL ? t->fmi2GetReal(c, &vr, k, &r) : what[0] == K_INTEGER ? t->fmi2GetInteger(c, &vr, k, &i)
+                : what[0] == K_BOOLEAN ? t->fmi2GetBoolean(c, &vr, k, &b) : t->fmi2GetString(c, &vr, k, &str);
+            size = sizeof what;
             break;
         }
         default:

@@ -17,7 +17,8 @@ before and replays the tape through the bridge, checking that every replayed cal
 and that the replayed outputs equal the native ones, then passes the call on.
 
 The file is data, little-endian, made of: u32 numbers, f64 numbers, strings (u32 length, UTF-8 bytes),
-and ends with the CRC-32 of everything before it (zlib's; a damaged file is refused, not run).
+ending with the FNV-1a 64-bit digest of all the bytes before it (:func:`digest`): a file changed in any
+byte (a value as much as a count) is refused as damaged, never run.
 Nothing of the build machine is in it (the kernels are named relative to the resources folder, the
 snapshot is refused when a value or message would carry the instance name or the resources path).
 """
@@ -25,11 +26,11 @@ from __future__ import annotations
 
 import math
 import struct
-import zlib
 
 MAGIC = b"SPNS"
 FORMAT = 3
 FILE = "native_start.bin"
+MAX_VR = 1 << 20       # native_start.c: NS_MAX_VR (a table indexed by value reference)
 KINDS = ("Real", "Integer", "Boolean", "String")
 # the variable flags
 SETTABLE, INPUT, CONSTANT = 1, 2, 4
@@ -70,6 +71,14 @@ class _Writer:
 
     def bytes(self) -> bytes:
         return b"".join(self.parts)
+
+
+def digest(data: bytes) -> int:
+    """FNV-1a, 64 bits (native_start.c: fnv1a)."""
+    h = 0xCBF29CE484222325
+    for b in data:
+        h = ((h ^ b) * 0x100000001B3) & 0xFFFFFFFFFFFFFFFF
+    return h
 
 
 def _drain(slave) -> list[tuple[int, str, str]]:
@@ -206,6 +215,8 @@ def snapshot(klass) -> bytes:
                 raise NoSnapshot(f"the input {name} has no slot in the native step's array")
             if kind == "Real" and flags & CONSTANT and name not in params:
                 raise NoSnapshot(f"the parameter {name} is not among the native step's parameters")
+            if vr >= MAX_VR:
+                raise NoSnapshot(f"the value reference {vr} of {name} is not below {MAX_VR}")
             lo, hi = inputs.get(name, (-math.inf, math.inf))
             vals = [phase0[kind][i], phase1[kind][i], phase2[kind][i]]
             rows.append((KINDS.index(kind), vr, flags, slot, lo, hi, vals))
@@ -231,7 +242,7 @@ def snapshot(klass) -> bytes:
         w.text(category)
         w.text(text)
     body = w.bytes()
-    return body + struct.pack("<I", zlib.crc32(body))
+    return body + struct.pack("<Q", digest(body))
 
 
 def _clean(s: str, what: str) -> None:
@@ -239,4 +250,4 @@ def _clean(s: str, what: str) -> None:
         raise NoSnapshot(f"{what} names the instance or its resources folder: {s[:200]!r}")
 
 
-__all__ = ["snapshot", "NoSnapshot", "FILE", "MAGIC", "FORMAT"]
+__all__ = ["snapshot", "digest", "NoSnapshot", "FILE", "MAGIC", "FORMAT"]
