@@ -212,3 +212,52 @@ def test_every_fmu_carries_a_native_start(fmu_files, name):
 
     with zipfile.ZipFile(fmu_files[name]) as z:
         assert z.read("resources/native_start.bin")[:8] == b"SPNS\x03\0\0\0"
+
+
+@pytest.mark.parametrize("process", ["in", "out"])
+def test_past_the_tapes_limit_the_python_takes_over(differential_fmu, monkeypatch, process):
+    """A run longer than the tape holds (64 MB; here SPURDIFF_FMU_START_TAPE=4000 bytes, about 25
+    steps with 4 input sets each) starts the Python at the call past the limit, replays, and goes on:
+    the whole run equals the Python start's, in the host's process and in the model's own."""
+    monkeypatch.setenv("SPURDIFF_FMU_START_TAPE", "4000")
+    monkeypatch.setenv("SPURDIFF_FMU_PROCESS", process)
+    sets = [("set", "left.tau", -201.0), ("set", "right.tau", -299.0), ("set", "left.tau", -200.0),
+            ("set", "right.tau", -300.0)]
+    program = START + [x for _ in range(60) for x in (*sets, ("steps", 1, 1e-3))] + [("steps", 100, 1e-3), ("all",)]
+    assert _run(differential_fmu, "auto", program, monkeypatch) == _run(differential_fmu, "python", program,
+                                                                         monkeypatch)
+
+
+@pytest.mark.parametrize("limit", [None, "4000"])
+def test_the_model_process_starts_only_past_the_tapes_limit(differential_fmu, monkeypatch, limit):
+    """In a host that runs the model in its own process: no model process while the native start
+    answers; with the tape's limit at 4,000 bytes one starts within the 60 steps (the same run under
+    the full limit starts none)."""
+    from pathlib import Path
+
+    def servers() -> int:
+        kids = [int(x) for t in Path(f"/proc/{os.getpid()}/task").iterdir()
+                for x in (t / "children").read_text().split()]
+        return sum("spurdiff_fmu_server" in Path(f"/proc/{k}/cmdline").read_text() for k in kids
+                   if Path(f"/proc/{k}").exists())
+
+    monkeypatch.setenv("SPURDIFF_FMU_START", "auto")
+    monkeypatch.setenv("SPURDIFF_FMU_PROCESS", "out")
+    if limit:
+        monkeypatch.setenv("SPURDIFF_FMU_START_TAPE", limit)
+    before = servers()
+    inst = Instance("tape", differential_fmu)
+    try:
+        s = inst.slave
+        s.setupExperiment(startTime=0.0)
+        s.enterInitializationMode()
+        s.exitInitializationMode()
+        assert servers() == before
+        vrs = [inst.var(n).valueReference for n in ("left.tau", "right.tau")]
+        for i in range(60):
+            s.setReal(vrs, [-201.0, -299.0])     # near the defaults: no watch logs (which would start it)
+            s.setReal(vrs, [-200.0, -300.0])
+            s.doStep(i * 1e-3, 1e-3)
+        assert servers() == before + (1 if limit else 0)
+    finally:
+        inst.close()

@@ -94,7 +94,7 @@ struct NsInst {
     long steps;
     double time, stop, stop_tol;
     unsigned char *tape;
-    size_t tape_len, tape_cap;
+    size_t tape_len, tape_cap, max_tape;
     Vector vectors[2][NS_VECTORS];   /* reads, writes */
     int next_vector[2];
 };
@@ -321,6 +321,15 @@ int ns_open(const char *resources, const char *name, const fmi2CallbackFunctions
     I->phase = P_INSTANTIATED;
     I->dirty = 1;
     I->stop = INFINITY;
+    /* the tape's limit: NS_MAX_TAPE, or SPURDIFF_FMU_START_TAPE bytes (smaller, for the tests of what
+     * happens past it) */
+    I->max_tape = NS_MAX_TAPE;
+    const char *limit = getenv("SPURDIFF_FMU_START_TAPE");
+    if (limit && *limit) {
+        char *end = NULL;
+        unsigned long long x = strtoull(limit, &end, 10);
+        if (end && !*end && x < NS_MAX_TAPE) I->max_tape = (size_t)x;
+    }
     emit_phase(I, M_INSTANTIATE);
     *out = I;
     return 1;
@@ -397,6 +406,7 @@ static int record(NsInst *I, int op, uint64_t n, const void *a, size_t na, const
 {
     Rec h = {op, fmi2OK, n};
     size_t mark = I->tape_len;
+    if (mark > I->max_tape) return -1;   /* any call past the limit (sets without steps too) goes to the Python */
     if (tape_put(I, &h, sizeof h) != 0 || (na && tape_put(I, a, na) != 0) || (nb && tape_put(I, b, nb) != 0)) {
         I->tape_len = mark;
         return -1;
@@ -633,7 +643,7 @@ int ns_do_step(NsInst *I, fmi2Real t, fmi2Real h, fmi2Boolean nsp, int early, fm
     double at = t >= 0.0 ? t : -t;
     if (!(fabs(t - I->time) <= 1e-9 * (at > 1.0 ? at : 1.0) + 1e-6 * h) || at == INFINITY) return NS_PYTHON;
     if (t + h > I->stop + (I->stop_tol + 1e-6 * h)) return NS_PYTHON;
-    if (I->tape_len > NS_MAX_TAPE) return NS_PYTHON;
+    if (I->tape_len > I->max_tape) return NS_PYTHON;
     double d[2] = {t, h};
     int32_t b[2] = {nsp ? 1 : 0, early ? 1 : 0};
     size_t mark = I->tape_len;
