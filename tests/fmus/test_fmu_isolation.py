@@ -17,6 +17,18 @@ from pathlib import Path
 
 import pytest
 
+
+@pytest.fixture(autouse=True)
+def _children_scratch_in_tmp_path(tmp_path, monkeypatch):
+    """The hosts started here unpack their FMU with fmpy's extract() into a new temporary folder and
+    never remove it (some are killed): their TMPDIR is the test's own folder (this process's
+    temporary folder is pinned first, unchanged)."""
+    import tempfile
+
+    tempfile.gettempdir()
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+
+
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
                                 reason="no C compiler: the FMUs cannot be built with our loader")
 

@@ -13,7 +13,21 @@ import subprocess
 import sys
 import time
 
+import pytest
+
 from tests.harness.test_python_hosts import OWN_PROCESS, _children, _gone, _misbehaving_copy
+
+
+@pytest.fixture(autouse=True)
+def _children_scratch_in_tmp_path(tmp_path, monkeypatch):
+    """The hosts started here unpack their FMU with fmpy's extract() into a new temporary folder and
+    never remove it (some are killed): their TMPDIR is the test's own folder (this process's
+    temporary folder is pinned first, unchanged)."""
+    import tempfile
+
+    tempfile.gettempdir()
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+
 
 HOST = r"""
 import os, signal, sys, time

@@ -18,6 +18,18 @@ from fmpy import read_model_description, simulate_fmu
 from harness.interop.recipes import fmpy_differential as recipe
 from harness.interop.starter import write_starter
 
+
+@pytest.fixture(autouse=True)
+def _children_scratch_in_tmp_path(tmp_path, monkeypatch):
+    """The hosts started here unpack their FMU with fmpy's extract() into a new temporary folder and
+    never remove it (some are killed): their TMPDIR is the test's own folder (this process's
+    temporary folder is pinned first, unchanged)."""
+    import tempfile
+
+    tempfile.gettempdir()
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+
+
 HERE = Path(__file__).resolve().parent
 HOSTS = HERE.parents[2] / "shared" / "hosts"
 DOC = HERE.parents[1] / "docs" / "use-the-fmu.md"

@@ -26,6 +26,7 @@ Run:  python fmpy_differential.py [--interface wheel|torque] [--fmu PATH] [--sto
 from __future__ import annotations
 
 import argparse
+import shutil
 import subprocess
 import sys
 
@@ -71,10 +72,17 @@ def run_wheel(fmu: str, stop: float, step: float) -> dict:
 
 def run_torque(fmu: str, stop: float, step: float) -> dict:
     from fmpy import extract, read_model_description
-    from fmpy.fmi2 import FMU2Slave
     md = read_model_description(fmu)
     vr = {v.name: v.valueReference for v in md.modelVariables}
-    fmu_dir = extract(fmu)
+    fmu_dir = extract(fmu)   # a new temporary folder, removed after the run
+    try:
+        return _run_torque(md, vr, fmu_dir, stop, step)
+    finally:
+        shutil.rmtree(fmu_dir, ignore_errors=True)
+
+
+def _run_torque(md, vr: dict, fmu_dir: str, stop: float, step: float) -> dict:
+    from fmpy.fmi2 import FMU2Slave
     s = FMU2Slave(guid=md.guid, unzipDirectory=fmu_dir, modelIdentifier=md.coSimulation.modelIdentifier,
                   instanceName="diff")
     s.instantiate()

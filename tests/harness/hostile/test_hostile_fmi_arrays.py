@@ -15,6 +15,18 @@ import sys
 
 import pytest
 
+
+@pytest.fixture(autouse=True)
+def _children_scratch_in_tmp_path(tmp_path, monkeypatch):
+    """The hosts started here unpack their FMU with fmpy's extract() into a new temporary folder and
+    never remove it (some are killed): their TMPDIR is the test's own folder (this process's
+    temporary folder is pinned first, unchanged)."""
+    import tempfile
+
+    tempfile.gettempdir()
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+
+
 CODE = r"""
 import ctypes, json, os, sys
 from fmpy import extract, read_model_description
