@@ -18,9 +18,7 @@ The master, the compliance checks, the sweep pool and the tests use it.
 from __future__ import annotations
 
 import math
-import os
 import shutil
-import stat
 import tempfile
 from pathlib import Path
 from typing import Any, Callable, Sequence
@@ -65,48 +63,12 @@ def fmi2_type_names(md):
     return md
 
 
-CACHE_PREFIX = "spurdiff_fmus_"
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:      # another user's process of that number: alive
-        return True
-    return True
-
-
-def remove_stale_caches(root: Path | None = None) -> list[Path]:
-    """Remove the FMU caches (``spurdiff_fmus_<pid>_*`` in the temporary folder) of processes that no
-    longer run (killed before their exit handler removed them): only real folders owned by this user,
-    never one of a live process (a pid reused by another process keeps it). The folders removed."""
-    root = Path(root) if root is not None else Path(tempfile.gettempdir())
-    gone = []
-    for d in root.glob(CACHE_PREFIX + "*_*"):
-        pid = d.name[len(CACHE_PREFIX):].split("_", 1)[0]
-        try:
-            st = d.lstat()
-        except OSError:
-            continue
-        if (not pid.isdigit() or not stat.S_ISDIR(st.st_mode) or st.st_uid != os.getuid()
-                or _alive(int(pid))):
-            continue
-        shutil.rmtree(d, ignore_errors=True)
-        gone.append(d)
-    return gone
-
-
 class FmuCache:
-    """Extracts each FMU file once per process and keeps its model description (in
-    ``spurdiff_fmus_<pid>_*``, removed at exit; the caches of processes killed before theirs were
-    removed go when the next one is made)."""
+    """Extracts each FMU file once per process and keeps its model description."""
 
     def __init__(self):
         self._dirs: dict[Path, tuple[str, Any]] = {}
-        remove_stale_caches()
-        self._tmp = Path(tempfile.mkdtemp(prefix=f"{CACHE_PREFIX}{os.getpid()}_"))
+        self._tmp = Path(tempfile.mkdtemp(prefix="spurdiff_fmus_"))
 
     def get(self, path: Path):
         from fmpy import extract, read_model_description
