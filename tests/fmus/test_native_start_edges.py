@@ -455,7 +455,7 @@ def test_a_long_message_after_a_promotion(m, monkeypatch, when):
     s = ("set", "String", [p.valueReference], ["%s" + "x" * 40000])
     prog = [s] + INIT if when == "instantiated" else INIT + _steps(0.0, 2) + [("state",), s]
     native = same(m, prog, monkeypatch)
-    if when == "instantiated":   # the bridge's messages end at 16 kB either way: past the relay's own buffer
+    if when == "instantiated":   # whole messages either way (fmu_src/native/fmi/log_text.h), past 16 kB
         assert max(len(x[1]) for x in native[-1][1]) > 16000, "the message quotes the value (else this proves little)"
 
 

@@ -35,6 +35,7 @@
 
 #include "fmi2_inproc.h"
 #include "fmi2_remote.h"
+#include "log_text.h"
 #include "native_start.h"
 
 #define HANDLE_MAGIC 0x5350444Cu   /* "SPDL" */
@@ -67,19 +68,8 @@ static void log_va(const fmi2CallbackFunctions *f, fmi2String name, fmi2Status s
 {
     char msg[4 * CFG_MAX_LINE];
     vsnprintf(msg, sizeof msg, fmt, ap);
-    if (f && f->logger) {   /* the text as the format, '%' doubled (see fmi2_pybridge.c: emit) */
-        char buf[sizeof msg * 2 + 1];
-        size_t n = 0;
-        for (const char *p = msg; *p; p++) {
-            if (*p == '%') buf[n++] = '%';
-            buf[n++] = *p;
-        }
-        buf[n] = 0;
-        f->logger(f->componentEnvironment, name ? name : "", status,
-                  status == fmi2Warning ? "logStatusWarning" : "logStatusError", buf);
-    }
-    else
-        fprintf(stderr, "%s: %s\n", name ? name : "fmi2Instantiate", msg);
+    log_text(f, name ? name : "fmi2Instantiate", status, status == fmi2Warning ? "logStatusWarning" : "logStatusError",
+             msg);
 }
 
 static void log_error(const fmi2CallbackFunctions *f, fmi2String name, const char *fmt, ...)
@@ -143,11 +133,15 @@ static void relay(fmi2ComponentEnvironment env, fmi2String name, fmi2Status stat
                   fmi2String message, ...)
 {
     Handle *h = (Handle *)env;
-    char text[16384];
-    va_list ap;
+    va_list ap, aq;
     va_start(ap, message);
-    vsnprintf(text, sizeof text, message ? message : "", ap);
+    va_copy(aq, ap);
+    int len = vsnprintf(NULL, 0, message ? message : "", ap);   /* the whole text, however long */
     va_end(ap);
+    char *text = len >= 0 ? (char *)malloc((size_t)len + 1) : NULL;
+    if (text) vsnprintf(text, (size_t)len + 1, message ? message : "", aq);
+    va_end(aq);
+    if (!text) return;
     if (h->muted) {
         size_t n = strlen(text) + 2;
         char *held = h->held_len + n <= HELD_MAX ? (char *)realloc(h->held, h->held_len + n) : NULL;
@@ -157,20 +151,10 @@ static void relay(fmi2ComponentEnvironment env, fmi2String name, fmi2Status stat
             h->held = held;
             h->held_len += n;
         }
-        return;
+    } else {
+        log_text(&h->cb, name, status, category, text);
     }
-    if (!h->cb.logger) {
-        if (status >= fmi2Warning) fprintf(stderr, "%s: %s\n", name ? name : "", text);
-        return;
-    }
-    char buf[sizeof text * 2 + 1];   /* the text as the format, '%' doubled (fmi2_pybridge_log.c: emit) */
-    size_t n = 0;
-    for (const char *p = text; *p; p++) {
-        if (*p == '%') buf[n++] = '%';
-        buf[n++] = *p;
-    }
-    buf[n] = 0;
-    h->cb.logger(h->cb.componentEnvironment, name, status, category, buf);
+    free(text);
 }
 
 /* the model's early-return step (FMI 3.0), wherever it runs */

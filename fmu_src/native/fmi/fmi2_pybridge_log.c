@@ -1,6 +1,7 @@
 /* The bridge's messages to the host (see fmi2_pybridge.c): the logger's calls, the slave's log
  * queue, a Python exception as text and as the call's status. */
 #include "fmi2_pybridge.h"
+#include "log_text.h"
 
 /* ------------------------------------------------------------------------------ logging */
 /* The message goes to the host as the logger's format with no arguments, every '%' doubled: a
@@ -9,18 +10,7 @@
 BRIDGE_INTERNAL void emit(const fmi2CallbackFunctions *cb, const char *name, fmi2Status status,
                  const char *category, const char *msg)
 {
-    if (!cb || !cb->logger) {
-        if (status >= fmi2Warning) fprintf(stderr, "%s: %s\n", name ? name : "fmu", msg);
-        return;
-    }
-    char buf[16384];
-    size_t n = 0;
-    for (const char *p = msg; *p && n + 2 < sizeof buf; p++) {
-        if (*p == '%') buf[n++] = '%';
-        buf[n++] = *p;
-    }
-    buf[n] = 0;
-    cb->logger(cb->componentEnvironment, name ? name : "", status, category ? category : "logAll", buf);
+    log_text(cb, name, status, category ? category : "logAll", msg);
 }
 
 BRIDGE_INTERNAL void emitf(const fmi2CallbackFunctions *cb, const char *name, fmi2Status status, const char *fmt, ...)

@@ -36,6 +36,7 @@
 
 #include "fmi2_remote.h"
 #include "fmi2_remote_batch.h"
+#include "log_text.h"
 #include "fmi2_remote_spawn.h"
 #include "ipc.h"
 
@@ -72,27 +73,6 @@ typedef struct {
 } RState;
 
 /* ---------------------------------------------------------------------------- logging */
-static void say(const fmi2CallbackFunctions *cb, const char *name, fmi2Status status, const char *category,
-                const char *text)
-{
-    if (!cb || !cb->logger) {
-        if (status >= fmi2Warning) fprintf(stderr, "%s: %s\n", name ? name : "fmu", text);
-        return;
-    }
-    /* the text as the format, '%' doubled (as the bridge does) */
-    size_t n = strlen(text);
-    char *buf = (char *)malloc(2 * n + 1);
-    if (!buf) return;
-    size_t k = 0;
-    for (const char *p = text; *p; p++) {
-        if (*p == '%') buf[k++] = '%';
-        buf[k++] = *p;
-    }
-    buf[k] = 0;
-    cb->logger(cb->componentEnvironment, name ? name : "", status, category, buf);
-    free(buf);
-}
-
 static void sayf(Remote *r, fmi2Status status, const char *fmt, ...)
 {
     char msg[4096];
@@ -100,7 +80,7 @@ static void sayf(Remote *r, fmi2Status status, const char *fmt, ...)
     va_start(ap, fmt);
     vsnprintf(msg, sizeof msg, fmt, ap);
     va_end(ap);
-    say(&r->cb, r->name, status, status >= fmi2Error ? "logStatusError" : "logAll", msg);
+    log_text(&r->cb, r->name, status, status >= fmi2Error ? "logStatusError" : "logAll", msg);
 }
 
 /* The server's log records of the last call, to the host's logger. */
@@ -119,7 +99,7 @@ static void replay(Remote *r)
         memcpy(text, msg ? msg : "", nmsg);
         text[nmsg] = 0;
         if (status < fmi2OK || status > fmi2Pending) status = fmi2Error;
-        say(&r->cb, r->name, (fmi2Status)status, category, text);
+        log_text(&r->cb, r->name, (fmi2Status)status, category, text);
         free(text);
     }
     if (r->h->log_dropped)

@@ -23,6 +23,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "log_text.h"
 #include "platform.h"
 #include "runtime_cfg.h"
 
@@ -364,20 +365,7 @@ static void emit_phase(NsInst *I, int phase)
     for (size_t i = 0; i < I->n_msgs; i++) {
         const Msg *m = &I->msgs[i];
         if (m->phase != phase || !(m->status != fmi2OK || I->logging_on)) continue;
-        if (!I->cb.logger) {
-            if (m->status >= fmi2Warning) fprintf(stderr, "%s: %s\n", I->name, m->text);
-            continue;
-        }
-        size_t n = strlen(m->text);
-        char *buf = (char *)malloc(2 * n + 1), *q = buf;
-        if (!buf) continue;
-        for (const char *p = m->text; *p; p++) {   /* the text as the format, '%' doubled (the bridge's emit) */
-            if (*p == '%') *q++ = '%';
-            *q++ = *p;
-        }
-        *q = 0;
-        I->cb.logger(I->cb.componentEnvironment, I->name, (fmi2Status)m->status, m->category, buf);
-        free(buf);
+        log_text(&I->cb, I->name, (fmi2Status)m->status, m->category, m->text);
     }
 }
 
