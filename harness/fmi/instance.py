@@ -18,11 +18,10 @@ The master, the compliance checks, the sweep pool and the tests use it.
 from __future__ import annotations
 
 import math
-import shutil
-import tempfile
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
+from harness.common import scratch
 from harness.fmi import fmpy_logging
 
 STATUS_LABELS = ("fmi2OK", "fmi2Warning", "fmi2Discard", "fmi2Error", "fmi2Fatal", "fmi2Pending")
@@ -64,11 +63,17 @@ def fmi2_type_names(md):
 
 
 class FmuCache:
-    """Extracts each FMU file once per process and keeps its model description."""
+    """Extracts each FMU file once per process and keeps its model description, in a scratch folder
+    of this process (``spurdiff_fmus_*`` in the temporary directory, :mod:`harness.common.scratch`);
+    making one removes those of processes that ended without removing theirs (killed)."""
 
-    def __init__(self):
+    PREFIX = "spurdiff_fmus_"
+
+    def __init__(self, root: Path | str | None = None):
         self._dirs: dict[Path, tuple[str, Any]] = {}
-        self._tmp = Path(tempfile.mkdtemp(prefix="spurdiff_fmus_"))
+        self._scratch = scratch.make(self.PREFIX, root)
+        self._tmp = self._scratch.path
+        scratch.sweep(self.PREFIX, self._tmp.parent, keep=self._tmp)
 
     def get(self, path: Path):
         from fmpy import extract, read_model_description
@@ -82,7 +87,7 @@ class FmuCache:
         return self._dirs[key]
 
     def cleanup(self) -> None:
-        shutil.rmtree(self._tmp, ignore_errors=True)
+        self._scratch.remove()
 
 
 _CACHE: FmuCache | None = None
