@@ -38,13 +38,10 @@ START_ENV = "SPURDIFF_FMU_START"
 
 
 @contextlib.contextmanager
-def model_process(mode: str):
-    """Instances made inside the block run the model in this process ("in") or its own ("out"), its
-    Python started at fmi2Instantiate (``SPURDIFF_FMU_START=python``: at its defaults an FMU would
-    otherwise start natively, with no model process at all: fmu_src/native/fmi/native_start.c)."""
-    old = {k: os.environ.get(k) for k in (ENV, START_ENV)}
-    os.environ[ENV] = mode
-    os.environ[START_ENV] = "python"
+def environment(values: dict[str, str] | None):
+    """``values`` in this process's environment for the block, each variable as it was after it."""
+    old = {k: os.environ.get(k) for k in values or {}}
+    os.environ.update(values or {})
     try:
         yield
     finally:
@@ -53,6 +50,13 @@ def model_process(mode: str):
                 os.environ.pop(k, None)
             else:
                 os.environ[k] = v
+
+
+def model_process(mode: str):
+    """Instances made inside the block run the model in this process ("in") or its own ("out"), its
+    Python started at fmi2Instantiate (``SPURDIFF_FMU_START=python``: at its defaults an FMU would
+    otherwise start natively, with no model process at all: fmu_src/native/fmi/native_start.c)."""
+    return environment({ENV: mode, START_ENV: "python"})
 
 
 @contextlib.contextmanager

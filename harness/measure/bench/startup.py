@@ -37,6 +37,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from harness.measure.bench.process import environment
+
 HOST_SOURCE = Path(__file__).with_name("startup_host.c")
 ROOT = Path(__file__).resolve().parents[3]   # the checkout: harness/measure/bench/ -> .
 CHK_BUILD = ROOT / "tests" / "broken_fmus" / "chk_build.py"
@@ -162,16 +164,8 @@ def per_step(fmu: Path, unzipped: Path, n: int = 2000, rounds: int = 5,
     of ``rounds`` (``env`` set while the instance is made): through fmpy's Python API (its lists
     converted to C arrays at each call), and through ctypes with the arrays made once (as a master's
     loop or a C host calls: what the FMU itself costs)."""
-    saved = {k: os.environ.get(k) for k in env or {}}
-    os.environ.update(env or {})
-    try:
+    with environment(env):
         return _per_step(fmu, unzipped, n, rounds)
-    finally:
-        for k, v in saved.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
 
 
 def _per_step(fmu: Path, unzipped: Path, n: int, rounds: int) -> tuple[float, float]:
