@@ -478,6 +478,7 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
 
     iface = interface(name)
     variables, experiment = iface.VARIABLES, iface.DEFAULT_EXPERIMENT
+    stamp = source_digest(name)   # taken first: sources changed during the build leave the FMU stale
     dest = Path(dest) if dest else fmu_cache_dir()
     dest.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="spurdiff_build_") as tmp:
@@ -568,7 +569,7 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
             os.replace(part, out)  # atomic: a reader sees the old or the new FMU, never half of one
         finally:
             part.unlink(missing_ok=True)   # left only by a build that failed
-    fmu_checksum.write(out, source_digest(name))   # <name>.sha256: the FMU's own digest
+    fmu_checksum.write(out, stamp)   # <name>.sha256: the FMU's own digest
     if not quiet:
         print(f"built {out}" + (f" ({'; '.join(notes)})" if notes else ""))
     return out

@@ -20,7 +20,8 @@ bridge and server. What differs:
 
 The archive starts from the runtime's compressed entries (as the FMI 2.0 build does), so making
 an FMI 3.0 FMU costs about a second. A build is skipped when its stamp (the FMI 2.0 FMU's source
-digest and this module's) is current.
+digest, this module's, and the SHA-256 of the very FMI 2.0 FMU it was made from) is current: a
+rebuilt FMI 2.0 FMU (a new GUID) makes its FMI 3.0 twin stale, whatever the sources.
 """
 from __future__ import annotations
 
@@ -54,15 +55,21 @@ def fmu_path(name: str, dest: Path | None = None) -> Path:
     return Path(dest or fmu_cache_dir()) / f"{name}{SUFFIX}.fmu"
 
 
-def source_digest(name: str) -> str:
+def source_digest(name: str, made_from: str) -> str:
+    """The stamp of the FMI 3.0 FMU of ``name``: the FMI 2.0 FMU's source digest, this module's and
+    modeldescription3's code, and ``made_from``, the SHA-256 of the FMI 2.0 FMU it is made from (its
+    GUID is drawn anew at each FMI 2.0 build, so the sources alone do not say the pair agrees)."""
     h = hashlib.sha256(build2.source_digest(name).encode())
     for p in (Path(__file__), Path(modeldescription3.__file__)):
         h.update(p.read_bytes())
+    h.update(made_from.encode())
     return h.hexdigest()
 
 
 def is_current(name: str, dest: Path | None = None) -> bool:
-    return fmu_checksum.is_current(fmu_path(name, dest), source_digest(name))
+    """The FMI 3.0 FMU of ``name`` is current: its FMI 2.0 FMU is, and it was made from that very file."""
+    return build2.is_current(name, dest) and fmu_checksum.is_current(
+        fmu_path(name, dest), source_digest(name, fmu_checksum.file_sha256(build2.fmu_path(name, dest))))
 
 
 _LOADER3: dict[str, Path] = {}
@@ -92,16 +99,36 @@ def compile_loader3() -> Path:
 
 def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
     """The FMI 3.0 FMU of ``name`` from its FMI 2.0 FMU in ``dest`` (which must be current)."""
+    dest = Path(dest) if dest else fmu_cache_dir()
+    # one file read, whatever another build renames over its path meanwhile; the stamp taken first
+    # (sources changed during the build leave the FMU stale)
+    with open(build2.fmu_path(name, dest), "rb") as f, zipfile.ZipFile(f) as fmu2:
+        stamp = source_digest(name, fmu_checksum.stream_sha256(f))
+        out = _make(name, dest, fmu2)
+    fmu_checksum.write(out, stamp)   # <name>.sha256: the FMU's own digest
+    if not quiet:
+        print(f"built {out} (FMI 3.0, from {build2.fmu_path(name, dest).name})")
+    return out
+
+
+def _make(name: str, dest: Path, zin: zipfile.ZipFile) -> Path:
+    """The FMI 3.0 FMU of ``name`` in ``dest`` from ``zin``, its FMI 2.0 FMU."""
     from harness.build import runtime_bundle
 
-    dest = Path(dest) if dest else fmu_cache_dir()
-    fmu2 = build2.fmu_path(name, dest)
     iface = build2.interface(name)
     loader = compile_loader3()
     runtime = runtime_bundle.ensure_runtime(build2.declarations(), quiet=True)
-    with zipfile.ZipFile(fmu2) as z:
-        has_win64 = f"binaries/win64/{name}.dll" in z.namelist()
+    names = zin.namelist()
+    if "resources/" + build2.RUNTIME_CFG not in names:
+        raise build2.BuildError(f"{name}: {name}.fmu carries no runtime (built without a C compiler?); "
+                                "an FMI 3.0 FMU needs the native loader")
+    has_win64 = f"binaries/win64/{name}.dll" in names
     win64 = build2._win64_parts() if has_win64 else None    # None: linux64 only, as the FMI 2.0 FMU
+    if has_win64 and win64 is None:     # the pair would disagree on its platforms
+        why = (build2._WIN64.get("why") if "win64" in build2.platforms()
+               else f"platforms {','.join(build2.platforms())}")
+        raise build2.BuildError(f"{name}: {name}.fmu carries win64 binaries, which this build does not make ({why}); "
+                                f"build again (with --force if {name}.fmu is current)")
     start = build2._base_archive(runtime, win64)            # the runtimes' entries, compressed once
     out = fmu_path(name, dest)
     part = dest / f".{name}{SUFFIX}.{os.getpid()}.fmu"
@@ -111,15 +138,11 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
         shutil.copyfile(start, part)
         if name in build2.NUMPY_FREE_FMUS:      # as the FMI 2.0 FMU (whose numpy archive, if any, comes below)
             build2._drop_numpy(part)
-        elif build2.archived_numpy(zipfile.ZipFile(fmu2).namelist()):   # numpy as archives, as the FMI 2.0 FMU
-            build2._drop_numpy(part, build2.archived_numpy(zipfile.ZipFile(fmu2).namelist()))
+        elif build2.archived_numpy(names):   # numpy as archives, as the FMI 2.0 FMU
+            build2._drop_numpy(part, build2.archived_numpy(names))
         with zipfile.ZipFile(part) as z:
             in_runtime |= set(z.namelist())        # (the folders drop_numpy kept)
-        with zipfile.ZipFile(fmu2) as zin, zipfile.ZipFile(part, "a", zipfile.ZIP_DEFLATED) as zout:
-            names = zin.namelist()
-            if "resources/" + build2.RUNTIME_CFG not in names:
-                raise build2.BuildError(f"{name}: {fmu2.name} carries no runtime (built without a C compiler?); "
-                                        "an FMI 3.0 FMU needs the native loader")
+        with zipfile.ZipFile(part, "a", zipfile.ZIP_DEFLATED) as zout:
             for item in zin.infolist():
                 if item.filename in in_runtime or (win64 is None and item.filename.startswith(WIN64_ONLY)):
                     continue
@@ -146,9 +169,6 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
         os.replace(part, out)
     finally:
         part.unlink(missing_ok=True)
-    fmu_checksum.write(out, source_digest(name))   # <name>.sha256: the FMU's own digest
-    if not quiet:
-        print(f"built {out} (FMI 3.0, from {fmu2.name})")
     return out
 
 

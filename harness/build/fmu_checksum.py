@@ -30,10 +30,17 @@ def file_sha256(path: Path) -> str:
 
 
 def _digest(path: Path) -> str:
-    h = hashlib.sha256()
     with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
+        return stream_sha256(f)
+
+
+def stream_sha256(f) -> str:
+    """The SHA-256 of the open binary file ``f`` from its start (left at its end): the bytes of that
+    file, even if another build renames a new one over its path meanwhile."""
+    f.seek(0)
+    h = hashlib.sha256()
+    for block in iter(lambda: f.read(1 << 20), b""):
+        h.update(block)
     return h.hexdigest()
 
 
