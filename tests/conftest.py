@@ -1,5 +1,9 @@
-"""Shared fixtures: the project's FMUs are built once per test session (skipped when current)."""
+"""Shared fixtures: the project's FMUs are built once per test session (skipped when current); the
+temporary folders of the processes the tests start are made inside pytest's own folders."""
 from __future__ import annotations
+
+import os
+import tempfile
 
 import pytest
 
@@ -17,6 +21,31 @@ def differential_fmu(fmu_files):
     return fmu_files["SpurDifferential"]
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _children_scratch_in_basetemp(tmp_path_factory):
+    """Processes the tests start (hosts, checkers, builds) make their temporary folders under this
+    session's pytest folder, which pytest prunes after three sessions, instead of in the machine's
+    temporary folder: a host killed by its test, or one that never removes its extraction of an FMU
+    (tens of MB each), leaves nothing behind there. This process's own temporary folder is pinned
+    first, unchanged."""
+    tempfile.gettempdir()
+    old = os.environ.get("TMPDIR")
+    os.environ["TMPDIR"] = str(tmp_path_factory.mktemp("children-tmp"))
+    yield
+    if old is None:
+        os.environ.pop("TMPDIR", None)
+    else:
+        os.environ["TMPDIR"] = old
+
+
+@pytest.fixture
+def children_scratch_in_tmp_path(tmp_path, monkeypatch):
+    """For a test whose hosts unpack their FMU (fmpy's extract()) into a new temporary folder and
+    may never remove it (some are killed): their TMPDIR is the test's own folder."""
+    tempfile.gettempdir()
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+
+
 @pytest.fixture(autouse=True)
 def _fmpy_logger_proxy_restored():
     """A test that ran simulate_fmu(logger=...) leaves fmpy's process-wide logger proxy pointing
@@ -28,8 +57,6 @@ def _fmpy_logger_proxy_restored():
 
 
 # CI runs the property tests with a fixed seed (reproducible); locally they explore at random.
-import os  # noqa: E402
-
 from hypothesis import settings  # noqa: E402
 
 settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True)

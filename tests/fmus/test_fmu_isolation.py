@@ -18,19 +18,9 @@ from pathlib import Path
 import pytest
 
 
-@pytest.fixture(autouse=True)
-def _children_scratch_in_tmp_path(tmp_path, monkeypatch):
-    """The hosts started here unpack their FMU with fmpy's extract() into a new temporary folder and
-    never remove it (some are killed): their TMPDIR is the test's own folder (this process's
-    temporary folder is pinned first, unchanged)."""
-    import tempfile
-
-    tempfile.gettempdir()
-    monkeypatch.setenv("TMPDIR", str(tmp_path))
-
-
-pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
-                                reason="no C compiler: the FMUs cannot be built with our loader")
+pytestmark = [pytest.mark.usefixtures("children_scratch_in_tmp_path"),   # hosts that may never remove theirs
+              pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
+                                 reason="no C compiler: the FMUs cannot be built with our loader")]
 
 # a loaded differential whose suns slip: the locking torque is the pin friction's (proportional to mu_pin)
 CASE = {"carrier.w_ref": 1.389, "left.tau": -1500.0, "right.tau": -500.0}

@@ -27,15 +27,8 @@ from fmpy import simulate_fmu
 from host_cases import CASES, STEP, STOP
 
 
-@pytest.fixture(autouse=True)
-def _children_scratch_in_tmp_path(tmp_path, monkeypatch):
-    """The hosts started here unpack their FMU with fmpy's extract() into a new temporary folder and
-    never remove it (some are killed): their TMPDIR is the test's own folder (this process's
-    temporary folder is pinned first, unchanged)."""
-    import tempfile
-
-    tempfile.gettempdir()
-    monkeypatch.setenv("TMPDIR", str(tmp_path))
+# the hosts started here unpack their FMU into a temporary folder they may never remove: tests/conftest.py
+pytestmark = pytest.mark.usefixtures("children_scratch_in_tmp_path")
 
 
 # the model in its own process, its Python started at fmi2Instantiate (at the defaults the FMU would
