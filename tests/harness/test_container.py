@@ -52,7 +52,8 @@ def test_the_container_runs_in_fmpy_as_our_master_runs_the_scene(fmu_files, tmp_
     from fmpy import read_model_description
     fed = {(ln[2], ln[3]) for ln in container.description(scene)["link"]}
     names = container.embedded_names(scene)
-    unfed = {(names[i.name], v.name) for i in scene.instances for v in read_model_description(str(files[i.fmu])).modelVariables
+    mds = {f: read_model_description(str(path)) for f, path in files.items()}
+    unfed = {(names[i.name], v.name) for i in scene.instances for v in mds[i.fmu].modelVariables
              if v.causality == "input" and (names[i.name], v.name) not in fed}
     assert {w.split("'")[1].split(" ", 1)[1] for w in s.warnings if w.startswith("fmucontainer ERROR: Input")} == \
         {f"{f}/{v}" for f, v in unfed}
