@@ -38,6 +38,8 @@ def main(argv: list[str] | None = None) -> int:
         s = export_container(scene, files, out, tables_at_start=args.tables_at_start, fmi_version=args.fmi_version)
     except (SceneError, ContainerError, OutputError) as e:
         return fail(prog, str(e))
+    for line in s.warnings:   # the toolbox's WARNING lines and benign ERROR lines, one line each
+        print(f"{prog}: warning: {line}", file=sys.stderr)
     mode = "sequential (Gauss-Seidel, the scene's order)" if s.sequential else "parallel (Jacobi)"
     print(f"wrote {s.path}: FMI {s.fmi_version}.0, {s.fmus} FMU(s), {s.links} link(s), {s.starts} start value(s), "
           f"{s.outputs} output(s); step {s.step:g} s, stop time {scene.duration:g} s, {mode}; made with {s.tool}")

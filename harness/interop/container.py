@@ -9,7 +9,9 @@ scene's FMUs inside it.
 * the scene's connections as the container's links, the scene's parameters and its inputs' values
   at t = 0 as start values of the embedded FMUs (what :func:`harness.interop.ssp.instance_values` gives
   every exporter: for a SpurDifferential instance the scene's effects under its own parameters);
-* the scene's recorded quantities as the container's outputs, named ``<instance>.<variable>``;
+* the scene's recorded quantities as the container's outputs, named ``<instance>.<variable>``; every
+  other output of an embedded FMU that no link reads is dropped (the toolbox's ``drop``: declared
+  unused, instead of one "Output ... is not connected" warning each);
 * the scene's communication step as the container's internal step, its duration as the default
   experiment's stop time (the toolbox takes the first FMU's; the written modelDescription is set to
   the scene's), and its coupling: ``gauss-seidel`` in the scene's order is the container's
@@ -18,6 +20,13 @@ scene's FMUs inside it.
 * ``fmi_version``: 2 puts the FMI 2.0 FMUs in an FMI 2.0 container, 3 the FMI 3.0 ones
   (``NAME-fmi3.fmu``) in an FMI 3.0 container (``fmucontainer -fmi 3``).
 
+What the toolbox says while it builds (it exits 0 after ERROR lines too): its WARNING lines and
+its "Input '...' is not connected" ERROR lines for inputs the scene does not connect (they keep their
+start value, the scene's or the FMU's, as in our master) are carried as one-line warnings
+(``ContainerSummary.warnings``, printed by the command); any other ERROR or CRITICAL line, or that line
+for an input a link of ours feeds, says a part of the container was not made and fails the export
+(``ContainerError`` naming the line; no file is written).
+
 What the container cannot carry: an input that is a time table (only its value at t = 0; such a
 scene is refused unless ``tables_at_start``) and our master's per-step extras (input ramps between
 communication points are FMU inputs like any other and are connected, so they go in).
@@ -25,6 +34,7 @@ communication points are FMU inputs like any other and are connected, so they go
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -56,11 +66,13 @@ class ContainerSummary:
     step: float
     tool: str
     fmi_version: int = 2
+    warnings: tuple[str, ...] = ()      # the toolbox's WARNING / benign ERROR lines, one line each
 
 
 def description(scene: Scene, tables_at_start: bool = False, causality: dict[str, str] | None = None) -> dict:
     """The toolbox's JSON description of the container for ``scene`` (see the module docstring);
-    ``causality``: ``instance.variable`` -> causality, to keep only outputs among the recorded."""
+    ``causality``: ``instance.variable`` -> causality, to keep only outputs among the recorded and to
+    drop the outputs nothing reads."""
     tables = sorted(ref for ref, p in scene.inputs.items() if p.kind != "constant")
     if tables and not tables_at_start:
         raise ContainerError(f"scene {scene.name}: input(s) {', '.join(tables)} are time tables; a container holds "
@@ -74,11 +86,15 @@ def description(scene: Scene, tables_at_start: bool = False, causality: dict[str
     starts = [[fmu[inst], name, _json_value(v)] for inst, vals in values.items() for name, v in vals.items()]
     outputs = [[fmu[inst], var, ref] for ref in scene.record for inst, var in [ref.split(".", 1)]
                if causality is None or causality.get(ref) == "output"]
+    used = set(scene.connections.values()) | {o[2] for o in outputs}
+    drops = [[fmu[inst], var] for ref, c in (causality or {}).items() if c == "output" and ref not in used
+             for inst, var in [ref.split(".", 1)]]
     return {"name": f"{safe_name('scene name', scene.name)}.fmu", "step_size": scene.step,
             "sequential": scene.algorithm != "jacobi", "mt": False,
             "auto_link": False, "auto_input": False, "auto_output": False, "auto_parameter": False,
             "auto_local": False,
-            "fmu": [fmu[i.name] for i in scene.instances], "link": links, "start": starts, "output": outputs}
+            "fmu": [fmu[i.name] for i in scene.instances], "link": links, "start": starts, "output": outputs,
+            "drop": drops}
 
 
 def embedded_names(scene: Scene) -> dict[str, str]:
@@ -143,10 +159,41 @@ def export_container(scene: Scene, fmu_files: dict[str, Path], path: Path | str,
             tail = [ln for ln in (r.stdout + r.stderr).splitlines() if "ERROR" in ln or "Error" in ln][-3:]
             raise ContainerError(f"fmucontainer failed (exit {r.returncode}): "
                                  + ("; ".join(tail) or (r.stdout + r.stderr).strip()[-300:]))
+        warnings = toolbox_warnings(r.stdout + r.stderr, desc)
         with private_path(path) as partial:
             _write_with_experiment(built, partial, desc, fmi_version, scene.duration)
     return ContainerSummary(path, len(desc["fmu"]), len(desc["link"]), len(desc["start"]), len(desc["output"]),
-                            desc["sequential"], scene.step, tool_version(), fmi_version)
+                            desc["sequential"], scene.step, tool_version(), fmi_version, tuple(warnings))
+
+
+_ANSI = re.compile(r"\x1b\[[0-9;]*m")
+_LEVEL = re.compile(r"^(WARNING|ERROR|CRITICAL)\s*\|\s?(.*)$")
+_UNCONNECTED_INPUT = re.compile(r"^Input 'Port (.+?)/(.+)' is not connected$")
+
+
+def toolbox_warnings(output: str, desc: dict) -> list[str]:
+    """The toolbox's WARNING and benign ERROR lines of a build that exited 0, one line each
+    (``fmucontainer LEVEL: message``); ContainerError on an ERROR or CRITICAL line that says a part of
+    the container was not made: any but "Input '<fmu>/<var>' is not connected" for an input no link
+    of ``desc`` feeds (then it keeps its start value, as in our master)."""
+    fed = {(ln[2], ln[3]) for ln in desc["link"]}
+    starts = {(fmu, var): value for fmu, var, value in desc["start"]}
+    warnings = []
+    for raw in output.splitlines():
+        m = _LEVEL.match(_ANSI.sub("", raw).strip())
+        if m is None:
+            continue
+        level, message = m.groups()
+        line = f"fmucontainer {level}: {message}"
+        if level != "WARNING":
+            unconnected = _UNCONNECTED_INPUT.match(message)
+            if unconnected is None or unconnected.groups() in fed:
+                raise ContainerError(f"{line} (it exited 0; the container is not written)")
+            start = starts.get(unconnected.groups())
+            line += (" (no link of the scene feeds it: it keeps "
+                     + ("the FMU's start value)" if start is None else f"the scene's start value {start!r})"))
+        warnings.append(line)
+    return warnings
 
 
 def _check_versions(scene: Scene, fmu_files: dict[str, Path], fmi_version: int) -> None:
@@ -194,4 +241,5 @@ def default_output(scene: Scene) -> Path:
     return results_dir(name) / f"{name}.fmu"
 
 
-__all__ = ["ContainerError", "ContainerSummary", "default_output", "description", "export_container", "tool_version"]
+__all__ = ["ContainerError", "ContainerSummary", "default_output", "description", "export_container", "tool_version",
+           "toolbox_warnings"]

@@ -1,9 +1,10 @@
 """One case per FMU for the host tests (constant inputs as start values; fmpy gives the reference), and
-what those tests share: where the ecos command line is, building our C hosts (tests/c_host/), reading a
-host's CSV and comparing it with fmpy's."""
+what those tests share: where the ecos command line is and reading its results (never a run whose FMU
+failed), building our C hosts (tests/c_host/), reading a host's CSV and comparing it with fmpy's."""
 from __future__ import annotations
 
 import csv
+import re
 import subprocess
 from pathlib import Path
 
@@ -46,6 +47,39 @@ def ecos_binary() -> Path | None:
         return None
     r = subprocess.run(["ldd", str(exe)], capture_output=True, text=True)
     return exe if "not found" not in r.stdout else None
+
+
+# ecos logs its FMUs' messages (where a failed fmi2Instantiate says why) at debug level only
+ECOS_LOG = "-l debug"
+# what the container runtime of fmu-manipulation-toolbox 2.0 logs with status fmi2Error on every run,
+# a good one too (ecos: "fmi2Error Solver configure...."): not a failure
+CONTAINER_NOISE = "Solver configure...."
+
+
+def ecos_failure(log: str) -> str | None:
+    """The first line of an ecos log that says an FMU failed: a message an FMU logged with status Error
+    or Fatal (at ``ECOS_LOG`` only; FMI 2.0 ``fmi2Error fmi2Instantiate: <reason>``, FMI 3.0
+    ``[instance] Error fmi3InstantiateCoSimulation: <reason>``) or an error of ecos's own; None if none."""
+    for line in log.splitlines():
+        failed = re.search(r"\bfmi2(Error|Fatal) |\] (Error|Fatal) |\[(error|critical)\]", line)
+        if failed and CONTAINER_NOISE not in line:
+            return line.strip()
+    return None
+
+
+def read_ecos_csv(path: Path, log: str, what: str) -> dict[str, np.ndarray]:
+    """ecos's CSV result, its columns named as the FMU's variables (``instance::x[REAL]`` -> ``x``), after
+    checking the run: ecos exits 0 and writes a CSV of zeros when an FMU's instantiation failed (it goes on
+    calling the FMU with a NULL instance). Fails naming the log line that says an FMU failed
+    (:func:`ecos_failure`: run ecos with ``ECOS_LOG``), or, where the log says nothing, when every value
+    ecos wrote is zero (nothing came from the FMU)."""
+    failed = ecos_failure(log)
+    assert failed is None, f"{what}: ecos exited 0, but its log says an FMU failed: {failed}"
+    got = {k.split("::", 1)[-1].split("[", 1)[0]: v for k, v in read_csv(path).items()}
+    values = [v for n, v in got.items() if n not in ("time", "iterations")]
+    assert any(np.any(v != 0.0) for v in values), \
+        f"{what}: ecos exited 0, but every value it wrote ({len(values)} columns) is 0: nothing came from the FMU"
+    return got
 
 
 def read_csv(path: Path) -> dict[str, np.ndarray]:

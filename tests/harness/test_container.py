@@ -3,6 +3,7 @@ fmu-manipulation-toolbox, whose C runtime steps the scene's FMUs), FMI 2.0 and 3
 libcosim beside our master."""
 from __future__ import annotations
 
+import re
 import zipfile
 import xml.etree.ElementTree as ET
 
@@ -45,6 +46,19 @@ def test_the_container_runs_in_fmpy_as_our_master_runs_the_scene(fmu_files, tmp_
         root = ET.fromstring(z.read("modelDescription.xml"))
         embedded = [n for n in z.namelist() if n.endswith(".fmu") or n.count("/") == 2 and n.endswith("modelDescription.xml")]
     assert root.get("fmiVersion") == "2.0" and embedded
+    # the toolbox's lines (it exits 0 after its ERROR lines): one per input of an embedded FMU that no
+    # link feeds (it keeps its start value) and its two loop warnings; no "Output ... is not connected"
+    # (the outputs nothing reads are dropped)
+    from fmpy import read_model_description
+    fed = {(ln[2], ln[3]) for ln in container.description(scene)["link"]}
+    names = container.embedded_names(scene)
+    mds = {f: read_model_description(str(path)) for f, path in files.items()}
+    unfed = {(names[i.name], v.name) for i in scene.instances for v in mds[i.fmu].modelVariables
+             if v.causality == "input" and (names[i.name], v.name) not in fed}
+    assert {w.split("'")[1].split(" ", 1)[1] for w in s.warnings if w.startswith("fmucontainer ERROR: Input")} == \
+        {f"{f}/{v}" for f, v in unfed}
+    assert len(unfed) == 16 and len(s.warnings) == 18
+    assert sum(w.startswith("fmucontainer WARNING: Loop of links through the embedded FMU") for w in s.warnings) == 2
     assert float(root.find("DefaultExperiment").get("stopTime")) == scene.duration      # not the car's 10 s
     from fmpy.validation import validate_fmu
     assert validate_fmu(str(s.path)) == []          # fmpy validate: clean (names legal as "structured")
@@ -184,3 +198,78 @@ def test_an_unknown_fmi_version_is_refused(tmp_path):
     scene = prepare_scene("vehicle-cornering", duration=0.2)
     with pytest.raises(container.ContainerError, match="FMI version 4: allowed 2 or 3"):
         container.export_container(scene, {}, tmp_path / "x.fmu", fmi_version=4)
+
+
+# A stand-in for fmucontainer that exits 0 after printing the toolbox's log lines and writes a
+# container whose modelDescription has every output asked for (no runtime: never run).
+FAKE_TOOLBOX = '''#!{python}
+import json, sys, zipfile
+desc = json.load(open("container.json"))
+sys.stdout.write({lines!r})
+outs = "".join('<ScalarVariable name="%s" valueReference="%d" causality="output"><Real/></ScalarVariable>' % (o[2], i)
+               for i, o in enumerate(desc["output"]))
+with zipfile.ZipFile(desc["name"], "w") as z:
+    z.writestr("modelDescription.xml", '<fmiModelDescription fmiVersion="2.0"><ModelVariables>%s</ModelVariables>'
+               '</fmiModelDescription>' % outs)
+'''
+
+
+def _fake_toolbox(monkeypatch, tmp_path, lines: str):
+    import sys
+    exe = tmp_path / "fmucontainer"
+    exe.write_text(FAKE_TOOLBOX.format(python=sys.executable, lines=lines))
+    exe.chmod(0o755)
+    monkeypatch.setattr(container, "_toolbox", lambda: str(exe))
+
+
+@pytest.mark.parametrize("line, named", [
+    ("ERROR    | Cannot expose (output) 'diff.lockingTorque' because type 'Real' is not compatible\n",
+     "Cannot expose (output) 'diff.lockingTorque'"),
+    ("ERROR    | JSON: unexpected keyword drop. Skipped.\n", "unexpected keyword drop"),
+    ("CRITICAL | No common OS found for embedded FMU. Container won't be runnable.\n", "No common OS found"),
+    # an input a link of the scene feeds: the link was not made
+    ("ERROR    | Input 'Port diff_SpurDifferential.fmu/carrier.tau' is not connected\n",
+     "diff_SpurDifferential.fmu/carrier.tau"),
+])
+def test_an_error_line_of_a_toolbox_that_exits_0_fails_the_export(line, named, fmu_files, tmp_path, monkeypatch, capsys):
+    """fmucontainer exits 0 after ERROR lines: one that says a part of the container was not made fails
+    the export with a one-line ContainerError naming it, and no file is written (command: exit 2)."""
+    from harness.cli import export_container as cli
+    _fake_toolbox(monkeypatch, tmp_path, "INFO     | FMUContainer version 2.0\n" + line + "INFO     | 'x.fmu' is available.\n")
+    scene = prepare_scene("vehicle-cornering", duration=0.2)
+    files = {i.fmu: fmu_files[i.fmu] for i in scene.instances}
+    with pytest.raises(container.ContainerError, match=re.escape(named)) as e:
+        container.export_container(scene, files, tmp_path / "scene.fmu")
+    assert "\n" not in str(e.value) and "exited 0" in str(e.value)
+    assert not (tmp_path / "scene.fmu").exists()
+    monkeypatch.setattr("harness.run.runner.fmu_files_for", lambda scene, **kw: files)
+    assert cli.main(["vehicle-cornering", "--duration", "0.2", "-o", str(tmp_path / "cli.fmu")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("spurdiff export-container: ") and named in err and "\n" not in err
+    assert not (tmp_path / "cli.fmu").exists()
+
+
+def test_benign_lines_of_the_toolbox_are_carried_as_warnings(fmu_files, tmp_path, monkeypatch, capsys):
+    """An unconnected input no link of the scene feeds (it keeps its start value) and the WARNING
+    lines: the export is made, each line one warning of the summary and of the command's output."""
+    from harness.cli import export_container as cli
+    _fake_toolbox(monkeypatch, tmp_path,
+                  "ERROR    | Input 'Port car_Vehicle.fmu/speedTarget' is not connected\n"
+                  "ERROR    | Input 'Port car_Vehicle.fmu/grade' is not connected\n"
+                  "WARNING  | Loop of links through the embedded FMU 'car_Vehicle.fmu': it is initialized without "
+                  "the values its inputs get from the loop.\n")
+    scene = prepare_scene("vehicle-cornering", duration=0.2)
+    files = {i.fmu: fmu_files[i.fmu] for i in scene.instances}
+    s = container.export_container(scene, files, tmp_path / "scene.fmu")
+    assert s.path.is_file()
+    assert s.warnings == (
+        "fmucontainer ERROR: Input 'Port car_Vehicle.fmu/speedTarget' is not connected (no link of the scene "
+        "feeds it: it keeps the scene's start value 10.0)",
+        "fmucontainer ERROR: Input 'Port car_Vehicle.fmu/grade' is not connected (no link of the scene feeds it: "
+        "it keeps the FMU's start value)",
+        "fmucontainer WARNING: Loop of links through the embedded FMU 'car_Vehicle.fmu': it is initialized without "
+        "the values its inputs get from the loop.")
+    monkeypatch.setattr("harness.run.runner.fmu_files_for", lambda scene, **kw: files)
+    assert cli.main(["vehicle-cornering", "--duration", "0.2", "-o", str(tmp_path / "cli.fmu")]) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert err == [f"spurdiff export-container: warning: {w}" for w in s.warnings]

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from host_cases import build_c_host, read_csv
+from host_cases import ECOS_LOG, build_c_host, read_ecos_csv
 from test_travel import ECOS, WHY_NOT, hidden_run
 
 pytestmark = pytest.mark.skipif(WHY_NOT is not None, reason=str(WHY_NOT))
@@ -59,11 +59,11 @@ def test_the_container_runs_in_ecos_where_no_python_is(containers, version):
         shutil.copy(ECOS, root / "ecos")
         os.chmod(root / "ecos", 0o755)
         os.chmod(root / "scene.fmu", 0o644)
-        r = hidden_run(f"./ecos simulate --path scene.fmu --stopTime {STOP} --stepSize {STEP} >log.txt 2>&1; "
+        r = hidden_run(f"./ecos simulate --path scene.fmu --stopTime {STOP} --stepSize {STEP} {ECOS_LOG} >log.txt 2>&1; "
                        "echo RC $?\n", root)
         log = (root / "log.txt").read_text(errors="replace") if (root / "log.txt").exists() else ""
         assert "RC 0" in r.stdout, r.stdout + r.stderr + log[-3000:]
-        got = {k.split("::", 1)[-1].split("[", 1)[0]: v for k, v in read_csv(root / "scene.csv").items()}
+        got = read_ecos_csv(root / "scene.csv", log, f"ecos, FMI {version}.0 container")
         ref = simulate_fmu(str(container_fmu), stop_time=STOP, step_size=STEP, output_interval=STEP)
         common = [n for n in ref.dtype.names[1:] if n in got]
         assert len(common) >= 20, common

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
-from host_cases import CASES, STEP, STOP, build_c_host, compare, ecos_binary, read_csv
+from host_cases import CASES, ECOS_LOG, STEP, STOP, build_c_host, compare, ecos_binary, read_csv, read_ecos_csv
 
 from harness.fmi.instance import fmu_cache
 
@@ -182,14 +182,14 @@ def test_ecos_runs_each_fmi3_fmu_bare(odd_dir, fmu_files):
         work = odd_dir / f"ecos {name}"
         work.mkdir(exist_ok=True)
         scripts[name] = _loop(f"cd {shlex.quote(str(work))} && ../ecos simulate --path ../{name}.fmu --stopTime {STOP} "
-                              f"--stepSize {STEP} >>log.txt 2>&1; rc=$?; cd ..; (exit $rc)", runs)
+                              f"--stepSize {STEP} {ECOS_LOG} >>log.txt 2>&1; rc=$?; cd ..; (exit $rc)", runs)
     for name, codes in _side_by_side(scripts, odd_dir).items():
         work = odd_dir / f"ecos {name}"
         log = (work / "log.txt").read_text(errors="replace") if (work / "log.txt").exists() else ""
         assert codes == [0] * runs, f"{name}: exit codes {codes}\n{log[-3000:]}"
         res = simulate_fmu(fmu_cache().get(fmu_files[name])[0], stop_time=STOP, output_interval=STEP)
         ref = {n: np.asarray(res[n], dtype=float) for n in res.dtype.names}
-        got = {k.split("::", 1)[-1].split("[", 1)[0]: v for k, v in read_csv(work / f"{name}.csv").items()}
+        got = read_ecos_csv(work / f"{name}.csv", log, f"ecos {name}")
         compare(got, ref, f"ecos {name}", tol=5e-7)
 
 

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from fmpy import read_model_description, simulate_fmu
-from host_cases import CASES, STEP, STOP, build_c_host, compare, ecos_binary, read_csv
+from host_cases import CASES, ECOS_LOG, STEP, STOP, build_c_host, compare, ecos_binary, read_csv, read_ecos_csv
 
 HERE = Path(__file__).resolve().parents[1]   # tests/
 HOSTS = HERE.parent.parent / "shared" / "hosts"
@@ -215,7 +215,7 @@ def test_ecos_runs_each_fmu_where_no_python_is(odd_dir, fmu_files):
         work.mkdir(exist_ok=True)
         os.chmod(work, 0o777)
         cmd = (f"cd {shlex.quote(str(work))} && ../ecos simulate --path ../{name}.fmu --stopTime {STOP} "
-               f"--stepSize {STEP} >>log.txt 2>&1; rc=$?; cd ..; (exit $rc)")
+               f"--stepSize {STEP} {ECOS_LOG} >>log.txt 2>&1; rc=$?; cd ..; (exit $rc)")
         scripts[name] = _loop(cmd)
     for name, r in _side_by_side(scripts, odd_dir).items():
         work = odd_dir / f"ecos {name}"
@@ -224,6 +224,6 @@ def test_ecos_runs_each_fmu_where_no_python_is(odd_dir, fmu_files):
         assert codes == [0] * RUNS, f"{name}: exit codes {codes}\n{r.stderr[-2000:]}{log[-3000:]}"
         res = simulate_fmu(str(fmu_files[name]), stop_time=STOP, output_interval=STEP)
         ref = {n: np.asarray(res[n], dtype=float) for n in res.dtype.names}
-        got = {k.split("::", 1)[-1].split("[", 1)[0]: v for k, v in read_csv(work / f"{name}.csv").items()}
+        got = read_ecos_csv(work / f"{name}.csv", log, f"ecos {name}")
         # ecos writes six decimals (or seven significant digits for large values): half a unit of either
         compare(got, ref, f"ecos {name}", tol=5e-7)
