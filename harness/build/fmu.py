@@ -49,7 +49,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from harness.build import fmu_checksum
-from harness.common import progress
+from harness.common import progress, scratch
 from harness.build import fmu_package, runtime_bundle, runtime_win64
 from harness.build.elf import find_patchelf
 from harness.common.paths import fmu_cache_dir, fmu_sources, physics_package, sources_digest
@@ -207,8 +207,9 @@ def _native_binaries() -> tuple[Path, Path, Path | None]:
         h.update(p.name.encode() + b"\0" + p.read_bytes())
     key = h.hexdigest()
     if key not in _NATIVE:
-        tmp = Path(tempfile.mkdtemp(prefix="spurdiff_native_"))
-        atexit.register(shutil.rmtree, tmp, True)
+        folder = scratch.process_folder("spurdiff_native_")   # a killed build's is removed by the next build
+        atexit.register(folder.remove)
+        tmp = folder.path
         _NATIVE[key] = compile_native(tmp)
     return _NATIVE[key]
 
@@ -405,8 +406,9 @@ def _carried_package() -> Path:
     per process and package digest in a temporary folder removed at exit."""
     key = runtime_bundle.package_digest(declarations())
     if key not in _STAGED:
-        tmp = Path(tempfile.mkdtemp(prefix="spurdiff_package_"))
-        atexit.register(shutil.rmtree, tmp, True)
+        folder = scratch.process_folder("spurdiff_package_")   # a killed build's is removed by the next build
+        atexit.register(folder.remove)
+        tmp = folder.path
         try:
             pkg = fmu_package.stage_package(PACKAGE, tmp)
         except fmu_package.PackageError as e:

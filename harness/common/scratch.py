@@ -1,4 +1,5 @@
-"""A process's scratch folder in the temporary directory, and the removal of those of dead processes.
+"""A process's scratch folder in the temporary directory, and the removal of those of dead processes
+(the FMU cache of harness/fmi/instance.py, the build's compiled binaries and staged package).
 
 A folder made by :func:`make` (``<tmp>/<prefix><random>``, mode 0700 as :func:`tempfile.mkdtemp`
 makes it) holds a lock file, ``.alive``, locked (``flock``) for as long as the process that made it,
@@ -58,6 +59,14 @@ def make(prefix: str, root: Path | str | None = None) -> Scratch:
     return Scratch(path, fd)
 
 
+def process_folder(prefix: str, root: Path | str | None = None) -> Scratch:
+    """A scratch folder for this process (:func:`make`), after removing the folders of the same
+    prefix that processes killed before they removed theirs left behind (:func:`sweep`)."""
+    made = make(prefix, root)
+    sweep(prefix, made.path.parent, keep=made.path)
+    return made
+
+
 def sweep(prefix: str, root: Path | str | None = None, keep: Path | None = None) -> list[Path]:
     """Remove the scratch folders ``<root>/<prefix>*`` of processes that no longer run (this user's,
     real folders whose ``.alive`` nobody holds locked); the ones removed."""
@@ -103,4 +112,4 @@ def _dead(path: Path) -> bool:
         os.close(fd)
 
 
-__all__ = ["LOCK", "Scratch", "make", "sweep"]
+__all__ = ["LOCK", "Scratch", "make", "process_folder", "sweep"]

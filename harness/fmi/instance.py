@@ -71,9 +71,8 @@ class FmuCache:
 
     def __init__(self, root: Path | str | None = None):
         self._dirs: dict[Path, tuple[str, Any]] = {}
-        self._scratch = scratch.make(self.PREFIX, root)
+        self._scratch = scratch.process_folder(self.PREFIX, root)
         self._tmp = self._scratch.path
-        scratch.sweep(self.PREFIX, self._tmp.parent, keep=self._tmp)
 
     def get(self, path: Path):
         from fmpy import extract, read_model_description

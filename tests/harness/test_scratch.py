@@ -20,21 +20,26 @@ pytestmark = pytest.mark.skipif(scratch.fcntl is None, reason="no fcntl (Windows
 
 CHILD = textwrap.dedent("""
     import os, sys, time
+    from harness.common import scratch
     from harness.fmi.instance import fmu_cache
-    c = fmu_cache()
-    (c._tmp / "extracted.bin").write_bytes(b"x" * 1000)
+    if sys.argv[2] == "fmus":
+        c = fmu_cache()
+        folder = c._tmp
+    else:
+        folder = scratch.process_folder(sys.argv[2]).path
+    (folder / "extracted.bin").write_bytes(b"x" * 1000)
     kid = os.fork() if sys.argv[1] == "fork" else -1
     if kid == 0:
         time.sleep(60)
         os._exit(0)
-    print(c._tmp, kid, flush=True)
+    print(folder, kid, flush=True)
     time.sleep(60)
 """)
 
 
-def _child(tmp_path, mode="plain"):
+def _child(tmp_path, mode="plain", prefix="fmus"):
     env = {**os.environ, "TMPDIR": str(tmp_path)}
-    p = subprocess.Popen([sys.executable, "-c", CHILD, mode], stdout=subprocess.PIPE, text=True, env=env)
+    p = subprocess.Popen([sys.executable, "-c", CHILD, mode, prefix], stdout=subprocess.PIPE, text=True, env=env)
     folder, kid = p.stdout.readline().split()
     return p, Path(folder), int(kid)
 
@@ -110,3 +115,20 @@ def test_a_made_folder_is_private_and_locked(tmp_path):
     finally:
         s.remove()
     assert not s.path.exists()
+
+
+def test_the_builds_scratch_folders_are_swept_too(tmp_path):
+    """The build's compiled binaries and staged package (harness/build/fmu.py) live in process
+    folders of the same kind: a killed build's are removed by the next build's."""
+    import harness.build.fmu as build
+
+    src = Path(build.__file__).read_text()
+    for prefix in ("spurdiff_native_", "spurdiff_package_"):
+        assert f'scratch.process_folder("{prefix}")' in src
+        p, folder, _ = _child(tmp_path, prefix=prefix)
+        p.send_signal(signal.SIGKILL)
+        p.wait()
+        assert folder.is_dir()
+        mine = scratch.process_folder(prefix, tmp_path)
+        assert not folder.exists() and mine.path.is_dir()
+        mine.remove()
