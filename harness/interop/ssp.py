@@ -24,6 +24,8 @@ What the SSD carries (see docs/interoperability.md for what it cannot):
 """
 from __future__ import annotations
 
+import contextlib
+import shutil
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -185,15 +187,32 @@ def export_ssp_summary(scene: Scene, fmu_files: dict[str, Path], path: Path | st
     return ExportSummary(path, len(scene.instances), len(scene.connections), n_values, sorted(tables))
 
 
+@contextlib.contextmanager
+def _pyssp_archive(path: Path):
+    """pyssp-standard's SSP writing ``path``, its temporary folder (``pyssp_*``, where it unpacks the
+    archive) removed after, also when writing the archive fails: pyssp writes it in its exit and
+    removes the folder only after that (a full disk left 53 MB behind per failed export)."""
+    from pyssp_standard import SSP
+
+    folder = None
+    try:
+        with SSP(path, mode="w") as ssp:
+            folder = Path(ssp.unpacked_path).parent
+            yield ssp
+    finally:
+        if folder is not None and folder.name.startswith("pyssp_"):
+            shutil.rmtree(folder, ignore_errors=True)
+
+
 def _write(scene: Scene, fmu_files: dict[str, Path], mds: dict, variables: dict, values: dict, path: Path) -> int:
     """Write the archive with pyssp-standard; returns the number of start values bound."""
-    from pyssp_standard import SSP, Connection
+    from pyssp_standard import Connection
     from pyssp_standard.ssd import Component, DefaultExperiment, ParameterBinding, System
     from pyssp_standard.ssv import SSVElem
 
     tables = {ref: p for ref, p in scene.inputs.items() if p.kind != "constant"}
     n_values = 0
-    with SSP(path, mode="w") as ssp:
+    with _pyssp_archive(path) as ssp:
         for fmu in sorted({i.fmu for i in scene.instances}):
             ssp.add_resource(Path(fmu_files[fmu]))
         with ssp.system_structure as ssd:

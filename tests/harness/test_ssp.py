@@ -172,6 +172,32 @@ def test_schema_check_rejects_an_invalid_ssd_and_leaves_no_file(tmp_path, monkey
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_failed_archive_write_leaves_no_pyssp_folder(tmp_path, monkeypatch):
+    """pyssp writes the archive in its exit and removes its temporary folder only after that: when
+    writing fails (here a full disk, as tests/harness/hostile/test_hostile_outputs.py makes it), the
+    export fails, and neither the archive nor pyssp's folder is left."""
+    import tempfile
+
+    import pyssp_standard.utils as pyssp_utils
+
+    scratch = tmp_path / "tmp"
+    scratch.mkdir()
+    scene = prepare_scene("paper-cornering")
+    files = fmu_files_for(scene)
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
+
+    def full(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(pyssp_utils.shutil, "make_archive", full)
+    from harness.common.outputs import OutputError
+
+    with pytest.raises(OutputError, match="ENOSPC"):
+        export_ssp(scene, files, tmp_path / "x.ssp")
+    assert list(scratch.iterdir()) == []
+    assert not (tmp_path / "x.ssp").exists()
+
+
 def test_export_errors_name_the_problem(chain_toml, tmp_path):
     scene = prepare_scene("paper-cornering")
     files = fmu_files_for(scene)
