@@ -86,7 +86,7 @@ def sweep(prefix: str, root: Path | str | None = None, keep: Path | None = None)
             st = os.lstat(path)
         except OSError:
             continue
-        if not stat.S_ISDIR(st.st_mode) or st.st_uid != os.getuid():
+        if not stat.S_ISDIR(st.st_mode) or st.st_uid != os.geteuid():
             continue
         if _dead(path):
             removed.append(path)

@@ -95,7 +95,7 @@ def test_only_this_users_unlocked_real_folders_are_removed(tmp_path):
     dead.mkdir()
     (dead / scratch.LOCK).write_text("")
     other = None
-    if os.getuid() == 0:                            # a folder of another user, as root can make it
+    if os.geteuid() == 0:                            # a folder of another user, as root can make it
         other = tmp_path / f"{prefix}other"
         other.mkdir()
         (other / scratch.LOCK).write_text("")
