@@ -71,6 +71,8 @@ def _run(fmu, mode: str, program, monkeypatch, unzipdir=None, md=None) -> list:
                     t = 0.0
                 elif act == "terminate":
                     inst.slave.terminate()
+                elif act == "logging":
+                    inst.slave.setDebugLogging(args[0], [])
                 trace.append((act, "ok"))
             except FMICallException as e:
                 trace.append((act, str(e)))

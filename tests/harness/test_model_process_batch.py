@@ -19,6 +19,13 @@ STEPS = 60
 H = 5e-3
 
 
+@pytest.fixture(autouse=True)
+def _every_step_in_the_model_process(monkeypatch):
+    """The batch is of the steps the model's process takes: SPURDIFF_FMU_STEP=model (by default the loader
+    steps a compiled model in the host's process, where the same checks run: tests/fmus/test_handover.py)."""
+    monkeypatch.setenv("SPURDIFF_FMU_STEP", "model")
+
+
 class Host:
     """A master's step loop on one instance through the C functions (raw statuses), as the bench
     calls them."""

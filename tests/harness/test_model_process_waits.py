@@ -41,9 +41,14 @@ def server():
 """
 
 
+# every step goes to the model's process (SPURDIFF_FMU_STEP=model): the waits are on its answer (by
+# default the loader steps a compiled model in the host's process: tests/fmus/test_handover.py)
+MODEL_STEPS = {"SPURDIFF_FMU_STEP": "model"}
+
+
 def _host(fmu, body: str, env: dict | None = None, timeout: float = 90) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-c", HOST + body, str(fmu)], capture_output=True, text=True,
-                          timeout=timeout, env={**os.environ, **OWN_PROCESS, **(env or {})})
+                          timeout=timeout, env={**os.environ, **OWN_PROCESS, **MODEL_STEPS, **(env or {})})
 
 
 STEP_TIMED = r"""

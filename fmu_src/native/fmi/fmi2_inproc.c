@@ -18,6 +18,8 @@ static HANDLE std_nul[3];   /* the NUL handles python3X.dll's C runtime started 
 
 static Fmi2Table B;
 static spurdiffDoStepEarlyTYPE *B_do_step_early;   /* the bridge's FMI 3.0 extension */
+static spurdiffNativeExportTYPE *B_native_export;   /* the hand-over of the native step */
+static spurdiffNativeImportTYPE *B_native_import;
 static int B_loaded;
 static pthread_mutex_t load_lock = PTHREAD_MUTEX_INITIALIZER;
 
@@ -93,6 +95,16 @@ static int load_bridge(const char *bindir, char *err, size_t errsize)
         return -1;
     }
     memcpy(&B_do_step_early, &sym, sizeof sym);
+    if (!(sym = plat_symbol(h, BRIDGE_PREFIX "spurdiffNativeExport"))) {
+        snprintf(err, errsize, "the bridge %s lacks %s", file, BRIDGE_PREFIX "spurdiffNativeExport");
+        return -1;
+    }
+    memcpy(&B_native_export, &sym, sizeof sym);
+    if (!(sym = plat_symbol(h, BRIDGE_PREFIX "spurdiffNativeImport"))) {
+        snprintf(err, errsize, "the bridge %s lacks %s", file, BRIDGE_PREFIX "spurdiffNativeImport");
+        return -1;
+    }
+    memcpy(&B_native_import, &sym, sizeof sym);
 #ifdef _WIN32
     if (!(sym = plat_symbol(h, BRIDGE_PREFIX "winStdioHeld"))) {
         snprintf(err, errsize, "the bridge %s lacks %s", file, BRIDGE_PREFIX "winStdioHeld");
@@ -139,4 +151,16 @@ int inproc_load(const RuntimeCfg *cfg, const char *resources, const char *bindir
 fmi2Status inproc_do_step_early(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end)
 {
     return B_do_step_early ? B_do_step_early(c, t, h, nsp, end) : fmi2Error;
+}
+
+int inproc_native_export(fmi2Component c, unsigned char **bytes, size_t *len)
+{
+    *bytes = NULL;
+    *len = 0;
+    return B_native_export ? B_native_export(c, bytes, len) : -1;
+}
+
+fmi2Status inproc_native_import(fmi2Component c, const double *arrays, size_t n, double time, int bad, long steps)
+{
+    return B_native_import ? B_native_import(c, arrays, n, time, bad, steps) : fmi2Error;
 }

@@ -25,4 +25,12 @@ int inproc_load(const RuntimeCfg *cfg, const char *resources, const char *bindir
 typedef fmi2Status spurdiffDoStepEarlyTYPE(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end);
 fmi2Status inproc_do_step_early(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end);
 
+/* The bridge's hand-over of the native step (fmi2_pybridge_native.c, used by the model's own process):
+ * export: 1 and *bytes (malloc'd, *len), 0 not now, -1 never; import: the arrays back, a status. */
+typedef int spurdiffNativeExportTYPE(fmi2Component c, unsigned char **bytes, size_t *len);
+typedef fmi2Status spurdiffNativeImportTYPE(fmi2Component c, const double *arrays, size_t n, double time, int bad,
+                                            long steps);
+int inproc_native_export(fmi2Component c, unsigned char **bytes, size_t *len);
+fmi2Status inproc_native_import(fmi2Component c, const double *arrays, size_t n, double time, int bad, long steps);
+
 #endif

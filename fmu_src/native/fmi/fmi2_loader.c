@@ -20,6 +20,12 @@
  * process or its own, as above) starts at the first call the native start does not answer, which
  * is then passed on after the calls so far were replayed there (promote). SPURDIFF_FMU_START=python
  * starts the Python at fmi2Instantiate, as an FMU without a native start does; unset or auto: as above.
+ * A model in its own process that has a compiled step hands it to the host's process (the hand-over):
+ * at a step, the loader asks the model's process for the step's arrays and steps them here
+ * (native_start.c: ns_open_live) with the native start's rules, bit for bit what the model's process
+ * computes, so that a step costs no round trip; any call not answered here gives the arrays back
+ * first (give_back), and is then passed on. SPURDIFF_FMU_STEP=model keeps every step in the model's
+ * process; unset or auto: as above.
  * binaries/win64/<modelIdentifier>.dll is this file cross-built with mingw-w64 (the system calls in
  * platform.h): the model runs in the host's process only, on the FMU's own Python (described by
  * resources/python_runtime_win64.cfg) or the host's of the same version; the model's own process
@@ -41,6 +47,9 @@
 #define HANDLE_MAGIC 0x5350444Cu   /* "SPDL" */
 #define PROCESS_ENV "SPURDIFF_FMU_PROCESS"
 #define START_ENV "SPURDIFF_FMU_START"
+#define STEP_ENV "SPURDIFF_FMU_STEP"
+#define LIVE_SHORT 8               /* a hand-over given back within this many steps: ask later next time */
+#define LIVE_WAIT_MAX 1024u        /* the most steps the model's process takes before the loader asks again */
 #define HELD_MAX 65536             /* the bytes of the messages held while the Python starts */
 
 typedef struct {
@@ -59,6 +68,9 @@ typedef struct {
     char *guid, *resources, *bindir;
     fmi2Boolean visible, logging;
     fmi2CallbackFunctions relay_cb;   /* the model's callbacks after a native start (relay below) */
+    int handover;              /* the model's own process hands its compiled step to this one (ns then live) */
+    int live_never;            /* it has none to hand over (asked again after fmi2Reset or fmi2SetFMUstate) */
+    unsigned live_wait, live_backoff;   /* steps the model's process takes before the loader asks again */
     int muted;                 /* the replay runs: its messages are held, shown only if it fails */
     char *held;
     size_t held_len;
@@ -198,6 +210,72 @@ static int promote(Handle *h)
     return rc;
 }
 
+#ifndef _WIN32
+/* ------------------------------------------------------------------------------ the hand-over */
+static void back_off(Handle *h)
+{
+    h->live_backoff = h->live_backoff * 2 + 1 < LIVE_WAIT_MAX ? h->live_backoff * 2 + 1 : LIVE_WAIT_MAX;
+    h->live_wait = h->live_backoff;
+}
+
+/* Before a step of the model in its own process: its compiled step here when it has one (h->ns live
+ * after). 0, or -1 when the step must not be taken (*pre: the status, a deferred fmi2SetReal failed;
+ * else *pre is the status of the calls that went with the question). */
+static int take_step(Handle *h, fmi2Status *pre)
+{
+    *pre = fmi2OK;
+    if (!h->handover || h->ns || !h->inner || h->broken || h->live_never) return 0;
+    if (h->live_wait) {
+        h->live_wait--;
+        return 0;
+    }
+    unsigned char *bytes = NULL;
+    size_t len = 0;
+    int kind = remote_native_export(h->inner, &bytes, &len, pre);
+    if (*pre > fmi2Warning) {
+        free(bytes);
+        return -1;
+    }
+    if (kind < 0) {
+        h->live_never = 1;
+    } else if (kind == 0) {
+        back_off(h);
+    } else {
+        char err[4 * CFG_MAX_LINE];
+        if (ns_open_live(bytes, len, h->resources, h->iname, &h->cb, &h->ns, err, sizeof err) < 0) {
+            /* nothing to give back: the model's process keeps its state until its arrays come back */
+            log_warning(&h->cb, h->iname, "fmi2DoStep: the compiled step stays in the model's process: %s", err);
+            h->live_never = 1;
+        }
+    }
+    free(bytes);
+    return 0;
+}
+
+/* The hand-over's arrays back to the model's process before a call not answered here: 0, or -1
+ * (logged; the model's state is lost with them, and the instance fails every call). */
+static int give_back(Handle *h)
+{
+    double *arrays = NULL, time = 0.0;
+    size_t n = 0;
+    int bad = 0, rc = -1;
+    long steps = 0;
+    if (ns_live_state(h->ns, &arrays, &n, &time, &bad, &steps) == 0)
+        rc = remote_native_import(h->inner, arrays, n, time, bad, steps) <= fmi2Warning ? 0 : -1;
+    free(arrays);
+    if (steps < LIVE_SHORT) back_off(h);
+    else h->live_backoff = 0;
+    ns_free(h->ns);
+    h->ns = NULL;
+    if (rc != 0) {
+        log_error(&h->cb, h->iname, "the model's process did not take back the state of the %ld steps taken in "
+                  "this one: the instance is lost; free it and instantiate again", steps);
+        h->broken = 1;
+    }
+    return rc;
+}
+#endif
+
 fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
                               fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
                               fmi2Boolean visible, fmi2Boolean loggingOn)
@@ -271,6 +349,14 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         cfg_free(&cfg);
         return NULL;
     }
+    const char *step = getenv(STEP_ENV);
+    if (!step || !*step) step = "auto";
+    if (strcmp(step, "auto") && strcmp(step, "model")) {
+        log_error(functions, instanceName, "fmi2Instantiate: %s = '%.40s'; allowed: auto (default), model",
+                  STEP_ENV, step);
+        cfg_free(&cfg);
+        return NULL;
+    }
     Handle *h = (Handle *)calloc(1, sizeof *h);
     if (!h) {
         cfg_free(&cfg);
@@ -280,6 +366,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     h->iname = strdup(instanceName);
     if (functions) h->cb = *functions;
     h->remote = remote;
+    h->handover = remote && !strcmp(step, "auto");
     h->cfg = cfg;
     h->type = fmuType;
     h->guid = strdup(fmuGUID);
@@ -315,6 +402,9 @@ static Handle *handle(fmi2Component c)
 static int model_ready(Handle *h)
 {
     if (h->broken) return -1;
+#ifndef _WIN32
+    if (h->ns && ns_is_live(h->ns)) return give_back(h);
+#endif
     return h->ns ? promote(h) : 0;
 }
 
@@ -401,6 +491,27 @@ fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t 
 FMI2_FORWARDED_ARRAYS(X_ARRAYS)
 #undef X_ARRAYS
 
+static fmi2Status worse(fmi2Status a, fmi2Status b) { return a > b ? a : b; }
+
+/* Before a step: the hand-over (take_step) when the model runs in its own process. */
+static int before_step(Handle *h, fmi2Status *pre)
+{
+#ifndef _WIN32
+    return take_step(h, pre);
+#else
+    (void)h;
+    *pre = fmi2OK;
+    return 0;
+#endif
+}
+
+/* After fmi2Reset or fmi2SetFMUstate passed on: the model may have a compiled step to hand over now. */
+static void after_reset(Handle *h)
+{
+    h->live_never = 0;
+    h->live_wait = h->live_backoff = 0;
+}
+
 /* fmi2GetRealOutputDerivatives: the FMI 2.0 FMU declares maxOutputDerivativeOrder = 0 and refuses
  * it here, as the bridge did before it answered the FMI 3.0 binary's fmi3GetOutputDerivatives
  * (the strcmp of two literals is folded by the compiler) */
@@ -416,13 +527,17 @@ static int refused_in_fmi2(const Handle *h, const char *fn)
     {                                                                                              \
         Handle *hd_ = handle(c);                                                                     \
         if (!hd_ || refused_in_fmi2(hd_, #name)) return fmi2Error;                                 \
+        fmi2Status pre_ = fmi2OK;                                                                  \
+        if (!strcmp(#name, "fmi2DoStep") && !hd_->ns && before_step(hd_, &pre_) != 0) return pre_; \
         if (hd_->ns) {                                                                             \
             int r_ = nsw_##name args;                                                              \
-            if (r_ != NS_PYTHON) return (fmi2Status)r_;                                            \
+            if (r_ != NS_PYTHON) return worse((fmi2Status)r_, pre_);                               \
         }                                                                                          \
         if (model_ready(hd_) != 0) return fmi2Error;                                               \
         c = hd_->inner;                                                                              \
-        return hd_->t->name args;                                                                    \
+        fmi2Status s_ = hd_->t->name args;                                                           \
+        if (!strcmp(#name, "fmi2Reset") || !strcmp(#name, "fmi2SetFMUstate")) after_reset(hd_);   \
+        return worse(s_, pre_);                                                                    \
     }
 FMI2_FORWARDED_PLAIN(X_PLAIN)
 #undef X_PLAIN
@@ -445,10 +560,12 @@ fmi2Status spurdiffDoStepEarly(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Bool
 {
     Handle *hd = handle(c);
     if (!hd) return fmi2Error;
+    fmi2Status pre = fmi2OK;
+    if (!hd->ns && before_step(hd, &pre) != 0) return pre;
     if (hd->ns) {
         int r = ns_do_step(hd->ns, t, h, nsp, 1, end);
-        if (r != NS_PYTHON) return (fmi2Status)r;
+        if (r != NS_PYTHON) return worse((fmi2Status)r, pre);
     }
     if (model_ready(hd) != 0) return fmi2Error;
-    return early_step_of(hd)(hd->inner, t, h, nsp, end);
+    return worse(early_step_of(hd)(hd->inner, t, h, nsp, end), pre);
 }

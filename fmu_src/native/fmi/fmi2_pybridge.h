@@ -47,6 +47,8 @@
 #define fmi2GetBooleanStatus spurdiff_bridge_fmi2GetBooleanStatus
 #define fmi2GetStringStatus spurdiff_bridge_fmi2GetStringStatus
 #define spurdiffDoStepEarly spurdiff_bridge_spurdiffDoStepEarly
+#define spurdiffNativeExport spurdiff_bridge_spurdiffNativeExport
+#define spurdiffNativeImport spurdiff_bridge_spurdiffNativeImport
 
 #define INSTANCE_MAGIC 0x5350444Du  /* "SPDM" */
 #define STATE_MAGIC 0x53544154u     /* "STAT" */

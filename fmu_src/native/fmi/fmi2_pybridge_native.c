@@ -360,3 +360,51 @@ BRIDGE_INTERNAL int native_set_real(Instance *I, const fmi2ValueReference vr[], 
     }
     return 1;
 }
+
+/* ------------------------------------------------------------------------------ the hand-over
+ * The model in its own process (fmi2_server.c) hands its compiled step to the host's process
+ * (fmi2_loader.c steps it there, native_start.c: ns_open_live) and takes it back before any call the
+ * host does not answer there: spurdiffNativeExport asks the slave's fmi2_native_export() (bytes, False
+ * or None; a native state here is taken back first), spurdiffNativeImport hands the arrays to its
+ * fmi2_native_import(data, time, bad, steps). */
+int spurdiffNativeExport(fmi2Component c, unsigned char **bytes, size_t *len)
+{
+    *bytes = NULL;
+    *len = 0;
+    Instance *I = valid(c);
+    if (!I) return -1;
+    PyGILState_STATE g = PyGILState_Ensure();
+    int kind = -1;
+    if (!I->nat.on || native_leave(I) == 0) {
+        PyObject *r = PyObject_CallMethod(I->slave, "fmi2_native_export", NULL);
+        if (r && PyBytes_Check(r)) {
+            size_t n = (size_t)PyBytes_GET_SIZE(r);
+            if ((*bytes = (unsigned char *)malloc(n ? n : 1))) {
+                memcpy(*bytes, PyBytes_AS_STRING(r), n);
+                *len = n;
+                kind = 1;
+            }
+        } else if (r == Py_None) {
+            kind = 0;
+        } else if (!r) {   /* a failure: said once, and the model's process steps from now on */
+            char text[4096];
+            exception_text(text, sizeof text);
+            emitf(&I->cb, I->name, fmi2Warning, "the compiled step stays in the model's process: %s", text);
+        }
+        Py_XDECREF(r);
+    }
+    if (PyErr_Occurred()) PyErr_Clear();
+    flush_log(I);
+    PyGILState_Release(g);
+    return kind;
+}
+
+fmi2Status spurdiffNativeImport(fmi2Component c, const double *arrays, size_t n, double time, int bad, long steps)
+{
+    ENTER
+    PyObject *data = PyBytes_FromStringAndSize((const char *)arrays, (Py_ssize_t)(n * sizeof *arrays));
+    PyObject *r = data ? PyObject_CallMethod(I->slave, "fmi2_native_import", "Odil", data, time, bad, steps) : NULL;
+    Py_XDECREF(data);
+    s = status_of(I, r, "taking the compiled step's state back from the host's process");
+    LEAVE
+}

@@ -144,7 +144,9 @@ static const char *call_name(uint32_t call)
         "fmi2ExitInitializationMode", [CALL_TERMINATE] = "fmi2Terminate", [CALL_RESET] = "fmi2Reset",
         [CALL_GET_REAL] = "fmi2GetReal", [CALL_SET_REAL] = "fmi2SetReal", [CALL_GET_STATE] = "fmi2GetFMUstate",
         [CALL_SET_STATE] = "fmi2SetFMUstate", [CALL_SERIALIZE] = "fmi2SerializeFMUstate", [CALL_DESERIALIZE] =
-        "fmi2DeSerializeFMUstate", [CALL_DO_STEP] = "fmi2DoStep", [CALL_DO_STEP_EARLY] = "fmi2DoStep (early return)"};
+        "fmi2DeSerializeFMUstate", [CALL_DO_STEP] = "fmi2DoStep", [CALL_DO_STEP_EARLY] = "fmi2DoStep (early return)",
+        [CALL_NATIVE_EXPORT] = "fmi2DoStep (handing the step to this process)",
+        [CALL_NATIVE_IMPORT] = "giving the step back to the model's process"};
     return call < N_CALLS && names[call] ? names[call] : "the call";
 }
 
@@ -671,6 +673,39 @@ fmi2Status remote_do_step_early(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boo
     fmi2Real e = t;
     fmi2Status s = r_step(c, t, h, nsp, &e);
     if (end) *end = e;
+    return s;
+}
+
+int remote_native_export(fmi2Component c, unsigned char **bytes, size_t *len, fmi2Status *status)
+{
+    *bytes = NULL;
+    *len = 0;
+    *status = fmi2OK;
+    Remote *r = valid(c);
+    if (!r || r->dead || getpid() != r->owner) return -1;   /* (the step's own call says why) */
+    IpcBuf b = request(r), a;
+    fmi2Status s = *status = roundtrip(r, CALL_NATIVE_EXPORT, b.pos, &a);
+    if (s > fmi2Warning) return -1;
+    int32_t kind = ipc_get_i32(&a);
+    uint64_t n = ipc_get_u64(&a);
+    const void *q = kind == 1 ? ipc_take_array(&a, (size_t)n, 1) : NULL;
+    if (a.bad || kind < -1 || kind > 1) return -1;
+    if (kind != 1) return kind;
+    if (!q || !(*bytes = (unsigned char *)malloc(n ? (size_t)n : 1))) return -1;
+    memcpy(*bytes, q, (size_t)n);
+    *len = (size_t)n;
+    return 1;
+}
+
+fmi2Status remote_native_import(fmi2Component c, const double *arrays, size_t n, double time, int bad, long steps)
+{
+    R_ENTER
+    ipc_u64(&b, n);
+    ipc_put_array(&b, arrays, n, sizeof *arrays);
+    ipc_f64(&b, time);
+    ipc_i32(&b, bad);
+    ipc_u64(&b, (uint64_t)steps);
+    R_SEND(CALL_NATIVE_IMPORT, "giving the step back to the model's process")
     return s;
 }
 

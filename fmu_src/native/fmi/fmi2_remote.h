@@ -18,4 +18,12 @@ extern const Fmi2Table REMOTE_TABLE;
 /* The bridge's FMI 3.0 extension spurdiffDoStepEarly (fmi2_inproc.h) in the model's process. */
 fmi2Status remote_do_step_early(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end);
 
+/* The hand-over (fmi2_loader.c): the model's stepping state as bytes for ns_open_live (*bytes
+ * malloc'd, *len): 1; 0 not now; -1 never for this model, or the call failed. *status: the round
+ * trip's (the host's deferred fmi2SetReal calls are served first: worse than fmi2Warning, and the
+ * step they went with must not be taken). */
+int remote_native_export(fmi2Component c, unsigned char **bytes, size_t *len, fmi2Status *status);
+/* The state back (ns_live_state's arrays, time, bad, steps) into the model: its status. */
+fmi2Status remote_native_import(fmi2Component c, const double *arrays, size_t n, double time, int bad, long steps);
+
 #endif

@@ -9,6 +9,8 @@
  * The host's deferred fmi2SetReal calls come before the call they go with, and are served first
  * (serve_deferred); fmi2DoStep's answer carries the values of the Real references the host named
  * with it, read right after the step (bring_back), so that its fmi2GetReal needs no round trip.
+ * The loader may take the model's compiled step into the host's process (CALL_NATIVE_EXPORT: the
+ * arrays of the step, fmi2_loader.c) and give it back before any other call (CALL_NATIVE_IMPORT).
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -322,6 +324,27 @@ static fmi2Status serve(uint32_t call, IpcBuf *in, IpcBuf *out, int *bye)
         s = call == CALL_DO_STEP ? T->fmi2DoStep(C, t, h, nsp) : inproc_do_step_early(C, t, h, nsp, &end);
         if (call == CALL_DO_STEP_EARLY) ipc_f64(out, end);
         bring_back(s, vr, n, out);
+        break;
+    }
+    case CALL_NATIVE_EXPORT: {   /* i32 1 and the bytes, or i32 0 (not now) / -1 (never), u64 0 */
+        unsigned char *bytes = NULL;
+        size_t nb = 0;
+        int kind = inproc_native_export(C, &bytes, &nb);
+        ipc_i32(out, kind);
+        ipc_u64(out, kind == 1 ? nb : 0);
+        if (kind == 1) ipc_put_array(out, bytes, nb, 1);
+        free(bytes);
+        s = fmi2OK;
+        break;
+    }
+    case CALL_NATIVE_IMPORT: {
+        n = (size_t)ipc_get_u64(in);
+        const double *v = (const double *)ipc_take_array(in, n, sizeof *v);
+        double time = ipc_get_f64(in);
+        int32_t bad = ipc_get_i32(in);
+        uint64_t steps = ipc_get_u64(in);
+        if (in->bad) break;
+        s = inproc_native_import(C, v, n, time, bad, (long)steps);
         break;
     }
     case CALL_GET_STATUS: case CALL_GET_REAL_STATUS: case CALL_GET_INTEGER_STATUS:

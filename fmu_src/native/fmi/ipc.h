@@ -22,7 +22,7 @@
 #include <string.h>
 
 #define IPC_MAGIC 0x53504950u     /* "SPIP" */
-#define IPC_VERSION 2u
+#define IPC_VERSION 3u
 #define IPC_HEADER 4096u
 #define IPC_LOG_CAP (1u << 20)
 #define IPC_DATA_CAP ((size_t)63 << 20)
@@ -39,6 +39,8 @@ enum {
     CALL_CANCEL_STEP, CALL_GET_STATUS, CALL_GET_REAL_STATUS, CALL_GET_INTEGER_STATUS,
     CALL_GET_BOOLEAN_STATUS, CALL_GET_STRING_STATUS, CALL_PING,
     CALL_DO_STEP_EARLY,   /* the bridge's FMI 3.0 extension spurdiffDoStepEarly */
+    CALL_NATIVE_EXPORT,   /* the hand-over of the native step to the host (fmi2_loader.c) and back */
+    CALL_NATIVE_IMPORT,
     N_CALLS
 };
 

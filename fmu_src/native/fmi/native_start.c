@@ -13,7 +13,12 @@
  * another value, an input outside its range at the next step, a step the compiled function does not
  * take (a watch that would log), a step the adapter refuses, FMU states, fmi2Reset, the status
  * functions, a reference the snapshot does not know. Every call answered is kept on a tape (one record
- * each), which the loader replays into the model's Python when it starts it. */
+ * each), which the loader replays into the model's Python when it starts it.
+ *
+ * The hand-over (ns_open_live) is the same instance made from a stepping model's arrays (its model runs
+ * in a process of its own, which wrote them): it answers what a native start answers while stepping,
+ * but for fmi2SetDebugLogging and fmi2Terminate, and keeps no tape: the loader gives the arrays back to
+ * the model's process (ns_live_state) before any call it does not answer. */
 #define _GNU_SOURCE
 #include "native_start.h"
 
@@ -28,6 +33,7 @@
 #include "runtime_cfg.h"
 
 #define NS_MAGIC "SPNS"
+#define NS_LIVE_MAGIC "SPNL"      /* a hand-over: native_start.py's live() */
 #define NS_FORMAT 3u
 #define NS_MAX_FILE (16 * 1024 * 1024)
 #define NS_MAX_TAPE ((size_t)64 * 1024 * 1024)   /* a longer run starts its Python and goes on there */
@@ -81,7 +87,9 @@ struct NsInst {
     void *ctx[NS_MAX_FIELDS];  /* a structure of pointers, as the step function takes it */
     const void *step_ctx;      /* ctx, or the one array of doubles the function takes itself */
     double *arrays[NS_MAX_FIELDS];
+    size_t array_n[NS_MAX_FIELDS];
     int n_fields;
+    int live;                 /* a hand-over: no tape, fmi2Terminate and every refusal go to the model */
     double *v;
     size_t nv, n_in;
     Var *vars;
@@ -169,8 +177,9 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
 {
     Rd r = {I->file, I->file + len, 1};
     char *magic = (char *)rd_take(&r, 4);
-    if (!magic || memcmp(magic, NS_MAGIC, 4) != 0 || rd_u32(&r) != NS_FORMAT) {
-        snprintf(err, errsize, "%s is not a native start of format %u", NS_FILE, NS_FORMAT);
+    if (!magic || memcmp(magic, I->live ? NS_LIVE_MAGIC : NS_MAGIC, 4) != 0 || rd_u32(&r) != NS_FORMAT) {
+        snprintf(err, errsize, "%s is not a native %s of format %u", I->live ? "the hand-over" : NS_FILE,
+                 I->live ? "hand-over" : "start", NS_FORMAT);
         return -1;
     }
     uint64_t want = 0;
@@ -179,6 +188,11 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
         return -1;
     }
     r.end -= 8;
+    if (I->live) {   /* the FMU's time, its stop time and that one's tolerance */
+        I->time = rd_f64(&r);
+        I->stop = rd_f64(&r);
+        I->stop_tol = rd_f64(&r);
+    }
     I->early = rd_u32(&r) != 0;
     uint32_t n_libs = rd_u32(&r);
     if (n_libs > NS_MAX_LIBS) r.ok = 0;
@@ -226,6 +240,7 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
             double *src = (double *)rd_take(&r, (size_t)n * 8);
             if (!src || !(I->arrays[i] = (double *)malloc(((size_t)n + 1) * sizeof(double)))) { r.ok = 0; break; }
             memcpy(I->arrays[i], src, (size_t)n * 8);
+            I->array_n[i] = n;
             I->ctx[i] = I->arrays[i];
         } else if (kind == FIELD_FUNCTION) {
             uint32_t lib = rd_u32(&r);
@@ -359,6 +374,52 @@ void ns_free(NsInst *I)
 
 long ns_steps(const NsInst *I) { return I->steps; }
 
+int ns_open_live(const void *bytes, size_t len, const char *resources, const char *name,
+                 const fmi2CallbackFunctions *cb, NsInst **out, char *err, size_t errsize)
+{
+    *out = NULL;
+    NsInst *I = (NsInst *)calloc(1, sizeof *I);
+    if (!I || len > NS_MAX_FILE || !(I->file = (char *)malloc(len + 1)) || !(I->name = cfg_strdup(name))) {
+        if (I) ns_free(I);
+        snprintf(err, errsize, len > NS_MAX_FILE ? "the hand-over is larger than %d bytes" : "out of memory",
+                 NS_MAX_FILE);
+        return -1;
+    }
+    memcpy(I->file, bytes, len);
+    if (cb) I->cb = *cb;
+    I->live = 1;
+    if (parse(I, resources, len, err, errsize) != 0) {
+        ns_free(I);
+        return -1;
+    }
+    I->phase = P_STEPPING;
+    *out = I;
+    return 1;
+}
+
+int ns_is_live(const NsInst *I) { return I->live; }
+
+int ns_live_state(const NsInst *I, double **arrays, size_t *n, double *time, int *bad, long *steps)
+{
+    size_t total = I->nv;
+    for (int i = 0; i < I->n_fields; i++) total += I->arrays[i] ? I->array_n[i] : 0;
+    double *out = (double *)malloc((total ? total : 1) * sizeof *out);
+    if (!out) return -1;
+    memcpy(out, I->v, I->nv * sizeof *out);
+    size_t at = I->nv;
+    for (int i = 0; i < I->n_fields; i++)
+        if (I->arrays[i]) {
+            memcpy(out + at, I->arrays[i], I->array_n[i] * sizeof *out);
+            at += I->array_n[i];
+        }
+    *arrays = out;
+    *n = total;
+    *time = I->time;
+    *bad = I->bad;
+    *steps = I->steps;
+    return 0;
+}
+
 /* ------------------------------------------------------------------------------ messages */
 static void emit_phase(NsInst *I, int phase)
 {
@@ -392,6 +453,7 @@ typedef struct {
 
 static int record(NsInst *I, int op, uint64_t n, const void *a, size_t na, const void *b, size_t nb)
 {
+    if (I->live) return 0;   /* a hand-over keeps no tape: its model's process has the calls before it */
     Rec h = {op, fmi2OK, n};
     size_t mark = I->tape_len;
     if (mark > I->max_tape) return -1;   /* any call past the limit (sets without steps too) goes to the Python */
@@ -413,7 +475,7 @@ static const Var *var_of(const NsInst *I, int kind, fmi2ValueReference vr)
 int ns_set_debug_logging(NsInst *I, fmi2Boolean on, size_t n)
 {
     int32_t x = on ? 1 : 0;
-    if (n != 0 || record(I, T_LOGGING, 0, &x, sizeof x, NULL, 0) != 0) return NS_PYTHON;
+    if (I->live || n != 0 || record(I, T_LOGGING, 0, &x, sizeof x, NULL, 0) != 0) return NS_PYTHON;
     I->logging_on = x;
     return fmi2OK;
 }
@@ -451,7 +513,7 @@ int ns_exit_initialization_mode(NsInst *I)
 
 int ns_terminate(NsInst *I)
 {
-    if (I->phase != P_STEPPING || record(I, T_TERMINATE, 0, NULL, 0, NULL, 0) != 0) return NS_PYTHON;
+    if (I->live || I->phase != P_STEPPING || record(I, T_TERMINATE, 0, NULL, 0, NULL, 0) != 0) return NS_PYTHON;
     I->phase = P_TERMINATED;
     return fmi2OK;
 }

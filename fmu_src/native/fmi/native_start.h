@@ -1,7 +1,8 @@
 /* The native start (native_start.c): an instance answered without Python while its host keeps the
  * FMU's defaults, from resources/native_start.bin (spurdiff/fmi/native_start.py writes it at build
  * time). The loader (fmi2_loader.c) asks it first; NS_PYTHON from any call means "start the model
- * now": the loader starts it, replays the tape (ns_replay) and passes the call on. */
+ * now": the loader starts it, replays the tape (ns_replay) and passes the call on. The same code
+ * steps an instance whose model runs in its own process here, in the host's (ns_open_live). */
 #ifndef SPURDIFF_NATIVE_START_H
 #define SPURDIFF_NATIVE_START_H
 
@@ -45,5 +46,18 @@ long ns_steps(const NsInst *I);
 typedef fmi2Status NsStepEarly(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end);
 int ns_replay(const NsInst *I, const Fmi2Table *t, fmi2Component c, NsStepEarly *early_step, char *err,
               size_t errsize);
+
+/* The hand-over (the model in its own process, fmi2_loader.c): a stepping instance answered here from
+ * `len` bytes its model's process wrote (spurdiff/fmi/native_start.py: live; copied, not kept), with
+ * the native start's rules for a stepping instance but no tape: NS_PYTHON from any call means "give
+ * the state back" (ns_live_state, then the model's process takes it). fmi2Terminate is the model's
+ * too. 1 and *out, or -1 with the reason in `err`. */
+int ns_open_live(const void *bytes, size_t len, const char *resources, const char *name,
+                 const fmi2CallbackFunctions *cb, NsInst **out, char *err, size_t errsize);
+int ns_is_live(const NsInst *I);
+/* The state to give back: a new array (free it) of v then every array of the step's context in the
+ * file's order (*n doubles), the FMU's time, whether an input outside its range was stored since,
+ * the steps taken here. 0, or -1 (no memory). */
+int ns_live_state(const NsInst *I, double **arrays, size_t *n, double *time, int *bad, long *steps);
 
 #endif

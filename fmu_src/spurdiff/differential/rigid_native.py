@@ -100,15 +100,15 @@ class RigidNative(NativeStep):
 
     def layout(self) -> tuple:
         """For the native start (:mod:`spurdiff.fmi.native_start`): the step function as (binding module,
-        name), the context's fields in order, each (1, values) an array of doubles, (2, binding module,
-        name) a function of a kernel, (0,) NULL, and False: the context is a structure of their pointers."""
+        name), the context's fields in order, each (1, array) an array of doubles (the ctypes array the step
+        uses, not a copy: the hand-over to the host writes it back), (2, binding module, name) a function
+        of a kernel, (0,) NULL, and False: the context is a structure of their pointers."""
         if self.rk is not None:
             fp = ((2, rigid_kernel, "rk_slip"), (2, rigid_kernel, "rk_step_slip"))
-            k, pp = list(self.rk.const), (0,)
+            k, pp = self.rk.const, (0,)
         else:
-            fp, k, pp = ((0,), (0,)), list(self.k), (1, list(self.pp))
-        return ((sk, "sk_rigid_native"),
-                [(1, list(self.sc)), (1, k), (1, list(self.rs)), *fp, (1, list(self.oc)), pp], False)
+            fp, k, pp = ((0,), (0,)), self.k, (1, self.pp)
+        return ((sk, "sk_rigid_native"), [(1, self.sc), (1, k), (1, self.rs), *fp, (1, self.oc), pp], False)
 
     def store(self, m) -> None:
         sk.unpack_rigid(self.rs, m.__dict__)

@@ -8,12 +8,14 @@ from __future__ import annotations
 
 import operator
 
+from spurdiff.fmi import native_start
 from spurdiff.fmi.binding import slot_names
 from spurdiff.fmi.state import OK
 
 
 class NativeMethods:
-    """``fmi2_native_enter`` and ``fmi2_native_leave``, the bridge's two calls."""
+    """``fmi2_native_enter`` and ``fmi2_native_leave``, the bridge's two calls, and the hand-over of the
+    native step to the host's process (``fmi2_native_export``, ``fmi2_native_import``)."""
 
     _native_key: tuple | None = None   # (model, plan) the tuple below is of
     _native_tuple: tuple | None = None  # the plan as the bridge takes it
@@ -76,6 +78,26 @@ class NativeMethods:
             self.step_failed = False
         if bad:
             self._inputs_ok = False
+
+    def fmi2_native_export(self):
+        """The hand-over to the host's process (the model in its own process): the bytes
+        :func:`spurdiff.fmi.native_start.live` makes, False (never for this model: the loader stops
+        asking until the next fmi2ExitInitializationMode), or None (not now). The state is in the plan's
+        arrays until :meth:`fmi2_native_import`. Inputs stored since their last check are checked
+        here as :meth:`fmi2_do_step` checks them (one outside its range: not now, the step in Python
+        refuses naming it)."""
+        if self.phase == "stepping" and not self._inputs_ok:
+            xs = self._input_values(self.values)
+            if all(map(operator.le, self._input_lo, xs)) and all(map(operator.le, xs, self._input_hi)):
+                self._inputs_ok = True
+        return native_start.live(self)
+
+    def fmi2_native_import(self, data: bytes, time: float, bad: int, steps: int) -> int:
+        """The state back from the host after ``steps`` steps there: the arrays (``data``, see
+        :func:`spurdiff.fmi.native_start.restore`) into the plan, then :meth:`fmi2_native_leave`."""
+        native_start.restore(self, data)
+        self.fmi2_native_leave(time, bad, steps)
+        return 0
 
 
 __all__ = ["NativeMethods"]

@@ -24,10 +24,14 @@ snapshot is refused when a value or message would carry the instance name or the
 """
 from __future__ import annotations
 
+import ctypes
 import math
+import os
 import struct
+import sys
 
 MAGIC = b"SPNS"
+LIVE_MAGIC = b"SPNL"     # a hand-over of a stepping instance (live)
 FORMAT = 3
 FILE = "native_start.bin"
 MAX_VR = 1 << 20       # native_start.c: NS_MAX_VR (a table indexed by value reference)
@@ -94,7 +98,10 @@ def _values(slave, kind: str, vrs: tuple) -> list:
 def _library(module) -> tuple[str, list[tuple[str, int]]]:
     """A kernel's binding module: its shipped library relative to the resources folder (no suffix:
     the binary adds .so or .dll) and its checks (function, value)."""
-    rel = "/".join(module.__name__.split(".")[:-1] + [module.LIB_NAME.rsplit(".", 1)[0]])
+    # the package's folder, whatever name it was imported by (the bridge imports it by a private alias)
+    parts = module.__name__.split(".")
+    top = os.path.basename(os.path.dirname(sys.modules[parts[0]].__file__))
+    rel = "/".join([top] + parts[1:-1] + [module.LIB_NAME.rsplit(".", 1)[0]])
     checks = [(n, int(w)) for c in module._BINDING.checks for n, w in zip(c.names, c.want)]
     return rel, checks
 
@@ -141,6 +148,71 @@ def snapshot(klass) -> bytes:
     answer = a.fmi2_native_enter()
     if not isinstance(answer, tuple):
         raise NoSnapshot("the model has no native step at its defaults")
+    w = _Writer()
+    w.parts.append(MAGIC)
+    w.u32(FORMAT)
+    _write_model(w, a, answer, vrs, lambda kind, i: [phase0[kind][i], phase1[kind][i], phase2[kind][i]], msgs)
+    body = w.bytes()
+    return body + struct.pack("<Q", digest(body))
+
+
+def live(slave) -> bytes | bool | None:
+    """The hand-over of a stepping instance ``slave`` to the host's process (the loader's answer to a
+    model in its own process, ``fmu_src/native/fmi/fmi2_loader.c``): the native start's layout with the
+    magic ``SPNL``, the FMU's time, stop time and its tolerance after the format, the arrays as they are
+    now (``v`` and every array of the context) and each constant variable's value (the three values
+    alike; messages none). The state is then in the arrays (``fmi2_native_enter``), until :func:`restore`
+    takes it back. False: this instance cannot be handed over (no native step, or one the layout cannot
+    describe); None: not now (as ``fmi2_native_enter``)."""
+    vrs = {k: tuple(sorted(slave._get[k])) for k in KINDS}
+    by_name = {v.name: v for v in type(slave).VARIABLES}
+    const = {k: [vr for vr in vrs[k] if _constant(by_name[slave._get[k][vr]])] for k in KINDS}
+    now = {k: dict(zip(const[k], _values(slave, k, tuple(const[k])))) for k in KINDS}
+    answer = slave.fmi2_native_enter()
+    if not isinstance(answer, tuple):
+        return answer if answer is None else False
+    blank = {"String": ""}
+
+    def values(kind, i):
+        x = now[kind].get(vrs[kind][i], blank.get(kind, 0.0))
+        return [x, x, x]
+
+    w = _Writer()
+    w.parts.append(LIVE_MAGIC)
+    w.u32(FORMAT)
+    w.f64s(answer[:3])
+    try:
+        _write_model(w, slave, answer, vrs, values, {p: [] for p in PHASES})
+    except NoSnapshot:
+        return False
+    body = w.bytes()
+    return body + struct.pack("<Q", digest(body))
+
+
+def restore(slave, data: bytes) -> None:
+    """The arrays of a hand-over back from the host (``v`` then each array of the context, in the
+    layout's order, as doubles in the host's byte order) into the plan :func:`live` described; the
+    caller then takes the state into the model (``fmi2_native_leave``)."""
+    _, plan = slave._native_key
+    arrays = [plan.v] + [f[1] for f in plan.layout()[1] if f[0] == DOUBLES]
+    need = 8 * sum(len(x) for x in arrays)
+    if len(data) != need:
+        raise ValueError(f"the hand-over brings back {len(data)} bytes; the plan's arrays take {need}")
+    at = 0
+    for x in arrays:
+        n = 8 * len(x)
+        ctypes.memmove(x, data[at:at + n], n)
+        at += n
+
+
+def _constant(var) -> bool:
+    return var.causality in ("parameter", "calculatedParameter") or var.fmi_variability == "constant"
+
+
+def _write_model(w: _Writer, a, answer: tuple, vrs: dict, values, msgs: dict) -> None:
+    """The part after the header: the step function, its context, ``v``, the variables (each one's
+    three values by ``values(kind, i)``) and the messages; NoSnapshot when the plan does not fit."""
+    klass = type(a)
     model, plan = a._native_key
     layout = getattr(plan, "layout", None)
     if layout is None:
@@ -163,9 +235,6 @@ def snapshot(klass) -> bytes:
         if f[0] == FUNCTION:
             lib_index(f[1])
 
-    w = _Writer()
-    w.parts.append(MAGIC)
-    w.u32(FORMAT)
     w.u32(1 if early else 0)
     w.u32(len(libs))
     checks = []
@@ -204,7 +273,7 @@ def snapshot(klass) -> bytes:
             name = a._get[kind][vr]
             var = by_name[name]
             flags = (SETTABLE if vr in a._set[kind] else 0) | (INPUT if var.causality == "input" else 0)
-            if var.causality in ("parameter", "calculatedParameter") or var.fmi_variability == "constant":
+            if _constant(var):
                 flags |= CONSTANT
             slot = -1
             if kind == "Real" and name in slot_of and (var.causality != "input" or slot_of[name] < n_in):
@@ -218,8 +287,7 @@ def snapshot(klass) -> bytes:
             if vr >= MAX_VR:
                 raise NoSnapshot(f"the value reference {vr} of {name} is not below {MAX_VR}")
             lo, hi = inputs.get(name, (-math.inf, math.inf))
-            vals = [phase0[kind][i], phase1[kind][i], phase2[kind][i]]
-            rows.append((KINDS.index(kind), vr, flags, slot, lo, hi, vals))
+            rows.append((KINDS.index(kind), vr, flags, slot, lo, hi, values(kind, i)))
     w.u32(len(rows))
     for k, vr, flags, slot, lo, hi, vals in rows:
         w.u32(k)
@@ -241,8 +309,6 @@ def snapshot(klass) -> bytes:
         w.u32(status)
         w.text(category)
         w.text(text)
-    body = w.bytes()
-    return body + struct.pack("<Q", digest(body))
 
 
 def _clean(s: str, what: str) -> None:
@@ -250,4 +316,4 @@ def _clean(s: str, what: str) -> None:
         raise NoSnapshot(f"{what} names the instance or its resources folder: {s[:200]!r}")
 
 
-__all__ = ["snapshot", "digest", "NoSnapshot", "FILE", "MAGIC", "FORMAT"]
+__all__ = ["snapshot", "live", "restore", "digest", "NoSnapshot", "FILE", "MAGIC", "LIVE_MAGIC", "FORMAT"]

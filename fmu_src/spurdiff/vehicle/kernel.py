@@ -103,7 +103,7 @@ class CarNative(NativeStep):
     def layout(self) -> tuple:
         """For the native start (:mod:`spurdiff.fmi.native_start`): the step function, and its constants
         as the context itself (not a structure of pointers)."""
-        return (sys.modules[__name__], "vk_car_native"), [(1, list(self.const))], True
+        return (sys.modules[__name__], "vk_car_native"), [(1, self.const)], True
 
     def load(self, m) -> None:
         v = self.v
@@ -160,7 +160,7 @@ class WheelNative(NativeStep):
 
     def layout(self) -> tuple:
         """As :meth:`CarNative.layout`."""
-        return (sys.modules[__name__], "vk_wheel_native"), [(1, list(self.const))], True
+        return (sys.modules[__name__], "vk_wheel_native"), [(1, self.const)], True
 
     def load(self, m) -> None:
         v = self.v
