@@ -19,11 +19,10 @@ STEPS = 60
 H = 5e-3
 
 
-@pytest.fixture(autouse=True)
-def _every_step_in_the_model_process(monkeypatch):
-    """The batch is of the steps the model's process takes: SPURDIFF_FMU_STEP=model (by default the loader
-    steps a compiled model in the host's process, where the same checks run: tests/fmus/test_handover.py)."""
-    monkeypatch.setenv("SPURDIFF_FMU_STEP", "model")
+# the own process with every step there (SPURDIFF_FMU_STEP=model): the batch is of the steps the model's
+# process takes (by default the loader steps a compiled model in the host's process, where the same checks
+# run: tests/fmus/test_handover.py)
+OWN = "out-model"
 
 
 class Host:
@@ -89,18 +88,18 @@ def _run(path, mode: str) -> list:
 
 @pytest.fixture(scope="module")
 def runs(differential_fmu):
-    return {mode: _run(differential_fmu, mode) for mode in ("in", "out")}
+    return {mode: _run(differential_fmu, mode) for mode in ("in", OWN)}
 
 
 def test_own_process_gives_this_process_results_bit_for_bit(runs):
-    assert runs["out"] == runs["in"]
+    assert runs[OWN] == runs["in"]
     assert all(r[1] == 0 for r in runs["in"])
     outputs = [r[2] for r in runs["in"] if r[0] == "get"]
     assert outputs[0] != outputs[-1]   # the inputs changed the outputs: a run that did something
 
 
 def test_a_get_after_a_set_and_no_step_reads_the_new_values(runs):
-    for mode in ("in", "out"):
+    for mode in ("in", OWN):
         last = runs[mode][-1]
         assert last[0] == "get after set" and last[1] == 0 and last[2] == [1.0, 2.0, 3.0], mode
         assert runs[mode][-3][2][-3:] == _torques(STEPS - 1)   # the step's get read the values then
@@ -108,7 +107,7 @@ def test_a_get_after_a_set_and_no_step_reads_the_new_values(runs):
 
 def test_an_input_out_of_range_is_refused_by_the_step_naming_it_on_both_sides(differential_fmu):
     seen = {}
-    for mode in ("in", "out"):
+    for mode in ("in", OWN):
         host = Host(differential_fmu, mode)
         try:
             for k in range(3):   # the references learned (deferred from the second step on)
@@ -122,14 +121,14 @@ def test_an_input_out_of_range_is_refused_by_the_step_naming_it_on_both_sides(di
             assert host.set(TORQUES, [0.0, 10.0, 10.0]) == 0 and host.step() == 0   # the instance goes on
         finally:
             host.close()
-    assert seen["out"] == seen["in"]
+    assert seen[OWN] == seen["in"]
     set_status, step_status, text = seen["in"]
     assert set_status == 0 and step_status == 2   # fmi2OK, then fmi2Discard
     assert "input left.tau = 2000000.0 is outside [-1e+06, 1e+06]" in text
 
 
 def test_a_set_of_an_output_is_refused_at_the_set_after_sets_were_deferred(differential_fmu):
-    for mode in ("in", "out"):
+    for mode in ("in", OWN):
         host = Host(differential_fmu, mode)
         try:
             for k in range(3):
@@ -147,7 +146,7 @@ def test_state_restore_and_reset_invalidate_the_values_brought_back(differential
     from ctypes import byref, c_void_p
 
     got = {}
-    for mode in ("in", "out"):
+    for mode in ("in", OWN):
         host = Host(differential_fmu, mode)
         get_state, set_state, free_state = (host.inst.fast_function(n) for n in
                                             ("fmi2GetFMUstate", "fmi2SetFMUstate", "fmi2FreeFMUstate"))
@@ -166,7 +165,7 @@ def test_state_restore_and_reset_invalidate_the_values_brought_back(differential
             free_state(host.c, byref(st))
         finally:
             host.close()
-    assert got["out"] == got["in"] and got["in"][1] == got["in"][0]
+    assert got[OWN] == got["in"] and got["in"][1] == got["in"][0]
 
 
 def test_the_steps_set_and_get_make_no_round_trip(differential_fmu):
@@ -177,7 +176,7 @@ def test_the_steps_set_and_get_make_no_round_trip(differential_fmu):
     import signal
     from pathlib import Path
 
-    host = Host(differential_fmu, "out")
+    host = Host(differential_fmu, OWN)
     try:
         kids = {int(x) for t in Path(f"/proc/{os.getpid()}/task").iterdir() for x in (t / "children").read_text().split()}
         server = next(k for k in kids if "spurdiff_fmu_server" in Path(f"/proc/{k}/cmdline").read_text())
@@ -196,11 +195,14 @@ def test_the_steps_set_and_get_make_no_round_trip(differential_fmu):
         host.close()
 
 
+@pytest.mark.parametrize("step", ["model", "auto"])
 @pytest.mark.parametrize("early", [False, True])
-def test_fmi3_binary_in_its_own_process_gives_this_process_results_bit_for_bit(fmu_files, early):
+def test_fmi3_binary_in_its_own_process_gives_this_process_results_bit_for_bit(fmu_files, early, step):
     """SpurDifferential-fmi3.fmu (fmi3_loader.c on the same loader): fmi3SetFloat64, fmi3DoStep
     (with early return allowed: the loader's spurdiffDoStepEarly), fmi3GetFloat64 of the outputs and
-    `time`, the same in both processes."""
+    `time`, the same in both processes; with the steps in the model's process (model) and handed to
+    the host's (auto: tests/fmus/test_handover.py)."""
+    own = "out-model" if step == "model" else "out"
     from fmpy.fmi3 import FMU3Slave
 
     from harness.build.fmu3 import build
@@ -212,7 +214,7 @@ def test_fmi3_binary_in_its_own_process_gives_this_process_results_bit_for_bit(f
     outputs = [vr[v.name] for v in md.modelVariables if v.causality == "output" and v.type == "Float64"]
     inputs = [vr[n] for n in TORQUES]
     runs = {}
-    for mode in ("in", "out"):
+    for mode in ("in", own):
         with model_process(mode):
             s = FMU3Slave(guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=md.coSimulation.modelIdentifier,
                           instanceName=f"b3-{mode}")
@@ -230,7 +232,7 @@ def test_fmi3_binary_in_its_own_process_gives_this_process_results_bit_for_bit(f
         finally:
             s.terminate()
             s.freeInstance()
-    assert runs["out"] == runs["in"]
+    assert runs[own] == runs["in"]
 
 
 def test_the_load_bench_spins_beside_the_step_and_ends_its_spinners(differential_fmu, capsys):
@@ -260,4 +262,4 @@ def test_the_load_bench_spins_beside_the_step_and_ends_its_spinners(differential
         process.subprocess.Popen = real_popen
     out = capsys.readouterr().out
     assert len(started) == 2 and not set(started) & children()
-    assert "quiet   set+doStep+get" in out and "beside 2 spinning processes" in out and out.count("ratio") == 2
+    assert "quiet   set+doStep+get" in out and "beside 2 spinning processes" in out and out.count("ratio") == 4

@@ -107,7 +107,8 @@ def test_a_silent_model_process_ends_the_call_with_an_error(differential_fmu, tm
     assert 9.5 < _elapsed(r.stdout) < 20.0 and _gone(_server(r.stdout)), out
 
 
-def test_a_forked_child_is_refused_and_its_free_leaves_the_parent_running(differential_fmu):
+@pytest.mark.parametrize("step", ["model", "auto"])   # auto: the child's step on the host's copy is refused too
+def test_a_forked_child_is_refused_and_its_free_leaves_the_parent_running(differential_fmu, step):
     body = r"""
 pid = server()
 child = os.fork()
@@ -129,7 +130,7 @@ print('PARENT STEPPED', server() == pid)
 f.terminate(); f.freeInstance()
 print('SERVER', pid)
 """
-    r = _host(differential_fmu, body)
+    r = _host(differential_fmu, body, env={"SPURDIFF_FMU_STEP": step})
     out = r.stdout + r.stderr
     assert r.returncode == 0, out
     assert "CHILD ERROR" in r.stdout and "CHILD NO ERROR" not in r.stdout, out

@@ -28,6 +28,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#ifndef _WIN32
+#include <unistd.h>
+#endif
+
 #include "log_text.h"
 #include "platform.h"
 #include "runtime_cfg.h"
@@ -90,6 +94,7 @@ struct NsInst {
     size_t array_n[NS_MAX_FIELDS];
     int n_fields;
     int live;                 /* a hand-over: no tape, fmi2Terminate and every refusal go to the model */
+    long pid;                 /* the process it was handed to (a fork's step goes to the model's process) */
     double *v;
     size_t nv, n_in;
     Var *vars;
@@ -393,6 +398,9 @@ int ns_open_live(const void *bytes, size_t len, const char *resources, const cha
         return -1;
     }
     I->phase = P_STEPPING;
+#ifndef _WIN32
+    I->pid = (long)getpid();
+#endif
     *out = I;
     return 1;
 }
@@ -690,6 +698,9 @@ int ns_do_step(NsInst *I, fmi2Real t, fmi2Real h, fmi2Boolean nsp, int early, fm
     /* the adapter's checks (fmi2_do_step) and the bridge's native_step: anything it would refuse or
      * take in Python is left to the Python */
     if (I->phase != P_STEPPING || I->bad || (early && I->early) || !(h > 0.0 && h < INFINITY)) return NS_PYTHON;
+#ifndef _WIN32
+    if (I->live && (long)getpid() != I->pid) return NS_PYTHON;   /* a forked host: the model's process refuses it */
+#endif
     double at = t >= 0.0 ? t : -t;
     if (!(fabs(t - I->time) <= 1e-9 * (at > 1.0 ? at : 1.0) + 1e-6 * h) || at == INFINITY) return NS_PYTHON;
     if (t + h > I->stop + (I->stop_tol + 1e-6 * h)) return NS_PYTHON;

@@ -36,7 +36,8 @@ def main(argv: list[str] | None = None) -> int:
         for what in ("quiet", "loaded"):
             r = ul[what]
             print(f"  {what:7s} set+doStep+get: this process {r['in']['set+doStep+get']:.1f} us, own process "
-                  f"{r['out']['set+doStep+get']:.1f} us, ratio {ul['ratio_' + what]:.2f}x"
+                  f"{r['out']['set+doStep+get']:.1f} us (ratio {ul['ratio_' + what]:.2f}x), own process stepping "
+                  f"there {r['out-model']['set+doStep+get']:.1f} us (ratio {ul['ratio_model_' + what]:.2f}x)"
                   + (f" (beside {ul['load']} spinning processes, {os.cpu_count()} cores)" if what == "loaded" else ""))
     return 0
 

@@ -35,6 +35,10 @@ from pathlib import Path
 
 ENV = "SPURDIFF_FMU_PROCESS"
 START_ENV = "SPURDIFF_FMU_START"
+STEP_ENV = "SPURDIFF_FMU_STEP"
+# the sides measured: this process; its own, the compiled step handed to this process (the loader's
+# default, fmu_src/native/fmi/fmi2_loader.c); its own with every step there (SPURDIFF_FMU_STEP=model)
+MODES = ("in", "out", "out-model")
 
 
 @contextlib.contextmanager
@@ -53,10 +57,14 @@ def environment(values: dict[str, str] | None):
 
 
 def model_process(mode: str):
-    """Instances made inside the block run the model in this process ("in") or its own ("out"), its
+    """Instances made inside the block run the model in this process ("in") or its own ("out": its
+    compiled step handed to this process; "out-model": every step in the model's process), its
     Python started at fmi2Instantiate (``SPURDIFF_FMU_START=python``: at its defaults an FMU would
     otherwise start natively, with no model process at all: fmu_src/native/fmi/native_start.c)."""
-    return environment({ENV: mode, START_ENV: "python"})
+    if mode not in MODES:
+        raise ValueError(f"model_process: mode {mode!r}; allowed: {', '.join(MODES)}")
+    return environment({ENV: mode.split("-")[0], START_ENV: "python",
+                        STEP_ENV: "model" if mode == "out-model" else "auto"})
 
 
 @contextlib.contextmanager
@@ -121,21 +129,24 @@ def _differential() -> Path:
 
 
 def round_trips(n: int = 2000, path: Path | None = None) -> dict:
-    """SpurDifferential's calls in this process and in its own, interleaved (in, out, in, out)."""
+    """SpurDifferential's calls in this process and in its own (the step handed over, and stepped there),
+    interleaved (in, out, out-model, in, out, out-model): the best of each side by mode, and "overhead"
+    and "overhead_model", the own process's against this one's."""
     path = path or _differential()
-    runs = {"in": [], "out": []}
-    for mode in ("in", "out", "in", "out"):
+    runs = {m: [] for m in MODES}
+    for mode in MODES * 2:
         runs[mode].append(_calls(path, mode, n))
     best = {m: {k: min(r[k] for r in rs) for k in rs[0]} for m, rs in runs.items()}
-    return {"in": best["in"], "out": best["out"],
-            "overhead": {k: best["out"][k] - best["in"][k] for k in best["in"]}}
+    return {**best, "overhead": {k: best["out"][k] - best["in"][k] for k in best["in"]},
+            "overhead_model": {k: best["out-model"][k] - best["in"][k] for k in best["in"]}}
 
 
 def under_load(n: int = 2000, load: int | None = None, path: Path | None = None) -> dict:
     """The communication step's cost (set + doStep + get) in its own process against this process,
     quiet and with ``load`` spinning processes beside it (default: twice the cores), in one run:
     {"load": load, "quiet": round_trips(), "loaded": round_trips() under the load, and "ratio_quiet",
-    "ratio_loaded": own process / this process per step}; ``path``: another build of the FMU
+    "ratio_loaded": own process / this process per step, "ratio_model_quiet", "ratio_model_loaded" the
+    same with every step in the model's process}; ``path``: another build of the FMU
     (an older one, to compare)."""
     path = path or _differential()
     load = load or 2 * (os.cpu_count() or 1)
@@ -144,7 +155,9 @@ def under_load(n: int = 2000, load: int | None = None, path: Path | None = None)
         loaded = round_trips(n, path)
     k = "set+doStep+get"
     return {"load": load, "quiet": quiet, "loaded": loaded, "ratio_quiet": quiet["out"][k] / quiet["in"][k],
-            "ratio_loaded": loaded["out"][k] / loaded["in"][k]}
+            "ratio_loaded": loaded["out"][k] / loaded["in"][k],
+            "ratio_model_quiet": quiet["out-model"][k] / quiet["in"][k],
+            "ratio_model_loaded": loaded["out-model"][k] / loaded["in"][k]}
 
 
 def scene_in_own_processes(scene_name: str = "vehicle-cornering", repeats: int = 3) -> dict:
@@ -173,20 +186,24 @@ def scene_in_own_processes(scene_name: str = "vehicle-cornering", repeats: int =
 def report(repeats: int = 3) -> list[str]:
     ul = under_load()
     rt = ul["quiet"]
+    k = "set+doStep+get"
     lines = ["   SpurDifferential (rigid, 5 ms step), us per call as a master's loop makes it, best of 2 interleaved "
-             "rounds:",
-             f"   {'':24s}{'this process':>14s}{'own process':>14s}{'difference':>12s}"]
-    for k in ("getReal", "set+doStep+get"):
-        lines.append(f"   {k:24s}{rt['in'][k]:14.1f}{rt['out'][k]:14.1f}{rt['overhead'][k]:12.1f}")
+             "rounds; own process: its compiled step handed to this process (the default), and with every step "
+             "in the model's process (SPURDIFF_FMU_STEP=model):",
+             f"   {'':24s}{'this process':>14s}{'own process':>14s}{'own, steps there':>18s}"]
+    for key in ("getReal", k):
+        lines.append(f"   {key:24s}{rt['in'][key]:14.1f}{rt['out'][key]:14.1f}{rt['out-model'][key]:18.1f}")
     lines.append(f"   one round trip (getReal's difference, before any step): {rt['overhead']['getReal']:.1f} us; "
-                 f"a communication step's (one round trip: the set deferred, the get answered from the step's "
-                 f"answer): {rt['overhead']['set+doStep+get']:.1f} us (target <= 10)")
+                 f"a communication step's difference: {rt['overhead'][k]:.1f} us handed over (no round trip), "
+                 f"{rt['overhead_model'][k]:.1f} us stepped in the model's process (one round trip: the set deferred, "
+                 f"the get answered from the step's answer) (target <= 10)")
     ld = ul["loaded"]
     lines.append(f"   with {ul['load']} spinning processes beside it ({ul['load'] / (os.cpu_count() or 1):g} x the cores): "
-                 f"set+doStep+get {ld['in']['set+doStep+get']:.1f} us in this process, "
-                 f"{ld['out']['set+doStep+get']:.1f} us in its own")
+                 f"set+doStep+get {ld['in'][k]:.1f} us in this process, {ld['out'][k]:.1f} us in its own "
+                 f"(handed over), {ld['out-model'][k]:.1f} us stepped there")
     lines.append(f"   own process / this process per step: quiet {ul['ratio_quiet']:.2f}x, under that load "
-                 f"{ul['ratio_loaded']:.2f}x (target <= 1.5x)")
+                 f"{ul['ratio_loaded']:.2f}x (target <= 1.5x); stepped in the model's process "
+                 f"{ul['ratio_model_quiet']:.2f}x and {ul['ratio_model_loaded']:.2f}x")
     try:
         s = scene_in_own_processes(repeats=repeats)
     except Exception as e:   # noqa: BLE001 - a scene that cannot run here is reported, not fatal

@@ -166,12 +166,24 @@ def test_write_keeps_the_sections_after_the_generated_block(monkeypatch, tmp_pat
 
 
 def test_round_trips_measure_the_same_fmu_in_this_process_and_in_its_own(fmu_files):
-    from harness.measure.bench.process import _calls, round_trips
+    from harness.measure.bench.process import MODES, round_trips
 
     r = round_trips(n=50)
-    for mode in ("in", "out"):
-        assert r[mode]["getReal"] > 0 and r[mode]["set+doStep+get"] > r[mode]["getReal"]
+    for mode in MODES:
+        assert r[mode]["getReal"] > 0 and r[mode]["set+doStep+get"] > 0
+    # a step is more than a get where both are in this process or both a round trip (handed over, the step is
+    # in this process and a get before any step a round trip: no such order)
+    for mode in ("in", "out-model"):
+        assert r[mode]["set+doStep+get"] > r[mode]["getReal"]
     assert r["overhead"]["getReal"] == r["out"]["getReal"] - r["in"]["getReal"]
+    assert r["overhead_model"]["set+doStep+get"] == r["out-model"]["set+doStep+get"] - r["in"]["set+doStep+get"]
+
+
+def test_an_unknown_process_mode_is_refused_naming_the_allowed_ones():
+    from harness.measure.bench.process import model_process
+
+    with pytest.raises(ValueError, match="mode 'own'; allowed: in, out, out-model"):
+        model_process("own")
 
 
 def test_the_out_mode_really_starts_the_models_own_process(fmu_files):
