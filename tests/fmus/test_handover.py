@@ -55,10 +55,11 @@ def test_a_call_the_host_cannot_answer_gives_the_step_back(differential_fmu, mon
         assert any("input left.tau = 1000000000.0 is outside" in m[1] for m in trace[-1][1])
 
 
-def test_a_python_start_at_a_changed_parameter_then_steps_in_the_host(differential_fmu, monkeypatch):
+@pytest.mark.parametrize("name, value", [("differential.w_start", 5.0), ("shaftCoupling", "wheel")])
+def test_a_python_start_at_a_changed_parameter_then_steps_in_the_host(differential_fmu, monkeypatch, name, value):
     """The native start's tape replayed into the model's own process at the parameter set, then the
-    hand-over."""
-    program = START[:3] + [("set", "differential.w_start", 5.0)] + START[3:] + [("steps", 40, 1e-3), ("all",)]
+    hand-over (the differential owning its half-shafts too: shaft_kernel.py's DiffNative)."""
+    program = START[:3] + [("set", name, value)] + START[3:] + [("steps", 40, 1e-3), ("all",)]
     _same(_three(differential_fmu, program, monkeypatch, start="auto"))
 
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 import ctypes as C
 import operator
 import struct
+import sys
 from pathlib import Path
 
 from spurdiff import native_library
@@ -280,6 +281,15 @@ class DiffNative(NativeStep):
                             (C.c_void_p * 2)(*kernel.fp), C.cast(self.oc, P))
         super().__init__(kernel.native_fn, self.ctx, NV, DIFF_INPUTS, DIFF_OUTPUTS)
         self.kernel = kernel
+
+    def layout(self) -> tuple:
+        """For the native start and the hand-over (:mod:`spurdiff.fmi.native_start`), as
+        :meth:`spurdiff.differential.rigid_native.RigidNative.layout`: sk_native and its context's fields,
+        the Kernel's arrays themselves (the state rs and ss come back with v), the rigid kernel's solves."""
+        k = self.kernel
+        return ((sys.modules[__name__], "sk_native"),
+                [(1, k.sc), (1, k.k), (1, k.rs), (1, k.ss), (2, rigid_kernel, "rk_slip"),
+                 (2, rigid_kernel, "rk_step_slip"), (1, self.oc)], False)
 
     def load(self, m) -> bool:
         if not self.kernel.current(m.inner.__dict__, m.__dict__):

@@ -295,8 +295,9 @@ def _report(args) -> int:
     from harness.measure.bench.mesh import kernel_report
     print("\n".join(kernel_report(args.repeats)))
     print("\n7. The model in its own process (a host of another Python version; SPURDIFF_FMU_PROCESS=out) against "
-          "this process\n   (harness/measure/bench/process.py; both sides spin a moment while that pays, then sleep; a "
-          "step is one round trip)")
+          "this process\n   (harness/measure/bench/process.py; a compiled step is handed to this process at the first "
+          "step, fmi2_loader.c; stepped in the model's process a step is one round trip, both sides spinning a moment "
+          "while that pays, then sleeping)")
     print("\n".join(process_report(max(2, args.repeats // 2))))
     print("\n8. Start-up and the step with the defaults beside a plain C FMU of ours (harness/measure/bench/startup.py; "
           "the kit's test FMU tests/broken_fmus/chkc.c;\n   fmusim is not available here, our C host "
