@@ -38,6 +38,21 @@ def _children_scratch_in_basetemp(tmp_path_factory):
         os.environ["TMPDIR"] = old
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _start_cache_in_basetemp(tmp_path_factory):
+    """The FMUs' start cache (fmu_src/native/fmi/fmi2_loader.c: the native starts of parameters set to other
+    values, kept for the next instance) of this session's instances, in this process and the ones it
+    starts: a folder of this session's, never the user's cache (tests/fmus/test_start_cache.py sets its
+    own)."""
+    old = os.environ.get("SPURDIFF_FMU_START_CACHE_DIR")
+    os.environ["SPURDIFF_FMU_START_CACHE_DIR"] = str(tmp_path_factory.mktemp("start-cache") / "starts")
+    yield
+    if old is None:
+        os.environ.pop("SPURDIFF_FMU_START_CACHE_DIR", None)
+    else:
+        os.environ["SPURDIFF_FMU_START_CACHE_DIR"] = old
+
+
 @pytest.fixture
 def children_scratch_in_tmp_path(tmp_path, monkeypatch):
     """For a test whose hosts unpack their FMU (fmpy's extract()) into a new temporary folder and

@@ -20,6 +20,7 @@ static Fmi2Table B;
 static spurdiffDoStepEarlyTYPE *B_do_step_early;   /* the bridge's FMI 3.0 extension */
 static spurdiffNativeExportTYPE *B_native_export;   /* the hand-over of the native step */
 static spurdiffNativeImportTYPE *B_native_import;
+static spurdiffStartSnapshotTYPE *B_start_snapshot;   /* the start cache */
 static int B_loaded;
 static pthread_mutex_t load_lock = PTHREAD_MUTEX_INITIALIZER;
 
@@ -105,6 +106,11 @@ static int load_bridge(const char *bindir, char *err, size_t errsize)
         return -1;
     }
     memcpy(&B_native_import, &sym, sizeof sym);
+    if (!(sym = plat_symbol(h, BRIDGE_PREFIX "spurdiffStartSnapshot"))) {
+        snprintf(err, errsize, "the bridge %s lacks %s", file, BRIDGE_PREFIX "spurdiffStartSnapshot");
+        return -1;
+    }
+    memcpy(&B_start_snapshot, &sym, sizeof sym);
 #ifdef _WIN32
     if (!(sym = plat_symbol(h, BRIDGE_PREFIX "winStdioHeld"))) {
         snprintf(err, errsize, "the bridge %s lacks %s", file, BRIDGE_PREFIX "winStdioHeld");
@@ -163,4 +169,11 @@ int inproc_native_export(fmi2Component c, unsigned char **bytes, size_t *len)
 fmi2Status inproc_native_import(fmi2Component c, const double *arrays, size_t n, double time, int bad, long steps)
 {
     return B_native_import ? B_native_import(c, arrays, n, time, bad, steps) : fmi2Error;
+}
+
+int inproc_start_snapshot(fmi2Component c, const unsigned char *sets, size_t n, unsigned char **bytes, size_t *len)
+{
+    *bytes = NULL;
+    *len = 0;
+    return B_start_snapshot ? B_start_snapshot(c, sets, n, bytes, len) : -1;
 }

@@ -30,6 +30,11 @@ fmi2Status inproc_do_step_early(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boo
 typedef int spurdiffNativeExportTYPE(fmi2Component c, unsigned char **bytes, size_t *len);
 typedef fmi2Status spurdiffNativeImportTYPE(fmi2Component c, const double *arrays, size_t n, double time, int bad,
                                             long steps);
+/* The bridge's native start of the values set (the start cache; spurdiffStartSnapshot): 1 and *bytes
+ * (malloc'd, *len), 0 none, -1 failed (nothing logged). */
+typedef int spurdiffStartSnapshotTYPE(fmi2Component c, const unsigned char *sets, size_t n, unsigned char **bytes,
+                                      size_t *len);
+int inproc_start_snapshot(fmi2Component c, const unsigned char *sets, size_t n, unsigned char **bytes, size_t *len);
 int inproc_native_export(fmi2Component c, unsigned char **bytes, size_t *len);
 fmi2Status inproc_native_import(fmi2Component c, const double *arrays, size_t n, double time, int bad, long steps);
 

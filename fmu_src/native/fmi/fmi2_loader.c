@@ -26,6 +26,12 @@
  * computes, so that a step costs no round trip; any call not answered here gives the arrays back
  * first (give_back), and is then passed on. SPURDIFF_FMU_STEP=model keeps every step in the model's
  * process; unset or auto: as above.
+ * The start cache (native_start.c): a host that sets parameters to other values starts the Python at the
+ * model's build; at fmi2FreeInstance the loader asks the model for its native start of exactly those
+ * values and keeps it in the user's cache (<XDG_CACHE_HOME or ~/.cache>/spurdiff/starts, or the absolute
+ * folder SPURDIFF_FMU_START_CACHE_DIR), where the next instance that sets the same values finds it and
+ * builds without Python. SPURDIFF_FMU_START_CACHE=off neither reads nor writes it; unset or auto: as
+ * above (not on Windows).
  * binaries/win64/<modelIdentifier>.dll is this file cross-built with mingw-w64 (the system calls in
  * platform.h): the model runs in the host's process only, on the FMU's own Python (described by
  * resources/python_runtime_win64.cfg) or the host's of the same version; the model's own process
@@ -48,6 +54,7 @@
 #define PROCESS_ENV "SPURDIFF_FMU_PROCESS"
 #define START_ENV "SPURDIFF_FMU_START"
 #define STEP_ENV "SPURDIFF_FMU_STEP"
+#define CACHE_ENV "SPURDIFF_FMU_START_CACHE"
 #define LIVE_SHORT 8               /* a hand-over given back within this many steps: ask later next time */
 #define LIVE_WAIT_MAX 1024u        /* the most steps the model's process takes before the loader asks again */
 #define HELD_MAX 65536             /* the bytes of the messages held while the Python starts */
@@ -71,6 +78,9 @@ typedef struct {
     int handover;              /* the model's own process hands its compiled step to this one (ns then live) */
     int live_never;            /* it has none to hand over (asked again after fmi2Reset or fmi2SetFMUstate) */
     unsigned live_wait, live_backoff;   /* steps the model's process takes before the loader asks again */
+    char *cache_file;          /* the start cache's file to write at fmi2FreeInstance (native_start.c) */
+    unsigned char *cache_sets; /* the values set that the model's snapshot is of */
+    size_t cache_sets_len;
     int muted;                 /* the replay runs: its messages are held, shown only if it fails */
     char *held;
     size_t held_len;
@@ -136,6 +146,8 @@ static void drop(Handle *h)
     free(h->resources);
     free(h->bindir);
     free(h->held);
+    free(h->cache_file);
+    free(h->cache_sets);
     free(h);
 }
 
@@ -205,6 +217,15 @@ static int promote(Handle *h)
     free(h->held);
     h->held = NULL;
     h->held_len = 0;
+    char file[PATH_MAX];
+    unsigned char *sets = NULL;
+    size_t len = 0;
+    if (rc == 0 && ns_cache_want(h->ns, file, sizeof file, &sets, &len) && (h->cache_file = strdup(file))) {
+        h->cache_sets = sets;   /* the model's snapshot of these values, at fmi2FreeInstance */
+        h->cache_sets_len = len;
+    } else {
+        free(sets);
+    }
     ns_free(h->ns);
     h->ns = NULL;
     return rc;
@@ -275,6 +296,26 @@ static int give_back(Handle *h)
     return rc;
 }
 #endif
+
+/* The start cache's folder: $SPURDIFF_FMU_START_CACHE_DIR (absolute), else $XDG_CACHE_HOME/spurdiff/starts
+ * (an absolute XDG_CACHE_HOME), else $HOME/.cache/spurdiff/starts: 0, or -1 (none, too long, or Windows:
+ * no cache). */
+static int start_cache_dir(char *out, size_t size)
+{
+#ifdef _WIN32
+    (void)out; (void)size;
+    return -1;
+#else
+    const char *own = getenv(CACHE_ENV "_DIR"), *xdg = getenv("XDG_CACHE_HOME"), *home = getenv("HOME");
+    int w;
+    if (own && own[0] == '/') w = snprintf(out, size, "%s", own);
+    else if (own && own[0]) return -1;   /* not absolute: no cache (never a folder relative to the host's) */
+    else if (xdg && xdg[0] == '/') w = snprintf(out, size, "%s/spurdiff/starts", xdg);
+    else if (home && home[0] == '/') w = snprintf(out, size, "%s/.cache/spurdiff/starts", home);
+    else return -1;
+    return w < 0 || (size_t)w >= size ? -1 : 0;
+#endif
+}
 
 fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
                               fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
@@ -357,6 +398,14 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         cfg_free(&cfg);
         return NULL;
     }
+    const char *caching = getenv(CACHE_ENV);
+    if (!caching || !*caching) caching = "auto";
+    if (strcmp(caching, "auto") && strcmp(caching, "off")) {
+        log_error(functions, instanceName, "fmi2Instantiate: %s = '%.40s'; allowed: auto (default), off",
+                  CACHE_ENV, caching);
+        cfg_free(&cfg);
+        return NULL;
+    }
     Handle *h = (Handle *)calloc(1, sizeof *h);
     if (!h) {
         cfg_free(&cfg);
@@ -383,6 +432,9 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
             log_warning(functions, instanceName, "fmi2Instantiate: the native start is not used: %s", err);
             err[0] = 0;
         }
+        char dir[PATH_MAX];
+        if (native > 0 && !strcmp(caching, "auto") && start_cache_dir(dir, sizeof dir) == 0)
+            ns_start_cache(h->ns, dir, h->guid, h->resources);   /* (no memory: without it) */
     }
     if (native <= 0 && start_model(h, functions, err, sizeof err) != 0) {
         if (err[0]) log_error(functions, instanceName, "fmi2Instantiate: %s", err);
@@ -408,10 +460,28 @@ static int model_ready(Handle *h)
     return h->ns ? promote(h) : 0;
 }
 
+/* The model's native start of the values set, into the start cache (nothing said when it cannot be had:
+ * the cache is an optimization; the next instance then starts its Python as this one did). */
+static void keep_start(Handle *h)
+{
+    if (!h->cache_file || !h->inner || h->broken) return;
+    unsigned char *bytes = NULL;
+    size_t len = 0;
+    int got;
+#ifndef _WIN32
+    if (h->remote) got = remote_start_snapshot(h->inner, h->cache_sets, h->cache_sets_len, &bytes, &len);
+    else
+#endif
+    got = inproc_start_snapshot(h->inner, h->cache_sets, h->cache_sets_len, &bytes, &len);
+    if (got == 1) ns_cache_store(h->cache_file, bytes, len);
+    free(bytes);
+}
+
 void fmi2FreeInstance(fmi2Component c)
 {
     Handle *h = handle(c);
     if (!h) return;
+    keep_start(h);
     if (h->inner) h->t->fmi2FreeInstance(h->inner);
     drop(h);
 }

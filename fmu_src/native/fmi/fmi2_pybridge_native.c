@@ -408,3 +408,34 @@ fmi2Status spurdiffNativeImport(fmi2Component c, const double *arrays, size_t n,
     s = status_of(I, r, "taking the compiled step's state back from the host's process");
     LEAVE
 }
+
+/* ------------------------------------------------------------------------------ the start cache
+ * The slave's fmi2_start_snapshot(sets) (bytes or None): the native start of its FMU class with the
+ * values `sets` set (the loader's encoding, fmi2_loader.c: keep_start), made in fresh probe instances as
+ * the build makes native_start.bin. Nothing is said to the host: a failure only means no cache file. */
+int spurdiffStartSnapshot(fmi2Component c, const unsigned char *sets, size_t n, unsigned char **bytes, size_t *len)
+{
+    *bytes = NULL;
+    *len = 0;
+    Instance *I = valid(c);
+    if (!I) return -1;
+    PyGILState_STATE g = PyGILState_Ensure();
+    int kind = -1;
+    PyObject *data = PyBytes_FromStringAndSize((const char *)sets, (Py_ssize_t)n);
+    PyObject *r = data ? PyObject_CallMethod(I->slave, "fmi2_start_snapshot", "O", data) : NULL;
+    Py_XDECREF(data);
+    if (r && PyBytes_Check(r)) {
+        size_t m = (size_t)PyBytes_GET_SIZE(r);
+        if ((*bytes = (unsigned char *)malloc(m ? m : 1))) {
+            memcpy(*bytes, PyBytes_AS_STRING(r), m);
+            *len = m;
+            kind = 1;
+        }
+    } else if (r == Py_None) {
+        kind = 0;
+    }
+    Py_XDECREF(r);
+    if (PyErr_Occurred()) PyErr_Clear();
+    PyGILState_Release(g);
+    return kind;
+}

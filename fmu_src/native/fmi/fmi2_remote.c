@@ -146,7 +146,8 @@ static const char *call_name(uint32_t call)
         [CALL_SET_STATE] = "fmi2SetFMUstate", [CALL_SERIALIZE] = "fmi2SerializeFMUstate", [CALL_DESERIALIZE] =
         "fmi2DeSerializeFMUstate", [CALL_DO_STEP] = "fmi2DoStep", [CALL_DO_STEP_EARLY] = "fmi2DoStep (early return)",
         [CALL_NATIVE_EXPORT] = "fmi2DoStep (handing the step to this process)",
-        [CALL_NATIVE_IMPORT] = "giving the step back to the model's process"};
+        [CALL_NATIVE_IMPORT] = "giving the step back to the model's process",
+        [CALL_START_SNAPSHOT] = "fmi2FreeInstance (the native start of the values set)"};
     return call < N_CALLS && names[call] ? names[call] : "the call";
 }
 
@@ -694,6 +695,26 @@ int remote_native_export(fmi2Component c, unsigned char **bytes, size_t *len, fm
     if (!q || !(*bytes = (unsigned char *)malloc(n ? (size_t)n : 1))) return -1;
     memcpy(*bytes, q, (size_t)n);
     *len = (size_t)n;
+    return 1;
+}
+
+int remote_start_snapshot(fmi2Component c, const unsigned char *sets, size_t n, unsigned char **bytes, size_t *len)
+{
+    *bytes = NULL;
+    *len = 0;
+    Remote *r = valid(c);
+    if (!r || r->dead || getpid() != r->owner) return -1;
+    IpcBuf b = request(r), a;
+    ipc_u64(&b, n);
+    ipc_put_array(&b, sets, n, 1);
+    if (b.bad || roundtrip(r, CALL_START_SNAPSHOT, b.pos, &a) > fmi2Warning) return -1;
+    int32_t kind = ipc_get_i32(&a);
+    uint64_t m = ipc_get_u64(&a);
+    const void *q = kind == 1 ? ipc_take_array(&a, (size_t)m, 1) : NULL;
+    if (kind != 1 || !q || a.bad) return a.bad ? -1 : 0;
+    if (!(*bytes = (unsigned char *)malloc(m ? (size_t)m : 1))) return -1;
+    memcpy(*bytes, q, (size_t)m);
+    *len = (size_t)m;
     return 1;
 }
 

@@ -25,5 +25,8 @@ fmi2Status remote_do_step_early(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boo
 int remote_native_export(fmi2Component c, unsigned char **bytes, size_t *len, fmi2Status *status);
 /* The state back (ns_live_state's arrays, time, bad, steps) into the model: its status. */
 fmi2Status remote_native_import(fmi2Component c, const double *arrays, size_t n, double time, int bad, long steps);
+/* The start cache (fmi2_loader.c): the model's native start of the values `sets` (ns_cache_want's
+ * encoding): 1 and *bytes (malloc'd, *len); else 0 (none) or -1 (the call failed; nothing logged). */
+int remote_start_snapshot(fmi2Component c, const unsigned char *sets, size_t n, unsigned char **bytes, size_t *len);
 
 #endif

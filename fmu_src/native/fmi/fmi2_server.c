@@ -337,6 +337,20 @@ static fmi2Status serve(uint32_t call, IpcBuf *in, IpcBuf *out, int *bye)
         s = fmi2OK;
         break;
     }
+    case CALL_START_SNAPSHOT: {   /* i32 1, u64 length and the bytes; or i32 0 / -1, u64 0 */
+        n = (size_t)ipc_get_u64(in);
+        const unsigned char *sets = (const unsigned char *)ipc_take_array(in, n, 1);
+        if (in->bad) break;
+        unsigned char *bytes = NULL;
+        size_t nb = 0;
+        int kind = inproc_start_snapshot(C, sets, n, &bytes, &nb);
+        ipc_i32(out, kind);
+        ipc_u64(out, kind == 1 ? nb : 0);
+        if (kind == 1) ipc_put_array(out, bytes, nb, 1);
+        free(bytes);
+        s = fmi2OK;
+        break;
+    }
     case CALL_NATIVE_IMPORT: {
         n = (size_t)ipc_get_u64(in);
         const double *v = (const double *)ipc_take_array(in, n, sizeof *v);

@@ -22,7 +22,7 @@
 #include <string.h>
 
 #define IPC_MAGIC 0x53504950u     /* "SPIP" */
-#define IPC_VERSION 3u
+#define IPC_VERSION 4u
 #define IPC_HEADER 4096u
 #define IPC_LOG_CAP (1u << 20)
 #define IPC_DATA_CAP ((size_t)63 << 20)
@@ -41,6 +41,7 @@ enum {
     CALL_DO_STEP_EARLY,   /* the bridge's FMI 3.0 extension spurdiffDoStepEarly */
     CALL_NATIVE_EXPORT,   /* the hand-over of the native step to the host (fmi2_loader.c) and back */
     CALL_NATIVE_IMPORT,
+    CALL_START_SNAPSHOT,  /* the model's native start of the values set (the start cache, fmi2_loader.c) */
     N_CALLS
 };
 

@@ -29,6 +29,10 @@
 #include <string.h>
 
 #ifndef _WIN32
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 #endif
 
@@ -93,6 +97,8 @@ struct NsInst {
     double *arrays[NS_MAX_FIELDS];
     size_t array_n[NS_MAX_FIELDS];
     int n_fields;
+    int direct;               /* the step function takes the first array itself as its context */
+    uint64_t digest;          /* the file's (its last 8 bytes) */
     int live;                 /* a hand-over: no tape, fmi2Terminate and every refusal go to the model */
     long pid;                 /* the process it was handed to (a fork's step goes to the model's process) */
     double *v;
@@ -103,17 +109,26 @@ struct NsInst {
     unsigned max_vr[NS_KINDS];
     Msg *msgs;
     size_t n_msgs;
+    /* the start cache (see "the start cache" below): sets to other values before the model is built */
+    char *cache_dir, *guid, *resources;
+    int built;                /* the model was built (a read in Initialization Mode, or its end) */
+    unsigned char *has;       /* per variable: set to another value than the file's */
+    double *over;             /* that value (Real, Integer, Boolean as a double) */
+    char **sover;             /* a String's (a copy) */
+    size_t n_over;
     /* the instance */
     int phase, dirty, bad;
     long steps;
     double time, stop, stop_tol;
     unsigned char *tape;
-    size_t tape_len, tape_cap, max_tape;
+    size_t tape_len, tape_cap, max_tape, last_mark;
     Vector vectors[2][NS_VECTORS];   /* reads, writes */
     int next_vector[2];
 };
 
 static void emit_phase(NsInst *I, int phase);
+static void drop_overrides(NsInst *I);
+static int cache_build(NsInst *I);
 
 /* ------------------------------------------------------------------------------ the file */
 typedef struct {
@@ -193,6 +208,7 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
         return -1;
     }
     r.end -= 8;
+    I->digest = want;
     if (I->live) {   /* the FMU's time, its stop time and that one's tolerance */
         I->time = rd_f64(&r);
         I->stop = rd_f64(&r);
@@ -256,6 +272,7 @@ static int parse(NsInst *I, const char *resources, size_t len, char *err, size_t
         }
         I->n_fields = (int)i + 1;
     }
+    I->direct = direct != 0;
     I->step_ctx = direct ? (const void *)I->arrays[0] : (const void *)I->ctx;
     if (direct && !I->arrays[0]) r.ok = 0;
     I->nv = rd_u32(&r);
@@ -374,6 +391,13 @@ void ns_free(NsInst *I)
     free(I->tape);
     free(I->file);
     free(I->name);
+    drop_overrides(I);
+    free(I->has);
+    free(I->over);
+    free(I->sover);
+    free(I->cache_dir);
+    free(I->guid);
+    free(I->resources);
     free(I);
 }
 
@@ -463,13 +487,20 @@ static int record(NsInst *I, int op, uint64_t n, const void *a, size_t na, const
 {
     if (I->live) return 0;   /* a hand-over keeps no tape: its model's process has the calls before it */
     Rec h = {op, fmi2OK, n};
-    size_t mark = I->tape_len;
+    size_t mark = I->last_mark = I->tape_len;
     if (mark > I->max_tape) return -1;   /* any call past the limit (sets without steps too) goes to the Python */
     if (tape_put(I, &h, sizeof h) != 0 || (na && tape_put(I, a, na) != 0) || (nb && tape_put(I, b, nb) != 0)) {
         I->tape_len = mark;
         return -1;
     }
     return 0;
+}
+
+/* The last record off the tape (its call is not answered here after all): NS_PYTHON. */
+static int unrecord(NsInst *I)
+{
+    I->tape_len = I->last_mark;
+    return NS_PYTHON;
 }
 
 /* ------------------------------------------------------------------------------ the calls */
@@ -512,9 +543,11 @@ int ns_enter_initialization_mode(NsInst *I)
 
 int ns_exit_initialization_mode(NsInst *I)
 {
-    if (I->phase != P_INITIALIZING || record(I, T_EXIT, 0, NULL, 0, NULL, 0) != 0) return NS_PYTHON;
+    if (I->phase != P_INITIALIZING || (I->dirty && cache_build(I) != 0) || record(I, T_EXIT, 0, NULL, 0, NULL, 0) != 0)
+        return NS_PYTHON;
     if (I->dirty) emit_phase(I, M_BUILD);   /* the model is built now unless a read built it */
     I->dirty = 0;
+    I->built = 1;
     I->phase = P_STEPPING;
     return fmi2OK;
 }
@@ -538,9 +571,10 @@ static int readable(NsInst *I, int kind, const fmi2ValueReference vr[], size_t n
     if (I->phase == P_INITIALIZING && I->dirty) {   /* the read builds the model (the adapter's _read) */
         /* on the tape too: a later set the Python refuses leaves the model built by this read in place */
         int32_t what[3] = {kind, n ? (int32_t)vr[0] : 0, n ? 1 : 0};   /* a read of none builds it too */
-        if (record(I, T_BUILD, 0, what, sizeof what, NULL, 0) != 0) return -1;
+        if (cache_build(I) != 0 || record(I, T_BUILD, 0, what, sizeof what, NULL, 0) != 0) return -1;
         emit_phase(I, M_BUILD);
         I->dirty = 0;
+        I->built = 1;
     }
     return 0;
 }
@@ -549,7 +583,17 @@ static double value_of(const NsInst *I, const Var *x)
 {
     if (I->phase >= P_STEPPING)
         return x->slot >= 0 && !(x->flags & F_CONSTANT) ? I->v[x->slot] : x->val[2];
-    return x->val[I->phase == P_INITIALIZING ? 1 : 0];
+    if (I->phase == P_INITIALIZING && I->built) return x->val[1];
+    size_t i = (size_t)(x - I->vars);   /* before the build: the values set, the file's else */
+    return I->n_over && I->has[i] ? I->over[i] : x->val[0];
+}
+
+static const char *string_of(const NsInst *I, const Var *x)
+{
+    if (I->phase >= P_STEPPING) return x->sval[2];
+    if (I->phase == P_INITIALIZING && I->built) return x->sval[1];
+    size_t i = (size_t)(x - I->vars);
+    return I->n_over && I->has[i] ? I->sover[i] : x->sval[0];
 }
 
 /* The vector `vr` (reads: every value readable while stepping; writes: every value an input) with its
@@ -619,29 +663,72 @@ int ns_get_boolean(NsInst *I, const fmi2ValueReference vr[], size_t n, fmi2Boole
 int ns_get_string(NsInst *I, const fmi2ValueReference vr[], size_t n, fmi2String v[])
 {
     if (readable(I, K_STRING, vr, n) != 0) return NS_PYTHON;
-    for (size_t i = 0; i < n; i++) {
-        const Var *x = var_of(I, K_STRING, vr[i]);
-        v[i] = x->sval[I->phase >= P_STEPPING ? 2 : I->phase == P_INITIALIZING ? 1 : 0];
-    }
+    for (size_t i = 0; i < n; i++) v[i] = string_of(I, var_of(I, K_STRING, vr[i]));
     return fmi2OK;
 }
 
 /* A set before the first step: every variable settable and set to the value it has (the start
- * value): then the model's build is as recorded. */
-static int unchanged(NsInst *I, int kind, const fmi2ValueReference vr[], size_t n, const double *d,
+ * value): then the model's build is as recorded. With the start cache on and before the model's build,
+ * a settable variable may be set to another value too (kept in I->over: the build then looks for the
+ * snapshot of exactly those values, cache_build). All or none: 1 taken, 0 not (nothing changed). */
+static int same_value(int kind, const Var *x, const double *d, const fmi2String *s, size_t i)
+{
+    if (kind == K_STRING) return s[i] && strcmp(s[i], x->sval[0]) == 0;
+    if (kind == K_BOOLEAN) return (d[i] != 0.0) == (x->val[0] != 0.0);
+    return memcmp(&d[i], &x->val[0], sizeof(double)) == 0;   /* a Real bit for bit (-0.0 is not 0.0 here) */
+}
+
+static int take_sets(NsInst *I, int kind, const fmi2ValueReference vr[], size_t n, const double *d,
                      const fmi2String *s)
 {
     if (I->phase != P_INSTANTIATED && I->phase != P_INITIALIZING) return 0;
+    int defer = I->cache_dir && !I->built && !I->live;
     for (size_t i = 0; i < n; i++) {
         const Var *x = var_of(I, kind, vr[i]);
         if (!x || !(x->flags & F_SETTABLE)) return 0;
-        if (kind == K_STRING) {
-            if (!s[i] || strcmp(s[i], x->sval[0]) != 0) return 0;
-        } else if (kind == K_BOOLEAN ? ((d[i] != 0.0) != (x->val[0] != 0.0)) : memcmp(&d[i], &x->val[0], sizeof(double)) != 0) {
-            return 0;   /* a Real bit for bit (-0.0 is not 0.0 here) */
+        if (!same_value(kind, x, d, s, i) && (!defer || (kind == K_STRING && !s[i]))) return 0;
+    }
+    if (!defer) return 1;
+    if (!I->has) {
+        I->has = (unsigned char *)calloc(I->n_vars + 1, 1);
+        I->over = (double *)calloc(I->n_vars + 1, sizeof *I->over);
+        I->sover = (char **)calloc(I->n_vars + 1, sizeof *I->sover);
+        if (!I->has || !I->over || !I->sover) return 0;
+    }
+    char **copies = kind == K_STRING ? (char **)calloc(n + 1, sizeof *copies) : NULL;
+    if (kind == K_STRING && !copies) return 0;
+    for (size_t i = 0; kind == K_STRING && i < n; i++)
+        if (!(copies[i] = cfg_strdup(s[i]))) {
+            for (size_t j = 0; j < i; j++) free(copies[j]);
+            free(copies);
+            return 0;
+        }
+    for (size_t i = 0; i < n; i++) {   /* in order: a reference set twice in one call keeps the last value */
+        size_t k = (size_t)(var_of(I, kind, vr[i]) - I->vars);
+        int differs = !same_value(kind, &I->vars[k], d, s, i);
+        if (I->has[k]) I->n_over--;
+        free(I->sover[k]);
+        I->sover[k] = NULL;
+        I->has[k] = (unsigned char)differs;
+        if (differs) {
+            I->n_over++;
+            if (kind == K_STRING) I->sover[k] = copies[i], copies[i] = NULL;
+            else I->over[k] = kind == K_BOOLEAN ? (d[i] != 0.0 ? 1.0 : 0.0) : d[i];
         }
     }
+    for (size_t i = 0; kind == K_STRING && i < n; i++) free(copies[i]);
+    free(copies);
     return 1;
+}
+
+static void drop_overrides(NsInst *I)
+{
+    for (size_t i = 0; I->sover && i < I->n_vars; i++) {
+        free(I->sover[i]);
+        I->sover[i] = NULL;
+    }
+    if (I->has) memset(I->has, 0, I->n_vars);
+    I->n_over = 0;
 }
 
 int ns_set_real(NsInst *I, const fmi2ValueReference vr[], size_t n, const fmi2Real v[])
@@ -657,8 +744,8 @@ int ns_set_real(NsInst *I, const fmi2ValueReference vr[], size_t n, const fmi2Re
         }
         return fmi2OK;
     }
-    if (!unchanged(I, K_REAL, vr, n, v, NULL) || record(I, T_SET_REAL, n, vr, n * sizeof *vr, v, n * sizeof *v) != 0)
-        return NS_PYTHON;
+    if (record(I, T_SET_REAL, n, vr, n * sizeof *vr, v, n * sizeof *v) != 0) return NS_PYTHON;
+    if (!take_sets(I, K_REAL, vr, n, v, NULL)) return unrecord(I);
     I->dirty = 1;
     return fmi2OK;
 }
@@ -668,8 +755,8 @@ static int set_ints(NsInst *I, int kind, int op, const fmi2ValueReference vr[], 
     double d[64];
     if (n > 64) return NS_PYTHON;
     for (size_t i = 0; i < n; i++) d[i] = (double)v[i];
-    if (!unchanged(I, kind, vr, n, d, NULL) || record(I, op, n, vr, n * sizeof *vr, v, n * sizeof *v) != 0)
-        return NS_PYTHON;
+    if (record(I, op, n, vr, n * sizeof *vr, v, n * sizeof *v) != 0) return NS_PYTHON;
+    if (!take_sets(I, kind, vr, n, d, NULL)) return unrecord(I);
     I->dirty = 1;
     return fmi2OK;
 }
@@ -686,9 +773,21 @@ int ns_set_boolean(NsInst *I, const fmi2ValueReference vr[], size_t n, const fmi
 
 int ns_set_string(NsInst *I, const fmi2ValueReference vr[], size_t n, const fmi2String v[])
 {
-    /* equal to the start values: the tape keeps the references only (the values are the snapshot's) */
-    if (!unchanged(I, K_STRING, vr, n, NULL, v) || record(I, T_SET_STRING, n, vr, n * sizeof *vr, NULL, 0) != 0)
-        return NS_PYTHON;
+    /* the tape keeps the references, then each string (u32 length, its bytes) */
+    size_t bytes = 0;
+    for (size_t i = 0; i < n; i++) bytes += 4 + (v[i] ? strlen(v[i]) : 0);
+    unsigned char *pack = (unsigned char *)malloc(bytes ? bytes : 1), *q = pack;
+    if (!pack) return NS_PYTHON;
+    for (size_t i = 0; i < n; i++) {
+        uint32_t len = v[i] ? (uint32_t)strlen(v[i]) : 0;
+        memcpy(q, &len, 4);
+        if (len) memcpy(q + 4, v[i], len);
+        q += 4 + len;
+    }
+    int rc = record(I, T_SET_STRING, n, vr, n * sizeof *vr, pack, bytes);
+    free(pack);
+    if (rc != 0) return NS_PYTHON;
+    if (!take_sets(I, K_STRING, vr, n, NULL, v)) return unrecord(I);
     I->dirty = 1;
     return fmi2OK;
 }
@@ -718,6 +817,300 @@ int ns_do_step(NsInst *I, fmi2Real t, fmi2Real h, fmi2Boolean nsp, int early, fm
     if (end) *end = t + h;
     return fmi2OK;
 }
+
+/* ------------------------------------------------------------------------------ the start cache
+ * A host that sets parameters to other values than the FMU's defaults starts the model's Python at the
+ * model's build (the first read in Initialization Mode, or its end), and when the instance ends, the
+ * loader keeps the native start of exactly those values (the model's own snapshot of them, made as the
+ * build makes native_start.bin) in the user's cache: <cache>/spurdiff/starts/<key>.bin, the key a digest
+ * of the FMU's GUID, its native_start.bin and the values set. The next instance that sets the same values
+ * builds from that file instead: no Python, no model process. A file is used only from a folder of this
+ * user's (mode 0700, not a link), when it is a regular file of this user's that nobody else may write, its
+ * digest matches its bytes, its kernels pass their checks, and its variables and its values before the
+ * build are exactly the file's and the values set; anything else is a miss (the Python builds, as without
+ * the cache). */
+int ns_start_cache(NsInst *I, const char *dir, const char *guid, const char *resources)
+{
+    if (!dir) return 0;
+    I->cache_dir = cfg_strdup(dir);
+    I->guid = cfg_strdup(guid ? guid : "");
+    I->resources = cfg_strdup(resources);
+    if (I->cache_dir && I->guid && I->resources) return 0;
+    free(I->cache_dir);
+    free(I->guid);
+    free(I->resources);
+    I->cache_dir = I->guid = I->resources = NULL;
+    return -1;
+}
+
+static uint64_t fnv_more(uint64_t h, const void *p, size_t n)
+{
+    const unsigned char *b = (const unsigned char *)p;
+    for (size_t i = 0; i < n; i++) h = (h ^ b[i]) * 0x100000001B3ull;
+    return h;
+}
+
+/* The values set (kind, value reference, then the double or u32 length and the bytes), in the file's order
+ * of the variables: a new array (*len bytes), NULL when none or no memory. */
+static unsigned char *pack_overrides(const NsInst *I, size_t *len)
+{
+    size_t n = 0;
+    for (size_t i = 0; i < I->n_vars && I->n_over; i++)
+        if (I->has[i]) n += 8 + (I->vars[i].kind == K_STRING ? 4 + strlen(I->sover[i]) : 8);
+    *len = n;
+    unsigned char *out = n ? (unsigned char *)malloc(n) : NULL, *q = out;
+    for (size_t i = 0; out && i < I->n_vars; i++) {
+        if (!I->has[i]) continue;
+        uint32_t head[2] = {(uint32_t)I->vars[i].kind, I->vars[i].vr};
+        memcpy(q, head, 8);
+        q += 8;
+        if (I->vars[i].kind == K_STRING) {
+            uint32_t l = (uint32_t)strlen(I->sover[i]);
+            memcpy(q, &l, 4);
+            memcpy(q + 4, I->sover[i], l);
+            q += 4 + l;
+        } else {
+            memcpy(q, &I->over[i], 8);
+            q += 8;
+        }
+    }
+    return out;
+}
+
+/* The cache file of the values set: 0 and `path`, or -1 (no cache, no values set, too long). */
+static int cache_path(const NsInst *I, char *path, size_t size)
+{
+    size_t len = 0;
+    unsigned char *sets = I->cache_dir && I->n_over ? pack_overrides(I, &len) : NULL;
+    if (!sets) return -1;
+    uint64_t h = fnv_more(0xCBF29CE484222325ull, I->guid, strlen(I->guid) + 1);
+    h = fnv_more(h, &I->digest, sizeof I->digest);
+    h = fnv_more(h, sets, len);
+    free(sets);
+    int w = snprintf(path, size, "%s/%016llx.bin", I->cache_dir, (unsigned long long)h);
+    return w < 0 || (size_t)w >= size ? -1 : 0;
+}
+
+static int seen_before(const char *path);
+
+int ns_cache_want(const NsInst *I, char *path, size_t size, unsigned char **sets, size_t *len)
+{
+    *sets = NULL;
+    *len = 0;
+    if (cache_path(I, path, size) != 0 || !seen_before(path)) return 0;
+    *sets = pack_overrides(I, len);
+    return *sets ? 1 : 0;
+}
+
+#ifndef _WIN32
+/* `dir` a folder of this user's that nobody else may enter (mode 0700 or stricter), not a link: 0, or -1 */
+static int private_dir(const char *dir)
+{
+    struct stat st;
+    return lstat(dir, &st) == 0 && S_ISDIR(st.st_mode) && st.st_uid == geteuid() && (st.st_mode & 077) == 0 ? 0 : -1;
+}
+
+/* The cache file's bytes (a new array, *len), or NULL (none, or not to be trusted: see above). */
+static char *cache_read(const char *dir, const char *path, size_t *len)
+{
+    if (private_dir(dir) != 0) return NULL;
+    int fd = open(path, O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
+    if (fd < 0) return NULL;
+    struct stat st;
+    char *buf = NULL;
+    if (fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && st.st_uid == geteuid() && (st.st_mode & 022) == 0
+        && st.st_size >= 16 && st.st_size <= NS_MAX_FILE && (buf = (char *)malloc((size_t)st.st_size + 1))) {
+        size_t got = 0;
+        while (got < (size_t)st.st_size) {
+            ssize_t r = read(fd, buf + got, (size_t)st.st_size - got);
+            if (r <= 0) break;
+            got += (size_t)r;
+        }
+        if (got != (size_t)st.st_size) {
+            free(buf);
+            buf = NULL;
+        }
+        *len = got;
+        if (buf) futimens(fd, NULL);   /* used now: the last to be pruned */
+    }
+    close(fd);
+    return buf;
+}
+
+/* Two touches: the values of `path` (<key>.bin) were set in an earlier instance too (its mark <key>.seen,
+ * a regular file of this user's, is there): 1; else the mark is made now and 0. A host's sweep over
+ * values it sets once each then costs no snapshot per instance, a host that loads the same values again
+ * gets one at the second instance's end and starts natively from the third. */
+static int seen_before(const char *path)
+{
+    char mark[PATH_MAX];
+    size_t n = strlen(path);
+    if (n < 4 || n + 2 > sizeof mark) return 0;
+    memcpy(mark, path, n - 4);
+    memcpy(mark + n - 4, ".seen", 6);
+    struct stat st;
+    if (lstat(mark, &st) == 0 && S_ISREG(st.st_mode) && st.st_uid == geteuid()) return 1;
+    ns_cache_store(mark, "", 0);
+    return 0;
+}
+
+/* The folder's files beyond NS_CACHE_FILES, least recently used first (modification time: a file used is
+ * touched), removed: only our names (16 hexadecimal digits, then .bin or .seen), only regular files. */
+#define NS_CACHE_FILES 512
+typedef struct {
+    char name[32];
+    time_t mtime;
+} Entry;
+
+static int older(const void *a, const void *b)
+{
+    time_t x = ((const Entry *)a)->mtime, y = ((const Entry *)b)->mtime;
+    return x < y ? -1 : x > y;
+}
+
+static void prune(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d) return;
+    Entry *e = NULL;
+    size_t n = 0, cap = 0;
+    struct dirent *de;
+    while ((de = readdir(d))) {
+        const char *nm = de->d_name;
+        size_t l = strlen(nm), hex = 0;
+        while (hex < l && ((nm[hex] >= '0' && nm[hex] <= '9') || (nm[hex] >= 'a' && nm[hex] <= 'f'))) hex++;
+        if (hex != 16 || (strcmp(nm + 16, ".bin") && strcmp(nm + 16, ".seen"))) continue;
+        char p[PATH_MAX];
+        struct stat st;
+        if (snprintf(p, sizeof p, "%s/%s", dir, nm) >= (int)sizeof p || lstat(p, &st) != 0 || !S_ISREG(st.st_mode))
+            continue;
+        if (n == cap) {
+            Entry *more = (Entry *)realloc(e, (cap = cap ? 2 * cap : 64) * sizeof *e);
+            if (!more) break;
+            e = more;
+        }
+        snprintf(e[n].name, sizeof e[n].name, "%s", nm);
+        e[n++].mtime = st.st_mtime;
+    }
+    closedir(d);
+    if (n > NS_CACHE_FILES) {
+        qsort(e, n, sizeof *e, older);
+        for (size_t i = 0; i < n - NS_CACHE_FILES; i++) {
+            char p[PATH_MAX];
+            if (snprintf(p, sizeof p, "%s/%s", dir, e[i].name) < (int)sizeof p) unlink(p);
+        }
+    }
+    free(e);
+}
+
+int ns_cache_store(const char *path, const void *bytes, size_t len)
+{
+    /* the folder, made with each missing folder above it (0700, as mkdir -p), then checked private */
+    char dir[PATH_MAX];
+    const char *slash = strrchr(path, '/');
+    if (!slash || slash == path || (size_t)(slash - path) >= sizeof dir || len > NS_MAX_FILE) return -1;
+    memcpy(dir, path, (size_t)(slash - path));
+    dir[slash - path] = 0;
+    for (char *q = dir + 1;; q++) {
+        if (*q != '/' && *q) continue;
+        char c = *q;
+        *q = 0;
+        if (mkdir(dir, 0700) != 0 && errno != EEXIST) return -1;
+        *q = c;
+        if (!c) break;
+    }
+    if (private_dir(dir) != 0) return -1;
+    char tmp[PATH_MAX];
+    if (snprintf(tmp, sizeof tmp, "%s/.new-XXXXXX", dir) >= (int)sizeof tmp) return -1;
+    int fd = mkstemp(tmp);   /* mode 0600 */
+    if (fd < 0) return -1;
+    size_t put = 0;
+    while (put < len) {
+        ssize_t w = write(fd, (const char *)bytes + put, len - put);
+        if (w <= 0) break;
+        put += (size_t)w;
+    }
+    int ok = put == len && close(fd) == 0;
+    if (!ok || rename(tmp, path) != 0) {
+        if (put != len) close(fd);
+        unlink(tmp);
+        return -1;
+    }
+    prune(dir);
+    return 0;
+}
+#else
+static int seen_before(const char *path)
+{
+    (void)path;
+    return 0;
+}
+
+int ns_cache_store(const char *path, const void *bytes, size_t len)
+{
+    (void)path; (void)bytes; (void)len;
+    return -1;
+}
+#endif
+
+/* T (a parsed cache file) is the model of exactly this instance's variables and values before the build */
+static int fits(const NsInst *I, const NsInst *T)
+{
+    if (T->n_vars != I->n_vars) return 0;
+    for (size_t i = 0; i < I->n_vars; i++) {
+        const Var *a = &I->vars[i], *b = &T->vars[i];
+        if (a->kind != b->kind || a->vr != b->vr || a->flags != b->flags) return 0;
+        int set = I->n_over && I->has[i];
+        if (a->kind == K_STRING) {
+            if (strcmp(set ? I->sover[i] : a->sval[0], b->sval[0]) != 0) return 0;
+        } else {
+            double want = set ? I->over[i] : a->val[0];
+            if (a->kind == K_BOOLEAN ? (want != 0.0) != (b->val[0] != 0.0) : memcmp(&want, &b->val[0], 8) != 0) return 0;
+        }
+    }
+    return 1;
+}
+
+#define SWAP(f) do { __typeof__(I->f) t_ = I->f; I->f = T->f; T->f = t_; } while (0)
+#define SWAP_ARRAY(f) do { for (size_t k_ = 0; k_ < sizeof I->f / sizeof I->f[0]; k_++) SWAP(f[k_]); } while (0)
+
+/* Before the model's build: 0 (no values set, or built from the cache file of the values set), or -1
+ * (the Python builds it; nothing changed). */
+static int cache_build(NsInst *I)
+{
+    if (!I->n_over) return 0;
+#ifdef _WIN32
+    return -1;
+#else
+    char path[PATH_MAX];
+    size_t len = 0;
+    char *bytes = cache_path(I, path, sizeof path) == 0 ? cache_read(I->cache_dir, path, &len) : NULL;
+    if (!bytes) return -1;
+    NsInst *T = (NsInst *)calloc(1, sizeof *T);
+    char err[512];
+    if (!T) {
+        free(bytes);
+        return -1;
+    }
+    T->file = bytes;
+    if (parse(T, I->resources, len, err, sizeof err) != 0 || !fits(I, T)) {
+        ns_free(T);
+        return -1;
+    }
+    /* the model's data from T; the instance's own (its phase, time, tape, logging, values set) stays */
+    SWAP(file); SWAP(early); SWAP_ARRAY(libs); SWAP(n_libs); SWAP(fn); SWAP_ARRAY(ctx); SWAP_ARRAY(arrays);
+    SWAP_ARRAY(array_n); SWAP(n_fields); SWAP(direct); SWAP(v); SWAP(nv); SWAP(n_in); SWAP(vars); SWAP(n_vars);
+    SWAP_ARRAY(index); SWAP_ARRAY(max_vr); SWAP(msgs); SWAP(n_msgs); SWAP_ARRAY(vectors[0]);
+    SWAP_ARRAY(vectors[1]);
+    I->step_ctx = I->direct ? (const void *)I->arrays[0] : (const void *)I->ctx;
+    T->n_libs = 0;   /* the kernels stay loaded either way */
+    ns_free(T);
+    drop_overrides(I);   /* the file's values before the build are the values set now */
+    return 0;
+#endif
+}
+#undef SWAP
+#undef SWAP_ARRAY
 
 /* ------------------------------------------------------------------------------ the replay */
 int ns_replay(const NsInst *I, const Fmi2Table *t, fmi2Component c, NsStepEarly *early_step, char *err,
@@ -769,17 +1162,38 @@ int ns_replay(const NsInst *I, const Fmi2Table *t, fmi2Component c, NsStepEarly 
             }
             memcpy(vr, p, n * sizeof *vr);
             if (each) memcpy(vals, p + n * sizeof *vr, n * each);
+            size = n * (sizeof(fmi2ValueReference) + each);
+            char *strs = NULL;
             if (h.op == T_SET_REAL) s = t->fmi2SetReal(c, vr, n, (const fmi2Real *)vals);
             else if (h.op == T_SET_INTEGER) s = t->fmi2SetInteger(c, vr, n, (const fmi2Integer *)vals);
             else if (h.op == T_SET_BOOLEAN) s = t->fmi2SetBoolean(c, vr, n, (const fmi2Boolean *)vals);
-            else {
+            else {   /* each string: u32 length, its bytes (ns_set_string), made NUL-terminated in a copy */
                 fmi2String *sv = (fmi2String *)vals;
-                for (size_t i = 0; i < n; i++) sv[i] = var_of(I, K_STRING, vr[i])->sval[0];
-                s = t->fmi2SetString(c, vr, n, sv);
+                size_t total = 0, at = size;
+                for (size_t i = 0; i < n; i++) {
+                    uint32_t len;
+                    memcpy(&len, p + at, 4);
+                    at += 4 + len;
+                    total += len + 1;
+                }
+                strs = (char *)malloc(total ? total : 1);
+                char *q = strs;
+                at = size;
+                for (size_t i = 0; strs && i < n; i++) {
+                    uint32_t len;
+                    memcpy(&len, p + at, 4);
+                    memcpy(q, p + at + 4, len);
+                    q[len] = 0;
+                    sv[i] = q;
+                    q += len + 1;
+                    at += 4 + len;
+                }
+                s = strs ? t->fmi2SetString(c, vr, n, sv) : fmi2Error;
+                size = at;
             }
+            free(strs);
             free(vr);
             free(vals);
-            size = n * (sizeof(fmi2ValueReference) + each);
             break;
         }
         case T_STEP: {

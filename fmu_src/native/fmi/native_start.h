@@ -47,6 +47,19 @@ typedef fmi2Status NsStepEarly(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Bool
 int ns_replay(const NsInst *I, const Fmi2Table *t, fmi2Component c, NsStepEarly *early_step, char *err,
               size_t errsize);
 
+/* The start cache (native_start.c): sets to other values before the model's build are taken, and the
+ * build then uses the cache file of exactly those values in `dir` (made by the loader with
+ * ns_cache_store from the model's own snapshot of them) or starts the Python. dir NULL: off. 0, or -1
+ * (no memory: off). */
+int ns_start_cache(NsInst *I, const char *dir, const char *guid, const char *resources);
+/* Values were set: 1 with the cache file's `path` and the values (a new array of *len bytes: each kind
+ * u32, value reference u32, then a double, or a String's u32 length and bytes) for the model's snapshot;
+ * else 0. */
+int ns_cache_want(const NsInst *I, char *path, size_t size, unsigned char **sets, size_t *len);
+/* `bytes` as the cache file `path` (its folder made with the missing ones above it, 0700, and checked
+ * this user's and private; written to a temporary file there, then renamed): 0, or -1. */
+int ns_cache_store(const char *path, const void *bytes, size_t len);
+
 /* The hand-over (the model in its own process, fmi2_loader.c): a stepping instance answered here from
  * `len` bytes its model's process wrote (spurdiff/fmi/native_start.py: live; copied, not kept), with
  * the native start's rules for a stepping instance but no tape: NS_PYTHON from any call means "give

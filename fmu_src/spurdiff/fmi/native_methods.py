@@ -92,6 +92,15 @@ class NativeMethods:
                 self._inputs_ok = True
         return native_start.live(self)
 
+    def fmi2_start_snapshot(self, data: bytes):
+        """The start cache (``fmu_src/native/fmi/fmi2_loader.c``: keep_start): the native start of this
+        FMU's class with the values ``data`` set (:func:`spurdiff.fmi.native_start.decode_sets`), made in
+        fresh instances as the build makes ``native_start.bin``; None when it has none."""
+        try:
+            return native_start.snapshot(type(self), native_start.decode_sets(data))
+        except (native_start.NoSnapshot, ValueError):
+            return None
+
     def fmi2_native_import(self, data: bytes, time: float, bad: int, steps: int) -> int:
         """The state back from the host after ``steps`` steps there: the arrays (``data``, see
         :func:`spurdiff.fmi.native_start.restore`) into the plan, then :meth:`fmi2_native_leave`."""

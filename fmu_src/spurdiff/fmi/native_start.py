@@ -106,15 +106,21 @@ def _library(module) -> tuple[str, list[tuple[str, int]]]:
     return rel, checks
 
 
-def snapshot(klass) -> bytes:
+def snapshot(klass, sets=()) -> bytes:
     """The native start of the FMU class ``klass`` (a :func:`spurdiff.fmi.adapter.fmu_class`) at its
-    defaults, or NoSnapshot saying why it has none."""
+    defaults, or with the values ``sets`` set after fmi2Instantiate (kind, value reference, value; the
+    start cache, :func:`decode_sets`), or NoSnapshot saying why it has none."""
     def make():
-        return klass(instance_name=_PROBE_NAME, resources=_PROBE_RESOURCES, visible=False, logging_on=True)
+        x = klass(instance_name=_PROBE_NAME, resources=_PROBE_RESOURCES, visible=False, logging_on=True)
+        first = _drain(x)
+        for kind, vr, value in sets:
+            if getattr(x, f"fmi2_set_{kind.lower()}")((vr,), (value,)) != 0 or _drain(x):
+                raise NoSnapshot(f"setting the {kind} variable {vr} to {value!r} did not answer fmi2OK silently")
+        return x, first
 
-    a = make()
+    a, first = make()
     msgs = {p: [] for p in PHASES}
-    msgs["instantiate"] = _drain(a)
+    msgs["instantiate"] = first
     vrs = {k: tuple(sorted(a._get[k])) for k in KINDS}
     phase0 = {k: _values(a, k, vrs[k]) for k in KINDS}
     statuses = [a.fmi2_setup_experiment(False, 0.0, 0.0, False, 0.0)]
@@ -127,8 +133,7 @@ def snapshot(klass) -> bytes:
     if _drain(a):
         raise NoSnapshot("reading the variables after initialization logs")
     # the same start with a read in Initialization Mode: the build's messages move to that read
-    b = make()
-    _drain(b)
+    b, _ = make()
     b.fmi2_setup_experiment(False, 0.0, 0.0, False, 0.0)
     b.fmi2_enter_initialization_mode()
     _drain(b)
@@ -154,6 +159,35 @@ def snapshot(klass) -> bytes:
     _write_model(w, a, answer, vrs, lambda kind, i: [phase0[kind][i], phase1[kind][i], phase2[kind][i]], msgs)
     body = w.bytes()
     return body + struct.pack("<Q", digest(body))
+
+
+def decode_sets(data: bytes) -> list:
+    """The values set as the loader sends them for the start cache (``fmu_src/native/fmi/native_start.c``:
+    pack_overrides): [(kind, value reference, value)], each u32 kind, u32 value reference, then a double
+    (Real, Integer, Boolean) or a String's u32 length and UTF-8 bytes; ValueError for anything else."""
+    out, at = [], 0
+    while at < len(data):
+        if at + 8 > len(data):
+            raise ValueError("the values set end inside a record")
+        k, vr = struct.unpack_from("=II", data, at)
+        at += 8
+        if k >= len(KINDS):
+            raise ValueError(f"the values set name the kind {k}")
+        kind = KINDS[k]
+        if kind == "String":
+            (n,) = struct.unpack_from("=I", data, at)
+            if at + 4 + n > len(data):
+                raise ValueError("the values set end inside a string")
+            value = data[at + 4:at + 4 + n].decode("utf-8")
+            at += 4 + n
+        else:
+            if at + 8 > len(data):
+                raise ValueError("the values set end inside a number")
+            (x,) = struct.unpack_from("=d", data, at)
+            at += 8
+            value = x if kind == "Real" else bool(x) if kind == "Boolean" else int(x)
+        out.append((kind, vr, value))
+    return out
 
 
 def live(slave) -> bytes | bool | None:
@@ -317,4 +351,4 @@ def _clean(s: str, what: str) -> None:
         raise NoSnapshot(f"{what} names the instance or its resources folder: {s[:200]!r}")
 
 
-__all__ = ["snapshot", "live", "restore", "digest", "NoSnapshot", "FILE", "MAGIC", "LIVE_MAGIC", "FORMAT"]
+__all__ = ["snapshot", "decode_sets", "live", "restore", "digest", "NoSnapshot", "FILE", "MAGIC", "LIVE_MAGIC", "FORMAT"]
