@@ -98,6 +98,9 @@ s = FMU2Slave(guid=md.guid, unzipDirectory=sys.argv[2], modelIdentifier=md.coSim
               instanceName='b')
 t0 = time.perf_counter()
 s.instantiate()
+if len(sys.argv) > 3:   # a Real parameter set to another value: NAME=VALUE
+    name, value = sys.argv[3].split('=')
+    s.setReal([next(v.valueReference for v in md.modelVariables if v.name == name)], [float(value)])
 s.setupExperiment(startTime=0.0)
 s.enterInitializationMode()
 s.exitInitializationMode()
@@ -108,10 +111,12 @@ print('INIT', t1 - t0)
 """
 
 
-def init_time(fmu: Path, unzipped: Path, own_process: bool, env: dict | None = None) -> float:
-    """Seconds of instantiate + initialize in a fresh fmpy process (the FMU extracted before)."""
+def init_time(fmu: Path, unzipped: Path, own_process: bool, env: dict | None = None, setting: str = "") -> float:
+    """Seconds of instantiate + initialize in a fresh fmpy process (the FMU extracted before); ``setting``
+    "NAME=VALUE": that Real parameter set after fmi2Instantiate."""
     env = {**os.environ, **(env or {}), "SPURDIFF_FMU_PROCESS": "out" if own_process else "in"}
-    r = subprocess.run([sys.executable, "-c", _INIT, str(unzipped / "modelDescription.xml"), str(unzipped)],
+    r = subprocess.run([sys.executable, "-c", _INIT, str(unzipped / "modelDescription.xml"), str(unzipped),
+                        *([setting] if setting else [])],
                        capture_output=True, text=True,
                        env=env, timeout=120)
     if r.returncode != 0:
@@ -219,6 +224,9 @@ def _per_step(fmu: Path, unzipped: Path, n: int, rounds: int) -> tuple[float, fl
 
 
 PYTHON_START = {"SPURDIFF_FMU_START": "python"}
+# a parameter set to another value: its third start on comes from the start cache (fmu_src/native/fmi/
+# native_start.c; the first marks the values seen, the second keeps the model's native start of them)
+SETTING = "differential.w_start=4.0"
 
 
 def measure(ours: Path, theirs: Path, runs: int = 5, before: Path | None = None) -> dict:
@@ -239,12 +247,18 @@ def measure(ours: Path, theirs: Path, runs: int = 5, before: Path | None = None)
         init = {**{k: [] for k in fmus}, **{f"{k}_out": [] for k in ourside}}
         for name in fmus:    # warm the page cache once
             whole_run(fmus[name], host, tmp, envs[name])
+        cached = {"SPURDIFF_FMU_START_CACHE_DIR": str(tmp / "starts")}   # this bench's own cache folder
+        for own in (False, False):   # seen, kept
+            init_time(ours, unz["ours"], own, cached, SETTING)
+        init["cached"], init["cached_out"] = [], []
         for _ in range(runs):
             for name in fmus:
                 whole[name].append(whole_run(fmus[name], host, tmp, envs[name]))
                 init[name].append(init_time(fmus[name], unz[name], False, envs[name]))
             for name in ourside:
                 init[f"{name}_out"].append(init_time(fmus[name], unz[name], True, envs[name]))
+            init["cached"].append(init_time(ours, unz["ours"], False, cached, SETTING))
+            init["cached_out"].append(init_time(ours, unz["ours"], True, cached, SETTING))
         step = {k: [] for k in fmus}
         for _ in range(2):
             for name in fmus:
@@ -288,7 +302,8 @@ def _lines(m: dict, k: str, fmu: Path, runs: int) -> list[str]:
             f"{m['unpacked'][k] / mb:.1f} MB unpacked) against the C FMU ChkC.fmu "
             f"{m['size']['c'] / 1024:.0f} kB; medians of {runs} interleaved runs (per step: fastest);",
             "   'native': the defaults kept (no Python starts); 'Python': started (SPURDIFF_FMU_START=python), as a run "
-            "that sets a parameter to another value starts it at that set; ratio: native / C FMU; per step: every Real "
+            "that sets a parameter to another value starts it at that set the first two times (the third time on, "
+            f"'a parameter set, 3rd start on': from the start cache, no Python; {SETTING}); ratio: native / C FMU; per step: every Real "
             f"input set and every Real output read ({m['n_in']} and {m['n_out']}; the C FMU's 1 and 2)",
             _row("", "native", "Python", "C FMU", "ratio", "target"),
             _row("whole run: unzip + C host (load, init, 5 ms step)", ms(w[k] * 1e3), ms(w[p] * 1e3),
@@ -299,6 +314,10 @@ def _lines(m: dict, k: str, fmu: Path, runs: int) -> list[str]:
                  ms(i["c"] * 1e3), "", "<= 60 ms"),
             _row("the same, the model in its own process", ms(i[k + "_out"] * 1e3), ms(i[p + "_out"] * 1e3),
                  "", "", "<= 150 ms"),
+            *([_row("  a parameter set, 3rd start on, host process", ms(i["cached"] * 1e3), "",
+                    "", "", ""),
+               _row("  the same, the model in its own process", ms(i["cached_out"] * 1e3), "", "", "", "")]
+              if k == "ours" else []),
             _row("per step in fmpy (setReal, doStep, getReal), us", f"{s[k]:.1f}", f"{s[p]:.1f}", f"{s['c']:.1f}",
                  f"{s[k] / s['c']:.1f}", "<= 3x"),
             _row("  the same through ctypes, arrays made once, us", f"{d[k]:.1f}", f"{d[p]:.1f}", f"{d['c']:.1f}",

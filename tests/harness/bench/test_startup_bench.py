@@ -30,3 +30,17 @@ def test_an_earlier_build_that_is_not_a_file_is_refused_with_one_line(tmp_path, 
     with pytest.raises(SystemExit):
         startup_bench.main(["0"])
     assert "runs 0: allowed 1 or more" in capsys.readouterr().err
+
+
+def test_the_cached_start_measure_sets_the_parameter_and_fills_its_own_cache(differential_fmu, tmp_path):
+    """The bench's 'a parameter set, 3rd start on' rows: its fresh fmpy hosts set startup.SETTING, the
+    second keeps the native start of it in the bench's own folder, the third starts from it."""
+    import zipfile
+
+    unz = tmp_path / "x"
+    zipfile.ZipFile(differential_fmu).extractall(unz)
+    env = {"SPURDIFF_FMU_START_CACHE_DIR": str(tmp_path / "starts")}
+    for own in (False, True, True):
+        assert startup.init_time(differential_fmu, unz, own, env, startup.SETTING) > 0
+    assert len(list((tmp_path / "starts").glob("*.bin"))) == 1
+    assert len(list((tmp_path / "starts").glob("*.seen"))) == 1
