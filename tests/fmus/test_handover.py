@@ -112,13 +112,6 @@ def test_the_steps_sets_and_gets_do_not_reach_the_stopped_model_process(differen
     assert run("out", stop=True) == run("in", stop=False)
 
 
-def test_an_unknown_step_mode_is_refused_naming_it(differential_fmu, monkeypatch):
-    monkeypatch.setenv("SPURDIFF_FMU_STEP", "host")
-    inst = Instance("ho", differential_fmu, instantiate=False)
-    assert not inst.instantiate(raise_on_null=False)
-    assert any("SPURDIFF_FMU_STEP = 'host'; allowed: auto (default), model" in m for _, m in inst.messages)
-
-
 def test_the_arrays_brought_back_must_fit_the_plan():
     """spurdiff.fmi.native_start.restore refuses bytes that are not the plan's arrays, naming both sizes."""
     import ctypes

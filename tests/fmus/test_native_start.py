@@ -155,11 +155,14 @@ def test_a_damaged_native_start_warns_and_starts_the_python(differential_fmu, mo
     assert native[:-1] == python[:-1]
 
 
-def test_an_unknown_start_mode_is_refused_naming_it(differential_fmu, monkeypatch):
-    monkeypatch.setenv("SPURDIFF_FMU_START", "fast")
+@pytest.mark.parametrize("env, value, other", [("SPURDIFF_FMU_START", "fast", "python"),
+                                               ("SPURDIFF_FMU_STEP", "host", "model"),          # the hand-over
+                                               ("SPURDIFF_FMU_START_CACHE", "on", "off")])      # the start cache
+def test_an_unknown_mode_is_refused_naming_it(differential_fmu, monkeypatch, env, value, other):
+    monkeypatch.setenv(env, value)
     inst = Instance("ns", differential_fmu, instantiate=False)
     assert not inst.instantiate(raise_on_null=False)
-    assert any("SPURDIFF_FMU_START = 'fast'; allowed: auto (default), python" in m for _, m in inst.messages)
+    assert any(f"{env} = '{value}'; allowed: auto (default), {other}" in m for _, m in inst.messages)
 
 
 @pytest.mark.parametrize("version", [2, 3])

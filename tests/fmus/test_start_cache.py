@@ -190,15 +190,6 @@ def test_an_own_folder_is_used_and_a_relative_one_is_no_cache(differential_fmu, 
     assert not (tmp_path / "relative").exists() and _files(cache) == []
 
 
-def test_an_unknown_cache_mode_is_refused_naming_it(differential_fmu, monkeypatch):
-    from harness.fmi.instance import Instance
-
-    monkeypatch.setenv("SPURDIFF_FMU_START_CACHE", "on")
-    inst = Instance("sc", differential_fmu, instantiate=False)
-    assert not inst.instantiate(raise_on_null=False)
-    assert any("SPURDIFF_FMU_START_CACHE = 'on'; allowed: auto (default), off" in m for _, m in inst.messages)
-
-
 def test_the_values_set_decode_and_refuse_a_cut_record():
     import struct
 

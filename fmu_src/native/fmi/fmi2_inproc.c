@@ -80,48 +80,31 @@ static int load_bridge(const char *bindir, char *err, size_t errsize)
         return -1;
     }
     void *sym;
-#define LOAD(name)                                                                                  \
-    if (!(sym = plat_symbol(h, BRIDGE_PREFIX #name))) {                                                  \
-        snprintf(err, errsize, "the bridge %s lacks %s", file, BRIDGE_PREFIX #name);               \
+#define SYMBOL(var, name)                                                                           \
+    if (!(sym = plat_symbol(h, BRIDGE_PREFIX name))) {                                              \
+        snprintf(err, errsize, "the bridge %s lacks %s", file, BRIDGE_PREFIX name);                \
         return -1;                                                                                 \
     }                                                                                              \
-    memcpy(&B.name, &sym, sizeof sym);
+    memcpy(&var, &sym, sizeof sym);
+#define LOAD(name) SYMBOL(B.name, #name)
 #define X_LOAD(name, params, args) LOAD(name)
     FMI2_FORWARDED(X_LOAD)
     LOAD(fmi2FreeInstance)
     LOAD(fmi2GetString)
     LOAD(fmi2Instantiate)
-    if (!(sym = plat_symbol(h, BRIDGE_PREFIX "spurdiffDoStepEarly"))) {
-        snprintf(err, errsize, "the bridge %s lacks %s", file, BRIDGE_PREFIX "spurdiffDoStepEarly");
-        return -1;
-    }
-    memcpy(&B_do_step_early, &sym, sizeof sym);
-    if (!(sym = plat_symbol(h, BRIDGE_PREFIX "spurdiffNativeExport"))) {
-        snprintf(err, errsize, "the bridge %s lacks %s", file, BRIDGE_PREFIX "spurdiffNativeExport");
-        return -1;
-    }
-    memcpy(&B_native_export, &sym, sizeof sym);
-    if (!(sym = plat_symbol(h, BRIDGE_PREFIX "spurdiffNativeImport"))) {
-        snprintf(err, errsize, "the bridge %s lacks %s", file, BRIDGE_PREFIX "spurdiffNativeImport");
-        return -1;
-    }
-    memcpy(&B_native_import, &sym, sizeof sym);
-    if (!(sym = plat_symbol(h, BRIDGE_PREFIX "spurdiffStartSnapshot"))) {
-        snprintf(err, errsize, "the bridge %s lacks %s", file, BRIDGE_PREFIX "spurdiffStartSnapshot");
-        return -1;
-    }
-    memcpy(&B_start_snapshot, &sym, sizeof sym);
+    /* the bridge's own extensions */
+    SYMBOL(B_do_step_early, "spurdiffDoStepEarly")
+    SYMBOL(B_native_export, "spurdiffNativeExport")
+    SYMBOL(B_native_import, "spurdiffNativeImport")
+    SYMBOL(B_start_snapshot, "spurdiffStartSnapshot")
 #ifdef _WIN32
-    if (!(sym = plat_symbol(h, BRIDGE_PREFIX "winStdioHeld"))) {
-        snprintf(err, errsize, "the bridge %s lacks %s", file, BRIDGE_PREFIX "winStdioHeld");
-        return -1;
-    }
     void (*held)(const HANDLE *);
-    memcpy(&held, &sym, sizeof sym);
+    SYMBOL(held, "winStdioHeld")
     held(std_nul);   /* the bridge reconnects them once Python has made its streams */
 #endif
 #undef X_LOAD
 #undef LOAD
+#undef SYMBOL
     return 0;
 }
 

@@ -297,6 +297,17 @@ static int give_back(Handle *h)
 }
 #endif
 
+/* The environment variable `env`: "auto" when unset or empty, its value when that is "auto" or `other`;
+ * else NULL, logged naming both. */
+static const char *env_mode(const fmi2CallbackFunctions *f, fmi2String name, const char *env, const char *other)
+{
+    const char *v = getenv(env);
+    if (!v || !*v) return "auto";
+    if (!strcmp(v, "auto") || !strcmp(v, other)) return v;
+    log_error(f, name, "fmi2Instantiate: %s = '%.40s'; allowed: auto (default), %s", env, v, other);
+    return NULL;
+}
+
 /* The start cache's folder: $SPURDIFF_FMU_START_CACHE_DIR (absolute), else $XDG_CACHE_HOME/spurdiff/starts
  * (an absolute XDG_CACHE_HOME), else $HOME/.cache/spurdiff/starts: 0, or -1 (none, too long, or Windows:
  * no cache). */
@@ -382,27 +393,18 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         cfg_free(&cfg);
         return NULL;
     }
-    const char *start = getenv(START_ENV);
-    if (!start || !*start) start = "auto";
-    if (strcmp(start, "auto") && strcmp(start, "python")) {
-        log_error(functions, instanceName, "fmi2Instantiate: %s = '%.40s'; allowed: auto (default), python",
-                  START_ENV, start);
+    const char *start = env_mode(functions, instanceName, START_ENV, "python");
+    if (!start) {
         cfg_free(&cfg);
         return NULL;
     }
-    const char *step = getenv(STEP_ENV);
-    if (!step || !*step) step = "auto";
-    if (strcmp(step, "auto") && strcmp(step, "model")) {
-        log_error(functions, instanceName, "fmi2Instantiate: %s = '%.40s'; allowed: auto (default), model",
-                  STEP_ENV, step);
+    const char *step = env_mode(functions, instanceName, STEP_ENV, "model");
+    if (!step) {
         cfg_free(&cfg);
         return NULL;
     }
-    const char *caching = getenv(CACHE_ENV);
-    if (!caching || !*caching) caching = "auto";
-    if (strcmp(caching, "auto") && strcmp(caching, "off")) {
-        log_error(functions, instanceName, "fmi2Instantiate: %s = '%.40s'; allowed: auto (default), off",
-                  CACHE_ENV, caching);
+    const char *caching = env_mode(functions, instanceName, CACHE_ENV, "off");
+    if (!caching) {
         cfg_free(&cfg);
         return NULL;
     }

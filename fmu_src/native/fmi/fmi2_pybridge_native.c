@@ -367,6 +367,18 @@ BRIDGE_INTERNAL int native_set_real(Instance *I, const fmi2ValueReference vr[], 
  * host does not answer there: spurdiffNativeExport asks the slave's fmi2_native_export() (bytes, False
  * or None; a native state here is taken back first), spurdiffNativeImport hands the arrays to its
  * fmi2_native_import(data, time, bad, steps). */
+/* A slave's answer of bytes (GIL held): 1 and a copy in *bytes (malloc'd, *len), 0 for None, -1 else. */
+static int bytes_of(PyObject *r, unsigned char **bytes, size_t *len)
+{
+    if (r == Py_None) return 0;
+    if (!r || !PyBytes_Check(r)) return -1;
+    size_t n = (size_t)PyBytes_GET_SIZE(r);
+    if (!(*bytes = (unsigned char *)malloc(n ? n : 1))) return -1;
+    memcpy(*bytes, PyBytes_AS_STRING(r), n);
+    *len = n;
+    return 1;
+}
+
 int spurdiffNativeExport(fmi2Component c, unsigned char **bytes, size_t *len)
 {
     *bytes = NULL;
@@ -377,16 +389,8 @@ int spurdiffNativeExport(fmi2Component c, unsigned char **bytes, size_t *len)
     int kind = -1;
     if (!I->nat.on || native_leave(I) == 0) {
         PyObject *r = PyObject_CallMethod(I->slave, "fmi2_native_export", NULL);
-        if (r && PyBytes_Check(r)) {
-            size_t n = (size_t)PyBytes_GET_SIZE(r);
-            if ((*bytes = (unsigned char *)malloc(n ? n : 1))) {
-                memcpy(*bytes, PyBytes_AS_STRING(r), n);
-                *len = n;
-                kind = 1;
-            }
-        } else if (r == Py_None) {
-            kind = 0;
-        } else if (!r) {   /* a failure: said once, and the model's process steps from now on */
+        kind = bytes_of(r, bytes, len);
+        if (!r) {   /* a failure: said once, and the model's process steps from now on */
             char text[4096];
             exception_text(text, sizeof text);
             emitf(&I->cb, I->name, fmi2Warning, "the compiled step stays in the model's process: %s", text);
@@ -424,16 +428,7 @@ int spurdiffStartSnapshot(fmi2Component c, const unsigned char *sets, size_t n, 
     PyObject *data = PyBytes_FromStringAndSize((const char *)sets, (Py_ssize_t)n);
     PyObject *r = data ? PyObject_CallMethod(I->slave, "fmi2_start_snapshot", "O", data) : NULL;
     Py_XDECREF(data);
-    if (r && PyBytes_Check(r)) {
-        size_t m = (size_t)PyBytes_GET_SIZE(r);
-        if ((*bytes = (unsigned char *)malloc(m ? m : 1))) {
-            memcpy(*bytes, PyBytes_AS_STRING(r), m);
-            *len = m;
-            kind = 1;
-        }
-    } else if (r == Py_None) {
-        kind = 0;
-    }
+    kind = bytes_of(r, bytes, len);
     Py_XDECREF(r);
     if (PyErr_Occurred()) PyErr_Clear();
     PyGILState_Release(g);

@@ -136,6 +136,16 @@ static void bring_back(fmi2Status step, const fmi2ValueReference *vr, size_t n, 
     if (ok) ipc_put_array(out, v, n, sizeof *v);
 }
 
+/* An answer of bytes the bridge made (kind 1, freed here), or none (kind 0 / -1): i32 kind, u64 length,
+ * the bytes. */
+static void put_bytes(IpcBuf *out, int kind, unsigned char *bytes, size_t n)
+{
+    ipc_i32(out, kind);
+    ipc_u64(out, kind == 1 ? n : 0);
+    if (kind == 1) ipc_put_array(out, bytes, n, 1);
+    free(bytes);
+}
+
 /* Serve the call in `in` (a private copy of the request); the answer goes to the shared data
  * area `out`. Its status; *bye = 1 after fmi2FreeInstance (the server then exits). */
 static fmi2Status serve(uint32_t call, IpcBuf *in, IpcBuf *out, int *bye)
@@ -329,11 +339,8 @@ static fmi2Status serve(uint32_t call, IpcBuf *in, IpcBuf *out, int *bye)
     case CALL_NATIVE_EXPORT: {   /* i32 1 and the bytes, or i32 0 (not now) / -1 (never), u64 0 */
         unsigned char *bytes = NULL;
         size_t nb = 0;
-        int kind = inproc_native_export(C, &bytes, &nb);
-        ipc_i32(out, kind);
-        ipc_u64(out, kind == 1 ? nb : 0);
-        if (kind == 1) ipc_put_array(out, bytes, nb, 1);
-        free(bytes);
+        int kind = inproc_native_export(C, &bytes, &nb);   /* (before the arguments below are read) */
+        put_bytes(out, kind, bytes, nb);
         s = fmi2OK;
         break;
     }
@@ -344,10 +351,7 @@ static fmi2Status serve(uint32_t call, IpcBuf *in, IpcBuf *out, int *bye)
         unsigned char *bytes = NULL;
         size_t nb = 0;
         int kind = inproc_start_snapshot(C, sets, n, &bytes, &nb);
-        ipc_i32(out, kind);
-        ipc_u64(out, kind == 1 ? nb : 0);
-        if (kind == 1) ipc_put_array(out, bytes, nb, 1);
-        free(bytes);
+        put_bytes(out, kind, bytes, nb);
         s = fmi2OK;
         break;
     }
