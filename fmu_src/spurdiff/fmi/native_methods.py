@@ -82,7 +82,7 @@ class NativeMethods:
     def fmi2_native_export(self):
         """The hand-over to the host's process (the model in its own process): the bytes
         :func:`spurdiff.fmi.native_start.live` makes, False (never for this model: the loader stops
-        asking until the next fmi2ExitInitializationMode), or None (not now). The state is in the plan's
+        asking until an fmi2Reset or fmi2SetFMUstate), or None (not now). The state is in the plan's
         arrays until :meth:`fmi2_native_import`. Inputs stored since their last check are checked
         here as :meth:`fmi2_do_step` checks them (one outside its range: not now, the step in Python
         refuses naming it)."""

@@ -194,10 +194,10 @@ def live(slave) -> bytes | bool | None:
     """The hand-over of a stepping instance ``slave`` to the host's process (the loader's answer to a
     model in its own process, ``fmu_src/native/fmi/fmi2_loader.c``): the native start's layout with the
     magic ``SPNL``, the FMU's time, stop time and its tolerance after the format, no digest at the end,
-    the arrays as they are now (``v`` and every array of the context) and each constant variable's value (the three values
-    alike; messages none). The state is then in the arrays (``fmi2_native_enter``), until :func:`restore`
-    takes it back. False: this instance cannot be handed over (no native step, or one the layout cannot
-    describe); None: not now (as ``fmi2_native_enter``)."""
+    the arrays as they are now (``v`` and every array of the context) and each constant variable's value
+    (the three values alike; messages none). The state is then in the arrays (``fmi2_native_enter``),
+    until :func:`restore` takes it back. False: this instance cannot be handed over (no native step, or
+    one the layout cannot describe); None: not now (as ``fmi2_native_enter``)."""
     vrs = {k: tuple(sorted(slave._get[k])) for k in KINDS}
     by_name = {v.name: v for v in type(slave).VARIABLES}
     const = {k: [vr for vr in vrs[k] if _constant(by_name[slave._get[k][vr]])] for k in KINDS}
