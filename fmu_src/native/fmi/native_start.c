@@ -877,18 +877,24 @@ static unsigned char *pack_overrides(const NsInst *I, size_t *len)
     return out;
 }
 
-/* The cache file of the values set: 0 and `path`, or -1 (no cache, no values set, too long). */
-static int cache_path(const NsInst *I, char *path, size_t size)
+/* The cache file of the values set: 0 and `path` (with the values packed in *sets, a new array of *len
+ * bytes, when sets is not NULL), or -1 (no cache, no values set, too long). */
+static int cache_path(const NsInst *I, char *path, size_t size, unsigned char **sets, size_t *len)
 {
-    size_t len = 0;
-    unsigned char *sets = I->cache_dir && I->n_over ? pack_overrides(I, &len) : NULL;
-    if (!sets) return -1;
+    size_t n = 0;
+    unsigned char *packed = I->cache_dir && I->n_over ? pack_overrides(I, &n) : NULL;
+    if (!packed) return -1;
     uint64_t h = fnv_more(0xCBF29CE484222325ull, I->guid, strlen(I->guid) + 1);
     h = fnv_more(h, &I->digest, sizeof I->digest);
-    h = fnv_more(h, sets, len);
-    free(sets);
+    h = fnv_more(h, packed, n);
     int w = snprintf(path, size, "%s/%016llx.bin", I->cache_dir, (unsigned long long)h);
-    return w < 0 || (size_t)w >= size ? -1 : 0;
+    if (w < 0 || (size_t)w >= size || !sets) {
+        free(packed);
+        return w < 0 || (size_t)w >= size ? -1 : 0;
+    }
+    *sets = packed;
+    *len = n;
+    return 0;
 }
 
 static int seen_before(const char *path);
@@ -897,9 +903,12 @@ int ns_cache_want(const NsInst *I, char *path, size_t size, unsigned char **sets
 {
     *sets = NULL;
     *len = 0;
-    if (cache_path(I, path, size) != 0 || !seen_before(path)) return 0;
-    *sets = pack_overrides(I, len);
-    return *sets ? 1 : 0;
+    if (cache_path(I, path, size, sets, len) != 0) return 0;
+    if (seen_before(path)) return 1;
+    free(*sets);   /* the first time: only the mark */
+    *sets = NULL;
+    *len = 0;
+    return 0;
 }
 
 #ifndef _WIN32
@@ -1084,7 +1093,7 @@ static int cache_build(NsInst *I)
 #else
     char path[PATH_MAX];
     size_t len = 0;
-    char *bytes = cache_path(I, path, sizeof path) == 0 ? cache_read(I->cache_dir, path, &len) : NULL;
+    char *bytes = cache_path(I, path, sizeof path, NULL, NULL) == 0 ? cache_read(I->cache_dir, path, &len) : NULL;
     if (!bytes) return -1;
     NsInst *T = (NsInst *)calloc(1, sizeof *T);
     char err[512];

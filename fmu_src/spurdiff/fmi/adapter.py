@@ -386,6 +386,10 @@ class ModelFmu(NativeMethods, Fmi3Methods, FmuStateMethods, Fmi2Slave):
     def fmi2_set_string(self, vrs, xs) -> int:
         return self._store(self._names("String", vrs, True), xs)
 
+    def _in_ranges(self, xs) -> bool:
+        """The inputs' values ``xs`` (in the order of ``_inputs``) each within its declared range (NaN is not)."""
+        return all(map(operator.le, self._input_lo, xs)) and all(map(operator.le, xs, self._input_hi))
+
     def _step_refused(self, status: int, msg: str) -> int:
         self.last_step_status = status
         return self._refuse(status, msg)
@@ -412,7 +416,7 @@ class ModelFmu(NativeMethods, Fmi3Methods, FmuStateMethods, Fmi2Slave):
         values = self.values
         if not self._inputs_ok:
             xs = self._input_values(values)
-            if not (all(map(operator.le, self._input_lo, xs)) and all(map(operator.le, xs, self._input_hi))):
+            if not self._in_ranges(xs):
                 for (name, lo, hi), x in zip(self._inputs, xs):
                     if not lo <= x <= hi:   # NaN too
                         what = "is not a finite number" if not math.isfinite(x) else f"is outside [{lo:g}, {hi:g}]"

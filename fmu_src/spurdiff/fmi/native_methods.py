@@ -87,8 +87,7 @@ class NativeMethods:
         here as :meth:`fmi2_do_step` checks them (one outside its range: not now, the step in Python
         refuses naming it)."""
         if self.phase == "stepping" and not self._inputs_ok:
-            xs = self._input_values(self.values)
-            if all(map(operator.le, self._input_lo, xs)) and all(map(operator.le, xs, self._input_hi)):
+            if self._in_ranges(self._input_values(self.values)):
                 self._inputs_ok = True
         return native_start.live(self)
 
