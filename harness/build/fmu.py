@@ -125,7 +125,8 @@ def source_digest(name: str) -> str:
 
 from harness.build.fmu_contents import (NUMPY_ENTRIES, NUMPY_FREE_FMUS, PLATFORMS, PLATFORMS_ENV,  # noqa: E402,F401
                                    archived_numpy, drop_numpy as _drop_numpy, form_radius_table, numpy_archive,
-                                   numpy_as_archive as _numpy_as_archive, platform_sizes, platforms)
+                                   numpy_as_archive as _numpy_as_archive, platform_sizes, platforms,
+                                   RUNTIME_ARCHIVES, archive_lines, packed_runtimes)
 
 
 def declarations() -> dict[str, tuple[str, dict]]:
@@ -367,8 +368,14 @@ def _win64_parts():
 
 
 def _base_archive(runtime, win64) -> Path:
-    """The archive an FMU starts from: the linux64 runtime's entries, then the win64 runtime's (both
-    compressed once, merged once per pair and kept beside the win64 runtime)."""
+    """The archive an FMU starts from: the runtimes' files as the stored archives of
+    :data:`RUNTIME_ARCHIVES` (:func:`packed_runtimes`, made once beside the merged entries)."""
+    return packed_runtimes(_runtime_entries(runtime, win64))
+
+
+def _runtime_entries(runtime, win64) -> Path:
+    """The linux64 runtime's entries, then the win64 runtime's (both compressed once, merged once per
+    pair and kept beside the win64 runtime)."""
     if win64 is None:
         return runtime.archive
     merged = win64.folder / f"with-{runtime.folder.name}.zip"
@@ -526,6 +533,8 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
             if runtime is not None:    # the runtimes' entries, compressed once, come first
                 shutil.copyfile(_base_archive(runtime, win64), part)
                 notes.append(_drop_numpy(part) if name in NUMPY_FREE_FMUS else _numpy_as_archive(part, runtime, win64))
+                with zipfile.ZipFile(part) as z:
+                    archives = {p: archive_lines(z, p) for p in ("linux64", "win64")}
             with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(part, "a" if runtime else "w", zipfile.ZIP_DEFLATED) as zout:
                 guid = None
                 for item in zin.infolist():
@@ -554,7 +563,8 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
                     for f in sorted(pkg.rglob("*")):
                         if f.is_file():
                             zout.write(f, f"resources/{f.relative_to(pkg.parent).as_posix()}")
-                    zout.writestr(_entry(f"resources/{RUNTIME_CFG}"), runtime_bundle.cfg_text(runtime, name, guid))
+                    zout.writestr(_entry(f"resources/{RUNTIME_CFG}"), runtime_bundle.cfg_text(runtime, name, guid)
+                                  + archives["linux64"])
                     start = _native_start(name, pkg, notes)
                     if start is not None:
                         zout.writestr(_entry(f"resources/{NATIVE_START}"), start)
@@ -563,7 +573,8 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
                     zout.writestr(_entry(f"binaries/win64/{name}.dll", 0o755), win64.loader.read_bytes())
                     zout.writestr(_entry("binaries/win64/fmi2_pybridge.dll", 0o755), win64.bridge.read_bytes())
                     zout.writestr(_entry(f"resources/{runtime_win64.CFG}"),
-                                  runtime_win64.cfg_text(name, guid, fmu_package.PACKAGE_NAME, fmu_package.ENTRY_MODULE))
+                                  runtime_win64.cfg_text(name, guid, fmu_package.PACKAGE_NAME, fmu_package.ENTRY_MODULE)
+                                  + archives["win64"])
                     notes.append(f"win64 too ({win64.folder.name})")
             with zipfile.ZipFile(part) as z:
                 if not any(n.startswith("binaries/") for n in z.namelist()):

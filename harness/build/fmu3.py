@@ -47,7 +47,8 @@ FMI_VERSIONS = (2, 3)
 
 
 # the FMI 2.0 FMU's Windows side: under binaries/x86_64-windows/ with the FMI 3.0 loader as the model's DLL
-WIN64_ONLY = ("binaries/win64/", "resources/python-win64/", "resources/python_runtime_win64.cfg")
+WIN64_ONLY = ("binaries/win64/", "resources/python-win64/", "resources/python_runtime_win64.cfg",
+              "resources/runtime/win64.zip")
 WINDOWS_PLATFORM = "x86_64-windows"     # the FMI 3.0 platform tuple of 64-bit Windows
 
 

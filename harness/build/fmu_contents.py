@@ -59,10 +59,10 @@ def platform_sizes(fmu: Path) -> dict[str, tuple[int, int]]:
         for i in z.infolist():
             n = i.filename
             if (n.startswith(("binaries/win64/", "binaries/x86_64-windows/", "resources/python-win64/"))
-                    or n.endswith(".dll") or n == f"resources/{runtime_win64.CFG}"):
+                    or n.endswith(".dll") or n in (f"resources/{runtime_win64.CFG}", RUNTIME_ARCHIVES["win64"])):
                 key = "win64"
             elif (n.startswith(("binaries/linux64/", "binaries/x86_64-linux/", "resources/python/"))
-                  or n.endswith(".so") or n == "resources/python_runtime.cfg"):
+                  or n.endswith(".so") or n in ("resources/python_runtime.cfg", RUNTIME_ARCHIVES["linux64"])):
                 key = "linux64"
             else:
                 key = "common"
@@ -105,6 +105,11 @@ NUMPY_ENTRIES = ("resources/python/lib/python3.*/site-packages/numpy*",
 
 def drop_numpy(archive: Path, patterns: tuple[str, ...] = NUMPY_ENTRIES) -> str:
     """The runtimes' numpy removed from ``archive`` (``zip -d``, no recompression); the note for the log."""
+    import fnmatch
+
+    with zipfile.ZipFile(archive) as z:
+        if not any(fnmatch.fnmatchcase(n, p) for n in z.namelist() for p in patterns):
+            return "without numpy (its models never import it)"   # the runtimes' archives leave it out
     zipper = shutil.which("zip")
     if zipper is None:
         return "numpy kept (no zip command to remove it)"
@@ -183,9 +188,6 @@ def numpy_as_archive(part: Path, runtime, win64=None) -> str:
     replaced by one stored member, resources/<home>/numpy.zip, and its SHA-256 (spurdiff.numpy_archive
     unpacks it into the user's cache at the first import)."""
     from spurdiff import numpy_archive as na
-
-    if shutil.which("zip") is None:
-        return "numpy unpacked (no zip command to replace it)"
     sites = {runtime_bundle.HOME: (runtime.folder, runtime.folder / runtime_bundle.PYLIB / "site-packages",
                                    NUMPY_ENTRIES[0])}
     if win64 is not None:
@@ -202,3 +204,106 @@ def numpy_as_archive(part: Path, runtime, win64=None) -> str:
             z.writestr(_entry(f"resources/{home}/{na.ARCHIVE}.sha256"), hashlib.sha256(data).hexdigest() + "\n")
         said.append(f"{home} {len(data) / 1e6:.1f} MB")
     return f"numpy as one archive per runtime ({', '.join(said)}; unpacked once per user into the cache)"
+
+
+# The runtimes' files as archives (fmu_src/native/fmi/runtime_unpack.h unpacks them once per user and
+# runtime): a host's unzip copies three stored members instead of inflating some 300 files
+RUNTIME_ARCHIVES = {"common": "resources/runtime/common.zip",     # the standard library zip both runtimes use
+                    "linux64": "resources/runtime/linux64.zip",   # the rest of resources/python/ (no numpy)
+                    "win64": "resources/runtime/win64.zip"}       # resources/python-win64/ (no numpy)
+RUNTIME_PACK_FORMAT = "2"   # in the packed file's name: a change of packing makes a new one
+
+
+def _archive_part(name: str) -> str | None:
+    """Which of :data:`RUNTIME_ARCHIVES` the runtime entry ``name`` goes into (None: not a runtime file)."""
+    if name == f"resources/{runtime_bundle.STDLIB_ZIP}":
+        return "common"
+    if name.startswith(f"resources/{runtime_bundle.HOME}/"):
+        return "linux64"
+    if name.startswith(f"resources/{runtime_win64.HOME}/"):
+        return "win64"
+    return None
+
+
+def packed_runtimes(base: Path) -> Path:
+    """The runtimes' entries of ``base`` (:func:`harness.build.fmu._runtime_entries`) as the stored archives
+    of :data:`RUNTIME_ARCHIVES`, numpy left out (the FMUs that import it carry it as
+    ``resources/<home>/numpy.zip``). Each inner archive deflated at level 9, members in ``base``'s
+    order with their times and modes: the same bytes for the same runtime. Made once per ``base``,
+    beside it, written aside and renamed into place."""
+    import fnmatch
+    import io
+
+    out = base.with_name(f"packed{RUNTIME_PACK_FORMAT}-{base.stem}.zip")
+    if out.is_file():
+        return out
+    buffers: dict[str, io.BytesIO] = {}
+    inner: dict[str, zipfile.ZipFile] = {}
+    with zipfile.ZipFile(base) as zin:
+        for item in zin.infolist():
+            part = _archive_part(item.filename)
+            if part is None:
+                raise BuildError(f"{base.name}: {item.filename} is not a runtime file")
+            if part not in inner:
+                buffers[part] = io.BytesIO()
+                inner[part] = zipfile.ZipFile(buffers[part], "w", zipfile.ZIP_DEFLATED, compresslevel=9)
+            if any(fnmatch.fnmatchcase(item.filename, p) for p in NUMPY_ENTRIES):
+                # the folder stays (the runtime descriptions' path= names it), as one entry
+                site = item.filename[len("resources/"):].split("site-packages/")[0] + "site-packages/"
+                if site not in inner[part].namelist():
+                    inner[part].writestr(zipfile.ZipInfo(site, date_time=item.date_time), b"")
+                continue
+            info = zipfile.ZipInfo(item.filename[len("resources/"):], date_time=item.date_time)
+            info.external_attr = item.external_attr
+            info.compress_type = zipfile.ZIP_STORED if item.is_dir() else zipfile.ZIP_DEFLATED
+            inner[part].writestr(info, zin.read(item.filename), compresslevel=9)
+    staged = out.with_name(f".{out.name}.{os.getpid()}")
+    try:
+        with zipfile.ZipFile(staged, "w") as z:
+            for part in RUNTIME_ARCHIVES:
+                if part in inner:
+                    inner[part].close()
+                    info = _entry(RUNTIME_ARCHIVES[part])
+                    info.compress_type = zipfile.ZIP_STORED     # a host's unzip copies it
+                    z.writestr(info, buffers[part].getvalue())
+        os.replace(staged, out)
+    finally:
+        staged.unlink(missing_ok=True)
+    return out
+
+
+def archive_lines(fmu: zipfile.ZipFile, platform: str) -> str:
+    """The runtime description's ``archive=`` lines of ``platform`` (linux64, win64) for the FMU being
+    written in ``fmu``: the common archive, then the platform's, each with its SHA-256."""
+    have = set(fmu.namelist())
+    lines = []
+    for part in ("common", platform):
+        name = RUNTIME_ARCHIVES[part]
+        if name in have:
+            lines.append(f"archive={hashlib.sha256(fmu.read(name)).hexdigest()} {name[len('resources/'):]}\n")
+    return "".join(lines)
+
+
+def unpack_runtime_archives(resources: Path, into: Path | None = None, cfg: str = "python_runtime.cfg") -> list[str]:
+    """The runtime archives the description ``resources/<cfg>`` lists, each checked against its SHA-256,
+    unpacked into ``into`` (default: ``resources`` itself, the layout of an FMU before the archives)
+    as the loader does (fmu_src/native/fmi/runtime_unpack.h); the names unpacked. For the tests and
+    tools that read the runtime's files of an extracted FMU."""
+    resources = Path(resources)
+    into = Path(into) if into else resources
+    names = []
+    for line in (resources / cfg).read_text().splitlines():
+        if not line.startswith("archive="):
+            continue
+        digest, _, rel = line[len("archive="):].partition(" ")
+        data = (resources / rel).read_bytes()
+        if hashlib.sha256(data).hexdigest() != digest:
+            raise BuildError(f"{resources / rel}: its SHA-256 is not the description's")
+        import io
+        with zipfile.ZipFile(io.BytesIO(data)) as z:
+            for n in z.namelist():
+                if n.startswith("/") or ".." in n.split("/"):
+                    raise BuildError(f"{resources / rel}: member {n} leaves the folder")
+            z.extractall(into)
+            names += z.namelist()
+    return names

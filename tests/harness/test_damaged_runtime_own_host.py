@@ -3,7 +3,7 @@
 written here on fmpy's FMI headers), bare environment: each damaged copy of SpurDifferential.fmu
 must be refused at instantiation (the host's exit 4, never a signal) with the cause our loader
 logged. ecos, the installable C++ host, cannot show this: it exits 0 and writes zeros when an FMU
-fails to instantiate (seen with the "no libpython" copy), so it is not used for these cases.
+fails to instantiate (seen with a copy without libpython), so it is not used for these cases.
 """
 from __future__ import annotations
 

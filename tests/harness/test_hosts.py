@@ -12,6 +12,7 @@ our loader logged, and leave the planted file unexecuted.
 """
 from __future__ import annotations
 
+import hashlib
 import os
 import shutil
 import subprocess
@@ -55,6 +56,31 @@ def _fmusim(fmu: Path, cwd: Path, env=None) -> subprocess.CompletedProcess:
                           capture_output=True, text=True, timeout=120)
 
 
+def _other_digest(data: bytes) -> bytes:
+    """The description with the first archive's SHA-256 changed in its first digit."""
+    at = data.index(b"archive=") + len(b"archive=")
+    return data[:at] + (b"1" if data[at:at + 1] == b"0" else b"0") + data[at + 1:]
+
+
+def _damaged_archive(member: str = "resources/runtime/linux64.zip"):
+    """A change flipping one byte in the middle of ``member`` (a stored archive before the description
+    in the FMU) and naming the damaged bytes' SHA-256 in the runtime description."""
+    said = {}
+
+    def f(name, data):
+        if name == member:
+            damaged = bytearray(data)
+            damaged[len(damaged) // 2] ^= 0xFF
+            said["new"] = hashlib.sha256(bytes(damaged)).hexdigest()
+            return bytes(damaged)
+        if name == CFG:
+            tail = b" " + member.split("resources/", 1)[1].encode()
+            return b"\n".join(b"archive=" + said["new"].encode() + tail if ln.endswith(tail) else ln
+                               for ln in data.split(b"\n"))
+        return data
+    return f
+
+
 def _line(key: str, value: str):
     return lambda data: b"\n".join(f"{key}={value}".encode() if ln.startswith(f"{key}=".encode()) else ln
                                    for ln in data.split(b"\n"))
@@ -70,7 +96,11 @@ CASES = {
                       "lacks one of"),
     "another format": (_cfg(_line("format", "1")), "has format 1 where this loader reads format 2"),
     "a line that is not key=value": (_cfg(lambda d: d + b"just some text\n"), "is not key=value"),
-    "no libpython": (lambda n, d: None if n.endswith("libpython3.11.so.1.0") else d, "cannot load"),
+    # the runtime's archives (fmu_src/native/fmi/runtime_unpack.h): a digest that names other bytes (so a
+    # folder of its own, unpacked afresh and refused before a byte is written), and damaged bytes whose
+    # digest the description names (unpacked afresh too; the damaged member is refused)
+    "a runtime archive of another digest": (_cfg(_other_digest), "has SHA-256"),
+    "a damaged runtime archive": (_damaged_archive(), "does not unpack to its size and CRC-32"),
     "libpython of another version than described": (_cfg(_line("version", "3.10")), "the FMU's runtime description says 3.10"),
     # (numpy is no runtime damage for the default configuration any more: it is carried as one archive and
     # imported by the mesh levels only; a missing or altered archive: tests/harness/test_numpy_archive.py)
@@ -140,8 +170,8 @@ def test_the_hosts_python_variables_and_planted_files_do_not_reach_the_fmu(diffe
 
 @pytest.mark.skipif(not (HOSTS / "fmuCheck.linux64").is_file(), reason=f"{HOSTS}/fmuCheck.linux64 is absent")
 def test_fmucheck_exits_1_naming_the_cause(differential_fmu, tmp_path):
-    fmu = _copy(differential_fmu, tmp_path / "SpurDifferential.fmu", CASES["no libpython"][0])
+    fmu = _copy(differential_fmu, tmp_path / "SpurDifferential.fmu", CASES["a damaged runtime archive"][0])
     r = subprocess.run([str(HOSTS / "fmuCheck.linux64"), "-k", "cs", "-s", "0.01", str(fmu)], cwd=tmp_path,
                        env=BARE_ENV, capture_output=True, text=True, timeout=120)
     text = r.stdout + r.stderr
-    assert r.returncode == 1 and "cannot load" in text and "libpython3.11.so.1.0" in text, text[-3000:]
+    assert r.returncode == 1 and CASES["a damaged runtime archive"][1] in text, text[-3000:]

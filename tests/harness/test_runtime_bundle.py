@@ -6,6 +6,7 @@ run the way the bridge will: the build interpreter's executable with ``-I -S`` a
 only the runtime's entries, the package loaded under its private alias."""
 from __future__ import annotations
 
+import hashlib
 import os
 import shutil
 import subprocess
@@ -17,10 +18,12 @@ import pytest
 
 from harness.build import elf, runtime_bundle
 from harness.build.fmu import FMUS, interface
+from harness.build.fmu_contents import RUNTIME_ARCHIVES, unpack_runtime_archives
 from harness.common.paths import checkout_root
 
-CFG_KEYS = {"format", "version", "libpython", "home", "path", "preload", "package", "module", "class", "guid"}
-REPEATED = {"path", "preload"}
+CFG_KEYS = {"format", "version", "libpython", "home", "path", "preload", "package", "module", "class", "guid",
+            "archive"}
+REPEATED = {"path", "preload", "archive"}
 
 
 def parse_cfg(text: str) -> dict[str, list[str]]:
@@ -45,15 +48,31 @@ def extracted(fmu_files, tmp_path_factory):
         folder = tmp_path_factory.mktemp("extr") / f"an FMU ü {name}"
         with zipfile.ZipFile(fmu) as z:
             z.extractall(folder)
+        unpack_runtime_archives(folder / "resources")   # the runtime's files where the loader's paths name them
         out[name] = folder
     return out
+
+
+def _runtime_names(z: zipfile.ZipFile) -> set[str]:
+    """The FMU's member names with its runtime archives' members as resources/<name>."""
+    import io
+
+    names = set(z.namelist())
+    for member in RUNTIME_ARCHIVES.values():
+        if member in names:
+            with zipfile.ZipFile(io.BytesIO(z.read(member))) as inner:
+                names |= {f"resources/{n}" for n in inner.namelist()}
+    return names
 
 
 def test_cfg_is_format_2_with_relative_paths_that_exist(fmu_files):
     for name, fmu in fmu_files.items():
         with zipfile.ZipFile(fmu) as z:
-            names = set(z.namelist())
+            names = _runtime_names(z)
             cfg = parse_cfg(z.read("resources/python_runtime.cfg").decode())
+            for line in cfg["archive"]:      # each archive's SHA-256, then its path
+                digest, rel = line.split(" ")
+                assert hashlib.sha256(z.read(f"resources/{rel}")).hexdigest() == digest, rel
             md = z.read("modelDescription.xml").decode()
         assert cfg["format"] == ["2"] and cfg["version"] == [runtime_bundle.VERSION]
         assert cfg["package"] == ["spurdiff"] and cfg["module"] == ["_fmu_entry"] and cfg["class"] == [name]

@@ -3,6 +3,7 @@ reason through its logger, not Python's path-configuration dump on its stderr be
 holds the C stderr while the FMU's Python starts: fmu_src/native/fmi/fmi2_pybridge.c, stderr_hold)."""
 from __future__ import annotations
 
+import hashlib
 import shutil
 import subprocess
 import zipfile
@@ -20,12 +21,20 @@ def test_a_runtime_that_fails_to_start_says_why_in_one_line(differential_fmu, tm
     unpacked = tmp_path / "broken"
     with zipfile.ZipFile(differential_fmu) as z:
         z.extractall(unpacked)
-    stdlib = unpacked / "resources" / "python" / "lib" / "python311.zip"
-    assert stdlib.is_file()
-    stdlib.unlink()                      # no standard library: the interpreter cannot start
+    # no standard library: the runtime's common archive (resources/runtime/common.zip, which holds only
+    # python/lib/python311.zip) made empty, its digest in the description to match; the interpreter cannot start
+    common = unpacked / "resources" / "runtime" / "common.zip"
+    with zipfile.ZipFile(common) as z:
+        assert z.namelist() == ["python/lib/python311.zip"]
+    old = hashlib.sha256(common.read_bytes()).hexdigest()
+    with zipfile.ZipFile(common, "w"):
+        pass
+    cfg = unpacked / "resources" / "python_runtime.cfg"
+    assert f"archive={old} runtime/common.zip" in cfg.read_text()
+    cfg.write_text(cfg.read_text().replace(old, hashlib.sha256(common.read_bytes()).hexdigest()))
     md = read_model_description(str(differential_fmu))
-    r = subprocess.run(straight_line_args(exe, unpacked, md), env={"PATH": "/usr/bin:/bin"}, capture_output=True,
-                       text=True, timeout=60)
+    r = subprocess.run(straight_line_args(exe, unpacked, md), capture_output=True, text=True, timeout=60,
+                       env={"PATH": "/usr/bin:/bin", "SPURDIFF_FMU_RUNTIME_DIR": str(tmp_path / "runtime")})
     assert r.returncode != 0
     assert "cannot start the FMU's Python 3.11" in r.stdout, r.stdout + r.stderr
     assert "Python path configuration" not in r.stdout + r.stderr and "sys.path" not in r.stderr, r.stderr

@@ -186,7 +186,7 @@ def test_the_contract_a_c_host_can_drive_holds_under_wine(name, wine, hosts, unp
     assert nan_input in says["nan-input"]          # and the input that was not a number
 
 
-@pytest.mark.parametrize("damage", ["no python3X.dll", "a key twice"])
+@pytest.mark.parametrize("damage", ["a damaged runtime archive", "a key twice"])
 def test_a_damaged_win64_runtime_is_refused_with_the_reason(damage, wine, hosts, unpacked):
     """instantiate returns NULL with the cause logged, the host goes on and exits by itself."""
     env, _ = wine
@@ -196,18 +196,25 @@ def test_a_damaged_win64_runtime_is_refused_with_the_reason(damage, wine, hosts,
     shutil.rmtree(folder, ignore_errors=True)
     shutil.copytree(unpacked["WheelLoad"], folder)
     guid, timing, outs, sets = _args(folder, "WheelLoad")
-    if damage == "no python3X.dll":
-        dll = next((folder / "resources" / "python-win64").glob("python3?*.dll"))
-        dll.rename(dll.with_suffix(".gone"))
-        expected = f"cannot load C:/{ODD}/{name}/resources/python-win64/{dll.name}"
+    fresh = wine[1] / "drive_c" / "spurdiff-damaged-runtime"   # unpacked (and so checked) afresh there
+    shutil.rmtree(fresh, ignore_errors=True)
+    if damage == "a damaged runtime archive":
+        archive = folder / "resources" / "runtime" / "win64.zip"
+        data = bytearray(archive.read_bytes())
+        data[len(data) // 2] ^= 0xFF
+        archive.write_bytes(bytes(data))
+        expected = f"C:/{ODD}/{name}/resources/runtime/win64.zip has SHA-256"
     else:
         cfg = folder / "resources" / "python_runtime_win64.cfg"
         cfg.write_text(cfg.read_text() + "guid=again\n")
         expected = "'guid' given twice"
     binary, uri = _win(name, "binaries", "win64", "WheelLoad.dll")
     r = _run(["wine", str(exe), binary, *guid, uri, *timing, "1", *sets, "get", str(outs[0])],
-             env={**env, "SPURDIFF_FMU_START": "python"})   # the Python's start refused (not the native one's)
+             env={**env, "SPURDIFF_FMU_START": "python",   # the Python's start refused (not the native one's)
+                  "SPURDIFF_FMU_RUNTIME_DIR": "C:/spurdiff-damaged-runtime"})
     shutil.rmtree(folder, ignore_errors=True)
+    assert not fresh.exists() or not any(p.name.startswith("python-") for p in fresh.iterdir())   # nothing kept
+    shutil.rmtree(fresh, ignore_errors=True)
     assert r.returncode == 4, r.stdout[-2000:]     # the host's "instantiate failed"
     assert expected in r.stdout, r.stdout
     print(r.stdout.splitlines()[0])

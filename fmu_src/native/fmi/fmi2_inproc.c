@@ -47,15 +47,17 @@ static int load_python(const RuntimeCfg *cfg, const char *resources, char *err, 
         snprintf(err, errsize, "this process runs Python %s; the FMU's runtime is Python %s", v, cfg->version);
         return -1;
     }
+    char root[PATH_MAX];   /* where the runtime's files are: resources/, or the archives unpacked */
+    if (cfg_runtime_root(resources, cfg, root, sizeof root, err, errsize) != 0) return -1;
     for (int i = 0; i < cfg->n_preload; i++) {
-        if (cfg_join(resources, cfg->preload[i], file, sizeof file) != 0 || !plat_open_library(file, 1)) {
+        if (cfg_join(root, cfg->preload[i], file, sizeof file) != 0 || !plat_open_library(file, 1)) {
             snprintf(err, errsize, "cannot load %s, a library of the FMU's runtime: %s", file,
                      plat_library_error(why, sizeof why));
             return -1;
         }
     }
     PlatLibrary lib;
-    if (cfg_join(resources, cfg->libpython, file, sizeof file) != 0 || !(lib = plat_open_library(file, 1))) {
+    if (cfg_join(root, cfg->libpython, file, sizeof file) != 0 || !(lib = plat_open_library(file, 1))) {
         snprintf(err, errsize, "cannot load %s, the FMU's Python %s: %s", file, cfg->version,
                  plat_library_error(why, sizeof why));
         return -1;

@@ -102,6 +102,8 @@ void spurdiff_bridge_winStdioHeld(const HANDLE nul[3])
 static int start_python(const RuntimeCfg *cfg, const char *resources, char *err, size_t errsize)
 {
     if (Py_IsInitialized()) return 0;   /* a Python host, or another FMU started it: the loader checked the version */
+    char root[CFG_MAX_LINE];   /* where the runtime's files are: resources/, or the archives unpacked */
+    if (cfg_runtime_root(resources, cfg, root, sizeof root, err, errsize) != 0) return -1;
     char file[CFG_MAX_LINE];
     PyStatus status;
     PyPreConfig pre;
@@ -121,11 +123,11 @@ static int start_python(const RuntimeCfg *cfg, const char *resources, char *err,
     config.parse_argv = 0;
     status = PyConfig_SetBytesString(&config, &config.program_name, "spurdiff-fmu");
     if (!PyStatus_Exception(status)) {
-        if (cfg_join(resources, cfg->home, file, sizeof file) != 0) status = PyStatus_Error("resources path too long");
+        if (cfg_join(root, cfg->home, file, sizeof file) != 0) status = PyStatus_Error("resources path too long");
         else status = PyConfig_SetBytesString(&config, &config.home, file);
     }
     for (int i = 0; i < cfg->n_path && !PyStatus_Exception(status); i++) {
-        if (cfg_join(resources, cfg->path[i], file, sizeof file) != 0) { status = PyStatus_Error("resources path too long"); break; }
+        if (cfg_join(root, cfg->path[i], file, sizeof file) != 0) { status = PyStatus_Error("resources path too long"); break; }
         wchar_t *w = Py_DecodeLocale(file, NULL);
         if (!w) { status = PyStatus_NoMemory(); break; }
         status = PyWideStringList_Append(&config.module_search_paths, w);
@@ -142,7 +144,7 @@ static int start_python(const RuntimeCfg *cfg, const char *resources, char *err,
     }
     PyConfig_Clear(&config);
     if (PyStatus_Exception(status)) {
-        snprintf(err, errsize, "cannot start the FMU's Python %s (home %s/%s): %s%s%s", cfg->version, resources,
+        snprintf(err, errsize, "cannot start the FMU's Python %s (home %s/%s): %s%s%s", cfg->version, root,
                  cfg->home, status.func ? status.func : "", status.func ? ": " : "",
                  status.err_msg ? status.err_msg : "unknown error");
         return -1;
@@ -349,7 +351,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     PyGILState_STATE g = PyGILState_Ensure();
     const char *stage = "loading the FMU's package";
     PyObject *site = PyList_New(0), *r = NULL;
-    for (int i = 0; site && i < cfg.n_path; i++) {
+    for (int i = 0; site && !cfg.n_archive && i < cfg.n_path; i++) {   /* archived runtimes carry numpy apart */
         const char *slash = strrchr(cfg.path[i], '/');
         if (strcmp(slash ? slash + 1 : cfg.path[i], "site-packages") != 0) continue;
         PyObject *p = cfg_join(resources, cfg.path[i], file, sizeof file) == 0 ? PyUnicode_DecodeFSDefault(file) : NULL;

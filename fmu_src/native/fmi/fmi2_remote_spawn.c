@@ -10,6 +10,7 @@
 #include <signal.h>
 #include <spawn.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
 #include <sys/wait.h>
@@ -94,7 +95,18 @@ int spawn_server(const char *resources, const char *bindir, int *shm_fd, void **
     posix_spawnattr_setsigdefault(&at, &all);
     posix_spawnattr_setpgroup(&at, 0);
     posix_spawnattr_setflags(&at, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETPGROUP);
-    char *envp[] = {"LC_ALL=C.UTF-8", NULL};
+    /* a bare environment: the locale, and where the user's caches are (the runtime's unpacked
+     * folder, numpy's: runtime_unpack.h, spurdiff/numpy_archive.py), as the host has them */
+    static const char *const PASSED[] = {"HOME", "XDG_CACHE_HOME", "TMPDIR", "SPURDIFF_FMU_RUNTIME_DIR"};
+    char *envp[2 + sizeof PASSED / sizeof *PASSED] = {"LC_ALL=C.UTF-8"};
+    char passed[sizeof PASSED / sizeof *PASSED][4200];
+    int n_env = 1;
+    for (size_t i = 0; i < sizeof PASSED / sizeof *PASSED; i++) {
+        const char *v = getenv(PASSED[i]);
+        int k = v ? snprintf(passed[i], sizeof passed[i], "%s=%s", PASSED[i], v) : -1;
+        if (k > 0 && (size_t)k < sizeof passed[i]) envp[n_env++] = passed[i];
+    }
+    envp[n_env] = NULL;
     int rc;
     if (access(server, X_OK) == 0) {
         char *argv[] = {server, (char *)resources, (char *)bindir, NULL};

@@ -13,6 +13,10 @@
  *   module     the module inside that package that holds the slave class
  *   class      the slave class
  *   guid       the guid of modelDescription.xml; fmi2Instantiate refuses any other
+ *   archive    `<SHA-256, 64 hex digits> <relative path>`: an archive of the runtime's files (repeated,
+ *              at most CFG_MAX_ARCHIVE; runtime_unpack.h). With archives, libpython, home, path and
+ *              preload are relative to the folder they are unpacked into (cfg_runtime_root), not to
+ *              the resources folder
  * The file is read strictly: a regular file of at most CFG_MAX_FILE bytes, lines of at most
  * CFG_MAX_LINE - 1 bytes, no NUL byte, known keys only, each single key once, at most
  * CFG_MAX_LIST of a repeated one; anything else refuses the FMU with the line named.
@@ -33,6 +37,7 @@
 #include "platform.h"
 
 #define CFG_MAX_LIST 64
+#define CFG_MAX_ARCHIVE 8
 #define CFG_MAX_LINE 4096
 #define CFG_MAX_FILE 65536
 #ifdef _WIN32   /* the win64 binaries read their own runtime's description */
@@ -49,6 +54,8 @@ typedef struct {
     int n_path;
     char *preload[CFG_MAX_LIST];
     int n_preload;
+    char *archive[CFG_MAX_ARCHIVE], *archive_sha[CFG_MAX_ARCHIVE];
+    int n_archive;
 } RuntimeCfg;
 
 CFG_FN void cfg_free(RuntimeCfg *c)
@@ -57,6 +64,7 @@ CFG_FN void cfg_free(RuntimeCfg *c)
     free(c->package); free(c->module); free(c->klass); free(c->guid);
     for (int i = 0; i < c->n_path; i++) free(c->path[i]);
     for (int i = 0; i < c->n_preload; i++) free(c->preload[i]);
+    for (int i = 0; i < c->n_archive; i++) { free(c->archive[i]); free(c->archive_sha[i]); }
     memset(c, 0, sizeof *c);
 }
 
@@ -253,6 +261,25 @@ CFG_FN int cfg_read(const char *resources, RuntimeCfg *c, char *err, size_t errs
         else if (!strcmp(k, "module")) { slot = &c->module; kind = 3; }
         else if (!strcmp(k, "class")) { slot = &c->klass; kind = 2; }
         else if (!strcmp(k, "guid")) slot = &c->guid;
+        else if (!strcmp(k, "archive")) {
+            const char *sp = strchr(v, ' ');
+            int hex = sp && sp - v == 64;
+            for (int i = 0; hex && i < 64; i++) hex = (v[i] >= '0' && v[i] <= '9') || (v[i] >= 'a' && v[i] <= 'f');
+            if (c->n_archive >= CFG_MAX_ARCHIVE || !hex || !cfg_relative_ok(sp + 1)) {
+                snprintf(err, errsize, "%.2000s line %d: 'archive' must be a SHA-256 (64 hex digits), a space and a "
+                         "relative path inside the resources folder, at most %d times", file, lineno, CFG_MAX_ARCHIVE);
+                rc = -1;
+                break;
+            }
+            c->archive[c->n_archive] = cfg_strdup(sp + 1);
+            c->archive_sha[c->n_archive] = (char *)malloc(65);
+            if (c->archive_sha[c->n_archive]) { memcpy(c->archive_sha[c->n_archive], v, 64); c->archive_sha[c->n_archive][64] = 0; }
+            if (!c->archive[c->n_archive++] || !c->archive_sha[c->n_archive - 1]) {
+                snprintf(err, errsize, "out of memory reading %s", file);
+                rc = -1;
+            }
+            continue;
+        }
         else if (!strcmp(k, "path") || !strcmp(k, "preload")) {
             int *count = k[1] == 'a' ? &c->n_path : &c->n_preload;
             char **list = k[1] == 'a' ? c->path : c->preload;
@@ -300,6 +327,24 @@ CFG_FN int cfg_read(const char *resources, RuntimeCfg *c, char *err, size_t errs
     }
     if (rc != 0) cfg_free(c);
     return rc;
+}
+
+#include "runtime_unpack.h"
+
+/* The folder the runtime's paths (libpython, home, path, preload) are relative to: the resources
+ * folder, or with archives the folder they are unpacked into (made at the first call per user and
+ * runtime; runtime_unpack.h). 0, or -1 with one line in `err`. */
+CFG_FN int cfg_runtime_root(const char *resources, const RuntimeCfg *c, char *out, size_t size, char *err,
+                            size_t errsize)
+{
+    if (c->n_archive == 0) {
+        if (snprintf(out, size, "%s", resources) >= (int)size) {
+            snprintf(err, errsize, "the resources path is too long");
+            return -1;
+        }
+        return 0;
+    }
+    return ru_runtime_root(resources, c->n_archive, c->archive, c->archive_sha, out, size, err, errsize);
 }
 
 #endif
