@@ -254,3 +254,21 @@ def test_processes_unpacking_at_once_share_one_folder(lib, tmp_path, base):
     outs = {out for rc, out, err in results}
     assert all(rc == 0 for rc, _, _ in results), results
     assert len(outs) == 1 and [p.name for p in base.iterdir()] == [Path(outs.pop()).name]   # one folder, no leftovers
+
+
+def test_a_folder_under_one_others_can_write_is_refused(lib, tmp_path, monkeypatch):
+    """Another user could move the cache away from under it and put theirs in its place: a folder above
+    that others may write (not sticky) refuses the place; sticky (as /tmp) is allowed."""
+    res, rels, hexes = _resources(tmp_path, {"linux64.zip": _archive(RUNTIME)})
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    monkeypatch.setenv(ENV, str(shared / "mine" / "cache"))
+    shared.chmod(0o777)
+    try:
+        rc, _, err = _root(lib, res, rels, hexes)
+        assert rc != 0 and f"the folder above it, {shared}, is writable by others (mode 777, not sticky)" in err, err
+        shared.chmod(0o1777)
+        rc, out, err = _root(lib, res, rels, hexes)
+        assert rc == 0 and Path(out).parent == shared / "mine" / "cache", err
+    finally:
+        shared.chmod(0o700)

@@ -912,11 +912,12 @@ int ns_cache_want(const NsInst *I, char *path, size_t size, unsigned char **sets
 }
 
 #ifndef _WIN32
-/* `dir` a folder of this user's that nobody else may enter (mode 0700 or stricter), not a link: 0, or -1 */
+/* `dir` a folder of this user's that nobody else may enter (mode 0700 or stricter), not a link, no
+ * folder above it another user could replace it from (runtime_unpack.h): 0, or -1 */
 static int private_dir(const char *dir)
 {
-    struct stat st;
-    return lstat(dir, &st) == 0 && S_ISDIR(st.st_mode) && st.st_uid == geteuid() && (st.st_mode & 077) == 0 ? 0 : -1;
+    char why[4300];
+    return ru_private_dir(dir, why, sizeof why) ? -1 : 0;
 }
 
 /* The cache file's bytes (a new array, *len), or NULL (none, or not to be trusted: see above). */

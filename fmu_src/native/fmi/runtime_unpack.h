@@ -16,8 +16,9 @@
  * missing), else $XDG_CACHE_HOME or ~/.cache (Windows: %LOCALAPPDATA%, else %USERPROFILE%\AppData\
  * Local) followed by /spurdiff; when that cannot be made or is not private, $TMPDIR (or /tmp) /
  * spurdiff-<uid> (Windows: the temporary folder's spurdiff). A folder is used only when it is a
- * folder of this user's, not a link, mode 0700 (Windows: a folder, not a reparse point), and the
- * runtime folder holds the marker naming its key; anything else is refused with one line naming
+ * folder of this user's, not a link, mode 0700, every folder above it this user's or root's and
+ * writable by others only when sticky (Windows: a folder, not a reparse point), and the runtime
+ * folder holds the marker naming its key; anything else is refused with one line naming
  * it, never deleted. Unpacking: each archive's SHA-256 checked against the description, every
  * member's name checked to stay inside (relative, no '..', no '\', no ':'), inflated by the
  * decoder below (RFC 1951; stored members copied), its size and CRC-32 checked, written into a
@@ -438,6 +439,36 @@ RU_FN int ru_temp_cache(char *out, size_t size)
 #else
 RU_FN int ru_mkdir(const char *p) { return mkdir(p, 0700); }
 
+/* why a folder above `p` could let another user move `p` away and put another in its place (not
+ * ours or root's, or writable by others and not sticky; group-writable by our own group allowed,
+ * as harness/common/private_dir.py), or NULL. A link above is judged by its target. */
+RU_FN const char *ru_ancestors(const char *p, char *why, size_t size)
+{
+    char up[4096];
+    if (snprintf(up, sizeof up, "%s", p) >= (int)sizeof up) {
+        snprintf(why, size, "%.200s...: too long", p);
+        return why;
+    }
+    for (char *slash = strrchr(up, '/'); slash; slash = strrchr(up, '/')) {
+        if (slash == up) slash[1] = 0;   /* "/" itself, then done */
+        else *slash = 0;
+        struct stat st;
+        if (stat(up, &st) == 0) {
+            int open_to = (st.st_mode & 002) || ((st.st_mode & 020) && st.st_gid != getegid());
+            if (st.st_uid != 0 && st.st_uid != geteuid())
+                snprintf(why, size, "the folder above it, %s, belongs to uid %lu, not to this user or root", up,
+                         (unsigned long)st.st_uid);
+            else if (open_to && !(st.st_mode & S_ISVTX))
+                snprintf(why, size, "the folder above it, %s, is writable by others (mode %03o, not sticky)", up,
+                         (unsigned)(st.st_mode & 0777));
+            else open_to = -1;
+            if (open_to != -1) return why;
+        }
+        if (slash == up) break;
+    }
+    return NULL;
+}
+
 RU_FN const char *ru_private_dir(const char *p, char *why, size_t size)
 {
     struct stat st;
@@ -449,7 +480,7 @@ RU_FN const char *ru_private_dir(const char *p, char *why, size_t size)
     else if (st.st_mode & 077)
         snprintf(why, size, "%s has mode %03o: others can read or write it (0700 expected)", p,
                  (unsigned)(st.st_mode & 0777));
-    else return NULL;
+    else return ru_ancestors(p, why, size);
     return why;
 }
 
