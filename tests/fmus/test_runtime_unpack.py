@@ -272,3 +272,31 @@ def test_a_folder_under_one_others_can_write_is_refused(lib, tmp_path, monkeypat
         assert rc == 0 and Path(out).parent == shared / "mine" / "cache", err
     finally:
         shared.chmod(0o700)
+
+
+def test_a_killed_unpacks_leftovers_are_swept_and_nothing_else(lib, tmp_path, base):
+    """A temporary folder of a process that died ten minutes ago is removed at the next unpack; one of a
+    living process, a fresh one, and anything not named like ours stay."""
+    res, rels, hexes = _resources(tmp_path, {"linux64.zip": _archive(RUNTIME)})
+    base.mkdir(mode=0o700)
+    dead = _a_dead_pid()
+    old = 1e9   # 2001
+    made = {}
+    for label, pid, when in (("dead", dead, old), ("alive", os.getpid(), old), ("young", dead, None)):
+        d = base / f".python-{'a' * 16}.{pid}.{len(made) + 1}"
+        (d / "python" / "lib").mkdir(parents=True)
+        (d / "python" / "lib" / "f").write_bytes(b"x")
+        if when:
+            os.utime(d, (when, when))
+        made[label] = d
+    other = base / "not-ours"
+    other.mkdir()
+    rc, out, err = _root(lib, res, rels, hexes)
+    assert rc == 0, err
+    assert not made["dead"].exists() and made["alive"].is_dir() and made["young"].is_dir() and other.is_dir()
+
+
+def _a_dead_pid() -> int:
+    p = subprocess.Popen(["true"])
+    p.wait()
+    return p.pid

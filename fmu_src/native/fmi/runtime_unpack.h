@@ -24,6 +24,8 @@
  * decoder below (RFC 1951; stored members copied), its size and CRC-32 checked, written into a
  * fresh private temporary folder beside the target with O_EXCL, the marker last, then the folder
  * renamed into place (a process that renamed first wins; its folder is used, this one removed).
+ * Before an unpack, the temporary folders of earlier unpacks whose process died halfway are removed
+ * (POSIX: ru_sweep).
  */
 #ifndef SPURDIFF_RUNTIME_UNPACK_H
 #define SPURDIFF_RUNTIME_UNPACK_H
@@ -37,8 +39,12 @@
 #include "platform.h"
 
 #ifndef _WIN32
+#include <dirent.h>
+#include <ftw.h>
 #include <pwd.h>
+#include <signal.h>
 #include <sys/stat.h>
+#include <time.h>
 #include <unistd.h>
 #endif
 
@@ -495,6 +501,36 @@ RU_FN void ru_remove(const char *p, int dir) { dir ? rmdir(p) : unlink(p); }
 
 RU_FN unsigned long ru_pid(void) { return (unsigned long)getpid(); }
 
+static int ru_rm_one(const char *p, const struct stat *st, int flag, struct FTW *ftw)
+{
+    (void)st;
+    (void)ftw;
+    return flag == FTW_DP ? rmdir(p) : unlink(p);
+}
+
+/* The temporary folders of unpacks whose process died (killed halfway) removed from `base`: named
+ * .python-<key>.<pid>.<n>, that pid gone, untouched for ten minutes (an unpack takes about a second).
+ * Nothing else is touched; links are not followed. */
+RU_FN void ru_sweep(const char *base)
+{
+    DIR *d = opendir(base);
+    if (!d) return;
+    struct dirent *e;
+    while ((e = readdir(d)) != NULL) {
+        unsigned long pid;
+        char key[17];
+        struct stat st;
+        char p[8192];
+        if (strncmp(e->d_name, ".python-", 8) != 0 || sscanf(e->d_name + 8, "%16[0-9a-f].%lu.", key, &pid) != 2)
+            continue;
+        if (snprintf(p, sizeof p, "%s/%s", base, e->d_name) >= (int)sizeof p) continue;
+        if (lstat(p, &st) != 0 || !S_ISDIR(st.st_mode) || st.st_uid != geteuid()) continue;
+        if (time(NULL) - st.st_mtime < 600 || pid == 0 || (kill((pid_t)pid, 0) == 0 || errno != ESRCH)) continue;
+        nftw(p, ru_rm_one, 16, FTW_DEPTH | FTW_PHYS);
+    }
+    closedir(d);
+}
+
 RU_FN int ru_env(const char *name, char *out, size_t size)
 {
     const char *v = getenv(name);
@@ -776,6 +812,9 @@ RU_FN int ru_runtime_root(const char *resources, int n, char *const *rel, char *
             return -1;
         }
         /* unpack into a fresh private folder beside it, then rename */
+#ifndef _WIN32
+        ru_sweep(base);
+#endif
         static unsigned long counter;
         char tmp[4200];
         RuMade made = {0};
