@@ -80,15 +80,15 @@ RU_FN void ru_sha_block(RuSha *s, const uint8_t *p)
         w[i] = w[i - 16] + s0 + w[i - 7] + s1;
     }
     memcpy(a, s->h, sizeof a);
+    uint32_t A = a[0], B = a[1], C = a[2], D = a[3], E = a[4], F = a[5], G = a[6], H = a[7];
     for (int i = 0; i < 64; i++) {
-        uint32_t t1 = a[7] + (RU_ROR(a[4], 6) ^ RU_ROR(a[4], 11) ^ RU_ROR(a[4], 25)) + ((a[4] & a[5]) ^ (~a[4] & a[6]))
-                      + RU_K[i] + w[i];
-        uint32_t t2 = (RU_ROR(a[0], 2) ^ RU_ROR(a[0], 13) ^ RU_ROR(a[0], 22)) + ((a[0] & a[1]) ^ (a[0] & a[2]) ^ (a[1] & a[2]));
-        memmove(a + 1, a, 7 * sizeof *a);
-        a[4] += t1;
-        a[0] = t1 + t2;
+        uint32_t t1 = H + (RU_ROR(E, 6) ^ RU_ROR(E, 11) ^ RU_ROR(E, 25)) + ((E & F) ^ (~E & G)) + RU_K[i] + w[i];
+        uint32_t t2 = (RU_ROR(A, 2) ^ RU_ROR(A, 13) ^ RU_ROR(A, 22)) + ((A & B) ^ (A & C) ^ (B & C));
+        H = G; G = F; F = E; E = D + t1;
+        D = C; C = B; B = A; A = t1 + t2;
     }
-    for (int i = 0; i < 8; i++) s->h[i] += a[i];
+    s->h[0] += A; s->h[1] += B; s->h[2] += C; s->h[3] += D;
+    s->h[4] += E; s->h[5] += F; s->h[6] += G; s->h[7] += H;
 }
 
 RU_FN void ru_sha_init(RuSha *s)
@@ -276,7 +276,8 @@ RU_FN int ru_codes(RuInflate *s, const RuHuff *lit, const RuHuff *dist)
             size_t back = dbase[d] + dextra_v;
             if (back > s->out_pos || n > s->out_len - s->out_pos) return -1;
             uint8_t *o = s->out + s->out_pos;
-            for (size_t i = 0; i < n; i++) o[i] = o[i - back];   /* byte by byte: the copy may overlap */
+            if (back >= n) memcpy(o, o - back, n);                /* apart: one copy */
+            else for (size_t i = 0; i < n; i++) o[i] = o[i - back];   /* overlapping: byte by byte */
             s->out_pos += n;
         }
     }
