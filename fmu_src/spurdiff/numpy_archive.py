@@ -14,7 +14,8 @@ process of the same numpy shares that folder.
 The folder is made private and atomically: the archive's digest checked first, unpacked into a
 temporary folder (mode 0700) beside the target, every member's path checked to stay inside, then
 renamed into place (a concurrent process that renamed first wins; its folder is used). A folder
-found there is used only when it is a directory (not a link) owned by this user with mode 0700 and
+found there is used only when it is a directory (not a link) owned by this user with mode 0700, every
+folder above it is this user's or root's and writable by others only when sticky, and it
 holds the marker naming this digest; anything else is refused with one line naming it. On Windows,
 where a folder has an access list rather than an owner and mode, the check is that it is a
 directory and not a reparse point (a link or junction); %LOCALAPPDATA% is the user's own.
@@ -57,6 +58,24 @@ def _private_dir(p: Path) -> str | None:
         return f"{p} belongs to uid {st.st_uid}, not to this user ({os.getuid()})"
     if stat.S_IMODE(st.st_mode) & 0o077:
         return f"{p} has mode {stat.S_IMODE(st.st_mode):o}: others can write or read it (0700 expected)"
+    return _open_above(p)
+
+
+def _open_above(p: Path) -> str | None:
+    """Why a folder above ``p`` would let another user move ``p`` away and put another in its place
+    (not this user's or root's, or writable by others and not sticky; writable by this user's own
+    group allowed), or None: as the FMU's loader checks the runtime's folder (runtime_unpack.h)."""
+    for parent in Path(os.path.abspath(p)).parents:
+        try:
+            st = os.stat(parent)        # a link above is judged by its target
+        except OSError:
+            continue
+        if st.st_uid not in (0, os.geteuid()):
+            return f"the folder above it, {parent}, belongs to uid {st.st_uid}, not to this user or root"
+        open_to = st.st_mode & 0o002 or (st.st_mode & 0o020 and st.st_gid != os.getegid())
+        if open_to and not st.st_mode & stat.S_ISVTX:
+            return (f"the folder above it, {parent}, is writable by others "
+                    f"(mode {stat.S_IMODE(st.st_mode):o}, not sticky)")
     return None
 
 

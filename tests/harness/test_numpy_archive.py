@@ -91,6 +91,14 @@ def test_planted_foreign_and_altered_caches_are_refused(resources, tmp_path):
         os.rmdir(target)
     with pytest.raises(OSError, match="is not the"):        # an altered archive
         na.unpacked(archive, "f" * 64, root)
+    shared = tmp_path / "shared"                 # a folder above that others may write: refused
+    shared.mkdir()
+    shared.chmod(0o777)
+    try:
+        with pytest.raises(OSError, match=f"the folder above it, {shared}, is writable by others"):
+            na.unpacked(archive, digest, shared / "mine")
+    finally:
+        shared.chmod(0o700)
     assert na.unpacked(archive, digest, root) == target      # and the real one unpacks
 
 
