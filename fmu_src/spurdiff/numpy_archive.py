@@ -16,7 +16,8 @@ temporary folder (mode 0700) beside the target, every member's path checked to s
 renamed into place (a concurrent process that renamed first wins; its folder is used). A folder
 found there is used only when it is a directory (not a link) owned by this user with mode 0700, every
 folder above it is this user's or root's and writable by others only when sticky, and it
-holds the marker naming this digest; anything else is refused with one line naming it. On Windows,
+holds the marker naming this digest (each use touches it; before an unpack, other numpys' folders no
+start used for 30 days are removed); anything else is refused with one line naming it. On Windows,
 where a folder has an access list rather than an owner and mode, the check is that it is a
 directory and not a reparse point (a link or junction); %LOCALAPPDATA% is the user's own.
 
@@ -91,6 +92,10 @@ def unpacked(archive: Path, digest: str, root: Path | None = None) -> Path:
     if os.path.lexists(target):
         why = _private_dir(target)
         if why is None and (target / MARKER).is_file() and (target / MARKER).read_text().strip() == digest:
+            try:
+                os.utime(target / MARKER)    # used now: _sweep keeps it
+            except OSError:
+                pass
             return target
         raise OSError(f"numpy cache refused: {why or f'{target} does not hold this numpy ({MARKER} differs)'}")
     root.mkdir(parents=True, exist_ok=True, mode=0o700)
@@ -103,6 +108,7 @@ def unpacked(archive: Path, digest: str, root: Path | None = None) -> Path:
             h.update(block)
     if h.hexdigest() != digest:
         raise OSError(f"{archive}: SHA-256 {h.hexdigest()} is not the {digest} the FMU was built with")
+    _sweep(root)
     tmp = Path(tempfile.mkdtemp(prefix=".numpy-", dir=root))     # mode 0700
     try:
         with zipfile.ZipFile(archive) as z:
@@ -128,6 +134,34 @@ def unpacked(archive: Path, digest: str, root: Path | None = None) -> Path:
     if why is not None:
         raise OSError(f"numpy cache refused: {why}")
     return target
+
+
+UNUSED_S = 30 * 24 * 3600   # another numpy's folder no start used for this long is removed at an unpack
+
+
+def _sweep(root: Path) -> None:
+    """Other numpys' folders in ``root`` (``numpy-<16 hex>``, this user's, not links) whose marker no
+    start touched for :data:`UNUSED_S` removed (each use touches its marker: :func:`unpacked`)."""
+    import shutil
+    import time
+
+    try:
+        names = os.listdir(root)
+    except OSError:
+        return
+    for name in names:
+        if not (name.startswith("numpy-") and len(name) == 22 and all(c in "0123456789abcdef" for c in name[6:])):
+            continue
+        folder = root / name
+        try:
+            st = os.lstat(folder)
+            used = os.lstat(folder / MARKER).st_mtime
+        except OSError:
+            continue
+        ours = (not getattr(st, "st_file_attributes", 0) & REPARSE_POINT if os.name == "nt"
+                else st.st_uid == os.getuid())
+        if stat.S_ISDIR(st.st_mode) and ours and time.time() - used > UNUSED_S:
+            shutil.rmtree(folder, ignore_errors=True)
 
 
 class _Finder:

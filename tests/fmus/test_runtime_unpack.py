@@ -14,6 +14,7 @@ import os
 import shutil
 import stat
 import subprocess
+import time
 import zipfile
 import zlib
 from pathlib import Path
@@ -161,11 +162,13 @@ def test_unpacks_once_privately_and_verified(lib, tmp_path, base):
     assert stat.S_IMODE((root / "python/lib/libpython.so").stat().st_mode) == 0o700
     assert stat.S_IMODE(base.stat().st_mode) == 0o700
     assert [p.name for p in base.iterdir()] == [root.name]       # no temporary folder left
-    # the second start finds it: nothing written again
-    marker_time = (root / ".spurdiff-runtime").stat().st_mtime_ns
+    # the second start finds it: nothing written again, its marker touched (used now)
+    lib_inode = (root / "python/lib/libpython.so").stat().st_ino
+    os.utime(root / ".spurdiff-runtime", (1e9, 1e9))
     (res / rels[1]).write_bytes(b"not read again")               # (a used folder is not re-verified)
     rc, again, err = _root(lib, res, rels, hexes)
-    assert rc == 0 and again == out and (root / ".spurdiff-runtime").stat().st_mtime_ns == marker_time, err
+    assert rc == 0 and again == out and (root / "python/lib/libpython.so").stat().st_ino == lib_inode, err
+    assert (root / ".spurdiff-runtime").stat().st_mtime > 1e9 + 1
 
 
 def test_a_damaged_or_foreign_archive_is_refused_and_nothing_is_left(lib, tmp_path, base):
@@ -274,9 +277,10 @@ def test_a_folder_under_one_others_can_write_is_refused(lib, tmp_path, monkeypat
         shared.chmod(0o700)
 
 
-def test_a_killed_unpacks_leftovers_are_swept_and_nothing_else(lib, tmp_path, base):
-    """A temporary folder of a process that died ten minutes ago is removed at the next unpack; one of a
-    living process, a fresh one, and anything not named like ours stay."""
+def test_a_killed_unpacks_leftovers_and_long_unused_runtimes_are_swept_and_nothing_else(lib, tmp_path, base):
+    """A temporary folder of a process that died ten minutes ago, and another runtime's folder no start used
+    for 30 days, are removed at the next unpack; one of a living process, a fresh one, a runtime used 10 days
+    ago and anything not named like ours stay."""
     res, rels, hexes = _resources(tmp_path, {"linux64.zip": _archive(RUNTIME)})
     base.mkdir(mode=0o700)
     dead = _a_dead_pid()
@@ -291,9 +295,17 @@ def test_a_killed_unpacks_leftovers_are_swept_and_nothing_else(lib, tmp_path, ba
         made[label] = d
     other = base / "not-ours"
     other.mkdir()
+    runtimes = {}
+    for label, days in (("unused 40 days", 40), ("unused 10 days", 10)):   # other runtimes' folders
+        d = base / f"python-{days:016x}"
+        (d / "python").mkdir(parents=True)
+        (d / ".spurdiff-runtime").write_text(f"{days:064x}\n")
+        os.utime(d / ".spurdiff-runtime", (time.time() - days * 86400,) * 2)
+        runtimes[label] = d
     rc, out, err = _root(lib, res, rels, hexes)
     assert rc == 0, err
     assert not made["dead"].exists() and made["alive"].is_dir() and made["young"].is_dir() and other.is_dir()
+    assert not runtimes["unused 40 days"].exists() and runtimes["unused 10 days"].is_dir()
 
 
 def _a_dead_pid() -> int:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import time
 import zipfile
 
 import pytest
@@ -100,6 +101,25 @@ def test_planted_foreign_and_altered_caches_are_refused(resources, tmp_path):
     finally:
         shared.chmod(0o700)
     assert na.unpacked(archive, digest, root) == target      # and the real one unpacks
+
+
+def test_another_numpys_folder_unused_for_30_days_goes_at_the_next_unpack(resources, tmp_path):
+    archive = resources / "python" / "numpy.zip"
+    digest = (resources / "python" / "numpy.zip.sha256").read_text().split()[0]
+    root = tmp_path / "c"
+    root.mkdir(mode=0o700)
+    folders = {}
+    for days in (40, 10):
+        d = root / f"numpy-{days:016x}"
+        d.mkdir(mode=0o700)
+        (d / na.MARKER).write_text(f"{days:064x}")
+        os.utime(d / na.MARKER, (time.time() - days * 86400,) * 2)
+        folders[days] = d
+    (root / "numpy-not-ours").mkdir()
+    target = na.unpacked(archive, digest, root)
+    assert not folders[40].exists() and folders[10].is_dir() and (root / "numpy-not-ours").is_dir()
+    os.utime(target / na.MARKER, (1e9, 1e9))
+    assert na.unpacked(archive, digest, root) == target and (target / na.MARKER).stat().st_mtime > 1e9 + 1
 
 
 LAZY = r"""

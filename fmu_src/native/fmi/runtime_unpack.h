@@ -24,8 +24,8 @@
  * decoder below (RFC 1951; stored members copied), its size and CRC-32 checked, written into a
  * fresh private temporary folder beside the target with O_EXCL, the marker last, then the folder
  * renamed into place (a process that renamed first wins; its folder is used, this one removed).
- * Before an unpack, the temporary folders of earlier unpacks whose process died halfway are removed
- * (POSIX: ru_sweep).
+ * Before an unpack, the temporary folders of earlier unpacks whose process died halfway, and the
+ * folders of other runtimes no start used for 30 days, are removed (POSIX: ru_sweep).
  */
 #ifndef SPURDIFF_RUNTIME_UNPACK_H
 #define SPURDIFF_RUNTIME_UNPACK_H
@@ -509,24 +509,36 @@ static int ru_rm_one(const char *p, const struct stat *st, int flag, struct FTW 
     return flag == FTW_DP ? rmdir(p) : unlink(p);
 }
 
-/* The temporary folders of unpacks whose process died (killed halfway) removed from `base`: named
- * .python-<key>.<pid>.<n>, that pid gone, untouched for ten minutes (an unpack takes about a second).
- * Nothing else is touched; links are not followed. */
+#define RU_UNUSED_S (30L * 24 * 3600)   /* a runtime folder no start used for this long is removed */
+
+/* Removed from `base` before an unpack (links never followed, only folders of this user's):
+ * - the temporary folders of unpacks whose process died (killed halfway): .python-<key>.<pid>.<n>,
+ *   that pid gone, untouched for ten minutes (an unpack takes about a second);
+ * - the folders of other runtimes (python-<16 hex digits>) whose marker no start touched for
+ *   RU_UNUSED_S (every start that uses a folder touches its marker: ru_runtime_root).
+ * Nothing else is touched. */
 RU_FN void ru_sweep(const char *base)
 {
     DIR *d = opendir(base);
     if (!d) return;
     struct dirent *e;
+    time_t now = time(NULL);
     while ((e = readdir(d)) != NULL) {
         unsigned long pid;
-        char key[17];
+        char key[17], end;
         struct stat st;
-        char p[8192];
-        if (strncmp(e->d_name, ".python-", 8) != 0 || sscanf(e->d_name + 8, "%16[0-9a-f].%lu.", key, &pid) != 2)
-            continue;
+        char p[8192], marker[8300];
+        int temp = strncmp(e->d_name, ".python-", 8) == 0 && sscanf(e->d_name + 8, "%16[0-9a-f].%lu.", key, &pid) == 2;
+        int old = !temp && strncmp(e->d_name, "python-", 7) == 0 && strlen(e->d_name) == 23
+                  && sscanf(e->d_name + 7, "%16[0-9a-f]%c", key, &end) == 1;
+        if (!temp && !old) continue;
         if (snprintf(p, sizeof p, "%s/%s", base, e->d_name) >= (int)sizeof p) continue;
         if (lstat(p, &st) != 0 || !S_ISDIR(st.st_mode) || st.st_uid != geteuid()) continue;
-        if (time(NULL) - st.st_mtime < 600 || pid == 0 || (kill((pid_t)pid, 0) == 0 || errno != ESRCH)) continue;
+        if (temp && (now - st.st_mtime < 600 || pid == 0 || kill((pid_t)pid, 0) == 0 || errno != ESRCH)) continue;
+        if (old) {
+            snprintf(marker, sizeof marker, "%s/%s", p, RU_MARKER);
+            if (lstat(marker, &st) != 0 || !S_ISREG(st.st_mode) || now - st.st_mtime < RU_UNUSED_S) continue;
+        }
         nftw(p, ru_rm_one, 16, FTW_DEPTH | FTW_PHYS);
     }
     closedir(d);
@@ -807,7 +819,12 @@ RU_FN int ru_runtime_root(const char *resources, int n, char *const *rel, char *
             char *text = cfg_slurp(marker, 128, &got, why, sizeof why);
             int same = text && got >= 64 && memcmp(text, key, 64) == 0;
             free(text);
-            if (same) return 0;
+            if (same) {
+#ifndef _WIN32
+                utimensat(AT_FDCWD, marker, NULL, AT_SYMLINK_NOFOLLOW);   /* used now (ru_sweep keeps it) */
+#endif
+                return 0;
+            }
             snprintf(err, errsize, "the FMU's runtime folder is refused: %s does not name this runtime (%.16s); "
                      "remove the folder", marker, key);
             return -1;
