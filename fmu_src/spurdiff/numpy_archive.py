@@ -8,7 +8,8 @@ sets other than the FMU's default import numpy (the car, the wheel and the rigid
 so :func:`install` (called by the FMU's entry module) puts a finder on ``sys.meta_path`` that acts on
 the first ``import numpy`` a model makes when the process has no numpy of its own: it unpacks the
 archive into the user's cache, ``$XDG_CACHE_HOME/spurdiff/numpy-<sha256[:16]>`` (``~/.cache`` by
-default; on Windows ``%LOCALAPPDATA%\\spurdiff\\``), and imports numpy from there. Every FMU and
+default; on Windows ``%LOCALAPPDATA%\\spurdiff\\``; where that cannot be made or is not private,
+``$TMPDIR/spurdiff-<uid>`` as the loader's runtime folder), and imports numpy from there. Every FMU and
 process of the same numpy shares that folder.
 
 The folder is made private and atomically: the archive's digest checked first, unpacked into a
@@ -80,6 +81,32 @@ def _open_above(p: Path) -> str | None:
     return None
 
 
+def _usable_root() -> Path:
+    """:func:`cache_root`, made if missing, when it is private (:func:`_private_dir`); else, as the
+    loader does for the runtime's folder (runtime_unpack.h), ``$TMPDIR`` (or /tmp) ``/spurdiff-<uid>``
+    when that is; else OSError naming both."""
+    first = cache_root()
+    try:
+        first.mkdir(parents=True, exist_ok=True, mode=0o700)
+        why = _private_dir(first)
+    except OSError as e:
+        why = f"{first} cannot be made: {e.strerror or e}"
+    if why is None:
+        return first
+    if os.name == "nt":
+        raise OSError(f"numpy cache refused: {why}")
+    tmp = os.environ.get("TMPDIR", "")
+    second = Path(tmp if os.path.isabs(tmp) else "/tmp") / f"spurdiff-{os.getuid()}"
+    try:
+        second.mkdir(exist_ok=True, mode=0o700)
+        why2 = _private_dir(second)
+    except OSError as e:
+        why2 = f"{second} cannot be made: {e.strerror or e}"
+    if why2 is None:
+        return second
+    raise OSError(f"numpy cache refused: {why}; {why2}")
+
+
 def unpacked(archive: Path, digest: str, root: Path | None = None) -> Path:
     """The folder holding numpy unpacked from ``archive`` (SHA-256 ``digest``), made if needed.
     OSError (with one line naming the place) when it cannot be made or found safely."""
@@ -87,7 +114,7 @@ def unpacked(archive: Path, digest: str, root: Path | None = None) -> Path:
     import tempfile
     import zipfile
 
-    root = Path(root) if root else cache_root()
+    root = Path(root) if root else _usable_root()
     target = root / f"numpy-{digest[:16]}"
     if os.path.lexists(target):
         why = _private_dir(target)

@@ -103,6 +103,27 @@ def test_planted_foreign_and_altered_caches_are_refused(resources, tmp_path):
     assert na.unpacked(archive, digest, root) == target      # and the real one unpacks
 
 
+def test_an_unsafe_user_cache_falls_back_to_the_private_temporary_folder(resources, tmp_path, monkeypatch):
+    """The user cache under a folder others may write (a HOME of mode 777, as a host run as nobody may
+    have): $TMPDIR/spurdiff-<uid> instead, as the loader's runtime folder; both refused: one line naming both."""
+    archive = resources / "python" / "numpy.zip"
+    digest = (resources / "python" / "numpy.zip.sha256").read_text().split()[0]
+    home = tmp_path / "home"
+    home.mkdir()
+    home.chmod(0o777)
+    (tmp_path / "tmp").mkdir()
+    monkeypatch.setenv("XDG_CACHE_HOME", str(home / ".cache"))
+    monkeypatch.setenv("TMPDIR", str(tmp_path / "tmp"))
+    try:
+        target = na.unpacked(archive, digest)
+        assert target.parent == tmp_path / "tmp" / f"spurdiff-{os.getuid()}" and (target / "numpy").is_dir()
+        target.parent.chmod(0o755)
+        with pytest.raises(OSError, match=r"writable by others .*; .* has mode 755"):
+            na.unpacked(archive, digest)
+    finally:
+        home.chmod(0o700)
+
+
 def test_another_numpys_folder_unused_for_30_days_goes_at_the_next_unpack(resources, tmp_path):
     archive = resources / "python" / "numpy.zip"
     digest = (resources / "python" / "numpy.zip.sha256").read_text().split()[0]
