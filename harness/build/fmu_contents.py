@@ -7,6 +7,7 @@ at build time, so that the FMU's default configuration starts without numpy.
 from __future__ import annotations
 
 import hashlib
+import io
 import json
 import os
 import shutil
@@ -232,7 +233,6 @@ def packed_runtimes(base: Path) -> Path:
     order with their times and modes: the same bytes for the same runtime. Made once per ``base``,
     beside it, written aside and renamed into place."""
     import fnmatch
-    import io
 
     out = base.with_name(f"packed{RUNTIME_PACK_FORMAT}-{base.stem}.zip")
     if out.is_file():
@@ -299,7 +299,6 @@ def unpack_runtime_archives(resources: Path, into: Path | None = None, cfg: str 
         data = (resources / rel).read_bytes()
         if hashlib.sha256(data).hexdigest() != digest:
             raise BuildError(f"{resources / rel}: its SHA-256 is not the description's")
-        import io
         with zipfile.ZipFile(io.BytesIO(data)) as z:
             for n in z.namelist():
                 if n.startswith("/") or ".." in n.split("/"):

@@ -100,6 +100,10 @@ CASES = {
     # folder of its own, unpacked afresh and refused before a byte is written), and damaged bytes whose
     # digest the description names (unpacked afresh too; the damaged member is refused)
     "a runtime archive of another digest": (_cfg(_other_digest), "has SHA-256"),
+    "an archive line without its digest": (_cfg(lambda d: d + b"archive=runtime/other.zip\n"),
+                                           "'archive' must be a SHA-256"),
+    "an archive out of the FMU": (_cfg(lambda d: d + b"archive=" + b"0" * 64 + b" ../../../etc/x.zip\n"),
+                                  "'archive' must be a SHA-256 (64 hex digits), a space and a relative path"),
     "a damaged runtime archive": (_damaged_archive(), "does not unpack to its size and CRC-32"),
     "libpython of another version than described": (_cfg(_line("version", "3.10")), "the FMU's runtime description says 3.10"),
     # (numpy is no runtime damage for the default configuration any more: it is carried as one archive and
