@@ -17,6 +17,7 @@ import os
 import shutil
 import subprocess
 import sys
+import time
 import urllib.parse
 import xml.etree.ElementTree as ET
 import zipfile
@@ -218,6 +219,54 @@ def test_a_damaged_win64_runtime_is_refused_with_the_reason(damage, wine, hosts,
     assert r.returncode == 4, r.stdout[-2000:]     # the host's "instantiate failed"
     assert expected in r.stdout, r.stdout
     print(r.stdout.splitlines()[0])
+
+
+def test_the_runtime_is_unpacked_once_and_old_leftovers_are_swept_under_wine(wine, hosts, unpacked):
+    """runtime_unpack.h on Windows: a Python start unpacks the runtime's archives into a fresh folder
+    (SPURDIFF_FMU_RUNTIME_DIR, a Windows path) and removes a dead unpack's temporary folder and another
+    runtime's folder unused for 40 days; a runtime used 10 days ago, a temporary folder younger than ten
+    minutes and a foreign folder stay (a living process's: tests/fmus/test_runtime_unpack.py). The runtime's folder is found (not unpacked again) by the next start."""
+    env, prefix = wine
+    exe, _ = hosts
+    base = prefix / "drive_c" / "spurdiff-sweep ü"
+    shutil.rmtree(base, ignore_errors=True)
+    base.mkdir()
+    old = time.time() - 40 * 86400
+    planted = {"dead unpack": base / f".python-{'a' * 16}.{0xFFFFFF0}.1",
+               "fresh unpack": base / f".python-{'b' * 16}.{0xFFFFFF0}.2",   # untouched for less than ten minutes
+               "runtime unused 40 days": base / f"python-{40:016x}",
+               "runtime used 10 days ago": base / f"python-{10:016x}",
+               "foreign": base / "not-ours"}
+    for label, d in planted.items():
+        (d / "python").mkdir(parents=True)
+        (d / "python" / "f.txt").write_text("x")
+        if label.startswith("runtime"):
+            (d / ".spurdiff-runtime").write_text("0" * 64 + "\n")
+            days = 40 if "40" in label else 10
+            os.utime(d / ".spurdiff-runtime", (time.time() - days * 86400,) * 2)
+        elif label == "dead unpack":
+            os.utime(d, (old, old))
+    folder = unpacked["WheelLoad"]
+    guid, timing, outs, sets = _args(folder, "WheelLoad")
+    binary, uri = _win("WheelLoad", "binaries", "win64", "WheelLoad.dll")
+    run_env = {**env, "SPURDIFF_FMU_START": "python", "SPURDIFF_FMU_RUNTIME_DIR": "C:/spurdiff-sweep ü"}
+    try:
+        r = _run(["wine", str(exe), binary, *guid, uri, *timing, "1", *sets, "get", str(outs[0])], env=run_env)
+        assert r.returncode == 0, r.stdout[-3000:]
+        runtimes = [p for p in base.iterdir() if p.name.startswith("python-") and p not in planted.values()]
+        assert len(runtimes) == 1 and (runtimes[0] / ".spurdiff-runtime").is_file(), sorted(base.iterdir())
+        assert (runtimes[0] / "python-win64").is_dir() and (runtimes[0] / "python" / "lib" / "python311.zip").is_file()
+        gone = {label for label, d in planted.items() if not d.exists()}
+        assert gone == {"dead unpack", "runtime unused 40 days"}, gone
+        os.utime(runtimes[0] / ".spurdiff-runtime", (old, old))
+        lib = runtimes[0] / "python-win64" / "python311.dll"
+        inode = lib.stat().st_ino
+        r = _run(["wine", str(exe), binary, *guid, uri, *timing, "1", *sets, "get", str(outs[0])], env=run_env)
+        assert r.returncode == 0, r.stdout[-3000:]
+        assert lib.stat().st_ino == inode                                        # found, not unpacked again
+        assert (runtimes[0] / ".spurdiff-runtime").stat().st_mtime > old + 86400  # and its use recorded
+    finally:
+        shutil.rmtree(base, ignore_errors=True)
 
 
 # ---------------------------------------------------------------- the coupled scene, Windows master

@@ -25,7 +25,7 @@
  * fresh private temporary folder beside the target with O_EXCL, the marker last, then the folder
  * renamed into place (a process that renamed first wins; its folder is used, this one removed).
  * Before an unpack, the temporary folders of earlier unpacks whose process died halfway, and the
- * folders of other runtimes no start used for 30 days, are removed (POSIX: ru_sweep).
+ * folders of other runtimes no start used for 30 days, are removed (ru_sweep).
  */
 #ifndef SPURDIFF_RUNTIME_UNPACK_H
 #define SPURDIFF_RUNTIME_UNPACK_H
@@ -443,6 +443,106 @@ RU_FN int ru_temp_cache(char *out, size_t size)
     while (k && (t[k - 1] == '\\' || t[k - 1] == '/')) t[--k] = 0;
     return snprintf(out, size, "%s/spurdiff", t) < (int)size ? 0 : -1;
 }
+
+/* FILETIME (100 ns since 1601) as seconds since 1970 */
+static double ru_seconds(FILETIME f)
+{
+    unsigned long long v = (unsigned long long)f.dwHighDateTime << 32 | f.dwLowDateTime;
+    return (double)(v - 116444736000000000ULL) / 1e7;
+}
+
+/* call `f(ctx, dir, name)` for each entry of the folder `dir` but . and .. (names as UTF-8) */
+RU_FN void ru_list(const char *dir, void (*f)(void *, const char *, const char *), void *ctx)
+{
+    char pat[8200];
+    snprintf(pat, sizeof pat, "%s/*", dir);
+    wchar_t *w = plat_wide(pat);
+    WIN32_FIND_DATAW d;
+    HANDLE h = w ? FindFirstFileW(w, &d) : INVALID_HANDLE_VALUE;
+    free(w);
+    if (h == INVALID_HANDLE_VALUE) return;
+    do {
+        char name[1024];
+        if (wcscmp(d.cFileName, L".") == 0 || wcscmp(d.cFileName, L"..") == 0) continue;
+        if (WideCharToMultiByte(CP_UTF8, 0, d.cFileName, -1, name, (int)sizeof name, NULL, NULL) > 0) f(ctx, dir, name);
+    } while (FindNextFileW(h, &d));
+    FindClose(h);
+}
+
+static void ru_rm_entry(void *ctx, const char *dir, const char *name);
+
+/* the folder `p` and everything in it removed; a link or junction inside is removed, never followed */
+RU_FN void ru_rm_tree(const char *p)
+{
+    ru_list(p, ru_rm_entry, NULL);
+    ru_remove(p, 1);
+}
+
+static void ru_rm_entry(void *ctx, const char *dir, const char *name)
+{
+    (void)ctx;
+    char p[8200];
+    if (snprintf(p, sizeof p, "%s/%s", dir, name) >= (int)sizeof p) return;
+    wchar_t *w = plat_wide(p);
+    DWORD a = w ? GetFileAttributesW(w) : INVALID_FILE_ATTRIBUTES;
+    if (a != INVALID_FILE_ATTRIBUTES && (a & FILE_ATTRIBUTE_DIRECTORY) && !(a & FILE_ATTRIBUTE_REPARSE_POINT)) {
+        free(w);
+        ru_rm_tree(p);
+        return;
+    }
+    if (w && a != INVALID_FILE_ATTRIBUTES) {
+        SetFileAttributesW(w, FILE_ATTRIBUTE_NORMAL);   /* a read-only file, too */
+        (a & FILE_ATTRIBUTE_DIRECTORY) ? RemoveDirectoryW(w) : DeleteFileW(w);
+    }
+    free(w);
+}
+
+static int ru_attr_time(const char *p, int dir, double *when)
+{
+    WIN32_FILE_ATTRIBUTE_DATA d;
+    wchar_t *w = plat_wide(p);
+    int ok = w && GetFileAttributesExW(w, GetFileExInfoStandard, &d)
+             && !(d.dwFileAttributes & FILE_ATTRIBUTE_REPARSE_POINT)
+             && !!(d.dwFileAttributes & FILE_ATTRIBUTE_DIRECTORY) == dir;
+    free(w);
+    if (ok) *when = ru_seconds(d.ftLastWriteTime);
+    return ok;
+}
+
+/* `p` a folder (not a link or junction: Windows folders have access lists, not owners): 1 with its time */
+RU_FN int ru_own_dir_time(const char *p, double *when) { return ru_attr_time(p, 1, when); }
+
+RU_FN int ru_file_time(const char *p, double *when) { return ru_attr_time(p, 0, when); }
+
+RU_FN void ru_touch(const char *p)
+{
+    wchar_t *w = plat_wide(p);
+    HANDLE h = w ? CreateFileW(w, FILE_WRITE_ATTRIBUTES, FILE_SHARE_READ | FILE_SHARE_WRITE | FILE_SHARE_DELETE, NULL,
+                               OPEN_EXISTING, FILE_FLAG_OPEN_REPARSE_POINT, NULL)
+                 : INVALID_HANDLE_VALUE;
+    free(w);
+    if (h == INVALID_HANDLE_VALUE) return;
+    FILETIME now;
+    GetSystemTimeAsFileTime(&now);
+    SetFileTime(h, NULL, NULL, &now);
+    CloseHandle(h);
+}
+
+RU_FN int ru_pid_gone(unsigned long pid)
+{
+    HANDLE h = OpenProcess(SYNCHRONIZE, FALSE, (DWORD)pid);
+    if (!h) return GetLastError() == ERROR_INVALID_PARAMETER;   /* no such process (not: not ours to open) */
+    DWORD r = WaitForSingleObject(h, 0);
+    CloseHandle(h);
+    return r == WAIT_OBJECT_0;                                   /* it has ended */
+}
+
+RU_FN double ru_now(void)
+{
+    FILETIME now;
+    GetSystemTimeAsFileTime(&now);
+    return ru_seconds(now);
+}
 #else
 RU_FN int ru_mkdir(const char *p) { return mkdir(p, 0700); }
 
@@ -509,38 +609,42 @@ static int ru_rm_one(const char *p, const struct stat *st, int flag, struct FTW 
     return flag == FTW_DP ? rmdir(p) : unlink(p);
 }
 
-#define RU_UNUSED_S (30L * 24 * 3600)   /* a runtime folder no start used for this long is removed */
+/* the folder `p` and everything in it removed, no link followed */
+RU_FN void ru_rm_tree(const char *p) { nftw(p, ru_rm_one, 16, FTW_DEPTH | FTW_PHYS); }
 
-/* Removed from `base` before an unpack (links never followed, only folders of this user's):
- * - the temporary folders of unpacks whose process died (killed halfway): .python-<key>.<pid>.<n>,
- *   that pid gone, untouched for ten minutes (an unpack takes about a second);
- * - the folders of other runtimes (python-<16 hex digits>) whose marker no start touched for
- *   RU_UNUSED_S (every start that uses a folder touches its marker: ru_runtime_root).
- * Nothing else is touched. */
-RU_FN void ru_sweep(const char *base)
+/* `p` a folder of this user's (not a link): 1 with its modification time (seconds since 1970) */
+RU_FN int ru_own_dir_time(const char *p, double *when)
 {
-    DIR *d = opendir(base);
+    struct stat st;
+    if (lstat(p, &st) != 0 || !S_ISDIR(st.st_mode) || st.st_uid != geteuid()) return 0;
+    *when = (double)st.st_mtime;
+    return 1;
+}
+
+/* `p` a regular file (not a link): 1 with its modification time */
+RU_FN int ru_file_time(const char *p, double *when)
+{
+    struct stat st;
+    if (lstat(p, &st) != 0 || !S_ISREG(st.st_mode)) return 0;
+    *when = (double)st.st_mtime;
+    return 1;
+}
+
+RU_FN void ru_touch(const char *p) { utimensat(AT_FDCWD, p, NULL, AT_SYMLINK_NOFOLLOW); }
+
+/* the process `pid` is gone (not merely another user's) */
+RU_FN int ru_pid_gone(unsigned long pid) { return pid != 0 && kill((pid_t)pid, 0) != 0 && errno == ESRCH; }
+
+RU_FN double ru_now(void) { return (double)time(NULL); }
+
+/* call `f(ctx, name)` for each entry of the folder `dir` but . and .. */
+RU_FN void ru_list(const char *dir, void (*f)(void *, const char *, const char *), void *ctx)
+{
+    DIR *d = opendir(dir);
     if (!d) return;
     struct dirent *e;
-    time_t now = time(NULL);
-    while ((e = readdir(d)) != NULL) {
-        unsigned long pid;
-        char key[17], end;
-        struct stat st;
-        char p[8192], marker[8300];
-        int temp = strncmp(e->d_name, ".python-", 8) == 0 && sscanf(e->d_name + 8, "%16[0-9a-f].%lu.", key, &pid) == 2;
-        int old = !temp && strncmp(e->d_name, "python-", 7) == 0 && strlen(e->d_name) == 23
-                  && sscanf(e->d_name + 7, "%16[0-9a-f]%c", key, &end) == 1;
-        if (!temp && !old) continue;
-        if (snprintf(p, sizeof p, "%s/%s", base, e->d_name) >= (int)sizeof p) continue;
-        if (lstat(p, &st) != 0 || !S_ISDIR(st.st_mode) || st.st_uid != geteuid()) continue;
-        if (temp && (now - st.st_mtime < 600 || pid == 0 || kill((pid_t)pid, 0) == 0 || errno != ESRCH)) continue;
-        if (old) {
-            snprintf(marker, sizeof marker, "%s/%s", p, RU_MARKER);
-            if (lstat(marker, &st) != 0 || !S_ISREG(st.st_mode) || now - st.st_mtime < RU_UNUSED_S) continue;
-        }
-        nftw(p, ru_rm_one, 16, FTW_DEPTH | FTW_PHYS);
-    }
+    while ((e = readdir(d)) != NULL)
+        if (strcmp(e->d_name, ".") != 0 && strcmp(e->d_name, "..") != 0) f(ctx, dir, e->d_name);
     closedir(d);
 }
 
@@ -587,6 +691,36 @@ RU_FN int ru_make_dirs(char *path)
     }
     return ru_mkdir(path) == 0 || errno == EEXIST ? 0 : -1;
 }
+
+#define RU_UNUSED_S (30.0 * 24 * 3600)   /* a runtime folder no start used for this long is removed */
+
+static void ru_sweep_one(void *ctx, const char *base, const char *name)
+{
+    (void)ctx;
+    unsigned long pid = 0;
+    char key[17], end, p[8192], marker[8300];
+    double when, now = ru_now();
+    int temp = strncmp(name, ".python-", 8) == 0 && sscanf(name + 8, "%16[0-9a-f].%lu.", key, &pid) == 2;
+    int old = !temp && strncmp(name, "python-", 7) == 0 && strlen(name) == 23
+              && sscanf(name + 7, "%16[0-9a-f]%c", key, &end) == 1;
+    if (!temp && !old) return;
+    if (snprintf(p, sizeof p, "%s/%s", base, name) >= (int)sizeof p || !ru_own_dir_time(p, &when)) return;
+    if (temp && (now - when < 600 || !ru_pid_gone(pid))) return;
+    if (old) {
+        snprintf(marker, sizeof marker, "%s/%s", p, RU_MARKER);
+        if (!ru_file_time(marker, &when) || now - when < RU_UNUSED_S) return;
+    }
+    ru_rm_tree(p);
+}
+
+/* Removed from `base` before an unpack (links and junctions never followed, only folders of this
+ * user's; on Windows, folders that are not reparse points):
+ * - the temporary folders of unpacks whose process died (killed halfway): .python-<key>.<pid>.<n>,
+ *   that pid gone, untouched for ten minutes (an unpack takes about a second);
+ * - the folders of other runtimes (python-<16 hex digits>) whose marker no start touched for
+ *   RU_UNUSED_S (every start that uses a folder touches its marker: ru_runtime_root).
+ * Nothing else is touched. */
+RU_FN void ru_sweep(const char *base) { ru_list(base, ru_sweep_one, NULL); }
 
 /* a usable base folder (made if missing, then checked private) in `out`; else -1 and why */
 RU_FN int ru_base(char *out, size_t size, char *why, size_t wsize)
@@ -820,9 +954,7 @@ RU_FN int ru_runtime_root(const char *resources, int n, char *const *rel, char *
             int same = text && got >= 64 && memcmp(text, key, 64) == 0;
             free(text);
             if (same) {
-#ifndef _WIN32
-                utimensat(AT_FDCWD, marker, NULL, AT_SYMLINK_NOFOLLOW);   /* used now (ru_sweep keeps it) */
-#endif
+                ru_touch(marker);   /* used now (ru_sweep keeps it) */
                 return 0;
             }
             snprintf(err, errsize, "the FMU's runtime folder is refused: %s does not name this runtime (%.16s); "
@@ -830,9 +962,7 @@ RU_FN int ru_runtime_root(const char *resources, int n, char *const *rel, char *
             return -1;
         }
         /* unpack into a fresh private folder beside it, then rename */
-#ifndef _WIN32
         ru_sweep(base);
-#endif
         static unsigned long counter;
         char tmp[4200];
         RuMade made = {0};
