@@ -171,10 +171,8 @@ def test_round_trips_measure_the_same_fmu_in_this_process_and_in_its_own(fmu_fil
     r = round_trips(n=50)
     for mode in MODES:
         assert r[mode]["getReal"] > 0 and r[mode]["set+doStep+get"] > 0
-    # a step is more than a get where both are in this process or both a round trip (handed over, the step is
-    # in this process and a get before any step a round trip: no such order)
-    for mode in ("in", "out-model"):
-        assert r[mode]["set+doStep+get"] > r[mode]["getReal"]
+    # (no order between the times asserted: a wall-clock comparison is the machine's noise, and with every step
+    # in the model's process set + doStep + get is one round trip, as a get is; the bench prints the ratios)
     assert r["overhead"]["getReal"] == r["out"]["getReal"] - r["in"]["getReal"]
     assert r["overhead_model"]["set+doStep+get"] == r["out-model"]["set+doStep+get"] - r["in"]["set+doStep+get"]
 
