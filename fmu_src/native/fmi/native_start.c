@@ -1021,15 +1021,7 @@ int ns_cache_store(const char *path, const void *bytes, size_t len)
     if (!slash || slash == path || (size_t)(slash - path) >= sizeof dir || len > NS_MAX_FILE) return -1;
     memcpy(dir, path, (size_t)(slash - path));
     dir[slash - path] = 0;
-    for (char *q = dir + 1;; q++) {
-        if (*q != '/' && *q) continue;
-        char c = *q;
-        *q = 0;
-        if (mkdir(dir, 0700) != 0 && errno != EEXIST) return -1;
-        *q = c;
-        if (!c) break;
-    }
-    if (private_dir(dir) != 0) return -1;
+    if (ru_make_dirs(dir) != 0 || private_dir(dir) != 0) return -1;   /* runtime_unpack.h */
     char tmp[PATH_MAX];
     if (snprintf(tmp, sizeof tmp, "%s/.new-XXXXXX", dir) >= (int)sizeof tmp) return -1;
     int fd = mkstemp(tmp);   /* mode 0600 */
