@@ -102,12 +102,19 @@ SYSTEM_LIBRARIES = frozenset({"libc.so.6", "libm.so.6", "libpthread.so.0", "libd
                               "libutil.so.1", "libresolv.so.2", "ld-linux-x86-64.so.2",
                               "ld-linux-aarch64.so.1", "libgcc_s.so.1", "libstdc++.so.6"})
 # in numpy's copy: folders (relative to numpy/) and file endings left out
-NUMPY_SKIP_DIRS = ("f2py", "_pyinstaller", "distutils", "_core/include", "_core/lib", "random/lib",
-                   "random/_examples", "doc")
+NUMPY_SKIP_DIRS = ("f2py", "_pyinstaller", "distutils", "_core/include", "_core/lib", "doc")
+# numpy's subpackages no module the FMUs carry imports: numpy's own modules reach them only through
+# ``numpy.__getattr__`` (its lazy attributes: ``np.random``...), numpy's test runner
+# (``_pytesttester``) and docstrings (tests/harness/test_numpy_trim.py reads every kept module's
+# imports); the models' code names none of them (the same test). 2.3 MB of the two platforms'
+# numpy archives (random alone 1.6 MB) a host's unzip no longer writes.
+NUMPY_UNUSED = ("random", "fft", "polynomial", "testing")
+NUMPY_SKIP_DIRS += NUMPY_UNUSED
 NUMPY_SKIP_SUFFIXES = (".pyi", ".pxd", ".h", ".c", ".a", ".pc", "py.typed")
-# numpy's extension modules only its own tests import (checked: no other module of numpy names them)
+# numpy's extension modules only its own tests import (checked: no other module of numpy names them),
+# and its test helpers (ma/testutils.py: numpy.ma's tests)
 NUMPY_SKIP_PREFIXES = ("_multiarray_tests.", "_umath_tests.", "_rational_tests.", "_struct_ufunc_tests.",
-                       "_operand_flag_tests.", "_simd.", "conftest.")
+                       "_operand_flag_tests.", "_simd.", "conftest.", "testutils.")
 NUMPY_DIST_KEEP = ("METADATA", "WHEEL", "licenses")
 PROBE = Path(__file__).resolve().parent / "runtime_probe.py"
 PROBE_STEPS = 20

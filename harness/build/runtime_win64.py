@@ -254,7 +254,8 @@ def _key(native_fmi: Path, native_kernels: Path, headers: Path, kernel_sources: 
     h = hashlib.sha256()
     for p in sorted([*native_fmi.rglob("*.[ch]"), *native_kernels.glob("*.[ch]"), CODE, headers / "fmi2Functions.h", headers / "fmi3Functions.h"]):
         h.update(p.name.encode() + b"\0" + p.read_bytes())
-    h.update(repr((VERSION, EMBED_VERSION, NUMPY_VERSION, sorted(kernel_sources.items()), _gcc_version())).encode())
+    h.update(repr((VERSION, EMBED_VERSION, NUMPY_VERSION, sorted(kernel_sources.items()), _gcc_version(),
+                   NUMPY_SKIP_DIRS, NUMPY_SKIP_PREFIXES, NUMPY_SKIP_SUFFIXES)).encode())   # what numpy's copy leaves out
     return h.hexdigest()[:16]
 
 
