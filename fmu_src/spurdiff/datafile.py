@@ -2,10 +2,11 @@
 
 The default data are ``spurdiff/data/passenger_car.toml`` and ``spurdiff/data/differential.toml``,
 bundled with the package (and so inside every FMU, which carries the whole ``spurdiff`` package as
-a resource). They are read once, when this module is imported, from the ``data/`` folder beside
-this file: never through the package's global name (an FMU loads its copy of the package under a
-private name) and never later (a host may delete an FMU's extraction folder while its instances
-live on). Section and key names are the models' structured parameter names (``halfShaft.c``,
+a resource, in one archive: ``resources/spurdiff.zip``). They are read once, when this module is
+imported, from the ``data/`` folder beside this file, by the package's own loader
+(:func:`package_bytes`: a file of a folder, or a member of the archive): never through the
+package's global name (an FMU loads its copy of the package under a private name) and never later
+(a host may delete an FMU's extraction folder while its instances live on). Section and key names are the models' structured parameter names (``halfShaft.c``,
 ``vehicle.m``, ``sunA.z``, ``meshA1.backlash``...).
 
 Every bundled data file is parsed by :func:`parse_bundled`: from ``data/parsed_toml.json`` (the
@@ -19,6 +20,7 @@ brought the parsed copy up to date.
 from __future__ import annotations
 
 import copy
+import os
 import zlib
 from dataclasses import fields
 from functools import lru_cache
@@ -28,10 +30,26 @@ from spurdiff.errors import ParameterError
 
 DEFAULT_DATA = "passenger_car.toml"
 DIFFERENTIAL_DATA = "differential.toml"
+# a checkout's or an installation's data/ (write_parsed, the tests); the models read through package_bytes
 DATA_FOLDER = Path(__file__).resolve().parent / "data"     # this package's own data/, whatever its name
 PARSED_FILE = DATA_FOLDER / "parsed_toml.json"    # the bundled files parsed (write_parsed)
+_HERE = os.path.dirname(__file__)   # the package's folder (in an FMU: <resources>/spurdiff.zip/spurdiff)
+
+
+def package_bytes(rel: str) -> bytes:
+    """The package's file ``rel`` ('/'-separated, relative to the package's folder), read by the
+    package's loader: from a folder, or from the archive an FMU carries the package in (zipimport:
+    its ``get_data`` takes the path inside the archive). OSError when it is not there."""
+    return __loader__.get_data(os.path.join(_HERE, *rel.split("/")))
+
+
+def bundled_text(name: str) -> str:
+    """The bundled data file ``data/<name>`` as text (:func:`package_bytes`)."""
+    return package_bytes(f"data/{name}").decode("utf-8")
+
+
 # the bundled files' text, read at import from this package's own folder
-_BUNDLED = {name: (DATA_FOLDER / name).read_text(encoding="utf-8") for name in (DEFAULT_DATA, DIFFERENTIAL_DATA)}
+_BUNDLED = {name: bundled_text(name) for name in (DEFAULT_DATA, DIFFERENTIAL_DATA)}
 
 
 def read_data(path: str | Path | None = None, bundled: str = DEFAULT_DATA) -> dict:
@@ -57,7 +75,7 @@ def parse_bundled(name: str, text: str | None = None) -> dict:
     now when None): the parsed copy's data when it was made of this very text (size and CRC-32 of
     its UTF-8), else the text parsed; a new dict at each call either way (the caller may change it)."""
     if text is None:
-        text = (DATA_FOLDER / name).read_text(encoding="utf-8")
+        text = bundled_text(name)
     entry = _parsed_files().get(name)
     if entry is not None:
         raw = text.encode("utf-8")
@@ -72,7 +90,7 @@ def _parsed_files() -> dict:
     """The entries of :data:`PARSED_FILE` by file name ({} without a readable one: every file parsed)."""
     import json
     try:
-        files = json.loads(PARSED_FILE.read_text(encoding="utf-8"))["files"]
+        files = json.loads(package_bytes(f"data/{PARSED_FILE.name}").decode("utf-8"))["files"]
     except (OSError, ValueError, KeyError, TypeError):
         return {}
     return files if isinstance(files, dict) else {}
@@ -127,5 +145,6 @@ def section(cls, data: dict, name: str):
     return cls(**values)
 
 
-__all__ = ["read_data", "section", "differential_default", "parse_bundled", "write_parsed", "DEFAULT_DATA",
+__all__ = ["read_data", "section", "differential_default", "parse_bundled", "write_parsed", "bundled_text",
+           "package_bytes", "DEFAULT_DATA",
            "DIFFERENTIAL_DATA"]

@@ -6,7 +6,8 @@ wheel's ``vehicle_kernel.c``; all in
 Where a kernel is found (first hit that loads and passes the kernel's own check):
 
 1. beside its binding module, under its shipped name (``harness/build.py`` puts it there inside each
-   FMU that runs it);
+   FMU that runs it; the FMU's package is an archive, its kernels files in the same folders beside it:
+   :func:`shipped_folder`);
 2. in the folders of the binding's ``SEARCH_PATH`` (``harness.build`` adds the FMU folder, where it
    compiles the kernels for direct runs and the tests), ``$SPURDIFF_KERNEL_DIR``,
    ``$SPURDIFF_FMU_DIR`` and a checkout's ``build/fmus``, as ``<stem>-<digest>.so``: the digest of
@@ -41,6 +42,17 @@ def source_digest(native: Path, stem: str) -> str:
         h.update(p.name.encode())
         h.update(p.read_bytes())
     return h.hexdigest()[:16]
+
+
+def shipped_folder(module) -> Path:
+    """The folder a kernel ships in beside its binding ``module``: the module's own; for a module an
+    FMU imports from its package archive (``resources/spurdiff.zip``: a library cannot be loaded from
+    inside an archive), the same folders beside the archive (``resources/spurdiff/...``)."""
+    folder = os.path.dirname(module.__file__)
+    archive = getattr(getattr(module, "__loader__", None), "archive", None)     # zipimport's
+    if archive and folder.startswith(archive + os.sep):
+        folder = os.path.join(os.path.dirname(archive), folder[len(archive) + 1:])
+    return Path(folder).resolve()
 
 
 def candidates(stem: str, shipped: Path, search_path: Sequence[Path]) -> list[Path]:
@@ -179,7 +191,7 @@ class Binding:
     def candidates(self) -> list[Path]:
         """The files to try, in order (:func:`candidates`)."""
         m = self._binding()
-        return candidates(self.stem, Path(m.__file__).resolve().parent / m.LIB_NAME, m.SEARCH_PATH)
+        return candidates(self.stem, shipped_folder(m) / m.LIB_NAME, m.SEARCH_PATH)
 
     def load(self) -> tuple[C.CDLL | None, str]:
         """(library, where it came from) or (None, why not). Cached per process."""

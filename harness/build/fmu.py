@@ -10,9 +10,11 @@ Python is installed, in any host process):
 * ``resources/python/``, the FMU's own Python runtime: this interpreter's libpython, the standard
   library modules the FMUs import, numpy (:mod:`harness.build.runtime_bundle`; made once and cached,
   the archive starts from its compressed copy);
-* ``resources/spurdiff/``, the package under a name of its own: a copy whose imports are all
+* ``resources/spurdiff.zip``, the package under a name of its own: a copy whose imports are all
   relative, with pythonfmu's run-time modules vendored and ``_fmu_entry.py`` holding the FMU's
-  class (:mod:`harness.build.fmu_package`); the bridge loads it under a private alias, never as
+  class (:mod:`harness.build.fmu_package`), as one archive (sources, data, pycs:
+  :func:`harness.build.fmu_contents.package_archive`; its compiled kernels are files in
+  ``resources/spurdiff/``); the bridge imports it with zipimport under a private alias, never as
   ``spurdiff`` or ``pythonfmu``;
 * ``binaries/linux64/<model>.so``, the loader (:data:`LOADER_SOURCES`, compiled here, C library
   only), ``binaries/linux64/fmi2_pybridge.so``, the bridge into the interpreter (compiled with this
@@ -126,7 +128,8 @@ def source_digest(name: str) -> str:
 from harness.build.fmu_contents import (NUMPY_ENTRIES, NUMPY_FREE_FMUS, PLATFORMS, PLATFORMS_ENV,  # noqa: E402,F401
                                    archived_numpy, drop_numpy as _drop_numpy, form_radius_table, numpy_archive,
                                    numpy_as_archive as _numpy_as_archive, platform_sizes, platforms,
-                                   RUNTIME_ARCHIVES, archive_lines, packed_runtimes)
+                                   RUNTIME_ARCHIVES, archive_lines, package_archive, package_kernels,
+                                   packed_runtimes)
 
 
 def declarations() -> dict[str, tuple[str, dict]]:
@@ -560,9 +563,9 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
                     item.compress_type = zipfile.ZIP_DEFLATED
                     zout.writestr(item, data)
                 if runtime is not None:
-                    for f in sorted(pkg.rglob("*")):
-                        if f.is_file():
-                            zout.write(f, f"resources/{f.relative_to(pkg.parent).as_posix()}")
+                    zout.writestr(_entry(f"resources/{pkg.name}.zip"), package_archive(pkg))
+                    for f in package_kernels(pkg):
+                        zout.write(f, f"resources/{f.relative_to(pkg.parent).as_posix()}")
                     zout.writestr(_entry(f"resources/{RUNTIME_CFG}"), runtime_bundle.cfg_text(runtime, name, guid)
                                   + archives["linux64"])
                     start = _native_start(name, pkg, notes)

@@ -30,6 +30,68 @@ def _entry(name: str, mode: int = 0o644) -> zipfile.ZipInfo:
     return info
 
 
+# the package's files an FMU carries beside its package archive, not in it: its compiled kernels (a
+# shared library cannot be loaded from inside an archive; spurdiff.native_library.shipped_folder)
+KERNEL_SUFFIXES = (".so", ".dll")
+
+
+def package_archive(pkg: Path) -> bytes:
+    """The staged, byte-compiled package folder ``pkg`` as the archive an FMU carries
+    (``resources/<pkg.name>.zip``, which the bridge imports with zipimport): its sources, data and
+    pycs, each pyc beside its source (``m.pyc``, where zipimport looks; hash-checked against the
+    source), members stored (an import reads them without inflating; the FMU deflates the archive
+    as one member), in name order with a fixed date: the same bytes for the same package. Its
+    compiled kernels stay out (:func:`package_kernels`)."""
+    members = {}
+    for f in pkg.rglob("*"):
+        if not f.is_file() or f.suffix in KERNEL_SUFFIXES:
+            continue
+        rel = f.relative_to(pkg.parent)
+        if f.parent.name == "__pycache__":          # m.cpython-311.pyc -> m.pyc beside m.py
+            rel = rel.parent.parent / (f.name.split(".", 1)[0] + ".pyc")
+        members[rel.as_posix()] = f.read_bytes()
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED) as z:
+        for name in sorted(members):
+            info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
+            info.external_attr = 0o100644 << 16
+            z.writestr(info, members[name])
+    return buf.getvalue()
+
+
+def edit_package(fmu: Path, out: Path, edit, rest=None) -> Path:
+    """``fmu`` written to ``out`` with each member of its package archive passed through
+    ``edit(name, data) -> data`` (names inside the archive: ``spurdiff/_fmu_entry.py``) and each other
+    member through ``rest(name, data) -> data`` (unchanged without one); every member stored. For the
+    tests: another build of the package, a planted model. A changed source outdates its pyc, which
+    the import then passes over (hash-checked)."""
+    with zipfile.ZipFile(fmu) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_STORED) as zout:
+        for item in zin.infolist():
+            data = zin.read(item)
+            # the package archive: resources/<package>.zip (the runtime's and numpy's lie deeper)
+            if item.filename.startswith("resources/") and item.filename.count("/") == 1 and item.filename.endswith(".zip"):
+                data = _edited_archive(data, edit)
+            elif rest is not None:
+                data = rest(item.filename, data)
+            item.compress_type = zipfile.ZIP_STORED
+            zout.writestr(item, data)
+    return out
+
+
+def _edited_archive(data: bytes, edit) -> bytes:
+    buf = io.BytesIO()
+    with zipfile.ZipFile(io.BytesIO(data)) as zin, zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED) as zout:
+        for item in zin.infolist():
+            zout.writestr(item, edit(item.filename, zin.read(item)))
+    return buf.getvalue()
+
+
+def package_kernels(pkg: Path) -> list[Path]:
+    """The compiled kernels of the staged package ``pkg``: the files an FMU carries under
+    ``resources/<pkg.name>/`` beside its package archive."""
+    return sorted(f for f in pkg.rglob("*") if f.is_file() and f.suffix in KERNEL_SUFFIXES)
+
+
 PLATFORMS = ("linux64", "win64")
 PLATFORMS_ENV = "SPURDIFF_BUILD_PLATFORMS"    # what ``spurdiff build --platforms`` sets (a build in a subprocess too)
 

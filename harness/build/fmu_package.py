@@ -61,7 +61,8 @@ from .numpy_archive import install as _install_numpy
 from .{relative} import {short} as interface
 from .{adapter} import fmu_class
 
-_install_numpy(_os.path.dirname(_os.path.dirname(_os.path.abspath(__file__))))   # resources/: numpy when needed
+# resources/, which holds the package's archive (zipimport's) or folder: numpy when needed
+_install_numpy(_os.path.dirname(getattr(__loader__, "archive", None) or _os.path.dirname(_os.path.abspath(__file__))))
 
 {name} = fmu_class(interface, __name__)
 '''

@@ -60,14 +60,30 @@ class _Guard:
 
 
 def load_package(folder):
-    """The package folder loaded as a top-level package under its private alias; returns the alias."""
+    """The package ``folder`` loaded as a top-level package under its private alias, as the bridge
+    does: from the archive ``<folder>.zip`` when there is one (an extracted FMU), else from the
+    folder (a staged copy); returns the alias."""
     alias = "_spurdiff_fmu_" + hashlib.sha256(os.path.realpath(folder).encode()).hexdigest()[:16]
     if alias not in sys.modules:
-        spec = importlib.util.spec_from_file_location(alias, os.path.join(folder, "__init__.py"),
-                                                      submodule_search_locations=[folder])
+        archive, code = folder + ".zip", None
+        if os.path.isfile(archive):
+            import zipimport
+            inner = os.path.join(archive, os.path.basename(folder))
+            top = zipimport.zipimporter(archive)
+            code = top.get_code(os.path.basename(folder))
+            spec = importlib.util.spec_from_loader(alias, top, origin=os.path.join(inner, "__init__.py"),
+                                                   is_package=True)
+            spec.submodule_search_locations = [inner]
+            spec.has_location = True
+        else:
+            spec = importlib.util.spec_from_file_location(alias, os.path.join(folder, "__init__.py"),
+                                                          submodule_search_locations=[folder])
         module = importlib.util.module_from_spec(spec)
         sys.modules[alias] = module
-        spec.loader.exec_module(module)
+        if code is None:
+            spec.loader.exec_module(module)
+        else:
+            exec(code, module.__dict__)
     return alias
 
 

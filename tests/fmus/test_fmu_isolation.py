@@ -17,6 +17,8 @@ from pathlib import Path
 
 import pytest
 
+from harness.build import fmu_contents
+
 
 pytestmark = [pytest.mark.usefixtures("children_scratch_in_tmp_path"),   # hosts that may never remove theirs
               pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
@@ -33,17 +35,16 @@ def _other_build(fmu: Path, out: Path, mu_pin: float = 0.13) -> Path:
         md = z.read("modelDescription.xml").decode()
     old = md.split('guid="', 1)[1].split('"', 1)[0]
     new = "{0badc0de-0000-4000-8000-" + old[-13:-1] + "}"
-    with zipfile.ZipFile(fmu) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_STORED) as zout:
-        for item in zin.infolist():
-            data = zin.read(item)
-            if item.filename == "resources/spurdiff/data/differential.toml":
-                lines = [f"mu_pin = {mu_pin}" if ln.startswith("mu_pin =") else ln for ln in data.decode().split("\n")]
-                data = "\n".join(lines).encode()
-            elif item.filename in ("modelDescription.xml", "resources/python_runtime.cfg"):
-                data = data.replace(old.encode(), new.encode())
-            item.compress_type = zipfile.ZIP_STORED   # (no time spent on compression)
-            zout.writestr(item, data)
-    return out
+    def edit(name: str, data: bytes) -> bytes:      # a member of the package's archive
+        if name != "spurdiff/data/differential.toml":
+            return data
+        return "\n".join(f"mu_pin = {mu_pin}" if ln.startswith("mu_pin =") else ln
+                         for ln in data.decode().split("\n")).encode()
+
+    def rest(name: str, data: bytes) -> bytes:
+        return data.replace(old.encode(), new.encode()) if name in ("modelDescription.xml",
+                                                                    "resources/python_runtime.cfg") else data
+    return fmu_contents.edit_package(fmu, out, edit, rest)
 
 
 def _run(code: str, *args, env=None) -> dict:
@@ -70,6 +71,27 @@ def test_two_builds_one_after_another_and_again_each_run_their_own_package(diffe
     alone = [_run(LOCKING + "print(json.dumps([locking(sys.argv[1])]))", p)[0] for p in (differential_fmu, other)]
     assert out == alone * 2, f"one process {out}, each alone {alone}"
     assert out[1] < 0.6 * out[0], out   # half the pin friction: the other build's package ran
+
+
+def test_another_build_extracted_into_the_same_folder_runs_its_own_package(differential_fmu, tmp_path):
+    """A host that extracts another build where the first one was, in one process: the package
+    archive at that path is read afresh (zipimport keeps an archive's directory by its path: a stale
+    one would read the other build's members at the first one's offsets), so each build runs its own."""
+    other = _other_build(differential_fmu, tmp_path / "SpurDifferential.fmu")
+    folder = tmp_path / "the same folder"
+    code = LOCKING + (
+        "import shutil\n"
+        "from fmpy import extract\n"
+        "out = []\n"
+        "for path in sys.argv[2:]:\n"
+        "    shutil.rmtree(sys.argv[1], ignore_errors=True)\n"
+        "    extract(path, unzipdir=sys.argv[1])\n"
+        "    out.append(locking(sys.argv[1]))\n"
+        "print(json.dumps(out))\n")
+    out = _run(code, folder, differential_fmu, other, differential_fmu)
+    alone = [_run(LOCKING + "print(json.dumps([locking(sys.argv[1])]))", p)[0] for p in (differential_fmu, other)]
+    assert out == [alone[0], alone[1], alone[0]], f"one folder {out}, each alone {alone}"
+    assert out[1] < 0.6 * out[0], out
 
 
 def test_an_fmu_beside_a_host_that_imported_spurdiff_runs_its_own_copy(differential_fmu, tmp_path):
@@ -132,7 +154,7 @@ rows = []
 for path in sys.argv[1:]:
     r = simulate_fmu(path, stop_time=0.01, output_interval=1e-3)
     rows.append(len(r))
-aliases = sorted({m.split('.')[0] for m in sys.modules if m.startswith('_spurdiff_fmu_') and m != '_spurdiff_fmu_boot_2'})
+aliases = sorted({m.split('.')[0] for m in sys.modules if m.startswith('_spurdiff_fmu_') and not m.startswith('_spurdiff_fmu_boot_')})
 print(json.dumps([rows, len(aliases)]))
 """
     paths = [fmu_files["SpurDifferential"], fmu_files["WheelLoad"], fmu_files["Vehicle"],

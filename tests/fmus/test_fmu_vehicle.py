@@ -190,7 +190,7 @@ def test_the_fmus_load_their_bundled_package_and_data(wheel_fmu, vehicle_fmu, tm
     assert out["WheelLoad"]["value"] == DATA["halfShaft"]["c"]
     assert out["Vehicle"]["value"] == DATA["vehicle"]["m"]
     for name in ("WheelLoad", "Vehicle"):
-        assert str(tmp_path) in out[name]["package"] and "/resources/spurdiff/" in out[name]["package"]
+        assert str(tmp_path) in out[name]["package"] and "/resources/spurdiff.zip/spurdiff/" in out[name]["package"]
         assert out[name]["data"] == DATA["vehicle"]["m"]
 
 

@@ -30,11 +30,16 @@ START = r"""
 import importlib, importlib.util, os, sys
 res = sys.argv[1]
 alias = '_spurdiff_fmu_start_test'
-root = os.path.join(res, 'spurdiff')
-spec = importlib.util.spec_from_file_location(alias, os.path.join(root, '__init__.py'), submodule_search_locations=[root])
+import zipimport                         # as the bridge loads the FMU's package archive
+archive = os.path.join(res, 'spurdiff.zip')
+inner = os.path.join(archive, 'spurdiff')
+top = zipimport.zipimporter(archive)
+spec = importlib.util.spec_from_loader(alias, top, origin=os.path.join(inner, '__init__.py'), is_package=True)
+spec.submodule_search_locations = [inner]
+spec.has_location = True
 mod = importlib.util.module_from_spec(spec)
 sys.modules[alias] = mod
-spec.loader.exec_module(mod)
+exec(top.get_code('spurdiff'), mod.__dict__)
 cls = getattr(importlib.import_module(alias + '._fmu_entry'), 'SpurDifferential')
 s = cls(instance_name='start', resources=res, visible=False, logging_on=False)
 status = (s.fmi2_setup_experiment(False, 0.0, 0.0, False, 0.0), s.fmi2_enter_initialization_mode(),

@@ -17,7 +17,7 @@ from spurdiff import numpy_archive as na
 
 RUN = r"""
 import os, sys
-sys.path.insert(0, sys.argv[1])
+sys.path.insert(0, sys.argv[1] + '/spurdiff.zip')   # the FMU's package archive (zipimport)
 assert not any('site-packages' in p for p in sys.path)
 import spurdiff._fmu_entry                      # installs the finder
 import numpy
@@ -145,7 +145,7 @@ def test_another_numpys_folder_unused_for_30_days_goes_at_the_next_unpack(resour
 
 LAZY = r"""
 import sys
-sys.path.insert(0, sys.argv[1])
+sys.path.insert(0, sys.argv[1] + '/spurdiff.zip')   # the FMU's package archive (zipimport)
 import spurdiff._fmu_entry                      # the finder installed, numpy not wanted
 print('LOADED', sorted(m for m in ('zipfile', 'tempfile', 'shutil', 'importlib.abc', 'importlib.resources', 'lzma',
                                    'bz2', 'numpy') if m in sys.modules))

@@ -17,13 +17,13 @@ import signal
 import subprocess
 import sys
 import time
-import zipfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 from fmpy import simulate_fmu
 
+from harness.build import fmu_contents
 from host_cases import CASES, STEP, STOP
 
 
@@ -104,20 +104,18 @@ def test_fmpy_under_each_python_gives_the_same_results(label, fmpy_targets, fmu_
 def _misbehaving_copy(fmu: Path, out: Path, after: float, module: str, action: str) -> Path:
     """The FMU with a model whose steps past t = ``after`` run ``action`` (with ``module`` imported as
     ``_m``) before stepping; every step goes through fmi2_do_step (no native step)."""
-    with zipfile.ZipFile(fmu) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as zout:
-        for item in zin.infolist():
-            data = zin.read(item)
-            if item.filename == "resources/spurdiff/_fmu_entry.py":
-                data += (f"\nimport {module} as _m\n_base = SpurDifferential\n"
-                         "class SpurDifferential(_base):\n"
-                         "    def fmi2_native_enter(self):\n"
-                         "        return False\n"
-                         "    def fmi2_do_step(self, t, h, nsp):\n"
-                         f"        if t > {after!r}:\n"
-                         f"            {action}\n"
-                         "        return super().fmi2_do_step(t, h, nsp)\n").encode()
-            zout.writestr(item, data)
-    return out
+    def edit(name: str, data: bytes) -> bytes:
+        if name != "spurdiff/_fmu_entry.py":
+            return data
+        return data + (f"\nimport {module} as _m\n_base = SpurDifferential\n"
+                       "class SpurDifferential(_base):\n"
+                       "    def fmi2_native_enter(self):\n"
+                       "        return False\n"
+                       "    def fmi2_do_step(self, t, h, nsp):\n"
+                       f"        if t > {after!r}:\n"
+                       f"            {action}\n"
+                       "        return super().fmi2_do_step(t, h, nsp)\n").encode()
+    return fmu_contents.edit_package(fmu, out, edit)
 
 
 def _crashing_copy(fmu: Path, out: Path) -> Path:

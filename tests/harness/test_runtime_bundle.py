@@ -7,6 +7,7 @@ only the runtime's entries, the package loaded under its private alias."""
 from __future__ import annotations
 
 import hashlib
+import io
 import os
 import shutil
 import subprocess
@@ -84,7 +85,12 @@ def test_cfg_is_format_2_with_relative_paths_that_exist(fmu_files):
             for p in cfg.get(key, []):
                 assert not p.startswith("/") and ".." not in p.split("/") and "\\" not in p, p
                 assert f"resources/{p}" in names or any(n.startswith(f"resources/{p}/") for n in names), p
-        assert "resources/spurdiff/_fmu_entry.py" in names
+        assert "resources/spurdiff.zip" in names and not any(        # the package as one archive
+            n.startswith("resources/spurdiff/") and not n.endswith((".so", ".dll")) for n in names)
+        with zipfile.ZipFile(fmu) as z, zipfile.ZipFile(io.BytesIO(z.read("resources/spurdiff.zip"))) as pz:
+            inner = pz.namelist()
+        assert {"spurdiff/_fmu_entry.py", "spurdiff/_fmu_entry.pyc", "spurdiff/__init__.pyc"} <= set(inner)
+        assert not any("__pycache__" in n or n.endswith((".so", ".dll")) for n in inner)
         assert not any(n.startswith("resources/pythonfmu/") for n in names)
         # pythonfmu's win64 wrapper is gone; where mingw-w64 was installed, ours is there instead
         win64 = sorted(n for n in names if n.startswith("binaries/win64/"))

@@ -42,7 +42,10 @@ def test_the_win64_runtime_description_is_relative_and_complete():
 def test_numpys_tests_headers_and_stubs_stay_out():
     kept = runtime_win64._numpy_kept
     assert kept("numpy/__init__.py") and kept("numpy/linalg/_umath_linalg.cp311-win_amd64.pyd")
-    assert kept("numpy.libs/libscipy_openblas64_.dll") and kept("numpy/testing/__init__.py")
+    assert kept("numpy.libs/libscipy_openblas64_.dll") and kept("numpy/ma/__init__.py")
+    # the subpackages nothing the FMUs carry imports (runtime_bundle.NUMPY_UNUSED), and ma's test helpers
+    assert not kept("numpy/testing/__init__.py") and not kept("numpy/random/_generator.cp311-win_amd64.pyd")
+    assert not kept("numpy/fft/__init__.py") and not kept("numpy/ma/testutils.py")
     assert not kept("numpy/linalg/tests/test_linalg.py") and not kept("numpy/_core/include/numpy/ndarrayobject.h")
     assert not kept("numpy/__init__.pyi") and not kept("numpy/f2py/__init__.py")
 

@@ -13,8 +13,9 @@ from spurdiff.differential.mesh import integrator, params
 CASE = r"""
 import sys
 sys.modules['numpy'] = None      # any import of numpy fails
-sys.path.insert(0, sys.argv[1])
+sys.path.insert(0, sys.argv[1] + '/spurdiff.zip')      # the FMU's package archive (zipimport)
 from spurdiff.fmi import differential_fmu, vehicle_fmu, wheel_fmu
+print('from', differential_fmu.__file__)
 for mod, extra in ((differential_fmu, {}), (differential_fmu, {'carrierDrive': 'torque', 'lockingLaw': 'paper'}),
                    (vehicle_fmu, {}), (wheel_fmu, {})):
     values = {v.name: v.start for v in mod.VARIABLES}
@@ -39,6 +40,7 @@ def test_the_default_configurations_run_without_numpy(differential_fmu, tmp_path
                        timeout=120, cwd=tmp_path)
     assert r.returncode == 0, r.stderr[-3000:]
     assert r.stdout.count("ran ") == 4, r.stdout
+    assert f"from {tmp_path / 'resources' / 'spurdiff.zip'}" in r.stdout, r.stdout     # the FMU's copy
     # the default gear set (the designed one) has no undercut gear: its form radii need no generation,
     # the build's table (harness/build/fmu_contents.form_radius_table) may be empty; the four runs above
     # are the check that the default configurations need no numpy

@@ -155,8 +155,12 @@ static int start_python(const RuntimeCfg *cfg, const char *resources, char *err,
 
 /* ------------------------------------------------------------------------------ the FMU's package
  * One module per process (whichever FMU's bridge came first; the name carries the protocol
- * version): load() imports resources/<package> as `_spurdiff_fmu_<digest of the folder and the
- * GUID>` and returns (that name, the slave class); release() counts the instances down. An alias
+ * version): load() imports the package as `_spurdiff_fmu_<digest of the folder and the GUID>` and
+ * returns (that name, the slave class). The package is the archive resources/<package>.zip (one
+ * member a host's unzip writes where the package's folder held some 200 files; zipimport reads its
+ * modules, and the package reads its data through its loader; its compiled kernels stay files in
+ * resources/<package>/), or the folder resources/<package>/ without one (a staged copy at build time).
+ * An archive is read afresh at each new alias (another FMU's archive may have been at that path); release() counts the instances down. An alias
  * whose folder is gone and which has no instance left is dropped from sys.modules at the next
  * load. numpy comes from the process (the host's, or the runtime's on the FMU's own Python); a
  * Python host without numpy gets the runtime's site-packages at the end of its path. numpy is not
@@ -183,14 +187,30 @@ static const char *BOOT_SOURCE =
 "    alias = '_spurdiff_fmu_' + key\n"
 "    if alias not in sys.modules:\n"
 "        root = os.path.join(res, package)\n"
-"        spec = importlib.util.spec_from_file_location(alias, os.path.join(root, '__init__.py'),\n"
-"                                                      submodule_search_locations=[root])\n"
+"        archive, code = root + '.zip', None\n"
+"        if os.path.isfile(archive):\n"
+"            import zipimport\n"
+"            inner = os.path.join(archive, package)\n"
+"            sys.path_importer_cache.pop(inner, None)\n"
+"            getattr(zipimport, '_zip_directory_cache', {}).pop(archive, None)\n"
+"            top = zipimport.zipimporter(archive)\n"
+"            code = top.get_code(package)\n"
+"            spec = importlib.util.spec_from_loader(alias, top, origin=os.path.join(inner, '__init__.py'),\n"
+"                                                   is_package=True)\n"
+"            spec.submodule_search_locations = [inner]\n"
+"            spec.has_location = True\n"
+"        else:\n"
+"            spec = importlib.util.spec_from_file_location(alias, os.path.join(root, '__init__.py'),\n"
+"                                                          submodule_search_locations=[root])\n"
 "        if spec is None:\n"
 "            raise ImportError('the FMU has no package ' + root)\n"
 "        mod = importlib.util.module_from_spec(spec)\n"
 "        sys.modules[alias] = mod\n"
 "        try:\n"
-"            spec.loader.exec_module(mod)\n"
+"            if code is None:\n"
+"                spec.loader.exec_module(mod)\n"
+"            else:\n"
+"                exec(code, mod.__dict__)\n"
 "        except BaseException:\n"
 "            _drop(alias)\n"
 "            raise\n"
@@ -209,7 +229,7 @@ static const char *BOOT_SOURCE =
 /* The boot module (borrowed), NULL with an error set. */
 static PyObject *boot_module(void)
 {
-    static const char *NAME = "_spurdiff_fmu_boot_2";
+    static const char *NAME = "_spurdiff_fmu_boot_3";
     PyObject *modules = PyImport_GetModuleDict();   /* borrowed */
     PyObject *mod = PyDict_GetItemString(modules, NAME);   /* borrowed */
     if (mod) return mod;

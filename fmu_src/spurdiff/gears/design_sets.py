@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import fields, replace
 
-from spurdiff.datafile import DATA_FOLDER, parse_bundled
+from spurdiff.datafile import bundled_text, parse_bundled
 from spurdiff.errors import ParameterError
 from spurdiff.gears.geometry import Gear, GearTable
 
@@ -19,7 +19,7 @@ GEAR_NAMES = ("sunA", "planet1", "sunB", "planet2")
 GEARING_KEYS = ("m", "alpha", "ha", "hf", "haP0", "rhoaP0")
 CARRIER_KEYS = ("wallB", "axialClearance")   # the axial layout's walls (spurdiff.gears.axial)
 # read once at import, from this package's own data folder (see spurdiff.datafile)
-_DESIGNED_TEXT = (DATA_FOLDER / DESIGNED_FILE).read_text(encoding="utf-8")
+_DESIGNED_TEXT = bundled_text(DESIGNED_FILE)
 SETS = ("paper", "designed")
 
 

@@ -26,6 +26,7 @@ import math
 from functools import lru_cache
 from pathlib import Path
 
+from spurdiff.datafile import package_bytes
 from spurdiff.numerics import find_root, minimize_bounded
 
 ISO53_TOOL_ADDENDUM = 1.25    # h_aP0 / m, ISO 53 profile A (= the gear's dedendum h_fP)
@@ -104,7 +105,8 @@ def _known(key: str) -> tuple[float, bool] | None:
     global _TABLE
     if _TABLE is None:
         try:
-            _TABLE = {k: (float(v[0]), bool(v[1])) for k, v in json.loads(TABLE_FILE.read_text()).items()}
+            raw = package_bytes(f"gears/{TABLE_FILE.name}")      # from a folder or the FMU's archive
+            _TABLE = {k: (float(v[0]), bool(v[1])) for k, v in json.loads(raw).items()}
         except (OSError, ValueError, TypeError, IndexError, AttributeError):
             _TABLE = {}
     return _TABLE.get(key)

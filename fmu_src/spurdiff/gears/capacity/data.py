@@ -8,13 +8,13 @@ from dataclasses import replace
 from functools import lru_cache
 
 from spurdiff.errors import Bound
-from spurdiff.datafile import DATA_FOLDER, parse_bundled
+from spurdiff.datafile import bundled_text, parse_bundled
 from spurdiff.errors import ParameterError, require_finite
 from spurdiff.attrpath import record
 
 MATERIALS_FILE = "materials.toml"
 # read once at import, from this package's own data folder (see spurdiff.datafile)
-_MATERIALS_TEXT = (DATA_FOLDER / MATERIALS_FILE).read_text(encoding="utf-8")
+_MATERIALS_TEXT = bundled_text(MATERIALS_FILE)
 
 
 @lru_cache(maxsize=None)

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 
-from spurdiff.datafile import DATA_FOLDER, parse_bundled
+from spurdiff.datafile import bundled_text, parse_bundled
 from spurdiff.errors import ParameterError, require_finite
 from spurdiff.gears.capacity.data import MPA, Conditions, Material, conditions, material
 from spurdiff.gears.capacity.loads import face_widths, pitch_line_speed
@@ -36,7 +36,7 @@ from spurdiff.gears.geometry import DifferentialGeometry, Finding
 from spurdiff.attrpath import record
 
 DUTY_FILE = "duty_cycle.toml"
-_DUTY_TEXT = (DATA_FOLDER / DUTY_FILE).read_text(encoding="utf-8")   # read once, at import
+_DUTY_TEXT = bundled_text(DUTY_FILE)   # read once, at import
 N_H_STATIC, N_H_ENDURANCE = 1e5, 5e7     # ISO 6336-2 table 2, Eh (no pitting permitted)
 N_F_STATIC, N_F_ENDURANCE = 1e3, 3e6     # ISO 6336-3 table 3, Eh
 
