@@ -160,22 +160,34 @@ static int start_python(const RuntimeCfg *cfg, const char *resources, char *err,
  * member a host's unzip writes where the package's folder held some 200 files; zipimport reads its
  * modules, and the package reads its data through its loader; its compiled kernels stay files in
  * resources/<package>/), or the folder resources/<package>/ without one (a staged copy at build time).
- * An archive is read afresh at each new alias (another FMU's archive may have been at that path); release() counts the instances down. An alias
- * whose folder is gone and which has no instance left is dropped from sys.modules at the next
- * load. numpy comes from the process (the host's, or the runtime's on the FMU's own Python); a
+ * release() counts the instances down. An alias with no instance left whose folder is gone, or
+ * whose archive is not the file it was imported from (another build extracted there), is dropped
+ * from sys.modules at the next load; a new alias reads its archive afresh (zipimport keeps an
+ * archive's directory by its path). numpy comes from the process (the host's, or the runtime's on the FMU's own Python); a
  * Python host without numpy gets the runtime's site-packages at the end of its path. numpy is not
  * imported here: the rigid level (with the FMU's default gear set), the car and the wheel run
  * without it, and start faster. */
 static const char *BOOT_SOURCE =
 "import hashlib, importlib, importlib.util, os, sys\n"
-"_live = {}   # alias -> [instances, folder]\n"
+"_live = {}   # alias -> [instances, folder, archive or None, the archive's (inode, size, mtime) when imported]\n"
 "def _drop(alias):\n"
 "    for name in [n for n in list(sys.modules) if n == alias or n.startswith(alias + '.')]:\n"
 "        del sys.modules[name]\n"
+"def _stamp(path):\n"
+"    try:\n"
+"        st = os.stat(path)\n"
+"    except OSError:\n"
+"        return None\n"
+"    return (st.st_ino, st.st_size, st.st_mtime_ns)\n"
+"def _forget(archive):   # zipimport keeps an archive's directory by its path: read it afresh\n"
+"    import zipimport\n"
+"    for k in [k for k in list(sys.path_importer_cache) if k == archive or k.startswith(archive + os.sep)]:\n"
+"        del sys.path_importer_cache[k]\n"
+"    getattr(zipimport, '_zip_directory_cache', {}).pop(archive, None)\n"
 "def load(resources, package, module, klass, guid, site):\n"
 "    res = os.path.realpath(resources)\n"
-"    for a, (count, folder) in list(_live.items()):\n"
-"        if count <= 0 and not os.path.isdir(folder):\n"
+"    for a, (count, folder, archive, stamp) in list(_live.items()):\n"
+"        if count <= 0 and (not os.path.isdir(folder) or (archive and _stamp(archive) != stamp)):\n"
 "            _drop(a)\n"
 "            del _live[a]\n"
 "    if site and importlib.util.find_spec('numpy') is None:   # found, not imported (an archived numpy's finder\n"
@@ -185,14 +197,16 @@ static const char *BOOT_SOURCE =
 "                sys.path.append(p)\n"
 "    key = hashlib.sha256(os.fsencode(res) + b'\\0' + guid.encode()).hexdigest()[:16]\n"
 "    alias = '_spurdiff_fmu_' + key\n"
+"    root = os.path.join(res, package)\n"
+"    archive = root + '.zip' if os.path.isfile(root + '.zip') else None\n"
+"    stamp = None\n"
 "    if alias not in sys.modules:\n"
-"        root = os.path.join(res, package)\n"
-"        archive, code = root + '.zip', None\n"
-"        if os.path.isfile(archive):\n"
+"        code = None\n"
+"        if archive:\n"
 "            import zipimport\n"
+"            _forget(archive)\n"
+"            stamp = _stamp(archive)\n"
 "            inner = os.path.join(archive, package)\n"
-"            sys.path_importer_cache.pop(inner, None)\n"
-"            getattr(zipimport, '_zip_directory_cache', {}).pop(archive, None)\n"
 "            top = zipimport.zipimporter(archive)\n"
 "            code = top.get_code(package)\n"
 "            spec = importlib.util.spec_from_loader(alias, top, origin=os.path.join(inner, '__init__.py'),\n"
@@ -220,7 +234,7 @@ static const char *BOOT_SOURCE =
 "        if alias not in _live:\n"
 "            _drop(alias)\n"
 "        raise\n"
-"    _live.setdefault(alias, [0, res])[0] += 1\n"
+"    _live.setdefault(alias, [0, res, archive, stamp])[0] += 1\n"
 "    return alias, cls\n"
 "def release(alias):\n"
 "    if alias in _live:\n"
