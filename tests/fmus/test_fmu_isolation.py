@@ -77,21 +77,28 @@ def test_two_builds_one_after_another_and_again_each_run_their_own_package(diffe
 def test_another_build_extracted_into_the_same_folder_runs_its_own_package(differential_fmu, tmp_path):
     """A host that extracts another build where the first one was, in one process: the package
     archive at that path is read afresh (zipimport keeps an archive's directory by its path: a stale
-    one would read the other build's members at the first one's offsets), so each build runs its own."""
+    one would read the other build's members at the first one's offsets), so each build runs its own;
+    and the first build extracted there again imports what it had not imported yet (the contact
+    level) from its own archive, not through the other build's directory."""
     other = _other_build(differential_fmu, tmp_path / "SpurDifferential.fmu")
     folder = tmp_path / "the same folder"
     code = LOCKING + (
         "import shutil\n"
-        "from fmpy import extract\n"
+        "from fmpy import extract, simulate_fmu\n"
+        "def contact(path):\n"
+        "    r = simulate_fmu(path, stop_time=0.005, output_interval=1e-3, start_values={**CASE, 'meshModel': 'contact'})\n"
+        "    return float(r['lockingTorque'][-1])\n"
         "out = []\n"
-        "for path in sys.argv[2:]:\n"
+        "for path, run in zip(sys.argv[2:], (locking, locking, contact)):\n"
         "    shutil.rmtree(sys.argv[1], ignore_errors=True)\n"
         "    extract(path, unzipdir=sys.argv[1])\n"
-        "    out.append(locking(sys.argv[1]))\n"
+        "    out.append(run(sys.argv[1]))\n"
         "print(json.dumps(out))\n")
     out = _run(code, folder, differential_fmu, other, differential_fmu)
     alone = [_run(LOCKING + "print(json.dumps([locking(sys.argv[1])]))", p)[0] for p in (differential_fmu, other)]
-    assert out == [alone[0], alone[1], alone[0]], f"one folder {out}, each alone {alone}"
+    alone.append(_run(code.replace("zip(sys.argv[2:], (locking, locking, contact))", "zip(sys.argv[2:], (contact,))"),
+                      tmp_path / "alone", differential_fmu)[0])
+    assert out == alone, f"one folder {out}, each alone {alone}"
     assert out[1] < 0.6 * out[0], out
 
 

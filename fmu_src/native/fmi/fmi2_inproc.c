@@ -21,6 +21,7 @@ static spurdiffDoStepEarlyTYPE *B_do_step_early;   /* the bridge's FMI 3.0 exten
 static spurdiffNativeExportTYPE *B_native_export;   /* the hand-over of the native step */
 static spurdiffNativeImportTYPE *B_native_import;
 static spurdiffStartSnapshotTYPE *B_start_snapshot;   /* the start cache */
+static spurdiffForkTYPE *B_fork;                     /* the model processes' zygote */
 static int B_loaded;
 static pthread_mutex_t load_lock = PTHREAD_MUTEX_INITIALIZER;
 
@@ -99,6 +100,9 @@ static int load_bridge(const char *bindir, char *err, size_t errsize)
     SYMBOL(B_native_export, "spurdiffNativeExport")
     SYMBOL(B_native_import, "spurdiffNativeImport")
     SYMBOL(B_start_snapshot, "spurdiffStartSnapshot")
+#ifndef _WIN32
+    SYMBOL(B_fork, "spurdiffFork")
+#endif
 #ifdef _WIN32
     void (*held)(const HANDLE *);
     SYMBOL(held, "winStdioHeld")
@@ -161,4 +165,9 @@ int inproc_start_snapshot(fmi2Component c, const unsigned char *sets, size_t n, 
     *bytes = NULL;
     *len = 0;
     return B_start_snapshot ? B_start_snapshot(c, sets, n, bytes, len) : -1;
+}
+
+long inproc_fork(void)
+{
+    return B_fork ? B_fork() : -1;
 }

@@ -34,6 +34,10 @@ typedef fmi2Status spurdiffNativeImportTYPE(fmi2Component c, const double *array
  * (malloc'd, *len), 0 none, -1 failed (nothing logged). */
 typedef int spurdiffStartSnapshotTYPE(fmi2Component c, const unsigned char *sets, size_t n, unsigned char **bytes,
                                       size_t *len);
+/* The bridge's fork for the model processes' zygote (spurdiffFork, POSIX only): the child's pid, 0 in
+ * the child, -1 on failure. */
+typedef long spurdiffForkTYPE(void);
+long inproc_fork(void);
 int inproc_start_snapshot(fmi2Component c, const unsigned char *sets, size_t n, unsigned char **bytes, size_t *len);
 int inproc_native_export(fmi2Component c, unsigned char **bytes, size_t *len);
 fmi2Status inproc_native_import(fmi2Component c, const double *arrays, size_t n, double time, int bad, long steps);

@@ -783,6 +783,35 @@ fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReferenc
     LEAVE
 }
 
+/* spurdiffFork: the model processes' zygote (fmi2_server.c) forks each one here: os.fork() with the
+ * GIL held (Python's own before- and after-fork handling). Before the first fork the objects made
+ * so far (the package, imported once in the zygote) are collected and frozen (gc.freeze): the
+ * children's collections never visit them, so their pages stay shared. The child's pid in the
+ * zygote, 0 in the child, -1 when Python could not fork. */
+long spurdiffFork(void)
+{
+    static int frozen;
+    PyGILState_STATE g = PyGILState_Ensure();
+    if (!frozen) {
+        PyObject *gc = PyImport_ImportModule("gc");
+        PyObject *a = gc ? PyObject_CallMethod(gc, "collect", NULL) : NULL;
+        PyObject *b = a ? PyObject_CallMethod(gc, "freeze", NULL) : NULL;
+        if (!b) PyErr_Clear();
+        Py_XDECREF(a);
+        Py_XDECREF(b);
+        Py_XDECREF(gc);
+        frozen = 1;
+    }
+    PyObject *os = PyImport_ImportModule("os");
+    PyObject *r = os ? PyObject_CallMethod(os, "fork", NULL) : NULL;
+    long pid = r ? PyLong_AsLong(r) : -1;
+    if (!r || pid < 0) PyErr_Clear();
+    Py_XDECREF(r);
+    Py_XDECREF(os);
+    PyGILState_Release(g);
+    return pid;
+}
+
 /* spurdiffDoStepEarly: fmi2DoStep that may end early at a stick/slip transition (FMI 3.0
  * earlyReturnAllowed): the slave's fmi2_do_step_early(t, h, nsp) returns (status, end time). */
 fmi2Status spurdiffDoStepEarly(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end)

@@ -50,6 +50,7 @@
 #define spurdiffNativeExport spurdiff_bridge_spurdiffNativeExport
 #define spurdiffNativeImport spurdiff_bridge_spurdiffNativeImport
 #define spurdiffStartSnapshot spurdiff_bridge_spurdiffStartSnapshot
+#define spurdiffFork spurdiff_bridge_spurdiffFork
 
 #define INSTANCE_MAGIC 0x5350444Du  /* "SPDM" */
 #define STATE_MAGIC 0x53544154u     /* "STAT" */

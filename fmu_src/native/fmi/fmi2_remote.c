@@ -54,6 +54,8 @@ typedef struct {
     IpcHeader *h;
     int shm_fd, pipe_w;
     pid_t pid;
+    void *folder;              /* the FMU folder's record (fmi2_remote_spawn.c: the zygote) */
+    int forked;                /* the server was forked by the folder's zygote */
     int dead;                  /* the server is gone: every call but free fails */
     pid_t owner;               /* the process that instantiated (a forked child is not) */
     uint32_t call;             /* the call out, and what call_watch knows of the server since it went out */
@@ -115,6 +117,21 @@ static const char *signal_name(int sig)
     return s ? s : "unknown signal";
 }
 
+/* The process `pid` has ended and waits to be reaped (/proc/<pid>/stat says Z or X). */
+static int zombie(pid_t pid)
+{
+    char path[64], buf[512];
+    snprintf(path, sizeof path, "/proc/%d/stat", (int)pid);
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return 0;
+    ssize_t n = read(fd, buf, sizeof buf - 1);
+    close(fd);
+    if (n <= 0) return 0;
+    buf[n] = 0;
+    char *q = strrchr(buf, ')');
+    return q && q[1] == ' ' && (q[2] == 'Z' || q[2] == 'X');
+}
+
 /* 1 while the server runs; else marks the instance dead and logs why (once). */
 static int server_alive(void *ctx)
 {
@@ -123,7 +140,14 @@ static int server_alive(void *ctx)
     int st;
     pid_t w = waitpid(r->pid, &st, WNOHANG);
     if (w == 0) return 1;
-    if (w < 0 && errno == ECHILD && kill(r->pid, 0) == 0) return 1;   /* reaped by someone else? still there */
+    if (w < 0 && errno == ECHILD) {   /* a zygote's process: the zygote reaps it and says how it ended */
+        if (atomic_load(&r->h->ended)) {
+            w = r->pid;
+            st = r->h->wait_status;
+        } else if (kill(r->pid, 0) == 0 && !zombie(r->pid)) {
+            return 1;   /* (a zygote's process whose zygote is gone ends: init reaps it, or nobody) */
+        }
+    }
     r->dead = 1;
     if (w == r->pid && WIFSIGNALED(st))
         sayf(r, fmi2Error, "the model's process (pid %d) ended with signal %d (%s): the instance is lost; "
@@ -301,7 +325,7 @@ fmi2Component remote_instantiate(fmi2String name, fmi2Type type, fmi2String guid
     r->owner = getpid();
     r->name = strdup(name ? name : "");
     if (cb) r->cb = *cb;
-    if (spawn_server(resources, bindir, &r->shm_fd, &r->base, &r->pipe_w, &r->pid, err, errsize) != 0) {
+    if (spawn_server(resources, bindir, &r->shm_fd, &r->base, &r->pipe_w, &r->pid, &r->folder, &r->forked, err, errsize) != 0) {
         drop(r);
         return NULL;
     }
@@ -321,7 +345,9 @@ fmi2Component remote_instantiate(fmi2String name, fmi2Type type, fmi2String guid
             IpcBuf f = request(r);
             roundtrip(r, CALL_FREE, 0, &f);
         }
+        if (r->pipe_w >= 0) { close(r->pipe_w); r->pipe_w = -1; }
         reap_server(r->pid, 2000);
+        release_server(r->folder, r->forked);
         drop(r);
         return NULL;
     }
@@ -351,6 +377,7 @@ static void remote_free(fmi2Component c)
     }
     if (r->pipe_w >= 0) { close(r->pipe_w); r->pipe_w = -1; }   /* the server sees end of file */
     reap_server(r->pid, 5000);
+    release_server(r->folder, r->forked);
     drop(r);
 }
 

@@ -9,11 +9,17 @@
 #include <sys/types.h>
 
 /* Make the shared memory (*shm_fd, mapped at *base, its header written) and the pipe (*pipe_w the
- * host's end), start the server for `resources` and `bindir`: 0, or -1 with the reason in `err`
- * (what was made so far is in the out arguments, for the caller to close). */
+ * host's end), start the server for `resources` and `bindir`: directly for the first instance of
+ * the folder in this host process, forked by the folder's zygote (*forked 1) while another lives
+ * (SPURDIFF_FMU_ZYGOTE=0: always directly). *folder is the handle for release_server. 0, or -1
+ * with the reason in `err` (what was made so far is in the out arguments, for the caller to close). */
 SPAWN_INTERNAL int spawn_server(const char *resources, const char *bindir, int *shm_fd, void **base, int *pipe_w,
-                                pid_t *pid, char *err, size_t errsize);
-/* Wait up to `ms` for the server `pid` to exit; SIGKILL after that (nothing for pid <= 0). */
+                                pid_t *pid, void **folder, int *forked, char *err, size_t errsize);
+/* Wait up to `ms` for the server `pid` to exit (a zygote's: to be reaped by it); SIGKILL after that
+ * (nothing for pid <= 0). */
 SPAWN_INTERNAL void reap_server(pid_t pid, int ms);
+/* The instance of a server from spawn_server is gone (after reap_server): a zygote ends with the
+ * last instance it forked. */
+SPAWN_INTERNAL void release_server(void *folder, int forked);
 
 #endif

@@ -1,7 +1,8 @@
 /* The model's own process: binaries/<platform>/spurdiff_fmu_server RESOURCES BINDIR.
  *
  * Started by the loader (fmi2_remote.c) when the host cannot share its Python with the FMU's
- * runtime. It inherits the shared memory (fd 3, see ipc.h) and the read end of a pipe whose write
+ * runtime: forked by the zygote of the host process and FMU folder (`--zygote`, below), or started
+ * directly (SPURDIFF_FMU_ZYGOTE=0, or a zygote that failed). It inherits the shared memory (fd 3, see ipc.h) and the read end of a pipe whose write
  * end only the host holds (fd 4), loads the runtime and the bridge in this process
  * (fmi2_inproc.c, the same code a C host runs in process), and serves one instance's FMI calls
  * until fmi2FreeInstance, or until the host process is gone (the pipe reads end of file: the
@@ -14,6 +15,7 @@
  */
 #define _GNU_SOURCE
 #include <errno.h>
+#include <fcntl.h>
 #include <limits.h>
 #include <poll.h>
 #include <signal.h>
@@ -22,6 +24,8 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include "fmi2_inproc.h"
@@ -432,16 +436,10 @@ static fmi2Status serve_deferred(IpcBuf *pre, uint32_t then)
     return worst;
 }
 
-int main(int argc, char **argv)
+/* Serve one instance on the inherited shared memory and pipe (IPC_SHM_FD, IPC_PIPE_FD) until
+ * fmi2FreeInstance or the host's end; `loaded` 0: every call answers `err`. The exit status. */
+static int serve_instance(int loaded, const char *err)
 {
-    char err[8192];
-    RuntimeCfg cfg;
-    signal(SIGPIPE, SIG_IGN);
-    HOST_PID = getppid();
-    if (argc != 3) {
-        fprintf(stderr, "usage: spurdiff_fmu_server RESOURCES BINDIR (started by the FMU's loader)\n");
-        return 2;
-    }
     BASE = mmap(NULL, IPC_SIZE, PROT_READ | PROT_WRITE, MAP_SHARED, IPC_SHM_FD, 0);
     if (BASE == MAP_FAILED) {
         fprintf(stderr, "spurdiff_fmu_server: no shared memory on fd %d: %s\n", IPC_SHM_FD, strerror(errno));
@@ -452,9 +450,6 @@ int main(int argc, char **argv)
         fprintf(stderr, "spurdiff_fmu_server: the shared memory is not this protocol's\n");
         return 2;
     }
-    /* the runtime and the bridge; a failure is the answer to the first call */
-    int loaded = cfg_read(argv[1], &cfg, err, sizeof err) == 0 &&
-                 inproc_load(&cfg, argv[1], argv[2], &T, err, sizeof err) == 0;
     uint32_t seen = 0;
     IpcSpin spin = {50000, 50000, 0};   /* up to 50 us for the host's next call (while it pays) */
     for (;;) {
@@ -489,4 +484,169 @@ int main(int argc, char **argv)
         ipc_publish(&H->resp, seen, &H->host_sleeps);
         if (bye) return 0;
     }
+}
+
+/* ---------------------------------------------------------------------------- the zygote
+ * spurdiff_fmu_server --zygote RESOURCES BINDIR: the model processes of one host process and FMU
+ * folder, forked from one that started the runtime and imported the package once (an instance
+ * made and freed: what every instance imports), so that the imported modules' memory is shared
+ * between them (gc.freeze in the bridge's fork keeps it so) and a second instance starts without
+ * importing anything. Started by the loader (fmi2_remote_spawn.c) with a socket on ZYGOTE_SOCK_FD
+ * and the read end of a pipe only the host writes on IPC_PIPE_FD. Each request: one byte with an
+ * instance's shared memory and pipe (SCM_RIGHTS); the answer: the forked process's pid (int32, or
+ * -errno). The zygote reaps its processes and writes each one's wait status into its shared
+ * memory's header (ended, wait_status: what the loader says when a process is gone). It ends when
+ * the loader closes the socket (its last instance freed, or the loader unloaded) or the host is
+ * gone; its processes then end too (their parent changed: host_alive). */
+typedef struct { pid_t pid; IpcHeader *h; } Child;
+static Child *children;
+static size_t n_children, cap_children;
+static int chld_pipe[2] = {-1, -1};
+
+static void on_chld(int sig)
+{
+    (void)sig;
+    int e = errno;
+    if (chld_pipe[1] >= 0) { ssize_t w = write(chld_pipe[1], "c", 1); (void)w; }
+    errno = e;
+}
+
+/* Reap the ended processes; each one's status goes to its header (the loader reads it). */
+static void reap_children(void)
+{
+    int st;
+    pid_t pid;
+    while ((pid = waitpid(-1, &st, WNOHANG)) > 0) {
+        for (size_t i = 0; i < n_children; i++) {
+            if (children[i].pid != pid) continue;
+            if (children[i].h) {
+                children[i].h->wait_status = st;
+                atomic_store(&children[i].h->ended, 1);
+                munmap(children[i].h, IPC_HEADER);
+            }
+            children[i] = children[--n_children];
+            break;
+        }
+    }
+}
+
+/* One request's two descriptors (shared memory, pipe): 1, 0 at end of file, -1 on error. */
+static int take_request(int fds[2])
+{
+    char byte;
+    struct iovec io = {&byte, 1};
+    union { struct cmsghdr align; char buf[CMSG_SPACE(2 * sizeof(int))]; } u;
+    struct msghdr m = {0};
+    m.msg_iov = &io;
+    m.msg_iovlen = 1;
+    m.msg_control = u.buf;
+    m.msg_controllen = sizeof u.buf;
+    ssize_t n = recvmsg(ZYGOTE_SOCK_FD, &m, MSG_CMSG_CLOEXEC);
+    if (n == 0) return 0;
+    if (n < 0) return errno == EINTR || errno == EAGAIN ? -2 : -1;
+    struct cmsghdr *c = CMSG_FIRSTHDR(&m);
+    if (!c || c->cmsg_level != SOL_SOCKET || c->cmsg_type != SCM_RIGHTS || c->cmsg_len != CMSG_LEN(2 * sizeof(int)))
+        return -1;
+    memcpy(fds, CMSG_DATA(c), 2 * sizeof(int));
+    return 1;
+}
+
+static void quiet(fmi2ComponentEnvironment env, fmi2String name, fmi2Status status, fmi2String category,
+                  fmi2String message, ...)
+{
+    (void)env; (void)name; (void)status; (void)category; (void)message;
+}
+
+static const fmi2CallbackFunctions QUIET = {quiet, calloc, free, NULL, NULL};
+
+static int zygote(const char *resources, const char *bindir)
+{
+    char err[8192];
+    RuntimeCfg cfg;
+    HOST_PID = getppid();
+    int have_cfg = cfg_read(resources, &cfg, err, sizeof err) == 0;
+    int loaded = have_cfg && inproc_load(&cfg, resources, bindir, &T, err, sizeof err) == 0;
+    if (loaded) {   /* what every instance imports, imported once (a failure is the instance's to say) */
+        fmi2Component c = T->fmi2Instantiate("zygote", fmi2CoSimulation, cfg.guid, resources, &QUIET, fmi2False,
+                                             fmi2False);
+        if (c) T->fmi2FreeInstance(c);
+    }
+    if (pipe2(chld_pipe, O_CLOEXEC | O_NONBLOCK) != 0) return 2;
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_chld;
+    sa.sa_flags = SA_RESTART | SA_NOCLDSTOP;
+    sigaction(SIGCHLD, &sa, NULL);
+    for (;;) {
+        struct pollfd p[3] = {{ZYGOTE_SOCK_FD, POLLIN, 0}, {IPC_PIPE_FD, POLLIN, 0}, {chld_pipe[0], POLLIN, 0}};
+        int r = poll(p, 3, 100);
+        if (r < 0 && errno != EINTR) break;
+        char drain[64];
+        while (read(chld_pipe[0], drain, sizeof drain) > 0) {}
+        reap_children();
+        if (getppid() != HOST_PID) break;   /* the host is gone */
+        if (r > 0 && (p[1].revents & (POLLHUP | POLLERR | POLLNVAL | POLLIN))) {
+            char c;
+            if (read(IPC_PIPE_FD, &c, 1) <= 0) break;   /* end of file: the host is gone */
+        }
+        if (r <= 0 || !(p[0].revents & (POLLIN | POLLHUP | POLLERR))) continue;
+        int fds[2];
+        int t = take_request(fds);
+        if (t == -2) continue;
+        if (t <= 0) break;   /* the loader closed its end: no instance of this FMU left in the host */
+        if (n_children == cap_children) {
+            size_t cap = cap_children ? 2 * cap_children : 16;
+            Child *more = (Child *)realloc(children, cap * sizeof *more);
+            if (more) { children = more; cap_children = cap; }
+        }
+        void *head = mmap(NULL, IPC_HEADER, PROT_READ | PROT_WRITE, MAP_SHARED, fds[0], 0);
+        long pid = n_children < cap_children ? (loaded ? inproc_fork() : (long)fork()) : -1;
+        int32_t answer = pid < 0 ? -(int32_t)ENOMEM : (int32_t)pid;
+        if (pid == 0) {   /* the instance's process */
+            signal(SIGCHLD, SIG_DFL);
+            close(chld_pipe[0]);
+            close(chld_pipe[1]);
+            if (head != MAP_FAILED) munmap(head, IPC_HEADER);
+            for (size_t i = 0; i < n_children; i++) if (children[i].h) munmap(children[i].h, IPC_HEADER);
+            free(children);
+            children = NULL;
+            n_children = cap_children = 0;
+            if (dup2(fds[0], IPC_SHM_FD) < 0 || dup2(fds[1], IPC_PIPE_FD) < 0) _exit(2);
+            close(fds[0]);
+            close(fds[1]);
+            HOST_PID = getppid();   /* the zygote: it ends with the host */
+            if (have_cfg) cfg_free(&cfg);
+            _exit(serve_instance(loaded, err));
+        }
+        if (pid > 0) {
+            children[n_children].pid = (pid_t)pid;
+            children[n_children].h = head != MAP_FAILED ? (IpcHeader *)head : NULL;
+            n_children++;
+        } else if (head != MAP_FAILED) {
+            munmap(head, IPC_HEADER);
+        }
+        close(fds[0]);
+        close(fds[1]);
+        if (send(ZYGOTE_SOCK_FD, &answer, sizeof answer, MSG_NOSIGNAL) != (ssize_t)sizeof answer) break;
+    }
+    if (have_cfg) cfg_free(&cfg);
+    return 0;
+}
+
+int main(int argc, char **argv)
+{
+    char err[8192];
+    RuntimeCfg cfg;
+    signal(SIGPIPE, SIG_IGN);
+    if (argc == 4 && strcmp(argv[1], "--zygote") == 0)
+        return zygote(argv[2], argv[3]);
+    HOST_PID = getppid();
+    if (argc != 3) {
+        fprintf(stderr, "usage: spurdiff_fmu_server [--zygote] RESOURCES BINDIR (started by the FMU's loader)\n");
+        return 2;
+    }
+    /* the runtime and the bridge; a failure is the answer to the first call */
+    int loaded = cfg_read(argv[1], &cfg, err, sizeof err) == 0 &&
+                 inproc_load(&cfg, argv[1], argv[2], &T, err, sizeof err) == 0;
+    return serve_instance(loaded, err);
 }

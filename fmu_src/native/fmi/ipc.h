@@ -22,13 +22,14 @@
 #include <string.h>
 
 #define IPC_MAGIC 0x53504950u     /* "SPIP" */
-#define IPC_VERSION 4u
+#define IPC_VERSION 5u
 #define IPC_HEADER 4096u
 #define IPC_LOG_CAP (1u << 20)
 #define IPC_DATA_CAP ((size_t)63 << 20)
 #define IPC_SIZE ((size_t)IPC_HEADER + IPC_LOG_CAP + IPC_DATA_CAP)
 #define IPC_SHM_FD 3              /* the server's inherited descriptors */
 #define IPC_PIPE_FD 4             /* read end: end of file when the host process is gone */
+#define ZYGOTE_SOCK_FD 3          /* the zygote's (fmi2_server.c --zygote): its socket to the loader */
 
 enum {
     CALL_INSTANTIATE = 1, CALL_FREE, CALL_SET_DEBUG_LOGGING, CALL_SETUP_EXPERIMENT, CALL_ENTER_INIT,
@@ -57,6 +58,8 @@ typedef struct {
     uint64_t pre_len;                /* bytes of deferred calls before the call in data */
     uint64_t log_len;                /* bytes of log records in the log area */
     uint32_t log_dropped;            /* records that did not fit */
+    _Atomic int32_t ended;           /* the zygote, once it reaped this instance's process: 1 */
+    int32_t wait_status;             /* ... and that process's waitpid status */
 } IpcHeader;
 
 static inline unsigned char *ipc_log(void *base) { return (unsigned char *)base + IPC_HEADER; }

@@ -143,9 +143,16 @@ def pss(pid):
     for line in open(f'/proc/{pid}/smaps_rollup'):
         if line.startswith('Pss:'):
             return int(line.split()[1])
-kids = []
-for t in os.listdir('/proc/self/task'):
-    kids += [int(x) for x in open(f'/proc/self/task/{t}/children').read().split()]
+def children(pid):
+    out = []
+    for t in os.listdir(f'/proc/{pid}/task'):
+        out += [int(x) for x in open(f'/proc/{pid}/task/{t}/children').read().split()]
+    return out
+kids, todo = [], children(os.getpid())   # every model process: the zygote's too (its children)
+while todo:
+    k = todo.pop()
+    kids.append(k)
+    todo += children(k)
 print('PSS', pss(os.getpid()), *[pss(k) for k in kids])
 for s in slaves:
     s.terminate(); s.freeInstance()
