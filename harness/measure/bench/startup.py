@@ -13,8 +13,11 @@ Each measure runs both FMUs interleaved in the same command, so machine noise hi
   imported; timed from before ``fmi2Instantiate`` to after ``fmi2ExitInitializationMode``),
   median: with the model in the host's process, and in its own process (``SPURDIFF_FMU_PROCESS=out``:
   the loader's choice in a host whose Python is not the runtime's version, fmu_src/native/fmi/fmi2_loader.c);
-* the own process's memory: PSS (``/proc/<pid>/smaps_rollup``) of each model process of N instances
-  in one host (shared pages split among the processes that map them);
+* the own process's memory: PSS (``/proc/<pid>/smaps_rollup``, shared pages split among the
+  processes that map them) of every model process of :data:`PSS_INSTANCES` instances in one host,
+  summed and divided by the instances: the first instance's process started directly, the others
+  forked by the FMU folder's zygote (fmu_src/native/fmi/fmi2_server.c --zygote, its own PSS
+  included); and, in the same run, every process started directly (``SPURDIFF_FMU_ZYGOTE=0``);
 * per step in fmpy with the FMU's defaults: ``setReal`` of every Real input, ``doStep`` (5 ms),
   ``getReal`` of every Real output (fmpy's Python API, as a script would call it), fastest of the
   rounds; and the same with the C FMU's one input and two outputs.
@@ -45,6 +48,7 @@ HOST_SOURCE = Path(__file__).with_name("startup_host.c")
 ROOT = Path(__file__).resolve().parents[3]   # the checkout: harness/measure/bench/ -> .
 CHK_BUILD = ROOT / "tests" / "broken_fmus" / "chk_build.py"
 STEP = 0.005
+PSS_INSTANCES = 20     # the count: own-process instances in one host for the memory measure
 
 
 def c_fmu() -> Path | None:
@@ -277,7 +281,8 @@ def measure(ours: Path, theirs: Path, runs: int = 5, before: Path | None = None)
         for _ in range(2):
             for name in fmus:
                 step[name].append(per_step(fmus[name], unz[name], env=envs[name]))
-        pss = {k: own_process_pss(fmus[k], unz[k], 4, envs[k]) for k in ourside}
+        pss = {k: own_process_pss(fmus[k], unz[k], PSS_INSTANCES, envs[k]) for k in ourside}
+        pss["direct"] = own_process_pss(ours, unz["ours"], PSS_INSTANCES, {**PYTHON_START, "SPURDIFF_FMU_ZYGOTE": "0"})
         from fmpy import read_model_description
         reals = [v for v in read_model_description(str(unz["ours"] / "modelDescription.xml")).modelVariables
                  if v.type == "Real"]
@@ -303,7 +308,10 @@ def _row(label: str, ours: str, python: str, c: str, ratio: str, target: str) ->
 
 def _pss(m: dict, k: str) -> str:
     kids = m["pss"][k]
-    return (", ".join(f"{x:.1f}" for x in kids) + " MB each") if kids else "no model process"
+    if not kids:
+        return "no model process"
+    return (f"{sum(kids) / PSS_INSTANCES:.1f} MB per instance ({len(kids)} processes, {sum(kids):.0f} MB, "
+            f"the largest {max(kids):.1f} MB)")
 
 
 def _lines(m: dict, k: str, fmu: Path, runs: int) -> list[str]:
@@ -339,9 +347,11 @@ def _lines(m: dict, k: str, fmu: Path, runs: int) -> list[str]:
                  f"{s[k] / s['c']:.1f}", "<= 3x"),
             _row("  the same through ctypes, arrays made once, us", f"{d[k]:.1f}", f"{d[p]:.1f}", f"{d['c']:.1f}",
                  f"{d[k] / d['c']:.1f}", ""),
-            f"   own-process instance PSS (4 instances in one fmpy host, SPURDIFF_FMU_PROCESS=out; target <= 8 MB "
-            f"each): native: {_pss(m, k)} (host {m['pss_host'][k]:.1f} MB); Python: {_pss(m, p)} "
-            f"(host {m['pss_host'][p]:.1f} MB)"]
+            f"   own-process memory, PSS of every model process / {PSS_INSTANCES} instances in one fmpy host "
+            f"(SPURDIFF_FMU_PROCESS=out; target <= 8 MB each): native: {_pss(m, k)}; Python: {_pss(m, p)} "
+            f"(host {m['pss_host'][p]:.1f} MB)"
+            + (f"; Python, every process started directly (SPURDIFF_FMU_ZYGOTE=0, no zygote): {_pss(m, 'direct')}"
+               if k == "ours" else "")]
 
 
 def report(runs: int = 5, before: Path | None = None) -> list[str]:
