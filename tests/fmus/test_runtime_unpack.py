@@ -29,6 +29,7 @@ SOURCE = r"""
 #define _GNU_SOURCE
 #include "runtime_cfg.h"
 int t_inflate(const uint8_t *in, size_t n, uint8_t *out, size_t m) { return ru_inflate(in, n, out, m); }
+int t_unlzma(const uint8_t *in, size_t n, uint8_t *out, size_t m) { return ru_unlzma(in, n, out, m); }
 void t_sha(const uint8_t *in, size_t n, char *hex) { RuSha s; ru_sha_init(&s); ru_sha_add(&s, in, n); ru_sha_hex(&s, hex); }
 unsigned t_crc(const uint8_t *in, size_t n) { return ru_crc32(in, n); }
 int t_root(const char *res, int n, char **rel, char **hex, char *out, size_t size, char *err, size_t es)
@@ -47,6 +48,7 @@ def lib(tmp_path_factory):
     assert r.returncode == 0, r.stderr
     so = ctypes.CDLL(str(folder / "t.so"))
     so.t_inflate.argtypes = [ctypes.c_char_p, ctypes.c_size_t, ctypes.c_char_p, ctypes.c_size_t]
+    so.t_unlzma.argtypes = [ctypes.c_char_p, ctypes.c_size_t, ctypes.c_char_p, ctypes.c_size_t]
     so.t_sha.argtypes = [ctypes.c_char_p, ctypes.c_size_t, ctypes.c_char_p]
     so.t_crc.argtypes = [ctypes.c_char_p, ctypes.c_size_t]
     so.t_crc.restype = ctypes.c_uint
@@ -90,6 +92,61 @@ def test_inflate_refuses_short_long_and_garbled_streams(lib):
         rc, out = _inflate(lib, bytes(bad), len(data))
         assert rc != 0 or len(out) == len(data)
     assert _inflate(lib, b"\x07", 10)[0] != 0                # block type 3 does not exist
+
+
+def _lzma_member(data: bytes, filters: dict | None = None) -> bytes:
+    """``data`` as the LZMA data of a zip member of method 14: version, the properties' size and the
+    properties, then the raw LZMA1 stream with its end marker (as zipfile writes it)."""
+    import lzma
+    f = {"id": lzma.FILTER_LZMA1, **(filters or {})}
+    props = lzma._encode_filter_properties(f)
+    return bytes([9, 4, len(props), 0]) + props + lzma.compress(data, format=lzma.FORMAT_RAW, filters=[f])
+
+
+def _unlzma(lib, member: bytes, n: int) -> tuple[int, bytes]:
+    out = ctypes.create_string_buffer(max(n, 1))
+    return lib.t_unlzma(member, len(member), out, n), out.raw[:n]
+
+
+def test_unlzma_gives_lzmas_input_back_for_presets_and_properties(lib):
+    import lzma
+    for data in _samples():
+        for f in ({"preset": 0}, {"preset": 6}, {"preset": 9 | lzma.PRESET_EXTREME}, {"lc": 0, "lp": 2, "pb": 0},
+                  {"lc": 4, "lp": 0, "pb": 4}, {"lc": 0, "lp": 4, "pb": 1, "dict_size": 4096}, {"mode": lzma.MODE_FAST}):
+            rc, out = _unlzma(lib, _lzma_member(data, f), len(data))
+            assert rc == 0 and out == data, (len(data), f)
+    # what the packer writes: zipfile's LZMA members (the end marker flagged)
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_LZMA) as z:
+        z.writestr("a", _samples()[4])
+    with zipfile.ZipFile(buf) as z:
+        info = z.infolist()[0]
+        assert info.compress_type == zipfile.ZIP_LZMA and info.flag_bits & 2
+        raw = buf.getvalue()[info.header_offset + 30 + len(info.filename) + len(info.extra):][:info.compress_size]
+    rc, out = _unlzma(lib, raw, info.file_size)
+    assert rc == 0 and out == _samples()[4]
+
+
+def test_unlzma_refuses_short_long_and_garbled_streams(lib):
+    data = _samples()[4]
+    member = _lzma_member(data)
+    assert _unlzma(lib, member, len(data) - 1)[0] != 0          # more output than room
+    assert _unlzma(lib, member, len(data) + 1)[0] != 0          # less output than announced
+    assert _unlzma(lib, member[:-3], len(data))[0] != 0         # the stream cut short
+    assert _unlzma(lib, member[:40], len(data))[0] != 0
+    assert _unlzma(lib, b"\x09\x04\x05\x00\xff" + member[5:], len(data))[0] != 0   # lc/lp/pb out of range
+    assert _unlzma(lib, b"\x09\x04\x06\x00" + member[4:], len(data))[0] != 0    # properties of another size
+    assert _unlzma(lib, b"", 0)[0] != 0
+    rnd = __import__("random").Random(5)
+    for _ in range(300):                                        # garbled: refused or wrong, never a crash
+        bad = bytearray(member)
+        for _ in range(4):
+            bad[rnd.randrange(9, len(bad))] = rnd.getrandbits(8)
+        rc, out = _unlzma(lib, bytes(bad), len(data))
+        assert rc != 0 or len(out) == len(data)
+    for _ in range(200):                                        # random bytes after a valid header
+        junk = member[:9] + bytes([0]) + bytes(rnd.getrandbits(8) for _ in range(rnd.randrange(4, 400)))
+        _unlzma(lib, junk, rnd.randrange(0, 5000))
 
 
 def test_sha256_and_crc32_agree_with_hashlib_and_zlib(lib):

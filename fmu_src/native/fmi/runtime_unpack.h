@@ -7,7 +7,7 @@
  * Why: a host unzips the whole FMU at every extraction; some 30 MB of CPython in 200 files for two
  * platforms made that unzip the whole run's cost. The runtime's files now travel as a few members
  * the host's unzip copies (stored: resources/runtime/common.zip, linux64.zip, win64.zip, each
- * deflated inside), listed in the runtime description with their SHA-256 (`archive=<hex> <path>`).
+ * LZMA inside), listed in the runtime description with their SHA-256 (`archive=<hex> <path>`).
  * A start that needs the Python (not the native start) unpacks them here:
  *
  *   <cache>/spurdiff/python-<key>/   key: the first 16 hex digits of the SHA-256 of the listed digests
@@ -21,7 +21,7 @@
  * folder holds the marker naming its key; anything else is refused with one line naming
  * it, never deleted. Unpacking: each archive's SHA-256 checked against the description, every
  * member's name checked to stay inside (relative, no '..', no '\', no ':'), inflated by the
- * decoder below (RFC 1951; stored members copied), its size and CRC-32 checked, written into a
+ * decoders below (deflate, RFC 1951; LZMA with its end marker; stored members copied), its size and CRC-32 checked, written into a
  * fresh private temporary folder beside the target with O_EXCL, the marker last, then the folder
  * renamed into place (a process that renamed first wins; its folder is used, this one removed).
  * Before an unpack, the temporary folders of earlier unpacks whose process died halfway, and the
@@ -354,6 +354,187 @@ RU_FN int ru_inflate(const uint8_t *in, size_t in_len, uint8_t *out, size_t out_
     free(lit);
     free(dist);
     return rc == 0 && s.out_pos == out_len ? 0 : -1;
+}
+
+/* ------------------------------------------------------------------------------------ LZMA
+ * An LZMA (LZMA1) decoder for the archives' members of zip method 14, written from the format's
+ * description (Igor Pavlov's lzma-specification, public domain): a range decoder over adaptive
+ * binary probabilities, literals (matched against the byte at the last distance after a match),
+ * matches with lengths from two length coders and distances from position slots, reverse bit trees
+ * and direct bits, the four last distances. The whole member is the window (its size is known):
+ * every distance is checked against what was written, every input byte against the input's end. */
+typedef struct { const uint8_t *in; size_t len, pos; uint32_t range, code; int bad; } RuRc;
+
+static inline void ru_rc_norm(RuRc *r)
+{
+    if (r->range < (1u << 24)) {
+        r->range <<= 8;
+        r->code = (r->code << 8) | (r->pos < r->len ? r->in[r->pos] : 0);
+        if (r->pos++ >= r->len) r->bad = 1;
+    }
+}
+
+static inline unsigned ru_rc_bit(RuRc *r, uint16_t *p)
+{
+    uint32_t bound = (r->range >> 11) * *p;
+    unsigned b;
+    if (r->code < bound) { *p = (uint16_t)(*p + ((2048u - *p) >> 5)); r->range = bound; b = 0; }
+    else { *p = (uint16_t)(*p - (*p >> 5)); r->code -= bound; r->range -= bound; b = 1; }
+    ru_rc_norm(r);
+    return b;
+}
+
+static uint32_t ru_rc_direct(RuRc *r, unsigned n)
+{
+    uint32_t res = 0;
+    while (n--) {
+        r->range >>= 1;
+        r->code -= r->range;
+        uint32_t t = 0u - (r->code >> 31);
+        r->code += r->range & t;
+        if (r->code == r->range) r->bad = 1;
+        ru_rc_norm(r);
+        res = (res << 1) + (t + 1);
+    }
+    return res;
+}
+
+static unsigned ru_rc_tree(RuRc *r, uint16_t *probs, unsigned bits)
+{
+    unsigned m = 1;
+    for (unsigned i = 0; i < bits; i++) m = (m << 1) + ru_rc_bit(r, &probs[m]);
+    return m - (1u << bits);
+}
+
+static unsigned ru_rc_tree_rev(RuRc *r, uint16_t *probs, unsigned bits)
+{
+    unsigned m = 1, sym = 0;
+    for (unsigned i = 0; i < bits; i++) {
+        unsigned b = ru_rc_bit(r, &probs[m]);
+        m = (m << 1) + b;
+        sym |= b << i;
+    }
+    return sym;
+}
+
+typedef struct { uint16_t choice, choice2, low[16][8], mid[16][8], high[256]; } RuLzLen;
+
+static unsigned ru_lz_len(RuRc *r, RuLzLen *l, unsigned pos_state)
+{
+    if (!ru_rc_bit(r, &l->choice)) return ru_rc_tree(r, l->low[pos_state], 3);
+    if (!ru_rc_bit(r, &l->choice2)) return 8 + ru_rc_tree(r, l->mid[pos_state], 3);
+    return 16 + ru_rc_tree(r, l->high, 8);
+}
+
+typedef struct {
+    uint16_t is_match[12 << 4], is_rep[12], is_rep_g0[12], is_rep_g1[12], is_rep_g2[12], is_rep0_long[12 << 4];
+    uint16_t pos_slot[4][64], pos[115], align[16];
+    RuLzLen len, rep_len;
+} RuLzProbs;
+
+/* Decode the LZMA data of a zip member (method 14: version, the properties' size 5, lc/lp/pb and
+ * the dictionary's size, then the range-coded stream ending with the end marker, as zipfile and
+ * liblzma write it) into exactly `out_len` bytes at `out`, the marker right after the last byte. 0,
+ * or -1 when the data is not such a stream. */
+RU_FN int ru_unlzma(const uint8_t *in, size_t in_len, uint8_t *out, size_t out_len)
+{
+    if (in_len < 9 || in[2] != 5 || in[3] != 0 || in[4] >= 9 * 5 * 5) return -1;
+    unsigned d = in[4], lc = d % 9, lp = (d / 9) % 5, pb = d / 45;
+    if (lc + lp > 12) return -1;
+    size_t n_lit = (size_t)0x300 << (lc + lp);
+    uint16_t *lit = (uint16_t *)malloc(n_lit * sizeof *lit);
+    RuLzProbs *p = (RuLzProbs *)malloc(sizeof *p);
+    if (!lit || !p) { free(lit); free(p); return -1; }
+    for (size_t i = 0; i < n_lit; i++) lit[i] = 1024;
+    uint16_t *flat = (uint16_t *)p;
+    for (size_t i = 0; i < sizeof *p / sizeof *flat; i++) flat[i] = 1024;
+    RuRc r = {in + 9, in_len - 9, 0, 0xFFFFFFFFu, 0, 0};
+    if (r.len < 5 || r.in[0] != 0) r.bad = 1;
+    for (int i = 1; i < 5 && !r.bad; i++) r.code = (r.code << 8) | r.in[i];
+    r.pos = 5;
+    if (r.code == r.range) r.bad = 1;
+    size_t at = 0;
+    uint32_t rep0 = 0, rep1 = 0, rep2 = 0, rep3 = 0;
+    unsigned state = 0, pb_mask = (1u << pb) - 1, lp_mask = (1u << lp) - 1;
+    int rc = -1;
+    while (!r.bad) {
+        unsigned ps = (unsigned)at & pb_mask;
+        if (!ru_rc_bit(&r, &p->is_match[(state << 4) + ps])) {   /* a literal */
+            if (at == out_len) break;
+            unsigned prev = at ? out[at - 1] : 0;
+            uint16_t *probs = lit + 0x300 * (size_t)((((unsigned)at & lp_mask) << lc) + (prev >> (8 - lc)));
+            unsigned sym = 1;
+            if (state >= 7) {   /* after a match: against the byte at the last distance */
+                if (rep0 >= at) break;
+                unsigned mb = out[at - rep0 - 1];
+                do {
+                    unsigned mbit = (mb >> 7) & 1;
+                    mb <<= 1;
+                    unsigned b = ru_rc_bit(&r, &probs[((1 + mbit) << 8) + sym]);
+                    sym = (sym << 1) | b;
+                    if (mbit != b) break;
+                } while (sym < 0x100);
+            }
+            while (sym < 0x100) sym = (sym << 1) | ru_rc_bit(&r, &probs[sym]);
+            out[at++] = (uint8_t)sym;
+            state = state < 4 ? 0 : (state < 10 ? state - 3 : state - 6);
+            continue;
+        }
+        unsigned len;
+        if (ru_rc_bit(&r, &p->is_rep[state])) {   /* one of the last four distances */
+            if (at == 0 || at == out_len) break;
+            if (!ru_rc_bit(&r, &p->is_rep_g0[state])) {
+                if (!ru_rc_bit(&r, &p->is_rep0_long[(state << 4) + ps])) {   /* one byte */
+                    if (rep0 >= at) break;
+                    out[at] = out[at - rep0 - 1];
+                    at++;
+                    state = state < 7 ? 9 : 11;
+                    continue;
+                }
+            } else {
+                uint32_t dist;
+                if (!ru_rc_bit(&r, &p->is_rep_g1[state])) {
+                    dist = rep1;
+                } else {
+                    if (!ru_rc_bit(&r, &p->is_rep_g2[state])) dist = rep2;
+                    else { dist = rep3; rep3 = rep2; }
+                    rep2 = rep1;
+                }
+                rep1 = rep0;
+                rep0 = dist;
+            }
+            len = ru_lz_len(&r, &p->rep_len, ps);
+            state = state < 7 ? 8 : 11;
+        } else {   /* a match: its length, then its distance */
+            rep3 = rep2; rep2 = rep1; rep1 = rep0;
+            len = ru_lz_len(&r, &p->len, ps);
+            state = state < 7 ? 7 : 10;
+            unsigned slot = ru_rc_tree(&r, p->pos_slot[len < 3 ? len : 3], 6);
+            if (slot < 4) {
+                rep0 = slot;
+            } else {
+                unsigned nd = (slot >> 1) - 1;
+                uint32_t dist = (2u | (slot & 1)) << nd;
+                if (slot < 14) dist += ru_rc_tree_rev(&r, p->pos + dist - slot, nd);
+                else dist += (ru_rc_direct(&r, nd - 4) << 4) + ru_rc_tree_rev(&r, p->align, 4);
+                rep0 = dist;
+            }
+            if (rep0 == 0xFFFFFFFFu) {   /* the end marker */
+                rc = at == out_len && r.code == 0 && !r.bad ? 0 : -1;
+                break;
+            }
+            if (at == out_len || rep0 >= at) break;
+        }
+        len += 2;
+        if (rep0 >= at || len > out_len - at) break;
+        uint8_t *o = out + at;
+        const uint8_t *from = o - rep0 - 1;
+        for (unsigned i = 0; i < len; i++) o[i] = from[i];   /* overlapping: byte by byte */
+        at += len;
+    }
+    free(lit);
+    free(p);
+    return rc;
 }
 
 /* ------------------------------------------------------------------- files and private folders */
@@ -868,7 +1049,7 @@ RU_FN int ru_unzip(const uint8_t *data, size_t len, const char *what, const char
             snprintf(err, errsize, "%s: member '%.*s' is not a relative name inside the folder", what, (int)(nlen > 200 ? 200 : nlen), name);
             return -1;
         }
-        if ((flags & 1) || (method != 0 && method != 8) || usize > RU_MAX_MEMBER) {
+        if ((flags & 1) || (method != 0 && method != 8 && !(method == 14 && (flags & 2))) || usize > RU_MAX_MEMBER) {
             snprintf(err, errsize, "%s: member '%.*s' is encrypted, of method %u or too large", what, (int)nlen, name, method);
             return -1;
         }
@@ -903,7 +1084,8 @@ RU_FN int ru_unzip(const uint8_t *data, size_t len, const char *what, const char
         uint8_t *out = (uint8_t *)malloc(usize ? usize : 1);
         if (!out) { snprintf(err, errsize, "out of memory unpacking %s", what); return -1; }
         int bad = method == 0 ? (csize != usize || (memcpy(out, data + at, usize), 0))
-                              : ru_inflate(data + at, csize, out, usize);
+                  : method == 8 ? ru_inflate(data + at, csize, out, usize)
+                                : ru_unlzma(data + at, csize, out, usize);
         if (bad || ru_crc32(out, usize) != crc) {
             free(out);
             snprintf(err, errsize, "%s: member '%s' does not unpack to its size and CRC-32 (the FMU is damaged)", what, rel);
