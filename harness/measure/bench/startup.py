@@ -249,14 +249,17 @@ def measure(ours: Path, theirs: Path, runs: int = 5, before: Path | None = None)
     tmp = Path(tempfile.mkdtemp(prefix="spurdiff-startup-"))
     try:
         host = _host(tmp)
-        fmus = {"ours": ours, "python": ours, "c": theirs, **({"before": before} if before is not None else {})}
-        envs = {k: PYTHON_START if k == "python" else {} for k in fmus}
+        fmus = {"ours": ours, "python": ours, "c": theirs,
+                **({"before": before, "before_python": before} if before is not None else {})}
+        envs = {k: PYTHON_START if k.endswith("python") else {} for k in fmus}
         ourside = [k for k in fmus if k != "c"]
         unz = {}
-        for name, f in fmus.items():
-            unz[name] = unz.get("ours") if name == "python" else tmp / f"unzipped-{name}"
-            if name != "python":
-                subprocess.run(["unzip", "-q", str(f), "-d", str(unz[name])], check=True)
+        for name, f in fmus.items():   # a Python start's column runs on its build's extraction
+            if name.endswith("python"):
+                unz[name] = unz["ours" if name == "python" else name.removesuffix("_python")]
+                continue
+            unz[name] = tmp / f"unzipped-{name}"
+            subprocess.run(["unzip", "-q", str(f), "-d", str(unz[name])], check=True)
         whole = {k: [] for k in fmus}
         init = {**{k: [] for k in fmus}, **{f"{k}_out": [] for k in ourside}}
         for name in fmus:    # warm the page cache once
@@ -318,7 +321,7 @@ def _lines(m: dict, k: str, fmu: Path, runs: int) -> list[str]:
     """The section's lines for ``k`` ("ours" or "before") of the measures ``m``; for "ours" its Python
     start ("python") beside it."""
     w, i, s, d = m["whole"], m["init"], m["step"], m["direct"]
-    p = "python" if k == "ours" else k
+    p = "python" if k == "ours" else f"{k}_python"
     mb = 1024 * 1024
     ms = "{:.1f} ms".format
     return [f"   {fmu.name} {m['size'][k] / mb:.1f} MB ({m['files'][k]} files, "

@@ -41,7 +41,8 @@ def test_fmi_path_cost_runs_both_loops_without_the_physics_and_restores_the_mode
     step = Vehicle.do_step
     c = bench.fmi_path_cost("vehicle-cornering", repeats=1)
     assert Vehicle.do_step is step                      # the models step again afterwards
-    assert 0.0 < c["direct_us"] < c["fmi_us"] < 1000.0 and c["instances"] == 4
+    # (no order asserted between the two measured times: a wall-clock comparison; the bench prints it)
+    assert 0.0 < c["direct_us"] < 1000.0 and 0.0 < c["fmi_us"] < 1000.0 and c["instances"] == 4
     assert c["per_instance_us"] == pytest.approx((c["fmi_us"] - c["direct_us"]) / 4)
     assert 1.0 <= c["setreal_calls_per_step"] <= 8.0   # the connections' inputs change every step
 
