@@ -616,7 +616,7 @@ static int zygote(const char *resources, const char *bindir)
             close(fds[1]);
             HOST_PID = getppid();   /* the zygote: it ends with the host */
             if (have_cfg) cfg_free(&cfg);
-            _exit(serve_instance(loaded, err));
+            exit(serve_instance(loaded, err));   /* as the directly started server returns from main */
         }
         if (pid > 0) {
             children[n_children].pid = (pid_t)pid;
