@@ -117,21 +117,6 @@ static const char *signal_name(int sig)
     return s ? s : "unknown signal";
 }
 
-/* The process `pid` has ended and waits to be reaped (/proc/<pid>/stat says Z or X). */
-static int zombie(pid_t pid)
-{
-    char path[64], buf[512];
-    snprintf(path, sizeof path, "/proc/%d/stat", (int)pid);
-    int fd = open(path, O_RDONLY | O_CLOEXEC);
-    if (fd < 0) return 0;
-    ssize_t n = read(fd, buf, sizeof buf - 1);
-    close(fd);
-    if (n <= 0) return 0;
-    buf[n] = 0;
-    char *q = strrchr(buf, ')');
-    return q && q[1] == ' ' && (q[2] == 'Z' || q[2] == 'X');
-}
-
 /* 1 while the server runs; else marks the instance dead and logs why (once). */
 static int server_alive(void *ctx)
 {
@@ -144,7 +129,7 @@ static int server_alive(void *ctx)
         if (atomic_load(&r->h->ended)) {
             w = r->pid;
             st = r->h->wait_status;
-        } else if (kill(r->pid, 0) == 0 && !zombie(r->pid)) {
+        } else if (kill(r->pid, 0) == 0 && !proc_ended(r->pid)) {
             return 1;   /* (a zygote's process whose zygote is gone ends: init reaps it, or nobody) */
         }
     }
@@ -173,25 +158,6 @@ static const char *call_name(uint32_t call)
         [CALL_NATIVE_IMPORT] = "giving the step back to the model's process",
         [CALL_START_SNAPSHOT] = "fmi2FreeInstance (the native start of the values set)"};
     return call < N_CALLS && names[call] ? names[call] : "the call";
-}
-
-/* The server's scheduling state and CPU time (ns) from /proc/<pid>/stat: 0, or -1 (not readable). */
-static int proc_state(pid_t pid, char *state, long long *cpu_ns)
-{
-    char path[64], buf[1024];
-    snprintf(path, sizeof path, "/proc/%d/stat", (int)pid);
-    int fd = open(path, O_RDONLY | O_CLOEXEC);
-    if (fd < 0) return -1;
-    ssize_t n = read(fd, buf, sizeof buf - 1);
-    close(fd);
-    if (n <= 0) return -1;
-    buf[n] = 0;
-    char *p = strrchr(buf, ')');     /* after the command's name, which may hold anything */
-    unsigned long long ut = 0, st = 0;
-    if (!p || sscanf(p + 1, " %c %*d %*d %*d %*d %*d %*u %*u %*u %*u %*u %llu %llu", state, &ut, &st) != 3) return -1;
-    long hz = sysconf(_SC_CLK_TCK);
-    *cpu_ns = (long long)(ut + st) * (1000000000LL / (hz > 0 ? hz : 100));
-    return 0;
 }
 
 /* The call's end without an answer: logged, the server killed, the instance lost. */

@@ -46,6 +46,32 @@ static int move_up(int fd)
     return up;
 }
 
+/* A process's scheduling state and CPU time (ns) from /proc/<pid>/stat: 0, or -1 (not readable). */
+int proc_state(pid_t pid, char *state, long long *cpu_ns)
+{
+    char path[64], buf[1024];
+    snprintf(path, sizeof path, "/proc/%d/stat", (int)pid);
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return -1;
+    ssize_t n = read(fd, buf, sizeof buf - 1);
+    close(fd);
+    if (n <= 0) return -1;
+    buf[n] = 0;
+    char *p = strrchr(buf, ')');     /* after the command's name, which may hold anything */
+    unsigned long long ut = 0, st = 0;
+    if (!p || sscanf(p + 1, " %c %*d %*d %*d %*d %*d %*u %*u %*u %*u %*u %llu %llu", state, &ut, &st) != 3) return -1;
+    long hz = sysconf(_SC_CLK_TCK);
+    *cpu_ns = (long long)(ut + st) * (1000000000LL / (hz > 0 ? hz : 100));
+    return 0;
+}
+
+int proc_ended(pid_t pid)
+{
+    char state = '?';
+    long long cpu;
+    return proc_state(pid, &state, &cpu) == 0 && (state == 'Z' || state == 'X');
+}
+
 void reap_server(pid_t pid, int ms)
 {
     if (pid <= 0) return;
@@ -183,21 +209,6 @@ static int zygote_start(Folder *f, const char *server)
     return 0;
 }
 
-/* The state letter of /proc/<pid>/stat ('?' when unreadable). */
-static char proc_letter(pid_t pid)
-{
-    char path[64], buf[512];
-    snprintf(path, sizeof path, "/proc/%d/stat", (int)pid);
-    int fd = open(path, O_RDONLY | O_CLOEXEC);
-    if (fd < 0) return '?';
-    ssize_t n = read(fd, buf, sizeof buf - 1);
-    close(fd);
-    if (n <= 0) return '?';
-    buf[n] = 0;
-    char *q = strrchr(buf, ')');
-    return q && q[1] == ' ' ? q[2] : '?';
-}
-
 /* Ask the zygote to fork an instance's process on (shm_fd, pipe_r): 0 and *pid, or -1 (gone,
  * stopped for 1 s, or no answer within ZYGOTE_ANSWER_MS). */
 static int zygote_fork(Folder *f, int shm_fd, int pipe_r, pid_t *pid)
@@ -230,8 +241,9 @@ static int zygote_fork(Folder *f, int shm_fd, int pipe_r, pid_t *pid)
         }
         if (r < 0 && errno != EINTR) return -1;
         if (waitpid(f->zpid, NULL, WNOHANG) != 0) { f->zpid = 0; return -1; }   /* it ended */
-        char st = proc_letter(f->zpid);
-        stopped = (st == 'T' || st == 't') ? stopped + 100 : 0;
+        char st = '?';
+        long long cpu;
+        stopped = proc_state(f->zpid, &st, &cpu) == 0 && (st == 'T' || st == 't') ? stopped + 100 : 0;
         if (stopped >= ZYGOTE_STOPPED_MS) return -1;
     }
     return -1;

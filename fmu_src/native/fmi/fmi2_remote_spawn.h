@@ -15,6 +15,10 @@
  * with the reason in `err` (what was made so far is in the out arguments, for the caller to close). */
 SPAWN_INTERNAL int spawn_server(const char *resources, const char *bindir, int *shm_fd, void **base, int *pipe_w,
                                 pid_t *pid, void **folder, int *forked, char *err, size_t errsize);
+/* A process's scheduling state letter and CPU time (ns) from /proc/<pid>/stat: 0, or -1 (not readable). */
+SPAWN_INTERNAL int proc_state(pid_t pid, char *state, long long *cpu_ns);
+/* The process `pid` has ended and waits to be reaped (Z or X): a zygote's whose zygote is gone. */
+SPAWN_INTERNAL int proc_ended(pid_t pid);
 /* Wait up to `ms` for the server `pid` to exit (a zygote's: to be reaped by it); SIGKILL after that
  * (nothing for pid <= 0). */
 SPAWN_INTERNAL void reap_server(pid_t pid, int ms);
