@@ -58,6 +58,121 @@ def solve_2x2(a11: float, a12: float, a21: float, a22: float, b1: float, b2: flo
     return (b1 * a22 - a12 * b2) / det, (a11 * b2 - a21 * b1) / det
 
 
+# Linear algebra on plain floats (lists of rows), in a fixed order of operations: the compiled kernels
+# do the same operations in the same order (mesh_kernel.c: lu, lu_solve, gj_inverse), so the two agree
+# bit for bit, and no BLAS or LAPACK is needed (the numpy an FMU carries has neither:
+# harness/build/numpy_blas.py).
+
+def _pivot_row(A: list, j: int) -> int:
+    """Partial pivoting: the row ``p >= j`` with the largest ``|A[p][j]|``, the first of equal ones
+    (the kernel's pivot search, the same comparisons)."""
+    p, amax = j, abs(A[j][j])
+    for i in range(j + 1, len(A)):
+        a = abs(A[i][j])
+        if a > amax:
+            p, amax = i, a
+    return p
+
+
+def lu_factor(A: list) -> tuple:
+    """LU factorization with partial pivoting of the rows ``A`` (a list of lists, changed in
+    place): (A holding L below the diagonal (unit diagonal) and U, the pivot rows), or (None, None)
+    for an exactly singular matrix. Plain floats in a fixed order of operations, the compiled
+    kernel's ``lu`` operation for operation (so the two agree bit for bit; a LAPACK call costs
+    more in call overhead than the about 170 operations of an 8x8)."""
+    N = len(A)
+    piv = [0] * N
+    for j in range(N):
+        p = piv[j] = _pivot_row(A, j)
+        if A[p][j] == 0.0:
+            return None, None
+        if p != j:
+            A[j], A[p] = A[p], A[j]
+        Aj = A[j]
+        inv = 1.0 / Aj[j]
+        for i in range(j + 1, N):
+            Ai = A[i]
+            lij = Ai[j] * inv
+            Ai[j] = lij
+            if lij != 0.0:
+                for k in range(j + 1, N):
+                    Ai[k] -= lij * Aj[k]
+    return A, piv
+
+
+def lu_solve(A: list, piv: list, b: list) -> list:
+    """x with (P L U) x = b from :func:`lu_factor` (the kernel's ``lu_solve``, the same order)."""
+    N = len(A)
+    x = list(b)
+    for j in range(N):
+        p = piv[j]
+        if p != j:
+            x[j], x[p] = x[p], x[j]
+    for i in range(1, N):
+        Ai = A[i]
+        s = x[i]
+        for k in range(i):
+            s -= Ai[k] * x[k]
+        x[i] = s
+    for i in range(N - 1, -1, -1):
+        Ai = A[i]
+        s = x[i]
+        for k in range(i + 1, N):
+            s -= Ai[k] * x[k]
+        x[i] = s / Ai[i]
+    return x
+
+
+def gj_inverse(A: list) -> list | None:
+    """The inverse of the square matrix ``A`` (rows, changed in place) by Gauss-Jordan elimination
+    with partial pivoting, or None for an exactly singular one (the kernel's ``gj_inverse``, the
+    same order)."""
+    m = len(A)
+    X = [[1.0 if i == j else 0.0 for j in range(m)] for i in range(m)]
+    for j in range(m):
+        p = _pivot_row(A, j)
+        if A[p][j] == 0.0:
+            return None
+        if p != j:
+            A[j], A[p] = A[p], A[j]
+            X[j], X[p] = X[p], X[j]
+        Aj, Xj = A[j], X[j]
+        inv = 1.0 / Aj[j]
+        for k in range(j + 1, m):
+            Aj[k] *= inv
+        for k in range(m):
+            Xj[k] *= inv
+        for i in range(m):
+            if i == j:
+                continue
+            Ai, Xi = A[i], X[i]
+            lij = Ai[j]
+            if lij != 0.0:
+                for k in range(j + 1, m):
+                    Ai[k] -= lij * Aj[k]
+                for k in range(m):
+                    Xi[k] -= lij * Xj[k]
+    return X
+
+
+def mat_mul(A: list, B: list) -> list:
+    """The product of the matrices ``A`` (m x k) and ``B`` (k x n), rows of plain floats, each entry summed
+    in the order of k."""
+    k = len(B)
+    out = []
+    for row in A:
+        if len(row) != k:
+            raise ValueError(f"a {len(A)} x {len(row)} matrix times a {k} x {len(B[0]) if B else 0} one")
+        r = []
+        for j in range(len(B[0]) if B else 0):
+            acc = row[0] * B[0][j] if k else 0.0
+            for q in range(1, k):
+                acc += row[q] * B[q][j]
+            r.append(acc)
+        out.append(r)
+    return out
+
+
 class SolverError(ArithmeticError):
     """A solver could not do its job (no sign change, a non-finite value, no convergence); the
     message names the function it was given and the numbers."""
@@ -310,10 +425,8 @@ def solve_system(f, x0, args: tuple = (), xtol: float = 1.49012e-8, maxiter: int
             J = np.asarray(jac(x, *args), dtype=float).reshape(x.size, x.size)
         if not np.all(np.isfinite(J)):
             return result(False, f"the Jacobian of {name} is not finite at x = {x.tolist()}", it)
-        try:
-            dx = np.linalg.solve(J, -fx)
-        except np.linalg.LinAlgError:
-            dx = None
+        LU, piv = lu_factor(J.tolist())
+        dx = None if LU is None else np.array(lu_solve(LU, piv, (-fx).tolist()))
         if dx is None or not np.all(np.isfinite(dx)):
             return result(False, f"the Jacobian of {name} is singular at x = {x.tolist()}", it)
         step = _norm(dx)
@@ -353,4 +466,5 @@ def solve_system(f, x0, args: tuple = (), xtol: float = 1.49012e-8, maxiter: int
                          f"(|F| = {fnorm:.3g} at x = {x.tolist()}, {fnorm0:.3g} at x0)", int(maxiter))
 
 
-__all__ = ["EPS", "SolverError", "find_root", "minimize_bounded", "Minimum", "solve_system", "SystemSolution"]
+__all__ = ["EPS", "SolverError", "find_root", "minimize_bounded", "Minimum", "solve_system", "SystemSolution",
+           "lu_factor", "lu_solve", "gj_inverse", "mat_mul"]

@@ -109,7 +109,8 @@ def script_text(name: str) -> str:
 
 # the build code besides this module and modeldescription.py (in harness.common.paths.sources_digest)
 BUILD_CODE = (tuple(Path(m.__file__).resolve() for m in (fmu_package, runtime_bundle, runtime_win64))
-              + (Path(__file__).resolve().with_name("fmu_contents.py"),) + runtime_bundle.CODE_FILES)
+              + (Path(__file__).resolve().with_name("fmu_contents.py"), Path(__file__).resolve().with_name("numpy_blas.py"))
+              + runtime_bundle.CODE_FILES)
 
 
 def source_digest(name: str) -> str:

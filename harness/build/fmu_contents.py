@@ -210,32 +210,38 @@ def _sourceless(path: Path, rel: str) -> bytes:
         return out.read_bytes()
 
 
-NUMPY_ARCHIVE_FORMAT = "lzma-pyc-1"    # how numpy_archive packs (part of its cached file's name)
+NUMPY_ARCHIVE_FORMAT = "lzma-pyc-2"    # how numpy_archive packs (part of its cached file's name)
 
 
 def numpy_archive(site: Path, out: Path) -> Path:
-    """numpy (numpy/ and numpy.libs/) of the site-packages folder ``site`` as one archive ``out``,
-    LZMA-compressed (a third smaller than deflate: fewer bytes for every host's unzip to copy; unpacked
-    once per user, which reads LZMA with the runtime's own ``_lzma``), members in sorted order with a
-    fixed time (the same bytes for the same numpy). Modules still in source form (the win64 wheel's)
-    become sourceless pycs (``module.pyc`` in place of ``module.py``): the FMU's Python writes no
-    bytecode, and would compile them at every start."""
-    with zipfile.ZipFile(out, "w", zipfile.ZIP_LZMA) as z:
-        for top in ("numpy", "numpy.libs"):
-            for p in sorted((site / top).rglob("*")):
-                if p.is_file():
-                    rel = p.relative_to(site).as_posix()
-                    mode = 0o755 if os.access(p, os.X_OK) else 0o644
-                    info = _entry(rel[:-3] + ".pyc" if p.suffix == ".py" else rel, mode)
-                    info.compress_type = zipfile.ZIP_LZMA
-                    z.writestr(info, _sourceless(p, rel) if p.suffix == ".py" else p.read_bytes())
+    """numpy (numpy/ and numpy.libs/) of the site-packages folder ``site`` as one archive ``out``, as
+    :func:`harness.build.numpy_blas.members` gives its files (OpenBLAS replaced by our BLAS, numpy.linalg's
+    LAPACK modules by a stand-in), LZMA-compressed (a third smaller than deflate: fewer bytes for every
+    host's unzip to copy; unpacked once per user, which reads LZMA with the runtime's own ``_lzma``),
+    members in sorted order with a fixed time (the same bytes for the same numpy). Modules still in
+    source form (the win64 wheel's, the stand-ins) become sourceless pycs (``module.pyc`` in place of
+    ``module.py``): the FMU's Python writes no bytecode, and would compile them at every start."""
+    import tempfile
+
+    from harness.build import numpy_blas
+
+    with tempfile.TemporaryDirectory(prefix="spurdiff_numpy_") as scratch, \
+            zipfile.ZipFile(out, "w", zipfile.ZIP_LZMA) as z:
+        for rel, p in numpy_blas.members(site, Path(scratch)):
+            mode = 0o755 if os.access(p, os.X_OK) else 0o644
+            info = _entry(rel[:-3] + ".pyc" if rel.endswith(".py") else rel, mode)
+            info.compress_type = zipfile.ZIP_LZMA
+            z.writestr(info, _sourceless(p, rel) if rel.endswith(".py") else p.read_bytes())
     return out
 
 
 def cached_numpy_archive(site: Path, folder: Path) -> Path:
     """:func:`numpy_archive` of ``site`` kept in the cached runtime ``folder`` (made once: LZMA takes
-    half a minute), written beside it and renamed into place."""
-    out = folder / f"numpy-{NUMPY_ARCHIVE_FORMAT}.zip"
+    half a minute), written beside it and renamed into place; the same folder's archives of other
+    packings or BLAS sources are removed."""
+    from harness.build import numpy_blas
+
+    out = folder / f"numpy-{NUMPY_ARCHIVE_FORMAT}-{numpy_blas.key()}.zip"
     if not out.is_file():
         staged = folder / f".{out.name}.{os.getpid()}"
         try:
@@ -243,6 +249,9 @@ def cached_numpy_archive(site: Path, folder: Path) -> Path:
             os.replace(staged, out)
         finally:
             staged.unlink(missing_ok=True)
+        for old in folder.glob("numpy-*.zip"):
+            if old != out:
+                old.unlink(missing_ok=True)
     return out
 
 

@@ -50,6 +50,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from spurdiff.numerics import gj_inverse, lu_factor, lu_solve, mat_mul   # noqa: F401 (lu_*: the W solves)
+
 class RosenbrockTableau(NamedTuple):
     """Coefficients of a Rosenbrock(-W) method in the form of Hairer-Wanner: ``alpha``,
     ``Gamma`` (lower triangular, constant diagonal ``gamma``), weights ``b`` and the embedded
@@ -134,10 +136,12 @@ class Transformed(NamedTuple):
 
 def transform(tab: RosenbrockTableau) -> Transformed:
     """A Hairer-Wanner tableau in the transformed variables (a W-method: ROS34PW2)."""
-    Ginv = np.linalg.inv(tab.Gamma)
-    a = tab.alpha @ Ginv
+    gl = gj_inverse(np.asarray(tab.Gamma, dtype=float).tolist())
+    Ginv = np.array(gl)
+    a = np.array(mat_mul(np.asarray(tab.alpha, dtype=float).tolist(), gl))
     c = np.diag(1.0 / np.diag(tab.Gamma)) - Ginv
-    return _finish(tab.name, tab.gamma, a, c, tab.b @ Ginv, (tab.b - tab.bhat) @ Ginv, Ginv, tab.binterp,
+    m, e = mat_mul([np.asarray(tab.b, dtype=float).tolist(), np.asarray(tab.b - tab.bhat, dtype=float).tolist()], gl)
+    return _finish(tab.name, tab.gamma, a, c, np.array(m), np.array(e), Ginv, tab.binterp,
                    tab.order, tab.embedded_order, True)
 
 
@@ -166,8 +170,9 @@ def _finish(name, gamma, a, c, m, e, Ginv, binterp, order, embedded_order, w_met
 def dense_weights(theta: float, tr: "Transformed | None" = None) -> np.ndarray:
     """Weights d_i with y(t + theta h) = y + sum_i d_i u_i (transformed stages)."""
     tr = tr or METHOD
-    Bt = tr.binterp @ np.array([theta, theta ** 2, theta ** 3, theta ** 4][:tr.binterp.shape[1]])
-    return Bt @ tr.Ginv
+    powers = [[theta], [theta ** 2], [theta ** 3], [theta ** 4]][:tr.binterp.shape[1]]
+    Bt = [r[0] for r in mat_mul(np.asarray(tr.binterp, dtype=float).tolist(), powers)]
+    return np.array(mat_mul([Bt], np.asarray(tr.Ginv, dtype=float).tolist())[0])
 
 
 def _rodas5p() -> Transformed:
@@ -306,66 +311,6 @@ class RosenbrockW:
         return ym
 
 
-def _pivot_row(A: list, j: int) -> int:
-    """Partial pivoting: the row ``p >= j`` with the largest ``|A[p][j]|``, the first of equal ones
-    (the kernel's pivot search, the same comparisons)."""
-    p, amax = j, abs(A[j][j])
-    for i in range(j + 1, len(A)):
-        a = abs(A[i][j])
-        if a > amax:
-            p, amax = i, a
-    return p
-
-
-def lu_factor(A: list) -> tuple:
-    """LU factorization with partial pivoting of the rows ``A`` (a list of lists, changed in
-    place): (A holding L below the diagonal (unit diagonal) and U, the pivot rows), or (None, None)
-    for an exactly singular matrix. Plain floats in a fixed order of operations, the compiled
-    kernel's ``lu`` operation for operation (so the two agree bit for bit; a LAPACK call costs
-    more in call overhead than the about 170 operations of an 8x8)."""
-    N = len(A)
-    piv = [0] * N
-    for j in range(N):
-        p = piv[j] = _pivot_row(A, j)
-        if A[p][j] == 0.0:
-            return None, None
-        if p != j:
-            A[j], A[p] = A[p], A[j]
-        Aj = A[j]
-        inv = 1.0 / Aj[j]
-        for i in range(j + 1, N):
-            Ai = A[i]
-            lij = Ai[j] * inv
-            Ai[j] = lij
-            if lij != 0.0:
-                for k in range(j + 1, N):
-                    Ai[k] -= lij * Aj[k]
-    return A, piv
-
-
-def lu_solve(A: list, piv: list, b: list) -> list:
-    """x with (P L U) x = b from :func:`lu_factor` (the kernel's ``lu_solve``, the same order)."""
-    N = len(A)
-    x = list(b)
-    for j in range(N):
-        p = piv[j]
-        if p != j:
-            x[j], x[p] = x[p], x[j]
-    for i in range(1, N):
-        Ai = A[i]
-        s = x[i]
-        for k in range(i):
-            s -= Ai[k] * x[k]
-        x[i] = s
-    for i in range(N - 1, -1, -1):
-        Ai = A[i]
-        s = x[i]
-        for k in range(i + 1, N):
-            s -= Ai[k] * x[k]
-        x[i] = s / Ai[i]
-    return x
-
-
 def split_factor(J: list, e: float, pos: tuple, vel: tuple) -> tuple | None:
     """The factors of ``W = I/e - J`` (``e = gamma h``) for a second-order system (rows ``pos`` of
     ``J``: ``B`` in the columns ``vel``, 0 in the columns ``pos``): ``W x = r`` is ``x_v = S^-1 (r_v +
@@ -414,38 +359,6 @@ def _dot(a: list, x: list) -> float:
     for k in range(1, len(x)):
         s += a[k] * x[k]
     return s
-
-
-def gj_inverse(A: list) -> list | None:
-    """The inverse of the square matrix ``A`` (rows, changed in place) by Gauss-Jordan elimination
-    with partial pivoting, or None for an exactly singular one (the kernel's ``gj_inverse``, the
-    same order)."""
-    m = len(A)
-    X = [[1.0 if i == j else 0.0 for j in range(m)] for i in range(m)]
-    for j in range(m):
-        p = _pivot_row(A, j)
-        if A[p][j] == 0.0:
-            return None
-        if p != j:
-            A[j], A[p] = A[p], A[j]
-            X[j], X[p] = X[p], X[j]
-        Aj, Xj = A[j], X[j]
-        inv = 1.0 / Aj[j]
-        for k in range(j + 1, m):
-            Aj[k] *= inv
-        for k in range(m):
-            Xj[k] *= inv
-        for i in range(m):
-            if i == j:
-                continue
-            Ai, Xi = A[i], X[i]
-            lij = Ai[j]
-            if lij != 0.0:
-                for k in range(j + 1, m):
-                    Ai[k] -= lij * Aj[k]
-                for k in range(m):
-                    Xi[k] -= lij * Xj[k]
-    return X
 
 
 def _combine(coef: list, U: np.ndarray, out: np.ndarray, tmp: np.ndarray) -> None:

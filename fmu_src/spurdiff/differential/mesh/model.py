@@ -40,6 +40,7 @@ from functools import partial
 import numpy as np
 
 from spurdiff.errors import ParameterError, StepError, require_finite, require_positive
+from spurdiff.numerics import gj_inverse
 from spurdiff.gears.geometry import DifferentialGeometry
 from spurdiff.differential.inertia import MassProperties, mass_properties
 from spurdiff.differential.flank_law import locking_coefficient_flank
@@ -206,7 +207,11 @@ class MeshDifferential(DifferentialModel):
             M = np.array([[self.Jtot, self.JA, self.JB, n * self.J1, n * self.J2],
                           [self.JA, self.JA, 0, 0, 0], [self.JB, 0, self.JB, 0, 0],
                           [n * self.J1, 0, 0, n * self.J1, 0], [n * self.J2, 0, 0, 0, n * self.J2]])
-            self._Minv = np.linalg.inv(M)
+            Minv = gj_inverse(M.tolist())
+            if Minv is None:
+                raise ParameterError(f"the mass matrix of the carrier, suns and planets is singular: {M.tolist()} "
+                                     "(allowed: positive inertias)")
+            self._Minv = np.array(Minv)
         self._kernel, self.kernel_in_use = compiled.choose(self)
         if self._kernel is not None:
             self.y = self._kernel.y       # the state lives in the kernel's structure
@@ -337,7 +342,7 @@ class MeshDifferential(DifferentialModel):
         except StepError:
             self.set_state(snapshot)
             raise
-        except (ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
+        except (ArithmeticError, ValueError) as exc:
             self.set_state(snapshot)
             raise StepError(f"step at t = {t:.9g} s failed: {exc}") from exc
         except Exception:
