@@ -1,5 +1,5 @@
-"""The three numerical solvers the physics needs, in plain Python (numpy for the linear algebra only),
-so that the FMUs run without scipy, and the 2 x 2 linear solve of their Newton steps.
+"""The three numerical solvers the physics needs, in plain Python (numpy for arrays only), so that the
+FMUs run without scipy, and the linear solves of their Newton steps.
 
 * :func:`find_root`: a root of a scalar function in a bracket ``[a, b]`` with a sign change, by
   Brent's method (bisection safeguarding secant and inverse quadratic interpolation; R. P. Brent,
@@ -29,6 +29,11 @@ so that the FMUs run without scipy, and the 2 x 2 linear solve of their Newton s
   operations (the compiled kernels write it out the same way, so the results agree bit for bit);
   for the Newton steps of the break-away (:mod:`spurdiff.differential.locking`) and the rigid
   level's slip (:mod:`spurdiff.differential.rigid`).
+* :func:`lu_factor` / :func:`lu_solve` (LU with partial pivoting), :func:`gj_inverse` (Gauss-Jordan) and
+  :func:`mat_mul`: small dense systems on plain floats (lists of rows) in a fixed order of operations,
+  the compiled kernels' operation for operation (the mesh integrator's W solves, the mass matrix's
+  inverse, the tableaux; :func:`solve_system`'s Newton steps). No LAPACK: the numpy an FMU carries has
+  none (harness/build/numpy_blas.py), and a LAPACK call costs more in overhead than an 8 x 8 solve.
 
 :func:`find_root` raises :class:`SolverError`, naming the function, for a bracket without a sign
 change, a non-finite function value, or no convergence in ``maxiter`` iterations;

@@ -15,7 +15,8 @@ from hypothesis import assume, given
 from hypothesis import strategies as st
 from scipy.optimize import brentq, fsolve, minimize_scalar
 
-from spurdiff.numerics import EPS, SolverError, find_root, minimize_bounded, solve_2x2, solve_system
+from spurdiff.numerics import (EPS, SolverError, find_root, gj_inverse, lu_factor, lu_solve, mat_mul, minimize_bounded,
+                               solve_2x2, solve_system)
 
 TOLS = [(2e-12, 4 * EPS), (1e-15, 1e-15), (1e-6, 1e-9), (1e-3, 1e-3)]   # (xtol, rtol)
 
@@ -489,6 +490,38 @@ def test_solve_2x2_exact_and_singular():
     assert solve_2x2(2.0, 1.0, 1.0, 3.0, 5.0, 10.0) == (1.0, 3.0)
     with pytest.raises(ZeroDivisionError):
         solve_2x2(1.0, 2.0, 2.0, 4.0, 1.0, 1.0)
+
+
+@given(st.integers(1, 10), st.integers(0, 2**32 - 1))
+def test_small_dense_solves_agree_with_lapack(n, seed):
+    """lu_factor/lu_solve and gj_inverse (which replaced numpy.linalg in the models: the FMUs' numpy
+    has no LAPACK) agree with LAPACK on well-conditioned systems up to 10 x 10; mat_mul with numpy's
+    product."""
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((n, n))
+    assume(np.linalg.cond(A) < 1e6)
+    b = rng.standard_normal(n)
+    LU, piv = lu_factor(A.tolist())
+    x = np.array(lu_solve(LU, piv, b.tolist()))
+    ref = np.linalg.solve(A, b)
+    assert np.max(np.abs(x - ref)) <= 1e-8 * (1.0 + np.max(np.abs(ref)))
+    inv = np.array(gj_inverse(A.tolist()))
+    assert np.max(np.abs(inv - np.linalg.inv(A))) <= 1e-8 * (1.0 + np.max(np.abs(inv)))
+    B = rng.standard_normal((n, 3))
+    assert np.max(np.abs(np.array(mat_mul(A.tolist(), B.tolist())) - A @ B)) <= 1e-12 * (1.0 + np.max(np.abs(A @ B)))
+
+
+def test_small_dense_solves_refuse_a_singular_matrix_and_mat_mul_a_shape_mismatch():
+    singular = [[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [0.0, 1.0, 1.0]]
+    assert lu_factor([r[:] for r in singular]) == (None, None)
+    assert gj_inverse([r[:] for r in singular]) is None
+    with pytest.raises(ValueError, match="3 x 2 matrix times a 3 x 1"):
+        mat_mul([[1.0, 2.0]] * 3, [[1.0]] * 3)
+
+
+def test_the_newton_solver_reports_a_singular_jacobian():
+    r = solve_system(lambda x: [x[0] + x[1], 2.0 * x[0] + 2.0 * x[1] + 1.0], [1.0, 1.0])
+    assert not r.success and "singular" in r.message
 
 
 def test_the_package_runs_without_scipy():
