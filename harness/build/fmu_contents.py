@@ -15,7 +15,7 @@ import subprocess
 import zipfile
 from pathlib import Path
 
-from harness.build import runtime_bundle, runtime_win64
+from harness.build import numpy_blas, runtime_bundle, runtime_win64
 
 
 class BuildError(RuntimeError):
@@ -216,7 +216,7 @@ def _sourceless(path: Path, rel: str) -> bytes:
 NUMPY_ARCHIVE_FORMAT = "lzma-pyc-2"    # how numpy_archive packs (part of its cached file's name)
 
 
-def numpy_archive(site: Path, out: Path) -> Path:
+def numpy_archive(site: Path, out: Path, cc: str) -> Path:
     """numpy (numpy/ and numpy.libs/) of the site-packages folder ``site`` as one archive ``out``, as
     :func:`harness.build.numpy_blas.members` gives its files (OpenBLAS replaced by our BLAS, numpy.linalg's
     LAPACK modules by a stand-in), LZMA-compressed (a third smaller than deflate: fewer bytes for every
@@ -226,29 +226,33 @@ def numpy_archive(site: Path, out: Path) -> Path:
     ``module.py``): the FMU's Python writes no bytecode, and would compile them at every start."""
     import tempfile
 
-    from harness.build import numpy_blas
+    with tempfile.TemporaryDirectory(prefix="spurdiff_numpy_") as scratch:
+        try:
+            files = numpy_blas.members(site, Path(scratch), cc)
+        except numpy_blas.BlasBuildError as e:
+            raise BuildError(str(e)) from None
+        _write_numpy_archive(files, out)
+    return out
 
-    with tempfile.TemporaryDirectory(prefix="spurdiff_numpy_") as scratch, \
-            zipfile.ZipFile(out, "w", zipfile.ZIP_LZMA) as z:
-        for rel, p in numpy_blas.members(site, Path(scratch)):
+
+def _write_numpy_archive(files: list[tuple[str, Path]], out: Path) -> None:
+    with zipfile.ZipFile(out, "w", zipfile.ZIP_LZMA) as z:
+        for rel, p in files:
             mode = 0o755 if os.access(p, os.X_OK) else 0o644
             info = _entry(rel[:-3] + ".pyc" if rel.endswith(".py") else rel, mode)
             info.compress_type = zipfile.ZIP_LZMA
             z.writestr(info, _sourceless(p, rel) if rel.endswith(".py") else p.read_bytes())
-    return out
 
 
-def cached_numpy_archive(site: Path, folder: Path) -> Path:
+def cached_numpy_archive(site: Path, folder: Path, cc: str) -> Path:
     """:func:`numpy_archive` of ``site`` kept in the cached runtime ``folder`` (made once: LZMA takes
     half a minute), written beside it and renamed into place; the same folder's archives of other
     packings or BLAS sources are removed."""
-    from harness.build import numpy_blas
-
     out = folder / f"numpy-{NUMPY_ARCHIVE_FORMAT}-{numpy_blas.key()}.zip"
     if not out.is_file():
         staged = folder / f".{out.name}.{os.getpid()}"
         try:
-            numpy_archive(site, staged)
+            numpy_archive(site, staged, cc)
             os.replace(staged, out)
         finally:
             staged.unlink(missing_ok=True)
@@ -258,10 +262,10 @@ def cached_numpy_archive(site: Path, folder: Path) -> Path:
     return out
 
 
-def numpy_as_archive(part: Path, runtime, win64=None) -> str:
+def numpy_as_archive(part: Path, runtime, cc: str, win64=None) -> str:
     """Each runtime's numpy in ``part`` (linux64's; win64's when ``win64``, its cached runtime, is given)
     replaced by one stored member, resources/<home>/numpy.zip, and its SHA-256 (spurdiff.numpy_archive
-    unpacks it into the user's cache at the first import)."""
+    unpacks it into the user's cache at the first import); ``cc`` compiles the Linux side's BLAS."""
     from spurdiff import numpy_archive as na
     sites = {runtime_bundle.HOME: (runtime.folder, runtime.folder / runtime_bundle.PYLIB / "site-packages",
                                    NUMPY_ENTRIES[0])}
@@ -271,7 +275,7 @@ def numpy_as_archive(part: Path, runtime, win64=None) -> str:
     drop_numpy(part, tuple(pattern for *_, pattern in sites.values()))
     said = []
     for home, (folder, site, _) in sites.items():
-        data = cached_numpy_archive(site, folder).read_bytes()
+        data = cached_numpy_archive(site, folder, cc).read_bytes()
         with zipfile.ZipFile(part, "a") as z:
             info = _entry(f"resources/{home}/{na.ARCHIVE}")
             info.compress_type = zipfile.ZIP_STORED        # a host's unzip copies it

@@ -60,32 +60,30 @@ def key() -> str:
     return h.hexdigest()[:16]
 
 
-def _error(message: str) -> Exception:
-    from harness.build.fmu_contents import BuildError
-    return BuildError(message)
+class BlasBuildError(RuntimeError):
+    """numpy's files cannot be made into the FMU's (harness.build.fmu_contents raises it as BuildError)."""
 
 
 def blas_file(site: Path) -> Path:
-    """numpy's OpenBLAS in ``site``'s numpy.libs (exactly one); BuildError naming what is there."""
+    """numpy's OpenBLAS in ``site``'s numpy.libs (exactly one); BlasBuildError naming what is there."""
     libs = site / "numpy.libs"
     found = sorted(libs.glob(BLAS_PREFIX + "*")) if libs.is_dir() else []
     if len(found) != 1:
-        raise _error(f"numpy's OpenBLAS ({BLAS_PREFIX}*) not found once in {libs}: "
+        raise BlasBuildError(f"numpy's OpenBLAS ({BLAS_PREFIX}*) not found once in {libs}: "
                      f"{sorted(p.name for p in libs.iterdir()) if libs.is_dir() else 'no such folder'}")
     return found[0]
 
 
-def compile_blas(out: Path, windows: bool) -> Path:
+def compile_blas(out: Path, windows: bool, cc: str) -> Path:
     """``numpy_blas.c`` compiled into ``out`` (its file name is its soname) for win64 (mingw-w64) or
-    this machine; BuildError with the compiler's message when that fails."""
+    this machine with the C compiler ``cc``; BlasBuildError with the compiler's message when that fails."""
     if windows:
         cmd = [runtime_win64.compiler(), *FLAGS, *WIN64_FLAGS]
     else:
-        from harness.build.fmu import c_compiler
-        cmd = [c_compiler(), *FLAGS, *LINUX_FLAGS, f"-Wl,-soname,{out.name}"]
+        cmd = [cc, *FLAGS, *LINUX_FLAGS, f"-Wl,-soname,{out.name}"]
     r = subprocess.run([*cmd, str(SOURCE), "-o", str(out)], capture_output=True, text=True)
     if r.returncode != 0:
-        raise _error(f"compiling numpy's BLAS ({SOURCE.name}) failed:\n{r.stderr.strip()}")
+        raise BlasBuildError(f"compiling numpy's BLAS ({SOURCE.name}) failed:\n{r.stderr.strip()}")
     return out
 
 
@@ -93,22 +91,22 @@ def pe_imports(path: Path) -> list[str]:
     """The DLL names in the import table of the PE file ``path`` (a Windows DLL or .pyd)."""
     data = Path(path).read_bytes()
     if data[:2] != b"MZ":
-        raise _error(f"{path} is not a PE file")
+        raise BlasBuildError(f"{path} is not a PE file")
     pe, = struct.unpack_from("<I", data, 0x3C)
     if data[pe:pe + 4] != b"PE\0\0":
-        raise _error(f"{path} is not a PE file")
+        raise BlasBuildError(f"{path} is not a PE file")
     nsect, optsize = struct.unpack_from("<H", data, pe + 6)[0], struct.unpack_from("<H", data, pe + 20)[0]
     opt = pe + 24
     magic, = struct.unpack_from("<H", data, opt)
     dirs = opt + (112 if magic == 0x20B else 96)        # PE32+ or PE32: the data directories
-    rva, size = struct.unpack_from("<II", data, dirs + 8)   # directory 1: the imports
+    rva, _size = struct.unpack_from("<II", data, dirs + 8)   # directory 1: the imports
     sections = [struct.unpack_from("<IIII", data, opt + optsize + 40 * i + 8) for i in range(nsect)]
 
     def offset(r: int) -> int:
         for vsize, vaddr, rawsize, rawptr in sections:
             if vaddr <= r < vaddr + max(vsize, rawsize):
                 return rawptr + r - vaddr
-        raise _error(f"{path}: RVA {r:#x} is in no section")
+        raise BlasBuildError(f"{path}: RVA {r:#x} is in no section")
 
     names = []
     if not rva:
@@ -132,9 +130,10 @@ def needed(path: Path) -> list[str]:
     return []
 
 
-def members(site: Path, scratch: Path) -> list[tuple[str, Path]]:
+def members(site: Path, scratch: Path, cc: str) -> list[tuple[str, Path]]:
     """numpy's files of ``site`` (numpy/ and numpy.libs/) as they go into the FMU's archive, (name in the
-    archive, file) sorted by name: OpenBLAS replaced by :data:`SOURCE` compiled into ``scratch``,
+    archive, file) sorted by name: OpenBLAS replaced by :data:`SOURCE` compiled into ``scratch`` (with ``cc``
+    for Linux, mingw-w64 for win64),
     numpy.linalg's extension modules by :data:`LINALG_STANDIN` (``.py``; the caller byte-compiles it),
     and the libraries of numpy.libs no kept binary needs left out."""
     blas = blas_file(site)
@@ -147,7 +146,7 @@ def members(site: Path, scratch: Path) -> list[tuple[str, Path]]:
     linalg = [r for r in files if r.startswith("numpy/linalg/") and r.count("/") == 2
               and r.split("/")[2].split(".")[0] in LINALG_EXTENSIONS and r.endswith((".so", ".pyd"))]
     if not linalg:
-        raise _error(f"numpy.linalg's extension modules {LINALG_EXTENSIONS} not found in {site / 'numpy' / 'linalg'}")
+        raise BlasBuildError(f"numpy.linalg's extension modules {LINALG_EXTENSIONS} not found in {site / 'numpy' / 'linalg'}")
     for r in linalg:
         del files[r]
         stem = r.split("/")[2].split(".")[0]
@@ -156,7 +155,7 @@ def members(site: Path, scratch: Path) -> list[tuple[str, Path]]:
         files[f"numpy/linalg/{stem}.py"] = standin
     scratch_libs = scratch / "libs"
     scratch_libs.mkdir(exist_ok=True)
-    files[f"numpy.libs/{blas.name}"] = compile_blas(scratch_libs / blas.name, windows)
+    files[f"numpy.libs/{blas.name}"] = compile_blas(scratch_libs / blas.name, windows, cc)
     # numpy.libs: what the kept binaries need, transitively
     libs = {r.split("/", 1)[1]: r for r in files if r.startswith("numpy.libs/")}
     lower = {n.lower(): n for n in libs}

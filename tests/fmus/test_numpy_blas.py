@@ -31,7 +31,8 @@ TYPES = {"s": (np.float32, 2e-5), "d": (np.float64, 1e-13), "c": (np.complex64, 
 
 @pytest.fixture(scope="module")
 def lib(tmp_path_factory):
-    return C.CDLL(str(numpy_blas.compile_blas(tmp_path_factory.mktemp("blas") / "libnb.so", windows=False)))
+    from harness.build.fmu import c_compiler
+    return C.CDLL(str(numpy_blas.compile_blas(tmp_path_factory.mktemp("blas") / "libnb.so", False, c_compiler())))
 
 
 def _rand(shape, dtype, rng):
