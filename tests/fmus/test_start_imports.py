@@ -66,3 +66,38 @@ def test_the_default_start_imports_none_of_the_lazy_modules(differential_fmu, tm
     loaded = sorted(m for m in NOT_AT_START_STDLIB if m in mods or any(x.startswith(m + ".") for x in mods))
     loaded += sorted(m for m in NOT_AT_START_PACKAGE if f"PKG.{m}" in mods)
     assert loaded == [], f"the default start imports {loaded} again"
+
+
+HOST_START = r"""
+import sys
+from fmpy import extract, read_model_description
+from fmpy.fmi2 import FMU2Slave
+folder = extract(sys.argv[1], unzipdir=sys.argv[2])
+md = read_model_description(folder)
+before = set(sys.modules)
+fmu = FMU2Slave(guid=md.guid, unzipDirectory=folder, modelIdentifier=md.coSimulation.modelIdentifier,
+                instanceName='host')
+fmu.instantiate()
+fmu.setupExperiment(startTime=0.0)
+fmu.enterInitializationMode()
+fmu.exitInitializationMode()
+print('PYTHON', any(n.startswith('_spurdiff_fmu_') and n.endswith('._fmu_entry') for n in sys.modules))
+print('ADDED', *sorted(set(sys.modules) - before))
+fmu.terminate()
+fmu.freeInstance()
+"""
+
+
+def test_the_bridge_loads_no_openssl_into_a_python_host(differential_fmu, tmp_path):
+    """The bridge names the package's alias by a SHA-256 from the interpreter's own module, not
+    hashlib, whose import loads OpenSSL's libcrypto into the host (about 10 ms of a Python start in an
+    fmpy host: startup_bench 15 against the build before): a Python start in an fmpy 3.11 process adds
+    neither hashlib nor _hashlib."""
+    import os
+    env = {**os.environ, "SPURDIFF_FMU_START": "python", "SPURDIFF_FMU_PROCESS": "in"}
+    r = subprocess.run([sys.executable, "-c", HOST_START, str(differential_fmu), str(tmp_path / "x")],
+                       capture_output=True, text=True, timeout=180, env=env)
+    assert r.returncode == 0, r.stderr[-3000:]
+    assert "PYTHON True" in r.stdout, r.stdout[-2000:]     # the Python start ran in this process
+    added = next(ln for ln in r.stdout.splitlines() if ln.startswith("ADDED")).split()[1:]
+    assert "hashlib" not in added and "_hashlib" not in added, added

@@ -168,7 +168,11 @@ static int start_python(const RuntimeCfg *cfg, const char *resources, char *err,
  * imported here: the rigid level (with the FMU's default gear set), the car and the wheel run
  * without it, and start faster. */
 static const char *BOOT_SOURCE =
-"import hashlib, importlib, importlib.util, os, sys\n"
+"import importlib, importlib.util, os, sys\n"
+"try:   # the interpreter's own SHA-256 (3.11: _sha256): hashlib would load OpenSSL's libcrypto into the host\n"
+"    from _sha256 import sha256 as _sha256\n"
+"except ImportError:\n"
+"    from hashlib import sha256 as _sha256\n"
 "_live = {}   # alias -> [instances, folder, archive or None, the archive's (inode, size, mtime) when imported]\n"
 "def _drop(alias):\n"
 "    for name in [n for n in list(sys.modules) if n == alias or n.startswith(alias + '.')]:\n"
@@ -195,7 +199,7 @@ static const char *BOOT_SOURCE =
 "        for p in site:\n"
 "            if p not in sys.path:\n"
 "                sys.path.append(p)\n"
-"    key = hashlib.sha256(os.fsencode(res) + b'\\0' + guid.encode()).hexdigest()[:16]\n"
+"    key = _sha256(os.fsencode(res) + b'\\0' + guid.encode()).hexdigest()[:16]\n"
 "    alias = '_spurdiff_fmu_' + key\n"
 "    root = os.path.join(res, package)\n"
 "    archive = root + '.zip' if os.path.isfile(root + '.zip') else None\n"
