@@ -68,9 +68,33 @@ def test_a_model_without_a_compiled_step_stays_in_its_process(differential_fmu, 
     _same(_three(differential_fmu, program, monkeypatch))
 
 
-def _server() -> int:
-    kids = {int(x) for t in Path(f"/proc/{os.getpid()}/task").iterdir() for x in (t / "children").read_text().split()}
-    return next(k for k in kids if "spurdiff_fmu_server" in Path(f"/proc/{k}/cmdline").read_text())
+def _servers() -> set[int]:
+    """This process's model processes: the servers among its descendants (a zygote's children too), the
+    zygotes left out; one that ends meanwhile is passed over."""
+    found, todo = set(), [os.getpid()]
+    while todo:
+        for task in Path(f"/proc/{todo.pop()}/task").iterdir():
+            try:
+                kids = [int(x) for x in (task / "children").read_text().split()]
+            except OSError:
+                continue
+            for k in kids:
+                try:
+                    cmd = Path(f"/proc/{k}/cmdline").read_bytes().split(b"\0")
+                except OSError:
+                    continue
+                todo.append(k)
+                if any(b"spurdiff_fmu_server" in c for c in cmd) and b"--zygote" not in cmd:
+                    found.add(k)
+    return found
+
+
+def _server(before: set[int]) -> int:
+    """The model process an instance made after ``before`` (a :func:`_servers`) runs in: the one new server
+    (a process another test left ending, or a zygote, is not it)."""
+    new = _servers() - before
+    assert len(new) == 1, f"model processes started by this instance: {sorted(new)}"
+    return new.pop()
 
 
 def test_the_steps_sets_and_gets_do_not_reach_the_stopped_model_process(differential_fmu, monkeypatch):
@@ -80,6 +104,7 @@ def test_the_steps_sets_and_gets_do_not_reach_the_stopped_model_process(differen
     def run(process: str, stop: bool) -> list:
         monkeypatch.setenv("SPURDIFF_FMU_PROCESS", process)
         monkeypatch.setenv("SPURDIFF_FMU_START", "python")
+        before = _servers()
         inst = Instance("ho", differential_fmu)
         trace, t = [], 0.0
         try:
@@ -87,7 +112,7 @@ def test_the_steps_sets_and_gets_do_not_reach_the_stopped_model_process(differen
             s.setupExperiment(startTime=0.0)
             s.enterInitializationMode()
             s.exitInitializationMode()
-            pid = _server() if stop else None
+            pid = _server(before) if stop else None
             for k in range(203):
                 if k == 3 and stop:
                     os.kill(pid, signal.SIGSTOP)
