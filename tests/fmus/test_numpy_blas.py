@@ -64,6 +64,12 @@ def _arg(t, s):
     return s if t in "sd" else s[1]
 
 
+def _routine(lib, t, name, seed):
+    """(dtype, tolerance, random generator, the routine ``name`` of type ``t``) for a test."""
+    dtype, tol = TYPES[t]
+    return dtype, tol, np.random.default_rng(seed), getattr(lib, f"scipy_cblas_{t}{name}64_")
+
+
 def _close(got, want, tol):
     scale = max(1.0, float(np.max(np.abs(want)))) if want.size else 1.0
     assert np.max(np.abs(got - want), initial=0.0) <= tol * scale * 10, (got, want)
@@ -81,9 +87,7 @@ def _stored(a, order):
 @pytest.mark.parametrize("t", list(TYPES))
 @pytest.mark.parametrize("order", [ROW, COL])
 def test_gemm_every_transposition(lib, t, order):
-    dtype, tol = TYPES[t]
-    rng = np.random.default_rng(1)
-    f = getattr(lib, f"scipy_cblas_{t}gemm64_")
+    dtype, tol, rng, f = _routine(lib, t, "gemm", 1)
     for ta in (NOTRANS, TRANS, CONJTRANS):
         for tb in (NOTRANS, TRANS, CONJTRANS):
             for alpha, beta in ((1.0, 0.0), (0.7, -1.3), (0.0, 2.0)):
@@ -106,9 +110,7 @@ def test_gemm_every_transposition(lib, t, order):
 @pytest.mark.parametrize("t", list(TYPES))
 @pytest.mark.parametrize("order", [ROW, COL])
 def test_gemv_with_increments(lib, t, order):
-    dtype, tol = TYPES[t]
-    rng = np.random.default_rng(2)
-    f = getattr(lib, f"scipy_cblas_{t}gemv64_")
+    dtype, tol, rng, f = _routine(lib, t, "gemv", 2)
     m, n = 4, 3
     A = _rand((m, n), dtype, rng)
     As, lda = _stored(A, order)
@@ -156,9 +158,7 @@ def test_dot_and_axpy(lib, t):
 @pytest.mark.parametrize("t", list(TYPES))
 @pytest.mark.parametrize("order", [ROW, COL])
 def test_syrk_writes_only_its_triangle(lib, t, order):
-    dtype, tol = TYPES[t]
-    rng = np.random.default_rng(4)
-    f = getattr(lib, f"scipy_cblas_{t}syrk64_")
+    dtype, tol, rng, f = _routine(lib, t, "syrk", 4)
     n, k = 4, 3
     for trans in (NOTRANS, TRANS):
         A = _rand((n, k) if trans == NOTRANS else (k, n), dtype, rng)

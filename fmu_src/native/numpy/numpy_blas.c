@@ -98,6 +98,9 @@ EXPORT void NAME(daxpy)(blasint n, double alpha, const double *x, blasint incx, 
 DEF_CAXPY(cfloat, caxpy)
 DEF_CAXPY(cdouble, zaxpy)
 
+/* A complex routine's alpha and beta, given through pointers */
+#define CPLX_SCALARS(T) const T alpha = *(const T *)alphav, beta = *(const T *)betav
+
 /* op(A)(i, j) for the transposition t of a matrix with strides (rs, cs) */
 #define OPA(A, t, i, j, rs, cs, CONJ) \
     ((t) == NoTrans ? (A)[(i) * (rs) + (j) * (cs)] : (t) == Trans ? (A)[(j) * (rs) + (i) * (cs)] \
@@ -124,7 +127,8 @@ DEF_CAXPY(cdouble, zaxpy)
     EXPORT void NAME(name)(int order, int trans, blasint m, blasint n, const void *alphav, const void *Av, \
                            blasint lda, const void *xv, blasint incx, const void *betav, void *yv, blasint incy) \
     { \
-        const T alpha = *(const T *)alphav, beta = *(const T *)betav, *A = Av, *x = xv; \
+        CPLX_SCALARS(T); \
+        const T *A = Av, *x = xv; \
         T *y = yv; \
         GEMV_BODY(T, CONJ) \
     }
@@ -154,7 +158,8 @@ DEF_CGEMV(cdouble, zgemv, CPLX_CONJ_D)
                            const void *Av, blasint lda, const void *Bv, blasint ldb, const void *betav, void *Cv, \
                            blasint ldc) \
     { \
-        const T alpha = *(const T *)alphav, beta = *(const T *)betav, *A = Av, *B = Bv; \
+        CPLX_SCALARS(T); \
+        const T *A = Av, *B = Bv; \
         T *C = Cv; \
         GEMM_BODY(T, CONJ) \
     }
@@ -185,7 +190,8 @@ DEF_CGEMM(cdouble, zgemm, CPLX_CONJ_D)
     EXPORT void NAME(name)(int order, int uplo, int trans, blasint n, blasint k, const void *alphav, const void *Av, \
                            blasint lda, const void *betav, void *Cv, blasint ldc) \
     { \
-        const T alpha = *(const T *)alphav, beta = *(const T *)betav, *A = Av; \
+        CPLX_SCALARS(T); \
+        const T *A = Av; \
         T *C = Cv; \
         SYRK_BODY(T) \
     }
