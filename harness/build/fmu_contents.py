@@ -245,8 +245,12 @@ def _write_numpy_archive(files: list[tuple[str, Path]], out: Path) -> None:
 
 def cached_numpy_archive(site: Path, folder: Path, cc: str) -> Path:
     """:func:`numpy_archive` of ``site`` kept in the cached runtime ``folder`` (made once: LZMA takes
-    half a minute), written beside it and renamed into place; the same folder's archives of other
-    packings or BLAS sources are removed."""
+    half a minute), written beside it and renamed into place. The folder's archives of other packings
+    or BLAS sources are removed once nobody used them for :data:`runtime_win64.KEEP_UNUSED_S` (the
+    win64 runtime's folder is shared by every checkout of the user: another checkout's build may be
+    reading its own archive); each use touches the archive."""
+    import time
+
     out = folder / f"numpy-{NUMPY_ARCHIVE_FORMAT}-{numpy_blas.key()}.zip"
     if not out.is_file():
         staged = folder / f".{out.name}.{os.getpid()}"
@@ -255,9 +259,13 @@ def cached_numpy_archive(site: Path, folder: Path, cc: str) -> Path:
             os.replace(staged, out)
         finally:
             staged.unlink(missing_ok=True)
-        for old in folder.glob("numpy-*.zip"):
-            if old != out:
-                old.unlink(missing_ok=True)
+    os.utime(out)      # its last use
+    for old in folder.glob("numpy-*.zip"):
+        try:
+            if old != out and time.time() - old.stat().st_mtime > runtime_win64.KEEP_UNUSED_S:
+                old.unlink()
+        except OSError:
+            pass       # another build removed or replaced it meanwhile
     return out
 
 

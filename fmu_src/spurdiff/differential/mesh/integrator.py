@@ -52,6 +52,7 @@ import numpy as np
 
 from spurdiff.numerics import gj_inverse, lu_factor, lu_solve, mat_mul   # noqa: F401 (lu_*: the W solves)
 
+
 class RosenbrockTableau(NamedTuple):
     """Coefficients of a Rosenbrock(-W) method in the form of Hairer-Wanner: ``alpha``,
     ``Gamma`` (lower triangular, constant diagonal ``gamma``), weights ``b`` and the embedded
