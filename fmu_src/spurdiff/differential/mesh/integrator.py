@@ -156,13 +156,8 @@ def _finish(name, gamma, a, c, m, e, Ginv, binterp, order, embedded_order, w_met
     if order > 3:
         tr = tr._replace(dquarter=[dense_weights(0.25, tr).tolist(), dense_weights(0.75, tr).tolist()])
     bl, gl = np.asarray(binterp).tolist(), Ginv.tolist()
-    dpoly = [[0.0] * s for _ in range(4)]
-    for p in range(len(bl[0])):
-        for j in range(s):
-            acc = bl[0][p] * gl[0][j]
-            for i in range(1, s):
-                acc += bl[i][p] * gl[i][j]
-            dpoly[p][j] = acc
+    dpoly = mat_mul([list(col) for col in zip(*bl)], gl)     # binterp^T Ginv, summed in the order of i
+    dpoly += [[0.0] * s for _ in range(4 - len(dpoly))]
     return tr._replace(a_lists=[r.tolist() for r in tr.a_rows], c_lists=[r.tolist() for r in tr.c_rows],
                        m_list=tr.m.tolist(), e_list=tr.e.tolist(), dmid_list=tr.dmid.tolist(),
                        binterp_lists=bl, Ginv_lists=gl, dpoly=dpoly)
