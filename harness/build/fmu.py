@@ -400,10 +400,10 @@ _STAGED: dict[str, Path] = {}     # package digest -> the staged, byte-compiled 
 
 
 def _compile_pycs(path: Path, root: Path) -> None:
-    """Byte-compile ``path`` (a folder or a file) with pycs checked against their source's hash: used
-    whatever the file times after extraction; ``co_filename`` relative to ``root``. (Unchecked pycs,
-    which skip reading the sources, measured no faster at start-up: docs/performance.md, start-up.)"""
-    mode = py_compile.PycInvalidationMode.CHECKED_HASH
+    """Byte-compile ``path`` (a folder or a file) with unchecked hash-based pycs: used whatever the file
+    times after extraction and without reading their sources, which the package archive can then carry
+    deflated (:func:`harness.build.fmu_contents.package_archive`); ``co_filename`` relative to ``root``."""
+    mode = py_compile.PycInvalidationMode.UNCHECKED_HASH
     ok = (compileall.compile_dir(str(path), quiet=2, workers=1, stripdir=str(root), prependdir=None,
                                  invalidation_mode=mode) if path.is_dir()
           else compileall.compile_file(str(path), quiet=2, stripdir=str(root), prependdir=None,

@@ -38,11 +38,11 @@ KERNEL_SUFFIXES = (".so", ".dll")
 def package_archive(pkg: Path) -> bytes:
     """The staged, byte-compiled package folder ``pkg`` as the archive an FMU carries
     (``resources/<pkg.name>.zip``, which the bridge imports with zipimport): its sources, data and
-    pycs, each pyc beside its source (``m.pyc``, where zipimport looks; hash-checked against the
-    source), in name order with a fixed date: the same bytes for the same package. Every member is
-    stored: an import reads its pyc and, to check the pyc's hash, its source without inflating
-    either (deflating the sources took 0.5 MB off a host's unzip and put about 5 ms on every Python
-    start; the FMU deflates the archive as one member). Its compiled kernels stay out
+    pycs, each pyc beside its source (``m.pyc``, where zipimport looks), in name order with a fixed
+    date: the same bytes for the same package. The pycs are unchecked (hash-based: an import never
+    reads their source) and stored, as are the data files an import reads; the sources, read only for a
+    traceback's lines, are deflated: a host's unzip writes 0.5 MB less (the FMU deflates the archive
+    as one member; docs/performance.md, start-up). Its compiled kernels stay out
     (:func:`package_kernels`)."""
     members = {}
     for f in pkg.rglob("*"):
@@ -52,21 +52,28 @@ def package_archive(pkg: Path) -> bytes:
         if f.parent.name == "__pycache__":          # m.cpython-311.pyc -> m.pyc beside m.py
             rel = rel.parent.parent / (f.name.split(".", 1)[0] + ".pyc")
         members[rel.as_posix()] = f.read_bytes()
+    return _package_zip(members)
+
+
+def _package_zip(members: dict[str, bytes]) -> bytes:
+    """The package archive of ``members`` (name -> bytes): sources deflated, everything else stored."""
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED) as z:
         for name in sorted(members):
             info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
             info.external_attr = 0o100644 << 16
-            z.writestr(info, members[name])
+            info.compress_type = zipfile.ZIP_DEFLATED if name.endswith(".py") else zipfile.ZIP_STORED
+            z.writestr(info, members[name], compresslevel=9 if name.endswith(".py") else None)
     return buf.getvalue()
 
 
 def edit_package(fmu: Path, out: Path, edit, rest=None) -> Path:
     """``fmu`` written to ``out`` with each member of its package archive passed through
     ``edit(name, data) -> data`` (names inside the archive: ``spurdiff/_fmu_entry.py``) and each other
-    member through ``rest(name, data) -> data`` (unchanged without one); every member stored. For the
-    tests: another build of the package, a planted model. A changed source outdates its pyc, which
-    the import then passes over (hash-checked)."""
+    member through ``rest(name, data) -> data`` (unchanged without one); every member of the FMU
+    stored. For the tests: another build of the package, a planted model. A source the edit changed
+    loses its pyc (the pycs are unchecked: the import would run the old code), so the import compiles
+    the edited source."""
     with zipfile.ZipFile(fmu) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_STORED) as zout:
         for item in zin.infolist():
             data = zin.read(item)
@@ -81,11 +88,11 @@ def edit_package(fmu: Path, out: Path, edit, rest=None) -> Path:
 
 
 def _edited_archive(data: bytes, edit) -> bytes:
-    buf = io.BytesIO()
-    with zipfile.ZipFile(io.BytesIO(data)) as zin, zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED) as zout:
-        for item in zin.infolist():
-            zout.writestr(item, edit(item.filename, zin.read(item)))
-    return buf.getvalue()
+    with zipfile.ZipFile(io.BytesIO(data)) as zin:
+        members = {i.filename: zin.read(i) for i in zin.infolist()}
+    edited = {name: edit(name, body) for name, body in members.items()}
+    stale = {name[:-3] + ".pyc" for name in members if name.endswith(".py") and edited[name] != members[name]}
+    return _package_zip({name: body for name, body in edited.items() if name not in stale})
 
 
 def package_kernels(pkg: Path) -> list[Path]:
