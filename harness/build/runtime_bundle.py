@@ -3,7 +3,7 @@ module list, cached, and copied into each FMU.
 
 Layout (``X`` the build interpreter's minor version)::
 
-    python/lib/libpython3.X.so.1.0          the build interpreter's shared libpython, debug info stripped
+    python/lib/libpython3.X.so.1.0          the build interpreter's shared libpython, stripped
     python/lib/<soname>                     non-glibc libraries the extension modules need (preloaded)
     python/lib/python3X.zip                 the pure-Python standard library modules the FMUs import
     python/lib/python3.X/lib-dynload/       the extension modules among them
@@ -35,7 +35,8 @@ glibc's own (libc, libm, libpthread, libdl, librt, libutil, libresolv, the dynam
 libgcc_s / libstdc++, which numpy's manylinux wheel also takes from the system (the manylinux
 policy allows them). libpython and the extension modules lose their RUNPATH (the build machine's folder,
 searched first by the loader: a library planted there would be loaded) with patchelf when it is
-installed, and their debug info with ``strip --strip-debug`` when it is.
+installed, and their debug info and symbol tables with ``strip --strip-unneeded`` when it is (the
+dynamic symbols stay: a host's debugger still names the exported functions).
 
 Every ``.py`` is byte-compiled to a sourceless pyc in its place (``module.pyc``, ``UNCHECKED_HASH``)
 and the source removed; the pure-Python standard library then goes into one uncompressed zip on
@@ -304,10 +305,11 @@ def _copy_numpy(site: Path) -> None:
 
 
 def _tidy_elf(path: Path, notes: list[str]) -> None:
-    """Strip the debug info and drop the RUNPATH of a file copied from the build interpreter."""
+    """Strip the debug info and the symbol table (not the dynamic symbols) and drop the RUNPATH of a
+    file copied from the build interpreter."""
     strip = shutil.which("strip")
     if strip:
-        subprocess.run([strip, "--strip-debug", str(path)], check=True, capture_output=True)
+        subprocess.run([strip, "--strip-unneeded", str(path)], check=True, capture_output=True)
     elif "no strip" not in notes:
         notes.append("no strip")
     info = elf.dynamic(path)

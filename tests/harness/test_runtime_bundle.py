@@ -233,3 +233,32 @@ def test_prune_keeps_the_newest_runtimes_and_drops_dead_work_folders(tmp_path):
     runtime_bundle._prune(tmp_path, keep=tmp_path / "runtime-a")
     left = sorted(p.name for p in tmp_path.iterdir())
     assert left == ["runtime-a", "runtime-d"]     # the one in use and the newest other
+
+
+def _section_names(path: Path) -> set[str]:
+    """The section names of the ELF file ``path`` (64-bit little-endian), from its section headers."""
+    import struct
+    data = path.read_bytes()
+    assert data[:4] == b"\x7fELF" and data[4] == 2 and data[5] == 1, path
+    shoff, = struct.unpack_from("<Q", data, 0x28)
+    shentsize, shnum, shstrndx = struct.unpack_from("<HHH", data, 0x3A)
+    headers = [struct.unpack_from("<IIQQQQ", data, shoff + i * shentsize) for i in range(shnum)]
+    strtab = headers[shstrndx][4]
+    return {data[strtab + h[0]:data.index(b"\0", strtab + h[0])].decode() for h in headers}
+
+
+@pytest.mark.skipif(shutil.which("strip") is None, reason="no strip (binutils): the build keeps the symbol tables")
+def test_the_runtime_and_numpy_binaries_carry_no_symbol_table(extracted, tmp_path):
+    """libpython, the extension modules and numpy's core lose .symtab (strip --strip-unneeded: fewer bytes
+    for every host's unzip) and keep their dynamic symbols, which the loader binds."""
+    res = extracted["SpurDifferential"] / "resources"
+    lib = res / "python" / "lib"
+    binaries = [next(lib.glob("libpython3*.so*")), *sorted((lib / f"python{sys.version_info[0]}.{sys.version_info[1]}"
+                                                           / "lib-dynload").glob("*.so"))[:5]]
+    with zipfile.ZipFile(res / "python" / "numpy.zip") as z:
+        core = next(n for n in z.namelist() if n.startswith("numpy/_core/_multiarray_umath") and n.endswith(".so"))
+        (tmp_path / "core.so").write_bytes(z.read(core))
+    binaries.append(tmp_path / "core.so")
+    for path in binaries:
+        names = _section_names(path)
+        assert ".symtab" not in names and ".dynsym" in names, path
