@@ -15,6 +15,7 @@ NOT_AT_START_STDLIB = (
     "hashlib",     # a checkout's kernel digest (native_library.source_digest)
     "logging",     # a kernel's fallback logged (native_library._Logger)
     "numpy",       # the mesh levels, an undercut gear set (test_numpy_free.py)
+    "xml",         # pythonfmu's to_xml, never called in an FMU (harness/build/fmu_package.py: DEFERRED)
 )
 NOT_AT_START_PACKAGE = (
     "differential.shafts", "differential.shaft_kernel", "differential.shaft_solver",  # shaftCoupling = wheel

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from harness.build import runtime_bundle
+from harness.build import fmu_package, runtime_bundle
 from harness.build.fmu_package import (PackageError, leftover_imports, rewrite_source, stage_package,
                                        write_entry)
 from harness.common.paths import physics_package
@@ -80,7 +80,37 @@ def test_the_copy_has_no_global_import_left_and_the_source_keeps_its_own(staged)
     assert _absolute_imports_of(physics_package(), ("pythonfmu",)) != []    # the source is untouched
     vendored = staged / "_vendor" / "pythonfmu"
     assert sorted(p.stem for p in vendored.glob("*.py")) == sorted(
-        ["__init__", "fmi2slave", "variables", "enums", "logmsg", "default_experiment", "osutil", "_version"])
+        ["__init__", "fmi2slave", "variables", "enums", "logmsg", "default_experiment", "osutil", "_version",
+         "_deferred"])
+
+
+def test_the_vendored_copy_imports_xml_at_its_first_use_and_still_writes_it(staged, tmp_path):
+    """pythonfmu's modules import xml.etree's Element and SubElement at their top; the copy's import them
+    when called (an FMU's start never writes a modelDescription.xml), and writing one still works."""
+    script = (
+        "import importlib.util, sys\n"
+        f"spec = importlib.util.spec_from_file_location('_vend', {str(staged / '__init__.py')!r}, "
+        f"submodule_search_locations=[{str(staged)!r}])\n"
+        "m = importlib.util.module_from_spec(spec); sys.modules['_vend'] = m; spec.loader.exec_module(m)\n"
+        "from _vend._vendor.pythonfmu import Fmi2Causality, Real\n"
+        "print('BEFORE', any(n.startswith('xml') for n in sys.modules))\n"
+        "r = Real('x', causality=Fmi2Causality.output, getter=lambda: 1.5)\n"
+        "import xml.etree.ElementTree as ET\n"
+        "e = r.to_xml()\n"
+        "print('XML', isinstance(e, ET.Element), ET.tostring(e).decode())\n")
+    r = subprocess.run([sys.executable, "-I", "-S", "-c", script], capture_output=True, text=True, timeout=60,
+                       cwd=tmp_path)
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert "BEFORE False" in r.stdout, r.stdout
+    assert "XML True <ScalarVariable" in r.stdout and 'name="x"' in r.stdout and "<Real" in r.stdout, r.stdout
+
+
+def test_a_deferred_import_keeps_the_lines_and_leaves_other_imports():
+    text = ("import json\nfrom xml.etree.ElementTree import Element, SubElement\n"
+            "from xml.etree.ElementTree import tostring\nx = 1\n")
+    out = fmu_package.defer_imports(text, Path("m.py"))
+    assert out == ("import json\nfrom ._deferred import Element, SubElement\n"
+                   "from xml.etree.ElementTree import tostring\nx = 1\n")
 
 
 def test_the_copy_runs_under_an_alias_without_the_source_tree_or_the_global_names(staged):
@@ -146,3 +176,35 @@ def test_the_source_package_has_no_global_name_lookup():
     text = Path(spec.origin).read_text()
     rewrite_source(text, Path("spurdiff/datafile.py"))
     assert "spurdiff.data" not in text.replace("``spurdiff/data", "")
+
+
+def test_the_package_archive_stores_unchecked_pycs_and_deflates_the_sources(differential_fmu, tmp_path):
+    """resources/spurdiff.zip: every pyc hash-based and unchecked (an import never reads the source) and
+    stored, every source deflated (a host's unzip writes 0.5 MB less), the data stored; an edited source
+    loses its pyc, so the import runs the edit."""
+    import io
+    import struct
+    import zipfile
+
+    from harness.build import fmu_contents
+
+    def package(fmu):
+        with zipfile.ZipFile(fmu) as z:
+            return zipfile.ZipFile(io.BytesIO(z.read("resources/spurdiff.zip")))
+
+    arch = package(differential_fmu)
+    infos = {i.filename: i for i in arch.infolist()}
+    pycs = [n for n in infos if n.endswith(".pyc")]
+    assert len(pycs) > 50 and all(n[:-1] in infos for n in pycs)
+    for n in pycs:
+        assert struct.unpack("<I", arch.read(n)[4:8])[0] == 0b01, n      # hash-based, unchecked
+        assert infos[n].compress_type == zipfile.ZIP_STORED, n
+    assert all(i.compress_type == zipfile.ZIP_DEFLATED for n, i in infos.items() if n.endswith(".py"))
+    assert all(i.compress_type == zipfile.ZIP_STORED for n, i in infos.items() if n.endswith((".toml", ".json")))
+
+    def edit(name, data):
+        return data + b"\nEDITED = True\n" if name == "spurdiff/gears/__init__.py" else data
+    edited = package(fmu_contents.edit_package(differential_fmu, tmp_path / "e.fmu", edit))
+    assert "spurdiff/gears/__init__.pyc" not in edited.namelist()
+    assert edited.read("spurdiff/gears/__init__.py").endswith(b"EDITED = True\n")
+    assert set(edited.namelist()) == set(infos) - {"spurdiff/gears/__init__.pyc"}
