@@ -177,16 +177,24 @@ def own_process_pss(fmu: Path, unzipped: Path, n: int, env: dict | None = None) 
 
 
 def per_step(fmu: Path, unzipped: Path, n: int = 2000, rounds: int = 5,
-             env: dict | None = None) -> tuple[float, float]:
+             env: dict | None = None, width: tuple[int, int] | None = None) -> tuple[float, float]:
     """Microseconds per setReal(all inputs) + doStep + getReal(all outputs), the FMU's defaults, fastest
     of ``rounds`` (``env`` set while the instance is made): through fmpy's Python API (its lists
     converted to C arrays at each call), and through ctypes with the arrays made once (as a master's
-    loop or a C host calls: what the FMU itself costs)."""
+    loop or a C host calls: what the FMU itself costs). With ``width`` (inputs, outputs), the FMU's
+    inputs and outputs repeated to that many value references per call (FMI lets a vector name a
+    variable again): the C FMU asked for as many values as ours, so that fmpy converts as many."""
     with environment(env):
-        return _per_step(fmu, unzipped, n, rounds)
+        return _per_step(fmu, unzipped, n, rounds, width)
 
 
-def _per_step(fmu: Path, unzipped: Path, n: int, rounds: int) -> tuple[float, float]:
+def _widened(vrs: list[int], count: int) -> list[int]:
+    """``vrs`` repeated to ``count`` value references."""
+    return [vrs[i % len(vrs)] for i in range(count)]
+
+
+def _per_step(fmu: Path, unzipped: Path, n: int, rounds: int,
+              width: tuple[int, int] | None = None) -> tuple[float, float]:
     from ctypes import c_double, c_uint
 
     from fmpy import calloc, free, read_model_description
@@ -207,6 +215,8 @@ def _per_step(fmu: Path, unzipped: Path, n: int, rounds: int) -> tuple[float, fl
         reals = [v for v in md.modelVariables if v.type == "Real"]
         ins = [v.valueReference for v in reals if v.causality == "input"]
         outs = [v.valueReference for v in reals if v.causality == "output"]
+        if width is not None:
+            ins, outs = _widened(ins, width[0]), _widened(outs, width[1])
         values = s.getReal(ins)
         t, best = 0.0, []
         for _ in range(rounds):
@@ -280,15 +290,17 @@ def measure(ours: Path, theirs: Path, runs: int = 5, before: Path | None = None)
             shutil.rmtree(fresh[RUNTIME_DIR], ignore_errors=True)
             init["cached"].append(init_time(ours, unz["ours"], False, cached, SETTING))
             init["cached_out"].append(init_time(ours, unz["ours"], True, cached, SETTING))
-        step = {k: [] for k in fmus}
-        for _ in range(2):
-            for name in fmus:
-                step[name].append(per_step(fmus[name], unz[name], env=envs[name]))
-        pss = {k: own_process_pss(fmus[k], unz[k], PSS_INSTANCES, envs[k]) for k in ourside}
-        pss["direct"] = own_process_pss(ours, unz["ours"], PSS_INSTANCES, {**PYTHON_START, "SPURDIFF_FMU_ZYGOTE": "0"})
         from fmpy import read_model_description
         reals = [v for v in read_model_description(str(unz["ours"] / "modelDescription.xml")).modelVariables
                  if v.type == "Real"]
+        width = (sum(v.causality == "input" for v in reals), sum(v.causality == "output" for v in reals))
+        step = {k: [] for k in (*fmus, "c_wide")}
+        for _ in range(2):
+            for name in fmus:
+                step[name].append(per_step(fmus[name], unz[name], env=envs[name]))
+            step["c_wide"].append(per_step(theirs, unz["c"], width=width))
+        pss = {k: own_process_pss(fmus[k], unz[k], PSS_INSTANCES, envs[k]) for k in ourside}
+        pss["direct"] = own_process_pss(ours, unz["ours"], PSS_INSTANCES, {**PYTHON_START, "SPURDIFF_FMU_ZYGOTE": "0"})
         return {"whole": {k: statistics.median(x[0] for x in v) for k, v in whole.items()},
                 "first": statistics.median(x[0] for x in first),
                 "unzip": {k: statistics.median(x[1] for x in v) for k, v in whole.items()},
@@ -296,8 +308,7 @@ def measure(ours: Path, theirs: Path, runs: int = 5, before: Path | None = None)
                 "step": {k: min(x[0] for x in v) for k, v in step.items()},
                 "direct": {k: min(x[1] for x in v) for k, v in step.items()},
                 "pss_host": {k: v[0] for k, v in pss.items()}, "pss": {k: v[1] for k, v in pss.items()},
-                "n_in": sum(v.causality == "input" for v in reals),
-                "n_out": sum(v.causality == "output" for v in reals),
+                "n_in": width[0], "n_out": width[1],
                 "size": {k: f.stat().st_size for k, f in fmus.items()},
                 "files": {k: sum(1 for p in unz[k].rglob("*") if p.is_file()) for k in unz},
                 "unpacked": {k: sum(p.stat().st_size for p in unz[k].rglob("*") if p.is_file()) for k in unz}}
@@ -350,6 +361,10 @@ def _lines(m: dict, k: str, fmu: Path, runs: int) -> list[str]:
                  f"{s[k] / s['c']:.1f}", "<= 3x"),
             _row("  the same through ctypes, arrays made once, us", f"{d[k]:.1f}", f"{d[p]:.1f}", f"{d['c']:.1f}",
                  f"{d[k] / d['c']:.1f}", ""),
+            _row(f"  the C FMU asked for as many ({m['n_in']} set, {m['n_out']} read), us", f"{s[k]:.1f}", f"{s[p]:.1f}",
+                 f"{s['c_wide']:.1f}", f"{s[k] / s['c_wide']:.1f}", ""),
+            _row("    the same through ctypes, us", f"{d[k]:.1f}", f"{d[p]:.1f}", f"{d['c_wide']:.1f}",
+                 f"{d[k] / d['c_wide']:.1f}", ""),
             f"   own-process memory, PSS of every model process / {PSS_INSTANCES} instances in one fmpy host "
             f"(SPURDIFF_FMU_PROCESS=out; target <= 8 MB each): native: {_pss(m, k)}; Python: {_pss(m, p)} "
             f"(host {m['pss_host'][p]:.1f} MB)"

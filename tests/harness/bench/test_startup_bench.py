@@ -44,3 +44,28 @@ def test_the_cached_start_measure_sets_the_parameter_and_fills_its_own_cache(dif
         assert startup.init_time(differential_fmu, unz, own, env, startup.SETTING) > 0
     assert len(list((tmp_path / "starts").glob("*.bin"))) == 1
     assert len(list((tmp_path / "starts").glob("*.seen"))) == 1
+
+
+def test_the_widened_vectors_repeat_the_value_references_in_order():
+    assert startup._widened([3, 7], 5) == [3, 7, 3, 7, 3]
+    assert startup._widened([4], 3) == [4, 4, 4]
+
+
+@pytest.mark.skipif(shutil.which("gcc") is None, reason="no C compiler (gcc) to build the kit's C FMU")
+def test_the_c_fmu_steps_asked_for_as_many_values_as_ours(tmp_path, monkeypatch):
+    """The per-step row at the same width: ChkC's one input set and two outputs read as often as
+    SpurDifferential's (every call answered fmi2OK: fmpy raises otherwise), the vectors passed being
+    the widened ones."""
+    import zipfile
+
+    from fmpy.fmi2 import FMU2Slave
+
+    fmu = startup.c_fmu()
+    unz = tmp_path / "c"
+    zipfile.ZipFile(fmu).extractall(unz)
+    seen = []
+    real_set = FMU2Slave.setReal
+    monkeypatch.setattr(FMU2Slave, "setReal", lambda self, vr, v: (seen.append(len(vr)), real_set(self, vr, v))[1])
+    fmpy_us, ctypes_us = startup.per_step(fmu, unz, n=50, rounds=2, width=(20, 33))
+    assert fmpy_us > 0 and ctypes_us > 0
+    assert set(seen) == {20}
