@@ -67,6 +67,37 @@ class Sub(Frozen):
 class Node:
     value: float
     nxt: object = None
+
+@deco_frozen
+class FrozenPost:
+    """A frozen record whose __post_init__ derives a field: through object.__setattr__ only."""
+    a: float
+    twice: float = field(init=False, default=0.0)
+    def __post_init__(self):
+        object.__setattr__(self, "twice", 2.0 * self.a)
+
+@deco_frozen
+class FrozenBadPost:
+    a: float
+    def __post_init__(self):
+        self.a = 3.0
+
+@deco_frozen
+class FrozenFactory:
+    a: float
+    tags: tuple = field(default_factory=tuple)
+    hidden: list = field(init=False, default_factory=list)
+
+class SubInit(Frozen):
+    """A plain subclass with its own __init__ calling the record's."""
+    def __init__(self, a):
+        super().__init__(a, 2.0)
+        object.__setattr__(self, "extra", 1)
+
+@deco_frozen
+class FrozenChild(Frozen):
+    """A frozen record inheriting from a frozen record."""
+    c: float = 0.0
 '''
 
 
@@ -150,6 +181,47 @@ def test_frozen_records_refuse_assignment_and_deletion():
     p = REC["Plain"](1.0)
     p.a = 2.0
     assert p.a == 2.0
+
+
+@pytest.mark.parametrize("name,args", [("FrozenPost", (1.5,)), ("FrozenFactory", (1.0, (1, 2))),
+                                       ("SubInit", (1.0,)), ("FrozenChild", (1.0, 2.0))])
+def test_frozen_records_are_made_and_refused_as_dataclasses_does(name, args):
+    """What a frozen record's __init__ may assign (its fields, defaults, factories, a __post_init__
+    through object.__setattr__, a subclass's own __init__ through the record's) and what nobody may
+    afterwards, as dataclasses(frozen=True): the same values, the same errors."""
+    d, r = _both(name, *args)
+    assert vars(d) == vars(r)
+    _same_repr(d, r)
+    for obj in (d, r):
+        for attr in ("a", "new_attribute"):
+            try:
+                setattr(obj, attr, 5.0)
+                outcome = "set"
+            except dataclasses.FrozenInstanceError as e:
+                outcome = str(e)
+            assert outcome == ("set" if type(obj).__name__ == "SubInit" and attr == "new_attribute"
+                               else f"cannot assign to field {attr!r}"), (obj, attr)
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            del obj.a
+    assert vars(d) == vars(r)
+
+
+def test_a_frozen_records_post_init_cannot_assign_through_self():
+    for ns in (DC, REC):
+        with pytest.raises(dataclasses.FrozenInstanceError, match="cannot assign to field 'a'"):
+            ns["FrozenBadPost"](1.0)
+
+
+def test_frozen_records_compile_no_setattr_of_their_own():
+    """The frozen records' __setattr__ and __delattr__ are shared functions (no source compiled per
+    class: about 9 ms of an FMU's Python start, docs/performance.md), made once per record."""
+    import spurdiff.attrpath as attrpath
+    for name in ("Frozen", "One", "FrozenPost", "FrozenFactory"):
+        cls = REC[name]
+        assert cls.__setattr__.__code__.co_filename == attrpath.__file__, name
+        assert cls.__delattr__.__code__.co_filename == attrpath.__file__, name
+        assert cls.__setattr__.__qualname__ == f"{name}.__setattr__"
+        assert DC[name].__setattr__.__code__.co_filename != attrpath.__file__
 
 
 def test_a_recursive_repr_and_the_signature():
