@@ -142,7 +142,11 @@ def record(cls: type | None = None, /, *, frozen: bool = False):
         class_hash = own.get("__hash__", dataclasses.MISSING)
         explicit_hash = not (class_hash is dataclasses.MISSING or (class_hash is None and "__eq__" in own))
         keep = {name for name in ("__repr__", "__eq__") if name in own}
-        shared = frozen and not _frozen_base(cls) and not {"__setattr__", "__delattr__"} & own.keys()
+        # dataclasses' own frozen record where the shared functions would not be its: a frozen base (a
+        # frozen subclass is made by dataclasses alone), the class's own __init__ (whose assignments the
+        # frame would let through), __setattr__ or __delattr__ (dataclasses refuses those)
+        shared = (frozen and not _frozen_base(cls)
+                  and not {"__init__", "__setattr__", "__delattr__"} & own.keys())
         cls = dataclasses.dataclass(cls, repr=False, eq=False, frozen=frozen and not shared)
         if shared:
             for name, fn in _frozen_methods(cls).items():

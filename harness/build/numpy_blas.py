@@ -185,8 +185,9 @@ def _stripped(files: dict[str, Path], folder: Path) -> None:
         return
     for rel, p in files.items():
         if rel.endswith(".so") or ".so." in rel.rsplit("/", 1)[-1]:
-            if p.read_bytes()[:4] != b"\x7fELF":
-                continue
+            with open(p, "rb") as f:
+                if f.read(4) != b"\x7fELF":
+                    continue
             out = folder / rel
             out.parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(p, out)

@@ -95,6 +95,13 @@ class SubInit(Frozen):
         object.__setattr__(self, "extra", 1)
 
 @deco_frozen
+class FrozenOwnInit:
+    """A frozen record with its own __init__: assigning through self there is refused, as dataclasses does."""
+    a: float
+    def __init__(self, a):
+        self.a = a
+
+@deco_frozen
 class FrozenChild(Frozen):
     """A frozen record inheriting from a frozen record."""
     c: float = 0.0
@@ -206,10 +213,11 @@ def test_frozen_records_are_made_and_refused_as_dataclasses_does(name, args):
     assert vars(d) == vars(r)
 
 
-def test_a_frozen_records_post_init_cannot_assign_through_self():
+@pytest.mark.parametrize("name", ["FrozenBadPost", "FrozenOwnInit"])
+def test_a_frozen_records_post_init_or_own_init_cannot_assign_through_self(name):
     for ns in (DC, REC):
         with pytest.raises(dataclasses.FrozenInstanceError, match="cannot assign to field 'a'"):
-            ns["FrozenBadPost"](1.0)
+            ns[name](1.0)
 
 
 def test_frozen_records_compile_no_setattr_of_their_own():
