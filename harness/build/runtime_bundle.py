@@ -111,7 +111,7 @@ NUMPY_SKIP_DIRS = ("f2py", "_pyinstaller", "distutils", "_core/include", "_core/
 # numpy archives (random alone 1.6 MB) a host's unzip no longer writes.
 NUMPY_UNUSED = ("random", "fft", "polynomial", "testing")
 NUMPY_SKIP_DIRS += NUMPY_UNUSED
-NUMPY_SKIP_SUFFIXES = (".pyi", ".pxd", ".h", ".c", ".a", ".pc", "py.typed")
+NUMPY_SKIP_SUFFIXES = (".pyi", ".pxd", ".h", ".c", ".a", ".lib", ".pc", "py.typed")   # .lib: MSVC import libraries, for linking
 # numpy's extension modules only its own tests import (checked: no other module of numpy names them),
 # and its test helpers (ma/testutils.py: numpy.ma's tests)
 NUMPY_SKIP_PREFIXES = ("_multiarray_tests.", "_umath_tests.", "_rational_tests.", "_struct_ufunc_tests.",

@@ -41,6 +41,8 @@ def test_the_win64_numpy_archive_is_unpacked_once_into_localappdata(wine, window
             pytest.skip("SpurDifferential.fmu has no binaries/win64 (built where mingw-w64 was missing)")
         assert z.getinfo("resources/python-win64/numpy.zip").compress_type == zipfile.ZIP_STORED
         assert not any(n.startswith("resources/python-win64/Lib/site-packages/numpy") for n in names)
+        with zipfile.ZipFile(z.open("resources/python-win64/numpy.zip")) as inner:   # no MSVC import library
+            assert not [n for n in inner.namelist() if n.endswith(".lib")]
         folder = prefix / "drive_c" / f"{ODD} numpy"
         shutil.rmtree(folder, ignore_errors=True)
         z.extractall(folder)

@@ -335,8 +335,8 @@ def _lines(m: dict, k: str, fmu: Path, runs: int) -> list[str]:
     p = "python" if k == "ours" else f"{k}_python"
     mb = 1024 * 1024
     ms = "{:.1f} ms".format
-    return [f"   {fmu.name} {m['size'][k] / mb:.1f} MB ({m['files'][k]} files, "
-            f"{m['unpacked'][k] / mb:.1f} MB unpacked) against the C FMU ChkC.fmu "
+    return [f"   {fmu.name} {m['size'][k] / mb:.1f} MiB ({m['files'][k]} files, "
+            f"{m['unpacked'][k] / mb:.1f} MiB unpacked) against the C FMU ChkC.fmu "
             f"{m['size']['c'] / 1024:.0f} kB; medians of {runs} interleaved runs (per step: fastest);",
             "   'native': the defaults kept (no Python starts); 'Python': started (SPURDIFF_FMU_START=python), as a run "
             "that sets a parameter to another value starts it at that set the first two times (the third time on, "
