@@ -46,18 +46,30 @@ pytestmark = [
 @pytest.fixture(scope="module")
 def wine(tmp_path_factory):
     """The environment of the wine runs: a prefix in the per-user cache (made once), one
-    persistent wineserver started here with its output away from the tests' pipes."""
-    from harness.build.runtime_win64 import download_dir
+    persistent wineserver started here with its output away from the tests' pipes.
 
-    prefix = download_dir() / "wineprefix"
+    The prefix is shared by the modules that run wine (this one, test_win64_uri.py,
+    test_win64_numpy.py), which pytest-xdist may run at once on different workers, and by other test
+    sessions of the user: a module holds it alone, from its wineserver's start to its ``wineserver
+    -k``, which would end another module's wine runs (an exclusive lock beside the prefix; seen once:
+    a run under wine ended with exit 1 and no output), and the folders under ``C:/spurdiff wine ü``
+    are then its own too."""
+    import fcntl
+
+    from harness.build.runtime_win64 import download_dir
+    from harness.common.private_dir import private_dir
+
+    prefix = private_dir(download_dir()) / "wineprefix"    # the folder made (0700) on a fresh machine
     env = {**os.environ, "WINEPREFIX": str(prefix), "WINEDEBUG": "-all", "WINEDLLOVERRIDES": "mscoree,mshtml="}
     quiet = {"stdin": subprocess.DEVNULL, "stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL, "env": env}
-    subprocess.run(["wineserver", "-p"], timeout=60, **quiet)
-    r = subprocess.run(["wineboot", "-i"], timeout=300, **quiet)   # makes the prefix once, starts its services
-    if r.returncode != 0:
-        pytest.skip(f"wineboot failed (exit {r.returncode}): this wine cannot make a prefix")
-    yield env, prefix
-    subprocess.run(["wineserver", "-k"], timeout=60, **quiet)   # the server started above, in this prefix
+    with open(prefix.parent / "wineprefix.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        subprocess.run(["wineserver", "-p"], timeout=60, **quiet)
+        r = subprocess.run(["wineboot", "-i"], timeout=300, **quiet)   # makes the prefix once, starts its services
+        if r.returncode != 0:
+            pytest.skip(f"wineboot failed (exit {r.returncode}): this wine cannot make a prefix")
+        yield env, prefix
+        subprocess.run(["wineserver", "-k"], timeout=60, **quiet)   # the server started above, in this prefix
 
 
 @pytest.fixture(scope="module")
