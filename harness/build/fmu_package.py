@@ -200,6 +200,12 @@ def rewrite_source(text: str, rel: Path) -> str:
                 raise PackageError(f"{rel}:{node.lineno}: {name}({first.value!r}) names the package by its "
                                    "global name, which the FMU does not have; use __package__ or the "
                                    "module's own folder")
+    return _applied(text, edits)
+
+
+def _applied(text: str, edits: list[tuple[int, int, str]]) -> str:
+    """``text`` with each (start, end, replacement) of ``edits`` (character offsets into ``text``, not
+    overlapping) made, the last first so that earlier offsets stay valid."""
     for start, end, new in sorted(edits, reverse=True):
         text = text[:start] + new + text[end:]
     return text
@@ -255,9 +261,7 @@ def defer_imports(text: str, rel: Path) -> str:
             end = _offset(lines, node.end_lineno, node.end_col_offset)
             stmt = f"from .{DEFERRED_MODULE} import {', '.join(a.name for a in node.names)}"
             edits.append((start, end, stmt + "\n" * (node.end_lineno - node.lineno)))
-    for start, end, new in sorted(edits, reverse=True):
-        text = text[:start] + new + text[end:]
-    return text
+    return _applied(text, edits)
 
 
 def _pythonfmu_licence(source: Path) -> Path | None:

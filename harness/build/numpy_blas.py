@@ -178,18 +178,14 @@ def members(site: Path, scratch: Path, cc: str) -> list[tuple[str, Path]]:
 
 def _stripped(files: dict[str, Path], folder: Path) -> None:
     """The wheel's ELF libraries in ``files`` (name in the archive -> file) replaced by copies in
-    ``folder`` without their symbol tables (``strip --strip-unneeded``: the dynamic symbols, which the
-    loader binds, stay; numpy's core loses 0.5 MB, 90 kB of the archive); left as they are without strip."""
-    strip = shutil.which("strip")
-    if strip is None:
+    ``folder`` without their symbol tables (:func:`harness.build.elf.strip_symbols`; numpy's core loses
+    0.5 MB, 90 kB of the archive); left as they are without strip."""
+    if shutil.which("strip") is None:
         return
     for rel, p in files.items():
-        if rel.endswith(".so") or ".so." in rel.rsplit("/", 1)[-1]:
-            with open(p, "rb") as f:
-                if f.read(4) != b"\x7fELF":
-                    continue
+        if (rel.endswith(".so") or ".so." in rel.rsplit("/", 1)[-1]) and elf.is_elf(p):
             out = folder / rel
             out.parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(p, out)
-            subprocess.run([strip, "--strip-unneeded", str(out)], check=True, capture_output=True)
+            elf.strip_symbols(out)
             files[rel] = out

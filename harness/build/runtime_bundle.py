@@ -307,10 +307,7 @@ def _copy_numpy(site: Path) -> None:
 def _tidy_elf(path: Path, notes: list[str]) -> None:
     """Strip the debug info and the symbol table (not the dynamic symbols) and drop the RUNPATH of a
     file copied from the build interpreter."""
-    strip = shutil.which("strip")
-    if strip:
-        subprocess.run([strip, "--strip-unneeded", str(path)], check=True, capture_output=True)
-    elif "no strip" not in notes:
+    if not elf.strip_symbols(path) and "no strip" not in notes:
         notes.append("no strip")
     info = elf.dynamic(path)
     if info.rpath or info.runpath:
