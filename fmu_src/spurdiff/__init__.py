@@ -1,6 +1,7 @@
 """spurdiff: physics of a spur-gear planetary inter-wheel differential, and its FMUs.
 
-Plain Python (numpy only: the solvers are our own, :mod:`spurdiff.numerics`); no FMI needed below
+Plain Python on floats and lists, the standard library only (the solvers and the small linear algebra are
+our own, :mod:`spurdiff.numerics`; the hot loops are compiled, ``fmu_src/native``); no FMI needed below
 :mod:`spurdiff.fmi`. The packages, each importing only those below it (docs/architecture.md):
 
 * :mod:`spurdiff.fmi`: the FMI layer (variables, bindings, the three FMU declarations, the adapter);

@@ -1,5 +1,5 @@
-"""The three numerical solvers the physics needs, in plain Python (numpy for arrays only), so that the
-FMUs run without scipy, and the linear solves of their Newton steps.
+"""The three numerical solvers the physics needs, in plain Python (floats, lists and :mod:`math`; no
+numpy), so that the FMUs run without scipy or numpy, and the linear solves of their Newton steps.
 
 * :func:`find_root`: a root of a scalar function in a bracket ``[a, b]`` with a sign change, by
   Brent's method (bisection safeguarding secant and inverse quadratic interpolation; R. P. Brent,
@@ -32,8 +32,8 @@ FMUs run without scipy, and the linear solves of their Newton steps.
 * :func:`lu_factor` / :func:`lu_solve` (LU with partial pivoting), :func:`gj_inverse` (Gauss-Jordan) and
   :func:`mat_mul`: small dense systems on plain floats (lists of rows) in a fixed order of operations,
   the compiled kernels' operation for operation (the mesh integrator's W solves, the mass matrix's
-  inverse, the tableaux; :func:`solve_system`'s Newton steps). No LAPACK: the numpy an FMU carries has
-  none (harness/build/numpy_blas.py), and a LAPACK call costs more in overhead than an 8 x 8 solve.
+  inverse, the tableaux; :func:`solve_system`'s Newton steps). No LAPACK: an FMU carries no numpy, and a
+  LAPACK call costs more in overhead than an 8 x 8 solve.
 
 :func:`find_root` raises :class:`SolverError`, naming the function, for a bracket without a sign
 change, a non-finite function value, or no convergence in ``maxiter`` iterations;
@@ -48,7 +48,7 @@ import sys
 from spurdiff.attrpath import record
 
 
-EPS = sys.float_info.epsilon     # numpy's finfo(float).eps; numpy is imported where arrays are used
+EPS = sys.float_info.epsilon     # numpy's finfo(float).eps
 _SQRT_EPS = math.sqrt(EPS)
 _GOLDEN = 0.5 * (3.0 - math.sqrt(5.0))  # the golden section's smaller part, 0.381966...
 _REL_TOL_MIN = math.sqrt(2.2e-16)       # minimize_bounded's relative resolution in x (1.483e-8; the
@@ -65,8 +65,7 @@ def solve_2x2(a11: float, a12: float, a21: float, a22: float, b1: float, b2: flo
 
 # Linear algebra on plain floats (lists of rows), in a fixed order of operations: the compiled kernels
 # do the same operations in the same order (mesh_kernel.c: lu, lu_solve, gj_inverse), so the two agree
-# bit for bit, and no BLAS or LAPACK is needed (the numpy an FMU carries has neither:
-# harness/build/numpy_blas.py).
+# bit for bit, and no BLAS or LAPACK is needed (an FMU carries neither).
 
 def _pivot_row(A: list, j: int) -> int:
     """Partial pivoting: the row ``p >= j`` with the largest ``|A[p][j]|``, the first of equal ones
@@ -351,35 +350,60 @@ def minimize_bounded(f, lo: float, hi: float, args: tuple = (), xatol: float = 1
 
 @record(frozen=True)
 class SystemSolution:
-    """Result of :func:`solve_system`: the best point found, ``F`` there, whether a convergence
-    test was met and which (or why it failed), Newton iterations and function evaluations."""
+    """Result of :func:`solve_system`: the best point found, ``F`` there (lists of floats), whether a
+    convergence test was met and which (or why it failed), Newton iterations and function evaluations."""
 
-    x: np.ndarray
-    fun: np.ndarray
+    x: list[float]
+    fun: list[float]
     success: bool
     message: str
     nit: int
     nfev: int
 
 
+def _floats(v) -> list[float]:
+    """The numbers of the sequence ``v`` (a list, a tuple, a 1-D array) as a list of floats."""
+    return [float(a) for a in v]
+
+
+def _all_finite(v) -> bool:
+    return all(math.isfinite(a) for a in v)
+
+
 def _norm(v) -> float:
     """Euclidean norm without underflow or overflow of the squares (math.hypot)."""
-    import numpy as np
-    return math.hypot(*(float(a) for a in np.ravel(v)))
+    return math.hypot(*(float(a) for a in v))
 
 
-def _jacobian_fd(f, x: np.ndarray, fx: np.ndarray, args: tuple, scale: np.ndarray) -> np.ndarray:
-    """Forward-difference Jacobian, step ``sqrt(eps) max(|x_j|, scale_j)`` (``sqrt(eps)`` where
+def _jacobian_fd(f, x: list[float], fx: list[float], args: tuple, scale: list[float]) -> list[list[float]]:
+    """Forward-difference Jacobian (rows), step ``sqrt(eps) max(|x_j|, scale_j)`` (``sqrt(eps)`` where
     that is zero or lost)."""
-    import numpy as np
-    J = np.empty((fx.size, x.size))
-    for j in range(x.size):
-        xh = x.copy()
+    m = len(fx)
+    J = [[0.0] * len(x) for _ in range(m)]
+    for j in range(len(x)):
+        xh = list(x)
         xh[j] = x[j] + _SQRT_EPS * max(abs(x[j]), scale[j])
         if xh[j] == x[j]:        # x_j == 0 (and no scale) or subnormal: an absolute step
             xh[j] = x[j] + _SQRT_EPS
-        J[:, j] = (np.asarray(f(xh, *args), dtype=float).ravel() - fx) / (xh[j] - x[j])
+        h = xh[j] - x[j]
+        fh = _floats(f(xh, *args))
+        if len(fh) != m:
+            raise ValueError(f"{_name(f)} returns {len(fh)} values at x = {xh}, {m} at x = {x}: "
+                             "allowed as many values as unknowns")
+        for i in range(m):
+            J[i][j] = (fh[i] - fx[i]) / h
     return J
+
+
+def _square(J, n: int, name: str) -> list[list[float]]:
+    """The ``n x n`` matrix ``J`` (rows; or a flat sequence of ``n * n`` numbers, row after row) as
+    rows of floats."""
+    rows = list(J)
+    if len(rows) == n * n and not any(hasattr(a, "__len__") for a in rows):
+        return [[float(a) for a in rows[i * n:(i + 1) * n]] for i in range(n)]
+    if len(rows) != n or any(len(row) != n for row in rows):
+        raise ValueError(f"the Jacobian of {name} is not {n} x {n} (nor {n * n} numbers)")
+    return [_floats(row) for row in rows]
 
 
 def solve_system(f, x0, args: tuple = (), xtol: float = 1.49012e-8, maxiter: int = 100,
@@ -387,61 +411,71 @@ def solve_system(f, x0, args: tuple = (), xtol: float = 1.49012e-8, maxiter: int
     """Root of ``F(x) = 0`` (``f(x, *args)`` returns ``n`` values for ``n`` unknowns) by Newton's
     method with a backtracking (Armijo) line search on the Euclidean norm of ``F``.
 
-    ``jac(x, *args)``, if given, returns the ``n x n`` Jacobian; else forward differences, the step
-    in ``x_j`` being ``sqrt(eps)`` times the largest ``|x_j|`` of the iterates so far, ``x0``
-    included (a component that converges to zero keeps a step on its own scale).
+    ``x0``: a sequence of ``n`` numbers; ``f`` is called with a list of floats and may return any
+    sequence of numbers. ``jac(x, *args)``, if given, returns the ``n x n`` Jacobian (rows, or the
+    ``n * n`` numbers row after row); else forward differences, the step in ``x_j`` being
+    ``sqrt(eps)`` times the largest ``|x_j|`` of the iterates so far, ``x0`` included (a component
+    that converges to zero keeps a step on its own scale).
     Success: a full Newton step ``|dx| <= xtol |x|`` (the step is taken if it does not raise
     ``|F|``), or ``|dx| <= xtol |s|`` with ``s`` the largest ``|x_j|`` of the iterates once ``|F|``
-    fell below ``1e-10`` of its value at ``x0`` and ``|x| <= 1e-10 |s|`` (a root at zero, where the relative test never
-    holds and Newton would otherwise creep into denormals), ``F(x) == 0``, or ``|F|`` cannot be lowered any more (halving the step 40 times) after
-    it fell below ``1e-10`` of its value at ``x0`` (rounding level). Otherwise ``success = False``
-    with the reason; ``x`` is then the point with the smallest ``|F|`` found (``x0`` if ``F(x0)``
-    is not finite). It does not raise for a numerical failure.
+    fell below ``1e-10`` of its value at ``x0`` and ``|x| <= 1e-10 |s|`` (a root at zero, where the
+    relative test never holds and Newton would otherwise creep into denormals), ``F(x) == 0``, or
+    ``|F|`` cannot be lowered any more (halving the step 40 times) after it fell below ``1e-10`` of
+    its value at ``x0`` (rounding level). Otherwise ``success = False`` with the reason; ``x`` is
+    then the point with the smallest ``|F|`` found (``x0`` if ``F(x0)`` is not finite). ``x`` and
+    ``fun`` of the result are lists of floats. It does not raise for a numerical failure.
     """
     if not xtol > 0.0:
         raise ValueError(f"xtol = {xtol!r} is invalid: allowed > 0")
     if int(maxiter) < 1:
         raise ValueError(f"maxiter = {maxiter!r} is invalid: allowed >= 1")
-    import numpy as np    # (here: the rigid level and the vehicle never solve a system; they run without numpy)
-    x = np.array(x0, dtype=float).ravel()
-    fx = np.asarray(f(x, *args), dtype=float).ravel()
+    x = _floats(x0)
+    n = len(x)
+    fx = _floats(f(x, *args))
     nfev = 1
     name = _name(f)
-    if fx.size != x.size:
-        raise ValueError(f"{name} returns {fx.size} values for {x.size} unknowns: "
+    if len(fx) != n:
+        raise ValueError(f"{name} returns {len(fx)} values for {n} unknowns: "
                          "allowed as many values as unknowns")
+
+    def values(xn: list[float]) -> list[float]:
+        fn = _floats(f(xn, *args))
+        if len(fn) != n:
+            raise ValueError(f"{name} returns {len(fn)} values for {n} unknowns at x = {xn}: "
+                             "allowed as many values as unknowns")
+        return fn
 
     def result(ok: bool, message: str, nit: int) -> SystemSolution:
         return SystemSolution(x, fx, ok, message, nit, nfev)
 
-    if not np.all(np.isfinite(x)):
-        raise ValueError(f"x0 = {x.tolist()} is invalid: allowed finite values")
-    if not np.all(np.isfinite(fx)):
-        return result(False, f"{name}(x0) is not finite: {fx.tolist()}", 0)
+    if not _all_finite(x):
+        raise ValueError(f"x0 = {x} is invalid: allowed finite values")
+    if not _all_finite(fx):
+        return result(False, f"{name}(x0) is not finite: {fx}", 0)
     fnorm = fnorm0 = _norm(fx)
     if fnorm == 0.0:
         return result(True, "F(x0) = 0", 0)
-    scale = np.abs(x)
+    scale = [abs(a) for a in x]
     for it in range(1, int(maxiter) + 1):
         if jac is None:
             J = _jacobian_fd(f, x, fx, args, scale)
-            nfev += x.size
+            nfev += n
         else:
-            J = np.asarray(jac(x, *args), dtype=float).reshape(x.size, x.size)
-        if not np.all(np.isfinite(J)):
-            return result(False, f"the Jacobian of {name} is not finite at x = {x.tolist()}", it)
-        LU, piv = lu_factor(J.tolist())
-        dx = None if LU is None else np.array(lu_solve(LU, piv, (-fx).tolist()))
-        if dx is None or not np.all(np.isfinite(dx)):
-            return result(False, f"the Jacobian of {name} is singular at x = {x.tolist()}", it)
+            J = _square(jac(x, *args), n, name)
+        if not all(_all_finite(row) for row in J):
+            return result(False, f"the Jacobian of {name} is not finite at x = {x}", it)
+        LU, piv = lu_factor(J)
+        dx = None if LU is None else lu_solve(LU, piv, [-a for a in fx])
+        if dx is None or not _all_finite(dx):
+            return result(False, f"the Jacobian of {name} is singular at x = {x}", it)
         step = _norm(dx)
         at_zero = (fnorm <= 1e-10 * fnorm0 and _norm(x) <= 1e-10 * _norm(scale)
                    and step <= xtol * _norm(scale))
         if step <= xtol * _norm(x) or at_zero:
-            xn = x + dx
-            fn = np.asarray(f(xn, *args), dtype=float).ravel()
+            xn = [a + d for a, d in zip(x, dx)]
+            fn = values(xn)
             nfev += 1
-            if np.all(np.isfinite(fn)) and _norm(fn) <= fnorm:
+            if _all_finite(fn) and _norm(fn) <= fnorm:
                 x, fx = xn, fn
             if step <= xtol * _norm(x):
                 return result(True, f"Newton step <= xtol |x| (xtol = {xtol:g})", it)
@@ -449,10 +483,10 @@ def solve_system(f, x0, args: tuple = (), xtol: float = 1.49012e-8, maxiter: int
                                 f"its value at x0 (a root at zero; xtol = {xtol:g})", it)
         t = 1.0
         for _ in range(40):
-            xn = x + t * dx
-            fn = np.asarray(f(xn, *args), dtype=float).ravel()
+            xn = [a + t * d for a, d in zip(x, dx)]
+            fn = values(xn)
             nfev += 1
-            if np.all(np.isfinite(fn)):
+            if _all_finite(fn):
                 nn = _norm(fn)
                 if nn <= (1.0 - 1e-4 * t) * fnorm:
                     break
@@ -462,13 +496,13 @@ def solve_system(f, x0, args: tuple = (), xtol: float = 1.49012e-8, maxiter: int
                 return result(True, f"|F| = {fnorm:.3g} cannot be lowered further (rounding level; "
                                     f"{fnorm0:.3g} at x0)", it)
             return result(False, f"{name}: |F| = {fnorm:.3g} does not decrease along the Newton step "
-                                 f"at x = {x.tolist()} (not a root; {fnorm0:.3g} at x0)", it)
+                                 f"at x = {x} (not a root; {fnorm0:.3g} at x0)", it)
         x, fx, fnorm = xn, fn, nn
-        scale = np.maximum(scale, np.abs(x))
+        scale = [max(s, abs(a)) for s, a in zip(scale, x)]
         if fnorm == 0.0:
             return result(True, "F(x) = 0", it)
     return result(False, f"{name}: no convergence in maxiter = {int(maxiter)} Newton iterations "
-                         f"(|F| = {fnorm:.3g} at x = {x.tolist()}, {fnorm0:.3g} at x0)", int(maxiter))
+                         f"(|F| = {fnorm:.3g} at x = {x}, {fnorm0:.3g} at x0)", int(maxiter))
 
 
 __all__ = ["EPS", "SolverError", "find_root", "minimize_bounded", "Minimum", "solve_system", "SystemSolution",

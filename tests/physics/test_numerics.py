@@ -405,7 +405,7 @@ def test_system_solver_on_standard_systems(f, x0):
 
 def test_system_solver_reports_failures():
     r = solve_system(lambda x: [x[0] ** 2 + 1.0, x[1]], [0.5, 0.5])          # no real root
-    assert not r.success and r.x.shape == (2,) and np.all(np.isfinite(r.x))
+    assert not r.success and len(r.x) == 2 and all(math.isfinite(v) for v in r.x)
     assert "not a root" in r.message or "singular" in r.message or "maxiter" in r.message
     r = solve_system(lambda x: [x[0] + x[1] - 1.0, 2.0 * x[0] + 2.0 * x[1]], [0.0, 0.0])  # singular
     assert not r.success and "singular" in r.message and "<lambda>" in r.message
@@ -530,3 +530,52 @@ def test_the_package_runs_without_scipy():
     proc = subprocess.run([sys.executable, "-c", _NO_SCIPY], capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert int(proc.stdout.split()[-2]) >= 40
+
+
+# ----------------------------------------------------------------------------- no numpy in the solvers
+
+_NO_NUMPY = textwrap.dedent("""
+    import builtins, json, sys
+
+    sys.modules['numpy'] = None           # any import of numpy fails
+    tried = []
+    _import = builtins.__import__
+
+    def recording_import(name, *args, **kwargs):
+        if name == 'numpy' or name.startswith('numpy.'):
+            tried.append(name)            # (also an import whose ImportError is caught)
+        return _import(name, *args, **kwargs)
+
+    builtins.__import__ = recording_import
+    from spurdiff import numerics
+    from spurdiff.gears import generating
+    generating._TABLE = {}                # no build-time table: the generation is simulated
+    sol = numerics.solve_system(lambda x: [x[0] ** 2 + x[1] ** 2 - 4.0, x[0] - 2.0 * x[1] + 0.5], (1.0, 1.0),
+                                xtol=1e-13)
+    rF, undercut = generating.form_radius(13, -0.3, 0.003, 0.3490658503988659, 1.25, 0.38, 0.021)
+    assert not tried, tried
+    assert sys.modules['numpy'] is None
+    print(json.dumps({"x": sol.x, "fun": sol.fun, "success": sol.success, "rF": rF, "undercut": undercut}))
+""")
+
+
+def test_the_solvers_and_the_form_radius_run_without_numpy(monkeypatch):
+    """solve_system and the simulated generation of an undercut gear (spurdiff.gears.generating) in a
+    fresh Python with numpy made unimportable: they never try to import it, and their results are
+    those of this process (plain floats: the same with or without numpy around)."""
+    import json
+
+    import spurdiff.gears.generating as g
+
+    proc = subprocess.run([sys.executable, "-c", _NO_NUMPY], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    out = json.loads(proc.stdout.splitlines()[-1])
+    ref = solve_system(_circle_line, [1.0, 1.0], xtol=1e-13)
+    assert out["success"] and ref.success
+    assert out["x"] == ref.x and out["fun"] == ref.fun
+    assert type(ref.x) is list and all(type(v) is float for v in ref.x + ref.fun)
+    assert _circle_line(out["x"]) == pytest.approx([0.0, 0.0], abs=1e-14)
+    monkeypatch.setattr(g, "_TABLE", {})
+    assert (out["rF"], out["undercut"]) == g.form_radius.__wrapped__(13, -0.3, 0.003, 0.3490658503988659, 1.25,
+                                                                     0.38, 0.021)
+    assert out["undercut"] and 0.003 * 13 / 2 * math.cos(0.3490658503988659) < out["rF"] < 0.021

@@ -501,7 +501,7 @@ def build_model(values: dict):
         model.native = bool(s.mesh.nativeStep)     # the whole step in C (spurdiff.differential.rigid_native)
     else:
         _validated_mesh(s.mesh)
-        from spurdiff.differential.mesh.model import MeshDifferential   # (numpy: the mesh levels only)
+        from spurdiff.differential.mesh.model import MeshDifferential   # (loaded for the mesh levels only)
         model = MeshDifferential(params, s.mesh)
         model.input_names = {v.bind: v.name for v in io.inputs}   # errors name the FMU's inputs
     io.push(model, values)

@@ -17,7 +17,9 @@ involute and removes its lower part (undercut). Then the form radius is where th
 crosses the involute; :func:`form_radius` finds it by simulating the generation: an involute
 point at radius ``R`` survives if no position of the rolling tool overlaps it; ``r_F`` is the
 smallest surviving radius (bisection in ``R``; the overlap is the signed distance of the point
-to the rounded tool tooth, maximised over the rolling angle).
+to the rounded tool tooth, maximised over the rolling angle). Plain Python floats and :mod:`math`
+(no numpy): the operations of the former numpy version, in the same order, so the same numbers
+(bit for bit in the tests' gear sets on Linux, where numpy's sin, cos and hypot are the C library's).
 """
 from __future__ import annotations
 
@@ -64,6 +66,30 @@ def straight_flank_reach(z: int, x: float, m: float, alpha: float, haP0: float, 
     return r * math.sin(alpha) - (h_ffp0 - x) * m / math.sin(alpha)
 
 
+def _depth(X: float, Y: float, p: float, a0: float, ym: float, ta: float, ca: float, sa: float,
+           rho: float) -> float:
+    """How far the point (X, Y) (rack frame) lies inside the nearest rounded tool tooth (m, < 0
+    outside): ``rho`` minus the point's distance to the tooth shrunk by ``rho`` (``rho`` plus its
+    depth in the shrunk tooth if inside). The shrunk tooth: half width ``a0`` at the rounding
+    centres' line ``Y = ym``, flanks at the angle whose tangent, cosine and sine are ``ta``, ``ca``,
+    ``sa``, pitch ``p``."""
+    Xp = abs(X - p * round(X / p))                     # to the nearest tooth's axis (round: half to even)
+    dy = Y - ym
+    w = a0 + dy * ta                                   # the shrunk tooth's half width at Y
+    if Y >= ym and Xp <= w:                            # inside the shrunk tooth
+        return min(dy, (w - Xp) * ca) + rho
+    if Y < ym and Xp <= a0:                            # below the rounding centres' line
+        return rho - (ym - Y)
+    dx = Xp - a0
+    s = dx * sa + dy * ca                              # along the flank from the rounding centre
+    n = dx * ca - dy * sa                              # outward normal of the flank
+    if s >= 0.0 and n > 0.0:
+        return rho - n
+    # to the rounding centre: C's hypot (complex abs), the one numpy's hypot calls, so that the
+    # results equal those of the former vectorised version bit for bit (math.hypot differs by an ulp)
+    return rho - abs(complex(dx, dy))
+
+
 class _Rack:
     """The generating rack in its own frame: X along the datum line, Y from the gear centre."""
 
@@ -78,25 +104,24 @@ class _Rack:
         # half width of the tooth shrunk by rho, at y = ym (the rounding centre's abscissa)
         self.a0 = self.p / 4.0 + (self.ym - y_dat) * self.ta - self.rho / self.ca
 
-    def depth(self, X: np.ndarray, Y: np.ndarray) -> np.ndarray:
-        """How far points (rack frame) lie inside the nearest rounded tool tooth (m, < 0 outside)."""
-        import numpy as np
-        Xp = np.abs(X - self.p * np.round(X / self.p))
-        a0, ym, ta, ca, sa = self.a0, self.ym, self.ta, self.ca, self.sa
-        dx, dy = Xp - a0, Y - ym
-        inside = (Y >= ym) & (Xp <= a0 + dy * ta)
-        d_in = -np.minimum(dy, (a0 + dy * ta - Xp) * ca)
-        s = dx * sa + dy * ca                          # along the flank from the rounding centre
-        n = dx * ca - dy * sa                          # outward normal of the flank
-        d_out = np.where((Y < ym) & (Xp <= a0), ym - Y,
-                         np.where((s >= 0.0) & (n > 0.0), n, np.hypot(dx, dy)))
-        sdf = np.where(inside, d_in, d_out) - self.rho
-        return -sdf
+    @property
+    def shape(self) -> tuple:
+        """The arguments of :func:`_depth` after the point."""
+        return self.p, self.a0, self.ym, self.ta, self.ca, self.sa, self.rho
+
+    def depth(self, X, Y):
+        """How far points (rack frame) lie inside the nearest rounded tool tooth (m, < 0 outside): a
+        float for a point (X, Y), a list for sequences of abscissae and ordinates."""
+        shape = self.shape
+        if hasattr(X, "__len__") or hasattr(Y, "__len__"):
+            return [_depth(float(a), float(b), *shape) for a, b in zip(X, Y, strict=True)]
+        return _depth(float(X), float(Y), *shape)
 
 
 # The form radii an FMU's default gear set needs, computed by this function when the FMU was built
-# (harness/build/fmu.py: form_radius_table), so that the default configuration starts without numpy; any
-# other gear set is simulated here. Keys: repr of the arguments; values: [r_F, undercut].
+# (harness/build/fmu.py: form_radius_table), so that the default configuration starts without simulating
+# the generation (some 25 ms per undercut gear, plain Python); any other gear set is simulated here.
+# Keys: repr of the arguments; values: [r_F, undercut].
 TABLE_FILE = Path(__file__).with_name("form_radius_table.json")
 _TABLE: dict | None = None
 
@@ -125,13 +150,26 @@ def form_radius(z: int, x: float, m: float, alpha: float, haP0: float, rhoaP0: f
     known = _known(repr((z, x, m, alpha, haP0, rhoaP0, r_tip)))
     if known is not None:
         return known
-    import numpy as np      # the generation simulated (an undercut gear): numpy at run time only here
     rack = _Rack(z, x, m, alpha, haP0, rhoaP0)
+    shape = rack.shape
+    p, a0, ym, ta, ca, sa, rho = shape
     psi_ref = (math.pi / 2.0 + 2.0 * x * math.tan(alpha)) / z + _inv(alpha)
     span = 4.0 * math.pi / z
-    phis = np.linspace(-span, span, 1601)
+    # the rolling angles: 1601 samples over [-span, span] (as numpy's linspace: i * step + start, the
+    # last one the end itself)
+    N = 1601
+    step = (span - -span) / (N - 1)
+    phis = [i * step + -span for i in range(N - 1)] + [span]
     dphi = phis[1] - phis[0]
-    cphi, sphi = np.cos(phis), np.sin(phis)
+    cphi, sphi = [math.cos(f) for f in phis], [math.sin(f) for f in phis]
+    rphi = [r * f for f in phis]
+    samples = list(zip(cphi, sphi, rphi))
+    floor = -0.05 * m           # sampled maxima at or below this depth are not refined
+    # The tool lies above its tip line y_tip = ym - rho, so a point's depth is at most its height above
+    # that line, Y - y_tip: at Y <= low (a margin far above rounding) it is below ``floor``, neither a
+    # maximum to refine nor, unless every sample is that deep, the largest depth (not evaluated then).
+    low = (ym - rho) + floor - 1e-9 * m
+    NEG_INF = -math.inf
 
     def point(R: float) -> tuple[float, float]:
         eta = math.pi / z - (psi_ref - _inv(math.acos(min(1.0, rb / R))))
@@ -139,19 +177,65 @@ def form_radius(z: int, x: float, m: float, alpha: float, haP0: float, rhoaP0: f
 
     def depth_at(px, py, phi):
         c, s = math.cos(phi), math.sin(phi)
-        return float(rack.depth(np.array([px * c - py * s + r * phi]), np.array([px * s + py * c]))[0])
+        return _depth(px * c - py * s + r * phi, px * s + py * c, *shape)
+
+    def reach(px: float, py: float) -> tuple[int, int]:
+        """The samples ``i0 <= i <= i1`` outside which the point lies below ``low``: its height is
+        ``Y = R cos(phi - theta)`` (``R, theta``: its polar radius and angle from the Y axis),
+        above ``low`` where ``|phi - theta| < acos(low / R)``; two samples more on each side (the
+        sample spacing is far above rounding). All the samples where ``|phi - theta|`` could pass pi
+        (there Y would rise again; no gear has so few teeth)."""
+        theta = math.atan2(px, py)
+        if span + abs(theta) >= 0.9 * math.pi:
+            return 0, N - 1
+        A = math.acos(max(-1.0, min(1.0, low / math.hypot(px, py))))
+        return (max(0, math.floor((theta - A + span) / step) - 2),
+                min(N - 1, math.ceil((theta + A + span) / step) + 2))
+
+    def depths(px: float, py: float, i0: int, i1: int, low: float) -> list[float]:
+        """The point's depth at each sampled rolling angle (the rack frame: X = px c - py s + r phi,
+        Y = px s + py c), -inf outside samples i0 to i1 and where Y <= low (there it is below floor);
+        _depth written out (a call per sample would cost as much as its body)."""
+        d = [NEG_INF] * i0
+        app = d.append
+        for c, s, rf in samples[i0:i1 + 1]:
+            Y = px * s + py * c
+            if Y <= low:
+                app(NEG_INF)
+                continue
+            X = px * c - py * s + rf
+            Xp = abs(X - p * round(X / p))
+            dy = Y - ym
+            w = a0 + dy * ta
+            if Y >= ym and Xp <= w:
+                app(min(dy, (w - Xp) * ca) + rho)
+            elif Y < ym and Xp <= a0:
+                app(rho - (ym - Y))
+            else:
+                dx = Xp - a0
+                n = dx * ca - dy * sa
+                if n > 0.0 and dx * sa + dy * ca >= 0.0:
+                    app(rho - n)
+                else:
+                    app(rho - abs(complex(dx, dy)))
+        d.extend([NEG_INF] * (N - 1 - i1))
+        return d
 
     def max_depth(R: float) -> float:
         px, py = point(R)
-        d = rack.depth(px * cphi - py * sphi + r * phis, px * sphi + py * cphi)
-        best = float(d.max())
+        i0, i1 = reach(px, py)
+        d = depths(px, py, i0, i1, low)
+        if max(d) <= floor:     # every sample deeper than floor: the largest of all (and no maximum to refine)
+            d = depths(px, py, 0, N - 1, NEG_INF)
+        best = max(d)
         # refine every sampled local maximum near the surface (a corner's trochoid can graze the
         # point in a window narrower than the sampling, next to the flank's tangent contact)
-        peaks = np.flatnonzero((d[1:-1] >= d[:-2]) & (d[1:-1] >= d[2:]) & (d[1:-1] > -0.05 * m)) + 1
-        for k in peaks:
-            res = minimize_bounded(lambda f: -depth_at(px, py, f), phis[k] - dphi, phis[k] + dphi,
-                                   xatol=1e-14)
-            best = max(best, -float(res.fun))
+        for k in range(max(1, i0), min(N - 2, i1) + 1):
+            dk = d[k]
+            if dk > floor and dk >= d[k - 1] and dk >= d[k + 1]:
+                res = minimize_bounded(lambda f: -depth_at(px, py, f), phis[k] - dphi, phis[k] + dphi,
+                                       xatol=1e-14)
+                best = max(best, -float(res.fun))
         return best
 
     tol = 1e-9 * m

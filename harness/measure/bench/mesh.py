@@ -83,7 +83,7 @@ def methods(tols=(1e-4, 1e-6, 1e-8), repeats: int = 3) -> list[dict]:
         spec = paper_case(scene)
         ref = make(mesh["level"], spec, **{k: v for k, v in mesh.items() if k != "level"}, tolerance=1e-10)
         simulate(ref, 0.3)
-        scale = np.maximum(np.abs(ref.y), SCALE)
+        scale = np.maximum(np.abs(np.array(list(ref.y))), SCALE)
         for tol in tols:
             for method in METHODS:
                 walls = []
@@ -93,7 +93,7 @@ def methods(tols=(1e-4, 1e-6, 1e-8), repeats: int = 3) -> list[dict]:
                     walls.append(simulate(m, 0.3)[2])
                 rows.append({"case": f"{scene}, {', '.join(f'{k}={v}' for k, v in mesh.items())}",
                              "tolerance": tol, "method": method, "steps": m.n_internal_steps, "wall": min(walls),
-                             "error": float(np.max(np.abs(m.y - ref.y) / scale)),
+                             "error": float(np.max(np.abs(np.array(list(m.y)) - np.array(list(ref.y))) / scale)),
                              "loss_error": abs(m.energy_loss - ref.energy_loss), "loss": ref.energy_loss})
     print("## The two methods in the do_step loop (1 ms, 0.3 s; errors against tolerance 1e-10, ROS34PW2)\n")
     print("| case | tolerance | method | internal steps | wall s | state error | loss error J (of loss J) |")
@@ -196,14 +196,14 @@ def step_bound(tols=(1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8), case: str = "contact, 
         finally:
             self.evaluate = ev
         if quadrature_state == "gradient":
-            g, F = np.zeros(y.size), np.zeros(y.size)
-            for k in range(y.size):
+            g, F = np.zeros(len(y)), [0.0] * len(y)
+            for k in range(len(y)):
                 d = 1e-6 * max(abs(y[k]), SCALE[k] if k < SCALE.size else 1.0)
-                yp, ym = y.copy(), y.copy()
+                yp, ym = list(y), list(y)
                 yp[k] += d
                 ym[k] -= d
                 g[k] = (ev(yp, F, None).P - ev(ym, F, None).P) / (2.0 * d)
-            grad[0] = (g, self.U)
+            grad[0] = (g, [np.array(u) for u in self.U])
         return ok
 
     def loss_quadrature(P0, Pm, P1, hs, rtol):
@@ -212,10 +212,10 @@ def step_bound(tols=(1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8), case: str = "contact, 
             for i, Pi in enumerate([P0] + stage_P):
                 s = Pi + (float(grad[0][0] @ grad[0][1][i]) if quadrature_state == "gradient" else 0.0)
                 for j in range(i):
-                    s += METHOD.c_lists[i][j] / hs * u[j]
+                    s += METHOD.c_rows[i][j] / hs * u[j]
                 u.append(METHOD.gamma * hs * s)
-            d = sum(w * x for w, x in zip(METHOD.m_list, u))
-            e = abs(sum(w * x for w, x in zip(METHOD.e_list, u))) / (rtol * (stepper.E_REF + abs(d)))
+            d = sum(w * x for w, x in zip(METHOD.m, u))
+            e = abs(sum(w * x for w, x in zip(METHOD.e, u))) / (rtol * (stepper.E_REF + abs(d)))
         else:
             d, e = keep[1](P0, Pm, P1, hs, rtol)
         trials.append(("loss", e))

@@ -48,23 +48,24 @@ def test_rosenbrock_w_method_has_order_3_even_with_a_wrong_jacobian():
 
     def f(y, out, J):  # oscillator driving a stiff component (eigenvalue -1e4)
         out[0], out[1], out[2] = -y[1], y[0], -1e4 * (y[2] - math.sin(y[0]))
-        if J is not None:
-            J[:] = 0.0
-            J[0, 1], J[1, 0], J[2, 2], J[2, 0] = -1.0, 1.0, -1e4, 1e4 * math.cos(y[0])
+        if J is not None:          # (rows of plain floats, as the mesh model's)
+            for row in J:
+                row[:] = [0.0, 0.0, 0.0]
+            J[0][1], J[1][0], J[2][2], J[2][0] = -1.0, 1.0, -1e4, 1e4 * math.cos(y[0])
 
     for wrong in (False, True):
         errs = []
         for n in (20, 40, 80, 160):
             r = RosenbrockW(3, f)
-            y, h, f0 = np.array([1.0, 0.0, math.sin(1.0)]), 2.0 / n, np.zeros(3)
+            y, h, f0 = [1.0, 0.0, math.sin(1.0)], 2.0 / n, [0.0] * 3
             for _ in range(n):
                 f(y, f0, r.J)
                 if wrong:
-                    r.J[2, 0] = 0.0
-                    r.J[0, 1] *= 0.5
+                    r.J[2][0] = 0.0
+                    r.J[0][1] *= 0.5
                 assert r.step(y, f0, h)
-                y = r.y_new.copy()
-            errs.append(np.max(np.abs(y[:2] - [math.cos(2.0), math.sin(2.0)])))
+                y = list(r.y_new)
+            errs.append(np.max(np.abs(np.array(y[:2]) - [math.cos(2.0), math.sin(2.0)])))
         orders = [math.log2(a / b) for a, b in zip(errs, errs[1:])]
         assert all(2.9 < p < 3.1 for p in orders), (wrong, orders)
 
@@ -77,32 +78,33 @@ def test_rodas5p_has_order_5_and_its_estimate_and_dense_output_order_4():
 
     def f(y, out, J):
         out[0], out[1], out[2] = -y[1], y[0], -1e4 * (y[2] - math.sin(y[0]))
-        if J is not None:
-            J[:] = 0.0
-            J[0, 1], J[1, 0], J[2, 2], J[2, 0] = -1.0, 1.0, -1e4, 1e4 * math.cos(y[0])
+        if J is not None:          # (rows of plain floats, as the mesh model's)
+            for row in J:
+                row[:] = [0.0, 0.0, 0.0]
+            J[0][1], J[1][0], J[2][2], J[2][0] = -1.0, 1.0, -1e4, 1e4 * math.cos(y[0])
 
     errs = []
     for n in (5, 10, 20, 40):     # (at 80 steps the error, 1e-14, is rounding)
         r = RosenbrockW(3, f, RODAS5P)
-        y, h, f0 = np.array([1.0, 0.0, math.sin(1.0)]), 2.0 / n, np.zeros(3)
+        y, h, f0 = [1.0, 0.0, math.sin(1.0)], 2.0 / n, [0.0] * 3
         for _ in range(n):
             f(y, f0, r.J)
             assert r.step(y, f0, h)
-            y = r.y_new.copy()
-        errs.append(np.max(np.abs(y[:2] - [math.cos(2.0), math.sin(2.0)])))
+            y = list(r.y_new)
+        errs.append(np.max(np.abs(np.array(y[:2]) - [math.cos(2.0), math.sin(2.0)])))
     orders = [math.log2(a / b) for a, b in zip(errs, errs[1:])]
     assert all(4.7 < p < 6.5 for p in orders), orders     # (about 6 here: 6.0, 5.9, 5.9)
     est, dense = [], []
     for h in (0.2, 0.1, 0.05):
         r = RosenbrockW(3, f, RODAS5P)
-        y, f0 = np.array([1.0, 0.0, math.sin(1.0)]), np.zeros(3)
+        y, f0 = [1.0, 0.0, math.sin(1.0)], [0.0] * 3
         f(y, f0, r.J)
         assert r.step(y, f0, h)
-        est.append(np.max(np.abs(r.err[:2])))
+        est.append(max(abs(v) for v in r.err[:2]))
         exact = lambda th: np.array([math.cos(th * h), math.sin(th * h)])   # noqa: E731
-        pts = [(0.5, r.midpoint(y)), (0.25, r.dense_at(RODAS5P.dquarter[0], y, np.zeros(3))),
-               (0.75, r.dense_at(RODAS5P.dquarter[1], y, np.zeros(3)))]
-        dense.append(max(np.max(np.abs(v[:2] - exact(th))) for th, v in pts))
+        pts = [(0.5, r.midpoint(y)), (0.25, r.dense_at(RODAS5P.dquarter[0], y)),
+               (0.75, r.dense_at(RODAS5P.dquarter[1], y))]
+        dense.append(max(np.max(np.abs(np.array(v[:2]) - exact(th))) for th, v in pts))
     for e in (est, dense):
         rates = [math.log2(a / b) for a, b in zip(e, e[1:])]
         assert all(4.5 < p < 5.7 for p in rates), (e, rates)
@@ -133,7 +135,7 @@ def test_rhs_is_the_integrated_ode():
                     atol=1e-10 * np.array([1, 1e-5, 1e-5, 1e-5, 1, 1, 1, 1]))
     run(m, 0.02, 1e-3)
     scale = np.array([1, 1e-5, 1e-5, 1e-5, 1, 1, 1, 1])
-    assert np.max(np.abs(m.state_vector() - sol.y[:, -1]) / scale) < 1e-6
+    assert np.max(np.abs(np.array(m.state_vector()) - sol.y[:, -1]) / scale) < 1e-6
 
 
 def test_analytic_jacobian_matches_finite_differences():
@@ -144,16 +146,16 @@ def test_analytic_jacobian_matches_finite_differences():
             m = model(mesh.pop("level"), CORNER, drive, 2000.0, **mesh)
             for modes in ([0, 0], [1, -1], [0, 1]):
                 m.s = modes
-                y = m.state_vector()
+                y = np.array(m.state_vector())
                 y[4:8] += rng.normal(0.0, 0.5, 4)
                 y[1:4] *= 1.0 + rng.normal(0.0, 0.05, 3)
                 y[6] = 0.0 if modes[0] == 0 else y[6]
                 y[7] = 0.0 if modes[1] == 0 else y[7]
-                J = m.jac(0.0, y)
+                J = np.array(m.jac(0.0, y))
                 for j in range(len(y)):
                     e = np.zeros(len(y))
                     e[j] = 1e-7 * max(1e-4 if j in (1, 2, 3) else 1.0, abs(y[j]))
-                    col = (m.rhs(0.0, y + e) - m.rhs(0.0, y - e)) / (2 * e[j])
+                    col = (np.array(m.rhs(0.0, y + e)) - np.array(m.rhs(0.0, y - e))) / (2 * e[j])
                     assert J[:, j] == pytest.approx(col, rel=1e-5, abs=1e-6 * np.abs(J).max())
 
 

@@ -16,8 +16,8 @@ from spurdiff.differential.mesh.params import LEVELS, N_PER_MM15, MeshParams
 
 
 def __getattr__(name: str):
-    """:class:`MeshDifferential` imported when first asked for: the model needs numpy, its parameters do
-    not (a rigid FMU builds and runs without numpy)."""
+    """:class:`MeshDifferential` imported when first asked for: a rigid run never loads the mesh levels'
+    modules (a quicker FMU start), only their parameters."""
     if name == "MeshDifferential":
         from spurdiff.differential.mesh.model import MeshDifferential
         return MeshDifferential

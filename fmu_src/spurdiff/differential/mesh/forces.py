@@ -280,12 +280,15 @@ def _slipping_pin(C_planet: list, sun: int, s: int, cap: float, cd: float, dpS: 
     return -s * cap
 
 
+_ZEROS7 = (0.0,) * 7
+
+
 def evaluate(c, y, f, J) -> SideValues:
     """f = y'(y) in the current friction modes; J = df/dy rows that depend on y (if J is given).
 
     ``c``: the model (constants, inputs, effects, friction modes ``s``; see
     :class:`spurdiff.differential.mesh.model.MeshDifferential`)."""
-    yl = y.tolist()
+    yl = y if type(y) is list else list(y)
     W = (yl[4], yl[5], yl[6], yl[7])        # gear speeds relative to the carrier: vA, vB, w1, w2
     n = c.n
     md = c.md
@@ -433,7 +436,7 @@ def evaluate(c, y, f, J) -> SideValues:
             for k in range(7):
                 acc[k] += n * gQ2[k]
         gac = tuple(-a / Jeff for a in acc)
-        J[WC, 1:8] = gac
+        J[WC][1:8] = gac
         if Lx is not None:
             accp = rpsi[0] + rpsi[1]
             if not stuck1:
@@ -441,25 +444,25 @@ def evaluate(c, y, f, J) -> SideValues:
             if not stuck2:
                 accp += n * rpsi[3]
             gacp = -accp / Jeff
-            J[WC, 0] = gacp
+            J[WC][0] = gacp
     if Lx is not None:       # the column of psi_A (only the lever arms depend on it)
-        J[VA, 0] = rpsi[0] * (1.0 / c.JA) - gacp
-        J[VB, 0] = rpsi[1] * (1.0 / c.JB) - gacp
-        J[W1, 0] = 0.0 if stuck1 else rpsi[2] * (1.0 / J1_) - gacp
-        J[W2, 0] = 0.0 if stuck2 else rpsi[3] * (1.0 / J2_) - gacp
+        J[VA][0] = rpsi[0] * (1.0 / c.JA) - gacp
+        J[VB][0] = rpsi[1] * (1.0 / c.JB) - gacp
+        J[W1][0] = 0.0 if stuck1 else rpsi[2] * (1.0 / J1_) - gacp
+        J[W2][0] = 0.0 if stuck2 else rpsi[3] * (1.0 / J2_) - gacp
     iA, iB = 1.0 / c.JA, 1.0 / c.JB
-    J[VA, 1:8] = [gQA[k] * iA - gac[k] for k in range(7)]
-    J[VB, 1:8] = [gQB[k] * iB - gac[k] for k in range(7)]
+    J[VA][1:8] = [gQA[k] * iA - gac[k] for k in range(7)]
+    J[VB][1:8] = [gQB[k] * iB - gac[k] for k in range(7)]
     if stuck1:
-        J[W1, 1:8] = 0.0
+        J[W1][1:8] = _ZEROS7
     else:
         i1 = 1.0 / J1_
-        J[W1, 1:8] = [gQ1[k] * i1 - gac[k] for k in range(7)]
+        J[W1][1:8] = [gQ1[k] * i1 - gac[k] for k in range(7)]
     if stuck2:
-        J[W2, 1:8] = 0.0
+        J[W2][1:8] = _ZEROS7
     else:
         i2 = 1.0 / J2_
-        J[W2, 1:8] = [gQ2[k] * i2 - gac[k] for k in range(7)]
+        J[W2][1:8] = [gQ2[k] * i2 - gac[k] for k in range(7)]
     return sv
 
 

@@ -20,8 +20,6 @@ from __future__ import annotations
 import ctypes as C
 from pathlib import Path
 
-import numpy as np
-
 from spurdiff import native_library
 from spurdiff.errors import StepError
 from spurdiff.differential.mesh.integrator import SMAX      # mesh_kernel.h SMAX: the most stages of a tableau
@@ -124,7 +122,7 @@ class Kernel:
         if not c.speed_drive:
             for i in range(5):
                 for j in range(5):
-                    P.Minv[i][j] = float(c._Minv[i, j])
+                    P.Minv[i][j] = float(c._Minv[i][j])
         for i in range(c._N):
             P.atol[i] = float(c._atol[i])
         P.rtol, P.w_stick = c._rtol, c._w_stick
@@ -149,14 +147,15 @@ class Kernel:
             dst.d, dst.g1, dst.g2 = md.d, md.g1, md.g2
         self.state = MkState()
         self._pP, self._pS = C.byref(self.params), C.byref(self.state)
-        # the state's doubles (y, w_ref ... d120, sv) and integers (s, flags, n_flags, counters) as arrays
-        self._D = np.frombuffer(self.state, dtype=np.float64, count=40)
-        self._I = np.frombuffer(self.state, dtype=np.int64, count=14, offset=MkState.s.offset)
+        # the state's doubles (y, w_ref ... d120, sv) and integers (s, flags, n_flags, counters) as
+        # arrays over the structure's memory
+        self._D = (_d * 40).from_buffer(self.state)
+        self._I = (_i * 14).from_buffer(self.state, MkState.s.offset)
         assert MkState.y.offset == 0 and MkState.sv.offset == 27 * 8 and MkState.n_steps.offset == 53 * 8
-        # the model's continuous state lives here (the model's y is this view): never copied
-        self.y = self._D[:model._N]
+        # the model's continuous state lives here (the model's y is this array): never copied
         N = model._N
-        self.J = np.frombuffer(self.state, dtype=np.float64, count=N * N, offset=MkState.Jf.offset).reshape(N, N)
+        self.y = (_d * N).from_buffer(self.state)
+        self.J = (_d * N * N).from_buffer(self.state, MkState.Jf.offset)      # rows of N
 
     def _pack(self, c) -> MkState:
         """The model's state into the structure: all of it after the model's state was set from
@@ -171,12 +170,13 @@ class Kernel:
         S.cache_ok = 0
         if c._jac_dirty:               # the Jacobian in use set in Python (initialize, set_state)
             c._jac_dirty = False
-            self.J[:] = c._integ.J
+            for row, src in zip(self.J, c._integ.J):
+                row[:] = src
             S.jac_age, S.lu_h = c._jac_age, 0.0
             S.n_jac, S.n_lu = c.n_jacobians, c._integ.n_factorizations
             S.n_psw = c.n_phase_switches
         if c.y is not self.y:
-            D[:c._N] = c.y
+            D[:c._N] = list(c.y)
         D[10:27] = (c.w_ref, c.tau_c, c.tau_L, c.tau_R, c._ac, c.wc, c.phic, c.t, c.h_next, c.work_in, c.energy_loss,
                     c.parametric_work, c.loss_last_step, c._last_h, c._dA0, c._dB0, c._d120)
         fl = c._contact_flags
@@ -211,56 +211,72 @@ class Kernel:
                 raise StepError(f"more than {int(c.mesh.maxInternalSteps)} internal steps in the step at "
                                 f"t = {t:.9g} s (maxInternalSteps)")
             raise StepError(f"internal step size {S.fail_h:.3g} s below 1e-13 s at t = {S.fail_t:.9g} s")
-        v = self._D[14:40].tolist()
+        v = self._D[14:40]
         (c._ac, c.wc, c.phic, c.t, c.h_next, c.work_in, c.energy_loss, c.parametric_work, c.loss_last_step,
          c._last_h) = v[:10]
-        i = self._I.tolist()
+        i = self._I[:]
         c.s = i[:2]
         c._contact_flags = i[2:2 + i[8]]
         c.n_internal_steps, c.n_rejected_steps, c.n_mode_switches, c.n_contact_transitions, c.n_steps = i[9:14]
         c._f0_key = None
         return v[13:26]
 
-    def advance_dense(self, c, t: float, h: float, times: np.ndarray) -> tuple[np.ndarray, list]:
-        """One step t -> t + h in C with the states at ``times`` (into the step, a contiguous float64
-        array) by the dense output (:meth:`spurdiff.differential.mesh.MeshDifferential.run_dense`); the
-        model ends at t + h. Returns the states (rows) and the side values of the outputs at the end,
-        as :meth:`advance`."""
-        ys = np.zeros((times.size, c._N))
+    def advance_dense(self, c, t: float, h: float, times: list) -> tuple[list, list]:
+        """One step t -> t + h in C with the states at ``times`` (into the step, floats) by the dense
+        output (:meth:`spurdiff.differential.mesh.MeshDifferential.run_dense`); the model ends at t + h.
+        Returns the states (a list of rows) and the side values of the outputs at the end, as :meth:`advance`."""
+        n, N = len(times), c._N
+        tq = (_d * n)(*times)
+        ys = (_d * (n * N))()
         S = self._pack(c)
-        rc = self.lib.mk_advance_dense(self._pP, self._pS, t, h, times.size, times.ctypes.data, ys.ctypes.data)
+        rc = self.lib.mk_advance_dense(self._pP, self._pS, t, h, n, tq, ys)
         if rc != 0:
             raise StepError(f"the run from t = {t:.9g} s failed at t = {S.fail_t:.9g} s (code {rc})")
         self._unpack(c)
-        return ys, self._D[27:40].tolist()
+        return _rows(ys, N), self._D[27:40]
 
     def _unpack(self, c) -> None:
-        v = self._D[14:24].tolist()
+        v = self._D[14:24]
         (c._ac, c.wc, c.phic, c.t, c.h_next, c.work_in, c.energy_loss, c.parametric_work, c.loss_last_step,
          c._last_h) = v
-        i = self._I.tolist()
+        i = self._I[:]
         c.s, c._contact_flags = i[:2], i[2:2 + i[8]]
         c.n_internal_steps, c.n_rejected_steps, c.n_mode_switches, c.n_contact_transitions, c.n_steps = i[9:14]
         c._f0_key = None
 
-    def run(self, c, t0: float, h: float, n: int) -> np.ndarray:
-        """n communication steps with the inputs held, in one call (the states after each, rows);
+    def run(self, c, t0: float, h: float, n: int) -> list:
+        """n communication steps with the inputs held, in one call (the states after each, a list of rows);
         the same steps as n calls of :meth:`advance`. The model ends at the last state (its
         outputs are not refreshed); StepError if a step fails (the model then stays as it was)."""
-        ys = np.empty((n, c._N))
-        S = self._pack(c)
-        done = self.lib.mk_run(self._pP, self._pS, t0, h, n, ys.ctypes.data)
+        N = c._N
+        ys = (_d * (n * N))()
+        self._pack(c)
+        done = self.lib.mk_run(self._pP, self._pS, t0, h, n, ys)
         if done != n:
             raise StepError(f"step {done + 1} of {n} at t = {t0 + done * h:.9g} s failed")
         self._unpack(c)
-        return ys
+        return _rows(ys, N)
 
-    def evaluate(self, c, y: np.ndarray, f: np.ndarray, J: np.ndarray | None) -> tuple:
-        """The model evaluation in C at y (inputs, carrier acceleration and modes of ``c``)."""
+    def evaluate(self, c, y, f: list, J: list | None) -> tuple:
+        """The model evaluation in C at y (inputs, carrier acceleration and modes of ``c``) into the
+        list ``f`` and, if given, the rows of ``J`` (as the Python reference: the rows that depend on y; the
+        others, the constant kinematic ones, keep what ``J`` held)."""
         c._kernel_dirty = True           # a full pack: the caller may have changed anything
-        S = self._pack(c)
-        y = np.ascontiguousarray(y, dtype=np.float64)
-        sv = (C.c_double * 13)()
-        self.lib.mk_evaluate(self._pP, self._pS, y.ctypes.data, f.ctypes.data,
-                             None if J is None else J.ctypes.data, C.addressof(sv))
+        self._pack(c)
+        N = c._N
+        ya = (_d * N)(*y)
+        fa = (_d * N)(*f)
+        Ja = None if J is None else (_d * (N * N))(*(v for row in J for v in row))
+        sv = (_d * 13)()
+        self.lib.mk_evaluate(self._pP, self._pS, ya, fa, Ja, sv)
+        f[:] = fa[:]
+        if J is not None:
+            for k, row in enumerate(J):
+                row[:] = Ja[k * N:(k + 1) * N]
         return tuple(sv)
+
+
+def _rows(flat, N: int) -> list:
+    """A flat C array of rows of N doubles as a list of lists."""
+    v = flat[:]
+    return [v[k:k + N] for k in range(0, len(v), N)]

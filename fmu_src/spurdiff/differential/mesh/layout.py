@@ -122,14 +122,15 @@ def split(N: int) -> tuple[tuple[int, ...], tuple[int, ...]] | None:
 
 
 def constant_jacobian(J, rbA: float, rb1: float, rbB: float, rb2: float, speed_drive: bool) -> None:
-    """The rows of df/dy that do not depend on y (the kinematic rows)."""
-    J[:] = 0.0
-    J[PSI, VA] = 1.0
-    J[DA, VA] = -rbA
-    J[DA, W1] = -rb1
-    J[DB, VB] = -rbB
-    J[DB, W2] = -rb2
-    J[D12, W1] = rb1
-    J[D12, W2] = rb2
+    """The rows of df/dy that do not depend on y (the kinematic rows), into ``J`` (rows, the rest zeroed)."""
+    for row in J:
+        row[:] = [0.0] * len(row)
+    J[PSI][VA] = 1.0
+    J[DA][VA] = -rbA
+    J[DA][W1] = -rb1
+    J[DB][VB] = -rbB
+    J[DB][W2] = -rb2
+    J[D12][W1] = rb1
+    J[D12][W2] = rb2
     if not speed_drive:
-        J[PHIC, WC] = 1.0
+        J[PHIC][WC] = 1.0

@@ -37,8 +37,6 @@ import math
 from dataclasses import replace
 from functools import partial
 
-import numpy as np
-
 from spurdiff.errors import ParameterError, StepError, require_finite, require_positive
 from spurdiff.numerics import gj_inverse
 from spurdiff.gears.geometry import DifferentialGeometry
@@ -53,7 +51,7 @@ from spurdiff.gears.layout import kinematics
 from spurdiff.differential.mesh import kernel as compiled
 from spurdiff.differential.mesh.forces import (BilateralSpring, ElastoBacklash, FlankFriction, Impact, MeshPhase, SideValues, evaluate,
                      gear_meshes, potential)
-from spurdiff.differential.mesh.integrator import METHODS, RosenbrockW
+from spurdiff.differential.mesh.integrator import METHODS, RosenbrockW, zeros
 from spurdiff.differential.mesh.layout import (D12, DA, DB, PSI, VA, VB, W1, W2, WC, constant_jacobian, mesh_data,
                                               relative_angles, roll_gradients, split)
 from spurdiff.differential.mesh.params import MeshParams
@@ -185,17 +183,15 @@ class MeshDifferential(DifferentialModel):
                              or (not self._contact and any(m.c > 0.0 for m in self.md)))
         N = self.n_states = 8 if self.speed_drive else 10
         self._N = N
-        self.y = np.zeros(N)
+        self.y = zeros(N)          # (a list; the compiled kernel's state array where it runs)
         self._integ = RosenbrockW(N, partial(evaluate, self), METHODS[mp_.method_in_use()], split(N))
-        self._f0 = np.zeros(N)
-        self._f1 = np.zeros(N)
-        self._J1 = np.zeros((N, N))
-        self._fscratch = np.zeros(N)
-        self._scr = np.zeros(N)
-        self._yq = np.zeros(N)
-        atol = np.ones(N)
-        atol[[DA, DB, D12]] = 1e-5  # deflection scale: 10 um
-        self._atol = atol * float(mp_.tolerance)
+        self._f0 = zeros(N)
+        self._f1 = zeros(N)
+        self._J1 = zeros(N, N)
+        self._fscratch = zeros(N)
+        tol = float(mp_.tolerance)
+        # the deflections' scale is 10 um
+        self._atol = [(1e-5 if i in (DA, DB, D12) else 1.0) * tol for i in range(N)]
         self._rtol = float(mp_.tolerance)
         # slip speed below which a slipping planet is tested for sticking (rad/s): 1e-3 of the
         # integrator's absolute velocity accuracy
@@ -204,14 +200,14 @@ class MeshDifferential(DifferentialModel):
             constant_jacobian(J, self.rbA, self.rb1, self.rbB, self.rb2, self.speed_drive)
         # torque drive: inverse mass matrix in (w_c, v_A, v_B, w_1, w_2) for stick impulses
         if not self.speed_drive:
-            M = np.array([[self.Jtot, self.JA, self.JB, n * self.J1, n * self.J2],
-                          [self.JA, self.JA, 0, 0, 0], [self.JB, 0, self.JB, 0, 0],
-                          [n * self.J1, 0, 0, n * self.J1, 0], [n * self.J2, 0, 0, 0, n * self.J2]])
-            Minv = gj_inverse(M.tolist())
+            M = [[self.Jtot, self.JA, self.JB, n * self.J1, n * self.J2],
+                 [self.JA, self.JA, 0.0, 0.0, 0.0], [self.JB, 0.0, self.JB, 0.0, 0.0],
+                 [n * self.J1, 0.0, 0.0, n * self.J1, 0.0], [n * self.J2, 0.0, 0.0, 0.0, n * self.J2]]
+            Minv = gj_inverse([list(row) for row in M])
             if Minv is None:
-                raise ParameterError(f"the mass matrix of the carrier, suns and planets is singular: {M.tolist()} "
+                raise ParameterError(f"the mass matrix of the carrier, suns and planets is singular: {M} "
                                      "(allowed: positive inertias)")
-            self._Minv = np.array(Minv)
+            self._Minv = Minv
         self._kernel, self.kernel_in_use = compiled.choose(self)
         if self._kernel is not None:
             self.y = self._kernel.y       # the state lives in the kernel's structure
@@ -227,36 +223,41 @@ class MeshDifferential(DifferentialModel):
             require_finite(names[attr], getattr(self, attr))
 
     # ================================================================== solve_ivp interface
-    def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
+    def rhs(self, t: float, y) -> list:
         """Right-hand side for scipy's solve_ivp (current inputs and friction modes held; the
-        compiled kernel's evaluation where it runs, the same numbers)."""
-        f = np.zeros(self._N)
+        compiled kernel's evaluation where it runs, the same numbers); ``y`` any sequence of floats."""
+        f = zeros(self._N)
+        yl = _floats(y)
         if self._kernel is not None:
-            self._kernel.evaluate(self, np.asarray(y, dtype=float), f, None)
+            self._kernel.evaluate(self, yl, f, None)
         else:
-            evaluate(self, np.asarray(y, dtype=float), f, None)
+            evaluate(self, yl, f, None)
         return f
 
-    def jac(self, t: float, y: np.ndarray) -> np.ndarray:
-        """Analytic Jacobian for solve_ivp (Radau / BDF)."""
-        J = np.zeros((self._N, self._N))
+    def jac(self, t: float, y) -> list:
+        """Analytic Jacobian for solve_ivp (Radau / BDF), rows."""
+        J = zeros(self._N, self._N)
         constant_jacobian(J, self.rbA, self.rb1, self.rbB, self.rb2, self.speed_drive)
+        yl = _floats(y)
         if self._kernel is not None:
-            self._kernel.evaluate(self, np.asarray(y, dtype=float), self._fscratch, J)
+            self._kernel.evaluate(self, yl, self._fscratch, J)
         else:
-            evaluate(self, np.asarray(y, dtype=float), self._fscratch, J)
+            evaluate(self, yl, self._fscratch, J)
         return J
 
-    def state_vector(self) -> np.ndarray:
+    def state_vector(self) -> list:
         """Copy of the continuous state y (see the module docstring for its layout)."""
-        return self.y.copy()
+        return list(self.y)
 
-    def load_state_vector(self, y: np.ndarray) -> None:
+    def load_state_vector(self, y) -> None:
         """Put a continuous state (e.g. a point of a solve_ivp trajectory) in place and refresh the
         outputs at it; friction modes and inputs stay as they are. The integrator's memory of the
         old state goes (its f at y, its Jacobian: a new one at the next step, as after
         initialize), so the compiled kernel and the Python reference go on alike."""
-        self.y[:] = y
+        yl = _floats(y)
+        if len(yl) != self._N:
+            raise ParameterError("y", f"{len(yl)} values", f"{self._N}, the state's length")
+        self.y[:] = yl
         self._f0_key = None
         self._jac_age, self._integ.lu_h = -1, 0.0
         if self._kernel is not None:      # (its counters stay: not a full Jacobian pack)
@@ -371,29 +372,31 @@ class MeshDifferential(DifferentialModel):
         if self._kernel is not None:
             self._kernel.params.dissipative = 0
 
-    def run_dense(self, t_end: float, times) -> np.ndarray:
+    def run_dense(self, t_end: float, times) -> list:
         """An integration over a whole run from the current time with the inputs held, as
         solve_ivp's one call with ``t_eval``: one step of length ``t_end`` (the internal steps are
         not cut at communication points) with the states at ``times`` (from the current time,
-        increasing, in (0, t_end]) by the method's dense output, rows; the model ends at the end.
+        increasing, in (0, t_end]) by the method's dense output, a list of rows; the model ends at the end.
         For the solver comparison (harness.measure.bench.mesh); a co-simulation steps with do_step."""
         if not self._ready:
             raise StepError("run_dense called before initialize")
         t_end = require_positive("t_end", t_end)
         self._check_inputs()
-        tq = np.asarray(times, dtype=np.float64)
-        # (comparisons that are False for NaN: a NaN time is refused too; slices, not np.diff: a few
-        # us less per call, which the solver comparison times)
-        if (tq.ndim != 1 or tq.size == 0 or not (tq[0] > 0.0 and tq[-1] <= t_end)
-                or not (tq[1:] > tq[:-1]).all()):
-            raise ParameterError("times", list(tq[:3]), f"increasing, in (0, {t_end:g}]")
+        try:
+            tq = _floats(times)
+        except (TypeError, ValueError):
+            tq = None
+        # (comparisons that are False for NaN: a NaN time is refused too)
+        if (not tq or not (tq[0] > 0.0 and tq[-1] <= t_end)
+                or not all(b > a for a, b in zip(tq, tq[1:]))):
+            raise ParameterError("times", times if tq is None else tq[:3], f"increasing, in (0, {t_end:g}]")
         t = self.t
         if self._kernel is not None:   # the outputs from the side values the kernel left (as do_step)
-            ys, sv = self._kernel.advance_dense(self, t, t_end, np.ascontiguousarray(tq))
+            ys, sv = self._kernel.advance_dense(self, t, t_end, tq)
             self._refresh_outputs(SideValues(*sv))
             return ys
-        ys = np.zeros((tq.size, self._N))
-        advance(self, t, t_end, dense=(tq.tolist(), ys))
+        ys = [None] * len(tq)
+        advance(self, t, t_end, dense=(tq, ys))
         self._refresh_outputs()
         return ys
 
@@ -427,7 +430,7 @@ class MeshDifferential(DifferentialModel):
     @property
     def phi_R(self) -> float:
         if self._psiB is None:
-            self._psiB = relative_angles(self, self.y.tolist())[0]
+            self._psiB = relative_angles(self, list(self.y))[0]
         return self.phic + self._psiB
 
     @property
@@ -482,7 +485,7 @@ class MeshDifferential(DifferentialModel):
 
     @property
     def kinetic_energy(self) -> float:
-        y = self.y.tolist()
+        y = list(self.y)
         wc = self.wc
         n = self.n
         return 0.5 * (self.Jc * wc * wc + self.JA * (wc + y[VA]) ** 2 + self.JB * (wc + y[VB]) ** 2
@@ -492,7 +495,7 @@ class MeshDifferential(DifferentialModel):
     def potential_energy(self) -> float:
         """Elastic energy of all mesh springs (J)."""
         if self._V is None:
-            self._V = potential(self, self.y.tolist())
+            self._V = potential(self, list(self.y))
         return self._V
 
     @property
@@ -516,12 +519,12 @@ class MeshDifferential(DifferentialModel):
         s = {k: getattr(self, k) for k in self._SCALARS}
         for k in ("w_ref", "tau_c", "tau_L", "tau_R"):
             s[k] = float(s[k])
-        s["y"] = self.y.tolist()
+        s["y"] = list(self.y)
         s["modes"] = list(self.s)
         s["contact_flags"] = list(self._contact_flags)
         # the integrator's Jacobian in use and its age (a W-method's memory, as h_next is)
         k = self._kernel is not None and not self._jac_dirty
-        s["jacobian"] = (self._kernel.J if k else self._integ.J).ravel().tolist()
+        s["jacobian"] = [v for row in (self._kernel.J if k else self._integ.J) for v in row]
         s["jac_age"] = int(self._kernel.state.jac_age) if k else self._jac_age
         return s
 
@@ -529,11 +532,13 @@ class MeshDifferential(DifferentialModel):
         for k in self._SCALARS:
             setattr(self, k, state[k])
         self._g = self._inertial_loads()              # the speed loads are a function of _g_wc, _g_ac
-        self.y[:] = state["y"]
+        self.y[:] = [float(v) for v in state["y"]]
         self.s = [int(v) for v in state["modes"]]
         self._contact_flags = [int(v) for v in state["contact_flags"]]
         if "jacobian" in state:
-            self._integ.J.ravel()[:] = state["jacobian"]
+            N, flat = self._N, state["jacobian"]
+            for i, row in enumerate(self._integ.J):
+                row[:] = [float(v) for v in flat[i * N:(i + 1) * N]]
             self._jac_age = int(state["jac_age"])
         else:
             self._jac_age = -1
@@ -541,3 +546,9 @@ class MeshDifferential(DifferentialModel):
         self._f0_key = None
         self._kernel_dirty = self._jac_dirty = True
         self._refresh_outputs()
+
+
+def _floats(y) -> list:
+    """A sequence of numbers (a list, a numpy array from solve_ivp, a tuple) as a list of floats."""
+    tolist = getattr(y, "tolist", None)        # (numpy's, without importing it: its floats are Python's)
+    return [float(v) for v in (tolist() if tolist is not None else y)]

@@ -14,7 +14,7 @@ from spurdiff.attrpath import record
 LEVELS = ("compliant", "contact")
 KERNELS = ("auto", "compiled", "python")
 METHODS = ("ros34pw2", "rodas5p")      # the integrator's tableaux by name (integrator.METHODS' keys: a test
-                                      # checks; not imported here, so the rigid level loads without numpy)
+                                      # checks; not imported here, so a rigid run loads no mesh-level module)
 METHOD_CHOICES = ("auto",) + METHODS  # solver.method (auto: by the level, MeshParams.method_in_use)
 AUTO_METHOD = {"contact": "rodas5p", "compliant": "ros34pw2"}   # what auto selects per level
 N_PER_MM15 = 1e3 ** 1.5  # 1 N/mm^1.5 in N/m^1.5

@@ -22,13 +22,11 @@ step (and so the factorization).
 """
 from __future__ import annotations
 
-import numpy as np
-
 from spurdiff.differential.mesh.events import (PHASE_PAST, PHASE_RTOL, STICK_RTOL, breakaway, contact_flags,
                                                friction_margins, phase_events, phase_limit, phase_mode,
                                                phase_switches, state_events)
 from spurdiff.differential.mesh.forces import evaluate
-from spurdiff.differential.mesh.integrator import _combine, error_norm, new_step_size
+from spurdiff.differential.mesh.integrator import combine, error_norm, new_step_size
 from spurdiff.differential.mesh.layout import PHIC, PSI, VA, VB, W1, W2, WC, relative_angles
 from spurdiff.differential.mesh.stickslip import settle_modes, slip_speed_reached_zero, stick_impulse
 from spurdiff.errors import StepError
@@ -98,34 +96,25 @@ def book_parametric_work(c, ya, yb) -> None:
             c.parametric_work += c.n * (Vb - Va)
 
 
-def dense_output(tr, U, y, yn, tin: float, hi: float, k: int, tq: list, yq, tmp) -> int:
+def dense_output(tr, U, y, yn, tin: float, hi: float, k: int, tq: list, yq: list) -> int:
     """The states at the output times ``tq[k], ...`` (into the communication step) that lie in
     (tin, tin + hi], an accepted step from y to yn, by the method's dense output (ROS34PW2: order 3
-    with the exact Jacobian, 2 as a W-method; RODAS5P 4) into the rows of ``yq``; returns the next k. ``y + theta Q_0 + theta^2 Q_1 + theta^3 Q_2 +
+    with the exact Jacobian, 2 as a W-method; RODAS5P 4) as the rows ``yq[k]`` (new lists); returns the next k. ``y + theta Q_0 + theta^2 Q_1 + theta^3 Q_2 +
     theta^4 Q_3`` with ``Q_p = sum_j dpoly[p][j] u_j``, formed once for a step with outputs (the
     kernel's order of operations; a three-power output's Q_3 is 0)."""
     Q = None
     while k < len(tq) and tq[k] <= tin + hi:
         th = (tq[k] - tin) / hi
         if th >= 1.0:
-            yq[k] = yn
+            yq[k] = list(yn)
         else:
             if Q is None:
-                Q = np.zeros((4, len(y)))
-                for p in range(4):
-                    _combine(tr.dpoly[p], U, Q[p], tmp)
+                Q = [combine(tr.dpoly[p], U) for p in range(4)]
             th2 = th * th
             th3 = th2 * th
             th4 = th3 * th
-            out = yq[k]
-            np.multiply(Q[0], th, out=out)
-            np.multiply(Q[1], th2, out=tmp)
-            out += tmp
-            np.multiply(Q[2], th3, out=tmp)
-            out += tmp
-            np.multiply(Q[3], th4, out=tmp)
-            out += tmp
-            np.add(y, out, out=out)
+            yq[k] = [v + (((q0 * th + q1 * th2) + q2 * th3) + q3 * th4)
+                     for v, q0, q1, q2, q3 in zip(y, *Q)]
         k += 1
     return k
 
@@ -133,7 +122,7 @@ def dense_output(tr, U, y, yn, tin: float, hi: float, k: int, tq: list, yq, tmp)
 def advance(c, t: float, h: float, dense=None) -> None:
     """Advance the model ``c`` from t to t + h (inputs held); raises StepError. ``dense``: None or
     (times into the step, increasing, in (0, h]; an array with a row per time) for the states
-    there by the dense output.
+    there by the dense output (a list, a row set per time).
 
     With a mesh-phase effect the phase modes (pairs in contact, tooth count) are held over each
     internal step (``c._mode``), so the right-hand side is smooth within it; a step that a loaded
@@ -212,7 +201,7 @@ def _advance(c, t: float, h: float, dense) -> None:
                     yn[W1] = 0.0
                 if c.s[1] == 0:
                     yn[W2] = 0.0
-            err = error_norm(integ.err, y, yn, c._atol, c._rtol, c._scr)
+            err = error_norm(integ.err, y, yn, c._atol, c._rtol)
             if not err <= 1.0:  # also catches nan
                 c.n_rejected_steps += 1
                 rejected = truncated = True
@@ -230,8 +219,8 @@ def _advance(c, t: float, h: float, dense) -> None:
                     dloss, errE = loss_quadrature(sv0.P, svm.P, sv1.P, hi, c._rtol)
                 else:
                     Pm = svm.P
-                    Pa = evaluate(c, integ.dense_at(dq[0], y, c._yq), c._fscratch, None).P
-                    Pb = evaluate(c, integ.dense_at(dq[1], y, c._yq), c._fscratch, None).P
+                    Pa = evaluate(c, integ.dense_at(dq[0], y), c._fscratch, None).P
+                    Pb = evaluate(c, integ.dense_at(dq[1], y), c._fscratch, None).P
                     dloss, errE = loss_quadrature5(sv0.P, Pa, Pm, Pb, sv1.P, hi, c._rtol)
                 if not errE <= 1.0:
                     c.n_rejected_steps += 1
@@ -271,8 +260,8 @@ def _advance(c, t: float, h: float, dense) -> None:
         h_ctrl = max(h_ctrl, h_prop) if truncated and not rejected else h_prop
         if c._dissipative:
             c.energy_loss += dloss
-        ya = y.tolist()
-        yb = yn.tolist()
+        ya = list(y)
+        yb = list(yn)
         if speed:
             wc_b = wc_start + ac * (tin + hi)
             dphic = wc_a * hi + 0.5 * ac * hi * hi
@@ -285,7 +274,7 @@ def _advance(c, t: float, h: float, dense) -> None:
         if c._var:
             book_parametric_work(c, ya, yb)
         if kq < len(tq):
-            kq = dense_output(integ.method, integ.U, y, yn, tin, hi, kq, tq, yq, c._scr)
+            kq = dense_output(integ.method, integ.U, y, yn, tin, hi, kq, tq, yq)
         y[:] = yn
         tin += hi
         remaining = h - tin

@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from spurdiff.numerics import solve_system
 from spurdiff.differential.rigid import RigidDifferential
 from spurdiff.differential.mesh.events import STICK_RTOL, contact_flags
@@ -64,8 +62,9 @@ def stick_impulse(c, y, i: int, wc: float) -> None:
     # torque drive: impulse p on w_i with the carrier free: dv = M^-1 e_i p, w_i -> 0,
     # loss 1/2 w^2 / (M^-1)_ii
     k = 3 + i
-    col = c._Minv[:, k]
-    v = np.array([y[WC], y[VA], y[VB], y[W1], y[W2]]) - col * (w / col[k])
+    col = [row[k] for row in c._Minv]
+    q = w / col[k]
+    v = [yv - cv * q for yv, cv in zip((y[WC], y[VA], y[VB], y[W1], y[W2]), col)]
     c.energy_loss += 0.5 * w * w / col[k]
     y[WC], y[VA], y[VB], y[W1], y[W2] = v
     y[idx] = 0.0
@@ -119,7 +118,7 @@ def initial_forces(c, ac: float, ad: float, slip_dir: float, wd0: float):
     F0 = -(tL + tR) / (n * (rbA + rbB))
     x0 = [F0, ad] + ([] if speed else [ac])
     sol = solve_system(res, x0, xtol=1e-13).x
-    if not np.all(np.isfinite(sol)):
+    if not all(math.isfinite(v) for v in sol):
         sol = x0  # no consistent start found: start from the rigid estimate (a short transient)
     F12, add = float(sol[0]), float(sol[1])
     acc = ac if speed else float(sol[2])
@@ -143,7 +142,7 @@ def initial_state(c, t0: float) -> None:
     c.phic = 0.0
     c._ac = 0.0
     y = c.y
-    y[:] = 0.0
+    y[:] = [0.0] * len(y)
     y[VA], y[VB], y[W1], y[W2] = wd0, c.lam * wd0, c.rho1 * wd0, c.rho2 * wd0
     if not c.speed_drive:
         y[WC] = wc0
