@@ -7,9 +7,9 @@ the modelDescription.xml is post-processed from the declared variables
 (:mod:`harness.build.modeldescription`). What the FMU runs is then our own, so it travels (runs where no
 Python is installed, in any host process):
 
-* ``resources/python/``, the FMU's own Python runtime: this interpreter's libpython, the standard
-  library modules the FMUs import, numpy (:mod:`harness.build.runtime_bundle`; made once and cached,
-  the archive starts from its compressed copy);
+* ``resources/python/``, the FMU's own Python runtime: this interpreter's libpython and the standard
+  library modules the FMUs import (:mod:`harness.build.runtime_bundle`; made once and cached, the
+  archive starts from its compressed copy);
 * ``resources/spurdiff.zip``, the package under a name of its own: a copy whose imports are all
   relative, with pythonfmu's run-time modules vendored and ``_fmu_entry.py`` holding the FMU's
   class (:mod:`harness.build.fmu_package`), as one archive (sources, data, pycs:
@@ -26,7 +26,7 @@ Python is installed, in any host process):
 
 ``needsExecutionTool`` is false. Without a C compiler the build keeps pythonfmu's wrapper and
 script (the package imported by its global name from the host's Python), linked to this
-libpython with patchelf, and says so: that FMU needs the host's Python and numpy
+libpython with patchelf, and says so: that FMU needs the host's Python
 (``needsExecutionTool`` true). A build is skipped when the FMU is newer than every source.
 
 (Over 400 lines: the build in order, from the declarations to the zipped FMU, with the
@@ -109,13 +109,13 @@ def script_text(name: str) -> str:
 
 # the build code besides this module and modeldescription.py (in harness.common.paths.sources_digest)
 BUILD_CODE = (tuple(Path(m.__file__).resolve() for m in (fmu_package, runtime_bundle, runtime_win64))
-              + (Path(__file__).resolve().with_name("fmu_contents.py"), Path(__file__).resolve().with_name("numpy_blas.py"))
+              + (Path(__file__).resolve().with_name("fmu_contents.py"),)
               + runtime_bundle.CODE_FILES)
 
 
 def source_digest(name: str) -> str:
     """Hash of everything that goes into an FMU (its declaration and the physics package, the C
-    sources, this build code and the runtime's, the interpreter and numpy it carries): see
+    sources, this build code and the runtime's, the interpreter it carries): see
     :func:`harness.common.paths.sources_digest`."""
     h = hashlib.sha256(f"{sources_digest()}:{name}.py".encode())
     for p in sorted(set(BUILD_CODE)):
@@ -126,11 +126,9 @@ def source_digest(name: str) -> str:
     return h.hexdigest()
 
 
-from harness.build.fmu_contents import (NUMPY_ENTRIES, NUMPY_FREE_FMUS, PLATFORMS, PLATFORMS_ENV,  # noqa: E402,F401
-                                   archived_numpy, drop_numpy as _drop_numpy, form_radius_table, numpy_archive,
-                                   numpy_as_archive as _numpy_as_archive, platform_sizes, platforms,
-                                   RUNTIME_ARCHIVES, archive_lines, package_archive, package_kernels,
-                                   packed_runtimes)
+from harness.build.fmu_contents import (PLATFORMS, PLATFORMS_ENV, form_radius_table,  # noqa: E402,F401
+                                   platform_sizes, platforms, RUNTIME_ARCHIVES, archive_lines, package_archive,
+                                   package_kernels, packed_runtimes)
 
 
 def declarations() -> dict[str, tuple[str, dict]]:
@@ -507,7 +505,7 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
                 native = _native_binaries()
             except BuildError as e:
                 notes.append(f"WARNING: the native bridge was not built ({e}); the FMU keeps pythonfmu's "
-                             "wrapper and needs the host's Python and numpy (LD_PRELOAD and PYTHONHOME in a C "
+                             "wrapper and needs the host's Python (LD_PRELOAD and PYTHONHOME in a C "
                              "host)")
         runtime = None
         if native is not None:
@@ -536,7 +534,6 @@ def build_one(name: str, dest: Path | None = None, quiet: bool = False) -> Path:
         try:
             if runtime is not None:    # the runtimes' entries, compressed once, come first
                 shutil.copyfile(_base_archive(runtime, win64), part)
-                notes.append(_drop_numpy(part) if name in NUMPY_FREE_FMUS else _numpy_as_archive(part, runtime, c_compiler(), win64))
                 with zipfile.ZipFile(part) as z:
                     archives = {p: archive_lines(z, p) for p in ("linux64", "win64")}
             with zipfile.ZipFile(raw) as zin, zipfile.ZipFile(part, "a" if runtime else "w", zipfile.ZIP_DEFLATED) as zout:

@@ -137,12 +137,6 @@ def _make(name: str, dest: Path, zin: zipfile.ZipFile) -> Path:
         with zipfile.ZipFile(start) as z:
             in_runtime = set(z.namelist())
         shutil.copyfile(start, part)
-        if name in build2.NUMPY_FREE_FMUS:      # as the FMI 2.0 FMU (whose numpy archive, if any, comes below)
-            build2._drop_numpy(part)
-        elif build2.archived_numpy(names):   # numpy as archives, as the FMI 2.0 FMU
-            build2._drop_numpy(part, build2.archived_numpy(names))
-        with zipfile.ZipFile(part) as z:
-            in_runtime |= set(z.namelist())        # (the folders drop_numpy kept)
         with zipfile.ZipFile(part, "a", zipfile.ZIP_DEFLATED) as zout:
             for item in zin.infolist():
                 if item.filename in in_runtime or (win64 is None and item.filename.startswith(WIN64_ONLY)):
@@ -165,7 +159,7 @@ def _make(name: str, dest: Path, zin: zipfile.ZipFile) -> Path:
                         data = win64.loader3.read_bytes()
                 info = zipfile.ZipInfo(target, date_time=item.date_time)
                 info.external_attr = item.external_attr
-                info.compress_type = item.compress_type   # (the stored numpy archive stays stored)
+                info.compress_type = item.compress_type   # as in the FMI 2.0 FMU
                 zout.writestr(info, data)
         os.replace(part, out)
     finally:

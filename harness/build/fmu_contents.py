@@ -1,8 +1,7 @@
 """What an FMU carries, platform by platform (issue 44 item 1), for :mod:`harness.build.fmu`: the platforms
-chosen (``spurdiff build --platforms``) and each one's size in an archive; numpy left out of the
-FMUs whose models never import it, and carried by the others as one stored archive
-(:mod:`spurdiff.numpy_archive` unpacks it at run time); the default gear set's form radii computed
-at build time, so that the FMU's default configuration starts without numpy.
+chosen (``spurdiff build --platforms``) and each one's size in an archive; the runtimes' files as
+stored archives; the default gear set's form radii computed at build time, so that the FMU's
+default configuration starts without generating its gears.
 """
 from __future__ import annotations
 
@@ -10,12 +9,10 @@ import hashlib
 import io
 import json
 import os
-import shutil
-import subprocess
 import zipfile
 from pathlib import Path
 
-from harness.build import numpy_blas, runtime_bundle, runtime_win64
+from harness.build import runtime_bundle, runtime_win64
 
 
 class BuildError(RuntimeError):
@@ -77,7 +74,7 @@ def edit_package(fmu: Path, out: Path, edit, rest=None) -> Path:
     with zipfile.ZipFile(fmu) as zin, zipfile.ZipFile(out, "w", zipfile.ZIP_STORED) as zout:
         for item in zin.infolist():
             data = zin.read(item)
-            # the package archive: resources/<package>.zip (the runtime's and numpy's lie deeper)
+            # the package archive: resources/<package>.zip (the runtimes' lie deeper)
             if item.filename.startswith("resources/") and item.filename.count("/") == 1 and item.filename.endswith(".zip"):
                 data = _edited_archive(data, edit)
             elif rest is not None:
@@ -145,9 +142,9 @@ def platform_sizes(fmu: Path) -> dict[str, tuple[int, int]]:
 
 def form_radius_table(pkg: Path) -> Path:
     """``gears/form_radius_table.json`` in the package copy ``pkg``: the form radii (undercut gears:
-    the generation simulated with numpy, spurdiff.gears.generating) of SpurDifferential's default
-    gear set, computed here by the same function, so that the FMU's default configuration builds
-    its model without numpy (measured: docs/performance.md, start-up)."""
+    the generation simulated, spurdiff.gears.generating) of SpurDifferential's default gear set,
+    computed here by the same function, so that the FMU's default configuration builds its model
+    without simulating the generation (measured: docs/performance.md, start-up)."""
     from spurdiff.fmi import differential_fmu
     from spurdiff.gears import generating, geometry
 
@@ -168,143 +165,12 @@ def form_radius_table(pkg: Path) -> Path:
     return out
 
 
-# FMUs whose models never import numpy (the car, the wheel: tests/physics/test_numpy_free.py): their
-# runtimes leave it out (about 40 MB unpacked per platform that a host's unzip does not write)
-NUMPY_FREE_FMUS = ("Vehicle", "WheelLoad")
-NUMPY_ENTRIES = ("resources/python/lib/python3.*/site-packages/numpy*",
-                 "resources/python-win64/Lib/site-packages/numpy*")
-
-
-def drop_numpy(archive: Path, patterns: tuple[str, ...] = NUMPY_ENTRIES) -> str:
-    """The runtimes' numpy removed from ``archive`` (``zip -d``, no recompression); the note for the log."""
-    import fnmatch
-
-    with zipfile.ZipFile(archive) as z:
-        if not any(fnmatch.fnmatchcase(n, p) for n in z.namelist() for p in patterns):
-            return "without numpy (its models never import it)"   # the runtimes' archives leave it out
-    zipper = shutil.which("zip")
-    if zipper is None:
-        return "numpy kept (no zip command to remove it)"
-    r = subprocess.run([zipper, "-q", "-d", str(archive), *patterns], capture_output=True, text=True)
-    if r.returncode not in (0, 12):     # 12: nothing matched (a runtime without numpy)
-        raise BuildError(f"removing numpy from {archive.name} failed: {r.stderr.strip()}")
-    with zipfile.ZipFile(archive, "a") as z:   # the folders stay (the runtime descriptions' path= names them)
-        have = z.namelist()
-        for folder in (f"resources/{runtime_bundle.PYLIB}/site-packages/", "resources/python-win64/Lib/site-packages/"):
-            if any(n.startswith(folder.split("site-packages/")[0]) for n in have) and not any(
-                    n.startswith(folder) for n in have):
-                z.writestr(zipfile.ZipInfo(folder, date_time=(1980, 1, 1, 0, 0, 0)), b"")
-    return "without numpy (its models never import it)"
-
-
-NUMPY_ARCHIVES = tuple(f"resources/{home}/numpy.zip" for home in ("python", runtime_win64.HOME))   # per NUMPY_ENTRIES
-
-
-def archived_numpy(names) -> tuple[str, ...]:
-    """The patterns of :data:`NUMPY_ENTRIES` whose runtime carries numpy as an archive among the
-    archive member ``names`` (an FMI 3.0 build drops those runtimes' unpacked numpy as well)."""
-    return tuple(p for p, a in zip(NUMPY_ENTRIES, NUMPY_ARCHIVES) if a in names)
-
-
-def _sourceless(path: Path, rel: str) -> bytes:
-    """The module ``path`` byte-compiled by this interpreter (the runtime's 3.X: the same bytecode on
-    every platform) as an unchecked hash-based pyc naming ``rel``."""
-    import py_compile
-    import tempfile
-
-    with tempfile.TemporaryDirectory(prefix="spurdiff_pyc_") as tmp:
-        out = Path(tmp) / "m.pyc"
-        py_compile.compile(str(path), cfile=str(out), dfile=rel, doraise=True,
-                           invalidation_mode=py_compile.PycInvalidationMode.UNCHECKED_HASH)
-        return out.read_bytes()
-
-
-NUMPY_ARCHIVE_FORMAT = "lzma-pyc-2"    # how numpy_archive packs (part of its cached file's name)
-
-
-def numpy_archive(site: Path, out: Path, cc: str) -> Path:
-    """numpy (numpy/ and numpy.libs/) of the site-packages folder ``site`` as one archive ``out``, as
-    :func:`harness.build.numpy_blas.members` gives its files (OpenBLAS replaced by our BLAS, numpy.linalg's
-    LAPACK modules by a stand-in), LZMA-compressed (a third smaller than deflate: fewer bytes for every
-    host's unzip to copy; unpacked once per user, which reads LZMA with the runtime's own ``_lzma``),
-    members in sorted order with a fixed time (the same bytes for the same numpy). Modules still in
-    source form (the win64 wheel's, the stand-ins) become sourceless pycs (``module.pyc`` in place of
-    ``module.py``): the FMU's Python writes no bytecode, and would compile them at every start."""
-    import tempfile
-
-    with tempfile.TemporaryDirectory(prefix="spurdiff_numpy_") as scratch:
-        try:
-            files = numpy_blas.members(site, Path(scratch), cc)
-        except numpy_blas.BlasBuildError as e:
-            raise BuildError(str(e)) from None
-        _write_numpy_archive(files, out)
-    return out
-
-
-def _write_numpy_archive(files: list[tuple[str, Path]], out: Path) -> None:
-    with zipfile.ZipFile(out, "w", zipfile.ZIP_LZMA) as z:
-        for rel, p in files:
-            mode = 0o755 if os.access(p, os.X_OK) else 0o644
-            info = _entry(rel[:-3] + ".pyc" if rel.endswith(".py") else rel, mode)
-            info.compress_type = zipfile.ZIP_LZMA
-            z.writestr(info, _sourceless(p, rel) if rel.endswith(".py") else p.read_bytes())
-
-
-def cached_numpy_archive(site: Path, folder: Path, cc: str) -> Path:
-    """:func:`numpy_archive` of ``site`` kept in the cached runtime ``folder`` (made once: LZMA takes
-    half a minute), written beside it and renamed into place. The folder's archives of other packings
-    or BLAS sources are removed once nobody used them for :data:`runtime_win64.KEEP_UNUSED_S` (the
-    win64 runtime's folder is shared by every checkout of the user: another checkout's build may be
-    reading its own archive); each use touches the archive."""
-    import time
-
-    out = folder / f"numpy-{NUMPY_ARCHIVE_FORMAT}-{numpy_blas.key()}.zip"
-    if not out.is_file():
-        staged = folder / f".{out.name}.{os.getpid()}"
-        try:
-            numpy_archive(site, staged, cc)
-            os.replace(staged, out)
-        finally:
-            staged.unlink(missing_ok=True)
-    os.utime(out)      # its last use
-    for old in folder.glob("numpy-*.zip"):
-        try:
-            if old != out and time.time() - old.stat().st_mtime > runtime_win64.KEEP_UNUSED_S:
-                old.unlink()
-        except OSError:
-            pass       # another build removed or replaced it meanwhile
-    return out
-
-
-def numpy_as_archive(part: Path, runtime, cc: str, win64=None) -> str:
-    """Each runtime's numpy in ``part`` (linux64's; win64's when ``win64``, its cached runtime, is given)
-    replaced by one stored member, resources/<home>/numpy.zip, and its SHA-256 (spurdiff.numpy_archive
-    unpacks it into the user's cache at the first import); ``cc`` compiles the Linux side's BLAS."""
-    from spurdiff import numpy_archive as na
-    sites = {runtime_bundle.HOME: (runtime.folder, runtime.folder / runtime_bundle.PYLIB / "site-packages",
-                                   NUMPY_ENTRIES[0])}
-    if win64 is not None:
-        sites[runtime_win64.HOME] = (win64.folder, win64.folder / runtime_win64.HOME / "Lib" / "site-packages",
-                                     NUMPY_ENTRIES[1])
-    drop_numpy(part, tuple(pattern for *_, pattern in sites.values()))
-    said = []
-    for home, (folder, site, _) in sites.items():
-        data = cached_numpy_archive(site, folder, cc).read_bytes()
-        with zipfile.ZipFile(part, "a") as z:
-            info = _entry(f"resources/{home}/{na.ARCHIVE}")
-            info.compress_type = zipfile.ZIP_STORED        # a host's unzip copies it
-            z.writestr(info, data)
-            z.writestr(_entry(f"resources/{home}/{na.ARCHIVE}.sha256"), hashlib.sha256(data).hexdigest() + "\n")
-        said.append(f"{home} {len(data) / 1e6:.1f} MB")
-    return f"numpy as one archive per runtime ({', '.join(said)}; unpacked once per user into the cache)"
-
-
 # The runtimes' files as archives (fmu_src/native/fmi/runtime_unpack.h unpacks them once per user and
 # runtime): a host's unzip copies three stored members instead of inflating some 300 files
 RUNTIME_ARCHIVES = {"common": "resources/runtime/common.zip",     # the standard library zip both runtimes use
-                    "linux64": "resources/runtime/linux64.zip",   # the rest of resources/python/ (no numpy)
-                    "win64": "resources/runtime/win64.zip"}       # resources/python-win64/ (no numpy)
-RUNTIME_PACK_FORMAT = "3"   # in the packed file's name: a change of packing makes a new one
+                    "linux64": "resources/runtime/linux64.zip",   # the rest of resources/python/
+                    "win64": "resources/runtime/win64.zip"}       # resources/python-win64/
+RUNTIME_PACK_FORMAT = "4"   # in the packed file's name: a change of packing makes a new one (4: no numpy)
 
 
 def _archive_part(name: str) -> str | None:
@@ -320,15 +186,12 @@ def _archive_part(name: str) -> str | None:
 
 def packed_runtimes(base: Path) -> Path:
     """The runtimes' entries of ``base`` (:func:`harness.build.fmu._runtime_entries`) as the stored archives
-    of :data:`RUNTIME_ARCHIVES`, numpy left out (the FMUs that import it carry it as
-    ``resources/<home>/numpy.zip``). Each inner archive's members LZMA-compressed (zipfile's LZMA1
+    of :data:`RUNTIME_ARCHIVES`. Each inner archive's members LZMA-compressed (zipfile's LZMA1
     with its end marker, which ``runtime_unpack.h: ru_unlzma`` decodes: a quarter fewer bytes than
     deflate at level 9 for every host's unzip to copy, 7.8 against 10.3 MB; the unpack, once per user,
     decodes at about 47 MB/s instead of inflating at 230), in ``base``'s order with their times and
     modes: the same bytes for the same runtime. Made once per ``base``,
     beside it, written aside and renamed into place."""
-    import fnmatch
-
     out = base.with_name(f"packed{RUNTIME_PACK_FORMAT}-{base.stem}.zip")
     if out.is_file():
         return out
@@ -342,12 +205,6 @@ def packed_runtimes(base: Path) -> Path:
             if part not in inner:
                 buffers[part] = io.BytesIO()
                 inner[part] = zipfile.ZipFile(buffers[part], "w", zipfile.ZIP_LZMA)
-            if any(fnmatch.fnmatchcase(item.filename, p) for p in NUMPY_ENTRIES):
-                # the folder stays (the runtime descriptions' path= names it), as one entry
-                site = item.filename[len("resources/"):].split("site-packages/")[0] + "site-packages/"
-                if site not in inner[part].namelist():
-                    inner[part].writestr(zipfile.ZipInfo(site, date_time=item.date_time), b"")
-                continue
             info = zipfile.ZipInfo(item.filename[len("resources/"):], date_time=item.date_time)
             info.external_attr = item.external_attr
             info.compress_type = zipfile.ZIP_STORED if item.is_dir() else zipfile.ZIP_LZMA

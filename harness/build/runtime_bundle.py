@@ -1,5 +1,7 @@
-"""The Python runtime every FMU carries: ``resources/python/``, made once per interpreter, numpy and
-module list, cached, and copied into each FMU.
+"""The Python runtime every FMU carries: ``resources/python/``, made once per interpreter and module
+list, cached, and copied into each FMU. It holds the standard library's part the FMUs import and
+nothing else: the FMUs' package imports no third-party module (tests/physics/test_numpy_free.py,
+and :func:`harness.build.fmu_package.stage_package` refuses a copy that would).
 
 Layout (``X`` the build interpreter's minor version)::
 
@@ -7,15 +9,14 @@ Layout (``X`` the build interpreter's minor version)::
     python/lib/<soname>                     non-glibc libraries the extension modules need (preloaded)
     python/lib/python3X.zip                 the pure-Python standard library modules the FMUs import
     python/lib/python3.X/lib-dynload/       the extension modules among them
-    python/lib/python3.X/site-packages/     numpy (+ numpy.libs), without tests, f2py, headers, stubs
 
 Which standard-library modules: the union of (a) the modules loaded at interpreter start-up
 (``python -I -S``), (b) a trace: :mod:`harness.build.runtime_probe`, in a subprocess of the build
-interpreter with ``sys.path`` the standard library and numpy only, loads each FMU's bundled
+interpreter with ``sys.path`` the standard library only, loads each FMU's bundled
 package under a private alias as the bridge does and runs its model through the adapter (setup,
 initialization, steps, get/serialize/deserialize/set FMU state, terminate), and (c)
-``modulefinder``'s static closure of the bundled package, the vendored pythonfmu modules and
-numpy (imports inside functions included), plus :data:`ALWAYS`. Whole top-level packages are
+``modulefinder``'s static closure of the bundled package and the vendored pythonfmu modules
+(imports inside functions included), plus :data:`ALWAYS`. Whole top-level packages are
 taken (all of ``encodings``, ``importlib``, ``json``...), without their ``test``/``tests``
 folders. Never taken (:data:`DENY`): ``test``, ``idlelib``, ``tkinter``, ``turtledemo``,
 ``ensurepip``, ``lib2to3``, ``pydoc_data``, ``distutils``, ``venv``, ``site-packages``,
@@ -26,30 +27,29 @@ libraries a model has no use for (``readline``, ``curses``, ``dbm``, ``sqlite3``
 closure reaches them through pdb and pydoc, which import them inside ``try``).
 
 Shared libraries: every ELF file of the runtime is read (:mod:`harness.build.elf`) for DT_NEEDED; a
-library that is neither inside the runtime (numpy.libs keeps its place, so numpy's
-``$ORIGIN/../../numpy.libs`` RPATH finds it) nor a system library of :data:`SYSTEM_LIBRARIES` is
+library that is neither inside the runtime nor a system library of :data:`SYSTEM_LIBRARIES` is
 copied into ``python/lib/`` under its soname and listed as a ``preload=`` of the runtime
 description (the loader dlopens them RTLD_GLOBAL, dependencies first, before starting Python, so
 the extension modules find the soname already loaded). System libraries, expected on every target:
 glibc's own (libc, libm, libpthread, libdl, librt, libutil, libresolv, the dynamic loader) and
-libgcc_s / libstdc++, which numpy's manylinux wheel also takes from the system (the manylinux
-policy allows them). libpython and the extension modules lose their RUNPATH (the build machine's folder,
-searched first by the loader: a library planted there would be loaded) with patchelf when it is
-installed, and their debug info and symbol tables with ``strip --strip-unneeded`` when it is (the
-dynamic symbols stay: a host's debugger still names the exported functions).
+libgcc_s / libstdc++ (which the manylinux policy counts as the system's too). libpython and the
+extension modules lose their RUNPATH (the build machine's folder, searched first by the loader: a
+library planted there would be loaded) with patchelf when it is installed, and their debug info
+and symbol tables with ``strip --strip-unneeded`` when it is (the dynamic symbols stay: a host's
+debugger still names the exported functions).
 
 Every ``.py`` is byte-compiled to a sourceless pyc in its place (``module.pyc``, ``UNCHECKED_HASH``)
 and the source removed; the pure-Python standard library then goes into one uncompressed zip on
 the module path (as CPython's own ``python3X.zip``; zipimport is frozen into libpython). The
-interpreter never writes into the FMU's folder, and a host extracting the FMU writes about 1,000
-fewer files and 12 MB less (tracebacks through the standard library and numpy name file and
-line, without the source text; the FMU's own package keeps its sources). The finished runtime is cached in the FMU folder (:func:`harness.common.paths.fmu_cache_dir`)
-as ``runtime-<key>/`` (the key: the interpreter's real path and version, numpy's version and place,
-the module list and this build code), built in a temporary folder and renamed under a file lock
+interpreter never writes into the FMU's folder, and a host extracting the FMU writes about 430
+fewer files and 8 MB less (tracebacks through the standard library name file and line,
+without the source text; the FMU's own package keeps its sources). The finished runtime is cached in the FMU folder (:func:`harness.common.paths.fmu_cache_dir`)
+as ``runtime-<key>/`` (the key: the interpreter's real path and version, the module list and this
+build code), built in a temporary folder and renamed under a file lock
 (parallel test workers build at once), with ``runtime.zip``, the same files compressed once under
 ``resources/python/``, which each FMU build starts its archive from. The module list is cached too
-(``runtime-modules-<key>.json``, keyed by the bundled package's files; numpy's static closure in
-``runtime-numpy-modules-<key>.json``), so a build with an unchanged package runs no trace. Making
+(``runtime-modules-<key>.json``, keyed by the bundled package's files), so a build with an
+unchanged package runs no trace. Making
 a new runtime removes all but the newest other one (:data:`KEEP_RUNTIMES`).
 
 :func:`run_in_runtime` runs an extracted FMU's package on its runtime's module path only (the
@@ -57,7 +57,7 @@ build interpreter's executable standing in for the loader), which the tests use;
 preloading of the libraries is not exercised there.
 
 (Over 400 lines: one runtime from the module list to the cached, checked folder: probing the
-modules the FMUs import, copying them with numpy and the libraries they need, and the cfg.)
+modules the FMUs import, copying them with the libraries they need, and the cfg.)
 """
 from __future__ import annotations
 
@@ -78,7 +78,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from harness.build import elf
-from harness.build.fmu_package import ENTRY_MODULE, PACKAGE_NAME, RUNTIME_PACKAGES, stage_package, write_entry
+from harness.build.fmu_package import ENTRY_MODULE, PACKAGE_NAME, stage_package, write_entry
 from harness.common.paths import fmu_cache_dir
 from harness.common.private_dir import PrivatePlaceError, private_dir
 from harness.common import progress
@@ -90,7 +90,7 @@ HOME = "python"                                   # the runtime's folder in reso
 LIB = f"{HOME}/lib"
 PYLIB = f"{LIB}/python{VERSION}"
 STDLIB_ZIP = f"{LIB}/python{VERSION.replace('.', '')}.zip"   # the pure-Python standard library, sourceless
-SEARCH_PATH = (STDLIB_ZIP, f"{PYLIB}/lib-dynload", f"{PYLIB}/site-packages")   # the cfg's path= lines
+SEARCH_PATH = (STDLIB_ZIP, f"{PYLIB}/lib-dynload")   # the cfg's path= lines
 DENY = frozenset({"test", "idlelib", "tkinter", "turtledemo", "ensurepip", "lib2to3", "pydoc_data",
                   "distutils", "venv", "site-packages", "turtle", "_tkinter", "_hashlib", "_ssl",
                   "readline", "curses", "_curses", "_curses_panel", "_dbm", "_gdbm", "dbm", "_sqlite3", "sqlite3"})
@@ -102,21 +102,6 @@ ALWAYS = ("encodings", "site", "_sitebuiltins", "os", "traceback", "hashlib", "i
 SYSTEM_LIBRARIES = frozenset({"libc.so.6", "libm.so.6", "libpthread.so.0", "libdl.so.2", "librt.so.1",
                               "libutil.so.1", "libresolv.so.2", "ld-linux-x86-64.so.2",
                               "ld-linux-aarch64.so.1", "libgcc_s.so.1", "libstdc++.so.6"})
-# in numpy's copy: folders (relative to numpy/) and file endings left out
-NUMPY_SKIP_DIRS = ("f2py", "_pyinstaller", "distutils", "_core/include", "_core/lib", "doc")
-# numpy's subpackages no module the FMUs carry imports: numpy's own modules reach them only through
-# ``numpy.__getattr__`` (its lazy attributes: ``np.random``...), numpy's test runner
-# (``_pytesttester``) and docstrings (tests/harness/test_numpy_trim.py reads every kept module's
-# imports); the models' code names none of them (the same test). 2.3 MB of the two platforms'
-# numpy archives (random alone 1.6 MB) a host's unzip no longer writes.
-NUMPY_UNUSED = ("random", "fft", "polynomial", "testing")
-NUMPY_SKIP_DIRS += NUMPY_UNUSED
-NUMPY_SKIP_SUFFIXES = (".pyi", ".pxd", ".h", ".c", ".a", ".lib", ".pc", "py.typed")   # .lib: MSVC import libraries, for linking
-# numpy's extension modules only its own tests import (checked: no other module of numpy names them),
-# and its test helpers (ma/testutils.py: numpy.ma's tests)
-NUMPY_SKIP_PREFIXES = ("_multiarray_tests.", "_umath_tests.", "_rational_tests.", "_struct_ufunc_tests.",
-                       "_operand_flag_tests.", "_simd.", "conftest.", "testutils.")
-NUMPY_DIST_KEEP = ("METADATA", "WHEEL", "licenses")
 PROBE = Path(__file__).resolve().parent / "runtime_probe.py"
 PROBE_STEPS = 20
 CODE_FILES = (Path(__file__).resolve(), Path(elf.__file__).resolve(), PROBE,
@@ -148,11 +133,6 @@ def libpython() -> Path | None:
     return p if p.exists() else None
 
 
-def numpy_folder() -> Path:
-    import numpy
-    return Path(numpy.__file__).resolve().parent
-
-
 def _digest(*parts) -> str:
     h = hashlib.sha256()
     for part in parts:
@@ -162,8 +142,7 @@ def _digest(*parts) -> str:
 
 
 def interpreter_id() -> tuple:
-    import numpy
-    return (os.path.realpath(sys.executable), sys.version, str(STDLIB), numpy.__version__, str(numpy_folder()),
+    return (os.path.realpath(sys.executable), sys.version, str(STDLIB),
             *(p.read_bytes() for p in CODE_FILES))
 
 
@@ -182,9 +161,10 @@ def _run_probe(spec: dict, timeout: float = 300) -> dict:
         return json.loads(out_file.read_text())
 
 
-def probe_spec(packages: dict[str, tuple[Path, dict]], path: list[str], site: list[str]) -> dict:
-    """The probe's input for ``packages`` (class -> (staged package folder, default experiment))."""
-    return {"path": path, "site": site, "allow": list(RUNTIME_PACKAGES),
+def probe_spec(packages: dict[str, tuple[Path, dict]], path: list[str]) -> dict:
+    """The probe's input for ``packages`` (class -> (staged package folder, default experiment)) on the
+    module path ``path``."""
+    return {"path": path,
             "fmus": [{"package": str(pkg), "class": name, "module": ENTRY_MODULE, "experiment": experiment,
                       "steps": PROBE_STEPS} for name, (pkg, experiment) in packages.items()]}
 
@@ -195,7 +175,7 @@ def run_in_runtime(resources: Path, classes: list[str], experiment: dict, steps:
     build interpreter's executable stands in for the loader: it started up on its own standard
     library; everything imported after start-up comes from ``resources``): the probe's output."""
     resources = Path(resources)
-    return _run_probe({"path": [str(resources / p) for p in SEARCH_PATH], "site": [], "allow": [],
+    return _run_probe({"path": [str(resources / p) for p in SEARCH_PATH],
                        "fmus": [{"package": str(resources / PACKAGE_NAME), "class": c, "module": ENTRY_MODULE,
                                  "experiment": experiment, "steps": steps} for c in classes]})
 
@@ -248,21 +228,19 @@ def stdlib_items(modules: dict[str, str | None]) -> list[str]:
     return sorted(items)
 
 
-def module_list(packages: dict[str, tuple[Path, dict]], numpy_modules: dict[str, str | None]) -> list[str]:
+def module_list(packages: dict[str, tuple[Path, dict]]) -> list[str]:
     """The stdlib entries the FMUs need: start-up + trace of ``packages`` (class -> (staged package
-    folder, default experiment)) + static closure of the package and pythonfmu + numpy's
-    (``numpy_modules``) + :data:`ALWAYS`."""
-    numpy_site = numpy_folder().parent
-    traced = _run_probe(probe_spec(packages, [str(STDLIB), str(DYNLOAD), str(numpy_site)], [str(numpy_site)]))
+    folder, default experiment)) + static closure of the package and pythonfmu + :data:`ALWAYS`."""
+    traced = _run_probe(probe_spec(packages, [str(STDLIB), str(DYNLOAD)]))
     for name, file in traced["modules"].items():   # what the models load must come from the runtime
         if file and file not in ("frozen", "built-in") and not _carried(Path(file).resolve(), packages):
             raise RuntimeBundleError(f"the FMU's model imported {name} from {file}, which the FMU's runtime "
-                                     "does not carry (the standard library and numpy only)")
+                                     "does not carry (the standard library only)")
     root = next(iter(packages.values()))[0].parent
     ours = [".".join(p.relative_to(root).with_suffix("").parts).removesuffix(".__init__")
             for p in sorted((root / PACKAGE_NAME).rglob("*.py"))]
     static = static_modules([root], ours)
-    found = {**startup_modules(), **traced["modules"], **static, **numpy_modules}
+    found = {**startup_modules(), **traced["modules"], **static}
     for name in ALWAYS:
         found.setdefault(name, None)
     return stdlib_items(found)
@@ -271,7 +249,7 @@ def module_list(packages: dict[str, tuple[Path, dict]], numpy_modules: dict[str,
 def _carried(path: Path, packages: dict) -> bool:
     if path.is_relative_to(STDLIB) and not path.is_relative_to(STDLIB / "site-packages"):
         return True
-    if path.is_relative_to(DYNLOAD) or path.is_relative_to(numpy_folder()):
+    if path.is_relative_to(DYNLOAD):
         return True
     return any(path.is_relative_to(Path(pkg).resolve()) for pkg, _ in packages.values())
 
@@ -279,29 +257,6 @@ def _carried(path: Path, packages: dict) -> bool:
 # ---------------------------------------------------------------------------------- assembling
 def _ignore_tests(folder: str, names: list[str]) -> list[str]:
     return [n for n in names if n in TEST_FOLDERS or n == "__pycache__" or n.endswith(".pyc")]
-
-
-def _copy_numpy(site: Path) -> None:
-    src = numpy_folder()
-    skip = {(src / d).resolve() for d in NUMPY_SKIP_DIRS}
-
-    def ignore(folder: str, names: list[str]) -> list[str]:
-        here = Path(folder).resolve()
-        return [n for n in names if n in TEST_FOLDERS or n == "__pycache__" or (here / n) in skip
-                or n.endswith(NUMPY_SKIP_SUFFIXES) or n.startswith(NUMPY_SKIP_PREFIXES) or n.endswith(".pyc")]
-
-    shutil.copytree(src, site / "numpy", ignore=ignore)
-    libs = src.parent / "numpy.libs"
-    if libs.is_dir():
-        shutil.copytree(libs, site / "numpy.libs")
-    import numpy
-    for dist in src.parent.glob(f"numpy-{numpy.__version__}.dist-info"):
-        for keep in NUMPY_DIST_KEEP:
-            if (dist / keep).is_dir():
-                shutil.copytree(dist / keep, site / dist.name / keep)
-            elif (dist / keep).is_file():
-                (site / dist.name).mkdir(exist_ok=True)
-                shutil.copyfile(dist / keep, site / dist.name / keep)
 
 
 def _tidy_elf(path: Path, notes: list[str]) -> None:
@@ -364,16 +319,16 @@ def _compile_sourceless(folder: Path) -> None:
     ok = compileall.compile_dir(str(folder), quiet=2, workers=1, stripdir=str(folder.parent), prependdir=None,
                                 legacy=True, invalidation_mode=py_compile.PycInvalidationMode.UNCHECKED_HASH)
     if not ok:
-        raise RuntimeBundleError("byte-compiling the runtime's standard library and numpy failed")
+        raise RuntimeBundleError("byte-compiling the runtime's standard library failed")
     for py in folder.rglob("*.py"):
         py.unlink()
 
 
 def _zip_pure_stdlib(pylib: Path, archive: Path) -> None:
-    """Move the pure-Python standard library (everything in ``pylib`` but ``lib-dynload``,
-    ``site-packages`` and the licence) into ``archive``, stored uncompressed (zipimport then needs
-    no zlib; the FMU's own archive compresses it): one file to extract instead of about a thousand."""
-    keep = {"lib-dynload", "site-packages", "LICENSE.txt"}
+    """Move the pure-Python standard library (everything in ``pylib`` but ``lib-dynload`` and the
+    licence) into ``archive``, stored uncompressed (zipimport then needs no zlib; the FMU's own archive
+    compresses it): one file to extract instead of about 430."""
+    keep = {"lib-dynload", "LICENSE.txt"}
     with zipfile.ZipFile(archive, "w", zipfile.ZIP_STORED) as z:
         for entry in sorted(pylib.iterdir()):
             if entry.name in keep:
@@ -391,7 +346,6 @@ def assemble(dest: Path, items: list[str]) -> dict:
     lib = dest / LIB
     pylib = dest / PYLIB
     (pylib / "lib-dynload").mkdir(parents=True)
-    (pylib / "site-packages").mkdir()
     sources: dict[Path, Path] = {}
     src_lib = libpython()
     if src_lib is None:
@@ -411,7 +365,6 @@ def assemble(dest: Path, items: list[str]) -> dict:
                 _tidy_elf(pylib / item, notes)
     if (STDLIB / "LICENSE.txt").is_file():
         shutil.copyfile(STDLIB / "LICENSE.txt", pylib / "LICENSE.txt")
-    _copy_numpy(pylib / "site-packages")
     preload = _bundle_libraries(dest, sources)
     sources_size = sum(p.stat().st_size for p in dest.rglob("*.py"))
     _compile_sourceless(dest / HOME)
@@ -488,15 +441,10 @@ def ensure_runtime(fmus: dict[str, tuple[str, dict]], cache: Path | None = None,
     key1 = _digest(interp, package_digest(fmus))
     if key1 in _RUNTIMES:
         return _RUNTIMES[key1]
-    numpy_site = numpy_folder().parent
-
-    def numpy_closure():
-        return static_modules([numpy_site], ["numpy"])
 
     def listing():
-        numpy_modules = _cached_json(cache / f"runtime-numpy-modules-{interp[:16]}.json", numpy_closure)
         with tempfile.TemporaryDirectory(prefix="spurdiff_runtime_") as tmp:
-            return module_list(stage_fmu_packages(fmus, Path(tmp)), numpy_modules)
+            return module_list(stage_fmu_packages(fmus, Path(tmp)))
 
     def traced():
         with progress.stage("listing the modules the FMUs' Python runtime needs (traced once)", expected=30):
@@ -542,10 +490,9 @@ def _prune(cache: Path, keep: Path) -> None:
     for stale in cache.glob(".runtime-*"):   # a build that died while assembling (it held this lock)
         if stale.is_dir():
             shutil.rmtree(stale, ignore_errors=True)
-    for pattern in ("runtime-modules-*.json", "runtime-numpy-modules-*.json"):
-        lists = sorted(cache.glob(pattern), key=lambda p: p.stat().st_mtime, reverse=True)
-        for old in lists[KEEP_RUNTIMES:]:
-            old.unlink(missing_ok=True)
+    lists = sorted(cache.glob("runtime-modules-*.json"), key=lambda p: p.stat().st_mtime, reverse=True)
+    for old in lists[KEEP_RUNTIMES:]:
+        old.unlink(missing_ok=True)
 
 
 def cfg_text(runtime: Runtime, name: str, guid: str) -> str:

@@ -7,12 +7,10 @@ subprocess of the build interpreter started with ``-I -S`` (no site, no environm
 
 ``sys.path`` becomes exactly the PATH arguments before anything is imported (so every module the
 script and the models load comes from there, but those the interpreter loaded starting up).
-SPEC: ``{"site": [folders from which only "allow" may
-be imported], "allow": ["numpy"], "fmus": [{"package": ".../resources/spurdiff", "class": "Name",
+SPEC: ``{"fmus": [{"package": ".../resources/spurdiff", "class": "Name",
 "module": "_fmu_entry", "experiment": {"startTime", "stepSize"}, "steps": 20}]}``.
 
-``spurdiff`` and ``pythonfmu`` cannot be imported by those
-names at all, and of the ``site`` folders only the ``allow`` packages. Each FMU's package folder is
+``spurdiff`` and ``pythonfmu`` cannot be imported by those names at all. Each FMU's package folder is
 loaded as a top-level package under a private alias (``_spurdiff_fmu_<16 hex>``, as the bridge
 does), its class instantiated with the bridge's arguments and run through the adapter's
 ``fmi2_*`` methods: setup, initialization, ``steps`` steps of the default step size with the
@@ -29,7 +27,6 @@ if __name__ == "__main__":
 
 import hashlib  # noqa: E402
 import importlib  # noqa: E402
-import importlib.machinery  # noqa: E402
 import importlib.util  # noqa: E402
 import json  # noqa: E402
 import os  # noqa: E402
@@ -38,24 +35,13 @@ BLOCKED = ("spurdiff", "pythonfmu")
 
 
 class _Guard:
-    """Refuses the global names of the FMU's own packages and, from the site folders, every
-    package but the allowed ones: what the FMU's runtime does not carry cannot be imported."""
-
-    def __init__(self, site, allow):
-        self.site = [os.path.realpath(s) + os.sep for s in site]
-        self.allow = set(allow)
+    """Refuses the global names of the FMU's own packages (the FMU loads its own copy under a private
+    name; what else the FMU's runtime does not carry is not on the module path at all)."""
 
     def find_spec(self, fullname, path=None, target=None):
-        top = fullname.partition(".")[0]
-        if top in BLOCKED:
+        if fullname.partition(".")[0] in BLOCKED:
             raise ModuleNotFoundError(f"{fullname!r} imported by its global name: the FMU loads its own copy "
                                       "under a private name", name=fullname)
-        if path is None and top not in self.allow and self.site:
-            spec = importlib.machinery.PathFinder.find_spec(fullname, sys.path)
-            origin = spec and (spec.origin or (list(spec.submodule_search_locations or []) or [""])[0])
-            if origin and any(os.path.realpath(origin).startswith(s) for s in self.site):
-                raise ModuleNotFoundError(f"No module named {fullname!r}: the FMU's runtime carries the standard "
-                                          f"library and {', '.join(sorted(self.allow))} only", name=fullname)
         return None
 
 
@@ -142,7 +128,7 @@ def main(spec_file, out_file):
     with open(spec_file) as f:
         spec = json.load(f)
     sys.dont_write_bytecode = True
-    sys.meta_path.insert(0, _Guard(spec.get("site", []), spec.get("allow", [])))
+    sys.meta_path.insert(0, _Guard())
     results = {fmu["class"]: run(fmu) for fmu in spec["fmus"]}
     modules = {name: _origin(m) for name, m in sorted(sys.modules.items()) if m is not None and name != "__main__"}
     with open(out_file, "w") as f:

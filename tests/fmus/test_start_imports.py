@@ -14,7 +14,7 @@ NOT_AT_START_STDLIB = (
     "tomllib",     # the data files come parsed (spurdiff/data/parsed_toml.json, datafile.parse_bundled)
     "hashlib",     # a checkout's kernel digest (native_library.source_digest)
     "logging",     # a kernel's fallback logged (native_library._Logger)
-    "numpy",       # the mesh levels, an undercut gear set (test_numpy_free.py)
+    "numpy",       # no module of the package imports it (tests/physics/test_numpy_free.py); the FMU carries none
     "xml",         # pythonfmu's to_xml, never called in an FMU (harness/build/fmu_package.py: DEFERRED)
 )
 NOT_AT_START_PACKAGE = (

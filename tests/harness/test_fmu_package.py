@@ -84,6 +84,14 @@ def test_the_copy_has_no_global_import_left_and_the_source_keeps_its_own(staged)
          "_deferred"])
 
 
+def test_a_copy_may_import_the_standard_library_only(tmp_path):
+    """The FMU's runtime carries the standard library and nothing else: an import of numpy, even
+    inside a function, is what the copy would import from outside (stage_package refuses it)."""
+    (tmp_path / "spurdiff").mkdir()
+    (tmp_path / "spurdiff" / "m.py").write_text("import json\n\ndef f():\n    import numpy\n    return numpy\n")
+    assert leftover_imports(tmp_path) == ["spurdiff/m.py:4: numpy"]
+
+
 def test_the_vendored_copy_imports_xml_at_its_first_use_and_still_writes_it(staged, tmp_path):
     """pythonfmu's modules import xml.etree's Element and SubElement at their top; the copy's import them
     when called (an FMU's start never writes a modelDescription.xml), and writing one still works."""
@@ -114,13 +122,12 @@ def test_a_deferred_import_keeps_the_lines_and_leaves_other_imports():
 
 
 def test_the_copy_runs_under_an_alias_without_the_source_tree_or_the_global_names(staged):
-    """In ``python -I -S`` whose path is the standard library and numpy's folder only, with
-    ``spurdiff`` and ``pythonfmu`` refused by name: the copy loads under its alias and runs."""
-    numpy_site = runtime_bundle.numpy_folder().parent
-    path = [str(runtime_bundle.STDLIB), str(runtime_bundle.DYNLOAD), str(numpy_site)]
+    """In ``python -I -S`` whose path is the standard library only, with ``spurdiff`` and
+    ``pythonfmu`` refused by name: the copy loads under its alias and runs."""
+    path = [str(runtime_bundle.STDLIB), str(runtime_bundle.DYNLOAD)]
     assert not any(Path(p).resolve() == physics_package().parent for p in path)
     out = runtime_bundle._run_probe(runtime_bundle.probe_spec(
-        {"WheelLoad": (staged, {"startTime": 0.0, "stepSize": 1e-3})}, path, [str(numpy_site)]))
+        {"WheelLoad": (staged, {"startTime": 0.0, "stepSize": 1e-3})}, path))
     loaded = out["modules"]
     assert not any(n.split(".")[0] in ("spurdiff", "pythonfmu") for n in loaded)
     aliases = {n.split(".")[0] for n in loaded if n.startswith("_spurdiff_fmu_")}
@@ -136,11 +143,9 @@ def test_a_global_import_in_the_copy_is_refused_by_the_probe(tmp_path, staged):
     shutil.copytree(staged, copy)
     entry = copy / "_fmu_entry.py"
     entry.write_text("import pythonfmu\n" + entry.read_text())
-    numpy_site = runtime_bundle.numpy_folder().parent
     with pytest.raises(runtime_bundle.RuntimeBundleError, match="pythonfmu"):
         runtime_bundle._run_probe(runtime_bundle.probe_spec(
-            {"WheelLoad": (copy, {"stepSize": 1e-3})},
-            [str(runtime_bundle.STDLIB), str(runtime_bundle.DYNLOAD), str(numpy_site)], [str(numpy_site)]))
+            {"WheelLoad": (copy, {"stepSize": 1e-3})}, [str(runtime_bundle.STDLIB), str(runtime_bundle.DYNLOAD)]))
 
 
 def test_datafile_reads_the_data_of_its_own_copy_at_import(staged, tmp_path):

@@ -106,8 +106,6 @@ CASES = {
                                   "'archive' must be a SHA-256 (64 hex digits), a space and a relative path"),
     "a damaged runtime archive": (_damaged_archive(), "does not unpack to its size and CRC-32"),
     "libpython of another version than described": (_cfg(_line("version", "3.10")), "the FMU's runtime description says 3.10"),
-    # (numpy is no runtime damage for the default configuration any more: it is carried as one archive and
-    # imported by the mesh levels only; a missing or altered archive: tests/harness/test_numpy_archive.py)
 }
 
 

@@ -166,7 +166,7 @@ def test_elf_reader_agrees_with_readelf():
 def test_the_stdlib_is_the_imported_part_only_sourceless_and_zipped(extracted):
     res = extracted["Vehicle"] / "resources"
     pylib = res / runtime_bundle.PYLIB
-    assert {p.name for p in pylib.iterdir()} <= {"lib-dynload", "site-packages", "LICENSE.txt"}
+    assert {p.name for p in pylib.iterdir()} <= {"lib-dynload", "LICENSE.txt"}     # no site-packages
     with zipfile.ZipFile(res / runtime_bundle.STDLIB_ZIP) as z:
         names = z.namelist()
         assert all(i.compress_type == zipfile.ZIP_STORED for i in z.infolist())   # zipimport needs no zlib
@@ -178,21 +178,14 @@ def test_the_stdlib_is_the_imported_part_only_sourceless_and_zipped(extracted):
         assert denied not in top and f"{denied}.pyc" not in top
     assert not any(n.startswith(("config-", "_sysconfigdata")) for n in top)
     assert not any(n.endswith(".py") or "__pycache__" in n for n in names)      # sourceless, legacy layout
-    site = pylib / "site-packages"
-    assert not (site / "scipy").exists() and not (site / "numpy").exists()   # Vehicle: no numpy (never imported)
-    # SpurDifferential carries numpy as one archive (spurdiff.numpy_archive): sourceless, no tests, no f2py
-    with zipfile.ZipFile(extracted["SpurDifferential"] / "resources" / "python" / "numpy.zip") as z:
-        npy = z.namelist()
-    assert "numpy/__init__.pyc" in npy and any(n.startswith("numpy.libs/") for n in npy)
-    assert not any(n.endswith(".py") or "/tests/" in n or n.startswith("numpy/f2py/") for n in npy)
     flags = int.from_bytes(os_pyc[4:8], "little")
     assert flags == 0b01          # hash-based, not checked (there is no source to check against)
 
 
 def test_the_runtime_runs_each_model_as_the_build_python_does(extracted, fmu_files):
-    """The FMU's own module path only (nothing of the build's stdlib or site-packages after
-    start-up): the package loads under its alias, the model runs 20 steps with its state got,
-    serialized and set back, and gives the values the build's Python gives."""
+    """The FMU's own module path only (nothing of the build's stdlib after start-up): the package
+    loads under its alias, the model runs 20 steps with its state got, serialized and set back, and
+    gives the values the build's Python gives on its own standard library."""
     startup = runtime_bundle.startup_modules()
     for name, folder in extracted.items():
         res = folder / "resources"
@@ -202,13 +195,50 @@ def test_the_runtime_runs_each_model_as_the_build_python_does(extracted, fmu_fil
                    if f not in (None, "frozen", "built-in") and n not in startup and not f.startswith(str(res))]
         assert outside == [], outside
         assert not any(n.split(".")[0] in ("spurdiff", "pythonfmu", "scipy") for n in out["modules"])
-        # the same package run on the build interpreter's stdlib and numpy
-        numpy_site = runtime_bundle.numpy_folder().parent
+        # the same package run on the build interpreter's stdlib
         ref = runtime_bundle._run_probe(runtime_bundle.probe_spec(
-            {name: (res / "spurdiff", experiment)},
-            [str(runtime_bundle.STDLIB), str(runtime_bundle.DYNLOAD), str(numpy_site)], [str(numpy_site)]))
+            {name: (res / "spurdiff", experiment)}, [str(runtime_bundle.STDLIB), str(runtime_bundle.DYNLOAD)]))
         assert out["results"][name] == ref["results"][name]
         assert any(v != 0.0 for v in out["results"][name])
+
+
+@pytest.fixture(scope="module")
+def fmu3_files(fmu_files):
+    from harness.build.fmu3 import build
+
+    return dict(zip(fmu_files, build(list(fmu_files), quiet=True)))
+
+
+def _member_names(data: bytes, where: str) -> list[str]:
+    """Every member name of the zip archive ``data`` and, recursively, of each archive inside it
+    (``*.zip`` members), as ``where/name``, ``where/name.zip/inner``..."""
+    out = []
+    with zipfile.ZipFile(io.BytesIO(data)) as z:
+        for n in z.namelist():
+            out.append(f"{where}/{n}")
+            if n.endswith(".zip"):
+                out += _member_names(z.read(n), f"{where}/{n}")
+    return out
+
+
+def test_no_fmu_carries_numpy_anywhere(fmu_files, fmu3_files):
+    """The package imports no numpy (tests/physics/test_numpy_free.py), so no FMU carries it: no member
+    of an FMI 2.0 or 3.0 FMU, nor of the archives inside it (the runtimes' resources/runtime/*.zip and
+    the standard library's zip in them, the package's resources/spurdiff.zip), has "numpy" in its path,
+    and no runtime description puts a site-packages folder on the module path."""
+    assert set(fmu_files) == set(fmu3_files) == set(FMUS)
+    for fmu in [*fmu_files.values(), *fmu3_files.values()]:
+        names = _member_names(fmu.read_bytes(), fmu.name)
+        for archive in (RUNTIME_ARCHIVES["common"], RUNTIME_ARCHIVES["linux64"], "resources/spurdiff.zip"):
+            assert any(n.startswith(f"{fmu.name}/{archive}/") for n in names), f"{fmu.name}: {archive} not opened"
+        assert any(f"/{runtime_bundle.STDLIB_ZIP}/" in n for n in names), f"{fmu.name}: the stdlib zip not opened"
+        hits = [n for n in names if "numpy" in n.lower()]
+        assert hits == [], hits
+        with zipfile.ZipFile(fmu) as z:
+            for cfg in ("resources/python_runtime.cfg", "resources/python_runtime_win64.cfg"):
+                if cfg in z.namelist():
+                    text = z.read(cfg).decode()
+                    assert "numpy" not in text and "site-packages" not in text, f"{fmu.name}:{cfg}"
 
 
 def test_each_fmu_is_at_most_40_mb_zipped(fmu_files):
@@ -248,17 +278,13 @@ def _section_names(path: Path) -> set[str]:
 
 
 @pytest.mark.skipif(shutil.which("strip") is None, reason="no strip (binutils): the build keeps the symbol tables")
-def test_the_runtime_and_numpy_binaries_carry_no_symbol_table(extracted, tmp_path):
-    """libpython, the extension modules and numpy's core lose .symtab (strip --strip-unneeded: fewer bytes
-    for every host's unzip) and keep their dynamic symbols, which the loader binds."""
+def test_the_runtime_binaries_carry_no_symbol_table(extracted):
+    """libpython and the extension modules lose .symtab (strip --strip-unneeded: fewer bytes for every
+    host's unzip) and keep their dynamic symbols, which the loader binds."""
     res = extracted["SpurDifferential"] / "resources"
     lib = res / "python" / "lib"
     binaries = [next(lib.glob("libpython3*.so*")), *sorted((lib / f"python{sys.version_info[0]}.{sys.version_info[1]}"
                                                            / "lib-dynload").glob("*.so"))[:5]]
-    with zipfile.ZipFile(res / "python" / "numpy.zip") as z:
-        core = next(n for n in z.namelist() if n.startswith("numpy/_core/_multiarray_umath") and n.endswith(".so"))
-        (tmp_path / "core.so").write_bytes(z.read(core))
-    binaries.append(tmp_path / "core.so")
     for path in binaries:
         names = _section_names(path)
         assert ".symtab" not in names and ".dynsym" in names, path

@@ -31,15 +31,13 @@ def _aged(path: Path, t: float) -> Path:
 
 def test_prune_keeps_the_newest_module_lists_not_one_fewer(tmp_path):
     """Issue 47: the module lists pruned one too many survived every test."""
-    for pattern in ("runtime-modules-{}.json", "runtime-numpy-modules-{}.json"):
-        for i in range(4):
-            (tmp_path / pattern.format(i)).write_text("[]")
-            _aged(tmp_path / pattern.format(i), 1000 + i)
+    for i in range(4):
+        (tmp_path / f"runtime-modules-{i}.json").write_text("[]")
+        _aged(tmp_path / f"runtime-modules-{i}.json", 1000 + i)
     rb._prune(tmp_path, keep=tmp_path / "runtime-x")
     left = sorted(p.name for p in tmp_path.iterdir())
-    assert left == sorted(f"{p}-{i}.json" for p in ("runtime-modules", "runtime-numpy-modules")
-                          for i in range(4 - rb.KEEP_RUNTIMES, 4))
-    assert rb.KEEP_RUNTIMES == 2 and len(left) == 4
+    assert left == [f"runtime-modules-{i}.json" for i in range(4 - rb.KEEP_RUNTIMES, 4)]
+    assert rb.KEEP_RUNTIMES == 2 and len(left) == 2
 
 
 def test_prune_keeps_the_runtime_in_use_even_when_it_is_the_oldest(tmp_path):
@@ -141,27 +139,32 @@ def test_a_module_the_runtime_does_not_carry_is_refused(tmp_path, monkeypatch):
     monkeypatch.setattr(rb, "_run_probe", lambda spec: {"modules": {"os": str(rb.STDLIB / "os.py"),
                                                                     "evil": str(outside)}})
     with pytest.raises(rb.RuntimeBundleError) as e:
-        rb.module_list({"M": (pkg, {})}, {})
+        rb.module_list({"M": (pkg, {})})
     assert "evil" in str(e.value) and str(outside) in str(e.value)
 
 
-def test_carried_means_the_stdlib_without_its_site_packages_numpy_or_the_package(tmp_path):
+def test_carried_means_the_stdlib_without_its_site_packages_or_the_package(tmp_path):
+    import numpy     # the harness's, which the FMU's runtime does not carry
+
     pkg = tmp_path / "pkg"
     packages = {"M": (pkg, {})}
     assert rb._carried(rb.STDLIB / "json" / "__init__.py", packages)
+    assert rb._carried(rb.DYNLOAD / "_json.so", packages)
     assert not rb._carried(rb.STDLIB / "site-packages" / "x.py", packages)
-    assert rb._carried(rb.numpy_folder() / "__init__.py", packages)
+    assert not rb._carried(Path(numpy.__file__).resolve(), packages)
     assert rb._carried(pkg / "a.py", packages)
     assert not rb._carried(tmp_path / "other" / "a.py", packages)
 
 
 def test_stdlib_items_leave_out_the_denied_the_builtin_and_the_foreign():
+    import numpy     # the harness's: foreign to the FMU's runtime
+
     mods = {
         "json.decoder": str(rb.STDLIB / "json" / "decoder.py"),
         "tkinter": str(rb.STDLIB / "tkinter" / "__init__.py"),
         "_sysconfigdata__linux": str(rb.STDLIB / "_sysconfigdata__linux.py"),
         "sys": None,
-        "numpy": str(rb.numpy_folder() / "__init__.py"),
+        "numpy": str(Path(numpy.__file__).resolve()),
         "thing": str(rb.STDLIB / "site-packages" / "thing.py"),
         "_json": str(next(rb.DYNLOAD.glob("_json*.so"))),
         "abc": None,
@@ -180,8 +183,8 @@ def test_test_folders_and_bytecode_are_not_copied():
 
 
 def test_a_probe_that_fails_is_one_error_with_its_last_line(tmp_path):
-    spec = {"path": [], "site": [], "allow": [], "fmus": [{"package": str(tmp_path / "missing"), "class": "M",
-                                                           "module": "m", "experiment": {}, "steps": 1}]}
+    spec = {"path": [], "fmus": [{"package": str(tmp_path / "missing"), "class": "M",
+                                  "module": "m", "experiment": {}, "steps": 1}]}
     with pytest.raises(rb.RuntimeBundleError) as e:
         rb._run_probe(spec, timeout=120)
     assert "\n" not in str(e.value) and "failed:" in str(e.value)
@@ -208,13 +211,13 @@ def test_sourceless_compilation_removes_the_sources_and_refuses_a_broken_one(tmp
 
 def test_the_pure_stdlib_is_zipped_stored_and_the_rest_kept(tmp_path):
     pylib = tmp_path / "pylib"
-    for d in ("lib-dynload", "site-packages", "json"):
+    for d in ("lib-dynload", "json"):
         (pylib / d).mkdir(parents=True)
     (pylib / "json" / "__init__.pyc").write_bytes(b"x" * 100)
     (pylib / "os.pyc").write_bytes(b"y" * 100)
     (pylib / "LICENSE.txt").write_text("l")
     rb._zip_pure_stdlib(pylib, tmp_path / "std.zip")
-    assert sorted(p.name for p in pylib.iterdir()) == ["LICENSE.txt", "lib-dynload", "site-packages"]
+    assert sorted(p.name for p in pylib.iterdir()) == ["LICENSE.txt", "lib-dynload"]
     with zipfile.ZipFile(tmp_path / "std.zip") as z:
         assert sorted(z.namelist()) == ["json/__init__.pyc", "os.pyc"]
         assert all(i.compress_type == zipfile.ZIP_STORED for i in z.infolist())

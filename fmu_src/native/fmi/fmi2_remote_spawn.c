@@ -106,7 +106,7 @@ static int start_process(const char *server, const char *mode, const char *resou
     posix_spawnattr_setpgroup(&at, 0);
     posix_spawnattr_setflags(&at, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETPGROUP);
     /* a bare environment: the locale, and where the user's caches are (the runtime's unpacked
-     * folder, numpy's: runtime_unpack.h, spurdiff/numpy_archive.py), as the host has them */
+     * folder: runtime_unpack.h), as the host has them */
     static const char *const PASSED[] = {"HOME", "XDG_CACHE_HOME", "TMPDIR", "SPURDIFF_FMU_RUNTIME_DIR"};
     char *envp[2 + sizeof PASSED / sizeof *PASSED] = {"LC_ALL=C.UTF-8"};
     char passed[sizeof PASSED / sizeof *PASSED][4200];
