@@ -375,19 +375,34 @@ def _base_archive(runtime, win64) -> Path:
     return packed_runtimes(_runtime_entries(runtime, win64))
 
 
+WIN64_MERGE_FORMAT = "2"     # in the merged file's name: 2, the extension modules the module list has
+
+
+def carried_extensions(runtime) -> set[str]:
+    """The names of the extension modules the linux64 runtime carries (its module list's lib-dynload)."""
+    return {p.name.split(".")[0] for p in (runtime.folder / "python" / "lib").glob("python3.*/lib-dynload/*")}
+
+
 def _runtime_entries(runtime, win64) -> Path:
     """The linux64 runtime's entries, then the win64 runtime's (both compressed once, merged once per
-    pair and kept beside the win64 runtime)."""
+    pair and kept beside the win64 runtime). Of the embeddable distribution's extension modules
+    (``.pyd``) only those the linux64 runtime's module list carries go in: the same standard library
+    runs on both sides, and the others (asyncio's, multiprocessing's, decimal's, msilib's...) are
+    imported by no module the runtime carries."""
     if win64 is None:
         return runtime.archive
-    merged = win64.folder / f"with-{runtime.folder.name}.zip"
+    merged = win64.folder / f"with{WIN64_MERGE_FORMAT}-{runtime.folder.name}.zip"
     # merges with other linux64 runtimes (other checkouts' builds may be copying theirs): removed unused
-    runtime_win64.prune_unused(win64.folder.glob("with-*.zip"), merged)
+    runtime_win64.prune_unused(win64.folder.glob("with*-*.zip"), merged)
     if not merged.is_file():
         staged = merged.with_name(f".{merged.name}.{os.getpid()}")
         shutil.copyfile(runtime.archive, staged)
+        keep = carried_extensions(runtime)
         with zipfile.ZipFile(win64.archive) as zin, zipfile.ZipFile(staged, "a") as zout:
             for item in zin.infolist():
+                base = item.filename.rsplit("/", 1)[-1]
+                if base.endswith(".pyd") and base[:-len(".pyd")] not in keep:
+                    continue
                 zout.writestr(item, zin.read(item.filename))
         os.replace(staged, merged)
     os.utime(merged)   # its last use, for prune_unused

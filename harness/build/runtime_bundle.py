@@ -16,7 +16,8 @@ interpreter with ``sys.path`` the standard library only, loads each FMU's bundle
 package under a private alias as the bridge does and runs its model through the adapter (setup,
 initialization, steps, get/serialize/deserialize/set FMU state, terminate), and (c)
 ``modulefinder``'s static closure of the bundled package and the vendored pythonfmu modules
-(imports inside functions included), plus :data:`ALWAYS`. Whole top-level packages are
+(imports inside functions included; not those of the code a module runs only as a script, its
+``__main__`` block: :mod:`harness.build.stdlib_closure`), plus :data:`ALWAYS`. Whole top-level packages are
 taken (all of ``encodings``, ``importlib``, ``json``...), without their ``test``/``tests``
 folders. Never taken (:data:`DENY`): ``test``, ``idlelib``, ``tkinter``, ``turtledemo``,
 ``ensurepip``, ``lib2to3``, ``pydoc_data``, ``distutils``, ``venv``, ``site-packages``,
@@ -65,7 +66,6 @@ import compileall
 import fcntl
 import hashlib
 import json
-import modulefinder
 import os
 import py_compile
 import shutil
@@ -79,6 +79,7 @@ from pathlib import Path
 
 from harness.build import elf
 from harness.build.fmu_package import ENTRY_MODULE, PACKAGE_NAME, stage_package, write_entry
+from harness.build.stdlib_closure import ScriptlessFinder
 from harness.common.paths import fmu_cache_dir
 from harness.common.private_dir import PrivatePlaceError, private_dir
 from harness.common import progress
@@ -105,7 +106,7 @@ SYSTEM_LIBRARIES = frozenset({"libc.so.6", "libm.so.6", "libpthread.so.0", "libd
 PROBE = Path(__file__).resolve().parent / "runtime_probe.py"
 PROBE_STEPS = 20
 CODE_FILES = (Path(__file__).resolve(), Path(elf.__file__).resolve(), PROBE,
-              Path(__file__).resolve().parent / "fmu_package.py")
+              Path(__file__).resolve().parent / "fmu_package.py", Path(__file__).resolve().parent / "stdlib_closure.py")
 
 
 class RuntimeBundleError(RuntimeError):
@@ -190,9 +191,9 @@ def startup_modules() -> dict[str, str | None]:
 
 
 def static_modules(roots: list[Path], names: list[str]) -> dict[str, str | None]:
-    """modulefinder's closure of the modules ``names`` found in ``roots`` and the standard library."""
-    finder = modulefinder.ModuleFinder(path=[*map(str, roots), str(STDLIB), str(DYNLOAD)],
-                                       excludes=sorted(DENY))
+    """modulefinder's closure of the modules ``names`` found in ``roots`` and the standard library, the
+    modules' script parts left out (:mod:`harness.build.stdlib_closure`)."""
+    finder = ScriptlessFinder(path=[*map(str, roots), str(STDLIB), str(DYNLOAD)], excludes=sorted(DENY))
     for name in names:
         try:
             finder.import_hook(name)

@@ -58,6 +58,25 @@ def test_the_win64_binaries_need_only_windows_own_libraries(fmu_files, tmp_path)
     assert needs["mesh_kernel.dll"] == needs["librigid_kernel.dll"] == ["KERNEL32.dll", "msvcrt.dll"]
 
 
+def test_the_win64_runtime_carries_the_extension_modules_of_the_linux64_one_only(fmu_files):
+    """The embeddable distribution's .pyd files that the linux64 runtime's module list does not carry
+    (asyncio's, multiprocessing's, msilib's...) stay out; ctypes' (the kernels), the sockets'
+    (the server's) and the rest the list has are in (harness/build/fmu.py: _runtime_entries)."""
+    import io
+
+    for name in ("SpurDifferential", "Vehicle", "WheelLoad"):
+        with zipfile.ZipFile(fmu_files[name]) as z:
+            if "resources/runtime/win64.zip" not in z.namelist():
+                pytest.skip("built without mingw-w64: no win64 runtime")
+            def members(part):
+                return zipfile.ZipFile(io.BytesIO(z.read(f"resources/runtime/{part}.zip"))).namelist()
+            pyds = {n.rsplit("/", 1)[-1].removesuffix(".pyd") for n in members("win64") if n.endswith(".pyd")}
+            sos = {n.rsplit("/", 1)[-1].split(".")[0] for n in members("linux64") if "/lib-dynload/" in n}
+        assert pyds and pyds <= sos, (name, pyds - sos)
+        assert {"_ctypes", "_socket", "select"} <= pyds, pyds
+        assert not {"_asyncio", "_overlapped", "_multiprocessing", "_msi", "_queue"} & pyds, pyds
+
+
 @pytest.mark.skipif(shutil.which("x86_64-w64-mingw32-objdump") is None, reason="no x86_64-w64-mingw32-objdump")
 def test_the_fmi3_windows_loader_needs_only_windows_own_libraries_and_exports_fmi3(fmu_files, tmp_path):
     from harness.build.fmu3 import build
