@@ -335,9 +335,9 @@ def test_a_folder_under_one_others_can_write_is_refused(lib, tmp_path, monkeypat
 
 
 def test_a_killed_unpacks_leftovers_and_long_unused_runtimes_are_swept_and_nothing_else(lib, tmp_path, base):
-    """A temporary folder of a process that died ten minutes ago, and another runtime's folder no start used
-    for 30 days, are removed at the next unpack; one of a living process, a fresh one, a runtime used 10 days
-    ago and anything not named like ours stay."""
+    """A temporary folder of a process that died ten minutes ago, and another runtime's folder (or an earlier
+    build's numpy folder) no start used for 30 days, are removed at the next unpack; one of a living process,
+    a fresh one, a runtime or numpy used 10 days ago, one without its marker and anything not named like ours stay."""
     res, rels, hexes = _resources(tmp_path, {"linux64.zip": _archive(RUNTIME)})
     base.mkdir(mode=0o700)
     dead = _a_dead_pid()
@@ -359,10 +359,21 @@ def test_a_killed_unpacks_leftovers_and_long_unused_runtimes_are_swept_and_nothi
         (d / ".spurdiff-runtime").write_text(f"{days:064x}\n")
         os.utime(d / ".spurdiff-runtime", (time.time() - days * 86400,) * 2)
         runtimes[label] = d
+    for label, days in (("numpy unused 40 days", 40), ("numpy unused 10 days", 10)):   # earlier builds' numpy
+        d = base / f"numpy-{days:016x}"
+        (d / "numpy").mkdir(parents=True)
+        (d / ".spurdiff-numpy").write_text(f"{days:064x}\n")
+        os.utime(d / ".spurdiff-numpy", (time.time() - days * 86400,) * 2)
+        runtimes[label] = d
+    unmarked = base / f"numpy-{'b' * 16}"           # no marker: not one of ours, stays
+    unmarked.mkdir()
+    os.utime(unmarked, (old, old))
     rc, out, err = _root(lib, res, rels, hexes)
     assert rc == 0, err
     assert not made["dead"].exists() and made["alive"].is_dir() and made["young"].is_dir() and other.is_dir()
     assert not runtimes["unused 40 days"].exists() and runtimes["unused 10 days"].is_dir()
+    assert not runtimes["numpy unused 40 days"].exists() and runtimes["numpy unused 10 days"].is_dir()
+    assert unmarked.is_dir()
 
 
 def _a_dead_pid() -> int:

@@ -884,11 +884,14 @@ static void ru_sweep_one(void *ctx, const char *base, const char *name)
     int temp = strncmp(name, ".python-", 8) == 0 && sscanf(name + 8, "%16[0-9a-f].%lu.", key, &pid) == 2;
     int old = !temp && strncmp(name, "python-", 7) == 0 && strlen(name) == 23
               && sscanf(name + 7, "%16[0-9a-f]%c", key, &end) == 1;
-    if (!temp && !old) return;
+    /* numpy's folders, which FMUs of earlier builds unpacked beside the runtimes (marker .spurdiff-numpy) */
+    int numpy = !temp && !old && strncmp(name, "numpy-", 6) == 0 && strlen(name) == 22
+                && sscanf(name + 6, "%16[0-9a-f]%c", key, &end) == 1;
+    if (!temp && !old && !numpy) return;
     if (snprintf(p, sizeof p, "%s/%s", base, name) >= (int)sizeof p || !ru_own_dir_time(p, &when)) return;
     if (temp && (now - when < 600 || !ru_pid_gone(pid))) return;
-    if (old) {
-        snprintf(marker, sizeof marker, "%s/%s", p, RU_MARKER);
+    if (old || numpy) {
+        snprintf(marker, sizeof marker, "%s/%s", p, numpy ? ".spurdiff-numpy" : RU_MARKER);
         if (!ru_file_time(marker, &when) || now - when < RU_UNUSED_S) return;
     }
     ru_rm_tree(p);
@@ -899,7 +902,9 @@ static void ru_sweep_one(void *ctx, const char *base, const char *name)
  * - the temporary folders of unpacks whose process died (killed halfway): .python-<key>.<pid>.<n>,
  *   that pid gone, untouched for ten minutes (an unpack takes about a second);
  * - the folders of other runtimes (python-<16 hex digits>) whose marker no start touched for
- *   RU_UNUSED_S (every start that uses a folder touches its marker: ru_runtime_root).
+ *   RU_UNUSED_S (every start that uses a folder touches its marker: ru_runtime_root);
+ * - the same for numpy's folders (numpy-<16 hex digits>, marker .spurdiff-numpy), which the FMUs of
+ *   earlier builds unpacked there and touched at each use (today's carry no numpy).
  * Nothing else is touched. */
 RU_FN void ru_sweep(const char *base) { ru_list(base, ru_sweep_one, NULL); }
 
