@@ -353,26 +353,22 @@ def test_a_killed_unpacks_leftovers_and_long_unused_runtimes_are_swept_and_nothi
     other = base / "not-ours"
     other.mkdir()
     runtimes = {}
-    for label, days in (("unused 40 days", 40), ("unused 10 days", 10)):   # other runtimes' folders
-        d = base / f"python-{days:016x}"
-        (d / "python").mkdir(parents=True)
-        (d / ".spurdiff-runtime").write_text(f"{days:064x}\n")
-        os.utime(d / ".spurdiff-runtime", (time.time() - days * 86400,) * 2)
-        runtimes[label] = d
-    for label, days in (("numpy unused 40 days", 40), ("numpy unused 10 days", 10)):   # earlier builds' numpy
-        d = base / f"numpy-{days:016x}"
-        (d / "numpy").mkdir(parents=True)
-        (d / ".spurdiff-numpy").write_text(f"{days:064x}\n")
-        os.utime(d / ".spurdiff-numpy", (time.time() - days * 86400,) * 2)
-        runtimes[label] = d
+    # other runtimes' folders, and the numpy folders of earlier builds
+    for kind, marker in (("python", ".spurdiff-runtime"), ("numpy", ".spurdiff-numpy")):
+        for days in (40, 10):
+            d = base / f"{kind}-{days:016x}"
+            (d / kind).mkdir(parents=True)
+            (d / marker).write_text(f"{days:064x}\n")
+            os.utime(d / marker, (time.time() - days * 86400,) * 2)
+            runtimes[f"{kind} unused {days} days"] = d
     unmarked = base / f"numpy-{'b' * 16}"           # no marker: not one of ours, stays
     unmarked.mkdir()
     os.utime(unmarked, (old, old))
     rc, out, err = _root(lib, res, rels, hexes)
     assert rc == 0, err
     assert not made["dead"].exists() and made["alive"].is_dir() and made["young"].is_dir() and other.is_dir()
-    assert not runtimes["unused 40 days"].exists() and runtimes["unused 10 days"].is_dir()
-    assert not runtimes["numpy unused 40 days"].exists() and runtimes["numpy unused 10 days"].is_dir()
+    for kind in ("python", "numpy"):
+        assert not runtimes[f"{kind} unused 40 days"].exists() and runtimes[f"{kind} unused 10 days"].is_dir()
     assert unmarked.is_dir()
 
 
