@@ -494,6 +494,8 @@ def _prune(cache: Path, keep: Path) -> None:
     lists = sorted(cache.glob("runtime-modules-*.json"), key=lambda p: p.stat().st_mtime, reverse=True)
     for old in lists[KEEP_RUNTIMES:]:
         old.unlink(missing_ok=True)
+    for old in cache.glob("runtime-numpy-modules-*.json"):   # earlier builds' numpy closures: none is made now
+        old.unlink(missing_ok=True)
 
 
 def cfg_text(runtime: Runtime, name: str, guid: str) -> str:
