@@ -7,11 +7,14 @@ a model, what an FMU variable's ``bind`` names (:mod:`spurdiff.fmi.binding`) and
 the same ``__setattr__`` and ``__delattr__``, made from shared functions over the fields instead of
 from source compiled for each class: compiling those methods was a third of the package's import at
 an FMU's start, and a frozen record's two more were another 9 ms (docs/performance.md, start-up). The
-classes are the same records otherwise (``dataclasses.fields``, ``replace``, ``__init__``, frozen
-assignment refused: tests/physics/test_records.py). A frozen record's ``__init__`` is the one
-dataclasses makes for a mutable class (``self.a = a``), which its ``__setattr__`` lets through by its
-frame: a field assigned through ``__setattr__`` costs about 0.4 us more than dataclasses' direct
-``object.__setattr__`` (one MeshForces per Python step: 2-3 us of a 55-90 us step)."""
+classes are the same records otherwise (``dataclasses.fields``, ``replace``, frozen assignment refused:
+tests/physics/test_records.py). The ``__init__`` too is shared (:func:`_init`: the same binding of
+arguments, defaults, factories, ``__post_init__``, signature and TypeErrors as dataclasses' compiled
+one; a frozen record's sets its fields by ``object.__setattr__``, as dataclasses' does), except for a
+record with its own ``__init__``, an ``InitVar`` or a keyword-only field: the 41 records the FMU's start
+makes compiled one each, about 4 ms of its import (tests/physics/test_records.py compares every call
+shape). A frozen record's ``__setattr__`` still lets a dataclasses-made ``__init__`` of the class assign
+by its frame (a frozen record with its own ``__init__`` keeps dataclasses' path)."""
 from __future__ import annotations
 
 import dataclasses
@@ -126,6 +129,114 @@ def _frozen_methods(cls: type) -> dict:
     return out
 
 
+_UNSET = object()     # an argument the call did not give
+
+
+def _plain_init(cls: type) -> bool:
+    """Whether :func:`_init` can stand for dataclasses' ``__init__`` of ``cls`` (before it is processed):
+    no ``__init__`` of its own, no ``InitVar`` and no keyword-only field (dataclasses' own then)."""
+    if "__init__" in cls.__dict__:
+        return False
+    for klass in cls.__mro__[:-1]:
+        notes = klass.__dict__.get("__annotations__", {})
+        if any("InitVar" in str(a) or "KW_ONLY" in str(a) for a in notes.values()):
+            return False
+        if any(isinstance(v, dataclasses.Field) and v.kw_only is True for v in klass.__dict__.values()):
+            return False
+    return True
+
+
+def _init(cls: type, frozen: bool):
+    """``__init__`` of the dataclass ``cls`` as dataclasses writes it, without compiling one: the fields
+    with ``init`` as parameters in their order (positional or keyword; a default or a default factory
+    where the field has one), those without ``init`` set to their default (factory), each in field order,
+    by ``object.__setattr__`` for a frozen record (dataclasses' way) or by assignment, then
+    ``__post_init__`` if the class has one; the same TypeErrors for a missing, an unexpected or a
+    repeated argument and for too many."""
+    MISSING = dataclasses.MISSING
+    fields = dataclasses.fields(cls)
+    names = tuple(f.name for f in fields if f.init)
+    n = len(names)
+    index = {name: i for i, name in enumerate(names)}
+    defaults = tuple((f.default, f.default_factory) for f in fields if f.init)
+    # the fields in order: (the argument's index, or -1 and the default of a field without init)
+    plan = []
+    for f in fields:
+        if f.init:
+            plan.append((f.name, index[f.name], MISSING, MISSING))
+        elif f.default is not MISSING or f.default_factory is not MISSING:
+            plan.append((f.name, -1, f.default, f.default_factory))
+    plan = tuple(plan)
+    post = hasattr(cls, "__post_init__")
+    qual = f"{cls.__qualname__}.__init__()"
+    put = object.__setattr__ if frozen else setattr
+
+    n_defaults = sum(1 for d, f in defaults if d is not MISSING or f is not MISSING)
+    takes = (f"from {n + 1 - n_defaults} to {n + 1} positional arguments" if n_defaults
+             else f"{n + 1} positional argument{'s' * (n > 0)}")
+
+    def __init__(self, *args, **kwargs):
+        # (in the interpreter's order: the keywords, then too many positional arguments, then the missing)
+        given = len(args)
+        values = list(args)
+        if kwargs or given != n:
+            values += [_UNSET] * (n - given)
+            for key, value in kwargs.items():
+                i = index.get(key)
+                if i is None:
+                    raise TypeError(f"{qual} got an unexpected keyword argument {key!r}")
+                if values[i] is not _UNSET:
+                    raise TypeError(f"{qual} got multiple values for argument {key!r}")
+                values[i] = value
+            if given > n:
+                raise TypeError(f"{qual} takes {takes} but {given + 1} were given")
+            missing = []
+            for i, value in enumerate(values):
+                if value is _UNSET:
+                    default, factory = defaults[i]
+                    if default is not MISSING:
+                        values[i] = default
+                    elif factory is not MISSING:
+                        values[i] = factory()
+                    else:
+                        missing.append(repr(names[i]))
+            if missing:
+                k = len(missing)
+                listed = (missing[0] if k == 1 else " and ".join(missing) if k == 2
+                          else ", ".join(missing[:-1]) + ", and " + missing[-1])
+                raise TypeError(f"{qual} missing {k} required positional argument{'s' * (k > 1)}: {listed}")
+        for name, i, default, factory in plan:
+            put(self, name, values[i] if i >= 0 else (factory() if factory is not MISSING else default))
+        if post:
+            self.__post_init__()
+
+    __init__.__qualname__ = f"{cls.__qualname__}.__init__"
+    __init__.__signature__ = _signature(fields)
+    return __init__
+
+
+class _Factory:
+    def __repr__(self):
+        return "<factory>"
+
+
+_FACTORY = getattr(dataclasses, "_HAS_DEFAULT_FACTORY", _Factory())   # what dataclasses' signature shows
+
+
+def _signature(fields):
+    """The signature dataclasses' ``__init__`` has (``inspect.signature`` of the class shows it)."""
+    import inspect      # (loaded: dataclasses imports it)
+
+    P = inspect.Parameter
+    params = [P("self", P.POSITIONAL_OR_KEYWORD)]
+    for f in fields:
+        if f.init:
+            default = (f.default if f.default is not dataclasses.MISSING
+                       else _FACTORY if f.default_factory is not dataclasses.MISSING else P.empty)
+            params.append(P(f.name, P.POSITIONAL_OR_KEYWORD, default=default, annotation=f.type))
+    return inspect.Signature(params, return_annotation=None)
+
+
 def _frozen_base(cls: type) -> bool:
     """Whether a base of ``cls`` is a frozen dataclass (dataclasses refuses a mutable subclass of one)."""
     return any(getattr(b, "__dataclass_params__", None) is not None and b.__dataclass_params__.frozen
@@ -147,7 +258,10 @@ def record(cls: type | None = None, /, *, frozen: bool = False):
         # frame would let through), __setattr__ or __delattr__ (dataclasses refuses those)
         shared = (frozen and not _frozen_base(cls)
                   and not {"__init__", "__setattr__", "__delattr__"} & own.keys())
-        cls = dataclasses.dataclass(cls, repr=False, eq=False, frozen=frozen and not shared)
+        plain = (shared or not frozen) and _plain_init(cls)     # our __init__, not one compiled for the class
+        cls = dataclasses.dataclass(cls, init=not plain, repr=False, eq=False, frozen=frozen and not shared)
+        if plain:
+            cls.__init__ = _init(cls, frozen)
         if shared:
             for name, fn in _frozen_methods(cls).items():
                 setattr(cls, name, fn)

@@ -105,6 +105,24 @@ class FrozenOwnInit:
 class FrozenChild(Frozen):
     """A frozen record inheriting from a frozen record."""
     c: float = 0.0
+
+@deco
+class PlainPost:
+    """A mutable record with a field without init (a factory) and a __post_init__ that reads them."""
+    a: float
+    b: float = 2.0
+    log: list = field(init=False, default_factory=list)
+    def __post_init__(self):
+        self.log.append(self.a + self.b)
+
+@deco
+class Counting:
+    """A mutable record with its own __setattr__: the __init__ assigns through it, as dataclasses' does."""
+    a: float
+    b: float = 0.0
+    def __setattr__(self, name, value):
+        object.__setattr__(self, "seen", getattr(self, "seen", ()) + (name,))
+        object.__setattr__(self, name, value)
 '''
 
 
@@ -251,3 +269,41 @@ def test_package_records_keep_their_behaviour():
                        "hint=None)")
     t = GearTable()
     assert pickle.loads(pickle.dumps(t)) == t and hash(copy.deepcopy(t)) == hash(t)
+
+
+CALLS = [((1.0,), {}), ((1.0, 3.0), {}), ((), {"a": 1.0}), ((), {"b": 3.0, "a": 1.0}), ((1.0,), {"b": 3.0}),
+         ((), {}), ((1.0, 2.0, [3]), {}), ((1.0,), {"a": 2.0}), ((1.0,), {"z": 2.0}), ((), {"b": 1.0}),
+         ((1.0, 2.0, [], 0.0, 0.0, 9.0), {}), ((1.0, 2.0, None, 0.0, 0.0), {}), ((), {"tags": [1], "a": 0.5})]
+
+
+@pytest.mark.parametrize("name", ["Plain", "Frozen", "One", "Empty", "PlainPost", "Counting", "FrozenPost",
+                                  "FrozenFactory", "Child", "Node"])
+@pytest.mark.parametrize("args,kwargs", CALLS)
+def test_the_shared_init_binds_and_refuses_as_dataclasses_does(name, args, kwargs):
+    """Every call shape (positional, keyword, defaults, factories, too many, missing, unexpected,
+    repeated): the same fields, the same __post_init__ effects, the same assignments through an own
+    __setattr__, or a TypeError with the same message; and no __init__ compiled for the class."""
+    outcomes = []
+    for classes in (DC, REC):
+        try:
+            obj = classes[name](*args, **copy.deepcopy(kwargs))
+        except TypeError as e:
+            outcomes.append(("TypeError", str(e)))
+        else:
+            outcomes.append(({f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)},
+                             getattr(obj, "seen", None)))
+    dc, rec = outcomes
+    assert rec == dc
+    assert REC[name].__init__.__code__ is REC["Plain"].__init__.__code__      # one shared, none compiled
+    assert DC[name].__init__.__code__.co_filename == "<string>" != REC[name].__init__.__code__.co_filename
+
+
+def test_the_shared_init_defaults_are_fresh_per_instance_and_the_signature_shows_them():
+    import inspect
+
+    x, y = REC["Plain"](1.0), REC["Plain"](1.0)
+    assert x.tags == [] and x.tags is not y.tags                     # a factory's value per instance
+    assert REC["PlainPost"](1.0).log == [3.0] and REC["PlainPost"](1.0).log is not REC["PlainPost"](1.0).log
+    for name in ("Plain", "Frozen", "PlainPost", "FrozenFactory", "Child"):
+        assert str(inspect.signature(REC[name])) == str(inspect.signature(DC[name])), name
+    assert REC["FrozenOwnInit"].__init__ is not REC["Frozen"].__init__      # its own, kept
