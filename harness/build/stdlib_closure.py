@@ -53,16 +53,16 @@ def without_script_parts(tree: ast.Module) -> tuple[ast.Module, list[str]]:
         return tree, []
     body = [n for n in tree.body if not is_main_guard(n)]
     named = set().union(*(_names(g) for g in guards))
+    refs = [(n, _names(n)) for n in body]          # each statement's names, once
     dropped: set[str] = set()
     while True:
-        kept = [n for n in body if not (isinstance(n, _FUNCTIONS) and n.name in dropped)]
-        refs = [(n, _names(n)) for n in kept]
-        more = {n.name for n in kept if isinstance(n, _FUNCTIONS) and n.name in named
-                and not any(n.name in r for other, r in refs if other is not n)}
+        kept = [(n, r) for n, r in refs if not (isinstance(n, _FUNCTIONS) and n.name in dropped)]
+        more = {n.name for n, _ in kept if isinstance(n, _FUNCTIONS) and n.name in named
+                and not any(n.name in r for other, r in kept if other is not n)}
         if not more:
             break
         dropped |= more
-        named |= set().union(*(_names(n) for n in kept if isinstance(n, _FUNCTIONS) and n.name in more))
+        named = named.union(*(r for n, r in kept if isinstance(n, _FUNCTIONS) and n.name in more))
     tree.body = [n for n in body if not (isinstance(n, _FUNCTIONS) and n.name in dropped)]
     return tree, sorted(dropped)
 

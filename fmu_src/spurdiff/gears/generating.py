@@ -109,13 +109,6 @@ class _Rack:
         """The arguments of :func:`_depth` after the point."""
         return self.p, self.a0, self.ym, self.ta, self.ca, self.sa, self.rho
 
-    def depth(self, X, Y):
-        """How far points (rack frame) lie inside the nearest rounded tool tooth (m, < 0 outside): a
-        float for a point (X, Y), a list for sequences of abscissae and ordinates."""
-        shape = self.shape
-        if hasattr(X, "__len__") or hasattr(Y, "__len__"):
-            return [_depth(float(a), float(b), *shape) for a, b in zip(X, Y, strict=True)]
-        return _depth(float(X), float(Y), *shape)
 
 
 # The form radii an FMU's default gear set needs, computed by this function when the FMU was built

@@ -92,7 +92,7 @@ def phase_limit(c, y) -> float:
     The step ends just past the boundary; past a pitch point by the time the sliding speed
     needs to leave the stiction band (|v| > v_s), so the friction reversal is not inside a step."""
     best = math.inf
-    yl = list(y)
+    yl = y
     rates = (c.rbA * yl[VA], c.rbB * yl[VB], c.rb1 * yl[W1])
     omegas = ((yl[VA], yl[W1]), (yl[VB], yl[W2]), (yl[W1], yl[W2]))
     unilateral = c._bl or c._contact
@@ -142,7 +142,7 @@ def phase_limit(c, y) -> float:
 def phase_mode(c, y) -> tuple:
     """The phase mode of each mesh at y (:meth:`spurdiff.differential.mesh.forces.MeshPhase.mode`:
     the tooth count and pairs in contact of its drive and coast flanks), held over the next step."""
-    us = rolls(c, list(y))
+    us = rolls(c, y)
     return tuple(c.phase_obj.mode(m, us[i]) for i, m in enumerate(c.md))
 
 
@@ -185,7 +185,7 @@ def phase_events(c, y0, ym, y1) -> float:
     or ``[eps - 1, 1)`` (one pair) of ``xi = z - k``; 1.0 if none."""
     mode = c._mode
     unilateral = c._bl or c._contact
-    u0, um, u1 = rolls(c, list(y0)), rolls(c, list(ym)), rolls(c, list(y1))
+    u0, um, u1 = rolls(c, y0), rolls(c, ym), rolls(c, y1)
     theta = 1.0
     for i, m in enumerate(c.md):
         a, b = float(y0[m.d]), float(y1[m.d])

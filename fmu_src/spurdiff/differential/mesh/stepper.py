@@ -260,8 +260,7 @@ def _advance(c, t: float, h: float, dense) -> None:
         h_ctrl = max(h_ctrl, h_prop) if truncated and not rejected else h_prop
         if c._dissipative:
             c.energy_loss += dloss
-        ya = list(y)
-        yb = list(yn)
+        ya, yb = y, yn            # (read before y takes yn's values below)
         if speed:
             wc_b = wc_start + ac * (tin + hi)
             dphic = wc_a * hi + 0.5 * ac * hi * hi
