@@ -219,50 +219,110 @@ def test_every_fmu_carries_a_native_start(fmu_files, name):
         assert z.read("resources/native_start.bin")[:8] == b"SPNS\x03\0\0\0"
 
 
+def _servers() -> int:
+    """This process's model processes (spurdiff_fmu_server children)."""
+    from pathlib import Path
+
+    kids = [int(x) for t in Path(f"/proc/{os.getpid()}/task").iterdir()
+            for x in (t / "children").read_text().split()]
+    return sum("spurdiff_fmu_server" in Path(f"/proc/{k}/cmdline").read_text() for k in kids
+               if Path(f"/proc/{k}").exists())
+
+
 @pytest.mark.parametrize("process", ["in", "out"])
-def test_past_the_tapes_limit_the_python_takes_over(differential_fmu, monkeypatch, process):
-    """A run longer than the tape holds (64 MB; here SPURDIFF_FMU_START_TAPE=4000 bytes, about 25
-    steps with 4 input sets each) starts the Python at the call past the limit, replays, and goes on:
-    the whole run equals the Python start's, in the host's process and in the model's own."""
+def test_a_long_run_is_handed_over_as_a_state(differential_fmu, monkeypatch, process):
+    """Steps and input sets are not on the tape (one record marks where the native start began to
+    step): with the tape's limit at 4,000 bytes (which 25 steps with 4 sets each filled when every call
+    was recorded), 60 such steps and 100 more stay native, and the FMU state call after them starts the
+    Python, which takes the native step's state instead of replaying the steps: the whole run equals
+    the Python start's, in the host's process and in the model's own."""
     monkeypatch.setenv("SPURDIFF_FMU_START_TAPE", "4000")
     monkeypatch.setenv("SPURDIFF_FMU_PROCESS", process)
     sets = [("set", "left.tau", -201.0), ("set", "right.tau", -299.0), ("set", "left.tau", -200.0),
             ("set", "right.tau", -300.0)]
-    program = START + [x for _ in range(60) for x in (*sets, ("steps", 1, 1e-3))] + [("steps", 100, 1e-3), ("all",)]
+    program = START + [x for _ in range(60) for x in (*sets, ("steps", 1, 1e-3))] + [
+        ("steps", 100, 1e-3), ("all",), ("state",), ("steps", 20, 1e-3), ("all",)]
+    assert _run(differential_fmu, "auto", program, monkeypatch) == _run(differential_fmu, "python", program,
+                                                                         monkeypatch)
+
+
+@pytest.mark.parametrize("process", ["in", "out"])
+def test_past_the_tapes_limit_the_python_takes_over(differential_fmu, monkeypatch, process):
+    """Calls before the first step are on the tape, which is bounded (64 MB; here
+    SPURDIFF_FMU_START_TAPE=4000 bytes, about 140 sets of one value): a host that sets a parameter to
+    its start value 300 times in Initialization Mode starts the Python at the set past the limit, which
+    replays the calls and goes on: the whole run equals the Python start's."""
+    monkeypatch.setenv("SPURDIFF_FMU_START_TAPE", "4000")
+    monkeypatch.setenv("SPURDIFF_FMU_PROCESS", process)
+    program = (START[:3] + [("set", "left.tau", -200.0)] * 300 + [("exit",), ("all",), ("steps", 20, 1e-3), ("all",)])
     assert _run(differential_fmu, "auto", program, monkeypatch) == _run(differential_fmu, "python", program,
                                                                          monkeypatch)
 
 
 @pytest.mark.parametrize("limit", [None, "4000"])
-def test_the_model_process_starts_only_past_the_tapes_limit(differential_fmu, monkeypatch, limit):
+def test_no_model_process_starts_however_long_the_run(differential_fmu, monkeypatch, limit):
     """In a host that runs the model in its own process: no model process while the native start
-    answers; with the tape's limit at 4,000 bytes one starts within the 60 steps (the same run under
-    the full limit starts none)."""
-    from pathlib import Path
-
-    def servers() -> int:
-        kids = [int(x) for t in Path(f"/proc/{os.getpid()}/task").iterdir()
-                for x in (t / "children").read_text().split()]
-        return sum("spurdiff_fmu_server" in Path(f"/proc/{k}/cmdline").read_text() for k in kids
-                   if Path(f"/proc/{k}").exists())
-
+    answers, over 300 steps with two input sets each, under the full tape limit and under 4,000 bytes
+    (which 25 such steps filled when every call was recorded)."""
     monkeypatch.setenv("SPURDIFF_FMU_START", "auto")
     monkeypatch.setenv("SPURDIFF_FMU_PROCESS", "out")
     if limit:
         monkeypatch.setenv("SPURDIFF_FMU_START_TAPE", limit)
-    before = servers()
+    before = _servers()
     inst = Instance("tape", differential_fmu)
     try:
         s = inst.slave
         s.setupExperiment(startTime=0.0)
         s.enterInitializationMode()
         s.exitInitializationMode()
-        assert servers() == before
+        assert _servers() == before
         vrs = [inst.var(n).valueReference for n in ("left.tau", "right.tau")]
-        for i in range(60):
+        for i in range(300):
             s.setReal(vrs, [-201.0, -299.0])     # near the defaults: no watch logs (which would start it)
             s.setReal(vrs, [-200.0, -300.0])
             s.doStep(i * 1e-3, 1e-3)
-        assert servers() == before + (1 if limit else 0)
+        assert _servers() == before
+        s.getFMUstate()                          # a call the native start does not answer: the model's
+        assert _servers() == before + 1          # process starts now
     finally:
         inst.close()
+
+
+_MEMORY = textwrap.dedent("""
+    import sys
+    from fmpy import read_model_description
+    from fmpy.fmi2 import FMU2Slave
+    md = read_model_description(sys.argv[1])
+    s = FMU2Slave(guid=md.guid, unzipDirectory=sys.argv[2], modelIdentifier=md.coSimulation.modelIdentifier,
+                  instanceName='memory')
+    s.instantiate(); s.setupExperiment(startTime=0.0); s.enterInitializationMode(); s.exitInitializationMode()
+    reals = [v for v in md.modelVariables if v.type == 'Real']
+    ins = [v.valueReference for v in reals if v.causality == 'input']
+    outs = [v.valueReference for v in reals if v.causality == 'output']
+    values = s.getReal(ins)
+    def rss():
+        return int(open('/proc/self/statm').read().split()[1])
+    t, marks = 0.0, []
+    for block in range(3):
+        for _ in range(20000):
+            s.setReal(ins, values); s.doStep(t, 0.001); s.getReal(outs); t += 0.001
+        marks.append(rss())
+    print('PAGES', *marks)
+    s.terminate(); s.freeInstance()
+""")
+
+
+def test_a_native_start_s_memory_does_not_grow_with_the_run(differential_fmu, tmp_path):
+    """The host's resident pages after 20,000, 40,000 and 60,000 native steps (every input set and every
+    output read each step) stay within 256 kB: nothing is kept per step (the tape took about 290 bytes
+    a step, 11 MB over the last 40,000, when it recorded every call)."""
+    import zipfile
+
+    with zipfile.ZipFile(differential_fmu) as z:
+        z.extractall(tmp_path)
+    r = subprocess.run([sys.executable, "-c", _MEMORY, str(tmp_path / "modelDescription.xml"), str(tmp_path)],
+                       capture_output=True, text=True, timeout=300,
+                       env={**os.environ, "SPURDIFF_FMU_START": "auto", "SPURDIFF_FMU_PROCESS": "in"})
+    assert r.returncode == 0, r.stderr[-2000:]
+    first, _, last = (int(x) for x in next(ln for ln in r.stdout.splitlines() if ln.startswith("PAGES")).split()[1:])
+    assert (last - first) * os.sysconf("SC_PAGE_SIZE") <= 256 * 1024, r.stdout

@@ -182,13 +182,35 @@ static void relay(fmi2ComponentEnvironment env, fmi2String name, fmi2Status stat
 }
 
 /* the model's early-return step (FMI 3.0), wherever it runs */
-static NsStepEarly *early_step_of(const Handle *h)
+typedef fmi2Status StepEarly(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end);
+static StepEarly *early_step_of(const Handle *h)
 {
 #ifndef _WIN32
     if (h->remote) return remote_do_step_early;
 #endif
     (void)h;
     return inproc_do_step_early;
+}
+
+/* the model's side of the native start's hand-over (ns_replay), wherever it runs */
+#ifndef _WIN32
+static int remote_take(fmi2Component c, unsigned char **bytes, size_t *len)
+{
+    fmi2Status pre;
+    int kind = remote_native_export(c, bytes, len, &pre);
+    return pre > fmi2Warning ? -1 : kind;
+}
+static const NsHandOver REMOTE_HAND_OVER = {remote_take, remote_native_import};
+#endif
+static const NsHandOver INPROC_HAND_OVER = {inproc_native_export, inproc_native_import};
+
+static const NsHandOver *hand_over_of(const Handle *h)
+{
+#ifndef _WIN32
+    if (h->remote) return &REMOTE_HAND_OVER;
+#endif
+    (void)h;
+    return &INPROC_HAND_OVER;
 }
 
 /* The call the native start does not answer: start the model's Python, replay the native start's
@@ -203,7 +225,7 @@ static int promote(Handle *h)
     h->relay_cb.componentEnvironment = h;
     h->muted = 1;
     int rc = start_model(h, &h->relay_cb, err, sizeof err);
-    if (rc == 0) rc = ns_replay(h->ns, h->t, h->inner, early_step_of(h), err, sizeof err);
+    if (rc == 0) rc = ns_replay(h->ns, h->t, h->inner, hand_over_of(h), err, sizeof err);
     h->muted = 0;
     if (rc != 0) {
         for (size_t i = 0; h->held && i < h->held_len; i += strlen(h->held + i + 1) + 2)

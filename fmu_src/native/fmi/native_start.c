@@ -12,8 +12,12 @@
  * sends them (fmi2OK ones only with logging on). Everything else returns NS_PYTHON: a parameter set to
  * another value, an input outside its range at the next step, a step the compiled function does not
  * take (a watch that would log), a step the adapter refuses, FMU states, fmi2Reset, the status
- * functions, a reference the snapshot does not know. Every call answered is kept on a tape (one record
- * each), which the loader replays into the model's Python when it starts it.
+ * functions, a reference the snapshot does not know. Every call answered before the first step or
+ * input set while stepping is kept on a tape (one record each), which the loader replays into the
+ * model's Python when it starts it; from there the tape holds one record (T_STEPPING) however long the
+ * run, and the replay hands the model the native step's state as it is then (its arrays, time and
+ * steps: the hand-over's import, ns_live_state), instead of the steps: an instance's memory stays the
+ * same over a run of any length, and its Python starts in the same time after a step or a million.
  *
  * The hand-over (ns_open_live) is the same instance made from a stepping model's arrays (its model runs
  * in a process of its own, which wrote them): it answers what a native start answers while stepping,
@@ -44,7 +48,7 @@
 #define NS_LIVE_MAGIC "SPNL"      /* a hand-over: native_start.py's live() */
 #define NS_FORMAT 3u
 #define NS_MAX_FILE (16 * 1024 * 1024)
-#define NS_MAX_TAPE ((size_t)64 * 1024 * 1024)   /* a longer run starts its Python and goes on there */
+#define NS_MAX_TAPE ((size_t)64 * 1024 * 1024)   /* calls before stepping: past it, the Python answers */
 #define NS_MAX_LIBS 8
 #define NS_MAX_FIELDS 32
 #define NS_KINDS 4
@@ -56,7 +60,7 @@ enum { FIELD_NULL, FIELD_DOUBLES, FIELD_FUNCTION };
 enum { M_INSTANTIATE, M_SETUP, M_ENTER, M_BUILD, N_PHASES };
 enum { P_INSTANTIATED, P_INITIALIZING, P_STEPPING, P_TERMINATED };
 enum { T_LOGGING, T_SETUP, T_ENTER, T_EXIT, T_TERMINATE, T_SET_REAL, T_SET_INTEGER, T_SET_BOOLEAN, T_SET_STRING,
-       T_STEP, T_BUILD };
+       T_BUILD, T_STEPPING };
 
 typedef struct {
     int kind, flags, slot;
@@ -122,6 +126,7 @@ struct NsInst {
     double time, stop, stop_tol;
     unsigned char *tape;
     size_t tape_len, tape_cap, max_tape, last_mark;
+    int stepped;              /* T_STEPPING is on the tape: steps and input sets are not recorded */
     Vector vectors[2][NS_VECTORS];   /* reads, writes */
     int next_vector[2];
 };
@@ -496,6 +501,16 @@ static int record(NsInst *I, int op, uint64_t n, const void *a, size_t na, const
     return 0;
 }
 
+/* A step or an input set while stepping: T_STEPPING on the tape once (the replay hands the model the
+ * state as it is then, ns_replay), nothing after it. 0, or -1 (no memory: the Python answers). */
+static int stepping(NsInst *I)
+{
+    if (I->stepped || I->live) return 0;
+    if (record(I, T_STEPPING, 0, NULL, 0, NULL, 0) != 0) return -1;
+    I->stepped = 1;
+    return 0;
+}
+
 /* The last record off the tape (its call is not answered here after all): NS_PYTHON. */
 static int unrecord(NsInst *I)
 {
@@ -736,7 +751,7 @@ int ns_set_real(NsInst *I, const fmi2ValueReference vr[], size_t n, const fmi2Re
     if (I->phase == P_STEPPING) {   /* the inputs into their slots, each checked against its range */
         if (n == 0) return fmi2OK;
         const Vector *e = vector(I, 1, vr, n);
-        if (!e || record(I, T_SET_REAL, n, vr, n * sizeof *vr, v, n * sizeof *v) != 0) return NS_PYTHON;
+        if (!e || stepping(I) != 0) return NS_PYTHON;
         for (size_t i = 0; i < n; i++) {
             const Var *x = e->var[i];
             I->v[x->slot] = v[i];
@@ -803,15 +818,9 @@ int ns_do_step(NsInst *I, fmi2Real t, fmi2Real h, fmi2Boolean nsp, int early, fm
     double at = t >= 0.0 ? t : -t;
     if (!(fabs(t - I->time) <= 1e-9 * (at > 1.0 ? at : 1.0) + 1e-6 * h) || at == INFINITY) return NS_PYTHON;
     if (t + h > I->stop + (I->stop_tol + 1e-6 * h)) return NS_PYTHON;
-    if (I->tape_len > I->max_tape) return NS_PYTHON;
-    double d[2] = {t, h};
-    int32_t b[2] = {nsp ? 1 : 0, early ? 1 : 0};
-    size_t mark = I->tape_len;
-    if (record(I, T_STEP, 0, d, sizeof d, b, sizeof b) != 0) return NS_PYTHON;
-    if (I->fn(I->step_ctx, I->v, t, h) != 0) {   /* not taken: nothing but scratch changed */
-        I->tape_len = mark;
-        return NS_PYTHON;
-    }
+    (void)nsp;
+    if (stepping(I) != 0) return NS_PYTHON;
+    if (I->fn(I->step_ctx, I->v, t, h) != 0) return NS_PYTHON;   /* not taken: nothing but scratch changed */
     I->time = t + h;
     I->steps++;
     if (end) *end = t + h;
@@ -1115,13 +1124,41 @@ static int cache_build(NsInst *I)
 #undef SWAP_ARRAY
 
 /* ------------------------------------------------------------------------------ the replay */
-int ns_replay(const NsInst *I, const Fmi2Table *t, fmi2Component c, NsStepEarly *early_step, char *err,
-              size_t errsize)
+/* T_STEPPING replayed: the model's Python, stepping from its start, takes the native step's state as it
+ * is now (the hand-over's export makes the model's plan hold its state, the import then replaces that
+ * with these arrays, time and steps). The status, or fmi2Error with the reason in `err`. */
+static fmi2Status hand_over(const NsInst *I, const NsHandOver *ho, fmi2Component c, char *err, size_t errsize)
+{
+    unsigned char *bytes = NULL;
+    size_t len = 0;
+    int kind = ho->take(c, &bytes, &len);
+    free(bytes);
+    if (kind != 1) {
+        snprintf(err, errsize, "the model's Python %s the native step's state", kind == 0 ? "was not ready for"
+                 : "has no compiled step to take");
+        return fmi2Error;
+    }
+    double *arrays = NULL, time = 0.0;
+    size_t n = 0;
+    int bad = 0;
+    long steps = 0;
+    if (ns_live_state(I, &arrays, &n, &time, &bad, &steps) != 0) {
+        snprintf(err, errsize, "out of memory handing over the native step's state");
+        return fmi2Error;
+    }
+    fmi2Status s = ho->give(c, arrays, n, time, bad, steps);
+    free(arrays);
+    if (s > fmi2Warning) snprintf(err, errsize, "the model's Python did not take the state of the %ld native steps",
+                                  steps);
+    return s;
+}
+
+int ns_replay(const NsInst *I, const Fmi2Table *t, fmi2Component c, const NsHandOver *ho, char *err, size_t errsize)
 {
     static const char *const NAMES[] = {"fmi2SetDebugLogging", "fmi2SetupExperiment", "fmi2EnterInitializationMode",
                                         "fmi2ExitInitializationMode", "fmi2Terminate", "fmi2SetReal",
-                                        "fmi2SetInteger", "fmi2SetBoolean", "fmi2SetString", "fmi2DoStep",
-                                        "a read in Initialization Mode"};
+                                        "fmi2SetInteger", "fmi2SetBoolean", "fmi2SetString",
+                                        "a read in Initialization Mode", "the native steps' hand-over"};
     size_t pos = 0, count = 0;
     while (pos < I->tape_len) {
         Rec h;
@@ -1198,15 +1235,10 @@ int ns_replay(const NsInst *I, const Fmi2Table *t, fmi2Component c, NsStepEarly 
             free(vals);
             break;
         }
-        case T_STEP: {
-            double d[2], end;
-            int32_t b[2];
-            memcpy(d, p, sizeof d);
-            memcpy(b, p + sizeof d, sizeof b);
-            s = b[1] ? early_step(c, d[0], d[1], b[0], &end) : t->fmi2DoStep(c, d[0], d[1], b[0]);
-            size = sizeof d + sizeof b;
+        case T_STEPPING:
+            s = hand_over(I, ho, c, err, errsize);
+            if (s > fmi2Warning) return -1;
             break;
-        }
         case T_BUILD: {   /* the read that built the model: the same read (its values are the snapshot's) */
             int32_t what[3];
             memcpy(what, p, sizeof what);

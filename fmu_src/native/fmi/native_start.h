@@ -1,7 +1,8 @@
 /* The native start (native_start.c): an instance answered without Python while its host keeps the
  * FMU's defaults, from resources/native_start.bin (spurdiff/fmi/native_start.py writes it at build
  * time). The loader (fmi2_loader.c) asks it first; NS_PYTHON from any call means "start the model
- * now": the loader starts it, replays the tape (ns_replay) and passes the call on. The same code
+ * now": the loader starts it, replays the tape (ns_replay: the calls before the first step, then the
+ * native step's state) and passes the call on. The same code
  * steps an instance whose model runs in its own process here, in the host's (ns_open_live). */
 #ifndef SPURDIFF_NATIVE_START_H
 #define SPURDIFF_NATIVE_START_H
@@ -40,11 +41,20 @@ int ns_set_string(NsInst *I, const fmi2ValueReference vr[], size_t n, const fmi2
 int ns_do_step(NsInst *I, fmi2Real t, fmi2Real h, fmi2Boolean nsp, int early, fmi2Real *end);
 long ns_steps(const NsInst *I);
 
-/* The tape into the started model `c` (its functions `t`, its early-return step `early_step`): every
- * call the native start answered, in order; then its outputs compared with the native ones. 0, or
- * -1 with the reason in `err` (a call answered otherwise, an output that differs). */
-typedef fmi2Status NsStepEarly(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean nsp, fmi2Real *end);
-int ns_replay(const NsInst *I, const Fmi2Table *t, fmi2Component c, NsStepEarly *early_step, char *err,
+/* The model's side of a hand-over, wherever the model runs: `take` asks its fmi2_native_export (1 and
+ * the bytes it made, malloc'd; 0 not now; -1 never), `give` its fmi2_native_import (the arrays as
+ * ns_live_state makes them). */
+typedef struct {
+    int (*take)(fmi2Component c, unsigned char **bytes, size_t *len);
+    fmi2Status (*give)(fmi2Component c, const double *arrays, size_t n, double time, int bad, long steps);
+} NsHandOver;
+
+/* The tape into the started model `c` (its functions `t`): every call the native start answered before
+ * it stepped, in order, and where it began to step, the native step's state as it is now handed to
+ * the model by `ho` (the calls after it on the tape, fmi2Terminate, follow); then the model's outputs
+ * compared with the native ones. 0, or -1 with the reason in `err` (a call answered otherwise, a state
+ * not taken, an output that differs). */
+int ns_replay(const NsInst *I, const Fmi2Table *t, fmi2Component c, const NsHandOver *ho, char *err,
               size_t errsize);
 
 /* The start cache (native_start.c): sets to other values before the model's build are taken, and the
