@@ -18,7 +18,8 @@
  * Before any of that, an FMU that carries a native start (resources/native_start.bin, native_start.c)
  * answers the instance without Python while the host keeps the FMU's defaults: its Python (in this
  * process or its own, as above) starts at the first call the native start does not answer, which
- * is then passed on after the calls so far were replayed there (promote). SPURDIFF_FMU_START=python
+ * is then passed on after the calls before the first step were replayed there and the native step's
+ * state handed to it (promote). SPURDIFF_FMU_START=python
  * starts the Python at fmi2Instantiate, as an FMU without a native start does; unset or auto: as above.
  * A model in its own process that has a compiled step hands it to the host's process (the hand-over):
  * at a step, the loader asks the model's process for the step's arrays and steps them here
@@ -214,7 +215,7 @@ static const NsHandOver *hand_over_of(const Handle *h)
 }
 
 /* The call the native start does not answer: start the model's Python, replay the native start's
- * calls there, go on with the model. 0, or -1 (logged; the instance then fails every call). */
+ * calls there (its steps as their state), go on with the model. 0, or -1 (logged; the instance then fails every call). */
 static int promote(Handle *h)
 {
     char err[4 * CFG_MAX_LINE];

@@ -8,13 +8,16 @@ after fmi2Instantiate, in Initialization Mode and after it; the messages each ca
 step's function, its context's arrays and the array ``v`` after fmi2ExitInitializationMode; which
 value references read and write which slot of ``v``, each input's accepted range.
 
-The binary then answers fmi2Instantiate without Python and keeps every call it took on a tape. As long
-as the host only does what the snapshot answers (sets a variable to the value it already has, sets the
-inputs and steps, reads any variable, terminates), the instance runs the compiled step, bit for bit
-what the Python instance computes (the same function on the same arrays). Anything else (a parameter
-set to another value, a refused input, a step a watch would log, an FMU state, ...) starts Python as
-before and replays the tape through the bridge, checking that every replayed call answers as it did
-and that the replayed outputs equal the native ones, then passes the call on.
+The binary then answers fmi2Instantiate without Python and keeps every call it took before the first
+step on a tape. As long as the host only does what the snapshot answers (sets a variable to the value
+it already has, sets the inputs and steps, reads any variable, terminates), the instance runs the
+compiled step, bit for bit what the Python instance computes (the same function on the same arrays).
+Anything else (a parameter set to another value, a refused input, a step a watch would log, an FMU
+state, ...) starts Python as before, replays the tape through the bridge, checking that every replayed
+call answers as it did, hands the model the native step's arrays, time and step count as they are
+then (the bridge's ``fmi2_native_export`` then ``fmi2_native_import``, as for a model in its own
+process: :func:`live`, :func:`restore`), checks that the outputs equal the native ones, then passes
+the call on.
 
 The file is data, little-endian, made of: u32 numbers, f64 numbers, strings (u32 length, UTF-8 bytes),
 ending with the FNV-1a 64-bit digest of all the bytes before it (:func:`digest`): a file changed in any
