@@ -237,6 +237,12 @@ def _signature(fields):
     return inspect.Signature(params, return_annotation=None)
 
 
+def _class_signature(cls: type):
+    """``inspect.signature(cls)``: its ``__init__``'s without ``self``."""
+    sig = cls.__init__.__signature__
+    return sig.replace(parameters=list(sig.parameters.values())[1:])
+
+
 def _frozen_base(cls: type) -> bool:
     """Whether a base of ``cls`` is a frozen dataclass (dataclasses refuses a mutable subclass of one)."""
     return any(getattr(b, "__dataclass_params__", None) is not None and b.__dataclass_params__.frozen
@@ -259,9 +265,16 @@ def record(cls: type | None = None, /, *, frozen: bool = False):
         shared = (frozen and not _frozen_base(cls)
                   and not {"__init__", "__setattr__", "__delattr__"} & own.keys())
         plain = (shared or not frozen) and _plain_init(cls)     # our __init__, not one compiled for the class
+        # a class without a docstring: dataclasses writes its name and its __init__'s signature, which
+        # with our __init__ is set below (dataclasses would read the inherited one's, by parsing its text)
+        undocumented = plain and not cls.__doc__
+        if undocumented:
+            cls.__doc__ = cls.__name__
         cls = dataclasses.dataclass(cls, init=not plain, repr=False, eq=False, frozen=frozen and not shared)
         if plain:
             cls.__init__ = _init(cls, frozen)
+        if undocumented:
+            cls.__doc__ = cls.__name__ + str(_class_signature(cls)).replace(" -> None", "")
         if shared:
             for name, fn in _frozen_methods(cls).items():
                 setattr(cls, name, fn)

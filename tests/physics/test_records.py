@@ -257,6 +257,9 @@ def test_a_recursive_repr_and_the_signature():
     _same_repr(d, r)
     assert "nxt=..." in repr(r)
     assert str(inspect.signature(REC["Plain"])) == str(inspect.signature(DC["Plain"]))
+    assert REC["Plain"].__doc__ == DC["Plain"].__doc__ == "A mutable record."
+    for name in ("One", "Empty", "OwnHash", "Node", "FrozenBadPost", "FrozenFactory"):   # without a docstring:
+        assert REC[name].__doc__ == DC[name].__doc__, name          # dataclasses' (its name and signature)
     with pytest.raises(TypeError, match="missing 1 required positional argument: 'a'"):
         REC["Plain"]()
 
