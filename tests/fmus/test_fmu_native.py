@@ -120,7 +120,10 @@ def _run(inst, case) -> list:
 
 
 @pytest.mark.parametrize("fmu", list(CASES))
-def test_native_instance_answers_as_the_python_one(fmu, fmu_files):
+def test_native_instance_answers_as_the_python_one(fmu, fmu_files, monkeypatch):
+    # the start cache off: an instance it started (its values seen twice by earlier runs) takes its first
+    # steps natively and hands them to the Python at the FMU state call, so the count would depend on them
+    monkeypatch.setenv("SPURDIFF_FMU_START_CACHE", "off")
     path = fmu_files[fmu.split("-")[0]]
     python, native = _Counted(COUNTED[fmu]), _Counted(COUNTED[fmu])
     ref = _script(path, "python", False, CASES[fmu], python)

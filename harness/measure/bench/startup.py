@@ -20,7 +20,10 @@ Each measure runs both FMUs interleaved in the same command, so machine noise hi
   included); and, in the same run, every process started directly (``SPURDIFF_FMU_ZYGOTE=0``);
 * per step in fmpy with the FMU's defaults: ``setReal`` of every Real input, ``doStep`` (5 ms),
   ``getReal`` of every Real output (fmpy's Python API, as a script would call it), fastest of the
-  rounds; and the same with the C FMU's one input and two outputs.
+  rounds; and the same with the C FMU's one input and two outputs;
+* a long native run (:data:`LONG_STEPS`, once each): how much the host's resident memory grew over the
+  steps (nothing is kept per step: flat), and the FMU state call after them, which starts the model's
+  Python and hands it the native step's state (as long after a long run as after a short one).
 
 SpurDifferential is measured twice, as its host meets it: with the native start (the defaults kept: no
 Python starts, fmu_src/native/fmi/native_start.c) and with its Python started
@@ -246,6 +249,44 @@ def _per_step(fmu: Path, unzipped: Path, n: int, rounds: int,
         s.freeInstance()
 
 
+_LONG = r"""
+import os, sys, time
+from fmpy import read_model_description
+from fmpy.fmi2 import FMU2Slave
+md = read_model_description(sys.argv[1])
+n = int(sys.argv[3])
+s = FMU2Slave(guid=md.guid, unzipDirectory=sys.argv[2], modelIdentifier=md.coSimulation.modelIdentifier,
+              instanceName='long')
+s.instantiate(); s.setupExperiment(startTime=0.0); s.enterInitializationMode(); s.exitInitializationMode()
+ins = [v.valueReference for v in md.modelVariables if v.type == 'Real' and v.causality == 'input']
+values = s.getReal(ins)
+def pages():
+    return int(open('/proc/self/statm').read().split()[1])
+p0, t = pages(), 0.0
+for _ in range(n):
+    s.setReal(ins, values); s.doStep(t, 0.005); t += 0.005
+p1 = pages()
+t0 = time.perf_counter()
+state = s.getFMUstate()
+t1 = time.perf_counter()
+s.freeFMUstate(state); s.terminate(); s.freeInstance()
+print('LONG', (p1 - p0) * os.sysconf('SC_PAGE_SIZE'), t1 - t0)
+"""
+LONG_STEPS = (1_000, 100_000)    # a short and a long native run before the call that starts the Python
+
+
+def long_run(fmu: Path, unzipped: Path, steps: int) -> tuple[float, float]:
+    """A native start's run of ``steps`` steps at its defaults (every Real input set each step) in a
+    fresh fmpy process, the model in the host's: (bytes the host's resident memory grew by over them,
+    seconds of the FMU state call after them, which starts the model's Python and hands it the run)."""
+    r = subprocess.run([sys.executable, "-c", _LONG, str(unzipped / "modelDescription.xml"), str(unzipped), str(steps)],
+                       capture_output=True, text=True, env={**os.environ, "SPURDIFF_FMU_PROCESS": "in"}, timeout=600)
+    if r.returncode != 0:
+        raise RuntimeError(f"{fmu.name}: a run of {steps} steps failed: {r.stderr.strip()[-300:]}")
+    _, grown, took = next(ln for ln in r.stdout.splitlines() if ln.startswith("LONG ")).split()
+    return float(grown), float(took)
+
+
 PYTHON_START = {"SPURDIFF_FMU_START": "python"}
 RUNTIME_DIR = "SPURDIFF_FMU_RUNTIME_DIR"   # where the runtime's archives are unpacked (runtime_unpack.h)
 # a parameter set to another value: its third start on comes from the start cache (fmu_src/native/fmi/
@@ -301,6 +342,7 @@ def measure(ours: Path, theirs: Path, runs: int = 5, before: Path | None = None)
             step["c_wide"].append(per_step(theirs, unz["c"], width=width))
         pss = {k: own_process_pss(fmus[k], unz[k], PSS_INSTANCES, envs[k]) for k in ourside}
         pss["direct"] = own_process_pss(ours, unz["ours"], PSS_INSTANCES, {**PYTHON_START, "SPURDIFF_FMU_ZYGOTE": "0"})
+        long = {k: {n: long_run(fmus[k], unz[k], n) for n in LONG_STEPS} for k in ("ours", "before") if k in fmus}
         return {"whole": {k: statistics.median(x[0] for x in v) for k, v in whole.items()},
                 "first": statistics.median(x[0] for x in first),
                 "unzip": {k: statistics.median(x[1] for x in v) for k, v in whole.items()},
@@ -308,7 +350,7 @@ def measure(ours: Path, theirs: Path, runs: int = 5, before: Path | None = None)
                 "step": {k: min(x[0] for x in v) for k, v in step.items()},
                 "direct": {k: min(x[1] for x in v) for k, v in step.items()},
                 "pss_host": {k: v[0] for k, v in pss.items()}, "pss": {k: v[1] for k, v in pss.items()},
-                "n_in": width[0], "n_out": width[1],
+                "n_in": width[0], "n_out": width[1], "long": long,
                 "size": {k: f.stat().st_size for k, f in fmus.items()},
                 "files": {k: sum(1 for p in unz[k].rglob("*") if p.is_file()) for k in unz},
                 "unpacked": {k: sum(p.stat().st_size for p in unz[k].rglob("*") if p.is_file()) for k in unz}}
@@ -365,6 +407,10 @@ def _lines(m: dict, k: str, fmu: Path, runs: int) -> list[str]:
                  f"{s['c_wide']:.1f}", f"{s[k] / s['c_wide']:.1f}", ""),
             _row("    the same through ctypes, us", f"{d[k]:.1f}", f"{d[p]:.1f}", f"{d['c_wide']:.1f}",
                  f"{d[k] / d['c_wide']:.1f}", ""),
+            *(_row(f"native run of {n:,} steps: host memory grown, MB", f"{m['long'][k][n][0] / 1e6:.1f}", "", "",
+                   "", "flat" if n == LONG_STEPS[-1] else "") for n in LONG_STEPS),
+            *(_row(f"  then an FMU state call (the Python starts), {n:,}", ms(m["long"][k][n][1] * 1e3), "", "", "",
+                   "") for n in LONG_STEPS),
             f"   own-process memory, PSS of every model process / {PSS_INSTANCES} instances in one fmpy host "
             f"(SPURDIFF_FMU_PROCESS=out; target <= 8 MB each): native: {_pss(m, k)}; Python: {_pss(m, p)} "
             f"(host {m['pss_host'][p]:.1f} MB)"

@@ -69,3 +69,17 @@ def test_the_c_fmu_steps_asked_for_as_many_values_as_ours(tmp_path, monkeypatch)
     fmpy_us, ctypes_us = startup.per_step(fmu, unz, n=50, rounds=2, width=(20, 33))
     assert fmpy_us > 0 and ctypes_us > 0
     assert set(seen) == {20}
+
+
+def test_the_long_run_measure_steps_then_starts_the_python(differential_fmu, tmp_path):
+    """The 'native run' rows: a fresh fmpy host steps the native start, then its FMU state call starts
+    the model's Python (it takes measurable time: the Python starts), and the host's memory did not
+    grow by 1 MB over 3,000 steps; a folder without the FMU is a RuntimeError naming it."""
+    import zipfile
+
+    unz = tmp_path / "x"
+    zipfile.ZipFile(differential_fmu).extractall(unz)
+    grown, took = startup.long_run(differential_fmu, unz, 3000)
+    assert took > 1e-3 and grown < 1e6
+    with pytest.raises(RuntimeError, match=differential_fmu.name):
+        startup.long_run(differential_fmu, tmp_path / "nothing", 10)
