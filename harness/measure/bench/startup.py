@@ -21,9 +21,10 @@ Each measure runs both FMUs interleaved in the same command, so machine noise hi
 * per step in fmpy with the FMU's defaults: ``setReal`` of every Real input, ``doStep`` (5 ms),
   ``getReal`` of every Real output (fmpy's Python API, as a script would call it), fastest of the
   rounds; and the same with the C FMU's one input and two outputs;
-* a long native run (:data:`LONG_STEPS`, once each): how much the host's resident memory grew over the
-  steps (nothing is kept per step: flat), and the FMU state call after them, which starts the model's
-  Python and hands it the native step's state (as long after a long run as after a short one).
+* a long native run (:data:`LONG_STEPS`, up to 3 interleaved runs each): how much the host's resident
+  memory grew over the steps, the most of the runs (nothing is kept per step: flat), and the FMU state
+  call after them, median, which starts the model's Python and hands it the native step's state (as
+  long after a long run as after a short one).
 
 SpurDifferential is measured twice, as its host meets it: with the native start (the defaults kept: no
 Python starts, fmu_src/native/fmi/native_start.c) and with its Python started
@@ -342,7 +343,13 @@ def measure(ours: Path, theirs: Path, runs: int = 5, before: Path | None = None)
             step["c_wide"].append(per_step(theirs, unz["c"], width=width))
         pss = {k: own_process_pss(fmus[k], unz[k], PSS_INSTANCES, envs[k]) for k in ourside}
         pss["direct"] = own_process_pss(ours, unz["ours"], PSS_INSTANCES, {**PYTHON_START, "SPURDIFF_FMU_ZYGOTE": "0"})
-        long = {k: {n: long_run(fmus[k], unz[k], n) for n in LONG_STEPS} for k in ("ours", "before") if k in fmus}
+        long = {k: {n: [] for n in LONG_STEPS} for k in ("ours", "before") if k in fmus}
+        for _ in range(min(runs, 3)):
+            for k, by_steps in long.items():
+                for n, seen in by_steps.items():
+                    seen.append(long_run(fmus[k], unz[k], n))
+        long = {k: {n: (max(x[0] for x in seen), statistics.median(x[1] for x in seen)) for n, seen in by_steps.items()}
+                for k, by_steps in long.items()}
         return {"whole": {k: statistics.median(x[0] for x in v) for k, v in whole.items()},
                 "first": statistics.median(x[0] for x in first),
                 "unzip": {k: statistics.median(x[1] for x in v) for k, v in whole.items()},
