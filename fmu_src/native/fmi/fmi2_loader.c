@@ -215,7 +215,8 @@ static const NsHandOver *hand_over_of(const Handle *h)
 }
 
 /* The call the native start does not answer: start the model's Python, replay the native start's
- * calls there (its steps as their state), go on with the model. 0, or -1 (logged; the instance then fails every call). */
+ * calls there (its steps as their state), go on with the model. 0, or -1 (logged; the instance then
+ * fails every call). */
 static int promote(Handle *h)
 {
     char err[4 * CFG_MAX_LINE];
