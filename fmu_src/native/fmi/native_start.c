@@ -17,7 +17,7 @@
  * model's Python when it starts it; from there the tape holds one record (T_STEPPING) however long the
  * run, and the replay hands the model the native step's state as it is then (its arrays, time and
  * steps: the hand-over's import, ns_live_state), instead of the steps: an instance's memory stays the
- * same over a run of any length, and its Python starts in the same time after a step or a million.
+ * same over a run of any length, and its Python starts in the same time however many steps it took.
  *
  * The hand-over (ns_open_live) is the same instance made from a stepping model's arrays (its model runs
  * in a process of its own, which wrote them): it answers what a native start answers while stepping,
